@@ -1,0 +1,261 @@
+"""Exact translation of SymPy expressions into CasADi ``SX`` graphs.
+
+SymPy's own printers are not used: they have no rule for ``sign`` and route
+``tanh`` through exponentials that overflow to NaN in CasADi.  This module
+walks the expression tree and maps each node to the CasADi operation with the
+same meaning:
+
+=====================  ==========================================
+SymPy                  CasADi
+=====================  ==========================================
+``sign(x)``            ``sign(x)`` (``sign(0) = 0`` in both)
+``Abs(x)``             ``fabs(x)``
+``x**n`` (integer n)   squaring / products / ``1/x``     
+``x**(1/2)``           ``sqrt(x)``
+``x**a``               ``pow(x, a)`` (``constpow`` for numbers)
+``Piecewise``          nested ``if_else`` (last condition must be True)
+``Min``/``Max``        ``fmin``/``fmax``
+``Mod(x, y)``          ``x - y floor(x/y)`` (Python/SymPy semantics)
+relationals, logic     ``<, <=, ==, !=, logic_and/or/not``
+elementary functions   ``sin cos tan atan atan2 tanh exp log floor``
+=====================  ==========================================
+
+Common subexpressions are shared by memoising on the (hashable) SymPy node,
+so a subtree that occurs many times is translated once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import casadi as ca
+import sympy as sp
+
+__all__ = ["UnsupportedExpressionError", "SympyToCasadi", "to_casadi_function"]
+
+
+class UnsupportedExpressionError(TypeError):
+    """A SymPy node has no exact CasADi counterpart in this translator."""
+
+
+_UNARY = {
+    sp.sin: ca.sin,
+    sp.cos: ca.cos,
+    sp.tan: ca.tan,
+    sp.asin: ca.asin,
+    sp.acos: ca.acos,
+    sp.atan: ca.atan,
+    sp.sinh: ca.sinh,
+    sp.cosh: ca.cosh,
+    sp.tanh: ca.tanh,
+    sp.exp: ca.exp,
+    sp.floor: ca.floor,
+    sp.ceiling: ca.ceil,
+    sp.sign: ca.sign,
+    sp.Abs: ca.fabs,
+}
+
+
+class SympyToCasadi:
+    """Translate SymPy expressions given a mapping from SymPy symbols to CasADi ``SX`` scalars."""
+
+    def __init__(self, symbols: Mapping[sp.Symbol, ca.SX]):
+        self._memo: dict[sp.Basic, ca.SX] = dict(symbols)
+
+    def bind(self, symbol: sp.Symbol, value: ca.SX) -> None:
+        """Make ``symbol`` stand for ``value`` in later translations."""
+        if symbol in self._memo:
+            raise UnsupportedExpressionError(f"symbol {symbol} is bound twice")
+        self._memo[symbol] = value
+
+    def __call__(self, expr) -> ca.SX:
+        if isinstance(expr, sp.MatrixBase):
+            rows = [[self(expr[i, j]) for j in range(expr.cols)] for i in range(expr.rows)]
+            return ca.vertcat(*[ca.horzcat(*r) for r in rows]) if rows else ca.SX(0, 1)
+        return self._translate(sp.sympify(expr))
+
+    def _translate(self, e: sp.Basic) -> ca.SX:
+        hit = self._memo.get(e)
+        if hit is not None:
+            return hit
+        out = self._dispatch(e)
+        self._memo[e] = out
+        return out
+
+    def _dispatch(self, e: sp.Basic) -> ca.SX:
+        t = self._translate
+        if e.is_Symbol:
+            raise UnsupportedExpressionError(f"free symbol {e} is not an input of the function")
+        if e is sp.true or e == sp.true:
+            return ca.SX(1)
+        if e is sp.false or e == sp.false:
+            return ca.SX(0)
+        if e.is_Number or e.is_NumberSymbol:
+            if e in (sp.oo, -sp.oo, sp.zoo, sp.nan):
+                raise UnsupportedExpressionError(f"non-finite constant {e}")
+            return ca.SX(float(e))
+        if isinstance(e, sp.Add):
+            terms = [t(a) for a in e.args]
+            acc = terms[0]
+            for x in terms[1:]:
+                acc = acc + x
+            return acc
+        if isinstance(e, sp.Mul):
+            factors = [t(a) for a in e.args]
+            acc = factors[0]
+            for x in factors[1:]:
+                acc = acc * x
+            return acc
+        if isinstance(e, sp.Pow):
+            return self._pow(e)
+        if isinstance(e, sp.Piecewise):
+            return self._piecewise(e)
+        if isinstance(e, (sp.Min, sp.Max)):
+            op = ca.fmin if isinstance(e, sp.Min) else ca.fmax
+            args = [t(a) for a in e.args]
+            acc = args[0]
+            for x in args[1:]:
+                acc = op(acc, x)
+            return acc
+        if isinstance(e, sp.Mod):
+            x, y = (t(a) for a in e.args)
+            return x - y * ca.floor(x / y)
+        if isinstance(e, sp.atan2):
+            y, x = (t(a) for a in e.args)
+            return ca.atan2(y, x)
+        if isinstance(e, sp.log):
+            if len(e.args) != 1:
+                raise UnsupportedExpressionError("log with a base")
+            return ca.log(t(e.args[0]))
+        if isinstance(e, sp.Heaviside):
+            x = t(e.args[0])
+            h0 = float(e.args[1]) if len(e.args) > 1 else 0.5
+            return ca.if_else(x > 0, 1, ca.if_else(x < 0, 0, h0))
+        for fn, op in _UNARY.items():
+            if isinstance(e, fn):
+                return op(t(e.args[0]))
+        if isinstance(e, sp.core.relational.Relational):
+            a, b = t(e.lhs), t(e.rhs)
+            return {
+                "<": lambda: a < b,
+                "<=": lambda: a <= b,
+                ">": lambda: a > b,
+                ">=": lambda: a >= b,
+                "==": lambda: a == b,
+                "!=": lambda: a != b,
+            }[e.rel_op]()
+        if isinstance(e, sp.And):
+            args = [t(a) for a in e.args]
+            acc = args[0]
+            for x in args[1:]:
+                acc = ca.logic_and(acc, x)
+            return acc
+        if isinstance(e, sp.Or):
+            args = [t(a) for a in e.args]
+            acc = args[0]
+            for x in args[1:]:
+                acc = ca.logic_or(acc, x)
+            return acc
+        if isinstance(e, sp.Not):
+            return ca.logic_not(t(e.args[0]))
+        raise UnsupportedExpressionError(f"no CasADi translation for {type(e).__name__}: {e}")
+
+    def _pow(self, e: sp.Pow) -> ca.SX:
+        base, exp = e.args
+        b = self._translate(base)
+        if exp.is_Integer:
+            n = int(exp)
+            if n == 0:
+                return ca.SX(1)
+            if n == 2:
+                return b**2
+            if n == -1:
+                return 1 / b
+            if n < 0:
+                return 1 / self._int_power(b, -n)
+            return self._int_power(b, n)
+        if exp == sp.Rational(1, 2):
+            return ca.sqrt(b)
+        if exp == sp.Rational(-1, 2):
+            return 1 / ca.sqrt(b)
+        if base == sp.E:
+            return ca.exp(self._translate(exp))
+        return ca.power(b, self._translate(exp))
+
+    @staticmethod
+    def _int_power(b: ca.SX, n: int) -> ca.SX:
+        # exponentiation by squaring keeps the graph small and exact
+        result = None
+        square = b
+        while n:
+            if n & 1:
+                result = square if result is None else result * square
+            n >>= 1
+            if n:
+                square = square**2
+        return result
+
+    def _piecewise(self, e: sp.Piecewise) -> ca.SX:
+        pairs = list(e.args)
+        last_expr, last_cond = pairs[-1]
+        if last_cond is not sp.true:
+            raise UnsupportedExpressionError(f"Piecewise without a final True branch: {e}")
+        out = self._translate(last_expr)
+        for expr, cond in reversed(pairs[:-1]):
+            out = ca.if_else(self._translate(cond), self._translate(expr), out)
+        return out
+
+
+def to_casadi_function(
+    name: str,
+    inputs: Sequence[tuple[str, sp.MatrixBase]],
+    outputs: Sequence[tuple[str, sp.MatrixBase]],
+    stages: Sequence[tuple[sp.MatrixBase, sp.MatrixBase]] = (),
+    *,
+    cse: bool = True,
+) -> ca.Function:
+    """Build a CasADi ``Function`` from SymPy matrices.
+
+    ``inputs`` are ``(name, matrix of distinct symbols)`` pairs; a symmetric
+    matrix may repeat a symbol (each occurrence maps to the first entry, in
+    column-major order).  ``stages`` are ``(symbols, expression)`` pairs
+    translated in order, each binding its symbols to the translated expression
+    for the stages and outputs after it (intermediate results computed once).
+    ``outputs`` are ``(name, SymPy matrix)`` pairs.  With ``cse`` (default),
+    SymPy's common-subexpression elimination runs on each stage and on the
+    outputs first, so shared products and quotients are computed once.
+    """
+    mapping: dict[sp.Symbol, ca.SX] = {}
+    sx_inputs = []
+    for in_name, m in inputs:
+        m = sp.ImmutableMatrix(m)
+        x = ca.SX.sym(in_name, m.rows, m.cols)
+        for j in range(m.cols):
+            for i in range(m.rows):
+                symbol = m[i, j]
+                if not symbol.is_Symbol:
+                    raise UnsupportedExpressionError(f"input {in_name}[{i},{j}] is not a symbol: {symbol}")
+                mapping.setdefault(symbol, x[i, j])
+        sx_inputs.append(x)
+    translate = SympyToCasadi(mapping)
+    counter = iter(range(10**9))
+    for symbols, expr in stages:
+        symbols, expr = sp.ImmutableMatrix(symbols), sp.ImmutableMatrix(expr)
+        if symbols.shape != expr.shape:
+            raise UnsupportedExpressionError(f"stage shape mismatch {symbols.shape} vs {expr.shape}")
+        (value,) = _translate_with_cse(translate, [expr], counter) if cse else [translate(expr)]
+        for k, symbol in enumerate(symbols):
+            translate.bind(symbol, value[k // symbols.cols, k % symbols.cols])
+    matrices = [sp.ImmutableMatrix(m) for _, m in outputs]
+    sx_outputs = _translate_with_cse(translate, matrices, counter) if cse else [translate(m) for m in matrices]
+    return ca.Function(name, sx_inputs, sx_outputs, [n for n, _ in inputs], [n for n, _ in outputs])
+
+
+def _translate_with_cse(translate: SympyToCasadi, matrices: list[sp.ImmutableMatrix], counter) -> list[ca.SX]:
+    """Translate matrices after ``sympy.cse``; the replacement symbols are bound in order."""
+    replacements, reduced = sp.cse(
+        matrices, symbols=(sp.Symbol(f"_cse{next(counter)}", real=True) for _ in iter(int, 1)), order="canonical"
+    )
+    for symbol, sub in replacements:
+        translate.bind(symbol, translate(sub))
+    return [translate(sp.ImmutableMatrix(m)) for m in reduced]

@@ -1,0 +1,453 @@
+/*
+ * Whole-loop formation simulator: see formation.h.  Compiled by fsmctl together
+ * with the CasADi-generated sources of generated/c into one shared library.
+ * No model equation is written here: every physical or control formula is a
+ * call into the generated code.
+ */
+#include "formation.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "control_core.h"
+#include "disturbance_torque.h"
+#include "mrp_shadow.h"
+#include "plant_rhs.h"
+#include "reference_rhs.h"
+#include "sliding_constants.h"
+#include "sliding_exact.h"
+#include "sliding_paper.h"
+
+typedef int (*casadi_fn)(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
+typedef int (*casadi_work_fn)(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+
+typedef struct {
+  int n;
+  casadi_fn sliding;
+  double *s, *se, *we, *wr, *wrd, *slope; /* n x 3 */
+  double *recv, *ksum;                   /* n x 3, n */
+  double *u, *uu;                        /* computed control, n x 3 */
+  double *u_hold, *uu_hold;              /* held control (zero-order hold) */
+  const double *u_apply, *uu_apply;      /* what the plant sees */
+  double *d;                             /* disturbance torques, n x 3 */
+  double d_time;
+  int d_valid;
+  double *gc;                            /* n: sliding_constants */
+  double wd[3], wdd[3];
+  double *k_val, *k_from, *k_to;         /* per-link schedule cache */
+  double *tau;                           /* 3 */
+  casadi_int *iw;
+  double *w;
+} workspace;
+
+static void free_workspace(workspace *W) {
+  free(W->s);
+  free(W->iw);
+  free(W->w);
+  memset(W, 0, sizeof(*W));
+}
+
+static int alloc_workspace(workspace *W, const fsm_problem *P) {
+  memset(W, 0, sizeof(*W));
+  int n = P->n_agents;
+  W->n = n;
+  W->sliding = P->error_model == 1 ? sliding_exact : sliding_paper;
+  /* one block for all per-agent doubles */
+  size_t per3 = (size_t)3 * n, L = (size_t)P->n_links;
+  size_t total = per3 * 12 + (size_t)n * 2 + L * 3 + 3;
+  double *block = calloc(total > 0 ? total : 1, sizeof(double));
+  if (!block) return FSM_NOMEM;
+  double *p = block;
+  W->s = p; p += per3;
+  W->se = p; p += per3;
+  W->we = p; p += per3;
+  W->wr = p; p += per3;
+  W->wrd = p; p += per3;
+  W->slope = p; p += per3;
+  W->recv = p; p += per3;
+  W->u = p; p += per3;
+  W->uu = p; p += per3;
+  W->u_hold = p; p += per3;
+  W->uu_hold = p; p += per3;
+  W->d = p; p += per3;
+  W->ksum = p; p += n;
+  W->gc = p; p += n;
+  W->k_val = p; p += L;
+  W->k_from = p; p += L;
+  W->k_to = p; p += L;
+  W->tau = p;
+  for (size_t e = 0; e < L; ++e) { W->k_from[e] = INFINITY; W->k_to[e] = -INFINITY; }
+  /* CasADi work arrays: the largest need of the functions used */
+  casadi_work_fn works[] = {plant_rhs_work, sliding_paper_work, sliding_exact_work, control_core_work,
+                            reference_rhs_work, disturbance_torque_work, mrp_shadow_work, sliding_constants_work};
+  casadi_int max_iw = 1, max_w = 1;
+  for (size_t k = 0; k < sizeof(works) / sizeof(works[0]); ++k) {
+    casadi_int a, r, iw, w;
+    works[k](&a, &r, &iw, &w);
+    if (iw > max_iw) max_iw = iw;
+    if (w > max_w) max_w = w;
+  }
+  W->iw = calloc((size_t)max_iw, sizeof(casadi_int));
+  W->w = calloc((size_t)max_w, sizeof(double));
+  if (!W->iw || !W->w) { free_workspace(W); return FSM_NOMEM; }
+  W->u_apply = W->u;
+  W->uu_apply = W->uu;
+  return FSM_OK;
+}
+
+/* k^j_ij(t) of link e: piecewise constant, optionally periodic; cached with its validity interval. */
+static double link_weight(workspace *W, const fsm_problem *P, int e, double t) {
+  if (W && t >= W->k_from[e] && t < W->k_to[e]) return W->k_val[e];
+  int start = P->sched_start[e], count = P->sched_count[e];
+  const double *b = P->sched_times + start, *v = P->sched_values + start;
+  double period = P->sched_period[e];
+  double tau = t + P->sched_phase[e], base = 0.0;
+  if (period > 0) {
+    double q = floor(tau / period);
+    base = q * period;
+    tau -= base;
+    if (tau < 0) tau = 0; /* rounding */
+  }
+  int m = 0;
+  while (m + 1 < count && tau >= b[m + 1]) ++m;
+  double lo, hi;
+  if (period > 0) {
+    lo = base + b[m];
+    hi = base + (m + 1 < count ? b[m + 1] : period);
+  } else {
+    lo = m == 0 ? -INFINITY : b[m];
+    hi = m + 1 < count ? b[m + 1] : INFINITY;
+  }
+  if (W) {
+    W->k_val[e] = v[m];
+    W->k_from[e] = lo - P->sched_phase[e];
+    W->k_to[e] = hi - P->sched_phase[e];
+  }
+  return v[m];
+}
+
+double fsm_link_weight(const fsm_problem *P, int e, double t) { return link_weight(NULL, P, e, t); }
+
+/* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque. */
+static void eval_rhs(workspace *W, const fsm_problem *P, double t, const double *x, double *dx, int compute_control) {
+  const int n = W->n;
+  const double *sd = x;
+  {
+    const double *arg[3] = {&t, sd, P->ref_params};
+    double *res[3] = {dx, W->wd, W->wdd};
+    reference_rhs(arg, res, W->iw, W->w, 0);
+  }
+  for (int i = 0; i < n; ++i) {
+    const double *xi = x + 3 + 6 * i;
+    const double *arg[7] = {xi, xi + 3, sd, W->wd, W->wdd, P->gains + 6 * i, W->gc + i};
+    double *res[6] = {W->s + 3 * i, W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->slope + 3 * i};
+    W->sliding(arg, res, W->iw, W->w, 0);
+  }
+  if (compute_control) {
+    memset(W->recv, 0, sizeof(double) * 3 * n);
+    memset(W->ksum, 0, sizeof(double) * n);
+    for (int e = 0; e < P->n_links; ++e) {
+      int i = P->link_receiver[e], j = P->link_sender[e];
+      double kj = link_weight(W, P, e, t);
+      W->ksum[i] += P->link_k_i[e];
+      if (kj != 0.0)
+        for (int k = 0; k < 3; ++k) W->recv[3 * i + k] += kj * W->s[3 * j + k];
+    }
+    for (int i = 0; i < n; ++i) {
+      const double *arg[12] = {W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->s + 3 * i,
+                               W->slope + 3 * i, P->J0 + 9 * i, P->gains + 6 * i, P->delta + 3 * i,
+                               W->ksum + i, W->recv + 3 * i, P->u_max + i};
+      double *res[2] = {W->u + 3 * i, W->uu + 3 * i};
+      control_core(arg, res, W->iw, W->w, 0);
+    }
+  }
+  if (!W->d_valid || W->d_time != t) {
+    for (int i = 0; i < n; ++i) {
+      const double *arg[2] = {&t, P->dist_params + 12 * i};
+      double *res[1] = {W->d + 3 * i};
+      disturbance_torque(arg, res, W->iw, W->w, 0);
+    }
+    W->d_time = t;
+    W->d_valid = 1;
+  }
+  const double *ua = compute_control ? W->u : W->u_apply;
+  for (int i = 0; i < n; ++i) {
+    const double *xi = x + 3 + 6 * i;
+    for (int k = 0; k < 3; ++k) W->tau[k] = ua[3 * i + k] + W->d[3 * i + k];
+    const double *arg[4] = {xi, xi + 3, W->tau, P->J_true + 9 * i};
+    double *res[2] = {dx + 3 + 6 * i, dx + 6 + 6 * i};
+    plant_rhs(arg, res, W->iw, W->w, 0);
+  }
+}
+
+static void shadow_all(workspace *W, double *x, int n) {
+  double tmp[3];
+  for (int b = 0; b < n + 1; ++b) {
+    double *sig = b == 0 ? x : x + 3 + 6 * (b - 1);
+    if (sig[0] * sig[0] + sig[1] * sig[1] + sig[2] * sig[2] > 1.0) {
+      const double *arg[1] = {sig};
+      double *res[1] = {tmp};
+      mrp_shadow(arg, res, W->iw, W->w, 0);
+      memcpy(sig, tmp, sizeof tmp);
+    }
+  }
+}
+
+static int first_nonfinite(const double *x, int n) {
+  for (int k = 0; k < 3 + 6 * n; ++k)
+    if (!isfinite(x[k])) return k < 3 ? -1 : (k - 3) / 6;
+  return -2;
+}
+
+static void record(fsm_output *O, workspace *W, const fsm_problem *P, double t, const double *x) {
+  if (O->written >= O->capacity) return;
+  const int n = W->n;
+  long long r = O->written++;
+  O->t[r] = t;
+  memcpy(O->sigma_d + 3 * r, x, 3 * sizeof(double));
+  for (int i = 0; i < n; ++i) {
+    size_t o = (size_t)(r * n + i) * 3;
+    const double *xi = x + 3 + 6 * i;
+    memcpy(O->sigma + o, xi, 3 * sizeof(double));
+    memcpy(O->omega + o, xi + 3, 3 * sizeof(double));
+    memcpy(O->sigma_e + o, W->se + 3 * i, 3 * sizeof(double));
+    memcpy(O->omega_e + o, W->we + 3 * i, 3 * sizeof(double));
+    memcpy(O->s + o, W->s + 3 * i, 3 * sizeof(double));
+    memcpy(O->u + o, W->u_apply + 3 * i, 3 * sizeof(double));
+    memcpy(O->u_unsat + o, W->uu_apply + 3 * i, 3 * sizeof(double));
+  }
+  (void)P;
+}
+
+/* Statistics of the applied torque u (unsaturated uu) held over an interval of length h. */
+static void accumulate(fsm_output *O, int n, const fsm_problem *P, const double *u, const double *uu, double h,
+                       double *u_prev, int first) {
+  for (int i = 0; i < n; ++i) {
+    int sat = 0;
+    double tv = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      double au = fabs(uu[3 * i + k]);
+      if (au > P->u_max[i]) sat = 1;
+      if (au > O->u_unsat_max[i]) O->u_unsat_max[i] = au;
+      double ua = u[3 * i + k];
+      if (!first) tv += fabs(ua - u_prev[3 * i + k]);
+      u_prev[3 * i + k] = ua;
+    }
+    if (sat) O->saturated_time[i] += h;
+    O->u_total_variation[i] += tv;
+  }
+}
+
+/* Evaluate stage 1 at (t, x): control if due, hold bookkeeping. */
+static void stage_one(workspace *W, const fsm_problem *P, double t, const double *x, double *k1, int sample) {
+  if (P->hold_steps <= 0) {
+    eval_rhs(W, P, t, x, k1, 1);
+    W->u_apply = W->u;
+    W->uu_apply = W->uu;
+    return;
+  }
+  if (sample) {
+    eval_rhs(W, P, t, x, k1, 1);
+    memcpy(W->u_hold, W->u, sizeof(double) * 3 * W->n);
+    memcpy(W->uu_hold, W->uu, sizeof(double) * 3 * W->n);
+  } else {
+    eval_rhs(W, P, t, x, k1, 0);
+  }
+  W->u_apply = W->u_hold;
+  W->uu_apply = W->uu_hold;
+}
+
+static int validate(const fsm_problem *P) {
+  if (P->n_agents < 1 || !(P->dt > 0) || P->n_steps < 0 || P->output_every < 1 || P->n_links < 0) return 0;
+  for (int e = 0; e < P->n_links; ++e) {
+    if (P->link_receiver[e] < 0 || P->link_receiver[e] >= P->n_agents) return 0;
+    if (P->link_sender[e] < 0 || P->link_sender[e] >= P->n_agents) return 0;
+    if (P->sched_count[e] < 1) return 0;
+  }
+  if (P->integrator == 1 && !(P->rtol > 0 && P->atol > 0 && P->h_min > 0 && P->max_steps > 0)) return 0;
+  return 1;
+}
+
+static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_output *O, double *buf,
+                        fsm_progress_fn progress, long long every) {
+  const int n = W->n, N = 3 + 6 * n;
+  double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *xt = k4 + N, *u_prev = xt + N;
+  const double dt = P->dt, t0 = P->t0;
+  const int continuous = P->hold_steps <= 0;
+  for (long long k = 0; k <= P->n_steps; ++k) {
+    const double t = t0 + (double)k * dt;
+    int sample = continuous || (k % P->hold_steps == 0);
+    stage_one(W, P, t, x, k1, sample);
+    if (k % P->output_every == 0) record(O, W, P, t, x);
+    if (k == P->n_steps) break;
+    accumulate(O, n, P, W->u_apply, W->uu_apply, dt, u_prev, k == 0);
+    const double th = t0 + ((double)k + 0.5) * dt, t1 = t0 + (double)(k + 1) * dt;
+    for (int m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
+    eval_rhs(W, P, th, xt, k2, continuous);
+    for (int m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k2[m];
+    eval_rhs(W, P, th, xt, k3, continuous);
+    for (int m = 0; m < N; ++m) xt[m] = x[m] + dt * k3[m];
+    eval_rhs(W, P, t1, xt, k4, continuous);
+    for (int m = 0; m < N; ++m) x[m] += dt / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m]);
+    shadow_all(W, x, n);
+    int bad = first_nonfinite(x, n);
+    if (bad != -2) {
+      O->fail_time = t1;
+      O->fail_agent = bad;
+      return FSM_NONFINITE;
+    }
+    O->steps_taken++;
+    if (progress && every > 0 && (k + 1) % every == 0 && progress(k + 1, P->n_steps)) return FSM_ABORTED;
+  }
+  return FSM_OK;
+}
+
+/* Dormand-Prince 5(4) coefficients */
+static const double C2 = 1.0 / 5, C3 = 3.0 / 10, C4 = 4.0 / 5, C5 = 8.0 / 9;
+static const double A21 = 1.0 / 5;
+static const double A31 = 3.0 / 40, A32 = 9.0 / 40;
+static const double A41 = 44.0 / 45, A42 = -56.0 / 15, A43 = 32.0 / 9;
+static const double A51 = 19372.0 / 6561, A52 = -25360.0 / 2187, A53 = 64448.0 / 6561, A54 = -212.0 / 729;
+static const double A61 = 9017.0 / 3168, A62 = -355.0 / 33, A63 = 46732.0 / 5247, A64 = 49.0 / 176,
+                    A65 = -5103.0 / 18656;
+static const double B1 = 35.0 / 384, B3 = 500.0 / 1113, B4 = 125.0 / 192, B5 = -2187.0 / 6784, B6 = 11.0 / 84;
+static const double E1 = 71.0 / 57600, E3 = -71.0 / 16695, E4 = 71.0 / 1920, E5 = -17253.0 / 339200,
+                    E6 = 22.0 / 525, E7 = -1.0 / 40;
+
+static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_output *O, double *buf,
+                          fsm_progress_fn progress, long long every) {
+  const int n = W->n, N = 3 + 6 * n;
+  double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *k5 = k4 + N, *k6 = k5 + N, *k7 = k6 + N,
+         *xt = k7 + N, *xn = xt + N, *u_prev = xn + N, *u_snap = u_prev + 3 * n, *uu_snap = u_snap + 3 * n;
+  const double t0 = P->t0, t_end = t0 + (double)P->n_steps * P->dt;
+  const double out_dt = (double)P->output_every * P->dt;
+  const double hold_dt = P->hold_steps > 0 ? (double)P->hold_steps * P->dt : 0.0;
+  const int continuous = P->hold_steps <= 0;
+  long long m_out = 0, q_hold = 0, attempts = 0;
+  double t = t0, h = P->dt;
+  int first = 1;
+  long long next_report = every;
+  for (;;) {
+    const double eps_t = 1e-12 * fmax(1.0, fabs(t));
+    int sample = 0;
+    if (!continuous && fabs(t - (t0 + (double)q_hold * hold_dt)) <= eps_t) { sample = 1; q_hold++; }
+    stage_one(W, P, t, x, k1, continuous || sample || first);
+    memcpy(u_snap, W->u_apply, sizeof(double) * 3 * n);
+    memcpy(uu_snap, W->uu_apply, sizeof(double) * 3 * n);
+    if (fabs(t - (t0 + (double)m_out * out_dt)) <= eps_t) { record(O, W, P, t, x); m_out++; }
+    if (t >= t_end - eps_t) break;
+    /* next event: output time, sample time, end */
+    double t_next = fmin(t_end, t0 + (double)m_out * out_dt);
+    if (!continuous) t_next = fmin(t_next, t0 + (double)q_hold * hold_dt);
+    int rejected_in_row = 0;
+    for (;;) {
+      if (++attempts > P->max_steps) return FSM_TOO_MANY_STEPS;
+      double hs = fmin(h, t_next - t);
+      int lands = hs >= t_next - t - eps_t;
+      if (lands) hs = t_next - t;
+      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * A21 * k1[m];
+      eval_rhs(W, P, t + C2 * hs, xt, k2, continuous);
+      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A31 * k1[m] + A32 * k2[m]);
+      eval_rhs(W, P, t + C3 * hs, xt, k3, continuous);
+      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A41 * k1[m] + A42 * k2[m] + A43 * k3[m]);
+      eval_rhs(W, P, t + C4 * hs, xt, k4, continuous);
+      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A51 * k1[m] + A52 * k2[m] + A53 * k3[m] + A54 * k4[m]);
+      eval_rhs(W, P, t + C5 * hs, xt, k5, continuous);
+      for (int m = 0; m < N; ++m)
+        xt[m] = x[m] + hs * (A61 * k1[m] + A62 * k2[m] + A63 * k3[m] + A64 * k4[m] + A65 * k5[m]);
+      eval_rhs(W, P, t + hs, xt, k6, continuous);
+      for (int m = 0; m < N; ++m)
+        xn[m] = x[m] + hs * (B1 * k1[m] + B3 * k3[m] + B4 * k4[m] + B5 * k5[m] + B6 * k6[m]);
+      eval_rhs(W, P, t + hs, xn, k7, continuous);
+      double err = 0.0;
+      for (int m = 0; m < N; ++m) {
+        double e = hs * (E1 * k1[m] + E3 * k3[m] + E4 * k4[m] + E5 * k5[m] + E6 * k6[m] + E7 * k7[m]);
+        double sc = P->atol + P->rtol * fmax(fabs(x[m]), fabs(xn[m]));
+        err += (e / sc) * (e / sc);
+      }
+      err = sqrt(err / N);
+      if (!isfinite(err)) err = 1e10;
+      double factor = err > 0 ? 0.9 * pow(err, -0.2) : 5.0;
+      factor = fmin(5.0, fmax(0.2, factor));
+      if (err <= 1.0) {
+        accumulate(O, n, P, u_snap, uu_snap, hs, u_prev, first);
+        first = 0;
+        memcpy(x, xn, sizeof(double) * N);
+        t = lands ? t_next : t + hs;
+        double h_new = hs * (rejected_in_row ? fmin(1.0, factor) : factor);
+        h = (lands && hs < h) ? fmax(h, h_new) : h_new; /* a step shortened to land on an event keeps h */
+        break;
+      }
+      O->steps_rejected++;
+      rejected_in_row = 1;
+      h = hs * factor;
+      if (h < P->h_min) {
+        O->fail_time = t;
+        return FSM_STEP_TOO_SMALL;
+      }
+    }
+    shadow_all(W, x, n);
+    int bad = first_nonfinite(x, n);
+    if (bad != -2) {
+      O->fail_time = t;
+      O->fail_agent = bad;
+      return FSM_NONFINITE;
+    }
+    O->steps_taken++;
+    if (progress && every > 0 && O->steps_taken >= next_report) {
+      next_report += every;
+      long long done = (long long)((t - t0) / P->dt);
+      if (progress(done, P->n_steps)) return FSM_ABORTED;
+    }
+  }
+  return FSM_OK;
+}
+
+int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every) {
+  if (!validate(P)) return FSM_BAD_PROBLEM;
+  workspace W;
+  int rc = alloc_workspace(&W, P);
+  if (rc != FSM_OK) return rc;
+  const int n = P->n_agents, N = 3 + 6 * n;
+  double *buf = calloc((size_t)N * 11 + 9 * (size_t)n, sizeof(double));
+  if (!buf) { free_workspace(&W); return FSM_NOMEM; }
+  double *x = buf;
+  memcpy(x, x0, sizeof(double) * N);
+  for (int i = 0; i < n; ++i) {
+    const double *arg[1] = {P->gains + 6 * i};
+    double *res[1] = {W.gc + i};
+    sliding_constants(arg, res, W.iw, W.w, 0);
+    O->saturated_time[i] = 0.0;
+    O->u_total_variation[i] = 0.0;
+    O->u_unsat_max[i] = 0.0;
+  }
+  O->written = 0;
+  O->steps_taken = 0;
+  O->steps_rejected = 0;
+  O->fail_time = NAN;
+  O->fail_agent = -2;
+  shadow_all(&W, x, n);
+  if (P->integrator == 1)
+    rc = simulate_dopri(&W, P, x, O, buf + N, progress, every);
+  else
+    rc = simulate_rk4(&W, P, x, O, buf + N, progress, every);
+  free(buf);
+  free_workspace(&W);
+  return rc;
+}
+
+int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double *u_out) {
+  workspace W;
+  int rc = alloc_workspace(&W, P);
+  if (rc != FSM_OK) return rc;
+  for (int i = 0; i < P->n_agents; ++i) {
+    const double *arg[1] = {P->gains + 6 * i};
+    double *res[1] = {W.gc + i};
+    sliding_constants(arg, res, W.iw, W.w, 0);
+  }
+  eval_rhs(&W, P, t, x, dx, 1);
+  if (u_out) memcpy(u_out, W.u, sizeof(double) * 3 * P->n_agents);
+  free_workspace(&W);
+  return FSM_OK;
+}

@@ -1,0 +1,90 @@
+/*
+ * Whole-loop simulator of an n-spacecraft formation under the FSM control law
+ * (Liang, Sun & Wang 2012).  Hand-written driver: it contains no model
+ * equations; it calls the CasADi-generated per-agent functions of generated/c
+ * (plant_rhs, sliding_*, control_core, reference_rhs, disturbance_torque,
+ * mrp_shadow, sliding_constants) and does the bookkeeping around them:
+ * the time loop (fixed-step RK4 or adaptive Dormand-Prince 5(4)), the
+ * communication graph (what agent i receives: sum_j k^j_ij(t) s_j), the
+ * switching schedules, zero-order-hold sampling, MRP shadow switching after
+ * each step, output decimation and run statistics.
+ *
+ * State layout: x = [sigma_d (3), then for each agent i: sigma_i (3), omega_i (3)].
+ */
+#ifndef FSMCTL_FORMATION_H
+#define FSMCTL_FORMATION_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct {
+  int n_agents;
+  int error_model;          /* 0: paper kinematics (eqs 7-8), 1: exact */
+  int integrator;           /* 0: RK4 fixed step, 1: Dormand-Prince 5(4) adaptive */
+  double t0;
+  double dt;                /* RK4 step; initial step for the adaptive method */
+  long long n_steps;        /* RK4: number of steps; adaptive: t_final = t0 + n_steps*dt */
+  long long output_every;   /* outputs at t0 + k*output_every*dt */
+  long long hold_steps;     /* 0: control evaluated at every stage; h > 0: zero-order hold with period h*dt */
+  double rtol, atol, h_min; /* adaptive method only */
+  long long max_steps;      /* adaptive method only: give up after this many accepted+rejected steps */
+  const double *J_true;     /* n x 9, row-major, the plant's inertia J0 + Delta_J */
+  const double *J0;         /* n x 9, nominal inertia used by the controller */
+  const double *gains;      /* n x 6: c1, c2, alpha, boundary_layer, epsilon, fix_mode */
+  const double *delta;      /* n x 3 */
+  const double *u_max;      /* n: per-component torque limit (may be +inf) */
+  const double *dist_params;/* n x 12: disturbance sinusoid */
+  const double *ref_params; /* 12: omega_d sinusoid */
+  int n_links;
+  const int *link_receiver; /* i of k^i_ij, k^j_ij: agent i receives s_j */
+  const int *link_sender;   /* j */
+  const double *link_k_i;   /* k^i_ij (constant) */
+  const double *sched_period;  /* per link: period of k^j_ij(t); <= 0 for aperiodic */
+  const double *sched_phase;   /* per link: k^j_ij(t) = schedule(t + phase) */
+  const int *sched_start;      /* per link: first breakpoint in sched_times/sched_values */
+  const int *sched_count;      /* per link: number of segments */
+  const double *sched_times;   /* segment m holds on [times[m], times[m+1]) (last: up to the period / +inf) */
+  const double *sched_values;
+} fsm_problem;
+
+typedef struct {
+  long long capacity;       /* number of output rows allocated */
+  long long written;        /* rows written */
+  double *t;                /* capacity */
+  double *sigma_d;          /* capacity x 3 */
+  double *sigma, *omega, *sigma_e, *omega_e, *s, *u, *u_unsat; /* capacity x n x 3 */
+  double *saturated_time;   /* n: time with at least one saturated component */
+  double *u_total_variation;/* n: sum over steps of |u(t_k) - u(t_k-1)|_1 */
+  double *u_unsat_max;      /* n: max |u_unsat| component */
+  long long steps_taken;    /* accepted steps */
+  long long steps_rejected; /* adaptive only */
+  double fail_time;         /* time of the first non-finite state */
+  int fail_agent;           /* agent with the first non-finite state (-1: reference) */
+} fsm_output;
+
+/* Progress callback: called every `every` steps with (steps done, steps planned); a nonzero return aborts. */
+typedef int (*fsm_progress_fn)(long long done, long long planned);
+
+enum {
+  FSM_OK = 0,
+  FSM_NONFINITE = 1,
+  FSM_ABORTED = 2,
+  FSM_NOMEM = 3,
+  FSM_BAD_PROBLEM = 4,
+  FSM_STEP_TOO_SMALL = 5,
+  FSM_TOO_MANY_STEPS = 6
+};
+
+int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every);
+
+/* One evaluation of the formation right-hand side (control computed at this state). */
+int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double *u_out);
+
+/* Value of link e's k^j_ij at time t (for tests and plots). */
+double fsm_link_weight(const fsm_problem *P, int e, double t);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

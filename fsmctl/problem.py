@@ -1,0 +1,123 @@
+"""A scenario packed into the flat arrays the simulators consume.
+
+:func:`pack` is the single place where a :class:`~fsmctl.scenario.Scenario`
+becomes numbers: per-agent inertias, packed gains (the manifest's ``gains``
+layout), torque limits, sinusoid parameters, the link list with its schedules,
+and the initial state ``x0 = [sigma_d, (sigma_i, omega_i) for each agent]``.
+Both the compiled driver (:mod:`fsmctl.simulator`) and the CasADi fallback
+(:mod:`fsmctl.casadi_formation`) read this object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .generated_code import layout
+from .scenario import Scenario
+
+__all__ = ["PackedProblem", "pack"]
+
+
+@dataclass(frozen=True)
+class PackedProblem:
+    n_agents: int
+    error_model: int  # 0 paper, 1 exact
+    integrator: int  # 0 rk4, 1 dopri45
+    t0: float
+    dt: float
+    n_steps: int
+    output_every: int
+    hold_steps: int
+    rtol: float
+    atol: float
+    J_true: np.ndarray  # (n, 3, 3)
+    J0: np.ndarray  # (n, 3, 3)
+    gains: np.ndarray  # (n, 6)
+    delta: np.ndarray  # (n, 3)
+    u_max: np.ndarray  # (n,)
+    dist_params: np.ndarray  # (n, 12)
+    ref_params: np.ndarray  # (12,)
+    link_receiver: np.ndarray  # (L,) int32
+    link_sender: np.ndarray  # (L,) int32
+    link_k_i: np.ndarray  # (L,)
+    sched_period: np.ndarray  # (L,), <= 0 aperiodic
+    sched_phase: np.ndarray  # (L,)
+    sched_start: np.ndarray  # (L,) int32
+    sched_count: np.ndarray  # (L,) int32
+    sched_times: np.ndarray  # (sum counts,)
+    sched_values: np.ndarray  # (sum counts,)
+    x0: np.ndarray  # (3 + 6 n,)
+
+    @property
+    def n_links(self) -> int:
+        return int(self.link_receiver.size)
+
+    @property
+    def n_outputs(self) -> int:
+        return self.n_steps // self.output_every + 1
+
+    def link_weights(self, t: float) -> np.ndarray:
+        """``k^j_ij(t)`` of every link (same rule as the C driver)."""
+        out = np.empty(self.n_links)
+        for e in range(self.n_links):
+            s, c = self.sched_start[e], self.sched_count[e]
+            b, v = self.sched_times[s : s + c], self.sched_values[s : s + c]
+            tau = t + self.sched_phase[e]
+            if self.sched_period[e] > 0:
+                tau = tau - np.floor(tau / self.sched_period[e]) * self.sched_period[e]
+            m = max(0, int(np.searchsorted(b, tau, side="right")) - 1)
+            out[e] = v[m]
+        return out
+
+
+def pack(scenario: Scenario) -> PackedProblem:
+    """Flatten a validated scenario."""
+    if layout("gains") != ("c1", "c2", "alpha", "boundary_layer", "epsilon", "fix_mode"):
+        raise RuntimeError(f"generated code has an unexpected gains layout {layout('gains')}; run `python -m derive`")
+    agents = scenario.agents
+    n = len(agents)
+    c = scenario.controller
+    sim = scenario.simulation
+    links = scenario.topology.links
+    times, values, starts, counts = [], [], [], []
+    for link in links:
+        starts.append(len(times))
+        counts.append(len(link.k_j.breakpoints))
+        times.extend(link.k_j.breakpoints)
+        values.extend(link.k_j.values)
+    x0 = np.empty(3 + 6 * n)
+    x0[:3] = scenario.reference.sigma0
+    for i, a in enumerate(agents):
+        x0[3 + 6 * i : 6 + 6 * i] = a.sigma0
+        x0[6 + 6 * i : 9 + 6 * i] = a.omega0
+    return PackedProblem(
+        n_agents=n,
+        error_model=1 if c.error_model == "exact" else 0,
+        integrator=1 if sim.integrator == "dopri45" else 0,
+        t0=0.0,
+        dt=sim.dt,
+        n_steps=sim.n_steps,
+        output_every=sim.output_every,
+        hold_steps=sim.hold_steps,
+        rtol=sim.rtol,
+        atol=sim.atol,
+        J_true=np.array([a.J_true for a in agents], dtype=float),
+        J0=np.array([a.J0 for a in agents], dtype=float),
+        gains=np.tile(c.gains_vector(), (n, 1)),
+        delta=np.array([a.delta for a in agents], dtype=float),
+        u_max=np.full(n, c.torque_limit, dtype=float),
+        dist_params=np.array([a.disturbance.params() for a in agents], dtype=float).reshape(n, 12),
+        ref_params=scenario.reference.omega.params(),
+        link_receiver=np.array([lk.receiver for lk in links], dtype=np.int32),
+        link_sender=np.array([lk.sender for lk in links], dtype=np.int32),
+        link_k_i=np.array([lk.k_i for lk in links], dtype=float),
+        sched_period=np.array([lk.k_j.period or 0.0 for lk in links], dtype=float),
+        sched_phase=np.array([lk.phase for lk in links], dtype=float),
+        sched_start=np.array(starts, dtype=np.int32),
+        sched_count=np.array(counts, dtype=np.int32),
+        sched_times=np.array(times, dtype=float),
+        sched_values=np.array(values, dtype=float),
+        x0=x0,
+    )
