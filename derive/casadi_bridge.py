@@ -20,6 +20,9 @@ relationals, logic     ``<, <=, ==, !=, logic_and/or/not``
 elementary functions   ``sin cos tan atan atan2 tanh exp log floor``
 =====================  ==========================================
 
+The one deliberate difference: ``atan2(0, 0)`` is ``nan`` in SymPy and ``0``
+in C (and CasADi); no generated function evaluates it there.
+
 Common subexpressions are shared by memoising on the (hashable) SymPy node,
 so a subtree that occurs many times is translated once.
 """

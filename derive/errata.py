@@ -226,6 +226,97 @@ def erratum_reaching_rate() -> Erratum:
     )
 
 
+def _coupling_block(ki, kj, eta) -> sp.Matrix:
+    """``[[k^i - eta, -k^j/2], [-k^j/2, eta]]``: the quadratic form of one ordered pair in eqs 25-27."""
+    return sp.Matrix([[ki - eta, -kj / 2], [-kj / 2, eta]])
+
+
+def erratum_theorem1_eta_strict() -> Erratum:
+    """Theorem 1 (eqs 26-27): ``k^i_ij > eta_ij > 0``, ``eta_ij = eta_ji`` constant is more than the proof needs.
+
+    The double sums of eqs 25-27 run over all ``j``, so pairs without a link (``k^i = k^j = 0``) must
+    satisfy the conditions too, and the strict inequalities cannot hold there.
+    """
+    ki, kj, eta = sp.symbols("k_i k_j eta", nonnegative=True)
+    s_i, s_j = vector_symbols("s_i"), vector_symbols("s_j")
+    B = _coupling_block(ki, kj, eta)
+    # the pair's term of eq 27 is the quadratic form of B (per axis): B >= 0 <=> it is >= 0 for all s
+    term = (s_i.T * (ki * s_i - kj * s_j))[0, 0] - eta * ((s_i.T * s_i)[0, 0] - (s_j.T * s_j)[0, 0])
+    form = sum((sp.Matrix([s_i[k], s_j[k]]).T * B * sp.Matrix([s_i[k], s_j[k]]))[0, 0] for k in range(3))
+    block_ok = sp.expand(term - form) == 0
+    # det B = (k^i - eta) gamma: for k^i > eta, B >= 0 <=> gamma >= 0 <=> 4 eta (k^i - eta) >= (k^j)^2
+    gamma = eta - kj**2 / (4 * (ki - eta))
+    det_ok = sp.simplify(B.det() - (ki - eta) * gamma) == 0
+    # max_eta 4 eta (k^i - eta) = (k^i)^2 at eta = k^i/2: some eta exists iff k^i >= k^j
+    f = 4 * eta * (ki - eta)
+    max_ok = sp.solve(sp.diff(f, eta), eta) == [ki / 2] and sp.diff(f, eta, 2) < 0 and sp.expand(f.subs(eta, ki / 2)) == ki**2
+    # counterexample: k^i = k^j = 0 (no link; the paper's Case 2): B = 0 >= 0 with eta = 0, but k^i > eta > 0 is empty
+    e = sp.Symbol("e", real=True)
+    no_strict = sp.reduce_inequalities([e > 0, e < 0], e) is sp.false
+    zero_ok = B.subs({ki: 0, kj: 0, eta: 0}).is_positive_semidefinite
+    return Erratum(
+        id="thm1-eta-strict",
+        equation="Theorem 1, 25-27; Remarks 2, 5",
+        as_printed="k^i_ij > eta_ij and 4 eta_ij (k^i_ij - eta_ij) >= (k^j_ij)^2 with eta_ij = eta_ji > 0 constant, for all i, j",
+        correct=(
+            "for every ordered pair [[k^i_ij - eta_ij, -k^j_ij/2], [-k^j_ij/2, eta_ij]] >= 0, i.e. 0 <= eta_ij <= k^i_ij and "
+            "4 eta_ij (k^i_ij - eta_ij) >= (k^j_ij)^2 (some eta exists iff k^i_ij >= k^j_ij), with eta balanced "
+            "(sum_j eta_ij = sum_j eta_ji for every i, eq 26) and allowed to change with t"
+        ),
+        residual=(
+            "k^i_ij = k^j_ij = 0 (no link, e.g. the paper's Case 2): the pair's term of eq 27 is 0 and the block is "
+            "PSD with eta = 0, but k^i_ij > eta_ij > 0 has no solution"
+        ),
+        consequence=(
+            "the sums of eqs 25-27 run over all j, so as printed Theorem 1 only covers formations in which every "
+            "agent weights every other one (k^i_ij > 0 for all i != j), not 'arbitrary topologies'; the paper's own "
+            "Case 2 and any sparse graph are outside it, although the corrected (non-strict) condition covers them"
+        ),
+        as_printed_latex=r"k^i_{ij} > \eta_{ij},\ 4\eta_{ij}(k^i_{ij}-\eta_{ij}) \ge (k^j_{ij})^2,\ \eta_{ij}=\eta_{ji}>0",
+        correct_latex=(
+            r"\begin{bmatrix}k^i_{ij}-\eta_{ij} & -k^j_{ij}/2\\ -k^j_{ij}/2 & \eta_{ij}\end{bmatrix}\succeq 0,\quad "
+            r"\textstyle\sum_j \eta_{ij} = \sum_j \eta_{ji}"
+        ),
+        checked=bool(block_ok and det_ok and max_ok and no_strict and zero_ok),
+    )
+
+
+def erratum_remark4_looser() -> Erratum:
+    """Remark 4: ``k^i_ij >= k^j_ij`` (with ``eta = k^i/2``) is not a looser condition than Theorem 1's."""
+    k, kj = sp.symbols("k k_j", nonnegative=True)
+    eta = sp.Symbol("eta", nonnegative=True)
+    B_half = _coupling_block(k, kj, k / 2)
+    eig_ok = set(B_half.eigenvals()) == {k / 2 - kj / 2, k / 2 + kj / 2}  # PSD <=> k >= k_j
+    # Theorem 1's conditions are feasible for some eta iff max_eta 4 eta (k - eta) = k^2 >= k_j^2, the same set
+    f = 4 * eta * (k - eta)
+    same_set = sp.solve(sp.diff(f, eta), eta) == [k / 2] and sp.expand(f.subs(eta, k / 2) - k**2) == 0
+    strict_ok = sp.simplify(f.subs(eta, k / 2) - k**2) == 0  # eta = k/2 also meets k > eta > 0 whenever k > 0
+    return Erratum(
+        id="remark4-looser",
+        equation="Remark 4",
+        as_printed=(
+            "for an undirected topology k^i_ij >= k^j_ij suffices (eta_ij = k^i_ij/2), 'a more loose condition' than "
+            "Theorem 1's"
+        ),
+        correct=(
+            "with eta = k^i/2 the pair's block has eigenvalues (k^i +- k^j)/2, so it holds iff k^i >= k^j; Theorem 1's "
+            "conditions are satisfiable iff k^i >= k^j as well (max_eta 4 eta (k^i - eta) = (k^i)^2): the same "
+            "condition, not a looser one, and only k^i_ij = k^i_ji (not undirected k^j) is used"
+        ),
+        residual=(
+            "{(k^i, k^j): exists eta, k^i > eta > 0, 4 eta (k^i - eta) >= (k^j)^2} = {k^i >= k^j, k^i > 0}; the only "
+            "extra case of Remark 4, k^i = k^j = 0, is the one Theorem 1's strict inequalities exclude by mistake"
+        ),
+        consequence="Remark 4 adds nothing to (the corrected) Theorem 1; directed and time-varying k^j are covered alike",
+        as_printed_latex=r"k^i_{ij} \ge k^j_{ij}\ \text{(undirected, } \eta_{ij} = k^i_{ij}/2\text{) is looser}",
+        correct_latex=(
+            r"\exists\eta:\ 4\eta(k^i-\eta)\ge (k^j)^2,\ 0\le\eta\le k^i \iff k^i \ge k^j "
+            r"\iff \begin{bmatrix}k^i/2 & -k^j/2\\ -k^j/2 & k^i/2\end{bmatrix}\succeq 0"
+        ),
+        checked=bool(eig_ok and same_set and strict_ok),
+    )
+
+
 ERRATA_CHECKS: tuple[Callable[[], Erratum], ...] = (
     erratum_error_kinematics,
     erratum_lagrange_C,
@@ -233,6 +324,8 @@ ERRATA_CHECKS: tuple[Callable[[], Erratum], ...] = (
     erratum_norm_inequality,
     erratum_reaching_rate,
     erratum_uncertainty_term,
+    erratum_theorem1_eta_strict,
+    erratum_remark4_looser,
 )
 
 

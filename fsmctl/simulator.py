@@ -362,10 +362,10 @@ class SimulationResult:
             + [np.concatenate([self.sigma[:, i].T, self.omega[:, i].T]) for i in range(n)]
         )
         y = np.concatenate([np.concatenate([self.sigma[:, i].T, self.omega[:, i].T, self.u[:, i].T]) for i in range(n)])
-        state_labels = [f"reference.sigma_d[{k}]" for k in range(3)] + [
-            f"sc{i + 1}.{v}[{k}]" for i in range(n) for v in ("sigma", "omega") for k in range(3)
+        state_labels = [f"reference_sigma_d[{k}]" for k in range(3)] + [
+            f"sc{i + 1}_{v}[{k}]" for i in range(n) for v in ("sigma", "omega") for k in range(3)
         ]
-        output_labels = [f"sc{i + 1}.{v}[{k}]" for i in range(n) for v in ("sigma", "omega", "tau") for k in range(3)]
+        output_labels = [f"sc{i + 1}_{v}[{k}]" for i in range(n) for v in ("sigma", "omega", "tau") for k in range(3)]
         return ct.TimeResponseData(
             self.time,
             y,
@@ -376,6 +376,7 @@ class SimulationResult:
             input_labels=[],
             sysname=f"formation ({self.scenario.label})",
             title=f"fsmctl formation: {self.scenario.label}",
+            issiso=False,
         )
 
 

@@ -55,9 +55,12 @@ Places where the printed paper did not check out
    with V_i = 1/2 s's of eq 22); the bound itself checks out since sum |x_k|^(1+alpha) >= ||x||^(1+alpha)
    for 1 + alpha <= 2.
 9. Table 2, as extracted: row 4 column 3 is labelled k^4_43 instead of k^3_43 (superscript typo).
-10. Metrics (42)-(43): theta from eq 2 (4 atan|sigma|) exceeds pi when |sigma_e| > 1 is not shadow-switched;
+10. Metrics (42)-(43): theta "from eq 2" (4 atan|sigma|) exceeds pi when |sigma_e| > 1 is not shadow-switched;
    with a principal angle in [0, pi] (used here) AAEM and RAEM cannot exceed 180 deg, so the figure axes
-   running to ~300 deg (AAEM) suggest either padded axes or an unswitched MRP (theta up to 360 deg).
+   running to ~300 deg (AAEM) and ~200 deg (theta_i) suggest either padded axes or an unswitched MRP.  With
+   the Table 1 data: theta_e(0) = 132.0, 163.7, 152.1, 112.7, 146.2, 83.6 deg, AAEM(0) = 134.4 deg,
+   RAEM(0) = 114.1 deg; the unswitched MRP composition formula instead gives theta_1 = 228.0 and
+   theta_4 = 247.3 deg, AAEM(0) = 178.6 deg.
 Checked and found consistent: eq 5, eq 10 (Lemma 1), eq 12, eq 15 bound, eq 20 from (16)-(19) with
 (9), eqs 26-27 (completing the square, needs eta_ij = eta_ji), eqs 34-41 (Theorem 3), Remark 6 limit.
 """
@@ -445,16 +448,12 @@ def paper_scenario() -> dict:
         return np.array([0.1 * np.cos(t / 40.0), -0.1 * np.sin(t / 50.0), -0.1 * np.cos(t / 60.0)])
 
     def omega_d_dot(t: float) -> np.ndarray:
-        return np.array(
-            [-0.1 / 40.0 * np.sin(t / 40.0), -0.1 / 50.0 * np.cos(t / 50.0), 0.1 / 60.0 * np.sin(t / 60.0)]
-        )
+        return np.array([-0.1 / 40.0 * np.sin(t / 40.0), -0.1 / 50.0 * np.cos(t / 50.0), 0.1 / 60.0 * np.sin(t / 60.0)])
 
     def disturbance(i: int, t: float) -> np.ndarray:
         if not 1 <= i <= 6:
             raise ValueError("agent index i is 1-based, 1..6")
-        return np.array(
-            [0.2 * np.cos(i + 0.1 * t), -0.24 * np.sin(i + 0.15 * t), 0.22 * np.cos(i + 0.12 * t)]
-        )
+        return np.array([0.2 * np.cos(i + 0.1 * t), -0.24 * np.sin(i + 0.15 * t), 0.22 * np.cos(i + 0.12 * t)])
 
     def k_j(i: int, j: int, t: float) -> float:
         if not (1 <= i <= 6 and 1 <= j <= 6):

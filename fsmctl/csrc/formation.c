@@ -35,7 +35,7 @@ typedef struct {
   int d_valid;
   double *gc;                            /* n: sliding_constants */
   double wd[3], wdd[3];
-  double *k_val, *k_from, *k_to;         /* per-link schedule cache */
+  double *k_val, *k_base, *k_lo, *k_hi;  /* per-link schedule cache */
   double *tau;                           /* 3 */
   casadi_int *iw;
   double *w;
@@ -55,7 +55,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->sliding = P->error_model == 1 ? sliding_exact : sliding_paper;
   /* one block for all per-agent doubles */
   size_t per3 = (size_t)3 * n, L = (size_t)P->n_links;
-  size_t total = per3 * 12 + (size_t)n * 2 + L * 3 + 3;
+  size_t total = per3 * 12 + (size_t)n * 2 + L * 4 + 3;
   double *block = calloc(total > 0 ? total : 1, sizeof(double));
   if (!block) return FSM_NOMEM;
   double *p = block;
@@ -74,10 +74,11 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->ksum = p; p += n;
   W->gc = p; p += n;
   W->k_val = p; p += L;
-  W->k_from = p; p += L;
-  W->k_to = p; p += L;
+  W->k_base = p; p += L;
+  W->k_lo = p; p += L;
+  W->k_hi = p; p += L;
   W->tau = p;
-  for (size_t e = 0; e < L; ++e) { W->k_from[e] = INFINITY; W->k_to[e] = -INFINITY; }
+  for (size_t e = 0; e < L; ++e) { W->k_lo[e] = INFINITY; W->k_hi[e] = -INFINITY; } /* empty: forces evaluation */
   /* CasADi work arrays: the largest need of the functions used */
   casadi_work_fn works[] = {plant_rhs_work, sliding_paper_work, sliding_exact_work, control_core_work,
                             reference_rhs_work, disturbance_torque_work, mrp_shadow_work, sliding_constants_work};
@@ -96,33 +97,29 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   return FSM_OK;
 }
 
-/* k^j_ij(t) of link e: piecewise constant, optionally periodic; cached with its validity interval. */
+/* k^j_ij(t) of link e: piecewise constant, optionally periodic.  The cache keeps the period
+ * start `base` and the segment bounds; a cached answer is used only when the same arithmetic as a
+ * fresh evaluation (r = t + phase - base compared with the breakpoints) confirms it, so caching
+ * never changes a result, even at a switching instant. */
 static double link_weight(workspace *W, const fsm_problem *P, int e, double t) {
-  if (W && t >= W->k_from[e] && t < W->k_to[e]) return W->k_val[e];
+  const double period = P->sched_period[e];
+  const double tau = t + P->sched_phase[e];
+  if (W) {
+    double r = tau - W->k_base[e];
+    if (r >= W->k_lo[e] && r < W->k_hi[e] && (period <= 0 || floor(tau / period) * period == W->k_base[e]))
+      return W->k_val[e];
+  }
   int start = P->sched_start[e], count = P->sched_count[e];
   const double *b = P->sched_times + start, *v = P->sched_values + start;
-  double period = P->sched_period[e];
-  double tau = t + P->sched_phase[e], base = 0.0;
-  if (period > 0) {
-    double q = floor(tau / period);
-    base = q * period;
-    tau -= base;
-    if (tau < 0) tau = 0; /* rounding */
-  }
+  double base = period > 0 ? floor(tau / period) * period : 0.0;
+  double r = tau - base;
   int m = 0;
-  while (m + 1 < count && tau >= b[m + 1]) ++m;
-  double lo, hi;
-  if (period > 0) {
-    lo = base + b[m];
-    hi = base + (m + 1 < count ? b[m + 1] : period);
-  } else {
-    lo = m == 0 ? -INFINITY : b[m];
-    hi = m + 1 < count ? b[m + 1] : INFINITY;
-  }
+  while (m + 1 < count && r >= b[m + 1]) ++m;
   if (W) {
     W->k_val[e] = v[m];
-    W->k_from[e] = lo - P->sched_phase[e];
-    W->k_to[e] = hi - P->sched_phase[e];
+    W->k_base[e] = base;
+    W->k_lo[e] = m == 0 ? -INFINITY : b[m];
+    W->k_hi[e] = m + 1 < count ? b[m + 1] : INFINITY;
   }
   return v[m];
 }

@@ -1,0 +1,457 @@
+"""Theorem 1 for a concrete topology: do the ``k^i``/``k^j``/``eta`` conditions hold for all t?
+
+Liang et al. 2012 (Theorem 1, eqs 25-27) need, for every ordered pair ``(i, j)``,
+``gamma_ij = eta_ij - (k^j_ij)^2 / (4 (k^i_ij - eta_ij)) >= 0``.  What the proof
+truly requires (see :mod:`fsmctl.proofs.claims`, claims ``zero-sum`` and
+``gamma-condition``) is:
+
+* per ordered pair the 2x2 matrix ``[[k^i_ij - eta_ij, -k^j_ij/2], [-k^j_ij/2, eta_ij]]``
+  is positive semidefinite, i.e. ``0 <= eta_ij <= k^i_ij`` and
+  ``4 eta_ij (k^i_ij - eta_ij) >= (k^j_ij)^2``: ``eta_ij`` in the closed interval
+  ``[(k^i - sqrt(k^i^2 - k^j^2))/2, (k^i + sqrt(k^i^2 - k^j^2))/2]``, non-empty iff ``k^i >= k^j``;
+* ``eta`` *balanced*, ``sum_j eta_ij = sum_j eta_ji`` for every i (eq 26), which
+  symmetric ``eta`` (the paper's ``eta_ij = eta_ji``) is a special case of;
+* nothing about time: eq 26 is an identity at each instant, so ``eta`` may
+  change whenever the topology does.
+
+The exact requirement behind all of it is that the coordination term of
+``V_dot`` is non-positive: ``lambda_min(sym(L(t))) >= 0`` with
+``L_ii = sum_j k^i_ij`` and ``L_ij = -k^j_ij(t)``.
+
+Piecewise-constant schedules make this a finite problem: every distinct
+configuration of ``k^j(t)`` is visited at the midpoints between consecutive
+switching times of one common period (or of the scenario horizon when the
+schedules are not periodic with a common period).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+from fractions import Fraction
+
+import numpy as np
+
+from ..topology import Topology
+
+__all__ = [
+    "Configuration",
+    "PairResult",
+    "Theorem1Analysis",
+    "analyze_topology",
+    "configurations",
+    "eta_interval",
+    "scaled_coupling_lambda_min",
+]
+
+_TOL = 1e-12
+
+
+def eta_interval(k_i: float, k_j: float) -> tuple[float, float] | None:
+    """Closed interval of ``eta`` with ``[[k_i - eta, -k_j/2], [-k_j/2, eta]] >= 0`` (Liang et al. 2012, eq 27), or None.
+
+    Parameters
+    ----------
+    k_i, k_j : float
+        The weights ``k^i_ij >= 0`` and ``k^j_ij >= 0`` of one ordered pair at one time.
+
+    Returns
+    -------
+    tuple of float or None
+        ``(lo, hi)`` with ``lo = (k_i - sqrt(k_i^2 - k_j^2))/2`` and ``hi = (k_i + sqrt(k_i^2 - k_j^2))/2``;
+        None when ``k_i < k_j`` (no ``eta`` makes ``gamma_ij >= 0``).
+    """
+    if k_i < k_j - _TOL * max(1.0, k_i):
+        return None
+    disc = math.sqrt(max(k_i * k_i - k_j * k_j, 0.0))
+    return (0.5 * (k_i - disc), 0.5 * (k_i + disc))
+
+
+def _intersect(a: tuple[float, float] | None, b: tuple[float, float] | None) -> tuple[float, float] | None:
+    if a is None or b is None:
+        return None
+    lo, hi = max(a[0], b[0]), min(a[1], b[1])
+    return (lo, hi) if lo <= hi + _TOL * max(1.0, abs(hi)) else None
+
+
+@dataclass(frozen=True)
+class Configuration:
+    """One distinct value of the matrix ``K_j(t) = [k^j_ij(t)]`` and the time segments where it holds."""
+
+    k_j: np.ndarray
+    segments: tuple[tuple[float, float], ...]
+    """``[t_start, t_end)`` segments (s) within the analysed window"""
+
+    @property
+    def t(self) -> float:
+        """A representative time (the first segment's midpoint; its start for an unbounded segment)."""
+        a, b = self.segments[0]
+        return a if math.isinf(b) else 0.5 * (a + b)
+
+
+@dataclass(frozen=True)
+class PairResult:
+    """The unordered pair ``{i, j}`` (0-based, ``i < j``) and its constant symmetric ``eta`` interval."""
+
+    i: int
+    j: int
+    k_i_ij: float
+    k_i_ji: float
+    k_j_max_ij: float
+    k_j_max_ji: float
+    interval: tuple[float, float] | None
+    """feasible constant ``eta_ij = eta_ji`` (intersection over t of both directions' intervals)"""
+    printed_ok: bool
+    """the printed strict conditions ``k^i > eta > 0`` can also be met"""
+    time_varying_ok: bool
+    """a symmetric ``eta(t)`` exists at every configuration"""
+    eta: Fraction | None = None
+    """certified value (exact rational check of both directions at their largest ``k^j``)"""
+    reason: str = ""
+    fixes: tuple[str, ...] = ()
+    when: str = ""
+
+    @property
+    def label(self) -> str:
+        return f"{self.i + 1}-{self.j + 1}"
+
+
+@dataclass(frozen=True)
+class Theorem1Analysis:
+    """Outcome of :func:`analyze_topology`."""
+
+    window: str
+    configurations: tuple[Configuration, ...]
+    pairs: tuple[PairResult, ...]
+    symmetric_constant: bool
+    symmetric_time_varying: bool
+    balanced_constant: bool
+    balanced_time_varying: bool
+    printed_strict: bool
+    lambda_min: float
+    lambda_min_time: float
+    failures: tuple[str, ...] = field(default=())
+
+    @property
+    def holds(self) -> bool:
+        """Theorem 1's conditions in the form the proof needs (balanced, time-varying, non-strict ``eta``)."""
+        return self.balanced_time_varying
+
+    @property
+    def exact_holds(self) -> bool:
+        """``sym(L(t)) >= 0`` at every configuration: the coordination term never increases ``V``."""
+        return self.lambda_min >= -1e-9
+
+
+def _common_period(topology: Topology) -> float | None:
+    periods = []
+    for link in topology.links:
+        sched = link.k_j
+        if sched.period is None:
+            if len(set(sched.values)) > 1:
+                return None  # a non-periodic schedule that changes: no common period
+            continue
+        periods.append(Fraction(sched.period).limit_denominator(10**6))
+    if not periods:
+        return 0.0  # all constant
+    den = math.lcm(*(p.denominator for p in periods))
+    nums = [int(p * den) for p in periods]
+    period = Fraction(math.lcm(*nums), den)
+    if period > 1e4 * max(periods):
+        return None
+    return float(period)
+
+
+def configurations(topology: Topology, t_final: float) -> tuple[tuple[Configuration, ...], str]:
+    """Every distinct ``K_j(t)`` of a piecewise-constant topology, with the window that was searched.
+
+    Parameters
+    ----------
+    topology : Topology
+        The directed, time-varying graph of eq 19.
+    t_final : float
+        The scenario horizon, used when the schedules have no common period.
+
+    Returns
+    -------
+    tuple
+        The configurations (in order of first appearance) and a sentence naming the window.
+    """
+    period = _common_period(topology)
+    if period == 0.0:
+        t0, t1 = 0.0, 1.0
+        window = "all t (every k^j_ij is constant)"
+    elif period is not None:
+        t0, t1 = 0.0, period
+        window = (
+            f"one common period [0, {period:g}) s of the schedules (the sequence of configurations repeats, "
+            "so this covers every t)"
+        )
+    else:
+        t0, t1 = 0.0, float(t_final)
+        window = f"the scenario horizon [0, {t_final:g}] s (the schedules have no common period)"
+    cuts = np.concatenate(([t0], topology.switching_times(t0, t1), [t1]))
+    cuts = np.unique(cuts)
+    found: dict[bytes, list] = {}
+    order: list[bytes] = []
+    for a, b in itertools.pairwise(cuts):
+        K = topology.k_j_matrix(0.5 * (a + b))
+        key = K.tobytes()
+        if key not in found:
+            found[key] = [K, []]
+            order.append(key)
+        found[key][1].append((float(a), float(b)))
+    if period is None:
+        # after the horizon the last configuration persists for non-periodic schedules
+        K = topology.k_j_matrix(t1 + 1.0)
+        key = K.tobytes()
+        if key not in found:
+            found[key] = [K, [(t1, math.inf)]]
+            order.append(key)
+    if period == 0.0:
+        found[order[0]][1] = [(0.0, math.inf)]
+    confs = tuple(Configuration(found[k][0], tuple(found[k][1])) for k in order)
+    return confs, window
+
+
+def _segments_text(segments, limit: int = 3) -> str:
+    if segments and segments[0] == (0.0, math.inf):
+        return "all t"
+    parts = [f"[{a:g}, {b:g})" for a, b in segments[:limit]]
+    more = f" and {len(segments) - limit} more" if len(segments) > limit else ""
+    return "t in " + ", ".join(parts) + more + " s"
+
+
+def _pair_feasible(a: float, A: float, b: float, B: float) -> bool:
+    return _intersect(eta_interval(a, A), eta_interval(b, B)) is not None
+
+
+def _bisect(pred, lo: float, hi: float, want_low: bool, iters: int = 60) -> float:
+    """Smallest (``want_low``) or largest value in ``[lo, hi]`` where the monotone ``pred`` holds."""
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        ok = pred(mid)
+        if want_low:
+            hi, lo = (mid, lo) if ok else (hi, mid)
+        else:
+            lo, hi = (mid, hi) if ok else (lo, mid)
+    return hi if want_low else lo
+
+
+def _fixes(i: int, j: int, a: float, A: float, b: float, B: float) -> tuple[str, ...]:
+    """Smallest single-parameter changes that make the pair's constant symmetric ``eta`` feasible."""
+    out = []
+    big = 4.0 * max(a, A, b, B, 1.0) + 1.0
+    ij, ji = f"{i + 1}{j + 1}", f"{j + 1}{i + 1}"
+    if _pair_feasible(big, A, b, B):
+        v = _bisect(lambda x: _pair_feasible(x, A, b, B), a, big, want_low=True)
+        out.append(f"raise k^i_{ij} to >= {_up(v)}")
+    if _pair_feasible(a, A, big, B):
+        v = _bisect(lambda x: _pair_feasible(a, A, x, B), b, big, want_low=True)
+        out.append(f"raise k^i_{ji} to >= {_up(v)}")
+    if A > 0 and _pair_feasible(a, 0.0, b, B):
+        v = _bisect(lambda x: _pair_feasible(a, x, b, B), 0.0, A, want_low=False)
+        out.append(f"lower max_t k^j_{ij}(t) to <= {_down(v)}")
+    if B > 0 and _pair_feasible(a, A, b, 0.0):
+        v = _bisect(lambda x: _pair_feasible(a, A, b, x), 0.0, B, want_low=False)
+        out.append(f"lower max_t k^j_{ji}(t) to <= {_down(v)}")
+    if not out:
+        # both directions need a change: raise both k^i (each at least to its k^j), or lower both k^j
+        a2, b2 = max(a, A), max(b, B)
+        if not _pair_feasible(a2, A, b2, B):
+            if _pair_feasible(big, A, b2, B):
+                a2 = _bisect(lambda x: _pair_feasible(x, A, b2, B), a2, big, want_low=True)
+            else:
+                b2 = _bisect(lambda x: _pair_feasible(a2, A, x, B), b2, big, want_low=True)
+        out.append(f"raise k^i_{ij} to >= {_up(a2)} and k^i_{ji} to >= {_up(b2)}")
+        A2, B2 = min(A, a), min(B, b)
+        if _pair_feasible(a, A2, b, B2):
+            out.append(f"lower max_t k^j_{ij}(t) to <= {_down(A2)} and max_t k^j_{ji}(t) to <= {_down(B2)}")
+    return tuple(out)
+
+
+def _fmt4(x: float) -> str:
+    return f"{x:.4f}".rstrip("0").rstrip(".")
+
+
+def _up(x: float) -> str:
+    """``x`` rounded up to 4 decimals (a safe lower bound to suggest)."""
+    return _fmt4(math.ceil(x * 1e4 - 1e-9) / 1e4)
+
+
+def _down(x: float) -> str:
+    """``x`` rounded down to 4 decimals (a safe upper bound to suggest)."""
+    return _fmt4(math.floor(x * 1e4 + 1e-9) / 1e4)
+
+
+def _certify(eta: float, pairs: list[tuple[float, float]]) -> Fraction | None:
+    """Exact rational check of ``0 <= eta <= k^i`` and ``4 eta (k^i - eta) >= (k^j)^2`` for each ``(k^i, k^j)``."""
+    e = Fraction(eta)
+    for ki, kj in pairs:
+        Ki, Kj = Fraction(ki), Fraction(kj)
+        if not (0 <= e <= Ki and 4 * e * (Ki - e) >= Kj * Kj):
+            return None
+    return e
+
+
+def _choose_eta(interval: tuple[float, float], pairs: list[tuple[float, float]]) -> Fraction | None:
+    lo, hi = interval
+    for candidate in (0.5 * (lo + hi), lo, hi, float(Fraction(0.5 * (lo + hi)).limit_denominator(10**6))):
+        cert = _certify(candidate, pairs)
+        if cert is not None:
+            return cert
+    return None
+
+
+def _balanced_feasible(bounds: dict[tuple[int, int], tuple[float, float] | None], n: int) -> bool:
+    """Is there ``eta_ij`` in the given bounds with ``sum_j eta_ij = sum_j eta_ji`` for every i (eq 26)?"""
+    if any(b is None for b in bounds.values()):
+        return False
+    keys = [k for k, b in bounds.items() if b[1] > 0]
+    if not keys:
+        return True  # every eta is forced to 0: balanced
+    lo_total = sum(bounds[k][0] for k in keys)
+    if lo_total == 0:
+        return True  # eta = 0 everywhere is admissible
+    from scipy.optimize import linprog
+
+    A = np.zeros((n, len(keys)))
+    for col, (i, j) in enumerate(keys):
+        A[i, col] += 1.0
+        A[j, col] -= 1.0
+    res = linprog(
+        np.zeros(len(keys)), A_eq=A, b_eq=np.zeros(n), bounds=[bounds[k] for k in keys], method="highs"
+    )
+    return bool(res.status == 0)
+
+
+def analyze_topology(topology: Topology, t_final: float) -> Theorem1Analysis:
+    """Check Theorem 1's conditions (Liang et al. 2012, Theorem 1, eqs 25-27) for every configuration of a topology.
+
+    Parameters
+    ----------
+    topology : Topology
+        Gain table ``k^i_ij`` and schedules ``k^j_ij(t)``.
+    t_final : float
+        Scenario horizon (used only when the schedules have no common period).
+
+    Returns
+    -------
+    Theorem1Analysis
+        Per unordered pair the feasible constant symmetric ``eta`` interval (or the reason it
+        fails, when, and the smallest single-parameter fix), whether symmetric / balanced,
+        constant / time-varying ``eta`` exist, whether the printed strict conditions can
+        hold, and ``min_t lambda_min(sym(L(t)))``.
+    """
+    n = topology.n_agents
+    Ki = topology.k_i_matrix()
+    confs, window = configurations(topology, t_final)
+    Kjs = [c.k_j for c in confs]
+    Kj_max = np.max(np.stack(Kjs), axis=0) if Kjs else np.zeros((n, n))
+
+    def when_max(i: int, j: int) -> str:
+        for c in confs:
+            if c.k_j[i, j] == Kj_max[i, j]:
+                return _segments_text(c.segments)
+        return ""
+
+    pairs: list[PairResult] = []
+    failures: list[str] = []
+    for i in range(n):
+        for j in range(i + 1, n):
+            a, A, b, B = (float(x) for x in (Ki[i, j], Kj_max[i, j], Ki[j, i], Kj_max[j, i]))
+            I_ij, I_ji = eta_interval(a, A), eta_interval(b, B)
+            interval = _intersect(I_ij, I_ji)
+            tv_ok = all(
+                _intersect(eta_interval(a, c.k_j[i, j]), eta_interval(b, c.k_j[j, i])) is not None for c in confs
+            )
+            printed_ok = bool(interval is not None and interval[1] > 0 and min(a, b) > 0 and interval[0] < min(a, b))
+            if interval is not None:
+                eta = _choose_eta(interval, [(a, A), (b, B)])
+                pairs.append(PairResult(i, j, a, b, A, B, interval, printed_ok, tv_ok, eta))
+                continue
+            if I_ij is None or I_ji is None:
+                bad = [(i, j, a, A)] if I_ij is None else []
+                bad += [(j, i, b, B)] if I_ji is None else []
+                reason = "; ".join(
+                    f"k^i_{p + 1}{q + 1} = {ki:g} < max_t k^j_{p + 1}{q + 1}(t) = {kj:g}: no eta_{p + 1}{q + 1} gives "
+                    f"gamma_{p + 1}{q + 1} >= 0 (needs k^i >= k^j)"
+                    for p, q, ki, kj in bad
+                )
+                when = "; ".join(f"k^j_{p + 1}{q + 1} = {kj:g} at {when_max(p, q)}" for p, q, _, kj in bad)
+            else:
+                reason = (
+                    f"eta_{i + 1}{j + 1} must lie in [{I_ij[0]:.4g}, {I_ij[1]:.4g}] (k^i_{i + 1}{j + 1} = {a:g}, "
+                    f"k^j = {A:g}) and eta_{j + 1}{i + 1} in [{I_ji[0]:.4g}, {I_ji[1]:.4g}] (k^i_{j + 1}{i + 1} = {b:g}, "
+                    f"k^j = {B:g}): disjoint, so no symmetric eta_ij = eta_ji"
+                )
+                when = f"k^j_{i + 1}{j + 1} = {A:g} at {when_max(i, j)}; k^j_{j + 1}{i + 1} = {B:g} at {when_max(j, i)}"
+            fixes = _fixes(i, j, a, A, b, B)
+            pr = PairResult(i, j, a, b, A, B, None, False, tv_ok, None, reason, fixes, when)
+            pairs.append(pr)
+            failures.append(
+                f"pair {pr.label}: {reason}; {when}; smallest fix: " + (" or ".join(fixes) if fixes else "none found")
+            )
+
+    symmetric_constant = all(p.interval is not None for p in pairs)
+    symmetric_tv = all(p.time_varying_ok for p in pairs)
+    printed_strict = all(p.printed_ok for p in pairs)
+
+    def ordered_bounds(Kj):
+        return {(i, j): eta_interval(Ki[i, j], Kj[i, j]) for i in range(n) for j in range(n) if i != j}
+
+    balanced_constant = symmetric_constant or _balanced_feasible(ordered_bounds(Kj_max), n)
+    balanced_tv = balanced_constant or symmetric_tv or all(_balanced_feasible(ordered_bounds(K), n) for K in Kjs)
+
+    lam, lam_t = math.inf, 0.0
+    for c in confs:
+        L = np.diag(Ki.sum(axis=1)) - c.k_j
+        ev = float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]) if n else 0.0
+        if ev < lam:
+            lam, lam_t = ev, c.t
+    return Theorem1Analysis(
+        window=window,
+        configurations=confs,
+        pairs=tuple(pairs),
+        symmetric_constant=symmetric_constant,
+        symmetric_time_varying=symmetric_tv,
+        balanced_constant=balanced_constant,
+        balanced_time_varying=balanced_tv,
+        printed_strict=printed_strict,
+        lambda_min=lam if math.isfinite(lam) else 0.0,
+        lambda_min_time=lam_t,
+        failures=tuple(failures),
+    )
+
+
+def scaled_coupling_lambda_min(topology: Topology, weights: np.ndarray, t_final: float) -> tuple[float, float]:
+    """Coupling condition of Theorem 2 with agent-dependent factors (Liang et al. 2012, eqs 25, 30-33).
+
+    With ``Delta_J_i = kappa_i J0_i`` the coordination term of ``V_dot`` is ``-S^T (D L(t) x I) S`` with
+    ``D = diag(1/(1+kappa_i))``.
+
+    Parameters
+    ----------
+    topology : Topology
+        Gains and schedules.
+    weights : array_like
+        The diagonal of ``D``.
+    t_final : float
+        Scenario horizon (used when the schedules have no common period).
+
+    Returns
+    -------
+    tuple of float
+        ``min_t lambda_min(sym(D L(t)))`` and a time where it is attained.
+    """
+    Ki = topology.k_i_matrix()
+    confs, _ = configurations(topology, t_final)
+    D = np.diag(np.asarray(weights, dtype=float))
+    lam, lam_t = math.inf, 0.0
+    for c in confs:
+        L = D @ (np.diag(Ki.sum(axis=1)) - c.k_j)
+        ev = float(np.linalg.eigvalsh(0.5 * (L + L.T))[0])
+        if ev < lam:
+            lam, lam_t = ev, c.t
+    return lam, lam_t

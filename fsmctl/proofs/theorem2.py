@@ -1,0 +1,443 @@
+"""Theorem 2 (robustness, Liang et al. 2012, eqs 29-33): the exact uncertainty and the delta it needs.
+
+Symbolic part
+    The exact lumped uncertainty ``Delta_d`` of eq 29 (:func:`derive.model.lagrange_uncertainty`)
+    contains ``sigma_e_ddot`` and hence the control itself, so the printed condition
+    ``(delta_i)_k > |M0^-1 G^-T Delta_d_i|_k`` is circular.  The correct statement works
+    with the sliding variable directly.  With the true inertia ``J = J0 + Delta_J``, the law
+    built on ``J0`` gives (proved in :func:`sliding_dynamics_identity`)::
+
+        s_dot = -P (delta o sgn(s) + coordination) + P w0 + (P - I) a_eq,
+        P  = G J^-1 J0 G^-1,
+        w0 = G J0^-1 (u_d - omega^x Delta_J omega - Delta_J omega_r_dot),
+        a_eq = -(G_dot omega_e + c1 sigma_e_dot + c2 alpha |sigma_e|^(alpha-1) o sigma_e_dot).
+
+    For ``Delta_J = kappa J0`` (the paper's ``0.3 J0``) ``P = I/(1 + kappa)`` and the
+    sufficient condition is ``(delta_i)_k > |w0 - kappa a_eq|_k`` (times nothing: the factor
+    ``1/(1+kappa)`` multiplies both the switching and the coordination term, which stays
+    dissipative under Theorem 1's condition).
+
+Numeric part
+    :func:`delta_requirements` evaluates ``d = s_dot`` at ``delta = 0``, no coordination
+    (and ``P``), by automatic differentiation of the *generated* functions
+    (``sliding_*``, ``control_law_*``, ``plant_rhs``) along the true rigid-body motion,
+    over a stated box of ``(sigma_e, omega_e)`` and the bound boxes of ``omega_d``,
+    ``omega_d_dot`` and the disturbance, and on the reference trajectory itself.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import time
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+
+from ..generated_code import generated_dir
+from ..scenario import SINGULARITY_FIXES, Scenario
+
+__all__ = [
+    "AgentDelta",
+    "Region",
+    "Theorem2Numeric",
+    "delta_requirements",
+    "drift_function",
+    "format_vector",
+    "proportional_kappa",
+]
+
+
+@dataclass(frozen=True)
+class Region:
+    """The state box the requirement is computed over: ``|sigma_e,k| <= sigma``, ``|omega_e,k| <= omega``."""
+
+    sigma: float = 0.05
+    omega: float = 0.05
+    """rad/s"""
+
+    def describe(self) -> str:
+        return f"|sigma_e,k| <= {self.sigma:g}, |omega_e,k| <= {self.omega:g} rad/s"
+
+
+@dataclass(frozen=True)
+class AgentDelta:
+    """Theorem 2's requirement for one agent (1/s^2 per axis)."""
+
+    agent: int
+    configured: tuple[float, float, float]
+    region: tuple[float, float, float]
+    """sup over the region (and the bound boxes of reference and disturbance)"""
+    reference_trajectory: tuple[float, float, float]
+    """max over t of the value at sigma_e = 0, omega_e = 0 with the scenario's actual signals"""
+    reference_bound: tuple[float, float, float]
+    """sup at sigma_e = 0, omega_e = 0 over the bound boxes of reference and disturbance"""
+    kappa: float | None
+    """Delta_J = kappa J0 (proportional uncertainty), else None"""
+    worst_state: tuple[tuple[float, ...], tuple[float, ...]] = ((), ())
+    """(sigma_e, omega_e) of the largest requirement"""
+    note: str = ""
+
+    @property
+    def ok(self) -> bool:
+        return all(c > r for c, r in zip(self.configured, self.region, strict=True))
+
+
+@dataclass(frozen=True)
+class Theorem2Numeric:
+    """Outcome of :func:`delta_requirements`."""
+
+    region: Region
+    agents: tuple[AgentDelta, ...]
+    samples: int
+    """state samples per agent (each combined with the exact sup over the affine inputs)"""
+    trajectory_samples: int
+    description: str
+    largest_scale: float | None = None
+    """largest f in [0, 1] such that the configured delta meets the requirement on f * region (None: not searched)"""
+    coupling: str = ""
+    seconds: float = 0.0
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return all(a.ok for a in self.agents)
+
+
+def _load(name: str) -> ca.Function:
+    return ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
+
+
+@functools.cache
+def drift_function(error_model: str) -> ca.Function:
+    """CasADi function of the sliding-variable dynamics at ``delta = 0`` built from the generated functions.
+
+    Inputs ``(sigma_e, omega_e, omega_d, u_d, J0, J, gains, omega_d_dot)``; outputs
+    ``d`` (``s_dot`` with ``delta = 0`` and no coordination), ``P`` (``-ds_dot/d coordination``),
+    ``A = dd/du_d``, ``B = dd/domega_d_dot`` (``d`` is affine in both) and ``s``.
+    ``s_dot`` is the exact time derivative of the generated ``s(sigma, omega, sigma_d, omega_d)``
+    along the rigid-body motion (``plant_rhs`` with the true ``J``, control from
+    ``control_law_<error_model>`` with ``J0``, the reference frame moving with ``omega_d``),
+    taken at ``sigma_d = 0`` (the error dynamics do not depend on ``sigma_d``).
+    Liang et al. 2012, eqs 16-20, 29-30.
+    """
+    law, sliding = _load(f"control_law_{error_model}"), _load(f"sliding_{error_model}")
+    plant, const = _load("plant_rhs"), _load("sliding_constants")
+    sym = ca.SX.sym
+    sig, om, sigd = sym("sigma", 3), sym("omega", 3), sym("sigma_d", 3)
+    se, we, wd, wdd, ud = sym("sigma_e", 3), sym("omega_e", 3), sym("omega_d", 3), sym("omega_d_dot", 3), sym("u_d", 3)
+    J0, J, gains, coord = sym("J0", 3, 3), sym("J", 3, 3), sym("gains", 6), sym("coordination", 3)
+    zero = ca.SX.zeros(3)
+    gc = const(gains)
+    law_out = law(sig, om, sigd, wd, wdd, gains, gc, J0, zero, 0, -coord, 1e300)
+    u = law_out[6]  # u_unsaturated: Theorem 2 ignores the torque limit
+    sig_dot, om_dot = plant(sig, om, u + ud, J)
+    sigd_dot, _ = plant(sigd, wd, zero, J0)  # G(sigma_d) omega_d
+    s = sliding(sig, om, sigd, wd, wdd, gains, gc)[0]
+    x = ca.vertcat(sig, om, sigd, wd)
+    xdot = ca.vertcat(sig_dot, om_dot, sigd_dot, wdd)
+    s_dot = ca.jtimes(s, x, xdot)  # s does not depend on omega_d_dot (checked below)
+    if ca.jacobian(s, wdd).nnz() != 0:  # pragma: no cover - structural guarantee of the generated code
+        raise RuntimeError("the generated sliding variable depends on omega_d_dot; extend the derivative")
+    omega_r = sliding(se, zero, zero, wd, wdd, gains, gc)[3]
+    state = ca.vertcat(sig, om, sigd)
+    at = ca.vertcat(se, we + omega_r, zero)
+    s_dot, s = ca.substitute([s_dot, s], [state], [at])
+    d = ca.substitute(s_dot, coord, zero)
+    P = -ca.jacobian(s_dot, coord)
+    A = ca.jacobian(d, ud)
+    B = ca.jacobian(d, wdd)
+    return ca.Function(
+        f"theorem2_drift_{error_model}",
+        [se, we, wd, ud, J0, J, gains, wdd],
+        [d, P, A, B, s],
+        ["sigma_e", "omega_e", "omega_d", "u_d", "J0", "J", "gains", "omega_d_dot"],
+        ["d", "P", "A", "B", "s"],
+    )
+
+
+def proportional_kappa(J0: np.ndarray, delta_J: np.ndarray) -> float | None:
+    """``kappa`` with ``Delta_J = kappa J0`` (Liang et al. 2012, eq 29 and Sec. 4: ``0.3 J0``).
+
+    Parameters
+    ----------
+    J0, delta_J : array_like
+        Nominal inertia and its perturbation (3x3).
+
+    Returns
+    -------
+    float or None
+        ``kappa`` when ``Delta_J = kappa J0`` to 1e-12 relative, else None (then ``P = G J^-1 J0 G^-1``
+        is not a scalar and the general bound is used).
+    """
+    J0, dJ = np.asarray(J0, float), np.asarray(delta_J, float)
+    kappa = float(np.trace(dJ) / np.trace(J0))
+    if np.max(np.abs(dJ - kappa * J0)) <= 1e-12 * np.max(np.abs(J0)):
+        return kappa
+    return None
+
+
+def _levels(r: float) -> np.ndarray:
+    return np.array([-r, 0.0, r]) if r > 0 else np.array([0.0])
+
+
+def _box_points(bound: np.ndarray) -> np.ndarray:
+    """Vertices and centre of the box ``|x_k| <= bound_k`` (3 x m, duplicates removed)."""
+    pts = [np.zeros(3)]
+    for sx in (-1, 1):
+        for sy in (-1, 1):
+            for sz in (-1, 1):
+                pts.append(np.array([sx, sy, sz]) * bound)
+    return np.unique(np.array(pts), axis=0).T
+
+
+def _state_samples(
+    region: Region, wd_bound: np.ndarray, n_random: int, rng, omega_vertices_only: bool = False
+) -> tuple[np.ndarray, ...]:
+    ls, lw = _levels(region.sigma), _levels(region.omega)
+    if omega_vertices_only and region.omega > 0:
+        lw = np.array([-region.omega, region.omega])
+    S = np.array(np.meshgrid(ls, ls, ls, indexing="ij")).reshape(3, -1)
+    W = np.array(np.meshgrid(lw, lw, lw, indexing="ij")).reshape(3, -1)
+    WD = _box_points(wd_bound)
+    iS, iW, iD = np.meshgrid(np.arange(S.shape[1]), np.arange(W.shape[1]), np.arange(WD.shape[1]), indexing="ij")
+    sig, om, wd = S[:, iS.ravel()], W[:, iW.ravel()], WD[:, iD.ravel()]
+    if n_random > 0 and (region.sigma > 0 or region.omega > 0):
+        sig = np.hstack([sig, rng.uniform(-region.sigma, region.sigma, (3, n_random))])
+        om = np.hstack([om, rng.uniform(-region.omega, region.omega, (3, n_random))])
+        wd = np.hstack([wd, rng.uniform(-1, 1, (3, n_random)) * wd_bound[:, None]])
+    return sig, om, wd
+
+
+@functools.cache
+def _mapped(fn: ca.Function, n: int) -> ca.Function:
+    return fn.map(n, "serial")
+
+
+def _evaluate(fn: ca.Function, sig, om, wd, ud, J0, J, gains, wdd):
+    n = sig.shape[1]
+    out = _mapped(fn, n)(sig, om, wd, ud, J0, J, gains, wdd)
+    d = np.array(out[0])
+    P = np.array(out[1]).reshape(3, n, 3).transpose(1, 0, 2)  # (n, 3, 3)
+    A = np.array(out[2]).reshape(3, n, 3).transpose(1, 0, 2)
+    B = np.array(out[3]).reshape(3, n, 3).transpose(1, 0, 2)
+    s = np.array(out[4])
+    return d, P, A, B, s
+
+
+def _requirement(kappa, d, P, A, B, u_bound, wdd_bound, coord_bound):
+    """Per-sample requirement (3, n) for delta, from ``d`` at zero affine inputs and their bound boxes."""
+    dbar = np.abs(d) + np.einsum("nkl,l->kn", np.abs(A), u_bound) + np.einsum("nkl,l->kn", np.abs(B), wdd_bound)
+    if kappa is not None:
+        return (1.0 + kappa) * dbar
+    # general Delta_J: (I - Q) delta >= dbar + Q cbar with Q = |P - I| (entrywise sup), see module docstring
+    Q = np.max(np.abs(P - np.eye(3)[None]), axis=0)
+    rho = float(np.max(np.abs(np.linalg.eigvals(Q))))
+    if rho >= 1:
+        return np.full_like(dbar, np.inf)
+    rhs = dbar + (Q @ coord_bound)[:, None]
+    return np.linalg.solve(np.eye(3) - Q, rhs)
+
+
+def _reference_signals(scenario: Scenario, times: np.ndarray):
+    w = scenario.reference.omega
+    amp, freq, phase = np.asarray(w.amplitude), np.asarray(w.frequency), np.asarray(w.phase)
+    arg = freq[:, None] * times[None, :] + phase[:, None]
+    omega_d = w(times).T
+    omega_d_dot = -(amp * freq)[:, None] * np.sin(arg)
+    return omega_d, omega_d_dot
+
+
+def delta_requirements(
+    scenario: Scenario,
+    region: Region = Region(),
+    *,
+    n_random: int = 3000,
+    seed: int = 0,
+    dt_reference: float = 0.05,
+    search_scale: bool = True,
+) -> Theorem2Numeric:
+    """The ``delta_i`` Theorem 2 needs for a scenario, by sampling (Liang et al. 2012, eqs 29-33, corrected).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Supplies ``J0_i``, ``Delta_J_i``, the disturbance and reference bounds, the gains and the configured ``delta_i``.
+    region : Region
+        The ``(sigma_e, omega_e)`` box; it always contains the reference ``sigma_e = 0, omega_e = 0``.
+    n_random : int
+        Uniform random samples added to the grid (box corners, face and edge centres, centre).
+    seed : int
+        Seed of the random samples.
+    dt_reference : float
+        Time step of the scan of the reference trajectory over ``[0, t_final]``.
+    search_scale : bool
+        When the configured delta falls short, bisect for the largest scaled box on which it suffices.
+
+    Returns
+    -------
+    Theorem2Numeric
+        Per agent: the requirement over the region, on the reference trajectory (actual
+        signals, max over t) and at the reference under the bound boxes, and the configured delta.
+    """
+    t_start = time.perf_counter()
+    c = scenario.controller
+    fn = drift_function(c.error_model)
+    gains = scenario.controller.gains_vector()
+    rng = np.random.default_rng(seed)
+    wd_bound = scenario.reference.omega.bound()
+    wdd_bound = scenario.reference.omega.rate_bound()
+    sig, om, wd = _state_samples(region, wd_bound, n_random, rng)
+    n = sig.shape[1]
+    n_grid = _state_samples(region, wd_bound, 0, rng)[0].shape[1]
+    zeros = np.zeros((3, n))
+    # reference trajectory: sigma_e = 0, omega_e = 0 with the actual signals
+    times = np.arange(0.0, scenario.simulation.t_final + 0.5 * dt_reference, dt_reference)
+    omega_d_t, omega_d_dot_t = _reference_signals(scenario, times)
+    gains_ref = gains.copy()
+    gains_ref[5] = SINGULARITY_FIXES["switch"]  # at omega_e = 0 the Remark 6 slope multiplies sigma_e_dot = 0
+    # the sliding variable is the same for every agent (it does not involve J): bound it once for the coupling term
+    Ki = scenario.topology.k_i_matrix()
+    kj_max = scenario.topology.k_j_max_matrix()
+    agents = []
+    kappas = []
+    s_bound = None
+    for i, agent in enumerate(scenario.agents):
+        J0, J = np.array(agent.J0), agent.J_true
+        kappa = proportional_kappa(J0, np.array(agent.delta_J))
+        kappas.append(kappa)
+        u_bound = agent.disturbance.bound()
+        d, P, A, B, s = _evaluate(fn, sig, om, wd, zeros, J0, J, gains, zeros)
+        at_ref = np.all(sig == 0, axis=0) & np.all(om == 0, axis=0)
+        if np.any(at_ref):  # sigma_e_dot = 0 there: evaluate without the 0 * inf of an unfixed slope
+            r = _evaluate(fn, sig[:, at_ref], om[:, at_ref], wd[:, at_ref], zeros[:, at_ref], J0, J, gains_ref,
+                          zeros[:, at_ref])
+            for full, part in zip((d, P, A, B, s), r, strict=True):
+                if full.ndim == 2:
+                    full[:, at_ref] = part
+                else:
+                    full[at_ref] = part
+        if s_bound is None:
+            s_bound = np.max(np.abs(s), axis=1)
+        coord_bound = (Ki[i].sum() + kj_max[i].sum()) * s_bound
+        req = _requirement(kappa, d, P, A, B, u_bound, wdd_bound, coord_bound)
+        req = np.where(np.isfinite(req), req, np.inf)
+        region_req = np.max(req, axis=1)
+        worst = int(np.argmax(np.max(req / np.maximum(np.asarray(agent.delta), 1e-300)[:, None], axis=0)))
+        ref_bound = np.max(req[:, at_ref], axis=1) if np.any(at_ref) else np.full(3, np.nan)
+        # trajectory scan
+        m = times.size
+        ud_t = agent.disturbance(times).T
+        dt_, Pt, At, Bt, _ = _evaluate(
+            fn, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, gains_ref, omega_d_dot_t
+        )
+        traj = _requirement(kappa, dt_, Pt, np.zeros_like(At), np.zeros_like(Bt), u_bound * 0, wdd_bound * 0,
+                            coord_bound * 0)
+        note = ""
+        if kappa is not None:
+            dev = float(np.max(np.abs(P - np.eye(3)[None] / (1 + kappa))))
+            note = f"Delta_J = {kappa:g} J0: P = I/(1+kappa) = {1 / (1 + kappa):.6g} I (max deviation {dev:.1e})"
+        else:
+            note = "Delta_J not proportional to J0: conservative bound (I - |P - I|) delta >= dbar + |P - I| cbar"
+        if not np.all(np.isfinite(region_req)):
+            note += (
+                "; unbounded: ds/dt contains c2 alpha |sigma_e,k|^(alpha-1) sigma_e_dot,k, infinite at sigma_e,k = 0 "
+                f"with omega_e != 0 (Remark 6; singularity_fix = {c.singularity_fix})"
+            )
+        agents.append(
+            AgentDelta(
+                agent=i + 1,
+                configured=tuple(float(x) for x in agent.delta),
+                region=tuple(float(x) for x in region_req),
+                reference_trajectory=tuple(float(x) for x in np.max(traj, axis=1)),
+                reference_bound=tuple(float(x) for x in ref_bound),
+                kappa=kappa,
+                worst_state=(tuple(float(x) for x in sig[:, worst]), tuple(float(x) for x in om[:, worst])),
+                note=note,
+            )
+        )
+    coupling = _coupling_text(scenario, kappas)
+    result = Theorem2Numeric(
+        region=region,
+        agents=tuple(agents),
+        samples=n,
+        trajectory_samples=times.size,
+        description=(
+            f"{n} state samples per agent: {n_grid} on the grid {{-r, 0, r}}^3 of sigma_e times that of omega_e "
+            f"times {_box_points(wd_bound).shape[1]} corner/centre points of the omega_d box |omega_d,k| <= "
+            f"{np.round(wd_bound, 6).tolist()} rad/s, plus {n - n_grid} uniform random points (seed {seed}); disturbance |u_d,k| <= bound and |omega_d_dot,k| <= "
+            f"{np.round(wdd_bound, 6).tolist()} rad/s^2 enter affinely and are maximised exactly; torque limit ignored "
+            f"(as in the paper); true rigid-body kinematics, controller error model '{c.error_model}'"
+        ),
+        coupling=coupling,
+        seconds=time.perf_counter() - t_start,
+    )
+    if search_scale and not result.ok and all(
+        all(cf > r for cf, r in zip(a.configured, a.reference_bound, strict=True)) for a in result.agents
+    ):
+        scale = _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_bound)
+        result = Theorem2Numeric(**{**result.__dict__, "largest_scale": scale})
+    return Theorem2Numeric(**{**result.__dict__, "seconds": time.perf_counter() - t_start})
+
+
+def _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_bound, iters: int = 10) -> float:
+    """Largest f (to 1.4 %, bisection on log10 f) with configured delta > requirement on the grid of f * region."""
+    Ki = scenario.topology.k_i_matrix()
+    kj_max = scenario.topology.k_j_max_matrix()
+
+    def ok(f: float) -> bool:
+        sub = Region(region.sigma * f, region.omega * f)
+        sig, om, wd = _state_samples(sub, wd_bound, 0, None, omega_vertices_only=True)
+        zeros = np.zeros_like(sig)
+        for i, agent in enumerate(scenario.agents):
+            d, P, A, B, _ = _evaluate(fn, sig, om, wd, zeros, np.array(agent.J0), agent.J_true, gains, zeros)
+            cb = (Ki[i].sum() + kj_max[i].sum()) * s_bound * f
+            req = np.max(_requirement(kappas[i], d, P, A, B, agent.disturbance.bound(), wdd_bound, cb), axis=1)
+            if not np.all(np.asarray(agent.delta) > req):
+                return False
+        return True
+
+    lo, hi = -6.0, 0.0  # bisection on log10(f): relative resolution 6/2^iters decades
+    if not ok(10.0**lo):
+        return 0.0
+    for _ in range(iters):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if ok(10.0**mid) else (lo, mid)
+    return 10.0**lo
+
+
+def _coupling_text(scenario: Scenario, kappas: list) -> str:
+    if all(k is not None for k in kappas) and len({round(k, 12) for k in kappas}) == 1:
+        return (
+            f"all agents have Delta_J = {kappas[0]:g} J0: the coordination term is scaled by the common factor "
+            f"1/(1+kappa) = {1 / (1 + kappas[0]):.4g} and stays dissipative under Theorem 1's condition"
+        )
+    if all(k is not None for k in kappas):
+        from .theorem1 import scaled_coupling_lambda_min
+
+        lam, t = scaled_coupling_lambda_min(
+            scenario.topology, 1.0 / (1.0 + np.asarray(kappas)), scenario.simulation.t_final
+        )
+        verdict = "holds" if lam >= -1e-9 else "FAILS"
+        return (
+            "agents have different kappa_i: the coordination term becomes -S^T (D L(t) x I) S with "
+            f"D = diag(1/(1+kappa_i)); min_t lambda_min(sym(D L(t))) = {lam:.4g} at t = {t:g} s ({verdict})"
+        )
+    return "non-proportional Delta_J: the coordination term's (I - P) part is bounded by |P - I| (sum_j k^i + k^j) max|s|"
+
+
+def format_vector(v: tuple[float, ...] | list[float] | np.ndarray) -> str:
+    """A per-axis requirement of Theorem 2 (Liang et al. 2012, eqs 30-33) as ``(a, b, c)``.
+
+    Parameters
+    ----------
+    v : sequence of float
+        Values in 1/s^2 (``inf`` when unbounded).
+
+    Returns
+    -------
+    str
+        Three significant digits per component.
+    """
+    return "(" + ", ".join("inf" if not math.isfinite(x) else f"{x:.3g}" for x in v) + ")"

@@ -1,0 +1,116 @@
+"""Theorem 2 (Liang et al. 2012, eqs 29-33): the sliding dynamics under uncertainty and the delta it needs."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fsmctl import load_scenario, paper_scenario
+from fsmctl.generated_code import casadi_function
+from fsmctl.proofs.theorem2 import Region, delta_requirements, drift_function, proportional_kappa
+
+DATA = Path(__file__).parent / "data"
+
+
+@pytest.fixture(scope="module")
+def case1():
+    return paper_scenario("1")
+
+
+def _inputs(sc, agent, sigma_e, omega_e, omega_d, u_d, omega_d_dot, gains=None):
+    a = sc.agents[agent]
+    g = sc.controller.gains_vector() if gains is None else gains
+    return (sigma_e, omega_e, omega_d, u_d, np.array(a.J0), a.J_true, g, omega_d_dot)
+
+
+def test_P_is_scalar_for_proportional_uncertainty(case1):
+    fn = drift_function("paper")
+    out = fn(*_inputs(case1, 0, [0.02, -0.01, 0.03], [0.01, 0.02, -0.01], [0.1, 0.0, -0.1], np.zeros(3), np.zeros(3)))
+    assert np.allclose(np.array(out[1]), np.eye(3) / 1.3, atol=1e-12)
+    assert proportional_kappa(np.array(case1.agents[0].J0), np.array(case1.agents[0].delta_J)) == pytest.approx(0.3)
+
+
+def test_drift_on_the_reference_matches_the_closed_form(case1):
+    """At sigma_e = 0, omega_e = 0: (1+kappa) d = 1/4 J0^-1 (u_d - kappa omega_d x J0 omega_d) - kappa/4 omega_d_dot."""
+    fn = drift_function("paper")
+    rng = np.random.default_rng(1)
+    for agent in range(3):
+        J0 = np.array(case1.agents[agent].J0)
+        wd, wdd, ud = rng.normal(size=3) * 0.1, rng.normal(size=3) * 0.003, rng.normal(size=3) * 0.2
+        d = np.array(fn(*_inputs(case1, agent, np.zeros(3), np.zeros(3), wd, ud, wdd))[0]).ravel()
+        expect = 0.25 * np.linalg.solve(J0, ud - 0.3 * np.cross(wd, J0 @ wd)) - 0.075 * wdd
+        assert np.allclose(1.3 * d, expect, rtol=1e-10, atol=1e-14)
+
+
+@pytest.mark.parametrize("error_model", ["paper", "exact"])
+def test_drift_matches_a_finite_difference_of_s_along_the_motion(case1, error_model):
+    """d = ds/dt at delta = 0, checked by a central difference with the compiled functions (no AD)."""
+    sc = case1
+    a = sc.agents[1]
+    J0, J = np.array(a.J0), a.J_true
+    gains = sc.controller.gains_vector()
+    law = casadi_function(f"control_law_{error_model}")
+    sliding = casadi_function(f"sliding_{error_model}")
+    plant = casadi_function("plant_rhs")
+    gc = casadi_function("sliding_constants")(gains)
+    sigma_e, omega_e = np.array([0.03, -0.02, 0.04]), np.array([0.01, -0.03, 0.02])
+    wd, wdd, ud = np.array([0.1, -0.05, 0.08]), np.array([0.002, -0.001, 0.0015]), np.array([0.1, -0.2, 0.15])
+    omega_r = np.array(sliding(sigma_e, np.zeros(3), np.zeros(3), wd, wdd, gains, gc)[3]).ravel()
+    x = np.concatenate([sigma_e, omega_e + omega_r, np.zeros(3), wd])
+
+    def s_of(x):
+        return np.array(sliding(x[:3], x[3:6], x[6:9], x[9:], wdd, gains, gc)[0]).ravel()
+
+    u = np.array(law(x[:3], x[3:6], x[6:9], x[9:], wdd, gains, gc, J0, np.zeros(3), 0.0, np.zeros(3), 1e300)[6]).ravel()
+    sdot, wdot = (np.array(v).ravel() for v in plant(x[:3], x[3:6], u + ud, J))
+    sddot = np.array(plant(x[6:9], x[9:], np.zeros(3), J0)[0]).ravel()
+    xdot = np.concatenate([sdot, wdot, sddot, wdd])
+    h = 1e-6
+    fd = (s_of(x + h * xdot) - s_of(x - h * xdot)) / (2 * h)
+    d = np.array(drift_function(error_model)(sigma_e, omega_e, wd, ud, J0, J, gains, wdd)[0]).ravel()
+    assert np.allclose(d, fd, rtol=1e-6, atol=1e-9)
+
+
+def test_reference_trajectory_value_for_case1(case1):
+    """The number the [choices] text quotes: the true on-reference requirement is below 1e-3, not 3-4e-3."""
+    res = delta_requirements(case1, Region(0.0, 0.0), n_random=0, search_scale=False)
+    traj = np.array([a.reference_trajectory for a in res.agents])
+    assert traj.max() == pytest.approx(8.9e-4, rel=0.05)
+    assert traj.min() > 1e-4
+    assert res.ok  # delta = 0.005 covers the reference itself
+    assert all(np.all(np.array(a.reference_bound) >= np.array(a.reference_trajectory) - 1e-12) for a in res.agents)
+
+
+def test_default_region_needs_far_more_than_the_configured_delta(case1):
+    res = delta_requirements(case1, Region(0.05, 0.05), n_random=200, search_scale=True)
+    assert not res.ok
+    assert all(min(a.region) > 0.05 for a in res.agents)
+    assert 0 < res.largest_scale < 0.1
+    assert "9 corner/centre points" in res.description and "200 uniform random points" in res.description
+
+
+def test_exact_error_model_needs_less_off_the_reference(case1):
+    paper = delta_requirements(case1, Region(0.05, 0.05), n_random=0, search_scale=False)
+    exact = delta_requirements(case1.replace(controller={"error_model": "exact"}), Region(0.05, 0.05), n_random=0,
+                               search_scale=False)
+    assert max(exact.agents[0].region) < max(paper.agents[0].region)
+
+
+def test_unfixed_singularity_gives_an_unbounded_requirement(case1):
+    sc = case1.replace(controller={"singularity_fix": "none"})
+    res = delta_requirements(sc, Region(0.01, 0.01), n_random=0, search_scale=False)
+    assert not res.ok and all(np.isinf(a.region).any() for a in res.agents)
+    assert np.isfinite(res.agents[0].reference_trajectory).all()
+
+
+def test_non_proportional_uncertainty_uses_the_general_bound():
+    sc = load_scenario(DATA / "prove_small.toml", case="strong")
+    agents = [a.__class__(**{**a.__dict__, "delta_J": ((20.0, 0.0, 0.0), (0.0, -10.0, 0.0), (0.0, 0.0, 5.0))})
+              for a in sc.agents]
+    sc = sc.with_agents(agents)
+    res = delta_requirements(sc, Region(0.01, 0.01), n_random=0, search_scale=False)
+    assert all(a.kappa is None for a in res.agents)
+    assert "not proportional" in res.agents[0].note
+    assert all(np.isfinite(a.region).all() and min(a.region) > 0 for a in res.agents)
