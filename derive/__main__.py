@@ -26,7 +26,9 @@ def _parser() -> argparse.ArgumentParser:
         description="Derive the FSM formation model (Liang et al. 2012), prove its identities, generate CasADi code.",
     )
     p.add_argument("--out", type=Path, default=DEFAULT_OUTPUT, help="output folder (default: %(default)s)")
-    p.add_argument("--check", action="store_true", help="do not write; exit 1 with a diff if the output folder is stale")
+    p.add_argument(
+        "--check", action="store_true", help="do not write; exit 1 with a diff if the output folder is stale"
+    )
     p.add_argument("-q", "--quiet", action="store_true", help="print only failures and the final line")
     return p
 

@@ -10,7 +10,7 @@ SymPy                  CasADi
 =====================  ==========================================
 ``sign(x)``            ``sign(x)`` (``sign(0) = 0`` in both)
 ``Abs(x)``             ``fabs(x)``
-``x**n`` (integer n)   squaring / products / ``1/x``     
+``x**n`` (integer n)   squaring / products / ``1/x``
 ``x**(1/2)``           ``sqrt(x)``
 ``x**a``               ``pow(x, a)`` (``constpow`` for numbers)
 ``Piecewise``          nested ``if_else`` (last condition must be True)

@@ -82,7 +82,9 @@ def _io(function: ca.Function, inputs: bool) -> list[dict]:
 def _write_c(fn: GeneratedFunction, c_dir: Path) -> None:
     name = fn.spec.name
     with tempfile.TemporaryDirectory() as tmp:
-        gen = ca.CodeGenerator(f"{name}.c", {"with_header": True, "casadi_real": "double", "casadi_int": "long long int"})
+        gen = ca.CodeGenerator(
+            f"{name}.c", {"with_header": True, "casadi_real": "double", "casadi_int": "long long int"}
+        )
         gen.add(fn.function)
         gen.generate(tmp + "/")
         header = HEADER.format(name=name, doc=fn.spec.doc.replace("*/", "* /"))
@@ -118,7 +120,9 @@ def write_generated(
         (out / "identities.json").write_text(json.dumps(rows, indent=2) + "\n")
     if errata is not None:
         (out / "errata.json").write_text(json.dumps([e.to_dict() for e in errata], indent=2) + "\n")
-    files = sorted(p for p in out.rglob("*") if p.is_file() and p.name != "manifest.json" and "__pycache__" not in p.parts)
+    files = sorted(
+        p for p in out.rglob("*") if p.is_file() and p.name != "manifest.json" and "__pycache__" not in p.parts
+    )
     manifest = {
         "_comment": "DO NOT EDIT: written by `python -m derive`; check with `python -m derive --check`",
         "format": MANIFEST_FORMAT,
@@ -148,11 +152,7 @@ def write_generated(
 
 
 def _tree(root: Path) -> dict[str, Path]:
-    return {
-        p.relative_to(root).as_posix(): p
-        for p in root.rglob("*")
-        if p.is_file() and "__pycache__" not in p.parts
-    }
+    return {p.relative_to(root).as_posix(): p for p in root.rglob("*") if p.is_file() and "__pycache__" not in p.parts}
 
 
 def check_generated(reference: Path | str = DEFAULT_OUTPUT, **kwargs) -> tuple[bool, str]:

@@ -73,9 +73,7 @@ class SingularityFix(IntEnum):
                 return cls[value.upper()]
             except KeyError:
                 pass
-        raise DerivationInputError(
-            f"singularity fix must be one of {[m.name.lower() for m in cls]}, got {value!r}"
-        )
+        raise DerivationInputError(f"singularity fix must be one of {[m.name.lower() for m in cls]}, got {value!r}")
 
 
 def sigpow(v, a) -> sp.ImmutableMatrix:
@@ -291,8 +289,10 @@ def computed_torque_pieces(
     Gd = mrp_G_dot(sigma_e, sigma_e_dot)
     omega = omega_e + omega_r
     J0Gi = J0 * Gi
-    u_F = -skew(omega) * J0 * omega - J0 * as_vector3(omega_r_dot, "omega_r_dot") + J0Gi * (
-        Gd * omega_e + _rate_terms(sigma_e, sigma_e_dot, c1, c2, alpha, fix, epsilon)
+    u_F = (
+        -skew(omega) * J0 * omega
+        - J0 * as_vector3(omega_r_dot, "omega_r_dot")
+        + J0Gi * (Gd * omega_e + _rate_terms(sigma_e, sigma_e_dot, c1, c2, alpha, fix, epsilon))
     )
     u_D = J0Gi * sp.matrix_multiply_elementwise(as_vector3(delta, "delta"), switching_function(s, boundary_layer))
     u_C = J0Gi * as_vector3(coordination, "coordination")

@@ -97,7 +97,14 @@ def erratum_error_kinematics() -> Erratum:
     a = vector_symbols("a")
     similarity = _cancel_zero(R * skew(a) * R.T - skew(R * a))
     # Counterexample: sigma_e = (1/10, 0, 0), omega_d = (0, 1/10, 0).
-    ce = {sigma[0]: sp.Rational(1, 10), sigma[1]: 0, sigma[2]: 0, omega_d[0]: 0, omega_d[1]: sp.Rational(1, 10), omega_d[2]: 0}
+    ce = {
+        sigma[0]: sp.Rational(1, 10),
+        sigma[1]: 0,
+        sigma[2]: 0,
+        omega_d[0]: 0,
+        omega_d[1]: sp.Rational(1, 10),
+        omega_d[2]: 0,
+    }
     gap = (mrp_G(sigma) * (sp.eye(3) - R) * omega_d).xreplace(ce)
     nonzero = any(x != 0 for x in gap)
     return Erratum(
@@ -124,13 +131,21 @@ def erratum_uncertainty_term() -> Erratum:
     """Eq 29: the printed ``Delta_d`` adds 3x3 matrices to 3-vectors and omits ``sigma_e_ddot``, ``sigma_e_dot``."""
     sym = model_symbols()
     dJ = symmetric_matrix_symbols("dJ")
-    terms = lagrange_uncertainty_as_printed(sym.J, dJ, sym.sigma_e, sym.sigma_e_dot, sym.omega_d, sym.omega_d_dot, vector_symbols("u_d"))
+    terms = lagrange_uncertainty_as_printed(
+        sym.J, dJ, sym.sigma_e, sym.sigma_e_dot, sym.omega_d, sym.omega_d_dot, vector_symbols("u_d")
+    )
     shapes = [t.shape for t in terms]
     ill_formed = len(set(shapes)) > 1
+
     # Correct form: M, C, E are linear in J (so Delta_M etc. are the model at dJ), and G^-T G^T = I.
     def at(J):
         return lagrange_model(
-            J, sym.sigma_e, sym.sigma_e_dot, sym.omega_d, sym.omega_d_dot, G_inverse=sym.G_inverse,
+            J,
+            sym.sigma_e,
+            sym.sigma_e_dot,
+            sym.omega_d,
+            sym.omega_d_dot,
+            G_inverse=sym.G_inverse,
             require_positive_definite=False,
         )
 
@@ -189,7 +204,7 @@ def erratum_norm_inequality() -> Erratum:
     """Eq 24: ``-sum_k delta_k |s_k| <= -||delta|| ||s||`` is false (Cauchy-Schwarz goes the other way)."""
     delta = sp.Matrix([1, 2, 3])
     s = sp.Matrix([1, 0, 0])
-    lhs = sum(d * abs(x) for d, x in zip(delta, s))
+    lhs = sum(d * abs(x) for d, x in zip(delta, s, strict=True))
     rhs = delta.norm() * s.norm()
     false_printed = lhs < rhs  # printed claims lhs >= rhs
     # Corrected: sum_k delta_k |s_k| >= min_k delta_k * ||s||_1 >= min_k delta_k * ||s||_2 (checked on the counterexample
@@ -249,7 +264,11 @@ def erratum_theorem1_eta_strict() -> Erratum:
     det_ok = sp.simplify(B.det() - (ki - eta) * gamma) == 0
     # max_eta 4 eta (k^i - eta) = (k^i)^2 at eta = k^i/2: some eta exists iff k^i >= k^j
     f = 4 * eta * (ki - eta)
-    max_ok = sp.solve(sp.diff(f, eta), eta) == [ki / 2] and sp.diff(f, eta, 2) < 0 and sp.expand(f.subs(eta, ki / 2)) == ki**2
+    max_ok = (
+        sp.solve(sp.diff(f, eta), eta) == [ki / 2]
+        and sp.diff(f, eta, 2) < 0
+        and sp.expand(f.subs(eta, ki / 2)) == ki**2
+    )
     # counterexample: k^i = k^j = 0 (no link; the paper's Case 2): B = 0 >= 0 with eta = 0, but k^i > eta > 0 is empty
     e = sp.Symbol("e", real=True)
     no_strict = sp.reduce_inequalities([e > 0, e < 0], e) is sp.false
@@ -332,4 +351,3 @@ ERRATA_CHECKS: tuple[Callable[[], Erratum], ...] = (
 def errata() -> list[Erratum]:
     """Run every errata check and return the list, in equation order."""
     return [check() for check in ERRATA_CHECKS]
-

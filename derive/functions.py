@@ -71,7 +71,7 @@ def _scalar(name: str) -> sp.ImmutableMatrix:
 
 def _gains():
     g = vector_symbols("gains", len(GAINS_LAYOUT))
-    return g, dict(zip(GAINS_LAYOUT, g))
+    return g, dict(zip(GAINS_LAYOUT, g, strict=True))
 
 
 def _sinusoid(t, params):
@@ -175,9 +175,7 @@ def _sliding_stages(error_model: ErrorModel):
         (slope, share(_slope_vector(sigma_e, g))),
         (
             s,
-            share(
-                sliding_variable(sigma_e, mrp_G(sigma_e) * omega_e, g["c1"], g["c2"], alpha, g["fix_mode"], eps)
-            ),
+            share(sliding_variable(sigma_e, mrp_G(sigma_e) * omega_e, g["c1"], g["c2"], alpha, g["fix_mode"], eps)),
         ),
         (omega_r_dot, reference_acceleration_in_body(error_model, sigma_e, omega_e, omega_d, omega_d_dot)),
     )
@@ -228,7 +226,7 @@ def _control_core(sigma_e, omega_e, omega_r, omega_r_dot, s, slope, J0, g, delta
         fix=g["fix_mode"],
         epsilon=g["epsilon"],
     )
-    rep = dict(zip(_slope_vector(sigma_e, g), slope))
+    rep = dict(zip(_slope_vector(sigma_e, g), slope, strict=True))
     pieces = type(pieces)(*(m.xreplace(rep) for m in (pieces.u_F, pieces.u_D, pieces.u_C)))
     leftover = set().union(*(m.free_symbols for m in (pieces.u_F, pieces.u_D, pieces.u_C))) & {g["alpha"]}
     if leftover:  # every fractional power must come from the slope input
@@ -281,7 +279,7 @@ def control_core_spec() -> FunctionSpec:
 
 def control_law_spec(error_model: ErrorModel) -> FunctionSpec:
     inputs, stages, v = _sliding_stages(error_model)
-    g = dict(zip(GAINS_LAYOUT, dict(inputs)["gains"]))
+    g = dict(zip(GAINS_LAYOUT, dict(inputs)["gains"], strict=True))
     J0, delta, k_sum, received, u_max = _control_inputs()
     pieces, u = _control_core(
         v["sigma_e"],
@@ -303,8 +301,7 @@ def control_law_spec(error_model: ErrorModel) -> FunctionSpec:
             f"one agent's FSM controller for the {error_model.value} error kinematics, from absolute states: "
             "torque u (saturated), sliding variable s (eq 13), sigma_e, and the pieces u^F, u^D, u^C of eqs 17-19"
         ),
-        inputs=inputs
-        + (("J0", J0), ("delta", delta), ("k_sum", k_sum), ("received", received), ("u_max", u_max)),
+        inputs=(*inputs, ("J0", J0), ("delta", delta), ("k_sum", k_sum), ("received", received), ("u_max", u_max)),
         outputs=(
             ("u", u),
             ("s", v["s"]),
@@ -339,7 +336,13 @@ def closed_loop_spec() -> FunctionSpec:
     return FunctionSpec(
         name="closed_loop",
         doc="closed loop (eq 20): sigma_e_ddot from sigma_e, sigma_e_dot and the coordination vector",
-        inputs=(("sigma_e", sigma_e), ("sigma_e_dot", sigma_e_dot), ("gains", gains), ("delta", delta), ("coordination", coordination)),
+        inputs=(
+            ("sigma_e", sigma_e),
+            ("sigma_e_dot", sigma_e_dot),
+            ("gains", gains),
+            ("delta", delta),
+            ("coordination", coordination),
+        ),
         outputs=(("sigma_e_ddot", acc), ("s", s)),
     )
 

@@ -43,7 +43,7 @@ __all__ = [
 ]
 
 
-class ErrorModel(str, Enum):
+class ErrorModel(str, Enum):  # noqa: UP042 (str() of the member is part of the generated names)
     """Which error kinematics the Lagrange-like model is derived for."""
 
     PAPER = "paper"
@@ -54,9 +54,7 @@ class ErrorModel(str, Enum):
         try:
             return cls(value)
         except ValueError:
-            raise DerivationInputError(
-                f"error model must be one of {[m.value for m in cls]}, got {value!r}"
-            ) from None
+            raise DerivationInputError(f"error model must be one of {[m.value for m in cls]}, got {value!r}") from None
 
 
 @dataclass(frozen=True)
@@ -223,7 +221,8 @@ def lagrange_uncertainty(
     )
     return sp.ImmutableMatrix(
         as_vector3(u_d, "u_d")
-        - pert.G.T * (pert.M * as_vector3(sigma_e_ddot, "sigma_e_ddot") + pert.C * as_vector3(sigma_e_dot, "sigma_e_dot"))
+        - pert.G.T
+        * (pert.M * as_vector3(sigma_e_ddot, "sigma_e_ddot") + pert.C * as_vector3(sigma_e_dot, "sigma_e_dot"))
         - pert.E
     )
 

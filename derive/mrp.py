@@ -64,7 +64,11 @@ def mrp_G_dot(sigma, sigma_dot) -> sp.ImmutableMatrix:
     sigma_dot = as_vector3(sigma_dot, "sigma_dot")
     # G is quadratic in sigma; its directional derivative along sigma_dot, written out:
     return sp.ImmutableMatrix(
-        (-2 * _dot(sigma, sigma_dot) * sp.eye(3) + 2 * skew(sigma_dot) + 2 * (sigma_dot * sigma.T + sigma * sigma_dot.T))
+        (
+            -2 * _dot(sigma, sigma_dot) * sp.eye(3)
+            + 2 * skew(sigma_dot)
+            + 2 * (sigma_dot * sigma.T + sigma * sigma_dot.T)
+        )
         / 4
     )
 

@@ -37,9 +37,7 @@ def vector_symbols(name: str, n: int = 3, real: bool = True) -> sp.ImmutableMatr
 
 def symmetric_matrix_symbols(name: str) -> sp.ImmutableMatrix:
     """Symmetric 3x3 matrix of real symbols ``name[i,j]`` with ``i <= j``."""
-    return sp.ImmutableMatrix(
-        3, 3, lambda i, j: sp.Symbol(f"{name}[{min(i, j)},{max(i, j)}]", real=True)
-    )
+    return sp.ImmutableMatrix(3, 3, lambda i, j: sp.Symbol(f"{name}[{min(i, j)},{max(i, j)}]", real=True))
 
 
 def matrix_symbols(name: str, rows: int = 3, cols: int = 3) -> sp.ImmutableMatrix:
@@ -96,9 +94,7 @@ def as_symmetric_matrix3(value, what: str = "J", *, positive_definite: bool = Tr
         for k in (1, 2, 3):
             minor = m[:k, :k].det()
             if not (minor.is_real and minor > 0):
-                raise DerivationInputError(
-                    f"{what} must be positive definite: leading principal minor {k} is {minor}"
-                )
+                raise DerivationInputError(f"{what} must be positive definite: leading principal minor {k} is {minor}")
     return m
 
 

@@ -275,8 +275,7 @@ def verify_M_symmetric_positive_definite() -> IdentityResult:
         id="M-spd",
         equations="9",
         statement=(
-            "M = M^T; x^T M x = (G^-1 x)^T J (G^-1 x) with det G = (1+|sigma_e|^2)^3/64 > 0, "
-            "so M > 0 whenever J > 0"
+            "M = M^T; x^T M x = (G^-1 x)^T J (G^-1 x) with det G = (1+|sigma_e|^2)^3/64 > 0, so M > 0 whenever J > 0"
         ),
         holds=symmetric and congruence and det_positive,
         method="polynomial identities (expand)",
@@ -367,12 +366,21 @@ def verify_computed_torque_form(error_model: str | ErrorModel = ErrorModel.PAPER
     Go = sym.G_inverse
     kwargs = dict(boundary_layer=sym.boundary_layer, fix=sym.fix_mode, epsilon=sym.epsilon)
     omega_r = reference_rate_in_body(model_kind, sigma_e, sym.omega_d, dcm=sym.R)
-    omega_r_dot = reference_acceleration_in_body(
-        model_kind, sigma_e, omega_e, sym.omega_d, sym.omega_d_dot, dcm=sym.R
-    )
+    omega_r_dot = reference_acceleration_in_body(model_kind, sigma_e, omega_e, sym.omega_d, sym.omega_d_dot, dcm=sym.R)
     fast = computed_torque_pieces(
-        J0, sigma_e, omega_e, omega_r, omega_r_dot, sym.s, sym.c1, sym.c2, sym.alpha, sym.delta, sym.coordination,
-        G_inverse=Go, **kwargs,
+        J0,
+        sigma_e,
+        omega_e,
+        omega_r,
+        omega_r_dot,
+        sym.s,
+        sym.c1,
+        sym.c2,
+        sym.alpha,
+        sym.delta,
+        sym.coordination,
+        G_inverse=Go,
+        **kwargs,
     )
     sigma_ddot_20 = closed_loop_acceleration(
         sigma_e, sigma_e_dot, sym.s, sym.c1, sym.c2, sym.alpha, sym.delta, sym.coordination, **kwargs

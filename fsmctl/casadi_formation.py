@@ -42,7 +42,10 @@ class FormationFunctions:
         kj = ca.MX.sym("kj", max(p.n_links, 1))
         sd = x[0:3]
         _, wd, wdd = ref(t, sd, p.ref_params)
-        parts = [sliding(x[3 + 6 * i : 6 + 6 * i], x[6 + 6 * i : 9 + 6 * i], sd, wd, wdd, p.gains[i], gc[i]) for i in range(n)]
+        parts = [
+            sliding(x[3 + 6 * i : 6 + 6 * i], x[6 + 6 * i : 9 + 6 * i], sd, wd, wdd, p.gains[i], gc[i])
+            for i in range(n)
+        ]
         s = [q[0] for q in parts]
         received = [ca.MX.zeros(3) for _ in range(n)]
         ksum = np.zeros(n)
@@ -53,14 +56,22 @@ class FormationFunctions:
         u, uu = [], []
         for i in range(n):
             si, se, we, wr, wrd, slope = parts[i]
-            ui, uui = core(se, we, wr, wrd, si, slope, p.J0[i], p.gains[i], p.delta[i], ksum[i], received[i], p.u_max[i])
+            ui, uui = core(
+                se, we, wr, wrd, si, slope, p.J0[i], p.gains[i], p.delta[i], ksum[i], received[i], p.u_max[i]
+            )
             u.append(ui)
             uu.append(uui)
         U = ca.horzcat(*u)
         self.control = ca.Function(
             "formation_control",
             [t, x, kj],
-            [U, ca.horzcat(*uu), ca.horzcat(*s), ca.horzcat(*[q[1] for q in parts]), ca.horzcat(*[q[2] for q in parts])],
+            [
+                U,
+                ca.horzcat(*uu),
+                ca.horzcat(*s),
+                ca.horzcat(*[q[1] for q in parts]),
+                ca.horzcat(*[q[2] for q in parts]),
+            ],
             ["t", "x", "kj"],
             ["u", "u_unsat", "s", "sigma_e", "omega_e"],
         )
@@ -89,6 +100,8 @@ class FormationFunctions:
         """``(xa, t, kj_t, kj_half, kj_end, sample) -> (xa_next, u, u_unsat, s, sigma_e, omega_e)``.
 
         ``xa = [x, u_hold]`` carries the held torque (zero-order hold) from step to step.
+        The three weight vectors are the link weights used by stage 1, stages 2-3 and stage 4;
+        :func:`simulate_casadi` passes the step-midpoint weights for all three, like ``formation.c``.
         """
         if self._step is not None:
             return self._step
@@ -159,13 +172,17 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
     if progress:
         from tqdm.auto import tqdm
 
-        bar = tqdm(total=p.n_steps, desc=f"{label} (casadi-vm)", unit="step", unit_scale=True, leave=False, file=sys.stderr)
+        bar = tqdm(
+            total=p.n_steps, desc=f"{label} (casadi-vm)", unit="step", unit_scale=True, leave=False, file=sys.stderr
+        )
     k = 0
     try:
         while True:
             # outputs at step k (a multiple of output_every)
             tk = p.t0 + k * p.dt
-            u, uu, s, se, we = (np.asarray(v) for v in f.control(tk, x, p.link_weights(tk) if p.n_links else [0.0]))
+            # link weights at the step midpoint, as in formation.c (simulate_rk4): the value holding on the step
+            kw_k = p.link_weights(tk + 0.5 * p.dt) if p.n_links else [0.0]
+            u, uu, s, se, we = (np.asarray(v) for v in f.control(tk, x, kw_k))
             if p.hold_steps > 0 and k % p.hold_steps != 0:
                 u, uu = u_hold.reshape(n, 3).T, uu_hold.reshape(n, 3).T
             rows["t"].append(tk)
@@ -180,7 +197,9 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
             m = min(every, p.n_steps - k)
             steps = np.arange(k, k + m)
             ts = p.t0 + steps * p.dt
-            kw = [np.array([p.link_weights(tt) for tt in ts + off]).T if p.n_links else np.zeros((1, m)) for off in (0.0, p.dt / 2, p.dt)]
+            # every stage of a step uses the link weights at the step midpoint (see formation.c, simulate_rk4)
+            kw_mid = np.array([p.link_weights(tt) for tt in ts + 0.5 * p.dt]).T if p.n_links else np.zeros((1, m))
+            kw = [kw_mid, kw_mid, kw_mid]
             samples = np.array([1.0 if p.hold_steps <= 0 or s_ % p.hold_steps == 0 else 0.0 for s_ in steps])
             if m == every:
                 fn = chunk
@@ -194,6 +213,12 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
                 uu_hold = UU[:, -1].copy()
             x = xn[: 3 + 6 * n, -1].copy()
             u_hold = xn[3 + 6 * n :, -1].copy()
+            # as formation.c: the saturation would silently turn a NaN command into -u_max
+            if not np.all(np.isfinite(uu)):
+                _fail_nonfinite_control(p, tk, uu.T)
+            if not np.all(np.isfinite(UU)):
+                c = int(np.nonzero(~np.all(np.isfinite(UU), axis=0))[0][0])
+                _fail_nonfinite_control(p, float(ts[c]), UU[:, c].reshape(n, 3))
             if not np.all(np.isfinite(x)):
                 from .simulator import SimulationError
 
@@ -225,6 +250,22 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
     return raw
 
 
+def _fail_nonfinite_control(p: PackedProblem, t_bad: float, commands: np.ndarray) -> None:
+    """Raise the compiled driver's error for a non-finite torque command; ``commands`` is ``(n, 3)`` at ``t_bad``."""
+    from .simulator import SimulationError
+
+    agent = int(np.nonzero(~np.isfinite(np.asarray(commands).reshape(-1, 3)).all(axis=1))[0][0]) + 1
+    hint = (
+        " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
+        if any(p.gains[:, 5] == 0)
+        else " (check inertias, gains and the step size)"
+    )
+    raise SimulationError(
+        f"simulation failed: the control law returned a non-finite torque command at t = {t_bad:.6g} s in agent {agent}"
+        + hint
+    )
+
+
 def _adaptive(f: FormationFunctions, p: PackedProblem, t0_wall: float) -> dict:
     """Adaptive fallback: SciPy's RK45 on the CasADi right-hand side (continuous control only)."""
     import time
@@ -250,7 +291,7 @@ def _adaptive(f: FormationFunctions, p: PackedProblem, t0_wall: float) -> dict:
     if not sol.success:
         raise SimulationError(f"adaptive integration failed: {sol.message}")
     rows = {k: [] for k in ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
-    for tk, xk in zip(sol.t, sol.y.T):
+    for tk, xk in zip(sol.t, sol.y.T, strict=True):
         u, uu, s, se, we = (np.asarray(v).T for v in f.control(tk, xk, p.link_weights(tk) if p.n_links else [0.0]))
         xs = xk[3:].reshape(n, 6)
         rows["sigma"].append(xs[:, :3])
@@ -258,6 +299,9 @@ def _adaptive(f: FormationFunctions, p: PackedProblem, t0_wall: float) -> dict:
         for key, val in (("u", u), ("u_unsat", uu), ("s", s), ("sigma_e", se), ("omega_e", we)):
             rows[key].append(val)
     raw = {key: np.array(v) for key, v in rows.items()}
+    if not np.all(np.isfinite(raw["u_unsat"])):
+        k = int(np.nonzero(~np.all(np.isfinite(raw["u_unsat"]), axis=(1, 2)))[0][0])
+        _fail_nonfinite_control(p, float(sol.t[k]), raw["u_unsat"][k])
     dt_out = p.output_every * p.dt
     raw.update(
         t=sol.t,

@@ -20,9 +20,12 @@ always forms the error in the shadow set, exactly like the compiled simulator.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import bisect
+import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import casadi as ca
 import control as ct
 import numpy as np
 
@@ -30,7 +33,7 @@ from .generated_code import casadi_function
 from .scenario import ControllerSettings, Scenario, Sinusoid, check_inertia
 from .topology import Schedule
 
-__all__ = ["Neighbour", "spacecraft", "reference_generator", "fsm_controller", "formation"]
+__all__ = ["Neighbour", "spacecraft", "reference_generator", "fsm_controller", "formation", "initial_state"]
 
 
 def _labels(name: str, n: int = 3) -> list[str]:
@@ -39,6 +42,67 @@ def _labels(name: str, n: int = 3) -> list[str]:
 
 def _np(x) -> np.ndarray:
     return np.asarray(x, dtype=float).ravel()
+
+
+class _FlatCall:
+    """Evaluate a CasADi function through one flat input and one flat output buffer.
+
+    Calling a :class:`casadi.Function` with NumPy arguments converts every
+    argument to a ``DM`` (about 20 us each); a solver calls the right-hand side
+    tens of thousands of times.  This wrapper builds, once, a function of a
+    single stacked input vector (each argument flattened column-major) returning
+    the stacked selected outputs, and evaluates it through a
+    :meth:`casadi.Function.buffer` on preallocated NumPy arrays (about 2 us).
+    The result is the same generated code; only the calling convention differs.
+    Not thread-safe (one buffer per instance), like python-control's callbacks.
+    """
+
+    def __init__(self, build: Callable[..., Sequence], shapes: Sequence[tuple[int, int]], name: str):
+        sizes = [r * c for r, c in shapes]
+        z = ca.MX.sym("z", sum(sizes))
+        args, offset = [], 0
+        for (r, c), size in zip(shapes, sizes, strict=True):
+            args.append(ca.reshape(z[offset : offset + size], r, c))
+            offset += size
+        out = ca.vertcat(*[ca.vec(o) for o in build(*args)])
+        self._fn = ca.Function(name, [z], [out])
+        self._offsets = np.cumsum([0, *sizes])
+        self._in = np.zeros(int(self._offsets[-1]))
+        self._out = np.zeros(out.numel())
+        self._buffer, self._eval = self._fn.buffer()
+        self._buffer.set_arg(0, memoryview(self._in))
+        self._buffer.set_res(0, memoryview(self._out))
+
+    def __call__(self, *values) -> np.ndarray:
+        o = self._offsets
+        for k, v in enumerate(values):
+            # column-major flattening (CasADi's layout); inertias are symmetric anyway
+            self._in[o[k] : o[k + 1]] = np.ravel(v, order="F")
+        self._eval()
+        return self._out.copy()
+
+
+def _scalar_schedule(schedule: Schedule, phase: float) -> Callable[[float], float]:
+    """``t -> k^j_ij(t) = schedule(t + phase)`` for a scalar ``t``, without NumPy overhead.
+
+    Same rule as the compiled driver (``link_weight`` in ``formation.c``): the argument is
+    reduced to ``[0, period)`` by ``floor``, segments are left-closed.
+    """
+    breakpoints = list(schedule.breakpoints)
+    values = list(schedule.values)
+    period = schedule.period
+
+    if len(set(values)) == 1:
+        constant = float(values[0])
+        return lambda t: constant
+
+    def weight(t: float) -> float:
+        tau = t + phase
+        if period is not None:
+            tau -= math.floor(tau / period) * period
+        return values[max(0, bisect.bisect_right(breakpoints, tau) - 1)]
+
+    return weight
 
 
 def spacecraft(
@@ -70,12 +134,16 @@ def spacecraft(
     plant = casadi_function("plant_rhs")
     dist = casadi_function("disturbance_torque")
     kJ, kd = f"{name}_J", f"{name}_disturbance"
+    no_disturbance = np.zeros(12)
+    rhs = _FlatCall(
+        lambda t, x, u, J, d: plant(x[:3], x[3:], u + dist(t, d), J),
+        [(1, 1), (6, 1), (3, 1), (3, 3), (12, 1)],
+        f"{name}_rhs",
+    )
 
     def updfcn(t, x, u, params):
         d = params.get(kd)
-        tau = u if d is None else u + _np(dist(t, d))
-        sd, wd = plant(x[:3], x[3:], tau, params[kJ])
-        return np.concatenate([_np(sd), _np(wd)])
+        return rhs(t, x, u, params[kJ], no_disturbance if d is None else d)
 
     params = {kJ: J}
     if disturbance is not None:
@@ -98,13 +166,13 @@ def reference_generator(omega_d: Sinusoid, *, name: str = "reference") -> ct.Non
     """
     ref = casadi_function("reference_rhs")
     key = f"{name}_omega_d"
+    rhs = _FlatCall(lambda t, x, p: ref(t, x, p), [(1, 1), (3, 1), (12, 1)], f"{name}_rhs")
 
     def updfcn(t, x, u, params):
-        return _np(ref(t, x, params[key])[0])
+        return rhs(t, x, params[key])[:3]
 
     def outfcn(t, x, u, params):
-        _, w, wdot = ref(t, x, params[key])
-        return np.concatenate([x, _np(w), _np(wdot)])
+        return np.concatenate([x, rhs(t, x, params[key])[3:]])
 
     return ct.nlsys(
         updfcn,
@@ -142,7 +210,8 @@ def fsm_controller(
     J0 : array_like, shape (3, 3)
         Nominal inertia used by the law.
     controller : ControllerSettings
-        Gains, boundary layer, Remark 6 fix, torque limit, error model, surface.
+        Gains, boundary layer, Remark 6 fix, torque limit (0, i.e. no torque, when ``enabled`` is False),
+        error model, surface.
     delta : sequence of 3 floats
         Switching gain of eq 18 (positive).
     neighbours : sequence of Neighbour
@@ -167,31 +236,46 @@ def fsm_controller(
     gc = float(consts(gains))
     nbrs = tuple(neighbours)
     k_sum = float(sum(nb.k_i for nb in nbrs))
-    inputs = (
-        _labels("sigma") + _labels("omega") + _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot")
-    )
+    weights = [_scalar_schedule(nb.k_j, nb.phase) for nb in nbrs]
+    inputs = _labels("sigma") + _labels("omega") + _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot")
     for nb in nbrs:
         inputs += _labels(f"s_{nb.name}")
     keys = {k: f"{name}_{k}" for k in ("J0", "gains", "delta", "u_max")}
+    # one flat call: (own/reference signals, gains, J0, delta, k_sum, received, u_max) -> (tau, s)
+    call = _FlatCall(
+        lambda y, g, J, d, ks, r, um: law(y[0:3], y[3:6], y[6:9], y[9:12], y[12:15], g, gc, J, d, ks, r, um)[:2],
+        [(15, 1), (6, 1), (3, 3), (3, 1), (1, 1), (3, 1), (1, 1)],
+        f"{name}_law",
+    )
 
     def outfcn(t, x, u, params):
+        # eq 19: agent i only knows sum_j k^j_ij(t) s_j, built from the s_j it receives
         received = np.zeros(3)
-        for m, nb in enumerate(nbrs):
-            kj = nb.k_j.value(t + nb.phase)
+        for m, weight in enumerate(weights):
+            kj = weight(t)
             if kj:
                 received += kj * u[15 + 3 * m : 18 + 3 * m]
-        out = law(
-            u[0:3], u[3:6], u[6:9], u[9:12], u[12:15],
-            params[keys["gains"]], gc, params[keys["J0"]], params[keys["delta"]], k_sum, received, params[keys["u_max"]],
+        return call(
+            u[:15],
+            params[keys["gains"]],
+            params[keys["J0"]],
+            params[keys["delta"]],
+            k_sum,
+            received,
+            params[keys["u_max"]],
         )
-        return np.concatenate([_np(out[0]), _np(out[1])])
 
     return ct.nlsys(
         None,
         outfcn,
         inputs=inputs,
         outputs=_labels("tau") + _labels("s"),
-        params={keys["J0"]: J0, keys["gains"]: gains, keys["delta"]: delta, keys["u_max"]: controller.torque_limit},
+        params={
+            keys["J0"]: J0,
+            keys["gains"]: gains,
+            keys["delta"]: delta,
+            keys["u_max"]: controller.effective_torque_limit,
+        },
         name=name,
     )
 
@@ -220,7 +304,9 @@ def formation(scenario: Scenario, *, name: str = "formation") -> ct.Interconnect
             for link in scenario.topology.links
             if link.receiver == i - 1
         ]
-        systems.append(fsm_controller(agent.J0_array, scenario.controller, agent.delta, neighbours=nbrs, name=f"ctrl{i}"))
+        systems.append(
+            fsm_controller(agent.J0_array, scenario.controller, agent.delta, neighbours=nbrs, name=f"ctrl{i}")
+        )
         connections += [
             [f"ctrl{i}.sigma", f"sc{i}.sigma"],
             [f"ctrl{i}.omega", f"sc{i}.omega"],
@@ -230,7 +316,9 @@ def formation(scenario: Scenario, *, name: str = "formation") -> ct.Interconnect
             [f"sc{i}.tau", f"ctrl{i}.tau"],
         ]
         connections += [[f"ctrl{i}.s_{nb.name}", f"ctrl{nb.name[2:]}.s"] for nb in nbrs]
-    outlist = [f"{sys}{i}.{sig}" for i in range(1, n + 1) for sys, sig in (("sc", "sigma"), ("sc", "omega"), ("ctrl", "tau"))]
+    outlist = [
+        f"{sys}{i}.{sig}" for i in range(1, n + 1) for sys, sig in (("sc", "sigma"), ("sc", "omega"), ("ctrl", "tau"))
+    ]
     outputs = [f"sc{i}_{sig}[{k}]" for i in range(1, n + 1) for sig in ("sigma", "omega", "tau") for k in range(3)]
     return ct.interconnect(systems, connections=connections, outlist=outlist, outputs=outputs, name=name, inputs=[])
 

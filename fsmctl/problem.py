@@ -107,7 +107,7 @@ def pack(scenario: Scenario) -> PackedProblem:
         J0=np.array([a.J0 for a in agents], dtype=float),
         gains=np.tile(c.gains_vector(), (n, 1)),
         delta=np.array([a.delta for a in agents], dtype=float),
-        u_max=np.full(n, c.torque_limit, dtype=float),
+        u_max=np.full(n, c.effective_torque_limit, dtype=float),  # 0 when the controller is disabled
         dist_params=np.array([a.disturbance.params() for a in agents], dtype=float).reshape(n, 12),
         ref_params=scenario.reference.omega.params(),
         link_receiver=np.array([lk.receiver for lk in links], dtype=np.int32),

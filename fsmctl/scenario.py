@@ -159,9 +159,9 @@ class Sinusoid:
     def __call__(self, t) -> np.ndarray:
         """Values at time(s) ``t``: shape ``(..., 3)``."""
         t = np.asarray(t, dtype=float)[..., None]
-        return np.asarray(self.amplitude) * np.cos(np.asarray(self.frequency) * t + np.asarray(self.phase)) + np.asarray(
-            self.offset
-        )
+        return np.asarray(self.amplitude) * np.cos(
+            np.asarray(self.frequency) * t + np.asarray(self.phase)
+        ) + np.asarray(self.offset)
 
     def bound(self) -> np.ndarray:
         """Componentwise bound ``|amplitude| + |offset|`` on ``|v_k(t)|``."""
@@ -244,6 +244,15 @@ class ControllerSettings:
     """controller's error kinematics: 'paper' (eqs 7-8) or 'exact'"""
     surface: str = "fsm"
     """'fsm' (eq 13), 'tsm' (c1 -> 0) or 'lsm' (c2 -> 0), Sec. 3.3"""
+    enabled: bool = True
+    """False: the torque is not applied (u = 0, open loop): the law is still evaluated and its command is
+    reported as ``u_unsaturated``; for torque-free (``J omega_dot = -omega^x J omega + d``) and
+    disturbance-only runs, e.g. the conservation checks of the plant"""
+
+    @property
+    def effective_torque_limit(self) -> float:
+        """Per-component bound the plant sees: ``torque_limit``, or 0 when the controller is disabled."""
+        return self.torque_limit if self.enabled else 0.0
 
     def gains_vector(self) -> np.ndarray:
         """``[c1, c2, alpha, boundary_layer, epsilon, fix_mode]`` with the surface applied."""
@@ -346,7 +355,7 @@ class Scenario:
             f"scenario {self.label}: {self.n_agents} agents, {len(self.topology.links)} links",
             f"  controller: surface={c.surface} c1={c.c1} c2={c.c2} alpha={c.alpha} boundary_layer={c.boundary_layer} "
             f"singularity_fix={c.singularity_fix} epsilon={c.epsilon} torque_limit={c.torque_limit} "
-            f"error_model={c.error_model}",
+            f"error_model={c.error_model}" + ("" if c.enabled else " enabled=False (open loop, u = 0)"),
             f"  delta_i: {sorted({a.delta for a in self.agents})}",
             f"  simulation: t_final={s.t_final} s, dt={s.dt} s, integrator={s.integrator}, "
             f"output_interval={s.output_interval} s, control_period={s.control_period} s",
@@ -385,6 +394,8 @@ def validate(s: Scenario) -> None:
         raise ScenarioError(f"controller.epsilon: must be > 0, got {c.epsilon}")
     if not c.torque_limit > 0:
         raise ScenarioError(f"controller.torque_limit: must be > 0 (or inf), got {c.torque_limit}")
+    if not isinstance(c.enabled, (bool, np.bool_)):
+        raise ScenarioError(f"controller.enabled: expected true or false, got {c.enabled!r}")
     m = s.simulation
     _choice(m.integrator, INTEGRATORS, "simulation.integrator")
     for name in ("t_final", "dt", "output_interval", "rtol", "atol"):
@@ -394,7 +405,7 @@ def validate(s: Scenario) -> None:
         raise ScenarioError(f"simulation.dt = {m.dt} exceeds t_final = {m.t_final}")
     for name in ("t_final", "output_interval") + (("control_period",) if m.control_period > 0 else ()):
         ratio = getattr(m, name) / m.dt
-        if abs(ratio - round(ratio)) > 1e-6 * max(1.0, ratio):
+        if abs(ratio - round(ratio)) > 1e-9 * max(1.0, ratio):  # float rounding only (0.1 / 0.001 = 99.999...)
             raise ScenarioError(f"simulation.{name} = {getattr(m, name)} must be a multiple of dt = {m.dt}")
     if m.control_period < 0:
         raise ScenarioError(f"simulation.control_period: must be >= 0, got {m.control_period}")
@@ -452,8 +463,19 @@ def _parse_agent(d: Mapping, i: int, defaults: Mapping) -> Agent:
 def _parse_controller(d: Mapping) -> tuple[ControllerSettings, dict]:
     w = "controller"
     known = (
-        "c1", "c2", "alpha", "boundary_layer", "singularity_fix", "epsilon", "torque_limit", "error_model", "surface",
-        "delta", "delta_J", "disturbance",
+        "c1",
+        "c2",
+        "alpha",
+        "boundary_layer",
+        "singularity_fix",
+        "epsilon",
+        "torque_limit",
+        "error_model",
+        "surface",
+        "enabled",
+        "delta",
+        "delta_J",
+        "disturbance",
     )
     _check_keys(d, known, w)
     for key in ("c1", "c2", "alpha"):
@@ -469,6 +491,7 @@ def _parse_controller(d: Mapping) -> tuple[ControllerSettings, dict]:
         torque_limit=_number(d.get("torque_limit", math.inf), f"{w}.torque_limit", positive=True, allow_inf=True),
         error_model=_choice(d.get("error_model", "paper"), ERROR_MODELS, f"{w}.error_model"),
         surface=_choice(d.get("surface", "fsm"), SURFACES, f"{w}.surface"),
+        enabled=d.get("enabled", True),
     )
     agent_defaults = {k: d[k] for k in ("delta", "delta_J", "disturbance") if k in d}
     return settings, agent_defaults
@@ -506,7 +529,9 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
         override = {k: v for k, v in override.items() if k != "description"}
         _check_keys(override, TOP_KEYS, f"{where}.cases.{case}")
         if "agents" in override:
-            raise ScenarioError(f"{where}.cases.{case}: cases cannot replace the agent list (override controller.* instead)")
+            raise ScenarioError(
+                f"{where}.cases.{case}: cases cannot replace the agent list (override controller.* instead)"
+            )
         merged = _deep_merge(merged, override)
     for key in ("controller", "reference", "agents", "topology"):
         if key not in merged:
@@ -517,7 +542,9 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
     _check_keys(ref, ("sigma0", "omega"), "reference")
     if "sigma0" not in ref or "omega" not in ref:
         raise ScenarioError("reference: needs sigma0 and omega")
-    reference = Reference(_vec3(ref["sigma0"], "reference.sigma0"), Sinusoid.from_mapping(ref["omega"], "reference.omega"))
+    reference = Reference(
+        _vec3(ref["sigma0"], "reference.sigma0"), Sinusoid.from_mapping(ref["omega"], "reference.omega")
+    )
     agents_raw = merged["agents"]
     if not isinstance(agents_raw, Sequence) or isinstance(agents_raw, (str, bytes)) or not agents_raw:
         raise ScenarioError("agents: expected a non-empty array of tables ([[agents]])")
@@ -585,4 +612,3 @@ def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scen
 def paper_scenario(case: str = "1") -> Scenario:
     """The built-in Section 4 scenario (Liang et al. 2012) for Case ``"1"``, ``"2"``, ``"3a"``, ``"3b"`` or ``"3c"``."""
     return load_scenario("paper", case=str(case))
-

@@ -13,6 +13,7 @@ trajectory) can see.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -49,7 +50,7 @@ class Schedule:
         b, v = self.breakpoints, self.values
         if len(b) != len(v) or not b:
             raise TopologyError(f"schedule: {len(b)} breakpoints but {len(v)} values (need equal, >= 1)")
-        if any(not math.isfinite(x) for x in b) or any(b2 <= b1 for b1, b2 in zip(b, b[1:])):
+        if any(not math.isfinite(x) for x in b) or any(b2 <= b1 for b1, b2 in itertools.pairwise(b)):
             raise TopologyError(f"schedule: breakpoints must be finite and strictly increasing, got {list(b)}")
         if any(not (math.isfinite(x) and x >= 0) for x in v):
             raise TopologyError(f"schedule: weights must be finite and >= 0, got {list(v)}")
@@ -57,7 +58,9 @@ class Schedule:
             if not (math.isfinite(self.period) and self.period > 0):
                 raise TopologyError(f"schedule: period must be > 0, got {self.period}")
             if b[0] != 0 or b[-1] >= self.period:
-                raise TopologyError(f"schedule: periodic breakpoints must start at 0 and stay below the period, got {list(b)}")
+                raise TopologyError(
+                    f"schedule: periodic breakpoints must start at 0 and stay below the period, got {list(b)}"
+                )
 
     @classmethod
     def constant(cls, value: float) -> Schedule:
@@ -254,7 +257,13 @@ class Topology:
                     raise TopologyError(f"{w}.{name}: must be an agent number 1..{n_agents}, got {idx!r}")
             link_sched = Schedule.from_mapping(item["k_j"], f"{w}.k_j") if "k_j" in item else sched
             links.append(
-                Link(i - 1, j - 1, _num(item.get("k_i", k_i), f"{w}.k_i"), link_sched, _num(item.get("phase", 0.0), f"{w}.phase"))
+                Link(
+                    i - 1,
+                    j - 1,
+                    _num(item.get("k_i", k_i), f"{w}.k_i"),
+                    link_sched,
+                    _num(item.get("phase", 0.0), f"{w}.phase"),
+                )
             )
         try:
             return cls(n_agents, tuple(links))
@@ -275,7 +284,9 @@ def from_phase_table(table, n_agents: int, k_i: float, schedule: Schedule, where
         for j in range(n_agents):
             if i == j:
                 if np.isfinite(a[i, j]) and a[i, j] >= 0:
-                    raise TopologyError(f"{where}[{i + 1}][{j + 1}]: the diagonal must be nan (an agent cannot link to itself)")
+                    raise TopologyError(
+                        f"{where}[{i + 1}][{j + 1}]: the diagonal must be nan (an agent cannot link to itself)"
+                    )
                 continue
             if np.isfinite(a[i, j]) and a[i, j] >= 0:
                 links.append(Link(i, j, float(k_i), schedule, float(a[i, j])))

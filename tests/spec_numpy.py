@@ -28,9 +28,9 @@ class LambdifiedSpec:
         self.stages = []
         for symbols, expr in spec.stages:
             symbols, expr = sp.ImmutableMatrix(symbols), sp.ImmutableMatrix(expr)
-            self.stages.append((list(symbols), sp.lambdify(args, list(expr), "numpy")))
+            self.stages.append((list(symbols), sp.lambdify(args, list(expr), "numpy", cse=True)))
             args = args + list(symbols)
-        self.outputs = [(name, sp.ImmutableMatrix(m).shape, sp.lambdify(args, list(sp.ImmutableMatrix(m)), "numpy")) for name, m in spec.outputs]
+        self.outputs = [(name, sp.ImmutableMatrix(m).shape, sp.lambdify(args, list(sp.ImmutableMatrix(m)), "numpy", cse=True)) for name, m in spec.outputs]
 
     def __call__(self, **values) -> dict[str, np.ndarray]:
         vals = []

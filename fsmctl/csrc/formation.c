@@ -37,6 +37,8 @@ typedef struct {
   double wd[3], wdd[3];
   double *k_val, *k_base, *k_lo, *k_hi;  /* per-link schedule cache */
   double *tau;                           /* 3 */
+  int bad_agent;                         /* first agent whose commanded torque was non-finite (-2: none) */
+  double bad_time;                       /* ... and when */
   casadi_int *iw;
   double *w;
 } workspace;
@@ -94,6 +96,8 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   if (!W->iw || !W->w) { free_workspace(W); return FSM_NOMEM; }
   W->u_apply = W->u;
   W->uu_apply = W->uu;
+  W->bad_agent = -2;
+  W->bad_time = NAN;
   return FSM_OK;
 }
 
@@ -126,8 +130,10 @@ static double link_weight(workspace *W, const fsm_problem *P, int e, double t) {
 
 double fsm_link_weight(const fsm_problem *P, int e, double t) { return link_weight(NULL, P, e, t); }
 
-/* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque. */
-static void eval_rhs(workspace *W, const fsm_problem *P, double t, const double *x, double *dx, int compute_control) {
+/* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque.  The piecewise-constant
+ * link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop: see simulate_rk4). */
+static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
+                     int compute_control) {
   const int n = W->n;
   const double *sd = x;
   {
@@ -146,7 +152,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, const double 
     memset(W->ksum, 0, sizeof(double) * n);
     for (int e = 0; e < P->n_links; ++e) {
       int i = P->link_receiver[e], j = P->link_sender[e];
-      double kj = link_weight(W, P, e, t);
+      double kj = link_weight(W, P, e, t_link);
       W->ksum[i] += P->link_k_i[e];
       if (kj != 0.0)
         for (int k = 0; k < 3; ++k) W->recv[3 * i + k] += kj * W->s[3 * j + k];
@@ -157,6 +163,14 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, const double 
                                W->ksum + i, W->recv + 3 * i, P->u_max + i};
       double *res[2] = {W->u + 3 * i, W->uu + 3 * i};
       control_core(arg, res, W->iw, W->w, 0);
+      /* A non-finite command (e.g. the Remark 6 term alpha|sigma_e|^(alpha-1) times 0 at sigma_e = 0 with
+       * singularity_fix = none) must not pass silently: the saturation fmin(u_max, fmax(-u_max, NaN)) would
+       * turn it into -u_max.  Flag it; the loops stop with FSM_NONFINITE_CONTROL. */
+      const double *uu = W->uu + 3 * i;
+      if (W->bad_agent == -2 && !(isfinite(uu[0]) && isfinite(uu[1]) && isfinite(uu[2]))) {
+        W->bad_agent = i;
+        W->bad_time = t;
+      }
     }
   }
   if (!W->d_valid || W->d_time != t) {
@@ -237,19 +251,20 @@ static void accumulate(fsm_output *O, int n, const fsm_problem *P, const double 
 }
 
 /* Evaluate stage 1 at (t, x): control if due, hold bookkeeping. */
-static void stage_one(workspace *W, const fsm_problem *P, double t, const double *x, double *k1, int sample) {
+static void stage_one(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *k1,
+                      int sample) {
   if (P->hold_steps <= 0) {
-    eval_rhs(W, P, t, x, k1, 1);
+    eval_rhs(W, P, t, t_link, x, k1, 1);
     W->u_apply = W->u;
     W->uu_apply = W->uu;
     return;
   }
   if (sample) {
-    eval_rhs(W, P, t, x, k1, 1);
+    eval_rhs(W, P, t, t_link, x, k1, 1);
     memcpy(W->u_hold, W->u, sizeof(double) * 3 * W->n);
     memcpy(W->uu_hold, W->uu, sizeof(double) * 3 * W->n);
   } else {
-    eval_rhs(W, P, t, x, k1, 0);
+    eval_rhs(W, P, t, t_link, x, k1, 0);
   }
   W->u_apply = W->u_hold;
   W->uu_apply = W->uu_hold;
@@ -272,20 +287,28 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
   double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *xt = k4 + N, *u_prev = xt + N;
   const double dt = P->dt, t0 = P->t0;
   const int continuous = P->hold_steps <= 0;
+  /* The link weights k^j_ij(t) are piecewise constant in t.  All four stages of the step over [t_k, t_k+1]
+   * use their value at the step midpoint, i.e. the value that holds on the step when no switch lies strictly
+   * inside it.  A switch on the step grid (every switch of the paper's Table 2 when dt divides 0.1 s) is then
+   * integrated exactly; evaluating each stage at its own time would put the new weight into the last stage
+   * of the step that ends at the switch and cost an O(dt) global error per switch.  Recorded outputs at t_k
+   * are consistent with this: they use the weight that holds just after t_k (segments are left-closed). */
   for (long long k = 0; k <= P->n_steps; ++k) {
-    const double t = t0 + (double)k * dt;
+    const double t = t0 + (double)k * dt, t_link = t0 + ((double)k + 0.5) * dt;
     int sample = continuous || (k % P->hold_steps == 0);
-    stage_one(W, P, t, x, k1, sample);
+    stage_one(W, P, t, t_link, x, k1, sample);
+    if (W->bad_agent != -2) break;
     if (k % P->output_every == 0) record(O, W, P, t, x);
     if (k == P->n_steps) break;
     accumulate(O, n, P, W->u_apply, W->uu_apply, dt, u_prev, k == 0);
     const double th = t0 + ((double)k + 0.5) * dt, t1 = t0 + (double)(k + 1) * dt;
     for (int m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
-    eval_rhs(W, P, th, xt, k2, continuous);
+    eval_rhs(W, P, th, t_link, xt, k2, continuous);
     for (int m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k2[m];
-    eval_rhs(W, P, th, xt, k3, continuous);
+    eval_rhs(W, P, th, t_link, xt, k3, continuous);
     for (int m = 0; m < N; ++m) xt[m] = x[m] + dt * k3[m];
-    eval_rhs(W, P, t1, xt, k4, continuous);
+    eval_rhs(W, P, t1, t_link, xt, k4, continuous);
+    if (W->bad_agent != -2) break;
     for (int m = 0; m < N; ++m) x[m] += dt / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m]);
     shadow_all(W, x, n);
     int bad = first_nonfinite(x, n);
@@ -296,6 +319,11 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
     }
     O->steps_taken++;
     if (progress && every > 0 && (k + 1) % every == 0 && progress(k + 1, P->n_steps)) return FSM_ABORTED;
+  }
+  if (W->bad_agent != -2) {
+    O->fail_time = W->bad_time;
+    O->fail_agent = W->bad_agent;
+    return FSM_NONFINITE_CONTROL;
   }
   return FSM_OK;
 }
@@ -329,7 +357,8 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
     const double eps_t = 1e-12 * fmax(1.0, fabs(t));
     int sample = 0;
     if (!continuous && fabs(t - (t0 + (double)q_hold * hold_dt)) <= eps_t) { sample = 1; q_hold++; }
-    stage_one(W, P, t, x, k1, continuous || sample || first);
+    stage_one(W, P, t, t, x, k1, continuous || sample || first);
+    if (W->bad_agent != -2) break;
     memcpy(u_snap, W->u_apply, sizeof(double) * 3 * n);
     memcpy(uu_snap, W->uu_apply, sizeof(double) * 3 * n);
     if (fabs(t - (t0 + (double)m_out * out_dt)) <= eps_t) { record(O, W, P, t, x); m_out++; }
@@ -340,23 +369,24 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
     int rejected_in_row = 0;
     for (;;) {
       if (++attempts > P->max_steps) return FSM_TOO_MANY_STEPS;
+      W->bad_agent = -2; /* a non-finite command in a trial stage only matters if the step is accepted */
       double hs = fmin(h, t_next - t);
       int lands = hs >= t_next - t - eps_t;
       if (lands) hs = t_next - t;
       for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * A21 * k1[m];
-      eval_rhs(W, P, t + C2 * hs, xt, k2, continuous);
+      eval_rhs(W, P, t + C2 * hs, t + C2 * hs, xt, k2, continuous);
       for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A31 * k1[m] + A32 * k2[m]);
-      eval_rhs(W, P, t + C3 * hs, xt, k3, continuous);
+      eval_rhs(W, P, t + C3 * hs, t + C3 * hs, xt, k3, continuous);
       for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A41 * k1[m] + A42 * k2[m] + A43 * k3[m]);
-      eval_rhs(W, P, t + C4 * hs, xt, k4, continuous);
+      eval_rhs(W, P, t + C4 * hs, t + C4 * hs, xt, k4, continuous);
       for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A51 * k1[m] + A52 * k2[m] + A53 * k3[m] + A54 * k4[m]);
-      eval_rhs(W, P, t + C5 * hs, xt, k5, continuous);
+      eval_rhs(W, P, t + C5 * hs, t + C5 * hs, xt, k5, continuous);
       for (int m = 0; m < N; ++m)
         xt[m] = x[m] + hs * (A61 * k1[m] + A62 * k2[m] + A63 * k3[m] + A64 * k4[m] + A65 * k5[m]);
-      eval_rhs(W, P, t + hs, xt, k6, continuous);
+      eval_rhs(W, P, t + hs, t + hs, xt, k6, continuous);
       for (int m = 0; m < N; ++m)
         xn[m] = x[m] + hs * (B1 * k1[m] + B3 * k3[m] + B4 * k4[m] + B5 * k5[m] + B6 * k6[m]);
-      eval_rhs(W, P, t + hs, xn, k7, continuous);
+      eval_rhs(W, P, t + hs, t + hs, xn, k7, continuous);
       double err = 0.0;
       for (int m = 0; m < N; ++m) {
         double e = hs * (E1 * k1[m] + E3 * k3[m] + E4 * k4[m] + E5 * k5[m] + E6 * k6[m] + E7 * k7[m]);
@@ -367,6 +397,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       if (!isfinite(err)) err = 1e10;
       double factor = err > 0 ? 0.9 * pow(err, -0.2) : 5.0;
       factor = fmin(5.0, fmax(0.2, factor));
+      if (err <= 1.0 && W->bad_agent != -2) break; /* cannot happen with a finite err; kept for safety */
       if (err <= 1.0) {
         accumulate(O, n, P, u_snap, uu_snap, hs, u_prev, first);
         first = 0;
@@ -380,10 +411,12 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       rejected_in_row = 1;
       h = hs * factor;
       if (h < P->h_min) {
+        if (W->bad_agent != -2) break;
         O->fail_time = t;
         return FSM_STEP_TOO_SMALL;
       }
     }
+    if (W->bad_agent != -2) break;
     shadow_all(W, x, n);
     int bad = first_nonfinite(x, n);
     if (bad != -2) {
@@ -397,6 +430,11 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       long long done = (long long)((t - t0) / P->dt);
       if (progress(done, P->n_steps)) return FSM_ABORTED;
     }
+  }
+  if (W->bad_agent != -2) {
+    O->fail_time = W->bad_time;
+    O->fail_agent = W->bad_agent;
+    return FSM_NONFINITE_CONTROL;
   }
   return FSM_OK;
 }
@@ -443,8 +481,9 @@ int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double 
     double *res[1] = {W.gc + i};
     sliding_constants(arg, res, W.iw, W.w, 0);
   }
-  eval_rhs(&W, P, t, x, dx, 1);
+  eval_rhs(&W, P, t, t, x, dx, 1);
   if (u_out) memcpy(u_out, W.u, sizeof(double) * 3 * P->n_agents);
+  rc = W.bad_agent == -2 ? FSM_OK : FSM_NONFINITE_CONTROL;
   free_workspace(&W);
-  return FSM_OK;
+  return rc;
 }

@@ -73,12 +73,14 @@ enum {
   FSM_NOMEM = 3,
   FSM_BAD_PROBLEM = 4,
   FSM_STEP_TOO_SMALL = 5,
-  FSM_TOO_MANY_STEPS = 6
+  FSM_TOO_MANY_STEPS = 6,
+  FSM_NONFINITE_CONTROL = 7 /* the control law returned a non-finite torque command (fail_time, fail_agent) */
 };
 
 int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every);
 
-/* One evaluation of the formation right-hand side (control computed at this state). */
+/* One evaluation of the formation right-hand side (control computed at this state; link weights at t).
+ * Returns FSM_NONFINITE_CONTROL (dx still filled) if a commanded torque is non-finite. */
 int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double *u_out);
 
 /* Value of link e's k^j_ij at time t (for tests and plots). */

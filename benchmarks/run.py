@@ -1,0 +1,776 @@
+"""Benchmarks of fsmctl, measured side by side in one run (``python benchmarks/run.py [--quick]``).
+
+Writes ``benchmarks/results.json`` (every measurement) and ``benchmarks/results.md`` (tables).
+Machines are shared and noisy: every timing is repeated; min and median are reported, ratios
+use the minima (the least disturbed measurement of each).
+
+1. Case 1 of Liang et al. (2012) at dt = 1 ms, two controller variants (boundary layer
+   phi = 0.001 as in the scenario, and the discontinuous sgn(s) law, phi = 0):
+
+   * ``compiled``: :func:`fsmctl.simulate` (whole loop in C, RK4), full 100 s;
+   * ``compiled-dopri45``: the same driver with its adaptive Dormand-Prince 5(4) (smooth variant;
+     with sgn it stalls: run under a wall-time cap and reported);
+   * ``python-control``: ``ct.input_output_response`` on ``fsmctl.formation(scenario)``
+     (SciPy RK45), under a wall-time cap, on a short horizon scaled to 100 s;
+   * ``numpy-rk4``: a plain RK4 loop in Python whose right-hand side is the SymPy model of
+     ``derive/`` lambdified to NumPy, vectorised over agents (no equation re-typed), short horizon;
+   * ``casadi-per-step``: the same RK4 loop calling the generated CasADi functions agent by agent.
+
+   Accuracy: the final state of each method against a tight reference (compiled RK4 at
+   dt = 1e-5 s) on the same horizon; speed ratios are per simulated second.
+2. Scaling in the number of agents n = 6, 24, 96, 384 on a ring and all-to-all: time per
+   simulated second, exponents fitted in n and in the number of links (n = 24..384).
+3. Floating-point work per right-hand side from the CasADi graphs of the generated functions
+   against the measured time per right-hand side (achieved GFLOP/s vs this machine's limits).
+4. Wall times of ``fsmctl prove`` and ``python -m derive --check`` (subprocesses).
+5. A Monte Carlo campaign of Case 1 (1000 runs of 100 s at dt = 1 ms, both cores).
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import ctypes
+import dataclasses
+import json
+import math
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+
+
+# ----------------------------------------------------------------------------- helpers
+
+
+def timed(fn, repeats: int):
+    """Run ``fn`` ``repeats`` times; (min, median, all wall times, last result)."""
+    times, out = [], None
+    for _ in range(repeats):
+        t = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - t)
+    return min(times), statistics.median(times), times, out
+
+
+def machine_info() -> dict:
+    info = {"python": sys.version.split()[0], "platform": platform.platform(), "cpus": os.cpu_count()}
+    try:
+        text = Path("/proc/cpuinfo").read_text()
+        for line in text.splitlines():
+            if line.startswith("model name") and "cpu_model" not in info:
+                info["cpu_model"] = line.split(":", 1)[1].strip()
+            if line.startswith("cpu MHz") and "cpu_mhz" not in info:
+                info["cpu_mhz"] = float(line.split(":", 1)[1])
+    except OSError:
+        pass
+    info["load_average_start"] = os.getloadavg()
+    from fsmctl.generated_code import compiled_library
+
+    lib = compiled_library()
+    info["compile_flags"] = list(lib.flags) if lib else None
+    return info
+
+
+class Deadline(Exception):
+    def __init__(self, t):
+        super().__init__(f"wall-time cap reached at simulated t = {t:.6g} s")
+        self.t = t
+
+
+# ----------------------------------------------------------------------------- compiled runs
+
+
+def compiled_final(scenario):
+    import fsmctl
+
+    r = fsmctl.simulate(scenario, progress=False)
+    return np.concatenate(
+        [r.sigma_d[-1]] + [np.concatenate([r.sigma[-1, i], r.omega[-1, i]]) for i in range(r.n_agents)]
+    ), r
+
+
+def compiled_capped(scenario, cap_s: float):
+    """Compiled driver with a wall-time cap (via the progress callback); returns (final state | None, info)."""
+    from fsmctl import simulator as S
+    from fsmctl.problem import pack
+
+    p = pack(scenario)
+    dll = S._driver()
+    n, cap = p.n_agents, p.n_outputs + 1
+    bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
+    bufs["t"] = np.zeros(cap)
+    bufs["sigma_d"] = np.zeros((cap, 3))
+    stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
+    out = S._Output(capacity=cap, **{k: S._ptr(v) for k, v in {**bufs, **stats}.items()})
+    cp = S._CProblem(p)
+    x0 = np.ascontiguousarray(p.x0, dtype=float)
+    deadline = time.perf_counter() + cap_s
+    reached = {"t": 0.0}
+
+    def cb(done, planned):
+        reached["t"] = done * p.dt
+        return 1 if time.perf_counter() > deadline else 0
+
+    c_cb = S._PROGRESS(cb)
+    t0 = time.perf_counter()
+    rc = dll.fsm_simulate(ctypes.byref(cp.struct), S._ptr(x0), ctypes.byref(out), c_cb, 10)
+    wall = time.perf_counter() - t0
+    info = {
+        "return_code": rc,
+        "meaning": S._RC.get(rc, "ok"),
+        "wall_s": wall,
+        "simulated_s_reached": float(bufs["t"][out.written - 1]) if out.written else 0.0,
+        "steps_accepted": int(out.steps_taken),
+        "steps_rejected": int(out.steps_rejected),
+    }
+    return None, info
+
+
+# ----------------------------------------------------------------------------- python-control
+
+
+def python_control_run(scenario, t_final: float, rtol: float, atol: float, cap_s: float):
+    import control as ct
+
+    import fsmctl
+    from fsmctl.iosys import initial_state
+
+    sys_ = fsmctl.formation(scenario)
+    orig = sys_._rhs
+    deadline = time.perf_counter() + cap_s
+    calls = {"n": 0, "t": 0.0}
+
+    def rhs(t, x, u):
+        calls["n"] += 1
+        calls["t"] = max(calls["t"], t)
+        if time.perf_counter() > deadline:
+            raise Deadline(calls["t"])
+        return orig(t, x, u)
+
+    sys_._rhs = rhs
+    x0 = initial_state(scenario)
+    t0 = time.perf_counter()
+    try:
+        resp = ct.input_output_response(
+            sys_,
+            np.array([0.0, t_final]),
+            0,
+            x0,
+            solve_ivp_method="RK45",
+            solve_ivp_kwargs={"rtol": rtol, "atol": atol},
+        )
+    except Deadline as exc:
+        return None, {
+            "wall_s": time.perf_counter() - t0,
+            "capped": True,
+            "simulated_s_reached": exc.t,
+            "rhs_calls": calls["n"],
+        }
+    wall = time.perf_counter() - t0
+    return np.asarray(resp.states)[:, -1], {"wall_s": wall, "capped": False, "rhs_calls": calls["n"]}
+
+
+# ----------------------------------------------------------------------------- Python RK4 loops
+
+
+def _first_occurrences(matrix):
+    """Unique symbols of an input matrix in column-major first-occurrence order, with their flat indices."""
+    seen, out = set(), []
+    for j in range(matrix.cols):
+        for i in range(matrix.rows):
+            sym = matrix[i, j]
+            if sym not in seen:
+                seen.add(sym)
+                out.append((sym, j * matrix.rows + i))
+    return out
+
+
+class LambdifiedFunction:
+    """A ``derive`` FunctionSpec lambdified to NumPy: inputs ``(rows*cols, m)`` column-major, outputs ``(rows*cols, m)``."""
+
+    def __init__(self, spec):
+        import sympy as sp
+
+        self.name = spec.name
+        self.inputs = [(name, _first_occurrences(sp.ImmutableMatrix(m))) for name, m in spec.inputs]
+        args = [sym for _, occ in self.inputs for sym, _ in occ]
+        self.stages = []
+        for symbols, expr in spec.stages:
+            symbols, expr = sp.ImmutableMatrix(symbols), sp.ImmutableMatrix(expr)
+            flat_syms = [symbols[k // symbols.cols, k % symbols.cols] for k in range(len(symbols))]
+            flat = [expr[k // expr.cols, k % expr.cols] for k in range(len(expr))]
+            self.stages.append(sp.lambdify(list(args), flat, modules="numpy", cse=True))
+            args = args + flat_syms
+        self.outputs = []
+        for _, m in spec.outputs:
+            m = sp.ImmutableMatrix(m)
+            flat = [m[i, j] for j in range(m.cols) for i in range(m.rows)]  # column-major
+            self.outputs.append(sp.lambdify(list(args), flat, modules="numpy", cse=True))
+
+    def __call__(self, *arrays):
+        vals = []
+        m = max(np.shape(a)[-1] if np.ndim(a) == 2 else 1 for a in arrays)
+        for (_, occ), a in zip(self.inputs, arrays, strict=True):
+            a = np.asarray(a, dtype=float)
+            a = a.reshape(a.shape[0], -1) if a.ndim >= 1 else a.reshape(1, 1)
+            vals += [a[idx] for _, idx in occ]
+        with np.errstate(all="ignore"):
+            for stage in self.stages:
+                vals += [np.broadcast_to(v, (m,)) for v in stage(*vals)]
+            return [np.array([np.broadcast_to(v, (m,)) for v in f(*vals)]) for f in self.outputs]
+
+
+class PythonRK4:
+    """A plain RK4 loop in Python over a packed problem (the compiled driver's algorithm, in NumPy).
+
+    ``backend="numpy"``: the SymPy model of ``derive/`` lambdified to NumPy, vectorised over agents;
+    ``backend="casadi"``: the generated CasADi functions called agent by agent (a Python loop per step).
+    """
+
+    def __init__(self, scenario, backend: str):
+        from fsmctl.problem import pack
+
+        self.p = pack(scenario)
+        self.n = self.p.n_agents
+        self.backend = backend
+        em = "paper" if self.p.error_model == 0 else "exact"
+        names = ["reference_rhs", f"sliding_{em}", "control_core", "disturbance_torque", "plant_rhs", "mrp_shadow"]
+        names += ["sliding_constants"]
+        if backend == "numpy":
+            from derive.functions import function_catalogue
+
+            specs = {s.name: s for s in function_catalogue()}
+            self.f = {k: LambdifiedFunction(specs[k]) for k in names}
+        else:
+            from fsmctl.generated_code import casadi_function
+
+            self.f = {k: casadi_function(k) for k in names}
+        self.f["sliding"] = self.f[f"sliding_{em}"]
+        p = self.p
+        self.gains = p.gains.T.copy()  # (6, n)
+        self.J0 = p.J0.transpose(0, 2, 1).reshape(self.n, 9).T.copy()  # column-major (9, n)
+        self.J = p.J_true.transpose(0, 2, 1).reshape(self.n, 9).T.copy()
+        self.delta = p.delta.T.copy()
+        self.u_max = p.u_max[None, :].copy()
+        self.dist = p.dist_params.T.copy()
+        self.ref = p.ref_params[:, None].copy()
+        if backend == "numpy":
+            self.gc = self.f["sliding_constants"](self.gains)[0]
+        else:
+            self.gc = np.array([[float(self.f["sliding_constants"](self.gains[:, i])) for i in range(self.n)]])
+        L = p.n_links
+        self.recv_idx, self.send_idx = p.link_receiver.astype(int), p.link_sender.astype(int)
+        cmax = int(p.sched_count.max()) if L else 1
+        self.bp = np.full((L, cmax), np.inf)
+        self.bv = np.zeros((L, cmax))
+        for e in range(L):
+            s, c = p.sched_start[e], p.sched_count[e]
+            self.bp[e, :c] = p.sched_times[s : s + c]
+            self.bv[e, :c] = p.sched_values[s : s + c]
+        self.ksum = np.zeros((1, self.n))
+        np.add.at(self.ksum[0], self.recv_idx, p.link_k_i)
+
+    def weights(self, t):
+        p = self.p
+        tau = t + p.sched_phase
+        per = p.sched_period
+        tau = np.where(per > 0, tau - np.floor(tau / np.where(per > 0, per, 1.0)) * per, tau)
+        m = np.maximum(np.sum(self.bp <= tau[:, None], axis=1) - 1, 0)
+        return self.bv[np.arange(p.n_links), m]
+
+    def rhs(self, t, x):
+        n = self.n
+        sd = x[:3]
+        xa = x[3:].reshape(n, 6).T  # (6, n)
+        if self.backend == "numpy":
+            f = self.f
+            sdd, wd, wdd = (o[:, 0] for o in f["reference_rhs"](np.array([[t]]), sd[:, None], self.ref))
+            s, se, we, wr, wrd, slope = f["sliding"](
+                xa[:3], xa[3:], sd[:, None], wd[:, None], wdd[:, None], self.gains, self.gc
+            )
+            recv = np.zeros((3, n))
+            if self.p.n_links:
+                np.add.at(recv.T, self.recv_idx, (self.weights(t)[:, None] * s[:, self.send_idx].T))
+            u, _ = f["control_core"](
+                se, we, wr, wrd, s, slope, self.J0, self.gains, self.delta, self.ksum, recv, self.u_max
+            )
+            d = f["disturbance_torque"](np.array([[t]]), self.dist)[0]
+            sdot, wdot = f["plant_rhs"](xa[:3], xa[3:], u + d, self.J)
+            return np.concatenate([sdd, np.vstack([sdot, wdot]).T.ravel()])
+        f = self.f
+        sdd, wd, wdd = (np.asarray(v).ravel() for v in f["reference_rhs"](t, sd, self.p.ref_params))
+        sl = [f["sliding"](xa[:3, i], xa[3:, i], sd, wd, wdd, self.gains[:, i], self.gc[0, i]) for i in range(n)]
+        s = np.array([np.asarray(o[0]).ravel() for o in sl]).T
+        recv = np.zeros((3, n))
+        if self.p.n_links:
+            np.add.at(recv.T, self.recv_idx, (self.weights(t)[:, None] * s[:, self.send_idx].T))
+        dx = np.empty(3 + 6 * n)
+        dx[:3] = sdd
+        for i in range(n):
+            _, se, we, wr, wrd, slope = sl[i]
+            u, _ = f["control_core"](
+                se, we, wr, wrd, s[:, i], slope, self.J0[:, i].reshape(3, 3, order="F"), self.gains[:, i], self.delta[:, i],
+                self.ksum[0, i], recv[:, i], self.u_max[0, i],
+            )  # fmt: skip
+            d = f["disturbance_torque"](t, self.dist[:, i])
+            sdot, wdot = f["plant_rhs"](
+                xa[:3, i],
+                xa[3:, i],
+                np.asarray(u).ravel() + np.asarray(d).ravel(),
+                self.J[:, i].reshape(3, 3, order="F"),
+            )
+            dx[3 + 6 * i : 6 + 6 * i] = np.asarray(sdot).ravel()
+            dx[6 + 6 * i : 9 + 6 * i] = np.asarray(wdot).ravel()
+        return dx
+
+    def shadow(self, x):
+        for b in range(self.n + 1):
+            sl = slice(0, 3) if b == 0 else slice(3 + 6 * (b - 1), 6 + 6 * (b - 1))
+            if x[sl] @ x[sl] > 1.0:
+                out = self.f["mrp_shadow"](x[sl][:, None] if self.backend == "numpy" else x[sl])
+                x[sl] = np.asarray(out[0] if self.backend == "numpy" else out).ravel()
+
+    def run(self, t_final: float):
+        dt, x = self.p.dt, self.p.x0.copy()
+        self.shadow(x)
+        for k in range(round(t_final / dt)):
+            t = k * dt
+            k1 = self.rhs(t, x)
+            k2 = self.rhs(t + 0.5 * dt, x + 0.5 * dt * k1)
+            k3 = self.rhs(t + 0.5 * dt, x + 0.5 * dt * k2)
+            k4 = self.rhs(t + dt, x + dt * k3)
+            x = x + dt / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
+            self.shadow(x)
+        return x
+
+
+# ----------------------------------------------------------------------------- sections
+
+
+def state_error(x, ref) -> float:
+    return float(np.max(np.abs(np.asarray(x) - np.asarray(ref))))
+
+
+def compare_section(quick: bool, log) -> dict:
+    import fsmctl
+
+    base = fsmctl.paper_scenario("1")
+    T_full = 20.0 if quick else 100.0
+    T_short = 0.25 if quick else 1.0
+    reps = 2 if quick else 3
+    cap = 20.0 if quick else 60.0
+    out = {"horizon_full_s": T_full, "horizon_short_s": T_short, "repeats": reps, "wall_cap_s": cap, "variants": {}}
+    for variant, phi in (("boundary_layer", 0.001), ("sgn", 0.0)):
+        log(f"compare: variant {variant}")
+        sc = base.replace(controller={"boundary_layer": phi}, simulation={"t_final": T_full, "output_interval": 1.0})
+        short = sc.replace(simulation={"t_final": T_short, "output_interval": T_short})
+        v: dict = {"boundary_layer": phi}
+        # tight references
+        ref_full, _ = compiled_final(sc.replace(simulation={"dt": 1e-4 if quick else 2e-5, "output_interval": 1.0}))
+        ref_short, _ = compiled_final(short.replace(simulation={"dt": 1e-5}))
+        v["reference"] = f"compiled RK4 at dt = {1e-4 if quick else 2e-5:g} s (full horizon), 1e-5 s (short horizon)"
+        mn, md, ts, (xf, _) = timed(lambda sc=sc: compiled_final(sc), reps)
+        v["compiled"] = {
+            "horizon_s": T_full, "wall_min_s": mn, "wall_median_s": md, "walls_s": ts,
+            "per_simulated_s_min": mn / T_full, "final_state_error": state_error(xf, ref_full),
+        }  # fmt: skip
+        mn_s, md_s, _, (xs, _) = timed(lambda short=short: compiled_final(short), max(reps, 5))
+        v["compiled_short"] = {
+            "horizon_s": T_short, "wall_min_s": mn_s, "wall_median_s": md_s,
+            "final_state_error": state_error(xs, ref_short),
+        }  # fmt: skip
+        # adaptive compiled
+        if phi > 0:
+            best = None
+            for rtol in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9):
+                scd = sc.replace(simulation={"integrator": "dopri45", "rtol": rtol, "atol": rtol * 1e-2})
+                mn_d, md_d, _, (xd, rd) = timed(lambda scd=scd: compiled_final(scd), reps)
+                entry = {
+                    "rtol": rtol, "wall_min_s": mn_d, "wall_median_s": md_d, "steps": rd.steps_taken,
+                    "rejected": rd.steps_rejected, "final_state_error": state_error(xd, ref_full),
+                }  # fmt: skip
+                v.setdefault("compiled_dopri45_sweep", []).append(entry)
+                if best is None and entry["final_state_error"] <= v["compiled"]["final_state_error"]:
+                    best = entry
+            v["compiled_dopri45"] = best or v["compiled_dopri45_sweep"][-1]
+            v["compiled_dopri45"]["equal_accuracy"] = best is not None
+        else:
+            scd = sc.replace(simulation={"integrator": "dopri45", "rtol": 1e-6, "atol": 1e-8})
+            _, info = compiled_capped(scd, cap)
+            v["compiled_dopri45"] = {
+                "rtol": 1e-6,
+                **info,
+                "note": "adaptive steps collapse at the sgn switching surface",
+            }
+        # python-control
+        pc = []
+        for rtol in (1e-4, 1e-6, 1e-8, 1e-10):
+            log(f"  python-control rtol {rtol:g}")
+            xp, info = python_control_run(short, T_short, rtol, rtol * 1e-2, cap)
+            entry = {"rtol": rtol, **info}
+            # the compiled driver's adaptive method at the same tolerances on the same horizon
+            scd = short.replace(simulation={"integrator": "dopri45", "rtol": rtol, "atol": rtol * 1e-2})
+            mn_c, _, _, (xcd, _) = timed(lambda scd=scd: compiled_final(scd), 5)
+            entry["compiled_dopri45_same_tolerance"] = {
+                "wall_min_s": mn_c, "per_simulated_s": mn_c / T_short, "final_state_error": state_error(xcd, ref_short),
+            }  # fmt: skip
+            if xp is not None:
+                entry["final_state_error"] = state_error(xp, ref_short)
+                entry["per_simulated_s"] = info["wall_s"] / T_short
+            pc.append(entry)
+            if xp is None:
+                break
+        v["python_control_sweep"] = pc
+        target_err = v["compiled_short"]["final_state_error"]
+        ok = [e for e in pc if e.get("final_state_error", math.inf) <= max(target_err, 1e-13) * 1.0]
+        chosen = ok[0] if ok else next((e for e in reversed(pc) if "final_state_error" in e), pc[-1])
+        v["python_control"] = {**chosen, "equal_accuracy": bool(ok), "horizon_s": T_short}
+        # python RK4 loops (same algorithm as the compiled driver: same accuracy by construction; checked)
+        for backend in ("numpy", "casadi"):
+            log(f"  python RK4 loop ({backend})")
+            loop = PythonRK4(short, backend)
+            mn_p, md_p, _, xp = timed(lambda loop=loop: loop.run(T_short), 1)
+            v[f"{backend}_rk4_loop"] = {
+                "horizon_s": T_short, "wall_min_s": mn_p, "wall_median_s": md_p, "per_simulated_s": mn_p / T_short,
+                "final_state_error": state_error(xp, ref_short), "difference_from_compiled": state_error(xp, xs),
+            }  # fmt: skip
+        per_compiled = mn / T_full
+        ratios = {}
+        if "per_simulated_s" in v["python_control"] and not v["python_control"].get("capped"):
+            ratios["python_control_over_compiled"] = v["python_control"]["per_simulated_s"] / per_compiled
+            ratios["python_control_over_compiled_dopri45_same_tolerance"] = (
+                v["python_control"]["per_simulated_s"]
+                / v["python_control"]["compiled_dopri45_same_tolerance"]["per_simulated_s"]
+            )
+        else:
+            reached = v["python_control"].get("simulated_s_reached") or 1e-9
+            ratios["python_control_over_compiled_lower_bound"] = (cap / reached) / per_compiled
+        ratios["numpy_rk4_over_compiled"] = v["numpy_rk4_loop"]["per_simulated_s"] / per_compiled
+        ratios["casadi_per_step_over_compiled"] = v["casadi_rk4_loop"]["per_simulated_s"] / per_compiled
+        if phi > 0 and v.get("compiled_dopri45"):
+            ratios["compiled_dopri45_over_compiled_rk4"] = v["compiled_dopri45"]["wall_min_s"] / mn
+        v["ratios"] = ratios
+        out["variants"][variant] = v
+    return out
+
+
+def _scale_scenario(n: int, kind: str):
+    import fsmctl
+    from fsmctl.topology import all_to_all, ring
+
+    base = fsmctl.paper_scenario("1")
+    agents = [base.agents[i % base.n_agents] for i in range(n)]
+    sched = base.topology.links[0].k_j
+    topo = ring(n, 8.0, sched) if kind == "ring" else all_to_all(n, 8.0, sched)
+    return dataclasses.replace(base, agents=tuple(agents), topology=topo)  # both at once: validated together
+
+
+def scale_section(quick: bool, log) -> dict:
+    import fsmctl
+
+    ns = (6, 24, 96) if quick else (6, 24, 96, 384)
+    out = {"n": list(ns), "topologies": {}}
+    for kind in ("ring", "all-to-all"):
+        rows = []
+        for n in ns:
+            sc = _scale_scenario(n, kind)
+            links = len(sc.topology.links)
+            T = 0.2 if quick else (1.0 if (kind == "ring" or n <= 96) else 0.25)
+            sc = sc.replace(simulation={"t_final": T, "output_interval": T})
+            fsmctl.simulate(sc.replace(simulation={"t_final": 0.01, "output_interval": 0.01}))
+            c_walls = []
+            mn, md, _, _ = timed(
+                lambda sc=sc, c_walls=c_walls: c_walls.append(fsmctl.simulate(sc, progress=False).wall_time),
+                2 if quick else 3,
+            )
+            rows.append({"n": n, "links": links, "horizon_s": T, "wall_min_s": mn, "wall_median_s": md,
+                         "c_loop_min_s": min(c_walls), "per_simulated_s": min(c_walls) / T})  # fmt: skip
+            log(f"scale {kind} n={n}: {mn / T:.3g} s per simulated s")
+        sel = [r for r in rows if r["n"] >= 24]
+        if len(sel) >= 2:
+            y = np.log([r["per_simulated_s"] for r in sel])
+            exp_n = float(np.polyfit(np.log([r["n"] for r in sel]), y, 1)[0])
+            exp_e = float(np.polyfit(np.log([r["links"] for r in sel]), y, 1)[0])
+        else:
+            exp_n = exp_e = math.nan
+        out["topologies"][kind] = {"rows": rows, "exponent_in_n": exp_n, "exponent_in_links": exp_e}
+    return out
+
+
+FLOP_OPS = {"OP_ADD", "OP_SUB", "OP_MUL", "OP_DIV", "OP_NEG", "OP_SQ", "OP_TWICE", "OP_INV"}
+SPECIAL_OPS = {"OP_SQRT", "OP_POW", "OP_CONSTPOW", "OP_SIN", "OP_COS", "OP_TAN", "OP_ATAN", "OP_ATAN2", "OP_EXP",
+               "OP_LOG", "OP_ACOS", "OP_ASIN"}  # fmt: skip
+
+
+def op_counts(name: str) -> dict:
+    import casadi as ca
+
+    from fsmctl.generated_code import generated_dir
+
+    f = ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
+    names = {getattr(ca, k): k for k in dir(ca) if k.startswith("OP_")}
+    c = collections.Counter(names.get(f.instruction_id(k), str(k)) for k in range(f.n_instructions()))
+    return {
+        "instructions": f.n_instructions(),
+        "flops": sum(v for k, v in c.items() if k in FLOP_OPS),
+        "special": sum(v for k, v in c.items() if k in SPECIAL_OPS),
+        "other": sum(
+            v for k, v in c.items() if k not in FLOP_OPS | SPECIAL_OPS | {"OP_INPUT", "OP_OUTPUT", "OP_CONST"}
+        ),
+        "ops": dict(c),
+    }
+
+
+def flops_section(compare: dict, log) -> dict:
+    import fsmctl
+
+    sc = fsmctl.paper_scenario("1")
+    n, L = sc.n_agents, len(sc.topology.links)
+    per = {
+        k: op_counts(k) for k in ("sliding_paper", "control_core", "plant_rhs", "reference_rhs", "disturbance_torque")
+    }
+    # one formation RHS: n x (sliding + control + plant) + reference + links (3 mul + 3 add each) + the
+    # disturbance, evaluated at 2 distinct times per RK4 step of 4 RHS evaluations
+    flops = (
+        n * (per["sliding_paper"]["flops"] + per["control_core"]["flops"] + per["plant_rhs"]["flops"])
+        + per["reference_rhs"]["flops"] + 6 * L + 0.5 * n * per["disturbance_torque"]["flops"]
+    )  # fmt: skip
+    special = (
+        n * (per["sliding_paper"]["special"] + per["control_core"]["special"] + per["plant_rhs"]["special"])
+        + per["reference_rhs"]["special"] + 0.5 * n * per["disturbance_torque"]["special"]
+    )  # fmt: skip
+    c = compare["variants"]["boundary_layer"]["compiled"]
+    n_steps = round(c["horizon_s"] / sc.simulation.dt)
+    t_rhs = c["wall_min_s"] / (4 * n_steps)
+    achieved = flops / t_rhs
+    # machine limits: measured single-thread dense matmul (vector FMA peak) and 2 scalar flops per cycle
+    a = np.random.default_rng(0).standard_normal((1500, 1500))
+    try:
+        from threadpoolctl import threadpool_limits
+
+        ctx = threadpool_limits(1)
+    except ImportError:  # pragma: no cover
+        ctx = None
+    mn, _, _, _ = timed(lambda: a @ a, 3)
+    if ctx is not None:
+        ctx.unregister() if hasattr(ctx, "unregister") else None
+    matmul = 2 * 1500**3 / mn
+    mhz = machine_info().get("cpu_mhz")
+    scalar_peak = 2 * mhz * 1e6 if mhz else math.nan
+    log(f"flops: {flops:.0f} per RHS in {t_rhs * 1e6:.2f} us -> {achieved / 1e9:.2f} GFLOP/s")
+    return {
+        "per_function": {
+            k: {kk: vv for kk, vv in v.items() if kk != "ops"} | {"ops": v["ops"]} for k, v in per.items()
+        },
+        "rhs_flops": flops,
+        "rhs_special_functions": special,
+        "rhs_time_s": t_rhs,
+        "achieved_gflops": achieved / 1e9,
+        "matmul_single_thread_gflops": matmul / 1e9,
+        "scalar_peak_gflops_2_per_cycle": scalar_peak / 1e9,
+        "fraction_of_matmul": achieved / matmul,
+        "fraction_of_scalar_peak": achieved / scalar_peak if mhz else math.nan,
+        "note": "flops = +,-,*,/,neg,sq of the CasADi SX graphs; pow/sqrt/sin/cos counted separately (each ~20-100 cycles)",
+    }
+
+
+def subprocess_section(log) -> dict:
+    out = {}
+    for label, cmd in (
+        ("fsmctl prove", [sys.executable, "-m", "fsmctl.cli", "prove"]),
+        ("python -m derive --check", [sys.executable, "-m", "derive", "--check"]),
+    ):
+        t = time.perf_counter()
+        proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+        wall = time.perf_counter() - t
+        out[label] = {"wall_s": wall, "exit_code": proc.returncode}
+        log(f"{label}: {wall:.1f} s (exit {proc.returncode})")
+    return out
+
+
+def montecarlo_section(runs: int, log) -> dict:
+    from fsmctl import montecarlo as mc
+
+    settings = mc.CampaignSettings(runs=runs, seed=2012, chunk_size=10)
+    with tempfile.TemporaryDirectory() as tmp:
+        t = time.perf_counter()
+        res = mc.run_campaign(settings, Path(tmp) / "mc", workers=2, progress=False, figures=False)
+        wall = time.perf_counter() - t
+    s = res.summary
+    cpu = s["cpu_time_s_total"]
+    log(f"montecarlo: {runs} runs in {wall:.1f} s")
+    return {
+        "runs": runs, "workers": 2, "wall_s": wall, "cpu_s_total": cpu, "cpu_s_per_run": cpu / runs,
+        "projected_1000_runs_wall_s": wall * 1000 / runs, "ok": s["ok"], "failed": s["failed"],
+        "worker_died": s["worker_died"], "converged_fraction": s["converged_fraction"],
+        "theorem1_holds_fraction": s["theorem1_holds_fraction"], "theorem2_holds_fraction": s["theorem2_holds_fraction"],
+        "settings": settings.identity(),
+    }  # fmt: skip
+
+
+# ----------------------------------------------------------------------------- report
+
+
+def _f(x, fmt=".3g"):
+    return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
+
+
+def markdown(res: dict) -> str:
+    m = res["machine"]
+    lines = [
+        "# fsmctl benchmarks",
+        "",
+        f"Written by `python benchmarks/run.py{' --quick' if res['quick'] else ''}` on {res['date']} "
+        f"({m.get('cpu_model', '?')}, {m.get('cpus')} CPUs, load average at start {m['load_average_start']}, "
+        f"at end {res['load_average_end']}). Total {res['total_wall_s']:.0f} s. Shared machine: min of repeats.",
+        f"Compile flags: `{' '.join(m.get('compile_flags') or [])}`.",
+        "",
+        "## Case 1, dt = 1 ms: compiled vs python-control vs Python RK4 loops",
+        "",
+    ]
+    c = res["compare"]
+    lines.append(
+        f"Compiled runs cover {c['horizon_full_s']:g} s; python-control and the Python loops cover "
+        f"{c['horizon_short_s']:g} s and are scaled per simulated second (wall-time cap {c['wall_cap_s']:g} s). "
+        "Errors: max |final state - tight reference| on the same horizon."
+    )
+    lines.append("")
+    lines.append(
+        "| variant | method | horizon (s) | wall min (s) | s per simulated s | final-state error | ratio to compiled |"
+    )
+    lines.append("|---|---|---|---|---|---|---|")
+    for name, v in c["variants"].items():
+        per_c = v["compiled"]["per_simulated_s_min"]
+        lines.append(
+            f"| {name} | compiled RK4 | {v['compiled']['horizon_s']:g} | {_f(v['compiled']['wall_min_s'])} | {_f(per_c)} | {_f(v['compiled']['final_state_error'])} | 1 |"
+        )
+        d = v.get("compiled_dopri45") or {}
+        if "wall_min_s" in d:
+            lines.append(
+                f"| {name} | compiled dopri45 rtol {d['rtol']:g} | {c['horizon_full_s']:g} | {_f(d['wall_min_s'])} | {_f(d['wall_min_s'] / c['horizon_full_s'])} | {_f(d['final_state_error'])} | {_f(d['wall_min_s'] / v['compiled']['wall_min_s'])} |"
+            )
+        elif d:
+            lines.append(
+                f"| {name} | compiled dopri45 rtol {d['rtol']:g} | stalled: reached {_f(d['simulated_s_reached'])} s in {_f(d['wall_s'])} s ({d['meaning']}, {d['steps_rejected']} rejected steps) | | | | |"
+            )
+        p = v["python_control"]
+        if p.get("capped"):
+            lines.append(
+                f"| {name} | ct.input_output_response RK45 rtol {p['rtol']:g} | capped: reached {_f(p['simulated_s_reached'])} s in {_f(p['wall_s'])} s | | | | > {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))} |"
+            )
+        else:
+            lines.append(
+                f"| {name} | ct.input_output_response RK45 rtol {p['rtol']:g}{'' if p['equal_accuracy'] else ' (not equal accuracy)'} | {p['horizon_s']:g} | {_f(p['wall_s'])} | {_f(p['per_simulated_s'])} | {_f(p.get('final_state_error'))} | {_f(v['ratios'].get('python_control_over_compiled'))} |"
+            )
+        for key, label in (
+            ("numpy_rk4_loop", "NumPy RK4 loop (lambdified SymPy)"),
+            ("casadi_rk4_loop", "Python RK4 loop, CasADi per step"),
+        ):
+            q = v[key]
+            lines.append(
+                f"| {name} | {label} | {q['horizon_s']:g} | {_f(q['wall_min_s'])} | {_f(q['per_simulated_s'])} | {_f(q['final_state_error'])} (vs compiled {_f(q['difference_from_compiled'])}) | {_f(q['per_simulated_s'] / per_c)} |"
+            )
+    lines += [
+        "",
+        "Targets: compiled >= 100x faster than ct.input_output_response, >= 50x faster than the NumPy RK4 loop.",
+        "",
+    ]
+    for name, v in c["variants"].items():
+        r = v["ratios"]
+        pc = r.get("python_control_over_compiled", r.get("python_control_over_compiled_lower_bound"))
+        lines.append(
+            f"* {name}: python-control / compiled dopri45 at the same tolerance = {_f(r.get('python_control_over_compiled_dopri45_same_tolerance'))}; "
+            f"python-control / compiled = {_f(pc)}{' (lower bound: capped)' if 'python_control_over_compiled_lower_bound' in r else ''} "
+            f"({'met' if pc and pc >= 100 else 'MISSED'}); NumPy RK4 / compiled = {_f(r['numpy_rk4_over_compiled'])} "
+            f"({'met' if r['numpy_rk4_over_compiled'] >= 50 else 'MISSED'}); CasADi-per-step / compiled = {_f(r['casadi_per_step_over_compiled'])}"
+        )
+    s = res["scale"]
+    lines += [
+        "",
+        "## Scaling in the number of agents (time per simulated second)",
+        "",
+        "| topology | n | links | horizon (s) | s per simulated s |",
+        "|---|---|---|---|---|",
+    ]
+    for kind, t in s["topologies"].items():
+        for r in t["rows"]:
+            lines.append(f"| {kind} | {r['n']} | {r['links']} | {r['horizon_s']:g} | {_f(r['per_simulated_s'])} |")
+    lines.append("")
+    for kind, t in s["topologies"].items():
+        lines.append(f"* {kind}: exponent in n (24..{s['n'][-1]}) = {_f(t['exponent_in_n'])}, in links = {_f(t['exponent_in_links'])}"
+                     + (f" (target <= 1.15: {'met' if t['exponent_in_n'] <= 1.15 else 'MISSED'})" if kind == "ring" else ""))  # fmt: skip
+    fl = res["flops"]
+    lines += [
+        "",
+        "## Floating-point work per right-hand side (Case 1, 6 agents, 30 links)",
+        "",
+        f"{fl['rhs_flops']:.0f} flops (+,-,*,/ of the CasADi graphs) and {fl['rhs_special_functions']:.0f} pow/sqrt/sin/cos per RHS; "
+        f"measured {fl['rhs_time_s'] * 1e6:.2f} us per RHS -> {fl['achieved_gflops']:.2f} GFLOP/s = "
+        f"{fl['fraction_of_scalar_peak']:.0%} of a 2-flop/cycle scalar peak ({fl['scalar_peak_gflops_2_per_cycle']:.1f} GFLOP/s) and "
+        f"{fl['fraction_of_matmul']:.1%} of single-thread dense matmul ({fl['matmul_single_thread_gflops']:.1f} GFLOP/s).",
+        "",
+        "| function | instructions | flops | pow/sqrt/trig | other (fmin/fmax/if/sign) |",
+        "|---|---|---|---|---|",
+    ]
+    for k, v in fl["per_function"].items():
+        lines.append(f"| {k} | {v['instructions']} | {v['flops']} | {v['special']} | {v['other']} |")
+    lines += ["", "## Tool wall times", ""]
+    for k, v in res.get("subprocess", {}).items():
+        lines.append(f"* `{k}`: {_f(v['wall_s'])} s (exit {v['exit_code']})")
+    if not res.get("subprocess"):
+        lines.append("* skipped (--quick)")
+    mc = res.get("montecarlo")
+    if mc:
+        lines += [
+            "",
+            "## Monte Carlo (Case 1, 100 s at dt = 1 ms per run, 2 workers)",
+            "",
+            f"{mc['runs']} runs in {mc['wall_s']:.1f} s wall ({mc['cpu_s_per_run']:.3f} CPU s per run); projected 1000 runs: "
+            f"{mc['projected_1000_runs_wall_s']:.0f} s (target <= 300 s: {'met' if mc['projected_1000_runs_wall_s'] <= 300 else 'MISSED'}). "
+            f"{mc['ok']} ok, {mc['failed']} failed, {mc['worker_died']} worker died; converged {mc['converged_fraction']:.1%}, "
+            f"Theorem 1 held {mc['theorem1_holds_fraction']:.1%}, Theorem 2 (at the reference) held {mc['theorem2_holds_fraction']:.1%}.",
+        ]
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="shorter horizons, fewer repeats (about 2 minutes)")
+    ap.add_argument("--montecarlo-runs", type=int, default=None, help="Monte Carlo runs (default 1000, quick 20)")
+    ap.add_argument("--out", default=str(HERE), help="folder for results.json / results.md")
+    args = ap.parse_args(argv)
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    t0 = time.perf_counter()
+
+    def log(msg):
+        print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
+
+    res = {"quick": args.quick, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "machine": machine_info()}
+    res["compare"] = compare_section(args.quick, log)
+    res["scale"] = scale_section(args.quick, log)
+    res["flops"] = flops_section(res["compare"], log)
+    res["subprocess"] = {} if args.quick else subprocess_section(log)
+    runs = args.montecarlo_runs if args.montecarlo_runs is not None else (20 if args.quick else 1000)
+    res["montecarlo"] = montecarlo_section(runs, log) if runs > 0 else None
+    res["load_average_end"] = os.getloadavg()
+    res["total_wall_s"] = time.perf_counter() - t0
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "results.json").write_text(json.dumps(res, indent=2, default=float))
+    (out / "results.md").write_text(markdown(res))
+    print((out / "results.md").read_text())
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

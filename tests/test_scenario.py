@@ -1,0 +1,264 @@
+"""Scenario files: the built-in paper scenario loads, and every kind of bad file gets a clear one-line error.
+
+Each bad file is the shipped ``paper.toml`` with one edit, loaded through :func:`fsmctl.load_scenario` (and,
+when the ``simulate`` subcommand is present, through the ``fsmctl`` command line: exit code 2, one line).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import math
+import re
+from importlib import resources
+
+import numpy as np
+import pytest
+
+import fsmctl
+from fsmctl import ScenarioError, load_scenario
+
+PAPER_TOML = resources.files("fsmctl").joinpath("scenarios", "paper.toml").read_text()
+
+J1 = "J0 = [[100.0, 1.0, 2.0], [1.0, 150.0, 1.0], [2.0, 1.0, 200.0]]"
+PHASE_ROW1 = "  [nan, 0.0, 1.0, 2.8, 3.3, 4.8],"
+
+
+def edited(old: str, new: str, count: int = 1) -> str:
+    assert PAPER_TOML.count(old) >= 1, f"fixture text not found: {old!r}"
+    return PAPER_TOML.replace(old, new, count)
+
+
+# (id, toml text, regex the one-line message must match)
+BAD_FILES = [
+    # inertia
+    (
+        "J-not-symmetric",
+        edited(J1, "J0 = [[100.0, 1.5, 2.0], [1.0, 150.0, 1.0], [2.0, 1.0, 200.0]]"),
+        r"agents\[1\]\.J0: not symmetric",
+    ),
+    (
+        "J-indefinite",
+        edited(J1, "J0 = [[100.0, 0.0, 0.0], [0.0, -150.0, 0.0], [0.0, 0.0, 200.0]]"),
+        r"agents\[1\]\.J0: not positive definite",
+    ),
+    ("J-shape", edited(J1, "J0 = [[100.0, 1.0], [1.0, 150.0]]"), r"agents\[1\]\.J0: expected a 3x3 matrix"),
+    ("J-ragged", edited(J1, "J0 = [[100.0, 1.0, 2.0], [1.0, 150.0], [2.0, 1.0, 200.0]]"), r"agents\[1\]\.J0"),
+    ("J-text", edited(J1, 'J0 = "big"'), r"agents\[1\]\.J0: expected a 3x3 matrix"),
+    (
+        "dJ-makes-indefinite",
+        edited("delta_J = { scale = 0.3 }", "delta_J = { scale = -1.5 }"),
+        r"J0 \+ delta_J: not positive definite",
+    ),
+    # alpha outside (0.5, 1)
+    ("alpha-0.5", edited("alpha = 0.7 ", "alpha = 0.5 "), r"controller\.alpha: must satisfy 0\.5 < alpha < 1"),
+    ("alpha-1", edited("alpha = 0.7 ", "alpha = 1.0 "), r"controller\.alpha"),
+    ("alpha-1.2", edited("alpha = 0.7 ", "alpha = 1.2 "), r"controller\.alpha"),
+    ("alpha-text", edited("alpha = 0.7 ", 'alpha = "0.7" '), r"controller\.alpha: expected a number"),
+    # non-positive gains
+    ("c1-zero", edited("c1 = 0.6 ", "c1 = 0.0 "), r"controller\.c1: must be > 0"),
+    ("c2-negative", edited("c2 = 0.8 ", "c2 = -0.8 "), r"controller\.c2: must be >= 0"),
+    (
+        "delta-zero",
+        edited("delta = [0.005, 0.005, 0.005]", "delta = [0.005, 0.0, 0.005]"),
+        r"agents\[1\]\.delta: every component must be > 0",
+    ),
+    ("k_i-negative", edited("k_i = 8.0", "k_i = -8.0"), r"k\^i must be finite and >= 0"),
+    (
+        "k_j-negative",
+        edited("values = [5.0, 0.0] }\n# phi", "values = [-5.0, 0.0] }\n# phi"),
+        r"weights must be finite and >= 0",
+    ),
+    (
+        "torque-limit-zero",
+        edited("torque_limit = 2.0 ", "torque_limit = 0.0 "),
+        r"controller\.torque_limit: must be > 0",
+    ),
+    (
+        "boundary-layer-negative",
+        edited("boundary_layer = 0.001 ", "boundary_layer = -0.001 "),
+        r"controller\.boundary_layer: must be >= 0",
+    ),
+    ("epsilon-zero", edited("epsilon = 1e-4 ", "epsilon = 0.0 "), r"controller\.epsilon: must be > 0"),
+    ("dt-zero", edited("dt = 0.001 ", "dt = 0.0 "), r"simulation\.dt: must be > 0"),
+    (
+        "t_final-not-multiple",
+        edited("t_final = 100.0 ", "t_final = 100.0005 "),
+        r"simulation\.t_final .* multiple of dt",
+    ),
+    # malformed topology tables
+    ("phase-table-5-rows", edited(PHASE_ROW1 + "\n", ""), r"phase_table: expected shape \(6, 6\)"),
+    ("phase-table-ragged", edited(PHASE_ROW1, "  [nan, 0.0, 1.0, 2.8, 3.3],"), r"phase_table"),
+    (
+        "phase-table-text",
+        edited(PHASE_ROW1, '  [nan, "zero", 1.0, 2.8, 3.3, 4.8],'),
+        r"phase_table: expected an 6x6 array of numbers",
+    ),
+    (
+        "phase-table-diagonal",
+        edited(PHASE_ROW1, "  [0.0, 0.0, 1.0, 2.8, 3.3, 4.8],"),
+        r"phase_table\[1\]\[1\]: the diagonal must be nan",
+    ),
+    (
+        "phase-table-inf",
+        edited(PHASE_ROW1, "  [nan, inf, 1.0, 2.8, 3.3, 4.8],"),
+        r"phase_table\[1\]\[2\]: phase must be finite",
+    ),
+    (
+        "schedule-not-increasing",
+        edited(
+            "breakpoints = [0.0, 6.5], values = [5.0, 0.0] }\n# phi",
+            "breakpoints = [6.5, 0.0], values = [5.0, 0.0] }\n# phi",
+        ),
+        r"strictly increasing",
+    ),
+    (
+        "schedule-lengths",
+        edited(
+            "breakpoints = [0.0, 6.5], values = [5.0, 0.0] }\n# phi",
+            "breakpoints = [0.0, 6.5], values = [5.0] }\n# phi",
+        ),
+        r"2 breakpoints but 1 values",
+    ),
+    (
+        "schedule-beyond-period",
+        edited(
+            "breakpoints = [0.0, 6.5], values = [5.0, 0.0] }\n# phi",
+            "breakpoints = [0.0, 9.5], values = [5.0, 0.0] }\n# phi",
+        ),
+        r"below the period",
+    ),
+    (
+        "topology-two-forms",
+        edited("[topology]\n", '[topology]\nkind = "ring"\n'),
+        r"topology: give exactly one of phase_table, links or kind",
+    ),
+    # wrong shapes
+    (
+        "sigma0-2",
+        edited("sigma0 = [0.3, 0.2, -0.3]", "sigma0 = [0.3, 0.2]"),
+        r"agents\[1\]\.sigma0: expected 3 numbers, got shape \(2,\)",
+    ),
+    (
+        "omega0-4",
+        edited("omega0 = [0.35, -0.13, 0.27]", "omega0 = [0.35, -0.13, 0.27, 0.0]"),
+        r"agents\[1\]\.omega0: expected 3 numbers",
+    ),
+    (
+        "reference-sigma0",
+        edited("sigma0 = [-0.3, -0.4, 0.4]", "sigma0 = [-0.3, -0.4]"),
+        r"reference\.sigma0: expected 3 numbers",
+    ),
+    (
+        "disturbance-amplitude",
+        edited("amplitude = [0.2, -0.24, 0.22]", "amplitude = [0.2, -0.24]"),
+        r"agents\[1\]\.disturbance\.amplitude: expected 3 numbers",
+    ),
+    # unknown keys
+    ("unknown-top", "speed_of_light = 3e8\n" + PAPER_TOML, r"unknown key\(s\) \['speed_of_light'\]"),
+    ("unknown-controller", edited("c1 = 0.6 ", "c3 = 1.0\nc1 = 0.6 "), r"controller: unknown key\(s\) \['c3'\]"),
+    (
+        "unknown-simulation",
+        edited("dt = 0.001 ", "steps = 10\ndt = 0.001 "),
+        r"simulation: unknown key\(s\) \['steps'\]",
+    ),
+    (
+        "unknown-agent",
+        edited("sigma0 = [0.3, 0.2, -0.3]", "mass = 10.0\nsigma0 = [0.3, 0.2, -0.3]"),
+        r"agents\[1\]: unknown key\(s\) \['mass'\]",
+    ),
+    ("unknown-topology", edited("k_i = 8.0", "k_i = 8.0\nk_x = 1.0"), r"topology: unknown key\(s\) \['k_x'\]"),
+    (
+        "enabled-not-bool",
+        edited("c1 = 0.6 ", 'enabled = "no"\nc1 = 0.6 '),
+        r"controller\.enabled: expected true or false",
+    ),
+    # syntax and structure
+    ("toml-syntax", edited("c1 = 0.6 ", "c1 = "), r"not valid TOML"),
+    ("toml-unclosed", edited("c2 = 0.8 ", "c2 = [0.8 "), r"not valid TOML"),
+    ("missing-c1", edited("c1 = 0.6 ", "# c1 "), r"controller\.c1: missing"),
+    ("no-agents", PAPER_TOML[: PAPER_TOML.index("[[agents]]")], r"agents: missing|agents: expected"),
+]
+
+
+@pytest.mark.parametrize(("text", "pattern"), [pytest.param(t, p, id=i) for i, t, p in BAD_FILES])
+def test_bad_scenario_file_gets_a_clear_one_line_error(tmp_path, text, pattern):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(path)
+    message = str(info.value)
+    assert "\n" not in message, message
+    assert message.startswith(str(path)), message  # says which file
+    assert len(message) < 400, message
+    assert re.search(pattern, message), message
+
+
+def test_the_shipped_file_loads_and_matches_the_paper(tmp_path):
+    (tmp_path / "ok.toml").write_text(PAPER_TOML)
+    s = load_scenario(tmp_path / "ok.toml")
+    assert s == fsmctl.paper_scenario("1")
+    assert s.case == "1" and s.n_agents == 6 and len(s.topology.links) == 30
+    assert s.controller.c1 == 0.6 and s.controller.c2 == 0.8 and s.controller.torque_limit == 2.0
+    assert np.allclose(s.agents[1].J_true, 1.3 * np.array([[120, 1.5, 1], [1.5, 160, 1], [1, 1, 190]]))
+    # Table 2: k^j_12(t) = k(t + 0), k(t) = 5 if mod(t, 8) <= 6.5 else 0
+    assert s.topology.k_j_matrix(6.4)[0, 1] == 5.0 and s.topology.k_j_matrix(6.6)[0, 1] == 0.0
+    assert s.topology.k_j_matrix(0.0)[5, 4] == 5.0 and s.topology.k_j_matrix(2.0)[5, 4] == 0.0  # phi_65 = 5.3
+    for case in ("2", "3a", "3b", "3c"):
+        assert s.with_case(case).case == case
+
+
+def test_missing_file_and_unknown_case(tmp_path):
+    with pytest.raises(ScenarioError, match="cannot read scenario file"):
+        load_scenario(tmp_path / "nope.toml")
+    with pytest.raises(ScenarioError, match=r"no case '7'"):
+        load_scenario("paper", case="7")
+
+
+def test_replace_validates():
+    s = fsmctl.paper_scenario("1")
+    with pytest.raises(ScenarioError, match="alpha"):
+        s.replace(controller={"alpha": 1.0})
+    with pytest.raises(ScenarioError, match="replace"):
+        s.replace(controller={"gain": 1.0})
+    with pytest.raises(ScenarioError, match="cannot replace section"):
+        s.replace(agents={})
+    with pytest.raises(ScenarioError, match="torque_limit"):
+        s.replace(controller={"torque_limit": 0.0})
+
+
+def test_disabled_controller_is_a_documented_setting(tmp_path):
+    path = tmp_path / "off.toml"
+    path.write_text(PAPER_TOML.replace("c1 = 0.6 ", "enabled = false\nc1 = 0.6 ", 1))
+    s = load_scenario(path)
+    assert s.controller.enabled is False
+    assert s.controller.effective_torque_limit == 0.0
+    assert "enabled=False" in "\n".join(s.describe())
+    assert fsmctl.paper_scenario("1").controller.effective_torque_limit == 2.0
+    assert math.isinf(
+        s.replace(controller={"enabled": True, "torque_limit": math.inf}).controller.effective_torque_limit
+    )
+
+
+# ----------------------------------------------------------------------------- command line
+
+
+def _has_simulate() -> bool:
+    return importlib.util.find_spec("fsmctl.commands") is not None
+
+
+@pytest.mark.skipif(not _has_simulate(), reason="`fsmctl simulate` (fsmctl.commands) is not in this build yet")
+@pytest.mark.parametrize(
+    "case_id", ["J-not-symmetric", "alpha-1.2", "phase-table-5-rows", "unknown-controller", "toml-syntax"]
+)
+def test_cli_reports_bad_files_in_one_line(tmp_path, capsys, case_id):
+    from fsmctl.cli import main
+
+    text, pattern = next((t, p) for i, t, p in BAD_FILES if i == case_id)
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    code = main(["simulate", "--scenario", str(path), "--out", str(tmp_path / "out"), "--no-figures"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert len(err.splitlines()) == 1, err
+    assert "Traceback" not in err
+    assert re.search(pattern, err), err
