@@ -12,7 +12,7 @@ from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .scenario import (  # noqa: E402
+from .scenario import (
     Agent,
     ControllerSettings,
     Reference,
@@ -23,7 +23,7 @@ from .scenario import (  # noqa: E402
     load_scenario,
     paper_scenario,
 )
-from .topology import Link, Schedule, Topology  # noqa: E402
+from .topology import Link, Schedule, Topology
 
 __all__ = [
     "__version__",

@@ -278,4 +278,4 @@ def casadi_function(name: str) -> ca.Function:
     if lib is not None:
         return ca.external(name, str(lib.path))
     _warn_fallback()
-    return ca.Function.load(str(generated_dir() / "casadi" / f"{name}.casadi"))
+    return ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())

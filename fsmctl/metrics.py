@@ -47,10 +47,18 @@ def relative_principal_angles(sigma_e: np.ndarray) -> np.ndarray:
     """
     sigma_e = np.asarray(sigma_e, dtype=float)
     T, n, _ = sigma_e.shape
-    a = np.broadcast_to(sigma_e[:, :, None, :], (T, n, n, 3)).reshape(-1, 3)
-    b = np.broadcast_to(sigma_e[:, None, :, :], (T, n, n, 3)).reshape(-1, 3)
+    out = np.zeros((T, n, n))
+    iu, ju = np.triu_indices(n, k=1)
+    if iu.size == 0 or T == 0:
+        return out
+    # theta_ij = theta_ji (the inverse rotation has the same angle): evaluate each unordered pair once
+    a = sigma_e[:, iu, :].reshape(-1, 3)
+    b = sigma_e[:, ju, :].reshape(-1, 3)
     rel = np.asarray(_mapped("mrp_error", a.shape[0])(a.T, b.T)).T
-    return principal_angles(rel).reshape(T, n, n)
+    theta = principal_angles(rel).reshape(T, iu.size)
+    out[:, iu, ju] = theta
+    out[:, ju, iu] = theta
+    return out
 
 
 def aaem_deg(theta_e: np.ndarray) -> np.ndarray:

@@ -105,9 +105,9 @@ def _mode_gains(mode: str, c1: float, c2: float, alpha: float) -> tuple[float, f
 @functools.cache
 def _closed_form_expressions() -> dict:
     """The SymPy closed forms of eqs 34-36, as derived and checked by the proof check."""
-    from .proofs.claims import _fsm_closed_forms
+    from derive.theorem3 import settling_time_closed_forms
 
-    _, c1, c2, tau, x0, q, _alpha, T34, T35, T36 = _fsm_closed_forms()
+    _, c1, c2, tau, x0, q, _alpha, T34, T35, T36 = settling_time_closed_forms()
     return {"symbols": (x0, tau, c1, c2, q), "fsm": T34, "tsm": T35, "lsm": T36}
 
 

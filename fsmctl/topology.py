@@ -272,7 +272,11 @@ class Topology:
 
 
 def from_phase_table(table, n_agents: int, k_i: float, schedule: Schedule, where: str = "phase_table") -> Topology:
-    """Table 2 form: ``k^j_ij(t) = schedule(t + table[i][j])``; NaN (or a negative entry) means no link."""
+    """Table 2 form: ``k^j_ij(t) = schedule(t + table[i][j])``; NaN means no link.
+
+    A phase is a time shift and may be any finite number; only NaN removes a link (a negative entry is a
+    shift like any other, never a silent way to drop a link).
+    """
     try:
         a = np.asarray(table, dtype=float)
     except (TypeError, ValueError):
@@ -283,12 +287,12 @@ def from_phase_table(table, n_agents: int, k_i: float, schedule: Schedule, where
     for i in range(n_agents):
         for j in range(n_agents):
             if i == j:
-                if np.isfinite(a[i, j]) and a[i, j] >= 0:
+                if not np.isnan(a[i, j]):
                     raise TopologyError(
                         f"{where}[{i + 1}][{j + 1}]: the diagonal must be nan (an agent cannot link to itself)"
                     )
                 continue
-            if np.isfinite(a[i, j]) and a[i, j] >= 0:
+            if np.isfinite(a[i, j]):
                 links.append(Link(i, j, float(k_i), schedule, float(a[i, j])))
             elif np.isinf(a[i, j]):
                 raise TopologyError(f"{where}[{i + 1}][{j + 1}]: phase must be finite (or nan for no link)")

@@ -30,12 +30,19 @@ class LambdifiedSpec:
             symbols, expr = sp.ImmutableMatrix(symbols), sp.ImmutableMatrix(expr)
             self.stages.append((list(symbols), sp.lambdify(args, list(expr), "numpy", cse=True)))
             args = args + list(symbols)
-        self.outputs = [(name, sp.ImmutableMatrix(m).shape, sp.lambdify(args, list(sp.ImmutableMatrix(m)), "numpy", cse=True)) for name, m in spec.outputs]
+        self.outputs = [
+            (name, sp.ImmutableMatrix(m).shape, sp.lambdify(args, list(sp.ImmutableMatrix(m)), "numpy", cse=True))
+            for name, m in spec.outputs
+        ]
 
     def __call__(self, **values) -> dict[str, np.ndarray]:
         vals = []
         for name, shape, entries in self.inputs:
-            a = np.asarray(values[name], dtype=float).reshape(shape) if shape != (1, 1) else np.asarray([[values[name]]], float).reshape(1, 1)
+            a = (
+                np.asarray(values[name], dtype=float).reshape(shape)
+                if shape != (1, 1)
+                else np.asarray([[values[name]]], float).reshape(1, 1)
+            )
             vals += [a[i, j] for i, j, _ in entries]
         for _, fn in self.stages:
             vals += [float(v) for v in fn(*vals)]

@@ -76,7 +76,9 @@ def test_untaken_piecewise_branch_cannot_poison_the_result():
 
 def test_stages_are_translated_once_and_bound_in_order():
     z = sp.Symbol("z", real=True)
-    f = to_casadi_function("g", [("x", sp.Matrix([x]))], [("out", sp.Matrix([z**2 + z]))], stages=[(sp.Matrix([z]), sp.Matrix([x + 1]))])
+    f = to_casadi_function(
+        "g", [("x", sp.Matrix([x]))], [("out", sp.Matrix([z**2 + z]))], stages=[(sp.Matrix([z]), sp.Matrix([x + 1]))]
+    )
     assert float(f(2.0)) == 12.0
 
 

@@ -83,7 +83,11 @@ def test_errata_list_holds_what_was_found():
     assert all(e["checked"] for e in stored.values())
     for key in ("equation", "as_printed", "correct", "residual", "as_printed_latex", "correct_latex"):
         assert all(e[key] for e in stored.values()), key
-    fresh = [e for e in (check() for check in ERRATA_CHECKS) if e.id in ("eq24-norm-bound", "eq28-mu", "eq17-fractional-power")]
+    fresh = [
+        e
+        for e in (check() for check in ERRATA_CHECKS)
+        if e.id in ("eq24-norm-bound", "eq28-mu", "eq17-fractional-power")
+    ]
     assert all(e.checked for e in fresh)
 
 

@@ -27,15 +27,26 @@ J = symmetric_matrix_symbols("J")
         (lambda: skew(sp.zeros(3, 3)), "expected a 3-vector"),
         (lambda: mrp_error(sigma, "abc"), "expected a SymPy matrix"),
         (lambda: euler_rotational_dynamics(sp.Matrix([[1, 2, 0], [0, 1, 0], [0, 0, 1]]), sigma, sigma), "symmetric"),
-        (lambda: euler_rotational_dynamics(sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"q{i}{j}")), sigma, sigma), "symmetric"),
+        (
+            lambda: euler_rotational_dynamics(sp.Matrix(3, 3, lambda i, j: sp.Symbol(f"q{i}{j}")), sigma, sigma),
+            "symmetric",
+        ),
         (lambda: euler_rotational_dynamics(sp.diag(1, -2, 3), sigma, sigma), "positive definite"),
         (lambda: euler_rotational_dynamics(sp.eye(2), sigma, sigma), "3x3"),
         (lambda: lagrange_model(J, sigma, sigma, sigma, sigma, "approximate"), "error model must be one of"),
-        (lambda: lagrange_uncertainty(J, sp.Matrix([[0, 1, 0], [0, 0, 0], [0, 0, 0]]), sigma, sigma, sigma, sigma, sigma, sigma), "symmetric"),
+        (
+            lambda: lagrange_uncertainty(
+                J, sp.Matrix([[0, 1, 0], [0, 0, 0], [0, 0, 0]]), sigma, sigma, sigma, sigma, sigma, sigma
+            ),
+            "symmetric",
+        ),
         (lambda: sliding_variable(sigma, sigma, 1, 1, sp.Rational(1, 2)), "0.5 < alpha < 1"),
         (lambda: sliding_variable(sigma, sigma, 1, 1, 1), "0.5 < alpha < 1"),
         (lambda: sliding_variable(sigma, sigma, -1, 1, sp.Rational(7, 10)), "c1 must be non-negative"),
-        (lambda: sliding_variable(sigma, sigma, 1, 1, sp.Rational(7, 10), fix="smooth"), "singularity fix must be one of"),
+        (
+            lambda: sliding_variable(sigma, sigma, 1, 1, sp.Rational(7, 10), fix="smooth"),
+            "singularity fix must be one of",
+        ),
         (lambda: switching_function(sigma, -1), "boundary layer must be >= 0"),
         (lambda: saturate(sigma, 0), "torque limit must be positive"),
         (lambda: closed_loop_acceleration(sigma, sigma, sigma, 1, 1, sp.Rational(7, 10), [1, 2], sigma), "3-vector"),

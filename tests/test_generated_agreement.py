@@ -8,14 +8,14 @@ mechanics; it shares no code with derive/ or fsmctl/.
 from __future__ import annotations
 
 import numpy as np
+import oracle_numpy as oracle
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from spec_numpy import LambdifiedSpec
 
-import oracle_numpy as oracle
 from derive.functions import function_catalogue
 from fsmctl.generated_code import casadi_function
-from spec_numpy import LambdifiedSpec
 
 SETTINGS = settings(max_examples=200, derandomize=True, deadline=None, database=None)
 SPECS = {s.name: s for s in function_catalogue()}
@@ -74,8 +74,18 @@ def _law_inputs(x, fix=0, boundary_layer=0.0, u_max=np.inf):
     gc = float(casadi_function("sliding_constants")(gains))
     # coordination = k_sum s - received; with k_sum = 0 the coordination vector is -received
     return dict(
-        sigma=x["sigma"], omega=x["omega"], sigma_d=x["sigma_d"], omega_d=x["omega_d"], omega_d_dot=x["omega_d_dot"],
-        gains=gains, gain_constants=gc, J0=x["J0"], delta=x["delta"], k_sum=0.0, received=-x["coordination"], u_max=u_max,
+        sigma=x["sigma"],
+        omega=x["omega"],
+        sigma_d=x["sigma_d"],
+        omega_d=x["omega_d"],
+        omega_d_dot=x["omega_d_dot"],
+        gains=gains,
+        gain_constants=gc,
+        J0=x["J0"],
+        delta=x["delta"],
+        k_sum=0.0,
+        received=-x["coordination"],
+        u_max=u_max,
     )
 
 
@@ -96,7 +106,19 @@ def test_control_law_three_ways(model, x, lambdified):
     compiled = casadi_function(f"control_law_{model}").call(inputs)
     compiled = {k: np.asarray(v).ravel() for k, v in compiled.items()}
     sym = {k: v.ravel() for k, v in lambdified(f"control_law_{model}")(**inputs).items()}
-    args = (x["J0"], x["sigma"], x["omega"], x["sigma_d"], x["omega_d"], x["omega_d_dot"], x["c1"], x["c2"], x["alpha"], x["delta"], x["coordination"])
+    args = (
+        x["J0"],
+        x["sigma"],
+        x["omega"],
+        x["sigma_d"],
+        x["omega_d"],
+        x["omega_d_dot"],
+        x["c1"],
+        x["c2"],
+        x["alpha"],
+        x["delta"],
+        x["coordination"],
+    )
     inverted = oracle.control_by_dynamic_inversion(*args, error_model=model)
     scale = 1.0 + np.abs(inverted).max()
     for key in ("u", "u_unsaturated", "s", "sigma_e", "u_F", "u_D", "u_C"):
@@ -114,7 +136,19 @@ def test_printed_C_would_give_a_different_torque(x):
     """The oracle's printed-C law differs from fsmctl's exactly by (J0 omega_d) x omega_e (erratum eq9-C)."""
     assume(_well_conditioned(x, "paper"))
     assume(np.linalg.norm(np.cross(x["J0"] @ x["omega_d"], x["omega"] - x["omega_d"])) > 1e-3)
-    args = (x["J0"], x["sigma"], x["omega"], x["sigma_d"], x["omega_d"], x["omega_d_dot"], x["c1"], x["c2"], x["alpha"], x["delta"], x["coordination"])
+    args = (
+        x["J0"],
+        x["sigma"],
+        x["omega"],
+        x["sigma_d"],
+        x["omega_d"],
+        x["omega_d_dot"],
+        x["c1"],
+        x["c2"],
+        x["alpha"],
+        x["delta"],
+        x["coordination"],
+    )
     printed = oracle.control_law_eqs_16_19(*args, variant="printed")["u"]
     mine = np.asarray(casadi_function("control_law_paper").call(_law_inputs(x))["u_unsaturated"]).ravel()
     gap = np.cross(x["J0"] @ x["omega_d"], x["omega"] - x["omega_d"])
@@ -128,7 +162,7 @@ def test_plant_three_ways(x, tau, lambdified):
     compiled = [np.asarray(v).ravel() for v in casadi_function("plant_rhs")(x["sigma"], x["omega"], tau, J)]
     sym = lambdified("plant_rhs")(sigma=x["sigma"], omega=x["omega"], tau=tau, J=J)
     ref = oracle.plant_rhs(x["sigma"], x["omega"], tau, J)
-    for mine, s, o in zip(compiled, (sym["sigma_dot"], sym["omega_dot"]), ref):
+    for mine, s, o in zip(compiled, (sym["sigma_dot"], sym["omega_dot"]), ref, strict=False):
         np.testing.assert_allclose(mine, s.ravel(), rtol=1e-10, atol=1e-13)
         np.testing.assert_allclose(mine, o, rtol=1e-9, atol=1e-12)
 
@@ -137,7 +171,9 @@ def test_plant_three_ways(x, tau, lambdified):
 @given(x=states())
 def test_mrp_error_and_angle_three_ways(x, lambdified):
     se = np.asarray(casadi_function("mrp_error")(x["sigma"], x["sigma_d"])).ravel()
-    np.testing.assert_allclose(se, lambdified("mrp_error")(sigma=x["sigma"], sigma_d=x["sigma_d"])["sigma_e"].ravel(), atol=1e-12)
+    np.testing.assert_allclose(
+        se, lambdified("mrp_error")(sigma=x["sigma"], sigma_d=x["sigma_d"])["sigma_e"].ravel(), atol=1e-12
+    )
     ref = oracle.mrp_error(x["sigma"], x["sigma_d"])
     # both live on |sigma_e| <= 1; at exactly 180 deg the two members coincide in norm: compare attitudes
     np.testing.assert_allclose(oracle.mrp_to_dcm(se), oracle.mrp_to_dcm(ref), atol=1e-10)
@@ -169,8 +205,13 @@ def test_closed_loop_eq20_three_ways(x, sigma_e_dot, lambdified):
     s = oracle.sliding_variable(se, sigma_e_dot, x["c1"], x["c2"], x["alpha"])
     assume(np.min(np.abs(s)) > 1e-9)
     gains = np.array([x["c1"], x["c2"], x["alpha"], 0.0, 1e-4, 0])
-    out = [np.asarray(v).ravel() for v in casadi_function("closed_loop")(se, sigma_e_dot, gains, x["delta"], x["coordination"])]
-    sym = lambdified("closed_loop")(sigma_e=se, sigma_e_dot=sigma_e_dot, gains=gains, delta=x["delta"], coordination=x["coordination"])
+    out = [
+        np.asarray(v).ravel()
+        for v in casadi_function("closed_loop")(se, sigma_e_dot, gains, x["delta"], x["coordination"])
+    ]
+    sym = lambdified("closed_loop")(
+        sigma_e=se, sigma_e_dot=sigma_e_dot, gains=gains, delta=x["delta"], coordination=x["coordination"]
+    )
     ref = oracle.closed_loop_eq20(se, sigma_e_dot, x["c1"], x["c2"], x["alpha"], x["delta"], x["coordination"])
     np.testing.assert_allclose(out[0], ref, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(out[0], sym["sigma_e_ddot"].ravel(), rtol=1e-10, atol=1e-12)

@@ -101,4 +101,6 @@ def test_closed_form_G_inverse():
     rng = np.random.default_rng(2)
     for _ in range(100):
         x = rng.uniform(-2, 2, 3)
-        np.testing.assert_allclose(np.asarray(Gi(x), float), np.linalg.inv(np.asarray(G(x), float)), rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(
+            np.asarray(Gi(x), float), np.linalg.inv(np.asarray(G(x), float)), rtol=1e-12, atol=1e-12
+        )

@@ -93,8 +93,9 @@ def test_default_region_needs_far_more_than_the_configured_delta(case1):
 
 def test_exact_error_model_needs_less_off_the_reference(case1):
     paper = delta_requirements(case1, Region(0.05, 0.05), n_random=0, search_scale=False)
-    exact = delta_requirements(case1.replace(controller={"error_model": "exact"}), Region(0.05, 0.05), n_random=0,
-                               search_scale=False)
+    exact = delta_requirements(
+        case1.replace(controller={"error_model": "exact"}), Region(0.05, 0.05), n_random=0, search_scale=False
+    )
     assert max(exact.agents[0].region) < max(paper.agents[0].region)
 
 
@@ -107,8 +108,10 @@ def test_unfixed_singularity_gives_an_unbounded_requirement(case1):
 
 def test_non_proportional_uncertainty_uses_the_general_bound():
     sc = load_scenario(DATA / "prove_small.toml", case="strong")
-    agents = [a.__class__(**{**a.__dict__, "delta_J": ((20.0, 0.0, 0.0), (0.0, -10.0, 0.0), (0.0, 0.0, 5.0))})
-              for a in sc.agents]
+    agents = [
+        a.__class__(**{**a.__dict__, "delta_J": ((20.0, 0.0, 0.0), (0.0, -10.0, 0.0), (0.0, 0.0, 5.0))})
+        for a in sc.agents
+    ]
     sc = sc.with_agents(agents)
     res = delta_requirements(sc, Region(0.01, 0.01), n_random=0, search_scale=False)
     assert all(a.kappa is None for a in res.agents)

@@ -183,8 +183,14 @@ def _lemma1(ctx: ProofContext) -> _Outcome:
     printed = om0 ** (1 - eps) / (k - k * eps)
     s6 = _zero(printed.subs(k, lam) - T_formula)
     steps = [
-        (s1, "y = Omega^(1-eps): y_dot = -lambda (1-eps) - (1-eps) Omega^(-eps) r, with Omega_dot = -lambda Omega^eps - r"),
-        (s2, "the slack term -(1-eps) Omega^(-eps) r is <= 0 (eps < 1, r >= 0): y_dot <= -lambda (1-eps) while Omega > 0"),
+        (
+            s1,
+            "y = Omega^(1-eps): y_dot = -lambda (1-eps) - (1-eps) Omega^(-eps) r, with Omega_dot = -lambda Omega^eps - r",
+        ),
+        (
+            s2,
+            "the slack term -(1-eps) Omega^(-eps) r is <= 0 (eps < 1, r >= 0): y_dot <= -lambda (1-eps) while Omega > 0",
+        ),
         (s3, "comparison: y(t) <= y(0) - lambda (1-eps) t (integral of the bound)"),
         (s4, "y(0) - lambda (1-eps) T = 0 gives T = Omega(0)^(1-eps) / (lambda (1-eps)); Omega stays 0 afterwards"),
         (s5, "the bound is attained: Omega = (Omega(0)^(1-eps) - lambda (1-eps) t)^(1/(1-eps)) solves the equality"),
@@ -245,14 +251,23 @@ def _reaching_law(ctx: ProofContext) -> _Outcome:
     s8 = sp.simplify(half - 1 + (1 - alpha) / 2) == 0
     steps = [
         (s1, "sigma^T sig(sigma)^alpha = sum_k |sigma_k|^(1+alpha) (both sign branches)"),
-        (s2, "on s = 0 (eq 14): V_dot = sigma^T sigma_dot = -c1 ||sigma||^2 - c2 sum_k |sigma_k|^(1+alpha) <= -c2 sum_k |sigma_k|^(1+alpha)"),
+        (
+            s2,
+            "on s = 0 (eq 14): V_dot = sigma^T sigma_dot = -c1 ||sigma||^2 - c2 sum_k |sigma_k|^(1+alpha) <= -c2 sum_k |sigma_k|^(1+alpha)",
+        ),
         (s3, "|x_k|^(1+alpha) = ||x||^(1+alpha) y_k^((1+alpha)/2) with y_k = x_k^2/||x||^2"),
         (s5, "sum_k y_k = 1, so each y_k is in [0, 1]"),
         (s4, "for y = e^(-t) in (0, 1] and (1+alpha)/2 <= 1: y^((1+alpha)/2) = y e^(t(1-alpha)/2) >= y"),
         (True, "hence sum_k |x_k|^(1+alpha) >= ||x||^(1+alpha) sum_k y_k = ||x||^(1+alpha) (needs 1 + alpha <= 2)"),
         (s6, "the exponent bound matters: for 1 + alpha = 3 and x = (1, 1, 0), sum |x_k|^3 = 2 < ||x||^3 = 2.83"),
-        (s7, "||sigma||^(1+alpha) = (2V)^((1+alpha)/2) = 2^((1+alpha)/2) V^((1+alpha)/2): the constant 2^((alpha+1)/2) c2 is right"),
-        (s8, "Lemma 1 applies with eps = (1+alpha)/2 in (3/4, 1): T <= V(0)^((1-alpha)/2) / (2^((alpha+1)/2) c2 (1-alpha)/2)"),
+        (
+            s7,
+            "||sigma||^(1+alpha) = (2V)^((1+alpha)/2) = 2^((1+alpha)/2) V^((1+alpha)/2): the constant 2^((alpha+1)/2) c2 is right",
+        ),
+        (
+            s8,
+            "Lemma 1 applies with eps = (1+alpha)/2 in (3/4, 1): T <= V(0)^((1-alpha)/2) / (2^((alpha+1)/2) c2 (1-alpha)/2)",
+        ),
     ]
     return _steps_outcome(
         steps,
@@ -314,7 +329,14 @@ def _vdot_i(ctx: ProofContext) -> _Outcome:
 
     sym = model_symbols()
     sd = closed_loop_acceleration(
-        sym.sigma_e, sym.sigma_e_dot, sym.s, sym.c1, sym.c2, sym.alpha, sym.delta, sym.coordination,
+        sym.sigma_e,
+        sym.sigma_e_dot,
+        sym.s,
+        sym.c1,
+        sym.c2,
+        sym.alpha,
+        sym.delta,
+        sym.coordination,
         fix=SingularityFix.NONE,
     )
     zero = sp.zeros(3, 1)
@@ -332,11 +354,17 @@ def _vdot_i(ctx: ProofContext) -> _Outcome:
     s5 = sp.expand(sum(ab) ** 2 - sum(v_**2 for v_ in ab) - 2 * (ab[0] * ab[1] + ab[0] * ab[2] + ab[1] * ab[2])) == 0
     r = verify_sigpow_derivative()
     own = [
-        (r.holds, "eq 23: V_i_dot = s_i^T s_i_dot with s_i_dot = sigma_ddot + c1 sigma_dot + c2 alpha|sigma|^(alpha-1) o sigma_dot"),
+        (
+            r.holds,
+            "eq 23: V_i_dot = s_i^T s_i_dot with s_i_dot = sigma_ddot + c1 sigma_dot + c2 alpha|sigma|^(alpha-1) o sigma_dot",
+        ),
         (s2, "substituting eq 20: s_i_dot = -delta_i o sgn(s_i) - sum_j (k^i_ij s_i - k^j_ij s_j) (identity)"),
         (s3, "-s_i^T (delta_i o sgn(s_i)) = -sum_k (delta_i)_k |(s_i)_k|: an equality (printed as '<=')"),
-        (s4 and s5, "corrected next step: sum_k delta_k |s_k| >= min_k delta_k ||s||_1 >= min_k delta_k ||s||_2 "
-                    "((sum|s_k|)^2 = ||s||^2 + 2 sum_{k<l} |s_k||s_l|)"),
+        (
+            s4 and s5,
+            "corrected next step: sum_k delta_k |s_k| >= min_k delta_k ||s||_1 >= min_k delta_k ||s||_2 "
+            "((sum|s_k|)^2 = ||s||^2 + 2 sum_{k<l} |s_k||s_l|)",
+        ),
     ]
     extra = [
         "[refuted] printed next step -sum_k (delta_i)_k |(s_i)_k| <= -||delta_i|| ||s_i|| (counterexample above)",
@@ -368,10 +396,16 @@ def _zero_sum(ctx: ProofContext) -> _Outcome:
     balanced = all(sum(cyc[i, :]) == sum(cyc[:, i]) for i in range(3))
     not_sym = cyc != cyc.T
     steps = [
-        (ok_plain, "sum_i sum_j (a_i - a_j) = 0 (eq 26, a_i = s_i^T s_i; checked for n = 2..6, general by swapping i, j)"),
+        (
+            ok_plain,
+            "sum_i sum_j (a_i - a_j) = 0 (eq 26, a_i = s_i^T s_i; checked for n = 2..6, general by swapping i, j)",
+        ),
         (ok_eta, "sum_i sum_j eta_ij (a_i - a_j) = sum_i a_i r_i with r_i = sum_j eta_ij - sum_j eta_ji"),
-        (True, "a linear form in a vanishes for all a iff its coefficients do: the term is zero for every s iff "
-               "sum_j eta_ij = sum_j eta_ji for every i ('balanced')"),
+        (
+            True,
+            "a linear form in a vanishes for all a iff its coefficients do: the term is zero for every s iff "
+            "sum_j eta_ij = sum_j eta_ji for every i ('balanced')",
+        ),
         (ok_sym, "eta_ij = eta_ji (the paper's requirement) implies balanced"),
         (balanced and not_sym, "balanced does not imply symmetric: eta_12 = eta_23 = eta_31 = 1 (a directed cycle)"),
         (True, "the identity holds at each instant, so eta may vary with t (V_dot is not differentiated again)"),
@@ -394,8 +428,11 @@ def _complete_square(ctx: ProofContext) -> _Outcome:
     gamma = eta - kj**2 / (4 * r**2)
     s1 = sp.expand(lhs - (kappa.T * kappa)[0, 0] - gamma * (sj.T * sj)[0, 0]) == 0
     steps = [
-        (s1, "s_i^T(k^i s_i - k^j s_j) - eta (s_i^T s_i - s_j^T s_j) = kappa^T kappa + gamma s_j^T s_j with "
-             "kappa = sqrt(k^i - eta) s_i - k^j/(2 sqrt(k^i - eta)) s_j, gamma = eta - (k^j)^2/(4(k^i - eta))"),
+        (
+            s1,
+            "s_i^T(k^i s_i - k^j s_j) - eta (s_i^T s_i - s_j^T s_j) = kappa^T kappa + gamma s_j^T s_j with "
+            "kappa = sqrt(k^i - eta) s_i - k^j/(2 sqrt(k^i - eta)) s_j, gamma = eta - (k^j)^2/(4(k^i - eta))",
+        ),
         (True, "summing over i, j and adding the zero term of eq 26 gives eq 27 exactly as printed"),
     ]
     return _steps_outcome(
@@ -418,10 +455,16 @@ def _gamma_condition(ctx: ProofContext) -> _Outcome:
     roots = sp.solve(sp.Eq(4 * eta * (ki - eta), kj**2), eta)
     s2 = len(roots) == 2 and _zero(sp.Add(*roots) - ki) and _zero(sp.Mul(*roots) - kj**2 / 4)
     own = [
-        (s1, "for k^i > eta: 4 (k^i - eta) gamma = 4 eta (k^i - eta) - (k^j)^2, so gamma >= 0 <=> 4 eta (k^i - eta) >= "
-             "(k^j)^2 (Theorem 1's condition, as printed)"),
-        (s2, "eta-interval: the roots of 4 eta (k^i - eta) = (k^j)^2 are (k^i -+ sqrt((k^i)^2 - (k^j)^2))/2, real iff "
-             "k^i >= k^j"),
+        (
+            s1,
+            "for k^i > eta: 4 (k^i - eta) gamma = 4 eta (k^i - eta) - (k^j)^2, so gamma >= 0 <=> 4 eta (k^i - eta) >= "
+            "(k^j)^2 (Theorem 1's condition, as printed)",
+        ),
+        (
+            s2,
+            "eta-interval: the roots of 4 eta (k^i - eta) = (k^j)^2 are (k^i -+ sqrt((k^i)^2 - (k^j)^2))/2, real iff "
+            "k^i >= k^j",
+        ),
     ]
     return _erratum(erratum_theorem1_eta_strict, own)
 
@@ -433,12 +476,17 @@ def _vdot_mu(ctx: ProofContext) -> _Outcome:
     V = sp.Symbol("V", positive=True)
     n = sp.Symbol("n", positive=True)
     s1 = _zero(sp.sqrt(2 * (n**2 / 2)) - n)
-    s2 = _zero(2 * sp.sqrt(V) / sp.Symbol("mu", positive=True) - V ** sp.Rational(1, 2) / (
-        sp.Symbol("mu", positive=True) * sp.Rational(1, 2)))
+    s2 = _zero(
+        2 * sp.sqrt(V) / sp.Symbol("mu", positive=True)
+        - V ** sp.Rational(1, 2) / (sp.Symbol("mu", positive=True) * sp.Rational(1, 2))
+    )
     own = [
         (s1, "||s_i|| = sqrt(2 V_i)"),
-        (True, "V_dot <= -sum_i m_i ||s_i|| <= -min_i m_i sum_i sqrt(2 V_i) <= -sqrt(2) min_i m_i V^(1/2) (Lemma 2), "
-               "m_i = min_k (delta_i)_k"),
+        (
+            True,
+            "V_dot <= -sum_i m_i ||s_i|| <= -min_i m_i sum_i sqrt(2 V_i) <= -sqrt(2) min_i m_i V^(1/2) (Lemma 2), "
+            "m_i = min_k (delta_i)_k",
+        ),
         (s2, "Lemma 1 with eps = 1/2: s = 0 is reached within T_r <= 2 V(0)^(1/2) / mu"),
     ]
     extra = []
@@ -494,8 +542,15 @@ def _theorem1_gains(ctx: ProofContext) -> _Outcome:
     for p in an.pairs:
         if p.interval is None:
             continue
-        key = (p.k_i_ij, p.k_i_ji, p.k_j_max_ij, p.k_j_max_ji, round(p.interval[0], 12), round(p.interval[1], 12),
-               p.eta)
+        key = (
+            p.k_i_ij,
+            p.k_i_ji,
+            p.k_j_max_ij,
+            p.k_j_max_ji,
+            round(p.interval[0], 12),
+            round(p.interval[1], 12),
+            p.eta,
+        )
         groups.setdefault(key, []).append(p.label)
     for (a, b, A, B, lo, hi, eta), labels in groups.items():
         shown = ", ".join(labels[:30]) + (f", ... ({len(labels)} pairs)" if len(labels) > 30 else "")
@@ -529,16 +584,24 @@ def _theorem1_gains(ctx: ProofContext) -> _Outcome:
         f"{an.lambda_min:.6g} at t = {an.lambda_min_time:g} s ({'holds' if an.exact_holds else 'FAILS'})"
     )
     if not an.holds and an.exact_holds:
-        lines.append("note: Theorem 1's eta conditions fail but the exact condition holds: the coordination term "
-                     "is still dissipative and the convergence proof goes through without eta")
+        lines.append(
+            "note: Theorem 1's eta conditions fail but the exact condition holds: the coordination term "
+            "is still dissipative and the convergence proof goes through without eta"
+        )
     data = {
         "window": an.window,
         "configurations": len(an.configurations),
         "pairs": [
-            {"pair": [p.i + 1, p.j + 1], "k_i": [p.k_i_ij, p.k_i_ji], "k_j_max": [p.k_j_max_ij, p.k_j_max_ji],
-             "eta_interval": list(p.interval) if p.interval else None,
-             "eta": float(p.eta) if p.eta is not None else None, "reason": p.reason, "fixes": list(p.fixes),
-             "when": p.when}
+            {
+                "pair": [p.i + 1, p.j + 1],
+                "k_i": [p.k_i_ij, p.k_i_ji],
+                "k_j_max": [p.k_j_max_ij, p.k_j_max_ji],
+                "eta_interval": list(p.interval) if p.interval else None,
+                "eta": float(p.eta) if p.eta is not None else None,
+                "reason": p.reason,
+                "fixes": list(p.fixes),
+                "when": p.when,
+            }
             for p in an.pairs
         ],
         "symmetric_constant": an.symmetric_constant,
@@ -602,8 +665,9 @@ def t2_symbolic_steps() -> list[tuple[bool, str]]:
     dJ = symmetric_matrix_symbols("dJ")
     # (a) Delta_d depends on sigma_e_ddot: d Delta_d / d sigma_e_ddot = -Delta_J G^-1 (at a sample attitude)
     sig = sp.Matrix([sp.Rational(1, 10), -sp.Rational(1, 5), sp.Rational(1, 10)])
-    dd = lagrange_uncertainty(J0, dJ, sig, sym.sigma_e_dot, sym.sigma_e_ddot, sym.omega_d, sym.omega_d_dot,
-                              vector_symbols("u_d"))
+    dd = lagrange_uncertainty(
+        J0, dJ, sig, sym.sigma_e_dot, sym.sigma_e_ddot, sym.omega_d, sym.omega_d_dot, vector_symbols("u_d")
+    )
     jac = dd.jacobian(sym.sigma_e_ddot)
     a_ok = _expand_zero(jac + dJ * mrp_G_inverse(sig))
     # (b) at sigma_e = 0 and Delta_J = kappa J0: M0^-1 G^-T (-Delta_J G^-1) = -kappa I, i.e. M0 (-kappa I) = G^-T (-kappa J0) G^-1
@@ -617,14 +681,28 @@ def t2_symbolic_steps() -> list[tuple[bool, str]]:
     wr, wr_dot, ud = vector_symbols("omega_r"), vector_symbols("omega_r_dot"), vector_symbols("u_d")
     J = J0 + dJ
     pieces = computed_torque_pieces(
-        J0, se, we, wr, wr_dot, sym.s, sym.c1, sym.c2, sym.alpha, sym.delta, sym.coordination,
-        fix=SingularityFix.NONE, G_inverse=Gi,
+        J0,
+        se,
+        we,
+        wr,
+        wr_dot,
+        sym.s,
+        sym.c1,
+        sym.c2,
+        sym.alpha,
+        sym.delta,
+        sym.coordination,
+        fix=SingularityFix.NONE,
+        G_inverse=Gi,
     )
     sed = mrp_G(se) * we
     v = sp.matrix_multiply_elementwise(sym.delta, switching_function(sym.s)) + sym.coordination
-    rate = -closed_loop_acceleration(
-        se, sed, sym.s, sym.c1, sym.c2, sym.alpha, sym.delta, sym.coordination, fix=SingularityFix.NONE
-    ) - v
+    rate = (
+        -closed_loop_acceleration(
+            se, sed, sym.s, sym.c1, sym.c2, sym.alpha, sym.delta, sym.coordination, fix=SingularityFix.NONE
+        )
+        - v
+    )
     a_eq = -(mrp_G_dot(se, sed) * we + rate)
     w = we + wr
     lhs = -skew(w) * J * w + pieces.u + ud - J * wr_dot  # = J (omega_dot - omega_r_dot) by Euler's equation (4)
@@ -642,23 +720,41 @@ def t2_symbolic_steps() -> list[tuple[bool, str]]:
     bound = surface_term_slope(sp.Integer(0), alpha, SingularityFix.SWITCH, eps)
     g_ok = _zero(bound - (2 - alpha) * eps ** (alpha - 1))
     return [
-        (a_ok, "exact Delta_d (derive.model.lagrange_uncertainty): d Delta_d / d sigma_e_ddot = -Delta_J G^-1 != 0, "
-               "so Delta_d depends on sigma_e_ddot, i.e. on the control"),
-        (b_ok, "at sigma_e = 0, Delta_J = kappa J0: M0^-1 G^-T Delta_d contains -kappa sigma_e_ddot; by eq 30 "
-               "sigma_e_ddot contains -delta_i o sgn(s_i) and the neighbours' s_j: the printed condition "
-               "delta_i > |M0^-1 G^-T Delta_d_i| has delta_i and s_j on both sides (circular)"),
-        (c_ok, "true inertia J = J0 + Delta_J, law built on J0 (eqs 16-19): J (omega_e_dot) = w + J0 G^-1 (a_eq - v), "
-               "w = u_d - omega^x Delta_J omega - Delta_J omega_r_dot, a_eq = -(G_dot omega_e + c1 sigma_e_dot + "
-               "c2 alpha|sigma_e|^(alpha-1) o sigma_e_dot), v = delta o sgn(s) + coordination; hence "
-               "s_dot = -P v + P w0 + (P - I) a_eq with P = G J^-1 J0 G^-1, w0 = G J0^-1 w"),
+        (
+            a_ok,
+            "exact Delta_d (derive.model.lagrange_uncertainty): d Delta_d / d sigma_e_ddot = -Delta_J G^-1 != 0, "
+            "so Delta_d depends on sigma_e_ddot, i.e. on the control",
+        ),
+        (
+            b_ok,
+            "at sigma_e = 0, Delta_J = kappa J0: M0^-1 G^-T Delta_d contains -kappa sigma_e_ddot; by eq 30 "
+            "sigma_e_ddot contains -delta_i o sgn(s_i) and the neighbours' s_j: the printed condition "
+            "delta_i > |M0^-1 G^-T Delta_d_i| has delta_i and s_j on both sides (circular)",
+        ),
+        (
+            c_ok,
+            "true inertia J = J0 + Delta_J, law built on J0 (eqs 16-19): J (omega_e_dot) = w + J0 G^-1 (a_eq - v), "
+            "w = u_d - omega^x Delta_J omega - Delta_J omega_r_dot, a_eq = -(G_dot omega_e + c1 sigma_e_dot + "
+            "c2 alpha|sigma_e|^(alpha-1) o sigma_e_dot), v = delta o sgn(s) + coordination; hence "
+            "s_dot = -P v + P w0 + (P - I) a_eq with P = G J^-1 J0 G^-1, w0 = G J0^-1 w",
+        ),
         (d_ok, "Delta_J = kappa J0 (the paper's 0.3 J0): J^-1 J0 = I/(1+kappa), so P = I/(1+kappa) (a scalar)"),
-        (e_ok, "then (1+kappa) s_dot = -(delta o sgn(s) + coordination) + w0 - kappa a_eq: sufficient condition "
-               "(delta_i)_k > sup |w0_i - kappa_i a_eq,i|_k (the coordination term keeps the factor 1/(1+kappa) and "
-               "stays dissipative under Theorem 1), mu = sqrt(2) min_i min_k (delta_i - sup|w0_i - kappa a_eq,i|)_k/(1+kappa_i)"),
-        (f_ok, "a_eq contains c2 alpha |sigma_e,k|^(alpha-1) sigma_e_dot,k -> infinity as sigma_e,k -> 0 with "
-               "sigma_e_dot,k != 0: no finite delta satisfies the condition near sigma_e,k = 0 off the surface"),
-        (g_ok, "with the Remark 6 'switch' fix the slope is bounded by (2 - alpha) epsilon^(alpha-1) (its value at 0), "
-               "so the requirement is finite (see theorem2-delta for the numbers)"),
+        (
+            e_ok,
+            "then (1+kappa) s_dot = -(delta o sgn(s) + coordination) + w0 - kappa a_eq: sufficient condition "
+            "(delta_i)_k > sup |w0_i - kappa_i a_eq,i|_k (the coordination term keeps the factor 1/(1+kappa) and "
+            "stays dissipative under Theorem 1), mu = sqrt(2) min_i min_k (delta_i - sup|w0_i - kappa a_eq,i|)_k/(1+kappa_i)",
+        ),
+        (
+            f_ok,
+            "a_eq contains c2 alpha |sigma_e,k|^(alpha-1) sigma_e_dot,k -> infinity as sigma_e,k -> 0 with "
+            "sigma_e_dot,k != 0: no finite delta satisfies the condition near sigma_e,k = 0 off the surface",
+        ),
+        (
+            g_ok,
+            "with the Remark 6 'switch' fix the slope is bounded by (2 - alpha) epsilon^(alpha-1) (its value at 0), "
+            "so the requirement is finite (see theorem2-delta for the numbers)",
+        ),
     ]
 
 
@@ -709,7 +805,8 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
             + (
                 "; with error_model = paper the rotation G(sigma_e)(R(sigma_e) - I) omega_d that eqs 7-8 drop enters "
                 "s_dot through the same slope"
-                if c.error_model == "paper" else ""
+                if c.error_model == "paper"
+                else ""
             )
         )
     else:
@@ -724,17 +821,25 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
             f"(|sigma_e,k| <= {f * ctx.region.sigma:.3g}, |omega_e,k| <= {f * ctx.region.omega:.3g} rad/s; bisection on "
             "the grid)"
         )
-    lines.append("this is a sampled supremum (a lower estimate of the true one), not a proof; the guarantee also "
-                 "needs the trajectory to stay in the region, which is not checked")
+    lines.append(
+        "this is a sampled supremum (a lower estimate of the true one), not a proof; the guarantee also "
+        "needs the trajectory to stay in the region, which is not checked"
+    )
     data = {
         "region": {"sigma": ctx.region.sigma, "omega": ctx.region.omega},
         "samples_per_agent": res.samples,
         "trajectory_times": res.trajectory_samples,
         "largest_scale": res.largest_scale,
         "agents": [
-            {"agent": a.agent, "configured": list(a.configured), "region": _finite(a.region),
-             "reference_trajectory": list(a.reference_trajectory), "reference_bound": _finite(a.reference_bound),
-             "kappa": a.kappa, "ok": a.ok}
+            {
+                "agent": a.agent,
+                "configured": list(a.configured),
+                "region": _finite(a.region),
+                "reference_trajectory": list(a.reference_trajectory),
+                "reference_bound": _finite(a.reference_bound),
+                "kappa": a.kappa,
+                "ok": a.ok,
+            }
             for a in res.agents
         ],
     }
@@ -755,14 +860,9 @@ def _finite(v) -> list:
 
 
 def _fsm_closed_forms():
-    t = sp.Symbol("t", nonnegative=True)
-    c1, c2, tau, x0 = sp.symbols("c1 c2 tau x0", positive=True)
-    q = sp.Symbol("q", positive=True)  # q = 1 - alpha in (0, 1/2)
-    alpha = 1 - q
-    T34 = 1 / (c1 * (1 - alpha)) * sp.log((c1 * x0 ** (1 - alpha) + c2) / (c1 * tau ** (1 - alpha) + c2))
-    T35 = (x0 ** (1 - alpha) - tau ** (1 - alpha)) / (c2 * (1 - alpha))
-    T36 = sp.log(x0 / tau) / c1
-    return t, c1, c2, tau, x0, q, alpha, T34, T35, T36
+    from derive.theorem3 import settling_time_closed_forms
+
+    return tuple(settling_time_closed_forms())
 
 
 def _theorem3_closed_forms(ctx: ProofContext) -> _Outcome:
@@ -786,12 +886,21 @@ def _theorem3_closed_forms(ctx: ProofContext) -> _Outcome:
     Tl = sp.solve(sp.Eq(sol_l.rhs, tau), t)
     lsm_ok = len(Tl) == 1 and _zero(sp.expand_log(Tl[0] - T36, force=True))
     steps = [
-        (sub_ok, "FSM, x > 0 (x < 0 by symmetry): y = x^(1-alpha) turns x_dot = -c1 x - c2 x^alpha into "
-                 "y_dot = -(1-alpha)(c1 y + c2)"),
-        (fsm_ok, "dsolve + solve y(T) = tau^(1-alpha): T_fsm = ln((c1|x0|^(1-alpha) + c2)/(c1 tau^(1-alpha) + c2)) / "
-                 "(c1 (1-alpha)) = eq 34"),
-        (integral_ok, "cross-check: dT_fsm/dx0 = 1/(c1 x0 + c2 x0^alpha) and T_fsm(tau) = 0, i.e. "
-                      "T_fsm = integral_tau^x0 dx/(c1 x + c2 x^alpha)"),
+        (
+            sub_ok,
+            "FSM, x > 0 (x < 0 by symmetry): y = x^(1-alpha) turns x_dot = -c1 x - c2 x^alpha into "
+            "y_dot = -(1-alpha)(c1 y + c2)",
+        ),
+        (
+            fsm_ok,
+            "dsolve + solve y(T) = tau^(1-alpha): T_fsm = ln((c1|x0|^(1-alpha) + c2)/(c1 tau^(1-alpha) + c2)) / "
+            "(c1 (1-alpha)) = eq 34",
+        ),
+        (
+            integral_ok,
+            "cross-check: dT_fsm/dx0 = 1/(c1 x0 + c2 x0^alpha) and T_fsm(tau) = 0, i.e. "
+            "T_fsm = integral_tau^x0 dx/(c1 x + c2 x^alpha)",
+        ),
         (tsm_ok, "TSM (c1 = 0): T_tsm = (|x0|^(1-alpha) - tau^(1-alpha)) / (c2 (1-alpha)) = eq 35"),
         (lsm_ok, "LSM (c2 = 0): x = x0 e^(-c1 t), T_lsm = ln(|x0|/tau)/c1 = eq 36"),
     ]
@@ -813,9 +922,15 @@ def _theorem3_lsm(ctx: ProofContext) -> _Outcome:
     steps = [
         (True, "x0 > tau > 0 and 1 - alpha > 0 give a = x0^(1-alpha) > b = tau^(1-alpha) > 0"),
         (s1, "(c1 a + c2) - (c1 b + c2) = c1 (a - b) > 0: the ratio of eq 37 exceeds 1"),
-        (s2, "a (c1 b + c2) - b (c1 a + c2) = c2 (a - b) > 0: (c1 a + c2)/(c1 b + c2) < a/b = (x0/tau)^(1-alpha) (eq 37)"),
-        (s3, "ln is increasing and c1 (1-alpha) > 0: T_fsm < ln((x0/tau)^(1-alpha))/(c1 (1-alpha)) = ln(x0/tau)/c1 = T_lsm "
-             "(eq 38)"),
+        (
+            s2,
+            "a (c1 b + c2) - b (c1 a + c2) = c2 (a - b) > 0: (c1 a + c2)/(c1 b + c2) < a/b = (x0/tau)^(1-alpha) (eq 37)",
+        ),
+        (
+            s3,
+            "ln is increasing and c1 (1-alpha) > 0: T_fsm < ln((x0/tau)^(1-alpha))/(c1 (1-alpha)) = ln(x0/tau)/c1 = T_lsm "
+            "(eq 38)",
+        ),
     ]
     return _steps_outcome(steps, r"|x_0| > \tau > 0 \implies T_{fsm} < T_{lsm}")
 
@@ -857,7 +972,9 @@ def _remark4(ctx: ProofContext) -> _Outcome:
             f"{'works' if ok else 'does not work'} (directed, time-varying k^j included)"
         )
     else:
-        extra.append(f"scenario {ctx.scenario.label}: k^i is not symmetric; Remark 4 does not apply (see theorem1-gains)")
+        extra.append(
+            f"scenario {ctx.scenario.label}: k^i is not symmetric; Remark 4 does not apply (see theorem1-gains)"
+        )
     out = _erratum(erratum_remark4_looser, [(True, "Remark 4's sufficiency (eta = k^i/2, k^i >= k^j) holds")], extra)
     return out
 
@@ -884,13 +1001,19 @@ def _remark6(ctx: ProofContext) -> _Outcome:
     v = sp.Symbol("v", positive=True)
     s5 = sp.limit(c2 * alpha * p ** (-q) * v, p, 0, "+") is sp.oo
     steps = [
-        (s1, "on s = 0, sigma_dot = -c1 sigma - c2 sig(sigma)^alpha gives c2 alpha |sigma|^(alpha-1) sigma_dot = "
-             "-c1 c2 alpha sig(sigma)^alpha - c2^2 alpha sig(sigma)^(2 alpha - 1) (both sign branches)"),
+        (
+            s1,
+            "on s = 0, sigma_dot = -c1 sigma - c2 sig(sigma)^alpha gives c2 alpha |sigma|^(alpha-1) sigma_dot = "
+            "-c1 c2 alpha sig(sigma)^alpha - c2^2 alpha sig(sigma)^(2 alpha - 1) (both sign branches)",
+        ),
         (s2, "alpha in (1/2, 1): 2 alpha - 1 > 0, the term -> 0 as sigma -> 0: no singularity on the surface"),
         (s3, "alpha = 1/2: the term -> -c2^2/2 sgn(sigma) (a jump of c2^2 across sigma = 0)"),
         (s4, "alpha < 1/2: sig(sigma)^(2 alpha - 1) blows up as sigma -> 0"),
-        (s5, "off the surface (sigma_dot != 0 at sigma = 0) alpha |sigma|^(alpha-1) sigma_dot is unbounded: the Remark 6 "
-             "fix is needed before s = 0 (fsmctl uses singularity_fix = switch/clamp)"),
+        (
+            s5,
+            "off the surface (sigma_dot != 0 at sigma = 0) alpha |sigma|^(alpha-1) sigma_dot is unbounded: the Remark 6 "
+            "fix is needed before s = 0 (fsmctl uses singularity_fix = switch/clamp)",
+        ),
     ]
     return _steps_outcome(
         steps,
@@ -904,9 +1027,16 @@ def _remark6(ctx: ProofContext) -> _Outcome:
 CLAIMS: tuple[Claim, ...] = (
     Claim("lemma1-settling-time", "10", "Lemma 1: finite-time bound T <= Omega(0)^(1-eps)/(lambda(1-eps))", _lemma1),
     Claim("lemma2-sqrt-sum", "11-12", "Lemma 2: sum V_i^(1/2) >= (sum V_i)^(1/2)", _lemma2),
-    Claim("reaching-law", "13-15", "sliding surface: V_dot <= -2^((alpha+1)/2) c2 V^((alpha+1)/2) on s = 0", _reaching_law),
-    Claim("error-kinematics", "7-8", "error kinematics sigma_e_dot = G(sigma_e)(omega - omega_d)", _error_kinematics,
-          heavy=True),
+    Claim(
+        "reaching-law", "13-15", "sliding surface: V_dot <= -2^((alpha+1)/2) c2 V^((alpha+1)/2) on s = 0", _reaching_law
+    ),
+    Claim(
+        "error-kinematics",
+        "7-8",
+        "error kinematics sigma_e_dot = G(sigma_e)(omega - omega_d)",
+        _error_kinematics,
+        heavy=True,
+    ),
     Claim("lagrange-C", "9", "Coriolis-like matrix C of the Lagrange-like model", _lagrange_C),
     Claim("closed-loop", "9, 16-20", "closed loop (20) from the law (16-19) and the model (9)", _closed_loop),
     Claim("fractional-power", "17, 20, 23", "the term c2 alpha sigma^(alpha-1) sigma_dot", _fractional_power),
@@ -915,17 +1045,37 @@ CLAIMS: tuple[Claim, ...] = (
     Claim("complete-square", "27", "completing the square: kappa_ij, gamma_ij", _complete_square),
     Claim("gamma-condition", "27, Theorem 1", "gamma_ij >= 0 <=> Theorem 1's k/eta conditions", _gamma_condition),
     Claim("vdot-mu", "28", "V_dot <= -mu V^(1/2) and the value of mu", _vdot_mu, uses_scenario=True),
-    Claim("theorem1-gains", "Theorem 1, 25-27", "Theorem 1's conditions for the scenario's gains and topology",
-          _theorem1_gains, uses_scenario=True),
-    Claim("theorem2-condition", "29-33", "Theorem 2: the exact Delta_d and the delta condition", _theorem2_condition,
-          heavy=True),
-    Claim("theorem2-delta", "29-33", "Theorem 2: the delta_i the scenario needs vs the configured delta_i",
-          _theorem2_delta, uses_scenario=True),
+    Claim(
+        "theorem1-gains",
+        "Theorem 1, 25-27",
+        "Theorem 1's conditions for the scenario's gains and topology",
+        _theorem1_gains,
+        uses_scenario=True,
+    ),
+    Claim(
+        "theorem2-condition",
+        "29-33",
+        "Theorem 2: the exact Delta_d and the delta condition",
+        _theorem2_condition,
+        heavy=True,
+    ),
+    Claim(
+        "theorem2-delta",
+        "29-33",
+        "Theorem 2: the delta_i the scenario needs vs the configured delta_i",
+        _theorem2_delta,
+        uses_scenario=True,
+    ),
     Claim("theorem3-closed-forms", "34-36", "settling times of FSM, TSM, LSM by integration", _theorem3_closed_forms),
     Claim("theorem3-fsm-vs-lsm", "37-38", "T_fsm < T_lsm for |x0| > tau > 0", _theorem3_lsm),
     Claim("theorem3-fsm-vs-tsm", "39-41", "T_fsm < T_tsm for |x0| > tau > 0", _theorem3_tsm),
-    Claim("remark4-undirected", "Remark 4", "undirected topology: k^i >= k^j with eta = k^i/2", _remark4,
-          uses_scenario=True),
+    Claim(
+        "remark4-undirected",
+        "Remark 4",
+        "undirected topology: k^i >= k^j with eta = k^i/2",
+        _remark4,
+        uses_scenario=True,
+    ),
     Claim("remark6-singular-term", "Remark 6", "the singular term vanishes on the surface, for which alpha", _remark6),
 )
 

@@ -43,23 +43,41 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     p.add_argument("claims", nargs="*", metavar="CLAIM_ID", help="claims to check (default: all; see --list)")
     p.add_argument("--list", action="store_true", help="list the claim ids and exit")
-    p.add_argument("--scenario", default="paper", metavar="FILE", help="'paper' (built in) or a TOML file (default: paper)")
+    p.add_argument(
+        "--scenario", default="paper", metavar="FILE", help="'paper' (built in) or a TOML file (default: paper)"
+    )
     p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
     p.add_argument("--json", action="store_true", help="print a JSON array, one object per claim")
     p.add_argument("--report", metavar="FILE.md", type=Path, help="also write a Markdown report with LaTeX")
     p.add_argument(
-        "--region-sigma", type=float, default=default.sigma, metavar="R",
+        "--region-sigma",
+        type=float,
+        default=default.sigma,
+        metavar="R",
         help="Theorem 2 region: |sigma_e,k| <= R (default: %(default)s)",
     )
     p.add_argument(
-        "--region-omega", type=float, default=default.omega, metavar="R",
+        "--region-omega",
+        type=float,
+        default=default.omega,
+        metavar="R",
         help="Theorem 2 region: |omega_e,k| <= R rad/s (default: %(default)s)",
     )
-    p.add_argument("--samples", type=int, default=3000, metavar="N",
-                   help="random state samples per agent for Theorem 2, added to the grid (default: %(default)s)")
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=3000,
+        metavar="N",
+        help="random state samples per agent for Theorem 2, added to the grid (default: %(default)s)",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default: %(default)s)")
-    p.add_argument("--jobs", type=int, default=2, metavar="N",
-                   help="processes for the symbolic checks: 1 = sequential (default: %(default)s)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=2,
+        metavar="N",
+        help="processes for the symbolic checks: 1 = sequential (default: %(default)s)",
+    )
     p.set_defaults(func=run)
     return p
 

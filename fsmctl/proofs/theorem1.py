@@ -320,9 +320,7 @@ def _balanced_feasible(bounds: dict[tuple[int, int], tuple[float, float] | None]
     for col, (i, j) in enumerate(keys):
         A[i, col] += 1.0
         A[j, col] -= 1.0
-    res = linprog(
-        np.zeros(len(keys)), A_eq=A, b_eq=np.zeros(n), bounds=[bounds[k] for k in keys], method="highs"
-    )
+    res = linprog(np.zeros(len(keys)), A_eq=A, b_eq=np.zeros(n), bounds=[bounds[k] for k in keys], method="highs")
     return bool(res.status == 0)
 
 

@@ -311,8 +311,9 @@ def delta_requirements(
         d, P, A, B, s = _evaluate(fn, sig, om, wd, zeros, J0, J, gains, zeros)
         at_ref = np.all(sig == 0, axis=0) & np.all(om == 0, axis=0)
         if np.any(at_ref):  # sigma_e_dot = 0 there: evaluate without the 0 * inf of an unfixed slope
-            r = _evaluate(fn, sig[:, at_ref], om[:, at_ref], wd[:, at_ref], zeros[:, at_ref], J0, J, gains_ref,
-                          zeros[:, at_ref])
+            r = _evaluate(
+                fn, sig[:, at_ref], om[:, at_ref], wd[:, at_ref], zeros[:, at_ref], J0, J, gains_ref, zeros[:, at_ref]
+            )
             for full, part in zip((d, P, A, B, s), r, strict=True):
                 if full.ndim == 2:
                     full[:, at_ref] = part
@@ -332,8 +333,9 @@ def delta_requirements(
         dt_, Pt, At, Bt, _ = _evaluate(
             fn, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, gains_ref, omega_d_dot_t
         )
-        traj = _requirement(kappa, dt_, Pt, np.zeros_like(At), np.zeros_like(Bt), u_bound * 0, wdd_bound * 0,
-                            coord_bound * 0)
+        traj = _requirement(
+            kappa, dt_, Pt, np.zeros_like(At), np.zeros_like(Bt), u_bound * 0, wdd_bound * 0, coord_bound * 0
+        )
         note = ""
         if kappa is not None:
             dev = float(np.max(np.abs(P - np.eye(3)[None] / (1 + kappa))))
@@ -373,8 +375,10 @@ def delta_requirements(
         coupling=coupling,
         seconds=time.perf_counter() - t_start,
     )
-    if search_scale and not result.ok and all(
-        all(cf > r for cf, r in zip(a.configured, a.reference_bound, strict=True)) for a in result.agents
+    if (
+        search_scale
+        and not result.ok
+        and all(all(cf > r for cf, r in zip(a.configured, a.reference_bound, strict=True)) for a in result.agents)
     ):
         scale = _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_bound)
         result = Theorem2Numeric(**{**result.__dict__, "largest_scale": scale})
@@ -424,7 +428,9 @@ def _coupling_text(scenario: Scenario, kappas: list) -> str:
             "agents have different kappa_i: the coordination term becomes -S^T (D L(t) x I) S with "
             f"D = diag(1/(1+kappa_i)); min_t lambda_min(sym(D L(t))) = {lam:.4g} at t = {t:g} s ({verdict})"
         )
-    return "non-proportional Delta_J: the coordination term's (I - P) part is bounded by |P - I| (sum_j k^i + k^j) max|s|"
+    return (
+        "non-proportional Delta_J: the coordination term's (I - P) part is bounded by |P - I| (sum_j k^i + k^j) max|s|"
+    )
 
 
 def format_vector(v: tuple[float, ...] | list[float] | np.ndarray) -> str:
