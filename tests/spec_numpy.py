@@ -36,6 +36,11 @@ class LambdifiedSpec:
         ]
 
     def __call__(self, **values) -> dict[str, np.ndarray]:
+        # NumPy evaluates every branch of a Piecewise: 1/x in a branch not taken at x = 0 is expected
+        with np.errstate(divide="ignore", invalid="ignore"):
+            return self._evaluate(values)
+
+    def _evaluate(self, values) -> dict[str, np.ndarray]:
         vals = []
         for name, shape, entries in self.inputs:
             a = (

@@ -36,6 +36,9 @@ typedef struct {
   double *gc;                            /* n: sliding_constants */
   double wd[3], wdd[3];
   double *k_val, *k_base, *k_lo, *k_hi;  /* per-link schedule cache */
+  double *k_now;                         /* k^j of every link at k_time (all RK4 stages of a step share it) */
+  double k_time;
+  int k_valid;
   double *tau;                           /* 3 */
   int bad_agent;                         /* first agent whose commanded torque was non-finite (-2: none) */
   double bad_time;                       /* ... and when */
@@ -57,7 +60,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->sliding = P->error_model == 1 ? sliding_exact : sliding_paper;
   /* one block for all per-agent doubles */
   size_t per3 = (size_t)3 * n, L = (size_t)P->n_links;
-  size_t total = per3 * 12 + (size_t)n * 2 + L * 4 + 3;
+  size_t total = per3 * 12 + (size_t)n * 2 + L * 5 + 3;
   double *block = calloc(total > 0 ? total : 1, sizeof(double));
   if (!block) return FSM_NOMEM;
   double *p = block;
@@ -79,6 +82,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->k_base = p; p += L;
   W->k_lo = p; p += L;
   W->k_hi = p; p += L;
+  W->k_now = p; p += L;
   W->tau = p;
   for (size_t e = 0; e < L; ++e) { W->k_lo[e] = INFINITY; W->k_hi[e] = -INFINITY; } /* empty: forces evaluation */
   /* CasADi work arrays: the largest need of the functions used */
@@ -148,14 +152,26 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     W->sliding(arg, res, W->iw, W->w, 0);
   }
   if (compute_control) {
+    /* k^j_ij(t_link) and sum_j k^i_ij: evaluated once per t_link (the four RK4 stages of a step share it) */
+    if (!W->k_valid || W->k_time != t_link) {
+      memset(W->ksum, 0, sizeof(double) * n);
+      for (int e = 0; e < P->n_links; ++e) {
+        W->k_now[e] = link_weight(W, P, e, t_link);
+        W->ksum[P->link_receiver[e]] += P->link_k_i[e];
+      }
+      W->k_time = t_link;
+      W->k_valid = 1;
+    }
     memset(W->recv, 0, sizeof(double) * 3 * n);
-    memset(W->ksum, 0, sizeof(double) * n);
     for (int e = 0; e < P->n_links; ++e) {
-      int i = P->link_receiver[e], j = P->link_sender[e];
-      double kj = link_weight(W, P, e, t_link);
-      W->ksum[i] += P->link_k_i[e];
-      if (kj != 0.0)
-        for (int k = 0; k < 3; ++k) W->recv[3 * i + k] += kj * W->s[3 * j + k];
+      const double kj = W->k_now[e];
+      if (kj != 0.0) {
+        const double *sj = W->s + 3 * P->link_sender[e];
+        double *ri = W->recv + 3 * P->link_receiver[e];
+        ri[0] += kj * sj[0];
+        ri[1] += kj * sj[1];
+        ri[2] += kj * sj[2];
+      }
     }
     for (int i = 0; i < n; ++i) {
       const double *arg[12] = {W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->s + 3 * i,
@@ -173,6 +189,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       }
     }
   }
+  /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3 */
   if (!W->d_valid || W->d_time != t) {
     for (int i = 0; i < n; ++i) {
       const double *arg[2] = {&t, P->dist_params + 12 * i};
