@@ -78,8 +78,11 @@ def raem_deg(theta_ij: np.ndarray) -> np.ndarray:
 
 
 def settling_time(time: np.ndarray, metric: np.ndarray, tolerance: float) -> float:
-    """First time after which ``metric`` stays at or below ``tolerance`` (NaN if it never settles)."""
-    above = np.nonzero(np.asarray(metric) > tolerance)[0]
+    """First time after which ``metric`` stays at or below ``tolerance`` (NaN if it never settles).
+
+    A NaN sample counts as not settled.
+    """
+    above = np.nonzero(~(np.asarray(metric) <= tolerance))[0]
     if above.size == 0:
         return float(time[0])
     last = above[-1]

@@ -48,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from .parallel import process_pool_context
 from .scenario import Agent, Scenario, ScenarioError, Sinusoid, load_scenario
 from .topology import Link, Topology
 
@@ -255,7 +256,7 @@ _SCALARS = (
     "wall_time_s",
     "cpu_time_s",
 )
-_FLAGS = ("converged", "theorem1_holds", "theorem2_holds")
+_FLAGS = ("converged", "theorem1_holds", "theorem2_at_reference_holds")
 _PER_AGENT = ("saturated_time_s", "theta_e_final_deg")
 
 
@@ -312,7 +313,7 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
             and math.isfinite(summary["raem_settling_s"][f"{tol:g}"])
         ),
         theorem1_holds=bool(t1.holds),
-        theorem2_holds=bool(t2.ok),
+        theorem2_at_reference_holds=bool(t2.ok),
         saturated_time_s=np.asarray(result.saturated_time, dtype=float),
         theta_e_final_deg=np.degrees(result.theta_e[-1]),
     )
@@ -413,8 +414,11 @@ def _chunks(settings: CampaignSettings) -> list[list[int]]:
 
 
 def _prepare_out(out: Path, settings: CampaignSettings, resume: bool) -> None:
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "chunks").mkdir(exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "chunks").mkdir(exist_ok=True)
+    except OSError as exc:
+        raise ScenarioError(f"--out {out}: cannot create the output folder ({exc.strerror or exc})") from None
     meta = out / "campaign.json"
     ident = settings.identity()
     if meta.is_file():
@@ -439,7 +443,10 @@ def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
         import xarray as xr
 
         with xr.open_dataset(path, engine="scipy") as ds:
-            return [int(r) for r in ds.run.values] == list(indices)
+            # a chunk with a failed or died run is not done: --resume tries those runs again
+            return [int(r) for r in ds.run.values] == list(indices) and all(
+                str(v) == STATUS_OK for v in ds.status.values
+            )
     except Exception:  # unreadable partial file: rerun the chunk
         return False
 
@@ -450,12 +457,6 @@ def _progress(total: int, initial: int, enabled: bool | None):
     if enabled is None:
         enabled = sys.stderr.isatty()
     return tqdm(total=total, initial=initial, unit="run", desc="montecarlo", disable=not enabled, file=sys.stderr)
-
-
-def _pool_context():
-    import multiprocessing as mp
-
-    return mp.get_context("fork") if "fork" in mp.get_all_start_methods() else mp.get_context("spawn")
 
 
 def _run_local(base, settings, todo, workers, run_fn, on_chunk) -> None:
@@ -472,7 +473,7 @@ def _run_local(base, settings, todo, workers, run_fn, on_chunk) -> None:
             for c, idx in pending:
                 rows = []
                 for k in idx:
-                    with ProcessPoolExecutor(1, mp_context=_pool_context()) as ex:
+                    with ProcessPoolExecutor(1, mp_context=process_pool_context()) as ex:
                         try:
                             rows += ex.submit(_run_chunk, base, settings, [k], run_fn).result()
                         except BrokenProcessPool:
@@ -480,7 +481,7 @@ def _run_local(base, settings, todo, workers, run_fn, on_chunk) -> None:
                 on_chunk(c, idx, rows)
             return
         failed = []
-        with ProcessPoolExecutor(max_workers=workers, mp_context=_pool_context()) as ex:
+        with ProcessPoolExecutor(max_workers=workers, mp_context=process_pool_context()) as ex:
             futures = {ex.submit(_run_chunk, base, settings, idx, run_fn): (c, idx) for c, idx in pending}
             not_done = set(futures)
             while not_done:
@@ -499,7 +500,13 @@ def _run_local(base, settings, todo, workers, run_fn, on_chunk) -> None:
 def _run_dask(base, settings, todo, address_or_client, run_fn, on_chunk) -> None:
     from distributed import Client, as_completed
 
-    client = address_or_client if isinstance(address_or_client, Client) else Client(address_or_client)
+    if isinstance(address_or_client, Client):
+        client = address_or_client
+    else:
+        try:
+            client = Client(address_or_client, timeout="10s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ScenarioError(f"--dask {address_or_client}: cannot connect to a Dask scheduler ({exc})") from None
     try:
         futures = {}
         for c, idx in todo:
@@ -699,7 +706,7 @@ def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
     fig.suptitle(
         f"Monte Carlo: {ds.attrs.get('title', '')}\nconverged {n_conv}/{int(ok.sum())}, "
         f"Theorem 1 held {int(ds.theorem1_holds.values[ok].sum())}, Theorem 2 (at reference) held "
-        f"{int(ds.theorem2_holds.values[ok].sum())}; {int((~ok).sum())} failed/died",
+        f"{int(ds.theorem2_at_reference_holds.values[ok].sum())}; {int((~ok).sum())} failed/died",
         fontsize=10,
     )
     stem = Path(stem)
@@ -819,7 +826,7 @@ def _report_lines(result: CampaignResult) -> Iterable[str]:
         return f"median {e['median']:.4g} [p5 {e['p5']:.4g}, p95 {e['p95']:.4g}]" if e["finite"] else "no finite value"
 
     yield f"montecarlo: {s['runs']} runs in {result.wall_time_s:.1f} s ({result.resumed_chunks} chunks resumed): {s['ok']} ok, {s['failed']} failed, {s['worker_died']} worker died"
-    yield f"  converged (AAEM and RAEM < {s['tolerance_deg']:g} deg): {s['converged_fraction']:.1%}; Theorem 1 held: {s['theorem1_holds_fraction']:.1%}; Theorem 2 at the reference held: {s['theorem2_holds_fraction']:.1%}"
+    yield f"  converged (AAEM and RAEM < {s['tolerance_deg']:g} deg): {s['converged_fraction']:.1%}; Theorem 1 held: {s['theorem1_holds_fraction']:.1%}; Theorem 2 at the reference held: {s['theorem2_at_reference_holds_fraction']:.1%}"
     yield f"  AAEM settling: {med('aaem_settling_s')} s ({st['aaem_settling_s']['nan']} never settled)"
     yield f"  AAEM steady max: {med('aaem_steady_max_deg')} deg; max |u_unsat|: {med('u_unsaturated_max_N_m')} N m; saturation time: {med('saturated_time_max_s')} s"
     for f in s["failures"][:10]:

@@ -27,7 +27,6 @@ import concurrent.futures as cf
 import csv
 import json
 import math
-import multiprocessing
 import sys
 import time as _time
 from collections.abc import Callable, Mapping, Sequence
@@ -36,6 +35,8 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from .parallel import process_pool_context
 
 __all__ = [
     "REPRODUCED",
@@ -68,7 +69,7 @@ IMPOSSIBLE = "impossible (bound)"
 VERDICTS = (REPRODUCED, DIFFERS, IMPOSSIBLE)
 
 PAPER_CASES = ("1", "2", "3a", "3b", "3c")
-SETTLING_TOLERANCES_DEG = (1.0, 0.1, 0.03, 0.01)
+SETTLING_TOLERANCES_DEG = (1.0, 0.1, 0.05, 0.03, 0.01)
 """Tolerances (deg) of the settling times: the paper does not state the tolerance of its "27 s"."""
 PAPER_SETTLING_TIME_S = 27.0
 PAPER_TRACKING_ACCURACY_DEG = 0.03
@@ -345,7 +346,7 @@ def execute_run(source: str, spec: RunSpec, fast: bool, out_dir: str) -> RunReco
     out = Path(out_dir)
     nc = result.save(out / "runs" / f"{spec.key}.nc")
     window = STEADY_WINDOW_FRACTION * scenario.simulation.t_final / spec.horizon_factor  # 40 s of a long run too
-    summary = result.summary(tolerances_deg=(*SETTLING_TOLERANCES_DEG, 0.05), steady_window=window)
+    summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG, steady_window=window)
     theta_deg = np.degrees(result.theta_e)
     written = []
     title = f"{spec.title} ({scenario.label})"
@@ -486,7 +487,8 @@ class MomentumBound:
     min_time_no_disturbance_s: float
     """bound with the reference's momentum, without the disturbance"""
     min_time_s: float
-    """bound with the reference's momentum and the disturbance assisting at full magnitude (rigorous)"""
+    """bound with the reference's momentum and the disturbance assisting at full magnitude (to reach omega = omega_d
+    exactly; a settled metric allows a small residual rate, see the report)"""
     grid_step_s: float
 
 
@@ -1021,19 +1023,6 @@ def _render_overlay(curves: dict, options: dict, stem: str) -> list[str]:
     return [str(p) for p in figs.save_figure(_overlay_figure(curves, options), stem)]
 
 
-def _pool_context():
-    """``spawn`` (clean workers) unless ``__main__`` is a plain script that spawned workers would re-run.
-
-    A script (e.g. a jupytext notebook run with ``python``) has no ``if __name__ == "__main__"`` guard,
-    so spawned workers would execute it again; there ``fork`` is used where the platform has it.
-    """
-    main_module = sys.modules.get("__main__")
-    script = getattr(main_module, "__spec__", None) is None and getattr(main_module, "__file__", None)
-    if script and "fork" in multiprocessing.get_all_start_methods():
-        return multiprocessing.get_context("fork")
-    return multiprocessing.get_context("spawn")
-
-
 def reproduce(
     source: str = "paper",
     out_dir: str | Path = "reproduction",
@@ -1107,7 +1096,7 @@ def reproduce(
     )
     executor = None
     if jobs > 1:
-        executor = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=_pool_context())
+        executor = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=process_pool_context())
     try:
         if executor is None:
             for spec in simulated:

@@ -28,12 +28,17 @@ import os
 import sympy as sp
 from IPython.display import Markdown, display
 
-from derive.controller import SingularityFix, closed_loop_acceleration, sliding_variable
-from derive.errata import errata
-from derive.model import lagrange_model
-from derive.mrp import mrp_G, mrp_G_inverse
-from derive.symbols import vector_symbols
 from fsmctl.generated_code import generated_dir
+from fsmctl.symbolic import (
+    SingularityFix,
+    closed_loop_acceleration,
+    errata,
+    lagrange_model,
+    mrp_G,
+    mrp_G_inverse,
+    sliding_variable,
+    vector_symbols,
+)
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
 
@@ -86,10 +91,10 @@ show(r"\ddot\sigma_e", closed_loop_acceleration(se, sed, s_vec, c1, c2, alpha, d
 
 # %% [markdown]
 # ## Control torque $u = -u^F - u^D - u^C$ (eqs 16-19), single-axis case
-# Built literally from $M$, $C$, $E$ (`derive.controller.control_law_pieces`).
+# Built literally from $M$, $C$, $E$ (`fsmctl.symbolic.control_law_pieces`, i.e. `derive.controller`).
 
 # %%
-from derive.controller import control_law_pieces
+from fsmctl.symbolic import control_law_pieces
 
 k = sp.Symbol("k_3", real=True)
 pieces = control_law_pieces(

@@ -167,3 +167,21 @@ def test_cli_campaign_and_bad_input(tmp_path):
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
     bad = subprocess.run([*cmd, "--rate-bound", "-1", "--out", str(tmp_path / "y")], capture_output=True, text=True)
     assert bad.returncode == 2 and "rate_bound" in bad.stderr and "Traceback" not in bad.stderr
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--out", "{file}"], "cannot create the output folder"),
+        (["--out", "{dir}", "--dask", "tcp://127.0.0.1:9"], "cannot connect to a Dask scheduler"),
+    ],
+)
+def test_cli_unusable_out_or_scheduler_is_one_line(tmp_path, capsys, extra, message):
+    from fsmctl.cli import main
+
+    a_file = tmp_path / "taken"
+    a_file.write_text("not a folder")
+    argv = [x.format(file=a_file, dir=tmp_path / "out") for x in extra]
+    code = main(["montecarlo", "--runs", "1", "--t-final", "0.1", "--workers", "1", "--no-progress", *argv])
+    _, err = capsys.readouterr()
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1

@@ -6,7 +6,6 @@ when the ``simulate`` subcommand is present, through the ``fsmctl`` command line
 
 from __future__ import annotations
 
-import importlib.util
 import math
 import re
 from importlib import resources
@@ -242,11 +241,6 @@ def test_disabled_controller_is_a_documented_setting(tmp_path):
 # ----------------------------------------------------------------------------- command line
 
 
-def _has_simulate() -> bool:
-    return importlib.util.find_spec("fsmctl.commands") is not None
-
-
-@pytest.mark.skipif(not _has_simulate(), reason="`fsmctl simulate` (fsmctl.commands) is not in this build yet")
 @pytest.mark.parametrize(
     "case_id", ["J-not-symmetric", "alpha-1.2", "phase-table-5-rows", "unknown-controller", "toml-syntax"]
 )
@@ -262,3 +256,12 @@ def test_cli_reports_bad_files_in_one_line(tmp_path, capsys, case_id):
     assert len(err.splitlines()) == 1, err
     assert "Traceback" not in err
     assert re.search(pattern, err), err
+
+
+def test_settling_time_counts_nan_as_not_settled():
+    from fsmctl.metrics import settling_time
+
+    t = np.arange(5.0)
+    assert settling_time(t, np.array([5.0, 0.5, 0.1, 0.1, 0.1]), 1.0) == 1.0
+    assert settling_time(t, np.array([5.0, 0.5, np.nan, 0.1, 0.1]), 1.0) == 3.0
+    assert np.isnan(settling_time(t, np.array([5.0, 0.5, 0.1, 0.1, np.nan]), 1.0))
