@@ -22,7 +22,8 @@ use the minima (the least disturbed measurement of each).
    simulated second, exponents fitted in n and in the number of links (n = 24..384).
 3. Floating-point work per right-hand side from the CasADi graphs of the generated functions
    against the measured time per right-hand side (achieved GFLOP/s vs this machine's limits).
-4. Wall times of ``fsmctl prove`` and ``python -m derive --check`` (subprocesses).
+4. Wall times of ``fsmctl prove``, ``python -m derive --check``, ``fsmctl reproduce`` and
+   ``fsmctl compare-surfaces`` (subprocesses), against the issues' bars.
 5. A Monte Carlo campaign of Case 1 (1000 runs of 100 s at dt = 1 ms, both cores).
 """
 
@@ -584,17 +585,32 @@ def flops_section(compare: dict, log) -> dict:
     }
 
 
+TOOL_BARS_S = {
+    "fsmctl prove": 15.0,
+    "python -m derive --check": 60.0,
+    "fsmctl reproduce": 60.0,
+    "fsmctl compare-surfaces": 60.0,
+}
+"""The issues' wall-time bars on a 2-core machine."""
+
+
 def subprocess_section(log) -> dict:
     out = {}
-    for label, cmd in (
-        ("fsmctl prove", [sys.executable, "-m", "fsmctl.cli", "prove"]),
-        ("python -m derive --check", [sys.executable, "-m", "derive", "--check"]),
-    ):
-        t = time.perf_counter()
-        proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
-        wall = time.perf_counter() - t
-        out[label] = {"wall_s": wall, "exit_code": proc.returncode}
-        log(f"{label}: {wall:.1f} s (exit {proc.returncode})")
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, cmd in (
+            ("fsmctl prove", [sys.executable, "-m", "fsmctl.cli", "prove"]),
+            ("python -m derive --check", [sys.executable, "-m", "derive", "--check"]),
+            (
+                "fsmctl reproduce",
+                [sys.executable, "-m", "fsmctl.cli", "reproduce", "--out", f"{tmp}/reproduction", "--no-progress"],
+            ),
+            ("fsmctl compare-surfaces", [sys.executable, "-m", "fsmctl.cli", "compare-surfaces", "--out", f"{tmp}/cs"]),
+        ):
+            t = time.perf_counter()
+            proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
+            wall = time.perf_counter() - t
+            out[label] = {"wall_s": wall, "exit_code": proc.returncode, "bar_s": TOOL_BARS_S[label]}
+            log(f"{label}: {wall:.1f} s (exit {proc.returncode})")
     return out
 
 
@@ -728,7 +744,9 @@ def markdown(res: dict) -> str:
         lines.append(f"| {k} | {v['instructions']} | {v['flops']} | {v['special']} | {v['other']} |")
     lines += ["", "## Tool wall times", ""]
     for k, v in res.get("subprocess", {}).items():
-        lines.append(f"* `{k}`: {_f(v['wall_s'])} s (exit {v['exit_code']})")
+        bar = v.get("bar_s")
+        verdict = "" if bar is None else f"; bar <= {bar:g} s: {'met' if v['wall_s'] <= bar else 'MISSED'}"
+        lines.append(f"* `{k}`: {_f(v['wall_s'])} s (exit {v['exit_code']}{verdict})")
     if not res.get("subprocess"):
         lines.append("* skipped (--quick)")
     mc = res.get("montecarlo")
