@@ -18,42 +18,10 @@ import re
 import sys
 from pathlib import Path
 
+from .cli_types import nonnegative_float, positive_float, torque_limit
 from .reproduce import SETTLING_TOLERANCES_DEG
 
 __all__ = ["add_parser", "run", "SETTLING_TOLERANCES_DEG"]
-
-
-def _torque_limit(text: str) -> float:
-    value = text.strip().lower()
-    if value in ("inf", "infinity", "none"):
-        return math.inf
-    try:
-        x = float(value)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number or 'inf', got {text!r}") from None
-    if not x > 0:
-        raise argparse.ArgumentTypeError(f"must be > 0 (or inf), got {text!r}")
-    return x
-
-
-def _positive(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(x) and x > 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
-    return x
-
-
-def _nonnegative(text: str) -> float:
-    try:
-        x = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not (math.isfinite(x) and x >= 0):
-        raise argparse.ArgumentTypeError(f"must be a finite number >= 0, got {text!r}")
-    return x
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -94,15 +62,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="progress bar of the time loop (default: on a terminal, for long runs)",
     )
     g = p.add_argument_group("overrides of the scenario's settings")
-    g.add_argument("--t-final", type=_positive, metavar="S", help="horizon (s)")
-    g.add_argument("--dt", type=_positive, metavar="S", help="integration step (s)")
-    g.add_argument("--output-interval", type=_positive, metavar="S", help="output sample spacing (s)")
+    g.add_argument("--t-final", type=positive_float, metavar="S", help="horizon (s)")
+    g.add_argument("--dt", type=positive_float, metavar="S", help="integration step (s)")
+    g.add_argument("--output-interval", type=positive_float, metavar="S", help="output sample spacing (s)")
     g.add_argument("--integrator", choices=("rk4", "dopri45"), help="time integrator")
     g.add_argument("--error-model", choices=("paper", "exact"), help="controller error kinematics (eqs 7-8 or exact)")
-    g.add_argument("--torque-limit", type=_torque_limit, metavar="N_M", help="per-axis torque bound (N m) or 'inf'")
+    g.add_argument("--torque-limit", type=torque_limit, metavar="N_M", help="per-axis torque bound (N m) or 'inf'")
     g.add_argument(
         "--boundary-layer",
-        type=_nonnegative,
+        type=nonnegative_float,
         metavar="PHI",
         help="boundary layer phi of sat(s/phi), 0 = sgn (Remark 7)",
     )

@@ -48,6 +48,7 @@ from typing import Any
 
 import numpy as np
 
+from .cli_types import finite_or_inf_float, nonnegative_int, positive_int
 from .parallel import process_pool_context
 from .scenario import Agent, Scenario, ScenarioError, Sinusoid, load_scenario
 from .topology import Link, Topology
@@ -722,36 +723,6 @@ def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
 # ----------------------------------------------------------------------------- CLI
 
 
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
-    return v
-
-
-def _nonnegative_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {v}")
-    return v
-
-
-def _float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not math.isfinite(v) and text.strip().lower() not in ("inf", "infinity"):
-        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
-    return v
-
-
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
     """Register ``fsmctl montecarlo``."""
     p = subparsers.add_parser(
@@ -766,22 +737,32 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     d = CampaignSettings()
     p.add_argument("--scenario", default="paper", help="built-in name or TOML file (default: paper)")
     p.add_argument("--case", default="1", help="case of the scenario (default: 1)")
-    p.add_argument("--runs", type=_positive_int, default=100, help="number of runs (default: 100)")
-    p.add_argument("--workers", type=_positive_int, default=None, help="local worker processes (default: all CPUs)")
-    p.add_argument("--seed", type=_nonnegative_int, default=0, help="campaign seed (default: 0)")
+    p.add_argument("--runs", type=positive_int, default=100, help="number of runs (default: 100)")
+    p.add_argument("--workers", type=positive_int, default=None, help="local worker processes (default: all CPUs)")
+    p.add_argument("--seed", type=nonnegative_int, default=0, help="campaign seed (default: 0)")
     p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on an existing Dask distributed scheduler")
     p.add_argument("--out", default="montecarlo_out", help="output folder (default: montecarlo_out)")
     p.add_argument("--resume", action="store_true", help="continue the campaign already in --out")
-    p.add_argument("--chunk-size", type=_positive_int, default=d.chunk_size, help="runs per chunk file")
-    p.add_argument("--t-final", type=_float, default=None, help="horizon in s (default: the scenario's)")
-    p.add_argument("--dt", type=_float, default=None, help="step in s (default: the scenario's)")
-    p.add_argument("--output-interval", type=_float, default=d.output_interval, help="output grid in s (default: 0.1)")
-    p.add_argument("--torque-limit", type=_float, default=None, help="N m per component (default: the scenario's)")
-    p.add_argument("--inertia-bound", type=_float, default=d.inertia_bound, help="rho_max of 0 < Delta_J <= rho J0")
-    p.add_argument("--rate-bound", type=_float, default=d.rate_bound, help="|omega_k(0)| bound in rad/s")
-    p.add_argument("--disturbance-scale", type=_float, default=d.disturbance_scale, help="amplitude scale")
-    p.add_argument("--link-dropout", type=_float, default=d.link_dropout, help="probability a link is removed")
-    p.add_argument("--tolerance-deg", type=_float, default=d.tolerance_deg, help="convergence tolerance (deg)")
+    p.add_argument("--chunk-size", type=positive_int, default=d.chunk_size, help="runs per chunk file")
+    p.add_argument("--t-final", type=finite_or_inf_float, default=None, help="horizon in s (default: the scenario's)")
+    p.add_argument("--dt", type=finite_or_inf_float, default=None, help="step in s (default: the scenario's)")
+    p.add_argument(
+        "--output-interval", type=finite_or_inf_float, default=d.output_interval, help="output grid in s (default: 0.1)"
+    )
+    p.add_argument(
+        "--torque-limit", type=finite_or_inf_float, default=None, help="N m per component (default: the scenario's)"
+    )
+    p.add_argument(
+        "--inertia-bound", type=finite_or_inf_float, default=d.inertia_bound, help="rho_max of 0 < Delta_J <= rho J0"
+    )
+    p.add_argument("--rate-bound", type=finite_or_inf_float, default=d.rate_bound, help="|omega_k(0)| bound in rad/s")
+    p.add_argument("--disturbance-scale", type=finite_or_inf_float, default=d.disturbance_scale, help="amplitude scale")
+    p.add_argument(
+        "--link-dropout", type=finite_or_inf_float, default=d.link_dropout, help="probability a link is removed"
+    )
+    p.add_argument(
+        "--tolerance-deg", type=finite_or_inf_float, default=d.tolerance_deg, help="convergence tolerance (deg)"
+    )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cli)
     return p
