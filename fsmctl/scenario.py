@@ -157,11 +157,20 @@ class Sinusoid:
         return np.array([*self.amplitude, *self.frequency, *self.phase, *self.offset], dtype=float)
 
     def __call__(self, t) -> np.ndarray:
-        """Values at time(s) ``t``: shape ``(..., 3)``."""
-        t = np.asarray(t, dtype=float)[..., None]
-        return np.asarray(self.amplitude) * np.cos(
-            np.asarray(self.frequency) * t + np.asarray(self.phase)
-        ) + np.asarray(self.offset)
+        """Values at time(s) ``t``: shape ``(..., 3)``.
+
+        Evaluated by the generated ``disturbance_torque`` function (the same sinusoid layout), so the
+        formula exists once, in ``derive/``.
+        """
+        from .generated_code import casadi_function
+
+        t = np.asarray(t, dtype=float)
+        flat = t.reshape(-1)
+        if flat.size == 0:
+            return np.zeros((*t.shape, 3))
+        fn = casadi_function("disturbance_torque").map(flat.size)
+        values = np.asarray(fn(flat[None, :], np.tile(self.params()[:, None], (1, flat.size)))).T
+        return values.reshape(*t.shape, 3)
 
     def bound(self) -> np.ndarray:
         """Componentwise bound ``|amplitude| + |offset|`` on ``|v_k(t)|``."""

@@ -35,7 +35,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..generated_code import generated_dir
+from ..generated_code import casadi_function, generated_dir
 from ..scenario import SINGULARITY_FIXES, Scenario
 
 __all__ = [
@@ -241,12 +241,11 @@ def _requirement(kappa, d, P, A, B, u_bound, wdd_bound, coord_bound):
 
 
 def _reference_signals(scenario: Scenario, times: np.ndarray):
-    w = scenario.reference.omega
-    amp, freq, phase = np.asarray(w.amplitude), np.asarray(w.frequency), np.asarray(w.phase)
-    arg = freq[:, None] * times[None, :] + phase[:, None]
-    omega_d = w(times).T
-    omega_d_dot = -(amp * freq)[:, None] * np.sin(arg)
-    return omega_d, omega_d_dot
+    """``omega_d(t)``, ``omega_d_dot(t)`` as (3, T), from the generated ``reference_rhs`` (independent of sigma_d)."""
+    fn = casadi_function("reference_rhs").map(times.size)
+    params = np.tile(scenario.reference.omega.params()[:, None], (1, times.size))
+    _, omega_d, omega_d_dot = fn(times[None, :], np.zeros((3, times.size)), params)
+    return np.asarray(omega_d), np.asarray(omega_d_dot)
 
 
 def delta_requirements(
