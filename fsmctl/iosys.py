@@ -20,8 +20,6 @@ always forms the error in the shadow set, exactly like the compiled simulator.
 
 from __future__ import annotations
 
-import bisect
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -31,7 +29,7 @@ import numpy as np
 
 from .generated_code import casadi_function
 from .scenario import ControllerSettings, Scenario, Sinusoid, check_inertia
-from .topology import Schedule
+from .topology import Schedule, schedule_weight
 
 __all__ = ["Neighbour", "spacecraft", "reference_generator", "fsm_controller", "formation", "initial_state"]
 
@@ -85,8 +83,7 @@ class _FlatCall:
 def _scalar_schedule(schedule: Schedule, phase: float) -> Callable[[float], float]:
     """``t -> k^j_ij(t) = schedule(t + phase)`` for a scalar ``t``, without NumPy overhead.
 
-    Same rule as the compiled driver (``link_weight`` in ``formation.c``): the argument is
-    reduced to ``[0, period)`` by ``floor``, segments are left-closed.
+    The rule of :func:`fsmctl.topology.schedule_weight` (the compiled driver's ``link_weight``).
     """
     breakpoints = list(schedule.breakpoints)
     values = list(schedule.values)
@@ -96,13 +93,7 @@ def _scalar_schedule(schedule: Schedule, phase: float) -> Callable[[float], floa
         constant = float(values[0])
         return lambda t: constant
 
-    def weight(t: float) -> float:
-        tau = t + phase
-        if period is not None:
-            tau -= math.floor(tau / period) * period
-        return values[max(0, bisect.bisect_right(breakpoints, tau) - 1)]
-
-    return weight
+    return lambda t: schedule_weight(breakpoints, values, period, t + phase)
 
 
 def spacecraft(

@@ -16,6 +16,7 @@ import numpy as np
 
 from .generated_code import layout
 from .scenario import Scenario
+from .topology import schedule_weight
 
 __all__ = ["PackedProblem", "pack"]
 
@@ -64,11 +65,7 @@ class PackedProblem:
         for e in range(self.n_links):
             s, c = self.sched_start[e], self.sched_count[e]
             b, v = self.sched_times[s : s + c], self.sched_values[s : s + c]
-            tau = t + self.sched_phase[e]
-            if self.sched_period[e] > 0:
-                tau = tau - np.floor(tau / self.sched_period[e]) * self.sched_period[e]
-            m = max(0, int(np.searchsorted(b, tau, side="right")) - 1)
-            out[e] = v[m]
+            out[e] = schedule_weight(b, v, float(self.sched_period[e]), t + float(self.sched_phase[e]))
         return out
 
 

@@ -13,6 +13,7 @@ trajectory) can see.
 
 from __future__ import annotations
 
+import bisect
 import itertools
 import math
 from collections.abc import Iterable, Mapping, Sequence
@@ -20,7 +21,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["TopologyError", "Schedule", "Link", "Topology", "ring", "all_to_all", "k_nearest", "from_phase_table"]
+__all__ = [
+    "Link",
+    "Schedule",
+    "Topology",
+    "TopologyError",
+    "all_to_all",
+    "from_phase_table",
+    "k_nearest",
+    "ring",
+    "schedule_weight",
+]
 
 
 class TopologyError(ValueError):
@@ -31,6 +42,18 @@ def _num(x, where: str) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
         raise TopologyError(f"{where}: expected a number, got {x!r}")
     return float(x)
+
+
+def schedule_weight(breakpoints: Sequence[float], values: Sequence[float], period: float | None, tau: float) -> float:
+    """The schedule rule, for one scalar argument ``tau = t + phase``.
+
+    ``tau`` is reduced to ``[0, period)`` as ``tau - floor(tau/period) period`` (periodic schedules) and the
+    segments are left-closed: the value of the last breakpoint ``<= tau`` (the first value before the first
+    breakpoint).  The compiled driver (``link_weight`` in ``fsmctl/csrc/formation.c``) applies the same rule.
+    """
+    if period is not None and period > 0:
+        tau -= math.floor(tau / period) * period
+    return float(values[max(0, bisect.bisect_right(breakpoints, tau) - 1)])
 
 
 @dataclass(frozen=True)
@@ -67,9 +90,9 @@ class Schedule:
         return cls((0.0,), (float(value),))
 
     def value(self, t) -> np.ndarray | float:
-        """Weight at time(s) ``t`` (vectorized)."""
+        """Weight at time(s) ``t`` (vectorized), by the rule of :func:`schedule_weight`."""
         t = np.asarray(t, dtype=float)
-        tau = np.mod(t, self.period) if self.period is not None else t
+        tau = t - np.floor(t / self.period) * self.period if self.period is not None else t
         idx = np.searchsorted(np.asarray(self.breakpoints), tau, side="right") - 1
         out = np.asarray(self.values)[np.clip(idx, 0, len(self.values) - 1)]
         return float(out) if out.ndim == 0 else out

@@ -265,3 +265,29 @@ def test_settling_time_counts_nan_as_not_settled():
     assert settling_time(t, np.array([5.0, 0.5, 0.1, 0.1, 0.1]), 1.0) == 1.0
     assert settling_time(t, np.array([5.0, 0.5, np.nan, 0.1, 0.1]), 1.0) == 3.0
     assert np.isnan(settling_time(t, np.array([5.0, 0.5, 0.1, 0.1, np.nan]), 1.0))
+
+
+def test_every_route_to_the_link_weights_applies_the_same_rule(paper_case1):
+    """Schedule.value, schedule_weight, PackedProblem.link_weights and the C driver agree, at breakpoints too."""
+    import ctypes
+
+    from fsmctl import simulator
+    from fsmctl.problem import pack
+    from fsmctl.topology import schedule_weight
+
+    paper = paper_case1
+    p = pack(paper)
+    links = paper.topology.links
+    # every switching instant of the paper's Table 2 in [0, 24] s, plus random times
+    times = np.concatenate([np.arange(0.0, 24.0, 0.1), np.random.default_rng(3).uniform(-5.0, 50.0, 200)])
+    dll = simulator._driver()
+    cp = simulator._CProblem(p) if dll is not None else None
+    for t in times:
+        packed = p.link_weights(float(t))
+        for e, link in enumerate(links):
+            s = link.k_j
+            expected = schedule_weight(s.breakpoints, s.values, s.period, float(t) + link.phase)
+            assert s.value(float(t) + link.phase) == expected
+            assert packed[e] == expected
+            if dll is not None:
+                assert dll.fsm_link_weight(ctypes.byref(cp.struct), e, ctypes.c_double(t)) == expected
