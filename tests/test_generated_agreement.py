@@ -97,6 +97,12 @@ def _well_conditioned(x, model):
     return np.min(np.abs(se)) > 1e-3 and np.min(np.abs(s)) > 1e-6
 
 
+def _oracle_law_args(x):
+    """The positional arguments of the oracle's control-law functions, from a drawn state."""
+    keys = ("J0", "sigma", "omega", "sigma_d", "omega_d", "omega_d_dot", "c1", "c2", "alpha", "delta", "coordination")
+    return tuple(x[k] for k in keys)
+
+
 @pytest.mark.parametrize("model", ["paper", "exact"])
 @SETTINGS
 @given(x=states())
@@ -106,19 +112,7 @@ def test_control_law_three_ways(model, x, lambdified):
     compiled = casadi_function(f"control_law_{model}").call(inputs)
     compiled = {k: np.asarray(v).ravel() for k, v in compiled.items()}
     sym = {k: v.ravel() for k, v in lambdified(f"control_law_{model}")(**inputs).items()}
-    args = (
-        x["J0"],
-        x["sigma"],
-        x["omega"],
-        x["sigma_d"],
-        x["omega_d"],
-        x["omega_d_dot"],
-        x["c1"],
-        x["c2"],
-        x["alpha"],
-        x["delta"],
-        x["coordination"],
-    )
+    args = _oracle_law_args(x)
     inverted = oracle.control_by_dynamic_inversion(*args, error_model=model)
     scale = 1.0 + np.abs(inverted).max()
     for key in ("u", "u_unsaturated", "s", "sigma_e", "u_F", "u_D", "u_C"):
@@ -136,19 +130,7 @@ def test_printed_C_would_give_a_different_torque(x):
     """The oracle's printed-C law differs from fsmctl's exactly by (J0 omega_d) x omega_e (erratum eq9-C)."""
     assume(_well_conditioned(x, "paper"))
     assume(np.linalg.norm(np.cross(x["J0"] @ x["omega_d"], x["omega"] - x["omega_d"])) > 1e-3)
-    args = (
-        x["J0"],
-        x["sigma"],
-        x["omega"],
-        x["sigma_d"],
-        x["omega_d"],
-        x["omega_d_dot"],
-        x["c1"],
-        x["c2"],
-        x["alpha"],
-        x["delta"],
-        x["coordination"],
-    )
+    args = _oracle_law_args(x)
     printed = oracle.control_law_eqs_16_19(*args, variant="printed")["u"]
     mine = np.asarray(casadi_function("control_law_paper").call(_law_inputs(x))["u_unsaturated"]).ravel()
     gap = np.cross(x["J0"] @ x["omega_d"], x["omega"] - x["omega_d"])

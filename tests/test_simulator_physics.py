@@ -662,24 +662,29 @@ def _clear_backend_caches() -> None:
         cache.cache_clear()
 
 
-@pytest.mark.parametrize("control_period", [0.0, 0.01])
-def test_casadi_fallback_agrees_with_the_compiled_loop(paper, monkeypatch, control_period):
-    """``FSMCTL_NO_COMPILE=1``: the same loop on the serialized CasADi functions (generated/casadi)."""
+def _simulate_without_compiler(scenario, monkeypatch):
+    """Run ``scenario`` with ``FSMCTL_NO_COMPILE=1`` (serialized CasADi functions), restoring the backend after."""
     from fsmctl.generated_code import CompilerUnavailableWarning
 
-    s = paper.replace(simulation={"t_final": 1.0, "output_interval": 0.05, "control_period": control_period})
-    compiled = fsmctl.simulate(s)
-    if compiled.backend != "compiled":
-        pytest.skip("no C compiler to compare with")
     monkeypatch.setenv("FSMCTL_NO_COMPILE", "1")
     _clear_backend_caches()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", CompilerUnavailableWarning)
-            vm = fsmctl.simulate(s)
+            return fsmctl.simulate(scenario)
     finally:
         monkeypatch.delenv("FSMCTL_NO_COMPILE")
         _clear_backend_caches()
+
+
+@pytest.mark.parametrize("control_period", [0.0, 0.01])
+def test_casadi_fallback_agrees_with_the_compiled_loop(paper, monkeypatch, control_period):
+    """``FSMCTL_NO_COMPILE=1``: the same loop on the serialized CasADi functions (generated/casadi)."""
+    s = paper.replace(simulation={"t_final": 1.0, "output_interval": 0.05, "control_period": control_period})
+    compiled = fsmctl.simulate(s)
+    if compiled.backend != "compiled":
+        pytest.skip("no C compiler to compare with")
+    vm = _simulate_without_compiler(s, monkeypatch)
     assert vm.backend == "casadi-vm"
     for name in ("sigma", "omega", "sigma_e", "s", "u"):
         assert np.abs(getattr(vm, name) - getattr(compiled, name)).max() < 1e-12, name
@@ -690,19 +695,9 @@ def test_casadi_fallback_agrees_with_the_compiled_loop(paper, monkeypatch, contr
 
 def test_casadi_adaptive_fallback_records_the_shadow_set(torque_free, monkeypatch):
     """The no-compiler dopri45 path integrates unswitched MRPs but records |sigma| <= 1, the same attitudes."""
-    from fsmctl.generated_code import CompilerUnavailableWarning
-
     s, compiled = torque_free
     short = s.replace(simulation={"t_final": 12.0, "output_interval": 0.1, "integrator": "dopri45"})
-    monkeypatch.setenv("FSMCTL_NO_COMPILE", "1")
-    _clear_backend_caches()
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", CompilerUnavailableWarning)
-            vm = fsmctl.simulate(short)
-    finally:
-        monkeypatch.delenv("FSMCTL_NO_COMPILE")
-        _clear_backend_caches()
+    vm = _simulate_without_compiler(short, monkeypatch)
     assert vm.backend == "casadi-vm"
     assert np.linalg.norm(vm.sigma, axis=-1).max() <= 1.0 + 1e-12
     assert np.linalg.norm(vm.sigma_d, axis=-1).max() <= 1.0 + 1e-12
