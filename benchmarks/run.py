@@ -11,17 +11,22 @@ use the minima (the least disturbed measurement of each).
    * ``compiled-dopri45``: the same driver with its adaptive Dormand-Prince 5(4) (smooth variant;
      with sgn it stalls: run under a wall-time cap and reported);
    * ``python-control``: ``ct.input_output_response`` on ``fsmctl.formation(scenario)``
-     (SciPy RK45), under a wall-time cap, on a short horizon scaled to 100 s;
+     (SciPy RK45), under a wall-time cap, on a short horizon scaled to 100 s; swept over rtol without a
+     step limit (it steps over the fast saturation switchings: the sweep records its error floor), then
+     with ``max_step = dt``; the ratio uses the fastest setting at the compiled RK4's accuracy;
    * ``numpy-rk4``: a plain RK4 loop in Python whose right-hand side is the SymPy model of
      ``derive/`` lambdified to NumPy, vectorised over agents (no equation re-typed), short horizon;
    * ``casadi-per-step``: the same RK4 loop calling the generated CasADi functions agent by agent.
 
    Accuracy: the final state of each method against a tight reference (compiled RK4 at
    dt = 1e-5 s) on the same horizon; speed ratios are per simulated second.
+   Then the compiled driver's two kernel paths on the 100 s Case 1 run (``simulate_packed(p,
+   kernels="batched" | "scalar")``), alternated, checked bit-identical.
 2. Scaling in the number of agents n = 6, 24, 96, 384 on a ring and all-to-all: time per
    simulated second, exponents fitted in n and in the number of links (n = 24..384).
 3. Floating-point work per right-hand side from the CasADi graphs of the generated functions
-   against the measured time per right-hand side (achieved GFLOP/s vs this machine's limits).
+   against the measured time per right-hand side on the default (batched) kernel path (achieved
+   GFLOP/s vs this machine's limits).
 4. Wall times of ``fsmctl prove``, ``python -m derive --check``, ``fsmctl reproduce`` and
    ``fsmctl compare-surfaces`` (subprocesses), against the issues' bars.
 5. A Monte Carlo campaign of Case 1 (1000 runs of 100 s at dt = 1 ms, both cores).
@@ -113,7 +118,7 @@ def compiled_capped(scenario, cap_s: float):
     bufs["sigma_d"] = np.zeros((cap, 3))
     stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
     out = S._Output(capacity=cap, **{k: S._ptr(v) for k, v in {**bufs, **stats}.items()})
-    cp = S._CProblem(p)
+    cp = S._CProblem(p)  # kernels="auto", the default path of simulate_packed
     x0 = np.ascontiguousarray(p.x0, dtype=float)
     deadline = time.perf_counter() + cap_s
     reached = {"t": 0.0}
@@ -140,7 +145,11 @@ def compiled_capped(scenario, cap_s: float):
 # ----------------------------------------------------------------------------- python-control
 
 
-def python_control_run(scenario, t_final: float, rtol: float, atol: float, cap_s: float):
+def python_control_run(scenario, t_final: float, rtol: float, atol: float, cap_s: float, max_step: float | None = None):
+    """``ct.input_output_response`` (SciPy RK45) on ``fsmctl.formation(scenario)`` under a wall-time cap.
+
+    ``max_step``: SciPy's step limit (None: unlimited, SciPy's default); returns (final state | None, info).
+    """
     import control as ct
 
     import fsmctl
@@ -160,15 +169,13 @@ def python_control_run(scenario, t_final: float, rtol: float, atol: float, cap_s
 
     sys_._rhs = rhs
     x0 = initial_state(scenario)
+    kwargs = {"rtol": rtol, "atol": atol}
+    if max_step is not None:
+        kwargs["max_step"] = max_step
     t0 = time.perf_counter()
     try:
         resp = ct.input_output_response(
-            sys_,
-            np.array([0.0, t_final]),
-            0,
-            x0,
-            solve_ivp_method="RK45",
-            solve_ivp_kwargs={"rtol": rtol, "atol": atol},
+            sys_, np.array([0.0, t_final]), 0, x0, solve_ivp_method="RK45", solve_ivp_kwargs=kwargs
         )
     except Deadline as exc:
         return None, {
@@ -362,6 +369,55 @@ def state_error(x, ref) -> float:
     return float(np.max(np.abs(np.asarray(x) - np.asarray(ref))))
 
 
+def _step_limit_finding(v: dict, pc_ms: list, dt: float) -> str:
+    """One sentence, from the measured numbers, on the adaptive solvers with and without a step limit."""
+    nm, target = v["python_control_no_max_step"], v["python_control"]["target_error"]
+    if not nm["errors"]:
+        head = "python-control without a step limit did not finish within the wall-time cap"
+    else:
+        floor, diff = nm["error_floor"], nm["last_difference_between_rtols"]
+        d45 = nm["difference_from_compiled_dopri45_at_tightest_rtol"]
+        rt = f"rtol {_f(nm['rtols'][0])}..{_f(nm['rtols'][-1])}"
+        errs = ", ".join(_f(e, ".2g") for e in nm["errors"])
+        d45e = ", ".join(_f(e, ".2g") for e in nm["compiled_dopri45_errors"])
+        if nm["reaches_compiled_rk4_accuracy"]:
+            head = (
+                f"on this horizon adaptive RK45 (python-control) without a step limit reaches the compiled RK4's "
+                f"accuracy (errors {errs} at {rt}; compiled dopri45 at the same rtols: {d45e})"
+            )
+        elif diff is not None and diff < 0.1 * floor:
+            head = (
+                f"adaptive RK45 (python-control) and the compiled dopri45 without a step limit step over the "
+                f"saturation switchings and converge to a state ~{floor:.2g} from the reference however small rtol is "
+                f"(python-control errors {errs} at {rt}, the last two rtols {diff:.2g} apart; compiled dopri45 at "
+                f"the same rtols: {d45e}; the two solvers' tightest final states {_f(d45, '.2g')} apart)"
+            )
+        else:
+            head = (
+                f"adaptive RK45 (python-control) without a step limit has an error floor of {floor:.2g} > the "
+                f"compiled RK4's {target:.2g} (errors {errs} at {rt}; compiled dopri45 at the same rtols: {d45e})"
+            )
+    ms = [e for e in pc_ms if "final_state_error" in e]
+    hit = next((e for e in ms if e["final_state_error"] <= max(target, 1e-13)), None)
+    if hit is not None:
+        tail = (
+            f"with max_step = dt = {dt:g} s python-control reaches the compiled RK4's accuracy: error "
+            f"{hit['final_state_error']:.2g} <= {target:.2g} at rtol {hit['rtol']:g} "
+            f"({hit['per_simulated_s']:.3g} s per simulated s)"
+        )
+    elif ms:
+        best = min(ms, key=lambda e: e["final_state_error"])
+        tail = (
+            f"with max_step = dt = {dt:g} s python-control does NOT reach the compiled RK4's accuracy: best error "
+            f"{best['final_state_error']:.2g} > {target:.2g} (rtol {best['rtol']:g})"
+        )
+    else:
+        tail = f"with max_step = dt = {dt:g} s python-control did not finish within the wall-time cap"
+    if ms and hit is None and any(e.get("capped") for e in pc_ms):
+        tail += "; the next rtol hit the wall-time cap"
+    return f"{head}; {tail}."
+
+
 def compare_section(quick: bool, log) -> dict:
     import fsmctl
 
@@ -371,6 +427,9 @@ def compare_section(quick: bool, log) -> dict:
     reps = 2 if quick else 3
     cap = 20.0 if quick else 60.0
     out = {"horizon_full_s": T_full, "horizon_short_s": T_short, "repeats": reps, "wall_cap_s": cap, "variants": {}}
+    out["reference"] = (
+        f"compiled RK4 at dt = {1e-4 if quick else 2e-5:g} s (full horizon) and dt = 1e-5 s (short horizon)"
+    )
     for variant, phi in (("boundary_layer", 0.001), ("sgn", 0.0)):
         log(f"compare: variant {variant}")
         sc = base.replace(controller={"boundary_layer": phi}, simulation={"t_final": T_full, "output_interval": 1.0})
@@ -413,29 +472,73 @@ def compare_section(quick: bool, log) -> dict:
                 **info,
                 "note": "adaptive steps collapse at the sgn switching surface",
             }
-        # python-control
-        pc = []
+        # python-control, two sweeps: (a) rtol alone (SciPy's default: no step limit), which documents the
+        # step-over effect (RK45 takes ~5 ms steps and steps over the ~20 us saturation switchings, so it
+        # converges as rtol -> 0 to a state away from the reference); (b) max_step = dt (the compiled RK4's
+        # step), stopped at the first rtol reaching the compiled RK4's short-horizon error.
+        dt = short.simulation.dt
+        target_err = v["compiled_short"]["final_state_error"]
+        pc, prev = [], None
         for rtol in (1e-4, 1e-6, 1e-8, 1e-10):
-            log(f"  python-control rtol {rtol:g}")
+            log(f"  python-control rtol {rtol:g} (no max_step)")
             xp, info = python_control_run(short, T_short, rtol, rtol * 1e-2, cap)
-            entry = {"rtol": rtol, **info}
-            # the compiled driver's adaptive method at the same tolerances on the same horizon
+            entry = {"sweep": "rtol", "rtol": rtol, "atol": rtol * 1e-2, "max_step": None, **info}
+            # the compiled driver's adaptive method at the same tolerances on the same horizon (no step limit either)
             scd = short.replace(simulation={"integrator": "dopri45", "rtol": rtol, "atol": rtol * 1e-2})
-            mn_c, _, _, (xcd, _) = timed(lambda scd=scd: compiled_final(scd), 5)
+            mn_c, _, _, (xcd, rcd) = timed(lambda scd=scd: compiled_final(scd), 5)
             entry["compiled_dopri45_same_tolerance"] = {
                 "wall_min_s": mn_c, "per_simulated_s": mn_c / T_short, "final_state_error": state_error(xcd, ref_short),
+                "steps": int(rcd.steps_taken), "rejected": int(rcd.steps_rejected),
             }  # fmt: skip
             if xp is not None:
                 entry["final_state_error"] = state_error(xp, ref_short)
                 entry["per_simulated_s"] = info["wall_s"] / T_short
+                if prev is not None:
+                    entry["difference_from_previous_rtol"] = state_error(xp, prev)
+                prev = xp
+                # do the two adaptive solvers land on the same (wrong) state?
+                entry["difference_from_compiled_dopri45"] = state_error(xp, xcd)
             pc.append(entry)
             if xp is None:
                 break
-        v["python_control_sweep"] = pc
-        target_err = v["compiled_short"]["final_state_error"]
-        ok = [e for e in pc if e.get("final_state_error", math.inf) <= max(target_err, 1e-13) * 1.0]
-        chosen = ok[0] if ok else next((e for e in reversed(pc) if "final_state_error" in e), pc[-1])
-        v["python_control"] = {**chosen, "equal_accuracy": bool(ok), "horizon_s": T_short}
+        pc_ms = []
+        for rtol in (1e-4, 1e-6, 1e-8):
+            log(f"  python-control rtol {rtol:g}, max_step {dt:g}")
+            xp, info = python_control_run(short, T_short, rtol, rtol * 1e-2, cap, max_step=dt)
+            entry = {"sweep": "max_step", "rtol": rtol, "atol": rtol * 1e-2, "max_step": dt, **info}
+            if xp is not None:
+                entry["final_state_error"] = state_error(xp, ref_short)
+                entry["per_simulated_s"] = info["wall_s"] / T_short
+            pc_ms.append(entry)
+            if xp is None or entry["final_state_error"] <= max(target_err, 1e-13):
+                break
+        v["python_control_sweep"] = pc + pc_ms
+        done = [e for e in pc if "final_state_error" in e]
+        floor = min((e["final_state_error"] for e in done), default=math.nan)
+        v["python_control_no_max_step"] = {
+            "rtols": [e["rtol"] for e in done],
+            "errors": [e["final_state_error"] for e in done],
+            "error_floor": floor,
+            "rtol_at_floor": next((e["rtol"] for e in done if e["final_state_error"] == floor), None),
+            "compiled_dopri45_errors": [e["compiled_dopri45_same_tolerance"]["final_state_error"] for e in pc],
+            "compiled_dopri45_steps": [e["compiled_dopri45_same_tolerance"]["steps"] for e in pc],
+            # successive rtols agree with each other far better than with the reference: converged, to the wrong state
+            "last_difference_between_rtols": done[-1].get("difference_from_previous_rtol") if done else None,
+            "difference_from_compiled_dopri45_at_tightest_rtol": done[-1]["difference_from_compiled_dopri45"]
+            if done
+            else None,
+            "reaches_compiled_rk4_accuracy": bool(done) and floor <= max(target_err, 1e-13),
+        }
+        ok = [e for e in pc + pc_ms if e.get("final_state_error", math.inf) <= max(target_err, 1e-13)]
+        if ok:  # the fastest setting at equal accuracy, over both sweeps
+            chosen = min(ok, key=lambda e: e["per_simulated_s"])
+        else:  # the tightest setting of the step-limited sweep (a capped run, or the most accurate completed one)
+            capped_ms = [e for e in pc_ms if e.get("capped")]
+            done_ms = [e for e in pc_ms if "final_state_error" in e] or done
+            chosen = capped_ms[-1] if capped_ms else min(done_ms, key=lambda e: e["final_state_error"])
+        v["python_control"] = {
+            **chosen, "equal_accuracy": bool(ok), "horizon_s": T_short, "target_error": target_err,
+        }  # fmt: skip
         # python RK4 loops (same algorithm as the compiled driver: same accuracy by construction; checked)
         for backend in ("numpy", "casadi"):
             log(f"  python RK4 loop ({backend})")
@@ -447,21 +550,92 @@ def compare_section(quick: bool, log) -> dict:
             }  # fmt: skip
         per_compiled = mn / T_full
         ratios = {}
-        if "per_simulated_s" in v["python_control"] and not v["python_control"].get("capped"):
-            ratios["python_control_over_compiled"] = v["python_control"]["per_simulated_s"] / per_compiled
-            ratios["python_control_over_compiled_dopri45_same_tolerance"] = (
-                v["python_control"]["per_simulated_s"]
-                / v["python_control"]["compiled_dopri45_same_tolerance"]["per_simulated_s"]
-            )
-        else:
-            reached = v["python_control"].get("simulated_s_reached") or 1e-9
+        chosen = v["python_control"]
+        if chosen["equal_accuracy"]:
+            ratios["python_control_over_compiled"] = chosen["per_simulated_s"] / per_compiled
+        elif chosen.get("capped"):
+            reached = chosen.get("simulated_s_reached") or 1e-9
             ratios["python_control_over_compiled_lower_bound"] = (cap / reached) / per_compiled
+        else:  # assumes reaching the compiled accuracy costs at least the most accurate setting tried
+            ratios["python_control_over_compiled_lower_bound"] = chosen["per_simulated_s"] / per_compiled
+        # python-control vs the compiled dopri45 on equal terms (same rtol, no step limit): most accurate rtol run
+        same = [e for e in pc if "per_simulated_s" in e]
+        if same:
+            e = min(same, key=lambda e: e["final_state_error"])
+            ratios["python_control_over_compiled_dopri45_same_tolerance"] = (
+                e["per_simulated_s"] / e["compiled_dopri45_same_tolerance"]["per_simulated_s"]
+            )
+            ratios["python_control_over_compiled_dopri45_same_tolerance_rtol"] = e["rtol"]
         ratios["numpy_rk4_over_compiled"] = v["numpy_rk4_loop"]["per_simulated_s"] / per_compiled
         ratios["casadi_per_step_over_compiled"] = v["casadi_rk4_loop"]["per_simulated_s"] / per_compiled
         if phi > 0 and v.get("compiled_dopri45"):
             ratios["compiled_dopri45_over_compiled_rk4"] = v["compiled_dopri45"]["wall_min_s"] / mn
         v["ratios"] = ratios
+        v["finding"] = _step_limit_finding(v, pc_ms, dt)
+        log(f"  {v['finding']}")
         out["variants"][variant] = v
+    return out
+
+
+def kernels_section(quick: bool, log) -> dict:
+    """The compiled driver with its two per-agent evaluation paths on the 100 s Case 1 run, side by side.
+
+    ``kernels="batched"`` (the default ``"auto"`` on an AVX build): the lane-batched SIMD kernels of
+    ``generated/c/batched.c`` (4 agents per call); ``kernels="scalar"``: CasADi's scalar functions agent by
+    agent. Alternated, 5 repeats each.
+    """
+    import fsmctl
+    from fsmctl.problem import pack
+    from fsmctl.simulator import simulate_packed
+
+    sc = fsmctl.paper_scenario("1")
+    p = pack(sc)
+    names = ("batched", "scalar")
+    walls = {k: [] for k in names}
+    loops = {k: [] for k in names}
+    finals = {}
+    deterministic = True
+    reps = 5
+    for r in range(reps):
+        for k in names if r % 2 == 0 else names[::-1]:  # alternate which goes first
+            t = time.perf_counter()
+            raw = simulate_packed(p, kernels=k)
+            walls[k].append(time.perf_counter() - t)
+            loops[k].append(float(raw["wall_time"]))
+            traj = {key: raw[key] for key in ("t", "sigma_d", "sigma", "omega", "s", "u", "u_unsat")}
+            if k in finals:
+                deterministic &= all(
+                    np.asarray(traj[key]).tobytes() == np.asarray(finals[k][key]).tobytes() for key in traj
+                )
+            else:
+                finals[k] = traj
+    fb, fs = finals["batched"], finals["scalar"]
+    final_b = np.concatenate([fb["sigma_d"][-1], fb["sigma"][-1].ravel(), fb["omega"][-1].ravel()])
+    final_s = np.concatenate([fs["sigma_d"][-1], fs["sigma"][-1].ravel(), fs["omega"][-1].ravel()])
+    assert final_b.tobytes() == final_s.tobytes(), (
+        f"batched and scalar kernels differ: max |diff| = {state_error(final_b, final_s):.3g}"
+    )
+    identical_trajectories = all(fb[key].tobytes() == fs[key].tobytes() for key in fb)
+    out = {
+        "scenario": f"paper_scenario('1') packed with fsmctl.problem.pack: {p.n_agents} agents, {p.n_links} links, "
+        f"{p.n_steps} RK4 steps of {p.dt:g} s",
+        "n_steps": int(p.n_steps),
+        "repeats": reps,
+        "final_states_bit_identical": True,
+        "trajectories_bit_identical": bool(identical_trajectories),
+        "each_kernel_bit_identical_across_repeats": bool(deterministic),
+    }
+    for k in names:
+        out[k] = {
+            "wall_min_s": min(walls[k]), "wall_median_s": statistics.median(walls[k]), "walls_s": walls[k],
+            "c_loop_min_s": min(loops[k]), "c_loop_median_s": statistics.median(loops[k]), "c_loops_s": loops[k],
+        }  # fmt: skip
+    out["scalar_over_batched_min"] = out["scalar"]["wall_min_s"] / out["batched"]["wall_min_s"]
+    out["scalar_over_batched_median"] = out["scalar"]["wall_median_s"] / out["batched"]["wall_median_s"]
+    log(
+        f"kernels: batched {out['batched']['wall_min_s']:.3f} s, scalar {out['scalar']['wall_min_s']:.3f} s "
+        f"(min of {reps}), scalar/batched = {out['scalar_over_batched_min']:.2f}; bit-identical final states"
+    )
     return out
 
 
@@ -532,8 +706,10 @@ def op_counts(name: str) -> dict:
     }
 
 
-def flops_section(compare: dict, log) -> dict:
+def flops_section(compare: dict, log, kernels: dict | None = None) -> dict:
+
     import fsmctl
+    from fsmctl import simulator as S
 
     sc = fsmctl.paper_scenario("1")
     n, L = sc.n_agents, len(sc.topology.links)
@@ -550,10 +726,18 @@ def flops_section(compare: dict, log) -> dict:
         n * (per["sliding_paper"]["special"] + per["control_core"]["special"] + per["plant_rhs"]["special"])
         + per["reference_rhs"]["special"] + 0.5 * n * per["disturbance_torque"]["special"]
     )  # fmt: skip
+    # time per RHS from the compare section's compiled run: fsmctl.simulate -> simulate_packed with its default
+    # kernels (the lane-batched path); the flop count is the same for both paths (same instruction lists)
+    kernel_path = "batched" if S.batched_kernels_preferred() else "scalar"  # what the default kernels="auto" uses
     c = compare["variants"]["boundary_layer"]["compiled"]
     n_steps = round(c["horizon_s"] / sc.simulation.dt)
     t_rhs = c["wall_min_s"] / (4 * n_steps)
     achieved = flops / t_rhs
+    by_path = {}
+    if kernels:  # the same flops through both paths (C loop times of the kernels section's 100 s run)
+        for k in ("batched", "scalar"):
+            t_k = kernels[k]["c_loop_min_s"] / (4 * kernels["n_steps"])
+            by_path[k] = {"rhs_time_s": t_k, "achieved_gflops": flops / t_k / 1e9}
     # machine limits: measured single-thread dense matmul (vector FMA peak) and 2 scalar flops per cycle
     a = np.random.default_rng(0).standard_normal((1500, 1500))
     try:
@@ -568,7 +752,7 @@ def flops_section(compare: dict, log) -> dict:
     matmul = 2 * 1500**3 / mn
     mhz = machine_info().get("cpu_mhz")
     scalar_peak = 2 * mhz * 1e6 if mhz else math.nan
-    log(f"flops: {flops:.0f} per RHS in {t_rhs * 1e6:.2f} us -> {achieved / 1e9:.2f} GFLOP/s")
+    log(f"flops: {flops:.0f} per RHS in {t_rhs * 1e6:.2f} us ({kernel_path} kernels) -> {achieved / 1e9:.2f} GFLOP/s")
     return {
         "per_function": {
             k: {kk: vv for kk, vv in v.items() if kk != "ops"} | {"ops": v["ops"]} for k, v in per.items()
@@ -576,7 +760,9 @@ def flops_section(compare: dict, log) -> dict:
         "rhs_flops": flops,
         "rhs_special_functions": special,
         "rhs_time_s": t_rhs,
+        "kernels": kernel_path,
         "achieved_gflops": achieved / 1e9,
+        "by_kernel_path_c_loop": by_path,
         "matmul_single_thread_gflops": matmul / 1e9,
         "scalar_peak_gflops_2_per_cycle": scalar_peak / 1e9,
         "fraction_of_matmul": achieved / matmul,
@@ -641,6 +827,10 @@ def _f(x, fmt=".3g"):
     return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else format(x, fmt)
 
 
+def _max_step_label(max_step) -> str:
+    return "no step limit" if max_step is None else f"max_step {max_step:g} s"
+
+
 def markdown(res: dict) -> str:
     m = res["machine"]
     lines = [
@@ -657,8 +847,12 @@ def markdown(res: dict) -> str:
     c = res["compare"]
     lines.append(
         f"Compiled runs cover {c['horizon_full_s']:g} s; python-control and the Python loops cover "
-        f"{c['horizon_short_s']:g} s and are scaled per simulated second (wall-time cap {c['wall_cap_s']:g} s). "
-        "Errors: max |final state - tight reference| on the same horizon."
+        f"{c['horizon_short_s']:g} s and are scaled per simulated second (wall-time cap {c['wall_cap_s']:g} s per run). "
+        "Errors: max |final state - tight reference| on the same horizon; reference: "
+        + c.get("reference", "compiled RK4 at a small step")
+        + ". python-control (SciPy RK45) is swept over rtol (atol = rtol/100) without a step limit, then with "
+        "max_step = dt; the row marked 'equal accuracy' is the fastest setting whose error is <= the compiled RK4's "
+        "on the short horizon, and its ratio uses that setting's time per simulated second."
     )
     lines.append("")
     lines.append(
@@ -682,13 +876,27 @@ def markdown(res: dict) -> str:
                 + f"reached {_f(d['simulated_s_reached'])} s in {_f(d['wall_s'])} s ({d['meaning']}, {d['steps_rejected']} rejected steps) | | | | |"
             )
         p = v["python_control"]
+        label = f"ct.input_output_response RK45 rtol {p['rtol']:g}, " + _max_step_label(p.get("max_step"))
         if p.get("capped"):
             lines.append(
-                f"| {name} | ct.input_output_response RK45 rtol {p['rtol']:g} | capped: reached {_f(p['simulated_s_reached'])} s in {_f(p['wall_s'])} s | | | | > {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))} |"
+                f"| {name} | {label} | capped: reached {_f(p['simulated_s_reached'])} s in {_f(p['wall_s'])} s | | | | > {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))} |"
             )
         else:
+            ratio = v["ratios"].get("python_control_over_compiled")
             lines.append(
-                f"| {name} | ct.input_output_response RK45 rtol {p['rtol']:g}{'' if p['equal_accuracy'] else ' (not equal accuracy)'} | {p['horizon_s']:g} | {_f(p['wall_s'])} | {_f(p['per_simulated_s'])} | {_f(p.get('final_state_error'))} | {_f(v['ratios'].get('python_control_over_compiled'))} |"
+                f"| {name} | {label} ({'equal accuracy' if p['equal_accuracy'] else 'NOT equal accuracy: lower bound'}) | {p['horizon_s']:g} | {_f(p['wall_s'])} | {_f(p['per_simulated_s'])} | {_f(p.get('final_state_error'))} | "
+                + (
+                    _f(ratio)
+                    if p["equal_accuracy"]
+                    else f"> {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))}"
+                )
+                + " |"
+            )
+        nm = [e for e in v["python_control_sweep"] if e["max_step"] is None and "final_state_error" in e]
+        e = min(nm, key=lambda e: e["final_state_error"]) if nm else None
+        if e is not None and (e["rtol"], e["max_step"]) != (p["rtol"], p.get("max_step")):
+            lines.append(
+                f"| {name} | ct.input_output_response RK45 rtol {e['rtol']:g}, no step limit (most accurate of that sweep) | {c['horizon_short_s']:g} | {_f(e['wall_s'])} | {_f(e['per_simulated_s'])} | {_f(e['final_state_error'])} | {_f(e['per_simulated_s'] / per_c)} |"
             )
         for key, label in (
             ("numpy_rk4_loop", "NumPy RK4 loop (lambdified SymPy)"),
@@ -707,11 +915,81 @@ def markdown(res: dict) -> str:
         r = v["ratios"]
         pc = r.get("python_control_over_compiled", r.get("python_control_over_compiled_lower_bound"))
         lines.append(
-            f"* {name}: python-control / compiled dopri45 at the same tolerance = {_f(r.get('python_control_over_compiled_dopri45_same_tolerance'))}; "
-            f"python-control / compiled = {_f(pc)}{' (lower bound: capped)' if 'python_control_over_compiled_lower_bound' in r else ''} "
-            f"({'met' if pc and pc >= 100 else 'MISSED'}); NumPy RK4 / compiled = {_f(r['numpy_rk4_over_compiled'])} "
+            f"* {name}: python-control / compiled dopri45 at the same tolerance (rtol {_f(r.get('python_control_over_compiled_dopri45_same_tolerance_rtol'), 'g')}, no step limit) = {_f(r.get('python_control_over_compiled_dopri45_same_tolerance'))}; "
+            f"python-control / compiled = {_f(pc)}"
+            + (
+                (
+                    " (lower bound: capped)"
+                    if v["python_control"].get("capped")
+                    else " (lower bound: not equal accuracy)"
+                )
+                if "python_control_over_compiled_lower_bound" in r
+                else ""
+            )
+            + " "
+            f"({'met' if pc and pc >= 100 else ('MISSED' if 'python_control_over_compiled' in r else 'undecided: lower bound < 100')}); NumPy RK4 / compiled = {_f(r['numpy_rk4_over_compiled'])} "
             f"({'met' if r['numpy_rk4_over_compiled'] >= 50 else 'MISSED'}); CasADi-per-step / compiled = {_f(r['casadi_per_step_over_compiled'])}"
         )
+        pcv = v["python_control"]
+        lines.append(
+            f"  python-control setting used for the ratio: rtol {pcv['rtol']:g}, atol {pcv['atol']:g}, "
+            f"{_max_step_label(pcv.get('max_step'))}: "
+            + (
+                f"equal accuracy reached (error {_f(pcv['final_state_error'])} <= compiled RK4's {_f(pcv['target_error'])})."
+                if pcv["equal_accuracy"]
+                else f"equal accuracy NOT reached (target error {_f(pcv['target_error'])}); the ratio is a lower bound."
+            )
+        )
+    lines.append("")
+    lines.append("Finding (measured in this run):")
+    lines.append("")
+    for name, v in c["variants"].items():
+        lines.append(f"* {name}: {v['finding']}")
+    lines += [
+        "",
+        "python-control sweeps (short horizon; compiled dopri45 at the same rtol, also without a step limit):",
+        "",
+        "| variant | max_step (s) | rtol | wall (s) | RHS calls | final-state error | compiled dopri45 error (steps) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for name, v in c["variants"].items():
+        for e in v["python_control_sweep"]:
+            d = e.get("compiled_dopri45_same_tolerance")
+            err = (
+                _f(e["final_state_error"])
+                if "final_state_error" in e
+                else f"capped at t = {_f(e.get('simulated_s_reached'))} s"
+            )
+            lines.append(
+                f"| {name} | {_f(e['max_step'], 'g') if e['max_step'] is not None else 'none'} | {e['rtol']:g} | "
+                f"{_f(e['wall_s'])} | {e['rhs_calls']} | {err} | "
+                + (f"{_f(d['final_state_error'])} ({d['steps']})" if d else "")
+                + " |"
+            )
+    k = res.get("kernels")
+    if k:
+        lines += [
+            "",
+            "## Batched kernels",
+            "",
+            f"Compiled driver, {k['scenario']}, with `simulate_packed(p, kernels=...)`: `batched` (what the default `auto` uses on an AVX build; lane-batched "
+            "SIMD kernels of generated/c/batched.c, 4 agents per call) vs `scalar` (CasADi's scalar functions agent by "
+            f"agent), alternated, {k['repeats']} repeats each. Final states bit-identical: "
+            f"{'yes' if k['final_states_bit_identical'] else 'NO'}; whole trajectories bit-identical: "
+            f"{'yes' if k['trajectories_bit_identical'] else 'NO'}.",
+            "",
+            "| kernels | wall min (s) | wall median (s) | C loop min (s) | C loop median (s) |",
+            "|---|---|---|---|---|",
+        ]
+        for name in ("batched", "scalar"):
+            q = k[name]
+            lines.append(
+                f"| {name} | {_f(q['wall_min_s'])} | {_f(q['wall_median_s'])} | {_f(q['c_loop_min_s'])} | {_f(q['c_loop_median_s'])} |"
+            )
+        lines += [
+            "",
+            f"scalar / batched = {_f(k['scalar_over_batched_min'])} (min), {_f(k['scalar_over_batched_median'])} (median).",
+        ]
     s = res["scale"]
     lines += [
         "",
@@ -733,9 +1011,22 @@ def markdown(res: dict) -> str:
         "## Floating-point work per right-hand side (Case 1, 6 agents, 30 links)",
         "",
         f"{fl['rhs_flops']:.0f} flops (+,-,*,/ of the CasADi graphs) and {fl['rhs_special_functions']:.0f} pow/sqrt/sin/cos per RHS; "
-        f"measured {fl['rhs_time_s'] * 1e6:.2f} us per RHS -> {fl['achieved_gflops']:.2f} GFLOP/s = "
+        f"measured {fl['rhs_time_s'] * 1e6:.2f} us per RHS on the default `{fl.get('kernels', 'batched')}` kernel path "
+        "(compiled RK4 run of the compare section) "
+        f"-> {fl['achieved_gflops']:.2f} GFLOP/s = "
         f"{fl['fraction_of_scalar_peak']:.0%} of a 2-flop/cycle scalar peak ({fl['scalar_peak_gflops_2_per_cycle']:.1f} GFLOP/s) and "
-        f"{fl['fraction_of_matmul']:.1%} of single-thread dense matmul ({fl['matmul_single_thread_gflops']:.1f} GFLOP/s).",
+        f"{fl['fraction_of_matmul']:.1%} of single-thread dense matmul ({fl['matmul_single_thread_gflops']:.1f} GFLOP/s). "
+        "The flop count is that of the CasADi instruction lists, the same for both kernel paths"
+        + (
+            "; C-loop time per RHS of the kernels section: "
+            + ", ".join(
+                f"{kp} {q['rhs_time_s'] * 1e6:.2f} us ({q['achieved_gflops']:.2f} GFLOP/s)"
+                for kp, q in fl["by_kernel_path_c_loop"].items()
+            )
+            if fl.get("by_kernel_path_c_loop")
+            else ""
+        )
+        + ".",
         "",
         "| function | instructions | flops | pow/sqrt/trig | other (fmin/fmax/if/sign) |",
         "|---|---|---|---|---|",
@@ -777,8 +1068,9 @@ def main(argv=None) -> int:
 
     res = {"quick": args.quick, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "machine": machine_info()}
     res["compare"] = compare_section(args.quick, log)
+    res["kernels"] = kernels_section(args.quick, log)
     res["scale"] = scale_section(args.quick, log)
-    res["flops"] = flops_section(res["compare"], log)
+    res["flops"] = flops_section(res["compare"], log, res["kernels"])
     res["subprocess"] = {} if args.quick else subprocess_section(log)
     runs = args.montecarlo_runs if args.montecarlo_runs is not None else (20 if args.quick else 1000)
     res["montecarlo"] = montecarlo_section(runs, log) if runs > 0 else None

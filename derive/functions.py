@@ -63,6 +63,8 @@ class FunctionSpec:
     inputs: tuple[tuple[str, sp.ImmutableMatrix], ...]
     outputs: tuple[tuple[str, sp.ImmutableMatrix], ...]
     stages: tuple[tuple[sp.ImmutableMatrix, sp.ImmutableMatrix], ...] = field(default=())
+    batched: bool = False
+    """also emit a lane-batched kernel (derive/batched.py) for the simulator's per-agent hot loop"""
 
 
 def _scalar(name: str) -> sp.ImmutableMatrix:
@@ -125,6 +127,7 @@ def plant_spec() -> FunctionSpec:
         doc="rigid spacecraft (eqs 3-4) with the true inertia J (read from its lower triangle); tau = control + disturbance",
         inputs=(("sigma", sigma), ("omega", omega), ("tau", tau), ("J", J)),
         outputs=(("sigma_dot", sigma_dot), ("omega_dot", omega_dot)),
+        batched=True,
     )
 
 
@@ -205,6 +208,7 @@ def sliding_spec(error_model: ErrorModel) -> FunctionSpec:
         inputs=inputs,
         outputs=tuple((k, v[k]) for k in ("s", "sigma_e", "omega_e", "omega_r", "omega_r_dot", "slope")),
         stages=stages,
+        batched=True,
     )
 
 
@@ -274,6 +278,7 @@ def control_core_spec() -> FunctionSpec:
             ("u_max", u_max),
         ),
         outputs=(("u", u), ("u_unsaturated", pieces.u)),
+        batched=True,
     )
 
 

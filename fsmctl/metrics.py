@@ -2,16 +2,15 @@
 
 Principal angles and relative attitudes are evaluated with the generated MRP
 functions (``mrp_principal_angle``, ``mrp_error``), mapped over the samples by
-CasADi, so no MRP formula is re-typed here.
+CasADi (through NumPy buffers, :func:`fsmctl.casadi_eval.evaluate_mapped`), so no
+MRP formula is re-typed here.
 """
 
 from __future__ import annotations
 
-import functools
-
-import casadi as ca
 import numpy as np
 
+from .casadi_eval import evaluate_mapped
 from .generated_code import casadi_function
 
 __all__ = [
@@ -24,19 +23,14 @@ __all__ = [
 ]
 
 
-@functools.cache
-def _mapped(name: str, n: int) -> ca.Function:
-    return casadi_function(name).map(n, "serial")
-
-
 def principal_angles(sigma: np.ndarray) -> np.ndarray:
     """``theta = 4 atan|sigma|`` (eq 2) for an array ``(..., 3)`` of MRPs; returns ``(...)`` in rad."""
     sigma = np.asarray(sigma, dtype=float)
     flat = sigma.reshape(-1, 3)
     if flat.shape[0] == 0:
         return np.zeros(sigma.shape[:-1])
-    out = np.asarray(_mapped("mrp_principal_angle", flat.shape[0])(flat.T)).ravel()
-    return out.reshape(sigma.shape[:-1])
+    (theta,) = evaluate_mapped(casadi_function("mrp_principal_angle"), flat.shape[0], [flat])  # (m, 1)
+    return theta.reshape(sigma.shape[:-1])
 
 
 def relative_principal_angles(sigma_e: np.ndarray) -> np.ndarray:
@@ -54,7 +48,7 @@ def relative_principal_angles(sigma_e: np.ndarray) -> np.ndarray:
     # theta_ij = theta_ji (the inverse rotation has the same angle): evaluate each unordered pair once
     a = sigma_e[:, iu, :].reshape(-1, 3)
     b = sigma_e[:, ju, :].reshape(-1, 3)
-    rel = np.asarray(_mapped("mrp_error", a.shape[0])(a.T, b.T)).T
+    (rel,) = evaluate_mapped(casadi_function("mrp_error"), a.shape[0], [a, b])  # (T * pairs, 3)
     theta = principal_angles(rel).reshape(T, iu.size)
     out[:, iu, ju] = theta
     out[:, ju, iu] = theta

@@ -42,14 +42,14 @@ import time
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .cli_types import finite_or_inf_float, nonnegative_int, positive_int
-from .parallel import process_pool_context
+from .parallel import process_pool_context, single_threaded_workers
 from .scenario import Agent, Scenario, ScenarioError, Sinusoid, load_scenario
 from .topology import Link, Topology
 
@@ -216,7 +216,7 @@ def sample_run_scenario(base: Scenario, settings: CampaignSettings, seed: np.ran
             )
         )
     topology = _random_topology(rng, base.topology, settings)
-    return base.with_agents(agents).with_topology(topology)
+    return replace(base, agents=tuple(agents), topology=topology)  # validated once
 
 
 def _base_scenario(settings: CampaignSettings) -> Scenario:
@@ -337,6 +337,8 @@ def _run_chunk(
     base: Scenario, settings: CampaignSettings, indices: Sequence[int], run_fn: RunFunction | None = None
 ) -> list[tuple[int, str, str, dict]]:
     """Runs ``indices``; each gives ``(index, status, message, record)``; a failing run does not stop the chunk."""
+    # Reaches only BLAS libraries loaded after this point (e.g. SciPy's, at the first linprog). The local
+    # pool's workers get one thread from their environment at start (parallel.single_threaded_workers).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     fn = run_fn or run_one
     seeds = np.random.SeedSequence(settings.seed).spawn(settings.runs)
@@ -461,11 +463,19 @@ def _progress(total: int, initial: int, enabled: bool | None):
 
 
 def _run_local(base, settings, todo, workers, run_fn, on_chunk) -> None:
-    """Process pool; a chunk whose worker died is retried in a fresh pool, then run by run in isolation."""
+    """Process pool; a chunk whose worker died is retried in a fresh pool, then run by run in isolation.
+
+    The workers run with one BLAS/OpenMP thread each (:func:`fsmctl.parallel.single_threaded_workers`).
+    """
     if workers <= 1:
         for c, idx in todo:
             on_chunk(c, idx, _run_chunk(base, settings, idx, run_fn))
         return
+    with single_threaded_workers():  # every pool of _run_pools starts its workers inside
+        _run_pools(base, settings, todo, workers, run_fn, on_chunk)
+
+
+def _run_pools(base, settings, todo, workers, run_fn, on_chunk) -> None:
     pending = list(todo)
     attempt = 0
     while pending:

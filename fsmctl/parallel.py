@@ -2,11 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
+import os
 import sys
+from collections.abc import Iterator
 from multiprocessing.context import BaseContext
 
-__all__ = ["process_pool_context"]
+__all__ = ["WORKER_THREAD_VARIABLES", "process_pool_context", "single_threaded_workers"]
+
+WORKER_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+"""thread counts of OpenBLAS, OpenMP and MKL, read from the environment when the library loads"""
 
 
 def process_pool_context() -> BaseContext:
@@ -22,3 +28,35 @@ def process_pool_context() -> BaseContext:
     if script and "fork" in multiprocessing.get_all_start_methods():
         return multiprocessing.get_context("fork")
     return multiprocessing.get_context("spawn")
+
+
+@contextlib.contextmanager
+def single_threaded_workers() -> Iterator[dict[str, str]]:
+    """Worker processes started inside this block use one BLAS/OpenMP thread each.
+
+    Every worker of a campaign is one of as many processes as there are cores, so extra BLAS threads
+    only compete for them (idle OpenBLAS threads showed up in profiles).  OpenBLAS, OpenMP and MKL read
+    :data:`WORKER_THREAD_VARIABLES` once, when they load, which in a spawned worker is at its first
+    ``import numpy``, before any of fsmctl's code runs there; so the variables are set here, in the
+    parent's environment that the workers inherit.  A variable the user has set is left as it is, and
+    the parent's environment is restored on exit (the parent's already loaded libraries keep their
+    threads).  A forked worker (see :func:`process_pool_context`) inherits the libraries the parent has
+    already loaded, with their thread counts (NumPy's OpenBLAS); only those it loads later (SciPy's)
+    follow the variables.
+
+    Keep the block open as long as the pool can start workers (``ProcessPoolExecutor`` starts them
+    as tasks are submitted).
+
+    Yields
+    ------
+    dict
+        The variables that were added (name -> ``"1"``).
+    """
+    added = {name: "1" for name in WORKER_THREAD_VARIABLES if name not in os.environ}
+    os.environ.update(added)
+    try:
+        yield added
+    finally:
+        for name, value in added.items():
+            if os.environ.get(name) == value:
+                del os.environ[name]

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import argparse
 import concurrent.futures as cf
+import contextlib
 import csv
 import json
 import math
@@ -36,7 +37,7 @@ from typing import Any
 
 import numpy as np
 
-from .parallel import process_pool_context
+from .parallel import process_pool_context, single_threaded_workers
 
 __all__ = [
     "REPRODUCED",
@@ -1095,9 +1096,12 @@ def reproduce(
         file=sys.stderr,
     )
     executor = None
-    if jobs > 1:
-        executor = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=process_pool_context())
+    worker_env = contextlib.ExitStack()
     try:
+        if jobs > 1:
+            # one BLAS thread per worker; the environment is restored once the pool has shut down
+            worker_env.enter_context(single_threaded_workers())
+            executor = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=process_pool_context())
         if executor is None:
             for spec in simulated:
                 records[spec.key] = execute_run(source, spec, fast, str(out))
@@ -1141,6 +1145,7 @@ def reproduce(
         bar.close()
         if executor is not None:
             executor.shutdown(cancel_futures=True)
+        worker_env.close()
     records = {s.key: records[s.key] for s in plan}
     for rec in records.values():
         files += [*([] if rec.same_as else [rec.netcdf]), *rec.figures]

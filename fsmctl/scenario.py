@@ -162,14 +162,17 @@ class Sinusoid:
         Evaluated by the generated ``disturbance_torque`` function (the same sinusoid layout), so the
         formula exists once, in ``derive/``.
         """
+        from .casadi_eval import evaluate_mapped
         from .generated_code import casadi_function
 
         t = np.asarray(t, dtype=float)
         flat = t.reshape(-1)
         if flat.size == 0:
             return np.zeros((*t.shape, 3))
-        fn = casadi_function("disturbance_torque").map(flat.size)
-        values = np.asarray(fn(flat[None, :], np.tile(self.params()[:, None], (1, flat.size)))).T
+        (values,) = evaluate_mapped(
+            casadi_function("disturbance_torque"), flat.size, [flat, self.params()], shared=(1,)
+        )
+        values = np.ascontiguousarray(values.T).T  # (m, 3) view of a (3, m) array, the layout callers always had
         return values.reshape(*t.shape, 3)
 
     def bound(self) -> np.ndarray:

@@ -33,7 +33,14 @@ from .metrics import aaem_deg, principal_angles, raem_deg, relative_principal_an
 from .problem import PackedProblem, pack
 from .scenario import Scenario
 
-__all__ = ["SimulationError", "DiscontinuousControlWarning", "SimulationResult", "simulate", "simulate_packed"]
+__all__ = [
+    "SimulationError",
+    "DiscontinuousControlWarning",
+    "SimulationResult",
+    "simulate",
+    "simulate_packed",
+    "batched_kernels_preferred",
+]
 
 
 class SimulationError(RuntimeError):
@@ -81,6 +88,7 @@ class _Problem(ctypes.Structure):
         ("sched_count", _ip),
         ("sched_times", _dp),
         ("sched_values", _dp),
+        ("kernels", ctypes.c_int),
     ]
 
 
@@ -131,17 +139,28 @@ def _driver() -> ctypes.CDLL | None:
     dll.fsm_rhs.restype = ctypes.c_int
     dll.fsm_link_weight.argtypes = [ctypes.POINTER(_Problem), ctypes.c_int, ctypes.c_double]
     dll.fsm_link_weight.restype = ctypes.c_double
+    dll.fsm_batched_preferred.argtypes = []
+    dll.fsm_batched_preferred.restype = ctypes.c_int
     return dll
+
+
+def batched_kernels_preferred() -> bool:
+    """Whether ``kernels="auto"`` uses the lane-batched kernels (the compiled library has AVX); False without C."""
+    dll = _driver()
+    return bool(dll is not None and dll.fsm_batched_preferred())
 
 
 def _ptr(a: np.ndarray, ctype=ctypes.c_double):
     return a.ctypes.data_as(ctypes.POINTER(ctype))
 
 
+_KERNELS = {"auto": 0, "batched": 1, "scalar": 2}
+
+
 class _CProblem:
     """Keeps the arrays alive while C holds pointers into them."""
 
-    def __init__(self, p: PackedProblem, max_steps: int = 0):
+    def __init__(self, p: PackedProblem, max_steps: int = 0, kernels: str = "auto"):
         self._keep = {}
 
         def f(name, arr, dtype=np.float64):
@@ -181,6 +200,7 @@ class _CProblem:
             sched_count=f("sc", p.sched_count, np.int32),
             sched_times=f("st", p.sched_times),
             sched_values=f("sv", p.sched_values),
+            kernels=_KERNELS[kernels],
         )
 
 
@@ -405,8 +425,19 @@ def _check_integrator(p: PackedProblem, scenario: Scenario) -> None:
         )
 
 
-def simulate_packed(p: PackedProblem, *, progress: bool = False, label: str = "simulate") -> dict:
-    """Run a packed problem on the compiled driver (or the CasADi fallback); returns raw arrays."""
+def simulate_packed(
+    p: PackedProblem, *, progress: bool = False, label: str = "simulate", kernels: str = "auto"
+) -> dict:
+    """Run a packed problem on the compiled driver (or the CasADi fallback); returns raw arrays.
+
+    ``kernels`` (compiled driver only): ``"batched"`` evaluates the per-agent functions through the
+    lane-batched kernels of ``generated/c/batched.c`` (4 agents per call, SIMD); ``"scalar"`` calls
+    the CasADi-generated scalar functions agent by agent; ``"auto"`` (default) is ``"batched"`` when the
+    library was built with AVX (see :func:`batched_kernels_preferred`), else ``"scalar"``.  The results are
+    bit-identical (up to the sign of a zero from ``fmin``/``fmax`` of ``+0`` and ``-0``).
+    """
+    if kernels not in _KERNELS:
+        raise ValueError(f"kernels must be one of {sorted(_KERNELS)}, got {kernels!r}")
     dll = _driver()
     if dll is None:
         from .casadi_formation import simulate_casadi
@@ -418,7 +449,7 @@ def simulate_packed(p: PackedProblem, *, progress: bool = False, label: str = "s
     bufs["sigma_d"] = np.zeros((cap, 3))
     stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
     out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()})
-    cp = _CProblem(p)
+    cp = _CProblem(p, kernels=kernels)
     x0 = np.ascontiguousarray(p.x0, dtype=float)
     every = max(1, p.n_steps // 200)
     cb, state = _progress_callback(p.n_steps, progress, label)
@@ -447,7 +478,10 @@ def simulate_packed(p: PackedProblem, *, progress: bool = False, label: str = "s
     w = out.written
     raw = {k: v[:w] for k, v in bufs.items()}
     raw.update(stats)
+    if kernels == "auto":
+        kernels = "batched" if dll.fsm_batched_preferred() else "scalar"
     raw.update(wall_time=wall, backend="compiled", steps_taken=out.steps_taken, steps_rejected=out.steps_rejected)
+    raw["kernels"] = kernels
     return raw
 
 

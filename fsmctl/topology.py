@@ -20,6 +20,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 __all__ = [
     "Link",
@@ -44,14 +45,38 @@ def _num(x, where: str) -> float:
     return float(x)
 
 
-def schedule_weight(breakpoints: Sequence[float], values: Sequence[float], period: float | None, tau: float) -> float:
-    """The schedule rule, for one scalar argument ``tau = t + phase``.
+def schedule_weight(
+    breakpoints: Sequence[float], values: Sequence[float], period: float | None, tau: float | np.ndarray
+) -> float | np.ndarray:
+    """The schedule rule (Liang et al. 2012, eq 19 and Table 2), for ``tau = t + phase``: the one place it is written.
 
     ``tau`` is reduced to ``[0, period)`` as ``tau - floor(tau/period) period`` (periodic schedules) and the
     segments are left-closed: the value of the last breakpoint ``<= tau`` (the first value before the first
     breakpoint).  The compiled driver (``link_weight`` in ``fsmctl/csrc/formation.c``) applies the same rule.
+
+    Parameters
+    ----------
+    breakpoints, values : sequence of float
+        Increasing segment starts and the weight on each segment.
+    period : float or None
+        Period of the schedule; None (or ``<= 0``) for an aperiodic one.
+    tau : float or numpy.ndarray
+        Argument ``t + phase``.  A scalar takes the scalar route (``math``/``bisect``, no NumPy
+        overhead, for the per-step callers); an array is evaluated elementwise with the same
+        operations (``floor``, a right-sided binary search), so both routes give bit-identical weights.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        The weight(s), shaped like ``tau``.
     """
-    if period is not None and period > 0:
+    periodic = period is not None and period > 0
+    if isinstance(tau, np.ndarray):
+        if periodic:
+            tau = tau - np.floor(tau / period) * period
+        last = np.searchsorted(np.asarray(breakpoints, dtype=float), tau, side="right") - 1
+        return np.asarray(values, dtype=float)[np.maximum(last, 0)]
+    if periodic:
         tau -= math.floor(tau / period) * period
     return float(values[max(0, bisect.bisect_right(breakpoints, tau) - 1)])
 
@@ -91,10 +116,7 @@ class Schedule:
 
     def value(self, t) -> np.ndarray | float:
         """Weight at time(s) ``t`` (vectorized), by the rule of :func:`schedule_weight`."""
-        t = np.asarray(t, dtype=float)
-        tau = t - np.floor(t / self.period) * self.period if self.period is not None else t
-        idx = np.searchsorted(np.asarray(self.breakpoints), tau, side="right") - 1
-        out = np.asarray(self.values)[np.clip(idx, 0, len(self.values) - 1)]
+        out = schedule_weight(self.breakpoints, self.values, self.period, np.asarray(t, dtype=float))
         return float(out) if out.ndim == 0 else out
 
     @property
@@ -194,10 +216,27 @@ class Topology:
         return K
 
     def k_j_matrix(self, t: float) -> np.ndarray:
-        """``K_j[i, j] = k^j_ij(t)``."""
-        K = np.zeros((self.n_agents, self.n_agents))
+        """``K_j[i, j] = k^j_ij(t)`` (Liang et al. 2012, eq 19)."""
+        return self.k_j_matrices(np.array([t], dtype=float))[0]
+
+    def k_j_matrices(self, times: npt.ArrayLike) -> np.ndarray:
+        """``K_j(t)`` at many times at once: ``K[..., i, j] = k^j_ij(times[...])`` (Liang et al. 2012, eq 19).
+
+        Parameters
+        ----------
+        times : array_like
+            Times (s), any shape.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape ``(*times.shape, n_agents, n_agents)``; each link's schedule is evaluated on every time in
+            one call of :func:`schedule_weight`, so ``k_j_matrices(times)[k]`` equals ``k_j_matrix(times[k])``.
+        """
+        t = np.asarray(times, dtype=float)
+        K = np.zeros((*t.shape, self.n_agents, self.n_agents))
         for link in self.links:
-            K[link.receiver, link.sender] = link.k_j_at(t)
+            K[..., link.receiver, link.sender] = link.k_j_at(t)
         return K
 
     def k_j_max_matrix(self) -> np.ndarray:

@@ -143,6 +143,32 @@ def test_failing_run_and_dead_worker_are_reported(tmp_path):
     assert math.isnan(float(res.dataset.aaem_final_deg.sel(run=1)))
 
 
+def report_thread_environment(base, settings, index, seed):
+    """Fails on purpose, naming the BLAS/OpenMP thread variables the worker process started with."""
+    from fsmctl.parallel import WORKER_THREAD_VARIABLES
+
+    raise RuntimeError(" ".join(f"{k}={os.environ.get(k)}" for k in WORKER_THREAD_VARIABLES))
+
+
+def test_pool_workers_start_with_one_blas_thread(tmp_path, monkeypatch):
+    """The local pool's workers inherit OPENBLAS/OMP = 1 (read when NumPy loads); user settings and the parent stay."""
+    for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS"):
+        monkeypatch.delenv(k, raising=False)
+    monkeypatch.setenv("MKL_NUM_THREADS", "3")
+    res = mc.run_campaign(
+        _settings(runs=2, chunk_size=1),
+        tmp_path / "env",
+        workers=2,
+        progress=False,
+        run_fn=report_thread_environment,
+        figures=False,
+    )
+    for message in res.dataset.message.values:
+        assert "OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1 MKL_NUM_THREADS=3" in str(message)
+    assert "OPENBLAS_NUM_THREADS" not in os.environ and "OMP_NUM_THREADS" not in os.environ
+    assert os.environ["MKL_NUM_THREADS"] == "3"
+
+
 def test_dask_local_cluster_matches_process_pool(tmp_path):
     distributed = pytest.importorskip("distributed")
     local = mc.run_campaign(_settings(), tmp_path / "local", workers=1, progress=False, figures=False)

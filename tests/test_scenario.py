@@ -291,3 +291,74 @@ def test_every_route_to_the_link_weights_applies_the_same_rule(paper_case1):
             assert packed[e] == expected
             if dll is not None:
                 assert dll.fsm_link_weight(ctypes.byref(cp.struct), e, ctypes.c_double(t)) == expected
+
+
+def _table2_probe_times(topology, t1: float) -> np.ndarray:
+    """Every switching instant of ``topology`` in ``(-t1, t1)``, each with its neighbouring doubles and +-1e-9 s."""
+    switches = topology.switching_times(-t1, t1)
+    return np.unique(
+        np.concatenate(
+            [
+                switches,
+                np.nextafter(switches, -np.inf),
+                np.nextafter(switches, np.inf),
+                switches - 1e-9,
+                switches + 1e-9,
+                np.arange(-t1, t1, 0.25),
+            ]
+        )
+    )
+
+
+def _k_j_scalar(topology, t: float) -> np.ndarray:
+    """``K_j(t)`` from the scalar route of :func:`fsmctl.topology.schedule_weight` (one Python float per link)."""
+    from fsmctl.topology import schedule_weight
+
+    K = np.zeros((topology.n_agents, topology.n_agents))
+    for link in topology.links:
+        s = link.k_j
+        K[link.receiver, link.sender] = schedule_weight(s.breakpoints, s.values, s.period, float(t) + link.phase)
+    return K
+
+
+def test_k_j_matrices_equal_the_scalar_rule_at_every_table2_switch(paper_case1):
+    """The vectorized K_j(t) (Liang et al. 2012, eq 19, Table 2) is bit-identical to the per-time scalar rule.
+
+    Probed at every switching instant of the paper's Table 2 and of a randomly phased and scaled copy (as the
+    Monte Carlo draws them), exactly there, one double either side and +-1e-9 s; a wrong segment side or period
+    reduction in either route flips a weight there.
+    """
+    from fsmctl import montecarlo as mc
+    from fsmctl.topology import Link, Schedule, Topology
+
+    rng = np.random.default_rng(11)
+    random_topology = mc._random_topology(rng, paper_case1.topology, mc.CampaignSettings())
+    steps = Schedule((0.0, 2.5, 4.0), (5.0, 0.0, 3.0))  # no period: values[0] before 0, the last one forever
+    pairs = [(0, 1), (0, 2), (1, 0), (1, 2), (2, 0), (2, 1)]
+    phases = (0.0, 0.5, -1.5, 2.0, 3.0, -0.25)
+    aperiodic = Topology(3, tuple(Link(i, j, 8.0, steps, p) for (i, j), p in zip(pairs, phases, strict=True)))
+    for topology in (paper_case1.topology, random_topology, aperiodic):
+        times = _table2_probe_times(topology, 24.0)
+        assert times.size > 200
+        Ks = topology.k_j_matrices(times)
+        assert Ks.shape == (times.size, topology.n_agents, topology.n_agents)
+        for t, K in zip(times, Ks, strict=True):
+            expected = _k_j_scalar(topology, t)
+            assert np.array_equal(K, expected), f"t = {t!r}"
+            assert np.array_equal(topology.k_j_matrix(float(t)), expected)
+        changes = int(np.any(Ks[1:] != Ks[:-1], axis=(1, 2)).sum())
+        assert changes >= len(topology.links)  # the probes do straddle the switches
+        # any shape of times
+        assert np.array_equal(topology.k_j_matrices(times[:12].reshape(3, 4)), Ks[:12].reshape(3, 4, *Ks.shape[1:]))
+
+
+def test_schedule_weight_array_route_matches_the_scalar_route():
+    """One rule, two routes (float and array) of ``schedule_weight``, including the packed aperiodic period 0."""
+    from fsmctl.topology import schedule_weight
+
+    b, v = (0.0, 6.5), (5.0, 0.0)
+    tau = np.concatenate([np.arange(-20.0, 20.0, 0.5), np.nextafter(6.5, [-np.inf, np.inf]), [8.0, -8.0, 1e6 + 6.5]])
+    for period in (8.0, None, 0.0, -1.0):
+        arr = schedule_weight(b, v, period, tau)
+        assert arr.shape == tau.shape
+        assert [schedule_weight(b, v, period, float(x)) for x in tau] == arr.tolist()

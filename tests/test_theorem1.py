@@ -114,3 +114,23 @@ def test_non_periodic_schedules_use_the_horizon():
     topo = Topology(2, (Link(0, 1, 8.0, sched), Link(1, 0, 8.0, Schedule.constant(0.0))))
     confs, window = configurations(topo, 10.0)
     assert "horizon [0, 10]" in window and len(confs) == 2
+
+
+def test_batched_configurations_and_lambda_min_equal_the_per_segment_computation():
+    """K_j at each segment, and min_t lambda_min(sym L(t)) (eqs 25-27), as one matrix at a time would give them."""
+    import itertools
+
+    from fsmctl import montecarlo as mc
+
+    sc = paper_scenario("1")
+    for seed in range(3):
+        topo = mc._random_topology(np.random.default_rng(seed), sc.topology, mc.CampaignSettings())
+        confs, _ = configurations(topo, sc.simulation.t_final)
+        where = {seg: c for c in confs for seg in c.segments}
+        for a, b in itertools.pairwise(np.unique(np.concatenate(([0.0], topo.switching_times(0.0, 8.0), [8.0])))):
+            assert np.array_equal(where[(float(a), float(b))].k_j, topo.k_j_matrix(0.5 * (a + b)))
+        Ki = topo.k_i_matrix()
+        lam = [float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]) for L in (np.diag(Ki.sum(axis=1)) - c.k_j for c in confs)]
+        an = analyze_topology(topo, sc.simulation.t_final)
+        assert an.lambda_min == min(lam)
+        assert an.lambda_min_time == confs[lam.index(min(lam))].t

@@ -117,3 +117,38 @@ def test_non_proportional_uncertainty_uses_the_general_bound():
     assert all(a.kappa is None for a in res.agents)
     assert "not proportional" in res.agents[0].note
     assert all(np.isfinite(a.region).all() and min(a.region) > 0 for a in res.agents)
+
+
+@pytest.mark.parametrize("error_model", ["paper", "exact"])
+def test_buffered_evaluation_and_output_subsets_are_bit_identical(case1, error_model):
+    """``evaluate_mapped`` and the (d, P) drift give the very doubles of ``fn.map(n)`` on DMs (eqs 29-30).
+
+    Includes the reference (``sigma_e = 0``) with the unfixed slope, where the drift is NaN/inf.
+    """
+    import casadi as ca
+
+    from fsmctl.casadi_eval import evaluate_mapped
+
+    rng = np.random.default_rng(4)
+    n = 300
+    cols = [rng.normal(size=(3, n)) * rng.choice([0.0, 1e-3, 0.05, 0.5], size=(3, n)) for _ in range(5)]
+    sig, om, wd, ud, wdd = cols
+    a = case1.agents[1]
+    J0, J = np.array(a.J0), a.J_true + np.diag([1.0, -2.0, 3.0]) + 0.5  # not symmetric: catches a transposed J
+    full, sub = drift_function(error_model), drift_function(error_model, ("d", "P"))
+    for gains in (case1.controller.gains_vector(), np.array([0.6, 0.8, 0.7, 0.0, 0.01, 0.0])):
+        ref = [np.array(x) for x in full.map(n, "serial")(sig, om, wd, ud, J0, J, gains, wdd)]
+        args = [sig.T, om.T, wd.T, ud.T, J0.T, J.T, gains, wdd.T]
+        got = evaluate_mapped(full, n, args, shared=(4, 5, 6))
+        part = evaluate_mapped(sub, n, args, shared=(4, 5, 6))
+        for k, (r, g) in enumerate(zip(ref, got, strict=True)):
+            as_dm = g.T if g.ndim == 2 else g.transpose(2, 0, 1).reshape(3, 3 * n)  # back to the DM layout
+            assert np.array_equal(r, as_dm, equal_nan=True), full.name_out(k)
+        assert all(np.array_equal(x, y, equal_nan=True) for x, y in zip(got[:2], part, strict=True))
+        singular = any(np.isnan(r).any() for r in ref)
+    assert singular  # the singular samples are in (with the unfixed slope of the last gains)
+    with pytest.raises(ValueError, match="needs"):
+        evaluate_mapped(full, n, [sig[:, :-1].T, *args[1:]], shared=(4, 5, 6))
+    with pytest.raises(ValueError, match="outputs"):
+        drift_function(error_model, ("d", "Q"))
+    assert isinstance(sub, ca.Function) and sub.n_out() == 2

@@ -10,6 +10,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "batched.h"
 #include "control_core.h"
 #include "disturbance_torque.h"
 #include "mrp_shadow.h"
@@ -21,11 +22,41 @@
 
 typedef int (*casadi_fn)(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 typedef int (*casadi_work_fn)(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
+typedef const casadi_int *(*casadi_sparsity_fn)(casadi_int i);
+typedef int (*batched_fn)(const double *const *arg, double *const *res, int lanes);
+
+/* Lane-batched evaluation.  Agents are taken FSM_LANES at a time ("groups"); each group owns one block of
+ * LANE_ROWS rows x FSM_LANES doubles, element k of lane l of a row at row[FSM_LANES * k + l] (the layout of
+ * the kernels of generated/c/batched.c).  The rows hold every argument and result of the three per-agent
+ * functions, so sliding_* writes the error state where control_core reads it, and the run constants (gains,
+ * inertias, limits) are packed once.  Lanes past the last agent repeat it; their results are never read. */
+enum {
+  R_SIGMA = 0, R_OMEGA = 3, R_SIGMA_D = 6, R_OMEGA_D = 9, R_OMEGA_D_DOT = 12, R_GAINS = 15, R_GC = 21, /* sliding in */
+  R_S = 22, R_SE = 25, R_WE = 28, R_WR = 31, R_WRD = 34, R_SLOPE = 37,                           /* sliding out */
+  R_J0 = 40, R_DELTA = 49, R_KSUM = 52, R_RECV = 53, R_UMAX = 56,                                /* control in */
+  R_U = 57, R_UU = 60,                                                                           /* control out */
+  R_TAU = 63, R_JTRUE = 66,                                                                      /* plant in */
+  R_SIGMA_DOT = 75, R_OMEGA_DOT = 78,                                                            /* plant out */
+  LANE_ROWS = 81
+};
+#define LANE(g, row) ((g) + FSM_LANES * (row))
+
+static inline int active_lanes(int g, int n) { return n - g * FSM_LANES < FSM_LANES ? n - g * FSM_LANES : FSM_LANES; }
+static inline void to_lane(double *row, const double *src, int nnz, int l) {
+  for (int k = 0; k < nnz; ++k) row[FSM_LANES * k + l] = src[k];
+}
+static inline void from_lane(double *dst, const double *row, int nnz, int l) {
+  for (int k = 0; k < nnz; ++k) dst[k] = row[FSM_LANES * k + l];
+}
 
 typedef struct {
   int n;
+  int batched;                           /* 1: lane-batched kernels for the per-agent functions */
+  int n_groups;                          /* ceil(n / FSM_LANES) */
+  double *lanes;                         /* n_groups blocks of LANE_ROWS x FSM_LANES doubles */
+  batched_fn sliding_x;
   casadi_fn sliding;
-  double *s, *se, *we, *wr, *wrd, *slope; /* n x 3 */
+  double *s, *se, *we, *wr, *wrd, *slope; /* n x 3 (scalar kernels; batched: only s) */
   double *recv, *ksum;                   /* n x 3, n */
   double *u, *uu;                        /* computed control, n x 3 */
   double *u_hold, *uu_hold;              /* held control (zero-order hold) */
@@ -39,7 +70,7 @@ typedef struct {
   double *k_now;                         /* k^j of every link at k_time (all RK4 stages of a step share it) */
   double k_time;
   int k_valid;
-  double *tau;                           /* 3 */
+  double *tau;                           /* n x 3 */
   int bad_agent;                         /* first agent whose commanded torque was non-finite (-2: none) */
   double bad_time;                       /* ... and when */
   casadi_int *iw;
@@ -48,9 +79,76 @@ typedef struct {
 
 static void free_workspace(workspace *W) {
   free(W->s);
+  free(W->lanes);
   free(W->iw);
   free(W->w);
   memset(W, 0, sizeof(*W));
+}
+
+/* Nonzeros of a CasADi sparsity pattern: {nrow, ncol, 1} is the compact form of a dense pattern,
+ * otherwise {nrow, ncol, colind[0] = 0, ..., colind[ncol], rows...}. */
+/* The batched kernels pay off with 256-bit vector registers (AVX: one register per 4 lanes).  Without AVX the
+ * compiler splits each 4-lane operation into SSE2 halves and the scalar functions are faster (measured with
+ * FSMCTL_PORTABLE=1 builds), so "auto" picks the scalar path there.  Results are bit-identical either way. */
+int fsm_batched_preferred(void) {
+#if defined(__AVX__)
+  return 1;
+#else
+  return 0;
+#endif
+}
+
+static int sparsity_nnz(const casadi_int *sp) { return (int)(sp[2] == 1 ? sp[0] * sp[1] : sp[2 + sp[1]]); }
+
+/* The lane rows above assume the argument sizes of the generated functions; check them against the
+ * generated sparsity so that a change in derive/ cannot silently misalign the batched evaluation. */
+static int rows_match(casadi_sparsity_fn sp, int count, const int *row, int next) {
+  for (int a = 0; a < count; ++a)
+    if (sparsity_nnz(sp(a)) != (a + 1 < count ? row[a + 1] : next) - row[a]) return 0;
+  return 1;
+}
+
+static int lane_layout_ok(void) {
+  static const int sl_in[] = {R_SIGMA, R_OMEGA, R_SIGMA_D, R_OMEGA_D, R_OMEGA_D_DOT, R_GAINS, R_GC};
+  static const int sl_out[] = {R_S, R_SE, R_WE, R_WR, R_WRD, R_SLOPE};
+  static const int cc_in[] = {R_SE, R_WE, R_WR, R_WRD, R_S, R_SLOPE, R_J0, R_GAINS, R_DELTA, R_KSUM, R_RECV, R_UMAX};
+  static const int cc_in_next[] = {R_WE, R_WR, R_WRD, R_SLOPE, R_SE, R_J0, R_J0 + 9, R_GAINS + 6, R_KSUM,
+                                   R_RECV, R_UMAX, R_U};
+  static const int cc_out[] = {R_U, R_UU};
+  static const int pl_in[] = {R_SIGMA, R_OMEGA, R_TAU, R_JTRUE};
+  static const int pl_in_next[] = {R_OMEGA, R_SIGMA_D, R_JTRUE, R_SIGMA_DOT};
+  static const int pl_out[] = {R_SIGMA_DOT, R_OMEGA_DOT};
+  casadi_sparsity_fn sl_sp_in[2] = {sliding_paper_sparsity_in, sliding_exact_sparsity_in};
+  casadi_sparsity_fn sl_sp_out[2] = {sliding_paper_sparsity_out, sliding_exact_sparsity_out};
+  for (int m = 0; m < 2; ++m)
+    if (!rows_match(sl_sp_in[m], 7, sl_in, R_S) || !rows_match(sl_sp_out[m], 6, sl_out, R_J0)) return 0;
+  if (sliding_paper_n_in() != 7 || sliding_exact_n_in() != 7 || sliding_paper_n_out() != 6 ||
+      sliding_exact_n_out() != 6 || control_core_n_in() != 12 || control_core_n_out() != 2 ||
+      plant_rhs_n_in() != 4 || plant_rhs_n_out() != 2)
+    return 0;
+  for (int a = 0; a < 12; ++a)
+    if (sparsity_nnz(control_core_sparsity_in(a)) != cc_in_next[a] - cc_in[a]) return 0;
+  if (!rows_match(control_core_sparsity_out, 2, cc_out, R_TAU)) return 0;
+  for (int a = 0; a < 4; ++a)
+    if (sparsity_nnz(plant_rhs_sparsity_in(a)) != pl_in_next[a] - pl_in[a]) return 0;
+  return rows_match(plant_rhs_sparsity_out, 2, pl_out, LANE_ROWS);
+}
+
+/* Pack the run constants (gains, sliding constants, inertias, delta, torque limits) into the lane rows. */
+static void pack_lane_constants(workspace *W, const fsm_problem *P) {
+  for (int g = 0; g < W->n_groups; ++g) {
+    double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+    for (int l = 0; l < FSM_LANES; ++l) {
+      int i = g * FSM_LANES + l;
+      if (i >= W->n) i = W->n - 1;
+      to_lane(LANE(G, R_GAINS), P->gains + 6 * i, 6, l);
+      to_lane(LANE(G, R_GC), W->gc + i, 1, l);
+      to_lane(LANE(G, R_J0), P->J0 + 9 * i, 9, l);
+      to_lane(LANE(G, R_DELTA), P->delta + 3 * i, 3, l);
+      to_lane(LANE(G, R_UMAX), P->u_max + i, 1, l);
+      to_lane(LANE(G, R_JTRUE), P->J_true + 9 * i, 9, l);
+    }
+  }
 }
 
 static int alloc_workspace(workspace *W, const fsm_problem *P) {
@@ -60,7 +158,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->sliding = P->error_model == 1 ? sliding_exact : sliding_paper;
   /* one block for all per-agent doubles */
   size_t per3 = (size_t)3 * n, L = (size_t)P->n_links;
-  size_t total = per3 * 12 + (size_t)n * 2 + L * 5 + 3;
+  size_t total = per3 * 13 + (size_t)n * 2 + L * 5;
   double *block = calloc(total > 0 ? total : 1, sizeof(double));
   if (!block) return FSM_NOMEM;
   double *p = block;
@@ -83,7 +181,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->k_lo = p; p += L;
   W->k_hi = p; p += L;
   W->k_now = p; p += L;
-  W->tau = p;
+  W->tau = p; p += per3;
   for (size_t e = 0; e < L; ++e) { W->k_lo[e] = INFINITY; W->k_hi[e] = -INFINITY; } /* empty: forces evaluation */
   /* CasADi work arrays: the largest need of the functions used */
   casadi_work_fn works[] = {plant_rhs_work, sliding_paper_work, sliding_exact_work, control_core_work,
@@ -95,9 +193,23 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     if (iw > max_iw) max_iw = iw;
     if (w > max_w) max_w = w;
   }
+  W->batched = P->kernels == FSM_KERNELS_BATCHED || (P->kernels == FSM_KERNELS_AUTO && fsm_batched_preferred());
+  if (W->batched) {
+    if (!lane_layout_ok()) { free_workspace(W); return FSM_BAD_PROBLEM; }
+    W->sliding_x = P->error_model == 1 ? sliding_exact_x4 : sliding_paper_x4;
+    W->n_groups = (n + FSM_LANES - 1) / FSM_LANES;
+    W->lanes = calloc((size_t)W->n_groups * LANE_ROWS * FSM_LANES, sizeof(double));
+    if (!W->lanes) { free_workspace(W); return FSM_NOMEM; }
+  }
   W->iw = calloc((size_t)max_iw, sizeof(casadi_int));
   W->w = calloc((size_t)max_w, sizeof(double));
   if (!W->iw || !W->w) { free_workspace(W); return FSM_NOMEM; }
+  for (int i = 0; i < n; ++i) { /* per-agent constants of the sliding functions */
+    const double *arg[1] = {P->gains + 6 * i};
+    double *res[1] = {W->gc + i};
+    sliding_constants(arg, res, W->iw, W->w, 0);
+  }
+  if (W->batched) pack_lane_constants(W, P);
   W->u_apply = W->u;
   W->uu_apply = W->uu;
   W->bad_agent = -2;
@@ -145,11 +257,31 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     double *res[3] = {dx, W->wd, W->wdd};
     reference_rhs(arg, res, W->iw, W->w, 0);
   }
-  for (int i = 0; i < n; ++i) {
-    const double *xi = x + 3 + 6 * i;
-    const double *arg[7] = {xi, xi + 3, sd, W->wd, W->wdd, P->gains + 6 * i, W->gc + i};
-    double *res[6] = {W->s + 3 * i, W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->slope + 3 * i};
-    W->sliding(arg, res, W->iw, W->w, 0);
+  if (W->batched) {
+    for (int g = 0; g < W->n_groups; ++g) {
+      double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+      for (int l = 0; l < FSM_LANES; ++l) {
+        int i = g * FSM_LANES + l;
+        if (i >= n) i = n - 1;
+        to_lane(LANE(G, R_SIGMA), x + 3 + 6 * i, 6, l); /* sigma_i, omega_i: rows R_SIGMA, R_OMEGA */
+        to_lane(LANE(G, R_SIGMA_D), sd, 3, l);
+        to_lane(LANE(G, R_OMEGA_D), W->wd, 3, l);
+        to_lane(LANE(G, R_OMEGA_D_DOT), W->wdd, 3, l);
+      }
+      const double *arg[7] = {LANE(G, R_SIGMA), LANE(G, R_OMEGA), LANE(G, R_SIGMA_D), LANE(G, R_OMEGA_D),
+                              LANE(G, R_OMEGA_D_DOT), LANE(G, R_GAINS), LANE(G, R_GC)};
+      double *res[6] = {LANE(G, R_S), LANE(G, R_SE), LANE(G, R_WE), LANE(G, R_WR), LANE(G, R_WRD), LANE(G, R_SLOPE)};
+      W->sliding_x(arg, res, active_lanes(g, n));
+      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
+        from_lane(W->s + 3 * (g * FSM_LANES + l), LANE(G, R_S), 3, l); /* s_j for the links */
+    }
+  } else {
+    for (int i = 0; i < n; ++i) {
+      const double *xi = x + 3 + 6 * i;
+      const double *arg[7] = {xi, xi + 3, sd, W->wd, W->wdd, P->gains + 6 * i, W->gc + i};
+      double *res[6] = {W->s + 3 * i, W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->slope + 3 * i};
+      W->sliding(arg, res, W->iw, W->w, 0);
+    }
   }
   if (compute_control) {
     /* k^j_ij(t_link) and sum_j k^i_ij: evaluated once per t_link (the four RK4 stages of a step share it) */
@@ -173,12 +305,34 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         ri[2] += kj * sj[2];
       }
     }
+    if (W->batched) {
+      for (int g = 0; g < W->n_groups; ++g) {
+        double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+        for (int l = 0; l < FSM_LANES; ++l) {
+          int i = g * FSM_LANES + l;
+          if (i >= n) i = n - 1;
+          to_lane(LANE(G, R_KSUM), W->ksum + i, 1, l);
+          to_lane(LANE(G, R_RECV), W->recv + 3 * i, 3, l);
+        }
+        const double *arg[12] = {LANE(G, R_SE),    LANE(G, R_WE),    LANE(G, R_WR),   LANE(G, R_WRD),
+                                 LANE(G, R_S),     LANE(G, R_SLOPE), LANE(G, R_J0),   LANE(G, R_GAINS),
+                                 LANE(G, R_DELTA), LANE(G, R_KSUM),  LANE(G, R_RECV), LANE(G, R_UMAX)};
+        double *res[2] = {LANE(G, R_U), LANE(G, R_UU)};
+        control_core_x4(arg, res, active_lanes(g, n));
+        for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
+          from_lane(W->u + 3 * (g * FSM_LANES + l), LANE(G, R_U), 3, l);
+          from_lane(W->uu + 3 * (g * FSM_LANES + l), LANE(G, R_UU), 3, l);
+        }
+      }
+    }
     for (int i = 0; i < n; ++i) {
-      const double *arg[12] = {W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->s + 3 * i,
-                               W->slope + 3 * i, P->J0 + 9 * i, P->gains + 6 * i, P->delta + 3 * i,
-                               W->ksum + i, W->recv + 3 * i, P->u_max + i};
-      double *res[2] = {W->u + 3 * i, W->uu + 3 * i};
-      control_core(arg, res, W->iw, W->w, 0);
+      if (!W->batched) {
+        const double *arg[12] = {W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->s + 3 * i,
+                                 W->slope + 3 * i, P->J0 + 9 * i, P->gains + 6 * i, P->delta + 3 * i,
+                                 W->ksum + i, W->recv + 3 * i, P->u_max + i};
+        double *res[2] = {W->u + 3 * i, W->uu + 3 * i};
+        control_core(arg, res, W->iw, W->w, 0);
+      }
       /* A non-finite command (e.g. the Remark 6 term alpha|sigma_e|^(alpha-1) times 0 at sigma_e = 0 with
        * singularity_fix = none) must not pass silently: the saturation fmin(u_max, fmax(-u_max, NaN)) would
        * turn it into -u_max.  Flag it; the loops stop with FSM_NONFINITE_CONTROL. */
@@ -200,12 +354,32 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     W->d_valid = 1;
   }
   const double *ua = compute_control ? W->u : W->u_apply;
-  for (int i = 0; i < n; ++i) {
-    const double *xi = x + 3 + 6 * i;
-    for (int k = 0; k < 3; ++k) W->tau[k] = ua[3 * i + k] + W->d[3 * i + k];
-    const double *arg[4] = {xi, xi + 3, W->tau, P->J_true + 9 * i};
-    double *res[2] = {dx + 3 + 6 * i, dx + 6 + 6 * i};
-    plant_rhs(arg, res, W->iw, W->w, 0);
+  for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
+  if (W->batched) {
+    for (int g = 0; g < W->n_groups; ++g) {
+      double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+      for (int l = 0; l < FSM_LANES; ++l) {
+        int i = g * FSM_LANES + l;
+        if (i >= n) i = n - 1;
+        to_lane(LANE(G, R_TAU), W->tau + 3 * i, 3, l); /* rows R_SIGMA, R_OMEGA still hold this x */
+      }
+      const double *arg[4] = {LANE(G, R_SIGMA), LANE(G, R_OMEGA), LANE(G, R_TAU), LANE(G, R_JTRUE)};
+      double *res[2] = {LANE(G, R_SIGMA_DOT), LANE(G, R_OMEGA_DOT)};
+      plant_rhs_x4(arg, res, active_lanes(g, n));
+      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
+        for (int k = 0; k < 3; ++k) {
+          const int i = g * FSM_LANES + l;
+          dx[3 + 6 * i + k] = LANE(G, R_SIGMA_DOT)[FSM_LANES * k + l];
+          dx[6 + 6 * i + k] = LANE(G, R_OMEGA_DOT)[FSM_LANES * k + l];
+        }
+    }
+  } else {
+    for (int i = 0; i < n; ++i) {
+      const double *xi = x + 3 + 6 * i;
+      const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
+      double *res[2] = {dx + 3 + 6 * i, dx + 6 + 6 * i};
+      plant_rhs(arg, res, W->iw, W->w, 0);
+    }
   }
 }
 
@@ -239,8 +413,14 @@ static void record(fsm_output *O, workspace *W, const fsm_problem *P, double t, 
     const double *xi = x + 3 + 6 * i;
     memcpy(O->sigma + o, xi, 3 * sizeof(double));
     memcpy(O->omega + o, xi + 3, 3 * sizeof(double));
-    memcpy(O->sigma_e + o, W->se + 3 * i, 3 * sizeof(double));
-    memcpy(O->omega_e + o, W->we + 3 * i, 3 * sizeof(double));
+    if (W->batched) {
+      const double *G = W->lanes + (size_t)(i / FSM_LANES) * LANE_ROWS * FSM_LANES;
+      from_lane(O->sigma_e + o, LANE(G, R_SE), 3, i % FSM_LANES);
+      from_lane(O->omega_e + o, LANE(G, R_WE), 3, i % FSM_LANES);
+    } else {
+      memcpy(O->sigma_e + o, W->se + 3 * i, 3 * sizeof(double));
+      memcpy(O->omega_e + o, W->we + 3 * i, 3 * sizeof(double));
+    }
     memcpy(O->s + o, W->s + 3 * i, 3 * sizeof(double));
     memcpy(O->u + o, W->u_apply + 3 * i, 3 * sizeof(double));
     memcpy(O->u_unsat + o, W->uu_apply + 3 * i, 3 * sizeof(double));
@@ -288,6 +468,7 @@ static void stage_one(workspace *W, const fsm_problem *P, double t, double t_lin
 }
 
 static int validate(const fsm_problem *P) {
+  if (P->kernels != FSM_KERNELS_AUTO && P->kernels != FSM_KERNELS_BATCHED && P->kernels != FSM_KERNELS_SCALAR) return 0;
   if (P->n_agents < 1 || !(P->dt > 0) || P->n_steps < 0 || P->output_every < 1 || P->n_links < 0) return 0;
   for (int e = 0; e < P->n_links; ++e) {
     if (P->link_receiver[e] < 0 || P->link_receiver[e] >= P->n_agents) return 0;
@@ -467,9 +648,6 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
   double *x = buf;
   memcpy(x, x0, sizeof(double) * N);
   for (int i = 0; i < n; ++i) {
-    const double *arg[1] = {P->gains + 6 * i};
-    double *res[1] = {W.gc + i};
-    sliding_constants(arg, res, W.iw, W.w, 0);
     O->saturated_time[i] = 0.0;
     O->u_total_variation[i] = 0.0;
     O->u_unsat_max[i] = 0.0;
@@ -493,11 +671,6 @@ int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double 
   workspace W;
   int rc = alloc_workspace(&W, P);
   if (rc != FSM_OK) return rc;
-  for (int i = 0; i < P->n_agents; ++i) {
-    const double *arg[1] = {P->gains + 6 * i};
-    double *res[1] = {W.gc + i};
-    sliding_constants(arg, res, W.iw, W.w, 0);
-  }
   eval_rhs(&W, P, t, t, x, dx, 1);
   if (u_out) memcpy(u_out, W.u, sizeof(double) * 3 * P->n_agents);
   rc = W.bad_agent == -2 ? FSM_OK : FSM_NONFINITE_CONTROL;

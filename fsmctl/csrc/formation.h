@@ -3,7 +3,9 @@
  * (Liang, Sun & Wang 2012).  Hand-written driver: it contains no model
  * equations; it calls the CasADi-generated per-agent functions of generated/c
  * (plant_rhs, sliding_*, control_core, reference_rhs, disturbance_torque,
- * mrp_shadow, sliding_constants) and does the bookkeeping around them:
+ * mrp_shadow, sliding_constants; the first three through their lane-batched
+ * kernels of generated/c/batched.c, FSM_LANES agents per call, bit-identical)
+ * and does the bookkeeping around them:
  * the time loop (fixed-step RK4 or adaptive Dormand-Prince 5(4)), the
  * communication graph (what agent i receives: sum_j k^j_ij(t) s_j), the
  * switching schedules, zero-order-hold sampling, MRP shadow switching after
@@ -46,7 +48,14 @@ typedef struct {
   const int *sched_count;      /* per link: number of segments */
   const double *sched_times;   /* segment m holds on [times[m], times[m+1]) (last: up to the period / +inf) */
   const double *sched_values;
+  int kernels;                 /* FSM_KERNELS_*: how the per-agent functions are evaluated; results are the same */
 } fsm_problem;
+
+enum {
+  FSM_KERNELS_AUTO = 0,    /* batched where the build has AVX (fsm_batched_preferred), else scalar */
+  FSM_KERNELS_BATCHED = 1, /* lane-batched kernels of generated/c/batched.c, FSM_LANES agents per call */
+  FSM_KERNELS_SCALAR = 2   /* the scalar CasADi functions, agent by agent */
+};
 
 typedef struct {
   long long capacity;       /* number of output rows allocated */
@@ -77,6 +86,7 @@ enum {
   FSM_NONFINITE_CONTROL = 7 /* the control law returned a non-finite torque command (fail_time, fail_agent) */
 };
 
+int fsm_batched_preferred(void); /* 1 if FSM_KERNELS_AUTO means batched in this build */
 int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every);
 
 /* One evaluation of the formation right-hand side (control computed at this state; link weights at t).

@@ -193,21 +193,26 @@ def configurations(topology: Topology, t_final: float) -> tuple[tuple[Configurat
         window = f"the scenario horizon [0, {t_final:g}] s (the schedules have no common period)"
     cuts = np.concatenate(([t0], topology.switching_times(t0, t1), [t1]))
     cuts = np.unique(cuts)
+    # K_j at every segment midpoint (and, for non-periodic schedules, after the horizon) in one call
+    probes = 0.5 * (cuts[:-1] + cuts[1:])
+    if period is None:
+        probes = np.append(probes, t1 + 1.0)
+    Ks = topology.k_j_matrices(probes)
     found: dict[bytes, list] = {}
     order: list[bytes] = []
-    for a, b in itertools.pairwise(cuts):
-        K = topology.k_j_matrix(0.5 * (a + b))
+    for k, (a, b) in enumerate(itertools.pairwise(cuts)):
+        K = Ks[k]
         key = K.tobytes()
         if key not in found:
-            found[key] = [K, []]
+            found[key] = [K.copy(), []]
             order.append(key)
         found[key][1].append((float(a), float(b)))
     if period is None:
         # after the horizon the last configuration persists for non-periodic schedules
-        K = topology.k_j_matrix(t1 + 1.0)
+        K = Ks[-1]
         key = K.tobytes()
         if key not in found:
-            found[key] = [K, [(t1, math.inf)]]
+            found[key] = [K.copy(), [(t1, math.inf)]]
             order.append(key)
     if period == 0.0:
         found[order[0]][1] = [(0.0, math.inf)]
@@ -225,6 +230,22 @@ def _segments_text(segments, limit: int = 3) -> str:
 
 def _pair_feasible(a: float, A: float, b: float, B: float) -> bool:
     return _intersect(eta_interval(a, A), eta_interval(b, B)) is not None
+
+
+def _pair_feasible_in(vary: int, a: float, A: float, b: float, B: float):
+    """``x -> _pair_feasible`` with argument ``vary`` (0: a, 1: A, 2: b, 3: B) replaced by ``x``.
+
+    The interval of the direction that does not change is computed once, not at every bisection step.
+    """
+    if vary < 2:
+        fixed = eta_interval(b, B)
+        if vary == 0:
+            return lambda x: _intersect(eta_interval(x, A), fixed) is not None
+        return lambda x: _intersect(eta_interval(a, x), fixed) is not None
+    fixed = eta_interval(a, A)
+    if vary == 2:
+        return lambda x: _intersect(fixed, eta_interval(x, B)) is not None
+    return lambda x: _intersect(fixed, eta_interval(b, x)) is not None
 
 
 def _bisect(pred, lo: float, hi: float, want_low: bool, iters: int = 60) -> float:
@@ -245,25 +266,25 @@ def _fixes(i: int, j: int, a: float, A: float, b: float, B: float) -> tuple[str,
     big = 4.0 * max(a, A, b, B, 1.0) + 1.0
     ij, ji = f"{i + 1}{j + 1}", f"{j + 1}{i + 1}"
     if _pair_feasible(big, A, b, B):
-        v = _bisect(lambda x: _pair_feasible(x, A, b, B), a, big, want_low=True)
+        v = _bisect(_pair_feasible_in(0, a, A, b, B), a, big, want_low=True)
         out.append(f"raise k^i_{ij} to >= {_up(v)}")
     if _pair_feasible(a, A, big, B):
-        v = _bisect(lambda x: _pair_feasible(a, A, x, B), b, big, want_low=True)
+        v = _bisect(_pair_feasible_in(2, a, A, b, B), b, big, want_low=True)
         out.append(f"raise k^i_{ji} to >= {_up(v)}")
     if A > 0 and _pair_feasible(a, 0.0, b, B):
-        v = _bisect(lambda x: _pair_feasible(a, x, b, B), 0.0, A, want_low=False)
+        v = _bisect(_pair_feasible_in(1, a, A, b, B), 0.0, A, want_low=False)
         out.append(f"lower max_t k^j_{ij}(t) to <= {_down(v)}")
     if B > 0 and _pair_feasible(a, A, b, 0.0):
-        v = _bisect(lambda x: _pair_feasible(a, A, b, x), 0.0, B, want_low=False)
+        v = _bisect(_pair_feasible_in(3, a, A, b, B), 0.0, B, want_low=False)
         out.append(f"lower max_t k^j_{ji}(t) to <= {_down(v)}")
     if not out:
         # both directions need a change: raise both k^i (each at least to its k^j), or lower both k^j
         a2, b2 = max(a, A), max(b, B)
         if not _pair_feasible(a2, A, b2, B):
             if _pair_feasible(big, A, b2, B):
-                a2 = _bisect(lambda x: _pair_feasible(x, A, b2, B), a2, big, want_low=True)
+                a2 = _bisect(_pair_feasible_in(0, a2, A, b2, B), a2, big, want_low=True)
             else:
-                b2 = _bisect(lambda x: _pair_feasible(a2, A, x, B), b2, big, want_low=True)
+                b2 = _bisect(_pair_feasible_in(2, a2, A, b2, B), b2, big, want_low=True)
         out.append(f"raise k^i_{ij} to >= {_up(a2)} and k^i_{ji} to >= {_up(b2)}")
         A2, B2 = min(A, a), min(B, b)
         if _pair_feasible(a, A2, b, B2):
@@ -347,6 +368,7 @@ def analyze_topology(topology: Topology, t_final: float) -> Theorem1Analysis:
     confs, window = configurations(topology, t_final)
     Kjs = [c.k_j for c in confs]
     Kj_max = np.max(np.stack(Kjs), axis=0) if Kjs else np.zeros((n, n))
+    kj_lists = [K.tolist() for K in Kjs]  # Python floats: the per-pair checks below run on them
 
     def when_max(i: int, j: int) -> str:
         for c in confs:
@@ -362,7 +384,8 @@ def analyze_topology(topology: Topology, t_final: float) -> Theorem1Analysis:
             I_ij, I_ji = eta_interval(a, A), eta_interval(b, B)
             interval = _intersect(I_ij, I_ji)
             tv_ok = all(
-                _intersect(eta_interval(a, c.k_j[i, j]), eta_interval(b, c.k_j[j, i])) is not None for c in confs
+                _intersect(eta_interval(a, kij), eta_interval(b, kji)) is not None
+                for kij, kji in dict.fromkeys((Kj[i][j], Kj[j][i]) for Kj in kj_lists)  # distinct pairs, in order
             )
             printed_ok = bool(interval is not None and interval[1] > 0 and min(a, b) > 0 and interval[0] < min(a, b))
             if interval is not None:
@@ -403,11 +426,12 @@ def analyze_topology(topology: Topology, t_final: float) -> Theorem1Analysis:
     balanced_tv = balanced_constant or symmetric_tv or all(_balanced_feasible(ordered_bounds(K), n) for K in Kjs)
 
     lam, lam_t = math.inf, 0.0
-    for c in confs:
-        L = np.diag(Ki.sum(axis=1)) - c.k_j
-        ev = float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]) if n else 0.0
-        if ev < lam:
-            lam, lam_t = ev, c.t
+    if confs:
+        L = np.diag(Ki.sum(axis=1))[None] - np.stack(Kjs)  # L(t) of every configuration
+        evs = np.linalg.eigvalsh(0.5 * (L + L.transpose(0, 2, 1)))[:, 0].tolist() if n else [0.0] * len(confs)
+        for c, ev in zip(confs, evs, strict=True):
+            if ev < lam:
+                lam, lam_t = ev, c.t
     return Theorem1Analysis(
         window=window,
         configurations=confs,

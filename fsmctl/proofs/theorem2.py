@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from ..casadi_eval import evaluate_mapped
 from ..generated_code import casadi_function, generated_dir
 from ..scenario import SINGULARITY_FIXES, Scenario
 
@@ -109,8 +110,12 @@ def _load(name: str) -> ca.Function:
     return ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
 
 
+DRIFT_OUTPUTS = ("d", "P", "A", "B", "s")
+DRIFT_INPUTS = ("sigma_e", "omega_e", "omega_d", "u_d", "J0", "J", "gains", "omega_d_dot")
+
+
 @functools.cache
-def drift_function(error_model: str) -> ca.Function:
+def drift_function(error_model: str, outputs: tuple[str, ...] = DRIFT_OUTPUTS) -> ca.Function:
     """CasADi function of the sliding-variable dynamics at ``delta = 0`` built from the generated functions.
 
     Inputs ``(sigma_e, omega_e, omega_d, u_d, J0, J, gains, omega_d_dot)``; outputs
@@ -121,7 +126,32 @@ def drift_function(error_model: str) -> ca.Function:
     ``control_law_<error_model>`` with ``J0``, the reference frame moving with ``omega_d``),
     taken at ``sigma_d = 0`` (the error dynamics do not depend on ``sigma_d``).
     Liang et al. 2012, eqs 16-20, 29-30.
+
+    Parameters
+    ----------
+    error_model : str
+        ``"paper"`` or ``"exact"`` (the generated ``control_law_*``/``sliding_*`` pair).
+    outputs : tuple of str
+        A subset of ``("d", "P", "A", "B", "s")``, in that order by default.  A function with fewer
+        outputs evaluates only the part of the same expression graph they need: its values are those of
+        the full function, bit for bit, at a lower cost (the trajectory scan needs only ``d`` and ``P``).
+
+    Returns
+    -------
+    casadi.Function
+        ``(sigma_e, omega_e, omega_d, u_d, J0, J, gains, omega_d_dot) -> outputs``.
     """
+    unknown = [o for o in outputs if o not in DRIFT_OUTPUTS]
+    if unknown or not outputs:
+        raise ValueError(f"drift_function: outputs must be a non-empty subset of {DRIFT_OUTPUTS}, got {outputs!r}")
+    inputs, exprs = _drift_expressions(error_model)
+    name = f"theorem2_drift_{error_model}" + ("" if tuple(outputs) == DRIFT_OUTPUTS else "_" + "_".join(outputs))
+    return ca.Function(name, list(inputs), [exprs[o] for o in outputs], list(DRIFT_INPUTS), list(outputs))
+
+
+@functools.cache
+def _drift_expressions(error_model: str) -> tuple[tuple[ca.SX, ...], dict[str, ca.SX]]:
+    """The symbolic inputs and outputs of :func:`drift_function` (built once per error model)."""
     law, sliding = _load(f"control_law_{error_model}"), _load(f"sliding_{error_model}")
     plant, const = _load("plant_rhs"), _load("sliding_constants")
     sym = ca.SX.sym
@@ -148,13 +178,7 @@ def drift_function(error_model: str) -> ca.Function:
     P = -ca.jacobian(s_dot, coord)
     A = ca.jacobian(d, ud)
     B = ca.jacobian(d, wdd)
-    return ca.Function(
-        f"theorem2_drift_{error_model}",
-        [se, we, wd, ud, J0, J, gains, wdd],
-        [d, P, A, B, s],
-        ["sigma_e", "omega_e", "omega_d", "u_d", "J0", "J", "gains", "omega_d_dot"],
-        ["d", "P", "A", "B", "s"],
-    )
+    return (se, we, wd, ud, J0, J, gains, wdd), {"d": d, "P": P, "A": A, "B": B, "s": s}
 
 
 def proportional_kappa(J0: np.ndarray, delta_J: np.ndarray) -> float | None:
@@ -210,20 +234,24 @@ def _state_samples(
     return sig, om, wd
 
 
-@functools.cache
-def _mapped(fn: ca.Function, n: int) -> ca.Function:
-    return fn.map(n, "serial")
+def _evaluate(fn: ca.Function, sig, om, wd, ud, J0, J, gains, wdd) -> list[np.ndarray]:
+    """``fn`` (a :func:`drift_function`) on the columns of ``sig, om, wd, ud, wdd`` (3, n), one ``J0, J, gains``.
 
-
-def _evaluate(fn: ca.Function, sig, om, wd, ud, J0, J, gains, wdd):
+    Returns each output in the layout of the ``DM`` results of ``fn.map(n)`` converted by ``np.array``:
+    vectors (``d``, ``s``) as C-contiguous (3, n), matrices (``P``, ``A``, ``B``) as (n, 3, 3) views of a
+    (3, n, 3) array, so every later NumPy reduction sees the same memory order; evaluated through NumPy
+    buffers (:func:`fsmctl.casadi_eval.evaluate_mapped`).
+    """
     n = sig.shape[1]
-    out = _mapped(fn, n)(sig, om, wd, ud, J0, J, gains, wdd)
-    d = np.array(out[0])
-    P = np.array(out[1]).reshape(3, n, 3).transpose(1, 0, 2)  # (n, 3, 3)
-    A = np.array(out[2]).reshape(3, n, 3).transpose(1, 0, 2)
-    B = np.array(out[3]).reshape(3, n, 3).transpose(1, 0, 2)
-    s = np.array(out[4])
-    return d, P, A, B, s
+    args = [np.transpose(x) for x in (sig, om, wd, ud)]  # (n, 3): sample-major
+    args += [np.transpose(J0), np.transpose(J), gains, np.transpose(wdd)]  # matrices column-major
+    out = []
+    for v in evaluate_mapped(fn, n, args, shared=(4, 5, 6)):
+        if v.ndim == 2:  # (n, 3) -> (3, n)
+            out.append(np.ascontiguousarray(v.T))
+        else:  # (n, 3 columns, 3 rows) -> (3 rows, n, 3 columns) -> (n, 3, 3)
+            out.append(np.ascontiguousarray(v.transpose(2, 0, 1)).transpose(1, 0, 2))
+    return out
 
 
 def _requirement(kappa, d, P, A, B, u_bound, wdd_bound, coord_bound):
@@ -242,10 +270,11 @@ def _requirement(kappa, d, P, A, B, u_bound, wdd_bound, coord_bound):
 
 def _reference_signals(scenario: Scenario, times: np.ndarray):
     """``omega_d(t)``, ``omega_d_dot(t)`` as (3, T), from the generated ``reference_rhs`` (independent of sigma_d)."""
-    fn = casadi_function("reference_rhs").map(times.size)
-    params = np.tile(scenario.reference.omega.params()[:, None], (1, times.size))
-    _, omega_d, omega_d_dot = fn(times[None, :], np.zeros((3, times.size)), params)
-    return np.asarray(omega_d), np.asarray(omega_d_dot)
+    m = times.size
+    _, omega_d, omega_d_dot = evaluate_mapped(
+        casadi_function("reference_rhs"), m, [times, np.zeros((m, 3)), scenario.reference.omega.params()], shared=(2,)
+    )
+    return np.ascontiguousarray(omega_d.T), np.ascontiguousarray(omega_d_dot.T)
 
 
 def delta_requirements(
@@ -283,6 +312,7 @@ def delta_requirements(
     t_start = time.perf_counter()
     c = scenario.controller
     fn = drift_function(c.error_model)
+    fn_dP = drift_function(c.error_model, ("d", "P"))  # the trajectory scan needs no A, B, s
     gains = scenario.controller.gains_vector()
     rng = np.random.default_rng(seed)
     wd_bound = scenario.reference.omega.bound()
@@ -307,9 +337,12 @@ def delta_requirements(
         kappa = proportional_kappa(J0, np.array(agent.delta_J))
         kappas.append(kappa)
         u_bound = agent.disturbance.bound()
-        d, P, A, B, s = _evaluate(fn, sig, om, wd, zeros, J0, J, gains, zeros)
         at_ref = np.all(sig == 0, axis=0) & np.all(om == 0, axis=0)
-        if np.any(at_ref):  # sigma_e_dot = 0 there: evaluate without the 0 * inf of an unfixed slope
+        # sigma_e_dot = 0 at the reference: evaluate it without the 0 * inf of an unfixed slope (gains_ref);
+        # a zero region is the reference alone, evaluated once
+        only_ref = bool(np.all(at_ref))
+        d, P, A, B, s = _evaluate(fn, sig, om, wd, zeros, J0, J, gains_ref if only_ref else gains, zeros)
+        if np.any(at_ref) and not only_ref:
             r = _evaluate(
                 fn, sig[:, at_ref], om[:, at_ref], wd[:, at_ref], zeros[:, at_ref], J0, J, gains_ref, zeros[:, at_ref]
             )
@@ -329,11 +362,9 @@ def delta_requirements(
         # trajectory scan
         m = times.size
         ud_t = agent.disturbance(times).T
-        dt_, Pt, At, Bt, _ = _evaluate(
-            fn, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, gains_ref, omega_d_dot_t
-        )
+        dt_, Pt = _evaluate(fn_dP, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, gains_ref, omega_d_dot_t)
         traj = _requirement(
-            kappa, dt_, Pt, np.zeros_like(At), np.zeros_like(Bt), u_bound * 0, wdd_bound * 0, coord_bound * 0
+            kappa, dt_, Pt, np.zeros_like(Pt), np.zeros_like(Pt), u_bound * 0, wdd_bound * 0, coord_bound * 0
         )
         note = ""
         if kappa is not None:

@@ -1,0 +1,184 @@
+"""Lane-batched kernels (generated/c/batched.c, derive/batched.py) equal the scalar CasADi C bit for bit.
+
+Two levels: each kernel against its scalar CasADi-generated function (both from the compiled
+library) on random and edge-case inputs, lane by lane; and whole simulations with
+``kernels="batched"`` against ``kernels="scalar"`` (agent counts that do and do not fill the
+lanes, both error models, zero-order hold, the adaptive integrator).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import dataclasses
+
+import casadi as ca
+import numpy as np
+import pytest
+
+import fsmctl
+from derive.batched import LANES, UnsupportedInstructionError, batched_source, kernel_name
+from fsmctl.generated_code import compiled_library, manifest
+from fsmctl.problem import pack
+from fsmctl.simulator import batched_kernels_preferred, simulate_packed
+from fsmctl.topology import ring
+
+BATCHED = [f["name"] for f in manifest()["functions"] if "batched_kernel" in f]
+SPECIAL = np.array([0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 1e-4, np.inf, -np.inf, np.nan, 0.5, 2.0, 1e300])
+_P = ctypes.POINTER(ctypes.c_double)
+
+
+@pytest.fixture(scope="module")
+def library():
+    lib = compiled_library()
+    if lib is None:
+        pytest.skip("no C compiler: the compiled library is not available")
+    return ctypes.CDLL(str(lib.path))
+
+
+def _sizes(name: str) -> tuple[list[int], list[int]]:
+    entry = next(f for f in manifest()["functions"] if f["name"] == name)
+    return [int(np.prod(io["shape"])) for io in entry["inputs"]], [int(np.prod(io["shape"])) for io in entry["outputs"]]
+
+
+def _scalar(library, name: str, inputs: list[np.ndarray], n_out: list[int]) -> list[np.ndarray]:
+    fn = getattr(library, name)
+    work = getattr(library, f"{name}_work")
+    sizes = [ctypes.c_longlong() for _ in range(4)]
+    work(*(ctypes.byref(s) for s in sizes))
+    outs = [np.zeros(m) for m in n_out]
+    keep = [np.ascontiguousarray(x) for x in inputs]  # alive until the call returns
+    args = (_P * len(keep))(*[x.ctypes.data_as(_P) for x in keep])
+    res = (_P * len(outs))(*[o.ctypes.data_as(_P) for o in outs])
+    iw = (ctypes.c_longlong * max(1, sizes[2].value))()
+    w = (ctypes.c_double * max(1, sizes[3].value))()
+    assert fn(args, res, iw, w, 0) == 0
+    return outs
+
+
+def _batched(library, name: str, inputs: list[np.ndarray], n_out: list[int], lanes: int) -> list[np.ndarray]:
+    fn = getattr(library, kernel_name(name))
+    outs = [np.zeros((m, LANES)) for m in n_out]
+    keep = [np.ascontiguousarray(x) for x in inputs]
+    args = (_P * len(keep))(*[x.ctypes.data_as(_P) for x in keep])
+    res = (_P * len(outs))(*[o.ctypes.data_as(_P) for o in outs])
+    assert fn(args, res, lanes) == 0
+    return outs
+
+
+def _same_bits(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Equal as IEEE bit patterns, except: any NaN equals any NaN, and +0 equals -0.
+
+    The zero exception: C99 leaves ``fmax(-0.0, +0.0)`` unspecified, and GCC may compile the scalar
+    ``fmax``/``fmin`` to min/max instructions with either operand order (seen at ``u_max = 0``).
+    """
+    return (a.view(np.int64) == b.view(np.int64)) | (np.isnan(a) & np.isnan(b)) | ((a == 0) & (b == 0))
+
+
+@pytest.mark.parametrize("name", BATCHED)
+def test_batched_kernel_equals_scalar_function_bit_for_bit(library, name):
+    assert set(BATCHED) >= {"sliding_paper", "sliding_exact", "control_core", "plant_rhs"}
+    n_in, n_out = _sizes(name)
+    rng = np.random.default_rng(sum(map(ord, name)))
+    compared = 0
+    for trial in range(300):
+        inputs = []
+        for m in n_in:
+            x = rng.normal(size=(m, LANES)) * rng.choice([1e-3, 1.0, 30.0])
+            if trial % 3:  # edge cases: zeros of both signs, tiny, huge, inf, nan
+                mask = rng.random((m, LANES)) < 0.25
+                x[mask] = rng.choice(SPECIAL, size=int(mask.sum()))
+            if trial % 5 == 0:  # ties for fmin/fmax/sign and the Remark 6 band
+                x = np.round(x, 1)
+            inputs.append(x)
+        lanes = LANES if trial % 4 else 1 + trial % LANES
+        batched = _batched(library, name, inputs, n_out, lanes)
+        for lane in range(lanes):
+            scalar = _scalar(library, name, [x[:, lane] for x in inputs], n_out)
+            for k, (got, want) in enumerate(zip(batched, scalar, strict=True)):
+                same = _same_bits(got[:, lane], want)
+                assert same.all(), (
+                    f"{name} output {k} lane {lane} trial {trial}: batched {got[:, lane]} != scalar {want}"
+                )
+                compared += 1
+    assert compared > 1000
+
+
+def _with_agents(scenario, n: int, **sections):
+    agents = tuple(scenario.agents[i % len(scenario.agents)] for i in range(n))
+    topo = scenario.topology if n == scenario.n_agents else ring(n, 8.0, 1.5)
+    s = dataclasses.replace(scenario, agents=agents, topology=topo)
+    return s.replace(**sections) if sections else s
+
+
+CASES = {
+    "case1-6-agents": lambda p: p.replace(simulation={"t_final": 2.0, "output_interval": 0.01}),
+    "one-agent": lambda p: _with_agents(p, 1, simulation={"t_final": 1.0, "output_interval": 0.01}),
+    "5-agents-exact-kinematics": lambda p: _with_agents(
+        p, 5, controller={"error_model": "exact"}, simulation={"t_final": 1.0, "output_interval": 0.01}
+    ),
+    "9-agents-zero-order-hold": lambda p: _with_agents(
+        p, 9, simulation={"t_final": 1.0, "output_interval": 0.01, "control_period": 0.01}
+    ),
+    "dopri45-boundary-layer": lambda p: p.replace(
+        controller={"boundary_layer": 0.05, "torque_limit": float("inf")},
+        simulation={"t_final": 2.0, "output_interval": 0.05, "integrator": "dopri45", "rtol": 1e-8, "atol": 1e-10},
+    ),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_batched_and_scalar_simulations_are_bit_identical(library, paper_case1, case):
+    p = pack(CASES[case](paper_case1))
+    batched = simulate_packed(p, kernels="batched")
+    scalar = simulate_packed(p, kernels="scalar")
+    for key in ("t", "sigma_d", "sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat", "saturated_time"):
+        assert batched[key].shape == scalar[key].shape
+        assert _same_bits(np.asarray(batched[key]), np.asarray(scalar[key])).all(), f"{case}: {key} differs"
+    assert batched["steps_taken"] == scalar["steps_taken"]
+    assert np.isfinite(batched["sigma"]).all()
+
+
+def test_auto_picks_batched_kernels_exactly_when_the_build_has_avx(library, paper_case1):
+    s = paper_case1.replace(simulation={"t_final": 0.2, "output_interval": 0.1})
+    auto = simulate_packed(pack(s))
+    assert auto["kernels"] == ("batched" if batched_kernels_preferred() else "scalar")
+    flags = compiled_library().flags
+    if "-march=native" in flags and "-mavx" in (_native_target_text() or "").split():
+        assert batched_kernels_preferred()
+    if "-march=native" not in flags:  # portable x86-64 baseline: SSE2 only
+        assert not batched_kernels_preferred()
+    r = fsmctl.simulate(s)
+    assert np.array_equal(r.sigma, auto["sigma"]) and np.array_equal(r.u, auto["u"])
+
+
+def _native_target_text() -> str | None:
+    from fsmctl.generated_code import _compiler, _native_target
+
+    cc = _compiler()
+    return _native_target(cc) if cc else None
+
+
+def test_unknown_kernel_choice_is_a_clear_error(paper_case1):
+    with pytest.raises(ValueError, match="kernels must be one of"):
+        simulate_packed(pack(paper_case1.replace(simulation={"t_final": 0.01})), kernels="simd")
+
+
+def test_printer_refuses_an_operation_without_a_lane_rule():
+    x = ca.SX.sym("x")
+    f = ca.Function("f", [x], [ca.atan2(x, 1.0 + x)])
+    with pytest.raises(UnsupportedInstructionError, match="OP_ATAN2"):
+        batched_source([("f", f)], "f.h")
+
+
+def test_printer_writes_exact_constants_and_every_lane_rule():
+    x, y = ca.SX.sym("x"), ca.SX.sym("y")
+    expr = ca.vertcat(
+        x + 0.1, x - y, x * y, x / y, -x, x**2, 2 * x, 1 / x, x <= y, x == y, x < y, x != y,
+        ca.logic_not(x), ca.logic_and(x, y), ca.logic_or(x, y), ca.if_else(x, y, 0), ca.fabs(x), ca.sign(x),
+        ca.fmin(x, y), ca.fmax(x, y), x**y, ca.sqrt(x), ca.sin(x), ca.cos(x), ca.exp(x), ca.log(x),
+        -1e-300 * x, ca.inf * x,
+    )  # fmt: skip
+    source = batched_source([("g", ca.Function("g", [x, y], [expr]))], "g.h")
+    assert "fsm_splat(0.1)" in source and "fsm_splat((-1e-300))" in source and "fsm_splat(INFINITY)" in source
+    for helper in ("fsm_fmin", "fsm_fmax", "fsm_sign", "fsm_fabs", "fsm_if_else_zero", "fsm_pow", "fsm_sqrt"):
+        assert f"{helper}(" in source.split("int g_x4")[1], helper
