@@ -405,8 +405,9 @@ def _step_limit_finding(v: dict, pc_ms: list, dt: float) -> str:
             )
         elif diff is not None and diff < 0.1 * floor:
             head = (
-                f"adaptive RK45 (python-control) and the compiled dopri45 without a step limit step over the "
-                f"saturation switchings and converge to a state ~{floor:.2g} from the reference however small rtol is "
+                f"adaptive RK45 (python-control) and the compiled dopri45 without a step limit take long steps across "
+                f"the fast saturation switchings (an agent's saturated torque flips sign within tens of microseconds) "
+                f"and converge to a state ~{floor:.2g} from the reference however small rtol is "
                 f"(python-control errors {errs} at {rt}, the last two rtols {diff:.2g} apart; compiled dopri45 at "
                 f"the same rtols: {d45e}; the two solvers' tightest final states {_f(d45, '.2g')} apart)"
             )
