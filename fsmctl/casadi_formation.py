@@ -198,7 +198,7 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
             steps = np.arange(k, k + m)
             ts = p.t0 + steps * p.dt
             # every stage of a step uses the link weights at the step midpoint (see formation.c, simulate_rk4)
-            kw_mid = np.array([p.link_weights(tt) for tt in ts + 0.5 * p.dt]).T if p.n_links else np.zeros((1, m))
+            kw_mid = p.link_weights(ts + 0.5 * p.dt) if p.n_links else np.zeros((1, m))
             kw = [kw_mid, kw_mid, kw_mid]
             samples = np.array([1.0 if p.hold_steps <= 0 or s_ % p.hold_steps == 0 else 0.0 for s_ in steps])
             if m == every:

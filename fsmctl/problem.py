@@ -59,13 +59,19 @@ class PackedProblem:
     def n_outputs(self) -> int:
         return self.n_steps // self.output_every + 1
 
-    def link_weights(self, t: float) -> np.ndarray:
-        """``k^j_ij(t)`` of every link (same rule as the C driver)."""
-        out = np.empty(self.n_links)
+    def link_weights(self, t: float | np.ndarray) -> np.ndarray:
+        """``k^j_ij(t)`` of every link (same rule as the C driver): shape ``(n_links,)``, or ``(n_links, m)``
+        for an array of ``m`` times (one vectorised evaluation per link)."""
+        times = np.asarray(t, dtype=float) if isinstance(t, np.ndarray) else None
+        out = np.empty(self.n_links if times is None else (self.n_links, times.size))
         for e in range(self.n_links):
             s, c = self.sched_start[e], self.sched_count[e]
             b, v = self.sched_times[s : s + c], self.sched_values[s : s + c]
-            out[e] = schedule_weight(b, v, float(self.sched_period[e]), t + float(self.sched_phase[e]))
+            phase, period = float(self.sched_phase[e]), float(self.sched_period[e])
+            if times is None:
+                out[e] = schedule_weight(b, v, period, t + phase)
+            else:
+                out[e] = schedule_weight(b, v, period, times.ravel() + phase)
         return out
 
 

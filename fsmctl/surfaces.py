@@ -221,6 +221,10 @@ def _measure(result, surface: str, variant: Variant, opts: dict) -> tuple[dict, 
         "raem_settling_s": summary["raem_settling_s"][tol],
         "aaem_steady_max_deg": summary["aaem_steady_max_deg"],
         "raem_steady_max_deg": summary["raem_steady_max_deg"],
+        # the means are NaN (= not reached: infinitely slow for the verdicts) unless every agent gets there
+        "n_agents": len(agents),
+        "agents_reached": int(sum(math.isfinite(a["reaching_time_s"]) for a in agents)),
+        "agents_settled": int(sum(math.isfinite(a["settling_time_s"]) for a in agents)),
         "mean_reaching_time_s": float(np.mean([a["reaching_time_s"] for a in agents])),
         "mean_sliding_phase_time_s": float(np.mean([a["sliding_phase_time_s"] for a in agents])),
         "mean_sliding_phase_theorem3_s": float(np.mean([a["sliding_phase_theorem3_s"] for a in agents])),
@@ -293,18 +297,25 @@ class SurfaceComparison:
         tol = self.settings["metric_tolerance_deg"]
         head = (
             f"{'variant':<28} {'surf':<4} {'AAEM<' + format(tol, 'g') + 'deg':>11} {'RAEM<' + format(tol, 'g') + 'deg':>11} "
-            f"{'AAEM_ss':>9} {'reach':>7} {'slide':>7} {'slide_T3':>8} {'effort':>9} {'sat_max':>7}"
+            f"{'AAEM_ss':>9} {'reached':>7} {'reach':>7} {'slide':>7} {'slide_T3':>8} {'effort':>9} {'sat_max':>7}"
         )
-        units = f"{'':<28} {'':<4} {'s':>11} {'s':>11} {'deg':>9} {'s':>7} {'s':>7} {'s':>8} {'N m s':>9} {'s':>7}"
+        units = (
+            f"{'':<28} {'':<4} {'s':>11} {'s':>11} {'deg':>9} {'agents':>7} {'s':>7} {'s':>7} {'s':>8} {'N m s':>9} "
+            f"{'s':>7}"
+        )
         lines = [f"compare-surfaces: {self.scenario_label}", head, units]
         for r in self.runs:
             lines.append(
                 f"{r['variant']:<28} {r['surface']:<4} {_fmt(r['aaem_settling_s']):>11} {_fmt(r['raem_settling_s']):>11} "
-                f"{_fmt(r['aaem_steady_max_deg'], '.3g'):>9} {_fmt(r['mean_reaching_time_s']):>7} "
+                f"{_fmt(r['aaem_steady_max_deg'], '.3g'):>9} {str(r['agents_reached']) + '/' + str(r['n_agents']):>7} "
+                f"{_fmt(r['mean_reaching_time_s']):>7} "
                 f"{_fmt(r['mean_sliding_phase_time_s']):>7} {_fmt(r['mean_sliding_phase_theorem3_s']):>8} "
                 f"{_fmt(r['control_effort_N_m_s'], '.4g'):>9} {_fmt(r['max_saturated_time_s'], '.1f'):>7}"
             )
         lines.append("")
+        lines.append(
+            "reach/slide are means over agents: nan unless every agent reached the surface (|s| below the threshold)"
+        )
         lines.append("Theorem 3 ordering (nan = not settled within the horizon): FSM faster than TSM / than LSM")
         for o in self.ordering():
             lines.append(

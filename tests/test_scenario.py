@@ -282,8 +282,11 @@ def test_every_route_to_the_link_weights_applies_the_same_rule(paper_case1):
     times = np.concatenate([np.arange(0.0, 24.0, 0.1), np.random.default_rng(3).uniform(-5.0, 50.0, 200)])
     dll = simulator._driver()
     cp = simulator._CProblem(p) if dll is not None else None
-    for t in times:
+    vectorised = p.link_weights(times)  # all times at once (the CasADi fallback's route)
+    assert vectorised.shape == (len(links), len(times))
+    for m, t in enumerate(times):
         packed = p.link_weights(float(t))
+        assert np.array_equal(vectorised[:, m], packed)
         for e, link in enumerate(links):
             s = link.k_j
             expected = schedule_weight(s.breakpoints, s.values, s.period, float(t) + link.phase)

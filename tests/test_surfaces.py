@@ -84,6 +84,19 @@ def test_effort_is_the_sum_over_agents(fast_comparison):
             assert max(per_agent) <= 3 * 2.0 * r["t_final_s"] * (1 + 1e-9)
 
 
+def test_means_over_agents_are_nan_exactly_when_an_agent_never_reaches(fast_comparison):
+    for r in fast_comparison.runs:
+        rows = [a for a in fast_comparison.agents if a["variant"] == r["variant"] and a["surface"] == r["surface"]]
+        reached = [a["reaching_time_s"] for a in rows if math.isfinite(a["reaching_time_s"])]
+        assert r["n_agents"] == len(rows) and r["agents_reached"] == len(reached)
+        assert math.isfinite(r["mean_reaching_time_s"]) == (len(reached) == len(rows))
+        if reached and len(reached) == len(rows):
+            assert r["mean_reaching_time_s"] == pytest.approx(sum(reached) / len(rows))
+    assert f"{fast_comparison.runs[0]['agents_reached']}/{fast_comparison.runs[0]['n_agents']}" in (
+        fast_comparison.table()
+    )
+
+
 def test_cli_fast_writes_tables_and_figures(tmp_path, capsys):
     out = tmp_path / "cs"
     code = main(["compare-surfaces", "--fast", "--out", str(out)])
