@@ -41,6 +41,8 @@ enum {
 };
 #define LANE(g, row) ((g) + FSM_LANES * (row))
 
+/* The agent in lane l of group g: lanes past the last agent repeat it (their results are never read). */
+static inline int lane_agent(int g, int l, int n) { return g * FSM_LANES + l < n ? g * FSM_LANES + l : n - 1; }
 static inline int active_lanes(int g, int n) { return n - g * FSM_LANES < FSM_LANES ? n - g * FSM_LANES : FSM_LANES; }
 static inline void to_lane(double *row, const double *src, int nnz, int l) {
   for (int k = 0; k < nnz; ++k) row[FSM_LANES * k + l] = src[k];
@@ -139,8 +141,7 @@ static void pack_lane_constants(workspace *W, const fsm_problem *P) {
   for (int g = 0; g < W->n_groups; ++g) {
     double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
     for (int l = 0; l < FSM_LANES; ++l) {
-      int i = g * FSM_LANES + l;
-      if (i >= W->n) i = W->n - 1;
+      const int i = lane_agent(g, l, W->n);
       to_lane(LANE(G, R_GAINS), P->gains + 6 * i, 6, l);
       to_lane(LANE(G, R_GC), W->gc + i, 1, l);
       to_lane(LANE(G, R_J0), P->J0 + 9 * i, 9, l);
@@ -261,8 +262,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
       for (int l = 0; l < FSM_LANES; ++l) {
-        int i = g * FSM_LANES + l;
-        if (i >= n) i = n - 1;
+        const int i = lane_agent(g, l, n);
         to_lane(LANE(G, R_SIGMA), x + 3 + 6 * i, 6, l); /* sigma_i, omega_i: rows R_SIGMA, R_OMEGA */
         to_lane(LANE(G, R_SIGMA_D), sd, 3, l);
         to_lane(LANE(G, R_OMEGA_D), W->wd, 3, l);
@@ -309,8 +309,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       for (int g = 0; g < W->n_groups; ++g) {
         double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
         for (int l = 0; l < FSM_LANES; ++l) {
-          int i = g * FSM_LANES + l;
-          if (i >= n) i = n - 1;
+          const int i = lane_agent(g, l, n);
           to_lane(LANE(G, R_KSUM), W->ksum + i, 1, l);
           to_lane(LANE(G, R_RECV), W->recv + 3 * i, 3, l);
         }
@@ -359,8 +358,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
       for (int l = 0; l < FSM_LANES; ++l) {
-        int i = g * FSM_LANES + l;
-        if (i >= n) i = n - 1;
+        const int i = lane_agent(g, l, n);
         to_lane(LANE(G, R_TAU), W->tau + 3 * i, 3, l); /* rows R_SIGMA, R_OMEGA still hold this x */
       }
       const double *arg[4] = {LANE(G, R_SIGMA), LANE(G, R_OMEGA), LANE(G, R_TAU), LANE(G, R_JTRUE)};
