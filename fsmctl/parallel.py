@@ -45,7 +45,10 @@ def single_threaded_workers() -> Iterator[dict[str, str]]:
     follow the variables.
 
     Keep the block open as long as the pool can start workers (``ProcessPoolExecutor`` starts them
-    as tasks are submitted).
+    as tasks are submitted).  The environment is the parent's, process-wide: a BLAS library that the
+    parent itself first loads inside the block (say a first ``import scipy``) also gets one thread, and
+    two such blocks open at once in different threads of one process overlap (the first to close
+    removes the variables while the other pool may still start workers).  Both only affect speed.
 
     Yields
     ------

@@ -60,8 +60,8 @@ class PackedProblem:
         return self.n_steps // self.output_every + 1
 
     def link_weights(self, t: float | np.ndarray) -> np.ndarray:
-        """``k^j_ij(t)`` of every link (same rule as the C driver): shape ``(n_links,)``, or ``(n_links, m)``
-        for an array of ``m`` times (one vectorised evaluation per link)."""
+        """``k^j_ij(t)`` of every link (same rule as the C driver): shape ``(n_links,)`` for a float ``t``, or
+        ``(n_links, t.size)`` for an array of times (flattened; one vectorised evaluation per link)."""
         times = np.asarray(t, dtype=float) if isinstance(t, np.ndarray) else None
         out = np.empty(self.n_links if times is None else (self.n_links, times.size))
         for e in range(self.n_links):

@@ -139,8 +139,9 @@ def _driver() -> ctypes.CDLL | None:
     dll.fsm_rhs.restype = ctypes.c_int
     dll.fsm_link_weight.argtypes = [ctypes.POINTER(_Problem), ctypes.c_int, ctypes.c_double]
     dll.fsm_link_weight.restype = ctypes.c_double
-    dll.fsm_batched_preferred.argtypes = []
-    dll.fsm_batched_preferred.restype = ctypes.c_int
+    for name in ("fsm_batched_available", "fsm_batched_preferred"):
+        getattr(dll, name).argtypes = []
+        getattr(dll, name).restype = ctypes.c_int
     return dll
 
 
@@ -443,6 +444,11 @@ def simulate_packed(
         from .casadi_formation import simulate_casadi
 
         return simulate_casadi(p, progress=progress, label=label)
+    if kernels == "batched" and not dll.fsm_batched_available():
+        raise SimulationError(
+            "kernels='batched': this build of the library has no batched kernels (the C compiler lacks the "
+            "GCC/Clang vector extension); use kernels='auto' or 'scalar'"
+        )
     n, cap = p.n_agents, p.n_outputs + 1
     bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
     bufs["t"] = np.zeros(cap)

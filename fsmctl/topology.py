@@ -69,13 +69,22 @@ def schedule_weight(
     -------
     float or numpy.ndarray
         The weight(s), shaped like ``tau``.
+
+    Raises
+    ------
+    ValueError
+        If a ``tau`` is not finite (there is no weight at t = inf or NaN).
     """
     periodic = period is not None and period > 0
     if isinstance(tau, np.ndarray):
+        if not np.isfinite(tau).all():
+            raise ValueError("schedule_weight: the time t + phase must be finite")
         if periodic:
             tau = tau - np.floor(tau / period) * period
         last = np.searchsorted(np.asarray(breakpoints, dtype=float), tau, side="right") - 1
         return np.asarray(values, dtype=float)[np.maximum(last, 0)]
+    if not math.isfinite(tau):
+        raise ValueError("schedule_weight: the time t + phase must be finite")
     if periodic:
         tau -= math.floor(tau / period) * period
     return float(values[max(0, bisect.bisect_right(breakpoints, tau) - 1)])

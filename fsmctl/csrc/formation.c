@@ -87,19 +87,42 @@ static void free_workspace(workspace *W) {
   memset(W, 0, sizeof(*W));
 }
 
-/* Nonzeros of a CasADi sparsity pattern: {nrow, ncol, 1} is the compact form of a dense pattern,
- * otherwise {nrow, ncol, colind[0] = 0, ..., colind[ncol], rows...}. */
 /* The batched kernels pay off with 256-bit vector registers (AVX: one register per 4 lanes).  Without AVX the
  * compiler splits each 4-lane operation into SSE2 halves and the scalar functions are faster (measured with
- * FSMCTL_PORTABLE=1 builds), so "auto" picks the scalar path there.  Results are bit-identical either way. */
-int fsm_batched_preferred(void) {
-#if defined(__AVX__)
+ * FSMCTL_PORTABLE=1 builds), so "auto" picks the scalar path there.  Both paths give the same results, bit for
+ * bit, except the sign of a zero torque from fmin/fmax of +0 and -0 (u_max = 0, e.g. open loop), which C99
+ * leaves unspecified and compilers resolve differently. */
+int fsm_batched_available(void) {
+#ifdef FSM_HAVE_BATCHED
   return 1;
 #else
   return 0;
 #endif
 }
 
+int fsm_batched_preferred(void) {
+#if defined(__AVX__) && defined(FSM_HAVE_BATCHED)
+  return 1;
+#else
+  return 0;
+#endif
+}
+
+#ifndef FSM_HAVE_BATCHED
+/* A compiler without the GCC/Clang vector extension compiles no kernels (generated/c/batched.c is empty);
+ * these stand-ins are never called: alloc_workspace refuses FSM_KERNELS_BATCHED and "auto" means scalar. */
+static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes) {
+  (void)arg, (void)res, (void)lanes;
+  return 1;
+}
+#define sliding_paper_x4 fsm_no_kernel
+#define sliding_exact_x4 fsm_no_kernel
+#define control_core_x4 fsm_no_kernel
+#define plant_rhs_x4 fsm_no_kernel
+#endif
+
+/* Nonzeros of a CasADi sparsity pattern: {nrow, ncol, 1} is the compact form of a dense pattern,
+ * otherwise {nrow, ncol, colind[0] = 0, ..., colind[ncol], rows...}. */
 static int sparsity_nnz(const casadi_int *sp) { return (int)(sp[2] == 1 ? sp[0] * sp[1] : sp[2 + sp[1]]); }
 
 /* The lane rows above assume the argument sizes of the generated functions; check them against the
@@ -195,6 +218,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     if (w > max_w) max_w = w;
   }
   W->batched = P->kernels == FSM_KERNELS_BATCHED || (P->kernels == FSM_KERNELS_AUTO && fsm_batched_preferred());
+  if (W->batched && !fsm_batched_available()) { free_workspace(W); return FSM_BAD_PROBLEM; }
   if (W->batched) {
     if (!lane_layout_ok()) { free_workspace(W); return FSM_BAD_PROBLEM; }
     W->sliding_x = P->error_model == 1 ? sliding_exact_x4 : sliding_paper_x4;
@@ -666,6 +690,7 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
 }
 
 int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double *u_out) {
+  if (!validate(P)) return FSM_BAD_PROBLEM;
   workspace W;
   int rc = alloc_workspace(&W, P);
   if (rc != FSM_OK) return rc;

@@ -4,7 +4,7 @@
  * equations; it calls the CasADi-generated per-agent functions of generated/c
  * (plant_rhs, sliding_*, control_core, reference_rhs, disturbance_torque,
  * mrp_shadow, sliding_constants; the first three through their lane-batched
- * kernels of generated/c/batched.c, FSM_LANES agents per call, bit-identical)
+ * kernels of generated/c/batched.c, FSM_LANES agents per call, same results)
  * and does the bookkeeping around them:
  * the time loop (fixed-step RK4 or adaptive Dormand-Prince 5(4)), the
  * communication graph (what agent i receives: sum_j k^j_ij(t) s_j), the
@@ -86,7 +86,8 @@ enum {
   FSM_NONFINITE_CONTROL = 7 /* the control law returned a non-finite torque command (fail_time, fail_agent) */
 };
 
-int fsm_batched_preferred(void); /* 1 if FSM_KERNELS_AUTO means batched in this build */
+int fsm_batched_available(void); /* 1 if this build has the batched kernels (GCC/Clang vector extension) */
+int fsm_batched_preferred(void); /* 1 if FSM_KERNELS_AUTO means batched in this build (available and AVX) */
 int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every);
 
 /* One evaluation of the formation right-hand side (control computed at this state; link weights at t).

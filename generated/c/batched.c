@@ -4,6 +4,7 @@
  * for 4 agents per call.
  * Regenerate with `python -m derive`; `python -m derive --check` verifies this file is current.
  *
+ * Needs the GCC/Clang vector extension: other compilers get no kernels (FSM_HAVE_BATCHED undefined).
  * Layout: argument/result i is a block of nnz_i*4 doubles, element (k, lane) at p[4*k + lane].
  * All pointers must be non-null.  `lanes` (1..4) is the number of active lanes: library functions
  * (pow, sin, ...) are evaluated for those only; results in the other lanes are unspecified.  Returns 0.
@@ -12,6 +13,11 @@
 #include <string.h>
 
 #include "batched.h"
+
+#ifdef FSM_HAVE_BATCHED
+#ifdef __GNUC__
+#pragma GCC diagnostic ignored "-Wpsabi" /* static helpers: the vector-ABI note does not apply */
+#endif
 
 typedef double fsm_v __attribute__((vector_size(32)));
 typedef long long fsm_m __attribute__((vector_size(32)));
@@ -53,6 +59,7 @@ FSM_LANEWISE(fsm_exp, exp)
 FSM_LANEWISE(fsm_log, log)
 
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes) {
+  if (lanes > 4) lanes = 4; /* never index past the vector */
   fsm_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   fsm_v w12, w13, w14, w15, w16, w17;
   w0 = fsm_load(arg[1] + 0);
@@ -215,6 +222,7 @@ int plant_rhs_x4(const double *const *arg, double *const *res, int lanes) {
 }
 
 int sliding_paper_x4(const double *const *arg, double *const *res, int lanes) {
+  if (lanes > 4) lanes = 4; /* never index past the vector */
   fsm_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   fsm_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   fsm_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -522,6 +530,7 @@ int sliding_paper_x4(const double *const *arg, double *const *res, int lanes) {
 }
 
 int sliding_exact_x4(const double *const *arg, double *const *res, int lanes) {
+  if (lanes > 4) lanes = 4; /* never index past the vector */
   fsm_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   fsm_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   fsm_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -970,6 +979,7 @@ int sliding_exact_x4(const double *const *arg, double *const *res, int lanes) {
 }
 
 int control_core_x4(const double *const *arg, double *const *res, int lanes) {
+  if (lanes > 4) lanes = 4; /* never index past the vector */
   fsm_v w0, w1, w2, w3, w4, w5, w6, w7, w8, w9, w10, w11;
   fsm_v w12, w13, w14, w15, w16, w17, w18, w19, w20, w21, w22, w23;
   fsm_v w24, w25, w26, w27, w28, w29, w30, w31, w32, w33, w34, w35;
@@ -1366,3 +1376,4 @@ int control_core_x4(const double *const *arg, double *const *res, int lanes) {
   fsm_store(res[1] + 8, w3);
   return 0;
 }
+#endif /* FSM_HAVE_BATCHED */

@@ -4,6 +4,7 @@
  * for 4 agents per call.
  * Regenerate with `python -m derive`; `python -m derive --check` verifies this file is current.
  *
+ * Needs the GCC/Clang vector extension: other compilers get no kernels (FSM_HAVE_BATCHED undefined).
  * Layout: argument/result i is a block of nnz_i*4 doubles, element (k, lane) at p[4*k + lane].
  * All pointers must be non-null.  `lanes` (1..4) is the number of active lanes: library functions
  * (pow, sin, ...) are evaluated for those only; results in the other lanes are unspecified.  Returns 0.
@@ -14,9 +15,18 @@
 
 #define FSM_LANES 4
 
+#if defined(__GNUC__) || defined(__clang__)
+#define FSM_HAVE_BATCHED 1
+#ifdef __cplusplus
+extern "C" {
+#endif
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes);
 int sliding_paper_x4(const double *const *arg, double *const *res, int lanes);
 int sliding_exact_x4(const double *const *arg, double *const *res, int lanes);
 int control_core_x4(const double *const *arg, double *const *res, int lanes);
+#ifdef __cplusplus
+}
+#endif
+#endif
 
 #endif /* FSMCTL_BATCHED_H */
