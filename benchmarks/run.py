@@ -666,15 +666,10 @@ def smooth_ring_section(quick: bool, log) -> dict:
     RK4 (dt = 1 ms) and compiled dopri45, against ``ct.input_output_response`` (SciPy RK45) at the same
     tolerances, all against a tight reference (compiled dopri45, rtol 1e-12) on the same horizon.
     """
-    import fsmctl
-    from fsmctl.topology import ring
-
     n = 96 if quick else 384
     T = 0.5 if quick else 2.0
     cap = 20.0 if quick else 120.0
-    base = fsmctl.paper_scenario("1")
-    agents = tuple(base.agents[i % base.n_agents] for i in range(n))
-    sc = dataclasses.replace(base, agents=agents, topology=ring(n, 8.0, 5.0)).replace(
+    sc = _scale_scenario(n, "ring", k_j=5.0).replace(
         controller={"boundary_layer": 0.05, "torque_limit": math.inf},
         simulation={"t_final": T, "output_interval": T},
     )
@@ -721,13 +716,14 @@ def smooth_ring_section(quick: bool, log) -> dict:
     return out
 
 
-def _scale_scenario(n: int, kind: str):
+def _scale_scenario(n: int, kind: str, k_j=None):
+    """Case 1's agents repeated to ``n`` on a ring or all-to-all graph (k^i = 8; k^j: Table 2's schedule or ``k_j``)."""
     import fsmctl
     from fsmctl.topology import all_to_all, ring
 
     base = fsmctl.paper_scenario("1")
     agents = [base.agents[i % base.n_agents] for i in range(n)]
-    sched = base.topology.links[0].k_j
+    sched = base.topology.links[0].k_j if k_j is None else k_j
     topo = ring(n, 8.0, sched) if kind == "ring" else all_to_all(n, 8.0, sched)
     return dataclasses.replace(base, agents=tuple(agents), topology=topo)  # both at once: validated together
 

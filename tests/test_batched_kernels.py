@@ -9,7 +9,6 @@ lanes, both error models, zero-order hold, the adaptive integrator).
 from __future__ import annotations
 
 import ctypes
-import dataclasses
 import itertools
 import os
 import subprocess
@@ -17,6 +16,7 @@ import subprocess
 import casadi as ca
 import numpy as np
 import pytest
+from formations import with_agents
 
 import fsmctl
 from derive.batched import LANES, UnsupportedInstructionError, batched_header, batched_source, kernel_name
@@ -112,10 +112,9 @@ def test_batched_kernel_equals_scalar_function_bit_for_bit(library, name):
 
 
 def _with_agents(scenario, n: int, **sections):
-    agents = tuple(scenario.agents[i % len(scenario.agents)] for i in range(n))
-    topo = scenario.topology if n == scenario.n_agents else ring(n, 8.0, 1.5)
-    s = dataclasses.replace(scenario, agents=agents, topology=topo)
-    return s.replace(**sections) if sections else s
+    """``scenario``'s agents repeated to ``n`` (on a ring when the count changes)."""
+    agents = [scenario.agents[i % len(scenario.agents)] for i in range(n)]
+    return with_agents(scenario, agents, None if n == scenario.n_agents else ring(n, 8.0, 1.5), **sections)
 
 
 CASES = {

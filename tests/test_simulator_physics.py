@@ -16,6 +16,7 @@ import warnings
 
 import numpy as np
 import pytest
+from formations import with_agents
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
@@ -76,12 +77,6 @@ def shadow_states(X: np.ndarray, n: int) -> np.ndarray:
         for o in [0] + [3 + 6 * i for i in range(n)]:
             row[o : o + 3] = shadow(row[o : o + 3])
     return X
-
-
-def with_agents(scenario, agents, topology=None, **sections):
-    """A validated scenario with other agents (and, for a different count, another topology)."""
-    s = dataclasses.replace(scenario, agents=tuple(agents), topology=topology or scenario.topology)
-    return s.replace(**sections) if sections else s
 
 
 class CompiledRHS:
