@@ -12,13 +12,13 @@ Exit codes: 0 the run finished, 1 the simulation failed (non-finite state, ...),
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import re
 import sys
 from pathlib import Path
 
 from .cli_types import nonnegative_float, positive_float, torque_limit
+from .outputs import atomic_path, output_folder, write_json
 from .reproduce import SETTLING_TOLERANCES_DEG
 
 __all__ = ["add_parser", "run", "SETTLING_TOLERANCES_DEG"]
@@ -82,12 +82,6 @@ def _file_label(label: str) -> str:
     return re.sub(r"[^A-Za-z0-9._-]+", "_", label).strip("_") or "run"
 
 
-def _sanitize(value):
-    from .reproduce import _sanitize as sanitize
-
-    return sanitize(value)
-
-
 def run(args: argparse.Namespace) -> int:
     """Run ``fsmctl simulate``.
 
@@ -102,7 +96,6 @@ def run(args: argparse.Namespace) -> int:
         0 when the run finished and its files were written, 1 when the simulation failed;
         bad input raises :class:`fsmctl.scenario.ScenarioError` or :class:`fsmctl.cli.UsageError` (exit 2).
     """
-    from .cli import UsageError
     from .scenario import load_scenario
     from .simulator import SimulationError, simulate
 
@@ -131,27 +124,29 @@ def run(args: argparse.Namespace) -> int:
         interval = min(scenario.simulation.output_interval, simulation["t_final"])
         simulation["output_interval"] = interval
     scenario = scenario.replace(controller=controller, simulation=simulation)
-    out: Path = args.out
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise UsageError(f"cannot create output folder {out}: {exc.strerror or exc}") from None
-    for line in scenario.describe():
-        print(line)
-    try:
-        result = simulate(scenario, progress=args.progress)
-    except SimulationError as exc:
-        print(f"fsmctl simulate: {exc}", file=sys.stderr)
-        return 1
-    label = _file_label(scenario.label)
-    nc_path = result.save(out / f"{label}.nc")
-    summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG)
-    files = [str(nc_path)]
-    if not args.no_figures:
-        from .figures import save_figure, simulation_figures
+    with output_folder(args.out) as out:
+        for line in scenario.describe():
+            print(line)
+        try:
+            result = simulate(scenario, progress=args.progress)
+        except SimulationError as exc:
+            print(f"fsmctl simulate: {exc}", file=sys.stderr)
+            return 1
+        label = _file_label(scenario.label)
+        nc_path = out / f"{label}.nc"
+        with atomic_path(nc_path) as tmp:
+            result.save(tmp)
+        summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG)
+        files = [str(nc_path)]
+        if not args.no_figures:
+            from .figures import save_figure, simulation_figures
 
-        for name, fig in simulation_figures(result, tolerances_deg=(0.03, 0.01)).items():
-            files += [str(p) for p in save_figure(fig, out / f"{label}_{name}")]
+            for name, fig in simulation_figures(result, tolerances_deg=(0.03, 0.01)).items():
+                files += [str(p) for p in save_figure(fig, out / f"{label}_{name}")]
+        return _write_summary(args, scenario, controller, simulation, summary, files, out, nc_path)
+
+
+def _write_summary(args, scenario, controller, simulation, summary, files, out: Path, nc_path: Path) -> int:
     payload = {
         "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
         "scenario": scenario.label,
@@ -163,8 +158,7 @@ def run(args: argparse.Namespace) -> int:
         "summary": summary,
         "files": [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out) else f for f in files],
     }
-    summary_path = out / "summary.json"
-    summary_path.write_text(json.dumps(_sanitize(payload), indent=2, allow_nan=False) + "\n")
+    summary_path = write_json(out / "summary.json", payload)  # last: its presence marks a complete run
     print(_format_summary(summary))
     print(f"wrote {nc_path}, {summary_path}" + ("" if args.no_figures else f" and {len(files) - 1} figure files"))
     return 0

@@ -26,7 +26,6 @@ import argparse
 import concurrent.futures as cf
 import contextlib
 import csv
-import json
 import math
 import sys
 import time as _time
@@ -37,6 +36,8 @@ from typing import Any
 
 import numpy as np
 
+from .errors import InputError
+from .outputs import atomic_path, environment_problem, write_json, write_text
 from .parallel import process_pool_context, single_threaded_workers
 
 __all__ = [
@@ -212,26 +213,6 @@ def run_plan() -> tuple[RunSpec, ...]:
             horizon_factor=LONG_HORIZON_FACTOR,
         ),
     )
-
-
-def _sanitize(value):
-    """JSON-safe copy: NaN -> None, +-inf -> "inf"/"-inf", numpy scalars -> Python."""
-    if isinstance(value, Mapping):
-        return {str(k): _sanitize(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_sanitize(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return _sanitize(value.tolist())
-    if isinstance(value, (np.floating, float)):
-        x = float(value)
-        if math.isnan(x):
-            return None
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return x
-    if isinstance(value, np.integer):
-        return int(value)
-    return value
 
 
 @dataclass
@@ -930,9 +911,7 @@ def _check_source(source: str) -> None:
     base = load_scenario(source)
     missing = [c for c in PAPER_CASES if c not in base.cases]
     if missing:
-        from .cli import UsageError
-
-        raise UsageError(
+        raise InputError(
             f"scenario {source!r} lacks case(s) {', '.join(missing)}: fsmctl reproduce needs the paper's cases "
             f"{', '.join(PAPER_CASES)} (Sec. 4)"
         )
@@ -1066,9 +1045,7 @@ def reproduce(
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
-        from .cli import UsageError
-
-        raise UsageError(f"cannot create output folder {out}: {exc.strerror or exc}") from None
+        raise environment_problem("create output folder", out, exc) from None
     case1 = _quiet_scenario(source, RunSpec("case1", "1", "Case 1", ""), False)
     plan = [s if figures else replace(s, figures=()) for s in run_plan()]
     if progress is None:
@@ -1190,7 +1167,7 @@ def write_outputs(rep: Reproduction) -> list[Path]:
     out = rep.out_dir
     csv_path, json_path, md_path = out / "claims.csv", out / "claims.json", out / "report.md"
     fields = list(ClaimVerdict.__dataclass_fields__)
-    with csv_path.open("w", newline="") as fh:
+    with atomic_path(csv_path) as tmp, tmp.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=fields)
         writer.writeheader()
         for c in rep.claims:
@@ -1225,8 +1202,8 @@ def write_outputs(rep: Reproduction) -> list[Path]:
         "runs": runs,
         "wall_time_s": rep.wall_time_s,
     }
-    json_path.write_text(json.dumps(_sanitize(payload), indent=2, allow_nan=False) + "\n")
-    md_path.write_text(to_markdown(rep))
+    write_json(json_path, payload)
+    write_text(md_path, to_markdown(rep))
     return [csv_path, json_path, md_path]
 
 

@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import csv
 import dataclasses
-import json
 import math
 import sys
 import time
@@ -41,6 +40,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .outputs import atomic_path, environment_problem, write_json
 from .scenario import Scenario, Sinusoid
 from .topology import Topology
 
@@ -362,9 +362,7 @@ class SurfaceComparison:
             _write_csv(out / "surfaces_agents.csv", self.agents),
             _write_csv(out / "surfaces_ordering.csv", self.ordering()),
         ]
-        p = out / "surfaces.json"
-        p.write_text(json.dumps(_jsonable(self.to_json()), indent=1))
-        paths.append(p)
+        paths.append(write_json(out / "surfaces.json", self.to_json(), indent=1))
         if figures:
             for name, fig in (
                 ("surfaces_error_metrics", plot_error_metrics(self)),
@@ -372,7 +370,8 @@ class SurfaceComparison:
             ):
                 for ext in ("png", "svg"):
                     fp = out / f"{name}.{ext}"
-                    fig.savefig(fp, dpi=120)
+                    with atomic_path(fp) as tmp:
+                        fig.savefig(tmp, dpi=120, format=ext)
                     paths.append(fp)
         return paths
 
@@ -381,20 +380,8 @@ def _fmt(v: float, spec: str = ".2f") -> str:
     return "nan" if v is None or not math.isfinite(v) else format(v, spec)
 
 
-def _jsonable(obj):
-    if isinstance(obj, dict):
-        return {k: _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
-
-
 def _write_csv(path: Path, rows: list[dict]) -> Path:
-    with path.open("w", newline="") as fh:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
@@ -445,7 +432,7 @@ def compare_surfaces(
     """
     from tqdm import tqdm
 
-    from .cli import UsageError
+    from .errors import InputError as UsageError
     from .simulator import simulate
 
     for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),
@@ -651,8 +638,6 @@ def run(args: argparse.Namespace) -> int:
         metric_tolerance_deg=args.metric_tolerance,
         jobs=args.jobs,
     )
-    from .cli import UsageError
-
     try:
         paths = comp.write(args.out, figures=not args.no_figures)
         if comp.scalar_study is not None:
@@ -662,10 +647,11 @@ def run(args: argparse.Namespace) -> int:
             fig = plot_settling_time_against_initial_error(c.c1, c.c2, c.alpha, args.sigma_tolerance,
                                                            np.geomspace(2 * args.sigma_tolerance, 1.0, 6 if args.fast else 12))  # fmt: skip
             for ext in ("png", "svg"):
-                fig.savefig(args.out / f"theorem3_scalar.{ext}", dpi=120)
+                with atomic_path(args.out / f"theorem3_scalar.{ext}") as tmp:
+                    fig.savefig(tmp, dpi=120, format=ext)
                 paths.append(args.out / f"theorem3_scalar.{ext}")
     except OSError as exc:
-        raise UsageError(f"cannot write to {args.out}: {exc.strerror or exc}") from None
+        raise environment_problem("write to", args.out, exc) from None
     print(comp.table())
     print(f"wrote {len(paths)} files to {args.out}", file=sys.stderr)
     return 0

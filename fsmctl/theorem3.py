@@ -40,7 +40,7 @@ from pathlib import Path
 import casadi as ca
 import numpy as np
 
-from .cli import UsageError
+from .errors import InputError
 
 __all__ = [
     "MODES",
@@ -66,7 +66,7 @@ _GRID_POINTS = 16
 _MAX_ROUNDS = 2000
 
 
-class SettlingTimeInputError(UsageError, ValueError):
+class SettlingTimeInputError(InputError):
     """Bad input to the Theorem 3 study (alpha, tau, |x0|, gains): a one-line message."""
 
 

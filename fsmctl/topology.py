@@ -22,6 +22,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from .errors import InputError
+
 __all__ = [
     "Link",
     "Schedule",
@@ -35,14 +37,18 @@ __all__ = [
 ]
 
 
-class TopologyError(ValueError):
-    """A malformed topology table; the message names the entry."""
+class TopologyError(InputError):
+    """A malformed topology table; the message names the entry (an :class:`~fsmctl.errors.InputError`)."""
 
 
 def _num(x, where: str) -> float:
     if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)):
         raise TopologyError(f"{where}: expected a number, got {x!r}")
     return float(x)
+
+
+def _is_index(x) -> bool:
+    return isinstance(x, (int, np.integer)) and not isinstance(x, (bool, np.bool_))
 
 
 def schedule_weight(
@@ -105,6 +111,10 @@ class Schedule:
 
     def __post_init__(self):
         b, v = self.breakpoints, self.values
+        if isinstance(b, (str, bytes)) or isinstance(v, (str, bytes)):
+            raise TopologyError("schedule: breakpoints and values must be sequences of numbers")
+        for x in (*b, *v, *(() if self.period is None else (self.period,))):
+            _num(x, "schedule")
         if len(b) != len(v) or not b:
             raise TopologyError(f"schedule: {len(b)} breakpoints but {len(v)} values (need equal, >= 1)")
         if any(not math.isfinite(x) for x in b) or any(b2 <= b1 for b1, b2 in itertools.pairwise(b)):
@@ -198,10 +208,20 @@ class Topology:
     links: tuple[Link, ...]
 
     def __post_init__(self):
-        if self.n_agents < 1:
-            raise TopologyError("topology: needs at least one agent")
+        if not _is_index(self.n_agents) or self.n_agents < 1:
+            raise TopologyError(f"topology: needs an integer number of agents >= 1, got {self.n_agents!r}")
+        if isinstance(self.links, (str, bytes)) or not isinstance(self.links, Sequence):
+            raise TopologyError(f"topology: links must be a sequence of Link, got {self.links!r}")
         seen = set()
         for e, link in enumerate(self.links):
+            if not isinstance(link, Link):
+                raise TopologyError(f"topology link {e + 1}: expected a Link, got {link!r}")
+            if not (_is_index(link.receiver) and _is_index(link.sender)):
+                raise TopologyError(f"topology link {e + 1}: receiver and sender must be integers, got {link!r}")
+            if not isinstance(link.k_j, Schedule):
+                raise TopologyError(f"topology link {e + 1}: k_j must be a Schedule, got {link.k_j!r}")
+            _num(link.k_i, f"topology link {e + 1}: k_i")
+            _num(link.phase, f"topology link {e + 1}: phase")
             w = f"topology link {e + 1} ({link.receiver + 1} <- {link.sender + 1})"
             for idx in (link.receiver, link.sender):
                 if not (0 <= idx < self.n_agents):

@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
         0 every claim as expected (known errata included), 1 a claim fails for the scenario or a
         check did not go through; bad input raises :class:`fsmctl.cli.UsageError` (exit code 2).
     """
-    from ..cli import UsageError
+    from ..errors import InputError as UsageError  # one line, exit 2
     from . import report
     from .claims import ProofContext, claim_ids, run_claims
     from .theorem2 import Region

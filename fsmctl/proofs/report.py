@@ -167,6 +167,6 @@ def write_report(path: str | Path, results: Sequence[ClaimResult], scenario: Sce
     Path
         The file written.
     """
-    p = Path(path)
-    p.write_text(to_markdown(results, scenario))
-    return p
+    from ..outputs import write_text
+
+    return write_text(path, to_markdown(results, scenario))
