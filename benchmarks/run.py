@@ -153,7 +153,7 @@ def python_control_run(scenario, t_final: float, rtol: float, atol: float, cap_s
     import control as ct
 
     import fsmctl
-    from fsmctl.iosys import initial_state
+    from fsmctl.iosys import initial_state, mrp_state
 
     sys_ = fsmctl.formation(scenario)
     orig = sys_._rhs
@@ -185,7 +185,7 @@ def python_control_run(scenario, t_final: float, rtol: float, atol: float, cap_s
             "rhs_calls": calls["n"],
         }
     wall = time.perf_counter() - t0
-    return np.asarray(resp.states)[:, -1], {"wall_s": wall, "capped": False, "rhs_calls": calls["n"]}
+    return mrp_state(np.asarray(resp.states)[:, -1]), {"wall_s": wall, "capped": False, "rhs_calls": calls["n"]}
 
 
 # ----------------------------------------------------------------------------- Python RK4 loops

@@ -35,6 +35,23 @@ def shadow(s):
     return -s / (s @ s) if s @ s > 1.0 else s
 
 
+def quat(s):
+    """Euler parameters (scalar first) of an MRP (Schaub & Junkins eq 3.153)."""
+    s = np.asarray(s, dtype=float)
+    return np.concatenate([[1.0 - s @ s], 2.0 * s]) / (1.0 + s @ s)
+
+
+def mrp_rate_from_quat_rate(q, qdot):
+    """d/dt of sigma = q_v / (1 + q0) (the MRP of a quaternion with q0 > -1)."""
+    return qdot[1:] / (1.0 + q[0]) - q[1:] * qdot[0] / (1.0 + q[0]) ** 2
+
+
+def mrp_of_quat(q):
+    """Shadow-set MRP of a (not necessarily unit) quaternion: normalise, then q_v / (1 + q0) or its shadow."""
+    q = np.asarray(q, dtype=float) / np.linalg.norm(q)
+    return shadow(q[1:] / (1.0 + q[0])) if q[0] > -1 + 1e-12 else -q[1:] / (1.0 - q[0])
+
+
 @pytest.fixture(scope="module")
 def paper():
     return fsmctl.paper_scenario("1")
@@ -47,9 +64,9 @@ def test_spacecraft_signals():
     sc = fsmctl.spacecraft(np.diag([100.0, 150.0, 200.0]), name="bus")
     assert sc.name == "bus"
     assert sc.input_labels == ["tau[0]", "tau[1]", "tau[2]"]
-    assert sc.state_labels == ["sigma[0]", "sigma[1]", "sigma[2]", "omega[0]", "omega[1]", "omega[2]"]
-    assert sc.output_labels == sc.state_labels
-    assert set(sc.params) == {"bus_J"}
+    assert sc.state_labels == ["q[0]", "q[1]", "q[2]", "q[3]", "omega[0]", "omega[1]", "omega[2]"]
+    assert sc.output_labels == ["sigma[0]", "sigma[1]", "sigma[2]", "omega[0]", "omega[1]", "omega[2]"]
+    assert set(sc.params) == {"bus_J", "bus_disturbance", "bus_owner"}
 
 
 @st.composite
@@ -65,16 +82,23 @@ def _plant_points(draw):
 @settings(max_examples=40, deadline=None)
 @given(point=_plant_points())
 def test_spacecraft_dynamics_are_euler_and_mrp_kinematics(point):
-    """J omega_dot = -omega^x J omega + tau + d(t) (eqs 4, 29), sigma_dot = G(sigma) omega (eqs 3, 5)."""
+    """J omega_dot = -omega^x J omega + tau + d(t) (eqs 4, 29), sigma_dot = G(sigma) omega (eqs 3, 5).
+
+    The plant integrates Euler parameters q: its q_dot, mapped to sigma_dot by the chain rule, must be eq 5's
+    G(sigma) omega; its output is the shadow-set MRP of the attitude.
+    """
     J, sigma, omega, tau, t = point
     dist = fsmctl.Sinusoid(amplitude=(0.2, -0.24, 0.22), frequency=(0.1, 0.15, 0.12), phase=(1.0, 1.0, 1.0))
+    q = quat(sigma)
     for d in (None, dist):
         sc = fsmctl.spacecraft(J, disturbance=d, name="sc")
-        dx = sc.dynamics(t, np.concatenate([sigma, omega]), tau)
+        dx = sc.dynamics(t, np.concatenate([q, omega]), tau)
         torque = tau + (0 if d is None else d(t))
-        assert np.allclose(dx[3:], np.linalg.solve(J, torque - np.cross(omega, J @ omega)), rtol=1e-11, atol=1e-13)
-        assert np.allclose(dx[:3], mrp_G(sigma) @ omega, rtol=1e-12, atol=1e-14)
-        assert np.array_equal(sc.output(t, np.concatenate([sigma, omega]), tau), np.concatenate([sigma, omega]))
+        assert np.allclose(dx[4:], np.linalg.solve(J, torque - np.cross(omega, J @ omega)), rtol=1e-11, atol=1e-13)
+        assert np.allclose(mrp_rate_from_quat_rate(q, dx[:4]), mrp_G(sigma) @ omega, rtol=1e-12, atol=1e-14)
+        assert abs(q @ dx[:4]) < 1e-15  # |q| = 1 is kept
+        y = sc.output(t, np.concatenate([q, omega]), tau)
+        assert np.allclose(y[:3], shadow(sigma), rtol=1e-13, atol=1e-15) and np.array_equal(y[3:], omega)
 
 
 def test_spacecraft_rejects_a_bad_inertia():
@@ -88,13 +112,16 @@ def test_spacecraft_rejects_a_bad_inertia():
 
 def test_reference_generator_is_the_papers_omega_d(paper):
     ref = fsmctl.reference_generator(paper.reference.omega)
+    assert ref.state_labels == ["q_d[0]", "q_d[1]", "q_d[2]", "q_d[3]"]
+    q_d = quat(paper.reference.sigma0)
     for t in (0.0, 13.0, 77.7):
-        y = ref.output(t, np.array(paper.reference.sigma0), [])
+        y = ref.output(t, q_d, [])
         wd = [0.1 * math.cos(t / 40), -0.1 * math.sin(t / 50), -0.1 * math.cos(t / 60)]
         wdd = [-0.1 / 40 * math.sin(t / 40), -0.1 / 50 * math.cos(t / 50), 0.1 / 60 * math.sin(t / 60)]
         assert np.allclose(y[3:6], wd, atol=1e-15) and np.allclose(y[6:9], wdd, atol=1e-15)
-        dx = ref.dynamics(t, np.array(paper.reference.sigma0), [])
-        assert np.allclose(dx, mrp_G(paper.reference.sigma0) @ np.array(wd), atol=1e-15)
+        assert np.allclose(y[:3], paper.reference.sigma0, atol=1e-15)
+        dx = ref.dynamics(t, q_d, [])
+        assert np.allclose(mrp_rate_from_quat_rate(q_d, dx), mrp_G(paper.reference.sigma0) @ np.array(wd), atol=1e-15)
 
 
 # ----------------------------------------------------------------------------- controller
@@ -150,18 +177,13 @@ def test_disabled_controller_outputs_zero_torque(paper):
 def test_formation_structure_and_per_agent_params(paper):
     sys = fsmctl.formation(paper)
     assert isinstance(sys, ct.InterconnectedSystem)
-    assert sys.ninputs == 0 and sys.nstates == 3 + 6 * 6 and sys.noutputs == 9 * 6
-    # the compiled simulator's TimeResponseData uses the same names
+    assert sys.ninputs == 0 and sys.nstates == 4 + 7 * 6 and sys.noutputs == 9 * 6
+    # the compiled simulator's TimeResponseData uses the same output names
     r = fsmctl.simulate(paper.replace(simulation={"t_final": 0.05}))
     tr = r.to_time_response()
-    assert list(tr.state_labels) == list(sys.state_labels)
     assert list(tr.output_labels) == list(sys.output_labels)
-    assert sys.state_labels[:4] == [
-        "reference_sigma_d[0]",
-        "reference_sigma_d[1]",
-        "reference_sigma_d[2]",
-        "sc1_sigma[0]",
-    ]
+    assert sys.state_labels[:5] == [f"reference_q_d[{k}]" for k in range(4)] + ["sc1_q[0]"]
+    assert sys.state_labels[8:11] == ["sc1_omega[0]", "sc1_omega[1]", "sc1_omega[2]"]
     assert sys.output_labels[6:9] == ["sc1_tau[0]", "sc1_tau[1]", "sc1_tau[2]"]
     for i, agent in enumerate(paper.agents, start=1):
         assert np.array_equal(sys.params[f"sc{i}_J"], agent.J_true)  # plant: J = J0 + dJ
@@ -173,25 +195,57 @@ def test_formation_structure_and_per_agent_params(paper):
     J2 = 2.0 * paper.agents[1].J_true
     changed = sys.dynamics(0.0, x0, [], params={"sc2_J": J2})
     diff = np.abs(changed - base).reshape(-1)
-    block2 = slice(3 + 6 + 3, 3 + 12)
+    block2 = slice(4 + 7 + 4, 4 + 14)  # sc2's omega_dot
     assert diff[block2].max() > 1e-4
     assert np.delete(diff, np.r_[block2]).max() == 0.0
 
 
-def _shadowed_states(states: np.ndarray, n: int) -> np.ndarray:
-    X = np.array(states, dtype=float)
+def test_compiled_time_response_uses_the_formation_state_layout(paper):
+    """``SimulationResult.to_time_response()`` labels its states like :func:`fsmctl.formation` (quaternions).
+
+    Needs the quaternion layout in ``fsmctl/simulator.py`` (see ``fsmctl.iosys.quaternion_from_mrp``).
+    """
+    sys = fsmctl.formation(paper)
+    r = fsmctl.simulate(paper.replace(simulation={"t_final": 0.05}))
+    tr = r.to_time_response()
+    assert list(tr.state_labels) == list(sys.state_labels)
+    # the same attitudes: the states' MRPs are the compiled simulator's
+    for k in (0, -1):
+        x = tr.states[:, k]
+        assert np.allclose(mrp_of_quat(x[:4]), r.sigma_d[k], rtol=0, atol=1e-14)
+        for i in range(paper.n_agents):
+            o = 4 + 7 * i
+            assert np.allclose(mrp_of_quat(x[o : o + 4]), r.sigma[k, i], rtol=0, atol=1e-14)
+            assert np.array_equal(x[o + 4 : o + 7], r.omega[k, i])
+
+
+def _mrp_states(states: np.ndarray, n: int) -> np.ndarray:
+    """The python-control formation's states in the compiled simulator's layout [sigma_d, (sigma_i, omega_i)]."""
+    X = np.asarray(states, dtype=float)
+    rows = []
     for k in range(X.shape[1]):
-        for o in [0] + [3 + 6 * i for i in range(n)]:
-            X[o : o + 3, k] = shadow(X[o : o + 3, k])
-    return X
+        x = X[:, k]
+        row = [mrp_of_quat(x[:4])]
+        for i in range(n):
+            o = 4 + 7 * i
+            row += [mrp_of_quat(x[o : o + 4]), x[o + 4 : o + 7]]
+        rows.append(np.concatenate(row))
+    return np.array(rows).T
+
+
+def _compiled_states(result) -> np.ndarray:
+    return np.concatenate(
+        [result.sigma_d.T]
+        + [np.concatenate([result.sigma[:, i].T, result.omega[:, i].T]) for i in range(result.n_agents)]
+    )
 
 
 def test_input_output_response_agrees_with_the_compiled_simulator(paper):
     """``ct.input_output_response(formation(paper), ...)`` vs ``fsmctl.simulate``: Case 1 (2 N m limit), boundary
     layer 0.05 (so SciPy's adaptive RK45 copes), 2 s.
 
-    Tolerances.  python-control's plant MRPs are not shadow-switched (its solvers cannot reset states), so
-    states are compared after mapping to the shadow set (same attitude).  Against the compiled *adaptive*
+    Tolerances.  python-control's plants integrate quaternions (its solvers cannot reset MRP states), so states
+    are compared after mapping to shadow-set MRPs (same attitude, the compiled simulator's layout).  Against the compiled *adaptive*
     loop (dopri45, rtol 1e-11) the difference is the two solvers' error: 1.5e-8 measured, 1e-6 allowed.
     Against the default fixed-step RK4 at 1 ms it is 7.0e-5: the command is ~1e4 N m and saturated, so a torque
     component flips between +2 and -2 N m within ~1e-5 s, a near-discontinuity in time that a fixed step
@@ -207,16 +261,18 @@ def test_input_output_response_agrees_with_the_compiled_simulator(paper):
         sys, rk4.time, 0, initial_state(s), solve_ivp_method="RK45", solve_ivp_kwargs={"rtol": 1e-9, "atol": 1e-11}
     )
     assert resp.success
-    states = _shadowed_states(resp.states, s.n_agents)
+    states = _mrp_states(resp.states, s.n_agents)
+    assert np.allclose(fsmctl.iosys.mrp_state(resp.states), states, rtol=0, atol=1e-15)
     for result, tol in ((dopri, 1e-6), (rk4, 2e-4)):
+        assert np.abs(states - _compiled_states(result)).max() < tol
         tr = result.to_time_response()
-        assert np.abs(states - tr.states).max() < tol
         y_io = resp.outputs.reshape(s.n_agents, 3, 3, -1)
         y_c = tr.outputs.reshape(s.n_agents, 3, 3, -1)
         assert np.abs(y_io[:, 2] - y_c[:, 2]).max() <= 1e-9  # torques
         assert np.abs(y_io[:, 1] - y_c[:, 1]).max() < tol  # rates
-    err_dopri = np.abs(states - dopri.to_time_response().states).max()
-    assert err_dopri < np.abs(states - rk4.to_time_response().states).max()
+        assert np.abs(y_io[:, 0] - y_c[:, 0]).max() < tol  # attitudes (both in the shadow set)
+    err_dopri = np.abs(states - _compiled_states(dopri)).max()
+    assert err_dopri < np.abs(states - _compiled_states(rk4)).max()
 
 
 @pytest.mark.filterwarnings("ignore:Tight layout not applied")
