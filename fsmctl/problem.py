@@ -18,7 +18,18 @@ from .generated_code import layout
 from .scenario import Scenario
 from .topology import schedule_weight
 
-__all__ = ["PackedProblem", "pack"]
+__all__ = ["PackedProblem", "pack", "output_buffer_bytes"]
+
+
+def output_buffer_bytes(n_agents: int, n_rows: int) -> int:
+    """Bytes of a run's output buffers for ``n_rows`` output samples of ``n_agents`` agents (float64).
+
+    Seven ``(rows, n, 3)`` arrays (sigma, omega, sigma_e, omega_e, s, u, u_unsaturated), time ``(rows,)``,
+    sigma_d ``(rows, 3)`` and three ``(n,)`` statistics: what :func:`fsmctl.simulator.simulate_packed`
+    allocates (with ``rows = n_outputs + 1``) before the loop starts.
+    """
+    n, rows = int(n_agents), int(n_rows)
+    return 8 * (rows * (7 * 3 * n + 1 + 3) + 3 * n)
 
 
 @dataclass(frozen=True)
@@ -58,6 +69,11 @@ class PackedProblem:
     @property
     def n_outputs(self) -> int:
         return self.n_steps // self.output_every + 1
+
+    @property
+    def output_bytes(self) -> int:
+        """Bytes of the output buffers the simulator allocates (:func:`output_buffer_bytes`, ``n_outputs + 1`` rows)."""
+        return output_buffer_bytes(self.n_agents, self.n_outputs + 1)
 
     def link_weights(self, t: float | np.ndarray) -> np.ndarray:
         """``k^j_ij(t)`` of every link (same rule as the C driver): shape ``(n_links,)`` for a float ``t``, or
