@@ -894,7 +894,7 @@ def montecarlo_section(runs: int, log) -> dict:
         "projected_1000_runs_wall_s": wall * 1000 / runs, "ok": s["ok"], "failed": s["failed"],
         "worker_died": s["worker_died"], "converged_fraction": s["converged_fraction"],
         "theorem1_holds_fraction": s["theorem1_holds_fraction"], "theorem2_at_reference_holds_fraction": s["theorem2_at_reference_holds_fraction"],
-        "settings": settings.identity(),
+        "settings": res.settings.identity(),
     }  # fmt: skip
 
 

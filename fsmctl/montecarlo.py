@@ -11,36 +11,63 @@ Each run perturbs a base scenario (Liang et al. 2012, Sec. 4) with
   realizable too (a sum of mass distributions);
 * disturbance amplitudes ``U(0, disturbance_scale |a_k|)`` (signs and frequencies of the
   scenario's ``a_k``) and phases ``U(0, 2 pi)`` (eq 1's ``d_i(t)``);
-* initial attitudes uniform over SO(3) (Haar measure: a normalized 4-D Gaussian quaternion,
-  converted to the MRP of the shadow set ``|sigma| <= 1``, eq 2) and rates with
+* initial attitudes uniform over SO(3) (Haar measure), optionally restricted to principal angles
+  ``<= attitude_bound_deg``, as MRPs of the shadow set ``|sigma| <= 1`` (eq 2), and rates with
   ``|omega_k(0)| <= rate_bound`` uniformly;
-* a random switching topology: every link of the scenario's graph is kept with probability
+* a random switching topology: every directed link of the scenario's graph is kept with probability
   ``1 - link_dropout``, its schedule ``k^j_ij(t)`` gets a uniform random phase over its period and
-  its non-zero values a factor ``U(coupling_low, coupling_high)`` (Table 2, eq 19).
+  its non-zero values a factor ``U(coupling_low, coupling_high)`` (Table 2, eq 19).  The default
+  factor range ``[0.5, 1]`` only lowers ``k^j``: Theorem 1 needs ``k^i_ij >= k^j_ij(t)`` for every
+  link (eq 27's ``eta`` interval is empty otherwise, :func:`fsmctl.proofs.theorem1.eta_interval`) and
+  a lower ``k^j`` widens that interval, so a run keeps every ``eta`` the scenario admits.  The paper's
+  Table 2 has ``k^i / k^j = 8 / 5 = 1.6``; the former hidden range ``[0.5, 1.7]`` broke Theorem 1 in
+  about 90 % of the runs, which then said nothing about the theorem.  Removing single directed links
+  can still make eq 26's balance infeasible in a few runs; ``theorem1_holds`` reports every run.
+
+Every range is a :class:`CampaignSettings` field and a command-line option whose ``--help`` shows the
+default; the settings are printed when a campaign starts and stored in ``campaign.json``,
+``summary.json`` and the dataset's attributes.
 
 Per run the dataset holds settling times of AAEM/RAEM (eqs 42-43), steady-state accuracy, peak
 torques, saturation time, whether Theorem 1's topology conditions hold for the run's graph
 (:func:`fsmctl.proofs.theorem1.analyze_topology`), whether the configured ``delta_i`` exceeds
 Theorem 2's requirement at the reference (``sigma_e = 0, omega_e = 0``, bound boxes of the
 disturbance and the reference; :func:`fsmctl.proofs.theorem2.delta_requirements`), whether it
-converged, and a status (``ok``, ``failed`` with the error, ``worker-died``).
+converged, and a status (``ok``, ``failed`` with the error, ``worker-died``).  The "final" values are
+those at ``t_final``: the campaign's output grid divides the horizon, and a run whose last sample is
+not at ``t_final`` is ``failed``, never ``ok``.
 
 Per-run seeds come from ``numpy.random.SeedSequence(seed).spawn(runs)``, so a seeded campaign
 gives the same runs whatever the number of workers, chunking or backend (process pool or Dask).
 Runs are grouped in chunks; every finished chunk is written to ``OUT/chunks/chunk_NNNNN.nc`` at
 once, so an interrupted campaign resumes (``--resume``) with only the missing chunks.
+
+Outputs are written atomically (a hidden temporary file, then a rename) and ``OUT/complete.json`` is
+written last: a folder without it holds an unfinished campaign.  A campaign that fails or is
+interrupted before any chunk is written leaves no folder behind (only what it created is removed).
+JSON files are strict (NaN is ``null``, infinities are the strings ``"inf"``/``"-inf"``).
+
+Interrupts: ``SIGINT`` (Ctrl-C) and ``SIGTERM`` stop the workers at once (queued chunks cancelled,
+running ones terminated), keep the finished chunks, and :func:`run_campaign` raises
+:class:`~fsmctl.parallel.CampaignInterrupted`; ``fsmctl montecarlo`` prints one line and exits with
+``128 + signal``: **130 for SIGINT, 143 for SIGTERM**.  Local workers die with the campaign even when it
+is killed (``SIGKILL``): see :func:`fsmctl.parallel.worker_pool`.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
+import errno
 import json
 import math
 import os
+import socket
+import struct
 import sys
 import time
 from collections.abc import Callable, Iterable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
@@ -48,19 +75,26 @@ from typing import Any
 
 import numpy as np
 
-from .cli_types import finite_or_inf_float, nonnegative_int, positive_int
-from .parallel import process_pool_context, single_threaded_workers
-from .scenario import Agent, Scenario, ScenarioError, Sinusoid, load_scenario
+from .cli_types import finite_or_inf_float, nonnegative_int, positive_float, positive_int
+from .errors import EnvironmentProblem, InputError
+from .parallel import CampaignInterrupted, interrupt_guard, single_threaded_workers, worker_pool
+from .scenario import Agent, Scenario, Sinusoid, load_scenario
 from .topology import Link, Topology
 
 __all__ = [
     "CampaignSettings",
     "CampaignResult",
+    "CampaignInterrupted",
+    "SAMPLING_RANGES",
     "sample_inertia_perturbation",
     "sample_attitudes_mrp",
     "sample_run_scenario",
+    "campaign_base",
+    "describe_campaign",
+    "theorem1_factor_limit",
     "run_one",
     "run_campaign",
+    "finish_campaign",
     "summarize",
     "plot_histograms",
     "add_parser",
@@ -69,6 +103,11 @@ __all__ = [
 STATUS_OK, STATUS_FAILED, STATUS_DIED = "ok", "failed", "worker-died"
 TIMING_VARIABLES = ("wall_time_s", "cpu_time_s")
 """per-run variables that depend on the machine (excluded from reproducibility comparisons)"""
+COMPLETE_MARKER = "complete.json"
+"""written last: its presence means the campaign in the folder finished"""
+DASK_TIMEOUT_S = 10.0
+"""default wait for a Dask scheduler to accept a connection and send its handshake"""
+_DASK_HANDSHAKE_MAX_BYTES = 1 << 16  # a scheduler's handshake is ~60 bytes
 
 
 # ----------------------------------------------------------------------------- settings
@@ -78,12 +117,14 @@ TIMING_VARIABLES = ("wall_time_s", "cpu_time_s")
 class CampaignSettings:
     """What a campaign perturbs, how it runs, and what counts as converged.
 
-    Units: rad/s for ``rate_bound``, s for times, deg for ``tolerance_deg``, N m for ``torque_limit``.
-    ``None`` keeps the scenario's value.
+    Units: rad/s for ``rate_bound``, deg for ``attitude_bound_deg`` and ``tolerance_deg``, s for times,
+    N m for ``torque_limit``.  ``None`` keeps the scenario's value.  :data:`SAMPLING_RANGES` describes
+    every sampling range (they are the command line's options).
     """
 
     scenario: str = "paper"
-    case: str | None = "1"
+    case: str | None = None
+    """None: the scenario's first case, or the file as it is when it defines no ``[cases]``"""
     runs: int = 100
     seed: int = 0
     inertia_bound: float = 0.3
@@ -92,19 +133,23 @@ class CampaignSettings:
     rate_bound: float = 0.5
     link_dropout: float = 0.2
     coupling_low: float = 0.5
-    coupling_high: float = 1.7
+    coupling_high: float = 1.0
+    """factors <= 1 only lower k^j, which keeps Theorem 1's k^i >= k^j (eq 27) where the scenario has it"""
     t_final: float | None = None
     dt: float | None = None
     output_interval: float = 0.1
-    """coarse output grid: only per-run summaries are kept (settling times resolved to this interval)"""
+    """coarse output grid (only per-run summaries are kept; settling times resolved to it); lowered to
+    the largest multiple of dt that divides t_final, so the last sample is at t_final"""
     torque_limit: float | None = None
     tolerance_deg: float = 1.0
     """converged: AAEM and RAEM below this at the end and settled (eqs 42-43)"""
     steady_window: float = 20.0
     chunk_size: int = 10
+    attitude_bound_deg: float = 180.0
+    """principal angle bound of sigma_i(0); 180 = uniform over all of SO(3)"""
 
     def validate(self) -> None:
-        """Raise :class:`ScenarioError` on a bad setting (one line, names the option)."""
+        """Raise :class:`~fsmctl.errors.InputError` on a bad setting (one line, names the option)."""
         checks = [
             ("runs", self.runs >= 1, ">= 1"),
             ("chunk_size", self.chunk_size >= 1, ">= 1"),
@@ -112,8 +157,10 @@ class CampaignSettings:
             ("inertia_bound", 0 <= self.inertia_bound < 10, "in [0, 10)"),
             ("disturbance_scale", 0 <= self.disturbance_scale < 1e6, ">= 0"),
             ("rate_bound", 0 <= self.rate_bound <= 10, "in [0, 10] rad/s"),
+            ("attitude_bound_deg", 0 < self.attitude_bound_deg <= 180, "in (0, 180] deg"),
             ("link_dropout", 0 <= self.link_dropout <= 1, "in [0, 1]"),
             ("coupling_low", 0 <= self.coupling_low <= self.coupling_high, "in [0, coupling_high]"),
+            ("coupling_high", self.coupling_high < 1e6, "finite"),
             ("output_interval", self.output_interval > 0, "> 0"),
             ("tolerance_deg", self.tolerance_deg > 0, "> 0"),
             ("steady_window", self.steady_window > 0, "> 0"),
@@ -121,32 +168,84 @@ class CampaignSettings:
         for name, ok, need in checks:
             value = getattr(self, name)
             if not ok or (isinstance(value, float) and not math.isfinite(value)):
-                raise ScenarioError(f"montecarlo: {name} must be {need}, got {value!r}")
-        for name in ("t_final", "dt", "torque_limit"):
+                raise InputError(f"montecarlo: {name} must be {need}, got {value!r}")
+        for name in ("t_final", "dt"):
             value = getattr(self, name)
-            if value is not None and not value > 0:
-                raise ScenarioError(f"montecarlo: {name} must be > 0, got {value!r}")
+            if value is not None and not (value > 0 and math.isfinite(value)):
+                raise InputError(f"montecarlo: {name} must be a finite number > 0, got {value!r}")
+        if self.torque_limit is not None and not self.torque_limit > 0:
+            raise InputError(f"montecarlo: torque_limit must be > 0 (or inf), got {self.torque_limit!r}")
 
     def identity(self) -> dict:
         """Everything that determines the runs' results (a resumed campaign must match it)."""
         return asdict(self)
 
 
+SAMPLING_RANGES: tuple[tuple[str, str], ...] = (
+    (
+        "attitude_bound_deg",
+        "sigma_i(0): uniform over SO(3) (Haar measure) restricted to principal angles <= this, in deg; "
+        "180 = all attitudes",
+    ),
+    ("rate_bound", "omega_i(0): every component uniform in [-B, B] rad/s"),
+    (
+        "inertia_bound",
+        "rho_max: 0 < Delta_J_i <= rho J0_i (Loewner order), rho ~ U(0, rho_max], a realizable mass "
+        "distribution (the paper's Delta_J = 0.3 J0 is rho = 0.3)",
+    ),
+    ("disturbance_scale", "disturbance amplitudes U(0, S |a_k|) of the scenario's a_k, phases U(0, 2 pi)"),
+    ("link_dropout", "probability that a directed link of the scenario's graph is removed"),
+    ("coupling_low", "lower end of the factor U(low, high) on each link's k^j_ij(t) (Table 2)"),
+    (
+        "coupling_high",
+        "upper end of that factor; 1 keeps Theorem 1 satisfiable: it needs k^i_ij >= k^j_ij(t) on every "
+        "link (eq 27) and factors <= 1 only lower k^j (the paper has k^i/k^j = 1.6; the former 1.7 broke "
+        "Theorem 1 in ~90 % of the runs)",
+    ),
+)
+"""``(field, description)`` of every sampling range of :class:`CampaignSettings` (its CLI option is
+``--field-with-dashes``)"""
+
+
 # ----------------------------------------------------------------------------- sampling
 
 
-def sample_attitudes_mrp(rng: np.random.Generator, count: int) -> np.ndarray:
+def _theta_minus_sin(t: np.ndarray) -> np.ndarray:
+    """``t - sin t`` without cancellation for small ``t`` (the Haar CDF of the principal angle times pi)."""
+    t = np.asarray(t, dtype=float)
+    t2 = t * t
+    series = t * t2 / 6.0 * (1.0 - t2 / 20.0 * (1.0 - t2 / 42.0 * (1.0 - t2 / 72.0)))
+    return np.where(t < 0.05, series, t - np.sin(t))
+
+
+def sample_attitudes_mrp(rng: np.random.Generator, count: int, max_angle_deg: float = 180.0) -> np.ndarray:
     """``count`` attitudes uniform over SO(3) (Haar measure) as MRPs of the shadow set, shape ``(count, 3)``.
 
     A 4-D standard normal vector normalized to the unit sphere is a uniformly distributed unit
     quaternion; with the scalar part made non-negative, ``sigma = q_v / (1 + q_0)`` (Liang et al.
     2012, eq 2) has ``|sigma| <= 1``.  The principal angle ``theta = 4 atan|sigma|`` then has the
     density ``(1 - cos theta) / pi`` on ``[0, pi]``.
+
+    With ``max_angle_deg < 180`` the Haar measure is conditioned on ``theta <= max_angle_deg``: the
+    angle is drawn by inverting its CDF ``(theta - sin theta) / pi`` on the truncated range and the
+    axis uniformly on the sphere (``sigma = axis tan(theta / 4)``).
     """
-    q = rng.standard_normal((count, 4))
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    q *= np.where(q[:, :1] < 0, -1.0, 1.0)
-    return q[:, 1:] / (1.0 + q[:, :1])
+    if max_angle_deg >= 180.0:
+        q = rng.standard_normal((count, 4))
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        q *= np.where(q[:, :1] < 0, -1.0, 1.0)
+        return q[:, 1:] / (1.0 + q[:, :1])
+    bound = math.radians(max_angle_deg)
+    target = rng.uniform(0.0, 1.0, count) * _theta_minus_sin(bound)
+    lo, hi = np.zeros(count), np.full(count, bound)
+    for _ in range(64):  # bisection: t - sin t is increasing on [0, pi]
+        mid = 0.5 * (lo + hi)
+        below = _theta_minus_sin(mid) < target
+        lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+    theta = 0.5 * (lo + hi)
+    axis = rng.standard_normal((count, 3))
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    return axis * np.tan(theta / 4.0)[:, None]
 
 
 def _random_rotation(rng: np.random.Generator) -> np.ndarray:
@@ -193,12 +292,22 @@ def _random_topology(rng: np.random.Generator, topology: Topology, s: CampaignSe
     return Topology(topology.n_agents, tuple(links))
 
 
+def theorem1_factor_limit(topology: Topology) -> float | None:
+    """Largest ``k^j`` factor that keeps ``k^i_ij >= max_t k^j_ij(t)`` on every link (Theorem 1, eq 27).
+
+    ``min`` over links with a non-zero ``k^j`` of ``k^i / max_t k^j`` (1.6 for the paper's Table 2);
+    None when no link has a non-zero ``k^j`` (any factor keeps the condition).
+    """
+    ratios = [link.k_i / link.k_j.max for link in topology.links if link.k_j.max > 0]
+    return min(ratios) if ratios else None
+
+
 def sample_run_scenario(base: Scenario, settings: CampaignSettings, seed: np.random.SeedSequence) -> Scenario:
     """The perturbed scenario of one run (everything drawn from ``seed``, in a fixed order)."""
     rng = np.random.default_rng(seed)
     agents = []
     for agent in base.agents:
-        sigma0 = sample_attitudes_mrp(rng, 1)[0]
+        sigma0 = sample_attitudes_mrp(rng, 1, settings.attitude_bound_deg)[0]
         omega0 = rng.uniform(-settings.rate_bound, settings.rate_bound, 3)
         delta_J = sample_inertia_perturbation(rng, agent.J0_array, settings.inertia_bound)
         d = agent.disturbance
@@ -219,17 +328,82 @@ def sample_run_scenario(base: Scenario, settings: CampaignSettings, seed: np.ran
     return replace(base, agents=tuple(agents), topology=topology)  # validated once
 
 
-def _base_scenario(settings: CampaignSettings) -> Scenario:
+def _fitting_output_interval(requested: float, dt: float, t_final: float) -> float:
+    """The largest multiple of ``dt`` that is ``<= requested`` (at least ``dt``) and divides ``t_final``.
+
+    So the output grid ends at ``t_final`` and the runs' "final" values are those at ``t_final``.  When
+    ``t_final`` is not a multiple of ``dt`` the request is returned as it is (the scenario rejects it).
+    """
+    ratio = t_final / dt
+    n = round(ratio)
+    if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
+        return requested
+    k = max(1, min(n, round(requested / dt)))
+    best = 1
+    d = 1
+    while d * d <= n:
+        if n % d == 0:
+            for m in (d, n // d):
+                if best < m <= k:
+                    best = m
+        d += 1
+    return best * dt
+
+
+def campaign_base(settings: CampaignSettings) -> tuple[CampaignSettings, Scenario]:
+    """The base scenario of a campaign and the settings with the case made explicit.
+
+    ``settings.case = None`` selects the scenario's first case, or none when the file defines no
+    ``[cases]``; the returned settings name it (so resuming with or without ``--case`` matches).
+    The horizon, step and torque limit are the settings' where given, and the output interval is
+    :func:`_fitting_output_interval` of the requested one.
+    """
     base = load_scenario(settings.scenario, settings.case)
-    sim: dict[str, Any] = {"output_interval": settings.output_interval}
+    sim: dict[str, Any] = {}
     if settings.t_final is not None:
         sim["t_final"] = settings.t_final
     if settings.dt is not None:
         sim["dt"] = settings.dt
     ctrl = {} if settings.torque_limit is None else {"torque_limit": settings.torque_limit}
     dt = sim.get("dt", base.simulation.dt)
-    sim["output_interval"] = max(dt, round(settings.output_interval / dt) * dt)
-    return base.replace(simulation=sim, controller=ctrl)
+    t_final = sim.get("t_final", base.simulation.t_final)
+    sim["output_interval"] = _fitting_output_interval(settings.output_interval, dt, t_final)
+    base = base.replace(simulation=sim, controller=ctrl)
+    return replace(settings, case=base.case), base
+
+
+def _base_scenario(settings: CampaignSettings) -> Scenario:
+    return campaign_base(settings)[1]
+
+
+def describe_campaign(settings: CampaignSettings, base: Scenario) -> list[str]:
+    """Lines naming every setting of a campaign (printed when it starts; the option that sets each one)."""
+    s, sim = settings, base.simulation
+    limit = theorem1_factor_limit(base.topology)
+    if limit is None:
+        t1 = "Theorem 1: no link has a non-zero k^j, so no factor matters"
+    else:
+        t1 = f"Theorem 1 (eq 27, k^i >= k^j): factors <= {limit:.4g} keep it on every link of this scenario"
+        if s.coupling_high > limit:
+            t1 += f"; runs drawing a factor above it fail it (--coupling-high {s.coupling_high:g})"
+    torque = base.controller.torque_limit
+    return [
+        f"montecarlo: {base.label}: {base.n_agents} agents, {len(base.topology.links)} links; "
+        f"{s.runs} runs, seed {s.seed}, chunks of {s.chunk_size}",
+        f"  attitude: sigma_i(0) uniform over SO(3), principal angle <= {s.attitude_bound_deg:g} deg "
+        "(--attitude-bound-deg)",
+        f"  rate: omega_i(0) components U(-{s.rate_bound:g}, {s.rate_bound:g}) rad/s (--rate-bound)",
+        f"  inertia: 0 < Delta_J_i <= rho J0_i, rho ~ U(0, {s.inertia_bound:g}] (--inertia-bound)",
+        f"  disturbance: amplitudes U(0, {s.disturbance_scale:g} |a_k|), phases U(0, 2 pi) (--disturbance-scale)",
+        f"  links: each removed with probability {s.link_dropout:g} (--link-dropout); k^j_ij(t) times "
+        f"U({s.coupling_low:g}, {s.coupling_high:g}) (--coupling-low, --coupling-high), random phase",
+        f"  {t1}",
+        f"  simulation: t_final {sim.t_final:g} s, dt {sim.dt:g} s, output every {sim.output_interval:g} s"
+        + (f" (not the requested {s.output_interval:g} s: the grid must divide t_final)" if not math.isclose(sim.output_interval, s.output_interval) else "")
+        + f", torque limit {torque:g} N m",
+        f"  converged: AAEM and RAEM < {s.tolerance_deg:g} deg at t_final and settled; "
+        f"steady window {s.steady_window:g} s",
+    ]  # fmt: skip
 
 
 # ----------------------------------------------------------------------------- one run
@@ -268,8 +442,22 @@ def _nan_record(n_agents: int) -> dict:
     return rec
 
 
+def _check_final_sample(time_s: np.ndarray, t_final: float) -> None:
+    """Raise unless the last output sample is at ``t_final`` (within rounding): "final" means at t_final."""
+    t_end = float(time_s[-1]) if len(time_s) else math.nan
+    if not math.isclose(t_end, t_final, rel_tol=1e-9, abs_tol=1e-12):
+        raise RuntimeError(
+            f"the output grid ends at t = {t_end:.9g} s, not at t_final = {t_final:.9g} s: "
+            "the final values would come from the wrong sample"
+        )
+
+
 def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.random.SeedSequence) -> dict:
-    """Simulate run ``index`` and return its summary record (raises on failure: the caller records it)."""
+    """Simulate run ``index`` and return its summary record (raises on failure: the caller records it).
+
+    The "final" values (``aaem_final_deg``, ``theta_e_final_deg``, ``converged``) are taken at
+    ``t_final``; a result whose last sample is elsewhere raises, so the run is ``failed``.
+    """
     from .metrics import principal_angles
     from .proofs.theorem1 import analyze_topology
     from .proofs.theorem2 import Region, delta_requirements
@@ -278,6 +466,7 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
     wall, cpu = time.perf_counter(), time.process_time()
     scenario = sample_run_scenario(base, settings, seed)
     result = simulate(scenario, progress=False)
+    _check_final_sample(np.asarray(result.time), scenario.simulation.t_final)
     tol = settings.tolerance_deg
     summary = result.summary(tolerances_deg=(tol, 0.1 * tol), steady_window=settings.steady_window)
     aaem, raem = result.aaem_deg, result.raem_deg
@@ -353,7 +542,76 @@ def _run_chunk(
     return out
 
 
-# ----------------------------------------------------------------------------- datasets
+# ----------------------------------------------------------------------------- files
+
+
+def _jsonable(obj: Any) -> Any:
+    """``obj`` for strict JSON: NaN -> None, +-inf -> "inf"/"-inf", NumPy scalars/arrays -> Python, Path -> str."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (int, np.integer)):
+        return int(obj)
+    if isinstance(obj, (float, np.floating)):
+        x = float(obj)
+        if math.isnan(x):
+            return None
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return x
+    if isinstance(obj, Path):
+        return str(obj)
+    return obj
+
+
+def _json_text(obj: Any) -> str:
+    return json.dumps(_jsonable(obj), indent=2, allow_nan=False) + "\n"
+
+
+def _environment_problem(what: str, exc: OSError) -> EnvironmentProblem:
+    if isinstance(exc, EnvironmentProblem):
+        return exc
+    return EnvironmentProblem(exc.errno or errno.EIO, f"{what}: {exc.strerror or exc}")
+
+
+def _write_atomic(path: Path, write: Callable[[Path], None]) -> None:
+    """``write(tmp)`` to a hidden temporary file next to ``path``, flush it to disk, rename it to ``path``.
+
+    A reader (or a resumed campaign) sees the old file or the complete new one, never a partial file.
+    An ``OSError`` (read-only folder, full device) becomes :class:`~fsmctl.errors.EnvironmentProblem`.
+    """
+    tmp = path.with_name(f".{path.name}.tmp")
+    try:
+        write(tmp)
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException as exc:
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        if isinstance(exc, OSError):
+            raise _environment_problem(f"cannot write {path}", exc) from exc
+        raise
+
+
+def _write_text(path: Path, text: str) -> None:
+    _write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
+
+
+def _write_netcdf(ds, path: Path) -> None:
+    _write_atomic(path, lambda tmp: ds.to_netcdf(tmp, engine="scipy"))
+
+
+def _chunk_path(out: Path, c: int) -> Path:
+    return out / "chunks" / f"chunk_{c:05d}.nc"
 
 
 def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int):
@@ -379,64 +637,94 @@ def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int):
     return xr.Dataset(data, coords={"run": run, "agent": np.arange(1, n_agents + 1, dtype=np.int32)})
 
 
-def _write_atomic_netcdf(ds, path: Path) -> None:
-    tmp = path.with_suffix(".tmp.nc")
-    ds.to_netcdf(tmp, engine="scipy")
-    os.replace(tmp, path)
+class _OutputFolder:
+    """``OUT``: created on demand, checked against a resumed campaign, removed again if nothing was written."""
 
+    def __init__(self, out: Path):
+        self.out = out
+        self.chunks = out / "chunks"
+        self._created_dirs: list[Path] = []  # deepest first
+        self._created_meta = False
 
-def _chunk_path(out: Path, c: int) -> Path:
-    return out / "chunks" / f"chunk_{c:05d}.nc"
-
-
-# ----------------------------------------------------------------------------- campaign
-
-
-@dataclass
-class CampaignResult:
-    """Outcome of :func:`run_campaign`: the merged dataset and where everything was written."""
-
-    dataset: Any
-    """xarray.Dataset with dimension ``run`` (and ``agent``)"""
-    summary: dict
-    out_dir: Path
-    wall_time_s: float
-    resumed_chunks: int = 0
-    files: dict = field(default_factory=dict)
-
-    @property
-    def failed_runs(self) -> list[int]:
-        return [
-            int(r) for r, s in zip(self.dataset.run.values, self.dataset.status.values, strict=True) if s != STATUS_OK
-        ]
-
-
-def _chunks(settings: CampaignSettings) -> list[list[int]]:
-    n, c = settings.runs, settings.chunk_size
-    return [list(range(a, min(n, a + c))) for a in range(0, n, c)]
-
-
-def _prepare_out(out: Path, settings: CampaignSettings, resume: bool) -> None:
-    try:
-        out.mkdir(parents=True, exist_ok=True)
-        (out / "chunks").mkdir(exist_ok=True)
-    except OSError as exc:
-        raise ScenarioError(f"--out {out}: cannot create the output folder ({exc.strerror or exc})") from None
-    meta = out / "campaign.json"
-    ident = settings.identity()
-    if meta.is_file():
+    def prepare(self, settings: CampaignSettings, resume: bool) -> None:
+        out = self.out
+        if out.exists() and not out.is_dir():
+            raise EnvironmentProblem(
+                errno.ENOTDIR, f"--out {out}: cannot create the output folder (a file is in the way)"
+            )
+        missing = []
+        p = out.absolute()
+        while not os.path.lexists(p) and p.parent != p:
+            missing.append(p)
+            p = p.parent
+        chunks_missing = not self.chunks.is_dir()
+        self._created_dirs = [self.chunks.absolute(), *missing] if chunks_missing else missing
         try:
-            old = json.loads(meta.read_text())
-        except (OSError, json.JSONDecodeError):
-            old = None
-        if not resume:
-            raise ScenarioError(f"{out} already holds a campaign; pass --resume to continue it or choose another --out")
-        if old != ident:
-            diff = sorted(k for k in ident if old is None or old.get(k) != ident[k])
-            raise ScenarioError(f"{out} holds a campaign with different settings ({', '.join(diff)}); cannot resume")
-    elif any((out / "chunks").glob("chunk_*.nc")):
-        raise ScenarioError(f"{out}/chunks holds chunk files but no campaign.json; choose another --out")
-    meta.write_text(json.dumps(ident, indent=2))
+            out.mkdir(parents=True, exist_ok=True)
+            self.chunks.mkdir(exist_ok=True)
+        except OSError as exc:
+            self._remove_created()
+            raise EnvironmentProblem(
+                exc.errno or errno.EIO, f"--out {out}: cannot create the output folder ({exc.strerror or exc})"
+            ) from None
+        meta = out / "campaign.json"
+        ident = _jsonable(settings.identity())
+        if meta.is_file():
+            try:
+                old = json.loads(meta.read_text(encoding="utf-8"))
+            except (OSError, ValueError):
+                old = None
+            if not resume:
+                raise InputError(
+                    f"{out} already holds a campaign; pass --resume to continue it or choose another --out"
+                )
+            if old != ident:
+                diff = sorted(k for k in ident if not isinstance(old, dict) or old.get(k) != ident[k])
+                raise InputError(f"{out} holds a campaign with different settings ({', '.join(diff)}); cannot resume")
+        elif any(self.chunks.glob("chunk_*.nc")):
+            raise InputError(f"{out}/chunks holds chunk files but no campaign.json; choose another --out")
+        self._created_meta = not meta.exists()
+        marker = out / COMPLETE_MARKER
+        try:
+            marker.unlink(missing_ok=True)  # the campaign in the folder is (again) under way
+        except OSError as exc:
+            raise _environment_problem(f"cannot remove {marker}", exc) from exc
+        try:
+            _write_text(meta, _json_text(ident))
+        except BaseException:
+            self.discard_if_empty()
+            raise
+
+    def chunk_files(self) -> list[Path]:
+        try:
+            return sorted(self.chunks.glob("chunk_*.nc"))
+        except OSError:
+            return []
+
+    def discard_if_empty(self) -> int:
+        """After a failure: remove what this campaign created unless a chunk exists; returns the chunks kept."""
+        kept = len(self.chunk_files())
+        if kept:
+            return kept
+        for folder in (self.chunks, self.out):
+            with contextlib.suppress(OSError):
+                for tmp in folder.glob(".*.tmp"):
+                    tmp.unlink()
+        if self._created_meta:
+            with contextlib.suppress(OSError):
+                (self.out / "campaign.json").unlink()
+        self._remove_created()
+        return 0
+
+    def _remove_created(self) -> None:
+        for d in self._created_dirs:
+            try:
+                d.rmdir()  # only if empty: never removes anything else
+            except FileNotFoundError:
+                continue  # mkdir failed before reaching it
+            except OSError:
+                break
+        self._created_dirs = []
 
 
 def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
@@ -454,6 +742,35 @@ def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
         return False
 
 
+# ----------------------------------------------------------------------------- campaign
+
+
+@dataclass
+class CampaignResult:
+    """Outcome of :func:`run_campaign`: the merged dataset and where everything was written."""
+
+    dataset: Any
+    """xarray.Dataset with dimension ``run`` (and ``agent``)"""
+    summary: dict
+    out_dir: Path
+    wall_time_s: float
+    resumed_chunks: int = 0
+    files: dict = field(default_factory=dict)
+    settings: CampaignSettings | None = None
+    """the settings that ran (the case made explicit)"""
+
+    @property
+    def failed_runs(self) -> list[int]:
+        return [
+            int(r) for r, s in zip(self.dataset.run.values, self.dataset.status.values, strict=True) if s != STATUS_OK
+        ]
+
+
+def _chunks(settings: CampaignSettings) -> list[list[int]]:
+    n, c = settings.runs, settings.chunk_size
+    return [list(range(a, min(n, a + c))) for a in range(0, n, c)]
+
+
 def _progress(total: int, initial: int, enabled: bool | None):
     from tqdm.auto import tqdm
 
@@ -465,7 +782,8 @@ def _progress(total: int, initial: int, enabled: bool | None):
 def _run_local(base, settings, todo, workers, run_fn, on_chunk) -> None:
     """Process pool; a chunk whose worker died is retried in a fresh pool, then run by run in isolation.
 
-    The workers run with one BLAS/OpenMP thread each (:func:`fsmctl.parallel.single_threaded_workers`).
+    The workers run with one BLAS/OpenMP thread each (:func:`fsmctl.parallel.single_threaded_workers`)
+    and die with this process (:func:`fsmctl.parallel.worker_pool`).
     """
     if workers <= 1:
         for c, idx in todo:
@@ -477,27 +795,16 @@ def _run_local(base, settings, todo, workers, run_fn, on_chunk) -> None:
 
 def _run_pools(base, settings, todo, workers, run_fn, on_chunk) -> None:
     pending = list(todo)
-    attempt = 0
-    while pending:
-        attempt += 1
-        if attempt > 2:  # isolate: one run per single-worker pool; a run that kills it is reported
-            for c, idx in pending:
-                rows = []
-                for k in idx:
-                    with ProcessPoolExecutor(1, mp_context=process_pool_context()) as ex:
-                        try:
-                            rows += ex.submit(_run_chunk, base, settings, [k], run_fn).result()
-                        except BrokenProcessPool:
-                            rows.append((k, STATUS_DIED, "the worker process died", _nan_record(base.n_agents)))
-                on_chunk(c, idx, rows)
+    for _attempt in range(2):
+        if not pending:
             return
         failed = []
-        with ProcessPoolExecutor(max_workers=workers, mp_context=process_pool_context()) as ex:
+        with worker_pool(workers) as ex:  # an exception in here (interrupt, full disk) stops the workers
             futures = {ex.submit(_run_chunk, base, settings, idx, run_fn): (c, idx) for c, idx in pending}
             not_done = set(futures)
             while not_done:
                 done, not_done = wait(not_done, return_when=FIRST_COMPLETED)
-                for f in done:
+                for f in sorted(done, key=lambda f: futures[f][0]):
                     c, idx = futures[f]
                     try:
                         rows = f.result()
@@ -505,21 +812,139 @@ def _run_pools(base, settings, todo, workers, run_fn, on_chunk) -> None:
                         failed.append((c, idx))
                         continue
                     on_chunk(c, idx, rows)
-        pending = failed
+        pending = sorted(failed)
+    # isolate: one run per single-worker pool; a run that kills it is reported
+    for c, idx in pending:
+        rows = []
+        for k in idx:
+            with worker_pool(1) as ex:
+                try:
+                    rows += ex.submit(_run_chunk, base, settings, [k], run_fn).result()
+                except BrokenProcessPool:
+                    rows.append((k, STATUS_DIED, "the worker process died", _nan_record(base.n_agents)))
+        on_chunk(c, idx, rows)
 
 
-def _run_dask(base, settings, todo, address_or_client, run_fn, on_chunk) -> None:
-    from distributed import Client, as_completed
+# ----------------------------------------------------------------------------- Dask
 
-    if isinstance(address_or_client, Client):
-        client = address_or_client
-    else:
-        try:
-            client = Client(address_or_client, timeout="10s")
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise ScenarioError(f"--dask {address_or_client}: cannot connect to a Dask scheduler ({exc})") from None
+
+def _recv_exact(sock: socket.socket, n: int, deadline: float) -> bytes:
+    buf = bytearray()
+    while len(buf) < n:
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            raise TimeoutError
+        sock.settimeout(remaining)
+        part = sock.recv(n - len(buf))
+        if not part:
+            raise ConnectionResetError(errno.ECONNRESET, "closed the connection")
+        buf += part
+    return bytes(buf)
+
+
+def _dask_handshake(sock: socket.socket, deadline: float) -> str | None:
+    """Read the handshake a Dask scheduler sends on connect; None if it is one, else what is wrong.
+
+    distributed's TCP framing: an 8-byte length ``N``, then ``N`` bytes holding the frame count, the
+    frame lengths (8 bytes each) and the frames; the first frame is a msgpack mapping with ``python``
+    and ``pickle-protocol``.  Reading it here, with bounded sizes and a deadline, keeps distributed's own
+    reader from trusting a garbage length (it allocates whatever the first 8 bytes say: exabytes for
+    ``HTTP/1.1``) or waiting forever on a silent endpoint.
+    """
+    head = _recv_exact(sock, 8, deadline)
+    (n,) = struct.unpack("Q", head)
+    if not 16 <= n <= _DASK_HANDSHAKE_MAX_BYTES:
+        return f"its first bytes {head[:8]!r} are not a Dask message header"
+    body = _recv_exact(sock, n, deadline)
+    (n_frames,) = struct.unpack_from("Q", body)
+    if not 1 <= n_frames <= 64 or 8 * (1 + n_frames) > n:
+        return "its first message is not in Dask's frame format"
+    lengths = struct.unpack_from(f"{n_frames}Q", body, 8)
+    start = 8 * (1 + n_frames)
+    if start + sum(lengths) != n:
+        return "its first message is not in Dask's frame format"
     try:
-        futures = {}
+        import msgpack
+
+        info = msgpack.loads(body[start : start + lengths[0]], raw=False)
+    except Exception:
+        return "its first message is not a Dask handshake"
+    if not isinstance(info, dict) or "python" not in info or "pickle-protocol" not in info:
+        return "its first message is not a Dask handshake"
+    return None
+
+
+def _check_dask_endpoint(address: str, timeout_s: float) -> None:
+    """Pre-flight of a ``tcp://`` scheduler address: it must accept a connection and send a Dask handshake.
+
+    Raises :class:`~fsmctl.errors.EnvironmentProblem` (nothing listening, no answer within ``timeout_s``,
+    an answer that is not Dask's) or :class:`~fsmctl.errors.InputError` (not an address).  Other
+    schemes (``tls://``, ``inproc://``, ...) are left to distributed.
+    """
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, loc = parse_address(address, strict=False)
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(loc, 8786)
+    except (ValueError, TypeError) as exc:
+        raise InputError(f"--dask {address}: not a scheduler address ({exc})") from None
+    what = f"--dask {address}: cannot connect to a Dask scheduler"
+    deadline = time.monotonic() + timeout_s
+    try:
+        sock = socket.create_connection((host, int(port)), timeout=timeout_s)
+    except TimeoutError:
+        raise EnvironmentProblem(errno.ETIMEDOUT, f"{what} (no answer within {timeout_s:g} s)") from None
+    except OSError as exc:
+        raise EnvironmentProblem(exc.errno or errno.EIO, f"{what} ({exc.strerror or exc})") from None
+    with sock:
+        try:
+            problem = _dask_handshake(sock, deadline)
+        except TimeoutError:
+            problem = f"it accepted the connection but sent no Dask handshake within {timeout_s:g} s"
+        except OSError as exc:
+            problem = f"it {exc.strerror or exc} before sending a Dask handshake"
+    if problem is not None:
+        raise EnvironmentProblem(
+            errno.EPROTO, f"--dask {address}: the endpoint answers but is not a Dask scheduler ({problem})"
+        )
+
+
+def _connect_dask(address_or_client: Any, timeout_s: float):
+    """``(client, owned)``: the given client, or a new one to the checked address (closed by the caller)."""
+    try:
+        from distributed import Client
+    except ImportError:
+        raise EnvironmentProblem(
+            errno.ENOPKG if hasattr(errno, "ENOPKG") else errno.ENOENT,
+            "--dask needs the 'distributed' package (pip install 'fsmctl[dask]')",
+        ) from None
+    if isinstance(address_or_client, Client):
+        return address_or_client, False
+    if not isinstance(address_or_client, str) or not address_or_client.strip():
+        raise InputError(f"--dask: expected a scheduler address or a distributed.Client, got {address_or_client!r}")
+    address = address_or_client.strip()
+    _check_dask_endpoint(address, timeout_s)
+    import dask
+
+    try:
+        with dask.config.set({"distributed.comm.timeouts.connect": f"{timeout_s}s"}):
+            client = Client(address, timeout=f"{timeout_s}s", set_as_default=False)
+    except Exception as exc:  # MemoryError, ValueError, OSError, TimeoutError: the endpoint is not usable
+        text = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
+        raise EnvironmentProblem(
+            getattr(exc, "errno", None) or errno.EPROTO,
+            f"--dask {address}: cannot connect to a Dask scheduler ({text})",
+        ) from None
+    return client, True
+
+
+def _run_dask(base, settings, todo, client, run_fn, on_chunk) -> None:
+    from distributed import as_completed
+
+    futures = {}
+    try:
         for c, idx in todo:
             f = client.submit(
                 _run_chunk,
@@ -531,7 +956,7 @@ def _run_dask(base, settings, todo, address_or_client, run_fn, on_chunk) -> None
                 key=f"fsmctl-mc-{settings.seed}-{c}-{os.getpid()}-{time.time_ns()}",
             )
             futures[f] = (c, idx)
-        for f in as_completed(list(futures)):
+        for f in as_completed(list(futures), loop=client.loop):  # the client need not be the default one
             c, idx = futures[f]
             try:
                 rows = f.result()
@@ -539,9 +964,13 @@ def _run_dask(base, settings, todo, address_or_client, run_fn, on_chunk) -> None
                 msg = f"{type(exc).__name__}: {exc}".splitlines()[0][:500]
                 rows = [(k, STATUS_DIED, msg, _nan_record(base.n_agents)) for k in idx]
             on_chunk(c, idx, rows)
-    finally:
-        if not isinstance(address_or_client, Client):
-            client.close()
+    except BaseException:
+        with contextlib.suppress(Exception):
+            client.cancel(list(futures), force=True)
+        raise
+
+
+# ----------------------------------------------------------------------------- the campaign
 
 
 def run_campaign(
@@ -555,6 +984,8 @@ def run_campaign(
     run_fn: RunFunction | None = None,
     figures: bool = True,
     base: Scenario | None = None,
+    log: Callable[[str], None] | None = None,
+    dask_timeout: float = DASK_TIMEOUT_S,
 ) -> CampaignResult:
     """Run (or resume) a Monte Carlo campaign and write ``out_dir``.
 
@@ -564,11 +995,13 @@ def run_campaign(
         Scenario, number of runs, seed, perturbation bounds, horizon.
     out_dir : str or Path
         Receives ``campaign.json``, ``chunks/*.nc`` (one per chunk, written as soon as it is done),
-        ``montecarlo.nc`` (all runs), ``summary.json`` and ``histograms.png``/``.svg``.
+        ``montecarlo.nc`` (all runs), ``summary.json``, ``histograms.png``/``.svg`` and, last,
+        ``complete.json``.  Created if needed; removed again if the campaign ends before any chunk.
     workers : int, optional
         Local worker processes (default: the number of CPUs); 1 runs in this process.
     dask : str or distributed.Client, optional
         Address of (or a client to) an existing Dask distributed cluster; replaces the local pool.
+        A ``tcp://`` address must answer with a Dask handshake within ``dask_timeout``.
     resume : bool
         Continue a campaign already in ``out_dir`` (same settings), running only missing chunks.
     progress : bool, optional
@@ -579,47 +1012,86 @@ def run_campaign(
         Write the histogram figure.
     base : Scenario, optional
         Use this scenario instead of loading ``settings.scenario``/``case`` (a :class:`Scenario` built in code).
+    log : callable, optional
+        Receives the lines of :func:`describe_campaign` before the first run (``fsmctl montecarlo`` prints them).
+    dask_timeout : float
+        Seconds a Dask scheduler gets to accept the connection and answer.
 
     Returns
     -------
     CampaignResult
+
+    Raises
+    ------
+    fsmctl.errors.InputError
+        A bad setting, or ``out_dir`` holds another campaign.
+    fsmctl.errors.EnvironmentProblem
+        ``out_dir`` cannot be created or written (read-only, full), or ``dask`` is not a reachable scheduler.
+    CampaignInterrupted
+        ``SIGINT``/``SIGTERM`` (in the main thread): the workers were stopped and the finished chunks
+        kept (``exc.detail`` says how many); ``exc.exit_code`` is 130 or 143.
     """
     settings.validate()
     t_start = time.perf_counter()
     out = Path(out_dir)
-    if base is None:
-        base = _base_scenario(settings)
-    _prepare_out(out, settings, resume)
-    chunks = _chunks(settings)
-    todo, resumed = [], 0
-    for c, idx in enumerate(chunks):
-        if resume and _existing_chunk(_chunk_path(out, c), idx):
-            resumed += 1
-        else:
-            todo.append((c, idx))
-    bar = _progress(settings.runs, settings.runs - sum(len(i) for _, i in todo), progress)
+    with interrupt_guard() as guard:
+        if base is None:
+            settings, base = campaign_base(settings)
+        if log is not None:
+            for line in describe_campaign(settings, base):
+                log(line)
+        client, own_client = _connect_dask(dask, dask_timeout) if dask is not None else (None, False)
+        folder = _OutputFolder(out)
+        chunks = _chunks(settings)
+        try:
+            folder.prepare(settings, resume)
+            todo, resumed = [], 0
+            for c, idx in enumerate(chunks):
+                if resume and _existing_chunk(_chunk_path(out, c), idx):
+                    resumed += 1
+                else:
+                    todo.append((c, idx))
+            bar = _progress(settings.runs, settings.runs - sum(len(i) for _, i in todo), progress)
 
-    def on_chunk(c: int, idx: Sequence[int], rows) -> None:
-        _write_atomic_netcdf(_chunk_dataset(rows, base.n_agents), _chunk_path(out, c))
-        bar.update(len(idx))
+            def on_chunk(c: int, idx: Sequence[int], rows) -> None:
+                ds = _chunk_dataset(rows, base.n_agents)
+                with guard.deferred():  # an interrupt waits until the chunk file is complete
+                    _write_netcdf(ds, _chunk_path(out, c))
+                bar.update(len(idx))
 
-    try:
-        if dask is not None:
-            _run_dask(base, settings, todo, dask, run_fn, on_chunk)
-        else:
-            workers = workers or os.cpu_count() or 1
-            _run_local(base, settings, todo, min(workers, max(1, len(todo))), run_fn, on_chunk)
-    finally:
-        bar.close()
-    return finish_campaign(out, settings, base, t_start, resumed, figures=figures)
+            try:
+                if client is not None:
+                    _run_dask(base, settings, todo, client, run_fn, on_chunk)
+                else:
+                    n = workers or os.cpu_count() or 1
+                    _run_local(base, settings, todo, min(n, max(1, len(todo))), run_fn, on_chunk)
+            finally:
+                bar.close()
+            result = finish_campaign(out, settings, base, t_start, resumed, figures=figures)
+        except BaseException as exc:
+            guard.closing()
+            kept = folder.discard_if_empty()
+            if isinstance(exc, CampaignInterrupted):
+                exc.detail = (
+                    f"{kept} of {len(chunks)} chunk files kept in {out}; --resume with the same options continues"
+                    if kept
+                    else "nothing was written"
+                )
+            raise
+        finally:
+            if own_client:
+                with contextlib.suppress(Exception):
+                    client.close(timeout=dask_timeout)
+    return result
 
 
 def finish_campaign(
     out: Path, settings: CampaignSettings, base: Scenario, t_start: float, resumed: int = 0, *, figures: bool = True
 ) -> CampaignResult:
-    """Merge the chunk files into ``montecarlo.nc``, write ``summary.json`` and the histograms."""
+    """Merge the chunk files into ``montecarlo.nc``, write ``summary.json``, the histograms and, last, ``complete.json``."""
     import xarray as xr
 
+    out = Path(out)
     parts = []
     for c in range(len(_chunks(settings))):
         with xr.open_dataset(_chunk_path(out, c), engine="scipy") as ds:
@@ -627,24 +1099,40 @@ def finish_campaign(
     ds = xr.concat(parts, dim="run")
     for var in ds.variables.values():
         var.encoding = {}  # string widths differ between chunks
+    ident = _jsonable(settings.identity())
     ds.attrs.update(
         {
             "title": f"fsmctl Monte Carlo campaign: {base.label}, {settings.runs} runs, seed {settings.seed}",
-            "settings": json.dumps(settings.identity()),
+            "settings": json.dumps(ident, allow_nan=False),
             "scenario": "\n".join(base.describe()),
+            "campaign": "\n".join(describe_campaign(settings, base)),
             "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
             "seeds": "numpy.random.SeedSequence(seed).spawn(runs)[run]",
         }
     )
-    ds.to_netcdf(out / "montecarlo.nc", engine="scipy")
+    _write_netcdf(ds, out / "montecarlo.nc")
     summary = summarize(ds, settings)
     summary["campaign_wall_time_s"] = time.perf_counter() - t_start
     summary["resumed_chunks"] = resumed
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    summary["settings"] = ident
+    summary["output_interval_s"] = base.simulation.output_interval
+    summary["campaign"] = describe_campaign(settings, base)
     files = {"dataset": out / "montecarlo.nc", "summary": out / "summary.json"}
     if figures:
         files.update(plot_histograms(ds, out / "histograms", settings))
-    return CampaignResult(ds, summary, out, summary["campaign_wall_time_s"], resumed, files)
+    _write_text(out / "summary.json", _json_text(summary))
+    for tmp in (out / "chunks").glob(".*.tmp"):  # left by an interrupted earlier attempt
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+    marker = {
+        "complete": True,
+        "runs": summary["runs"],
+        "ok": summary["ok"],
+        "files": sorted(str(p.relative_to(out)) for p in files.values()),
+    }
+    _write_text(out / COMPLETE_MARKER, _json_text(marker))
+    files["complete"] = out / COMPLETE_MARKER
+    return CampaignResult(ds, summary, out, summary["campaign_wall_time_s"], resumed, files, settings)
 
 
 def summarize(ds, settings: CampaignSettings) -> dict:
@@ -684,7 +1172,7 @@ def summarize(ds, settings: CampaignSettings) -> dict:
 
 
 def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
-    """Histograms of the main per-run results (PNG and SVG)."""
+    """Histograms of the main per-run results (PNG and SVG, each written atomically)."""
     import matplotlib
 
     matplotlib.use("Agg", force=False)
@@ -722,11 +1210,13 @@ def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
     )
     stem = Path(stem)
     files = {}
-    for ext in ("png", "svg"):
-        path = stem.with_suffix(f".{ext}")
-        fig.savefig(path, dpi=110)
-        files[ext] = path
-    plt.close(fig)
+    try:
+        for ext in ("png", "svg"):
+            path = stem.with_suffix(f".{ext}")
+            _write_atomic(path, lambda tmp, ext=ext: fig.savefig(tmp, dpi=110, format=ext))
+            files[ext] = path
+    finally:
+        plt.close(fig)
     return files
 
 
@@ -734,48 +1224,80 @@ def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``fsmctl montecarlo``."""
+    """Register ``fsmctl montecarlo`` (every sampling range is an option; ``--help`` shows the defaults)."""
     p = subparsers.add_parser(
         "montecarlo",
         help="robustness campaign: random inertia, disturbances, initial attitudes/rates and topologies",
         description=(
             "Monte Carlo campaign over random Delta_J (SPD, realizable, <= rho J0), disturbance amplitudes and phases, "
             "initial attitudes uniform over SO(3) and bounded rates, and random switching topologies (Liang et al. 2012). "
-            "Writes OUT/montecarlo.nc, OUT/summary.json, OUT/histograms.png/.svg and one file per chunk (resumable)."
+            "Writes OUT/montecarlo.nc, OUT/summary.json, OUT/histograms.png/.svg, one file per chunk (resumable) and, "
+            "last, OUT/complete.json. The settings are printed first and stored in the outputs. "
+            "Ctrl-C (SIGINT) or SIGTERM stops the workers and keeps the finished chunks; exit code 130 (SIGINT) or "
+            "143 (SIGTERM); --resume continues."
         ),
     )
     d = CampaignSettings()
-    p.add_argument("--scenario", default="paper", help="built-in name or TOML file (default: paper)")
-    p.add_argument("--case", default="1", help="case of the scenario (default: 1)")
-    p.add_argument("--runs", type=positive_int, default=100, help="number of runs (default: 100)")
+    p.add_argument("--scenario", default=d.scenario, help="built-in name or TOML file (default: %(default)s)")
+    p.add_argument(
+        "--case",
+        default=None,
+        help="case of the scenario (default: its first case; a file without [cases] is used as it is)",
+    )
+    p.add_argument("--runs", type=positive_int, default=d.runs, help="number of runs (default: %(default)s)")
     p.add_argument("--workers", type=positive_int, default=None, help="local worker processes (default: all CPUs)")
-    p.add_argument("--seed", type=nonnegative_int, default=0, help="campaign seed (default: 0)")
+    p.add_argument("--seed", type=nonnegative_int, default=d.seed, help="campaign seed (default: %(default)s)")
     p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on an existing Dask distributed scheduler")
-    p.add_argument("--out", default="montecarlo_out", help="output folder (default: montecarlo_out)")
+    p.add_argument(
+        "--dask-timeout",
+        type=positive_float,
+        default=DASK_TIMEOUT_S,
+        metavar="S",
+        help="seconds the scheduler gets to accept the connection and answer (default: %(default)s)",
+    )
+    p.add_argument("--out", default="montecarlo_out", help="output folder (default: %(default)s)")
     p.add_argument("--resume", action="store_true", help="continue the campaign already in --out")
-    p.add_argument("--chunk-size", type=positive_int, default=d.chunk_size, help="runs per chunk file")
+    p.add_argument(
+        "--chunk-size", type=positive_int, default=d.chunk_size, help="runs per chunk file (default: %(default)s)"
+    )
     p.add_argument("--t-final", type=finite_or_inf_float, default=None, help="horizon in s (default: the scenario's)")
     p.add_argument("--dt", type=finite_or_inf_float, default=None, help="step in s (default: the scenario's)")
     p.add_argument(
-        "--output-interval", type=finite_or_inf_float, default=d.output_interval, help="output grid in s (default: 0.1)"
+        "--output-interval",
+        type=finite_or_inf_float,
+        default=d.output_interval,
+        help="output grid in s, lowered to the largest multiple of dt dividing t_final (default: %(default)s)",
     )
     p.add_argument(
         "--torque-limit", type=finite_or_inf_float, default=None, help="N m per component (default: the scenario's)"
     )
+    sampling = p.add_argument_group("sampling ranges (every run draws from these)")
+    for name, text in SAMPLING_RANGES:
+        sampling.add_argument(
+            "--" + name.replace("_", "-"),
+            type=finite_or_inf_float,
+            default=getattr(d, name),
+            help=text.replace("%", "%%") + " (default: %(default)s)",
+        )
     p.add_argument(
-        "--inertia-bound", type=finite_or_inf_float, default=d.inertia_bound, help="rho_max of 0 < Delta_J <= rho J0"
+        "--tolerance-deg",
+        type=finite_or_inf_float,
+        default=d.tolerance_deg,
+        help="convergence tolerance of AAEM and RAEM at t_final, in deg (default: %(default)s)",
     )
-    p.add_argument("--rate-bound", type=finite_or_inf_float, default=d.rate_bound, help="|omega_k(0)| bound in rad/s")
-    p.add_argument("--disturbance-scale", type=finite_or_inf_float, default=d.disturbance_scale, help="amplitude scale")
     p.add_argument(
-        "--link-dropout", type=finite_or_inf_float, default=d.link_dropout, help="probability a link is removed"
-    )
-    p.add_argument(
-        "--tolerance-deg", type=finite_or_inf_float, default=d.tolerance_deg, help="convergence tolerance (deg)"
+        "--steady-window",
+        type=finite_or_inf_float,
+        default=d.steady_window,
+        help="steady-state window at the end of each run, in s (default: %(default)s)",
     )
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=_cli)
     return p
+
+
+def _print_now(line: str) -> None:
+    print(line, flush=True)
 
 
 def _cli(args: argparse.Namespace) -> int:
@@ -789,20 +1311,24 @@ def _cli(args: argparse.Namespace) -> int:
         dt=args.dt,
         output_interval=args.output_interval,
         torque_limit=args.torque_limit,
-        inertia_bound=args.inertia_bound,
-        rate_bound=args.rate_bound,
-        disturbance_scale=args.disturbance_scale,
-        link_dropout=args.link_dropout,
         tolerance_deg=args.tolerance_deg,
+        steady_window=args.steady_window,
+        **{name: getattr(args, name) for name, _ in SAMPLING_RANGES},
     )
-    result = run_campaign(
-        settings,
-        args.out,
-        workers=args.workers,
-        dask=args.dask,
-        resume=args.resume,
-        progress=False if args.no_progress else None,
-    )
+    try:
+        result = run_campaign(
+            settings,
+            args.out,
+            workers=args.workers,
+            dask=args.dask,
+            resume=args.resume,
+            progress=False if args.no_progress else None,
+            log=_print_now,
+            dask_timeout=args.dask_timeout,
+        )
+    except CampaignInterrupted as exc:  # the workers are stopped; one line, exit 130 (SIGINT) or 143 (SIGTERM)
+        print(f"fsmctl montecarlo: {exc}", file=sys.stderr, flush=True)
+        return exc.exit_code
     for line in _report_lines(result):
         print(line)
     return 0 if not result.failed_runs else 1
@@ -824,4 +1350,4 @@ def _report_lines(result: CampaignResult) -> Iterable[str]:
         yield f"  run {f['run']}: {f['status']}: {f['message']}"
     if len(s["failures"]) > 10:
         yield f"  ... {len(s['failures']) - 10} more in summary.json"
-    yield f"  wrote {result.out_dir}/montecarlo.nc, summary.json, histograms.png/.svg"
+    yield f"  wrote {result.out_dir}/montecarlo.nc, summary.json, histograms.png/.svg, {COMPLETE_MARKER}"

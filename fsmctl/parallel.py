@@ -1,18 +1,63 @@
-"""Process pools for fsmctl's campaigns (``fsmctl reproduce``, ``fsmctl montecarlo``)."""
+"""Process pools for fsmctl's campaigns (``fsmctl reproduce``, ``fsmctl montecarlo``).
+
+Besides choosing the start method (:func:`process_pool_context`) and the workers' thread counts
+(:func:`single_threaded_workers`), this module ties the workers' lives to their parent and turns the
+parent's interrupts into an orderly shutdown:
+
+* :func:`worker_pool` is a ``ProcessPoolExecutor`` whose workers die with the parent: on Linux the
+  kernel sends them ``SIGKILL`` when the parent dies (``prctl(PR_SET_PDEATHSIG)``, set in each worker's
+  initializer, followed by a check that the parent is still the one that started it, since it may have
+  died before the call); everywhere a daemon thread in each worker polls ``os.getppid()`` every
+  :data:`WATCHDOG_PERIOD_S` seconds and ends the worker when its parent has changed (it was re-parented
+  to init or a subreaper).  Workers ignore ``SIGINT``, so a Ctrl-C in a terminal, which reaches the
+  whole process group, is handled by the parent alone.  Leaving the ``with`` block by an exception
+  (an interrupt, a disk-full error) cancels the queued tasks and terminates the workers instead of
+  waiting for them.
+* :func:`interrupt_guard` installs handlers for ``SIGINT`` and ``SIGTERM`` that raise
+  :class:`CampaignInterrupted` (a :class:`KeyboardInterrupt`) in the main thread, so ``finally``
+  blocks and :func:`worker_pool` stop the workers.  Code inside :meth:`InterruptGuard.deferred` (writing
+  a result file) finishes before the interrupt is raised.  The exit code of an interrupted command is
+  ``128 + signal``: 130 for ``SIGINT``, 143 for ``SIGTERM`` (what a shell reports for a process the
+  signal ended).
+"""
 
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import multiprocessing
 import os
+import signal
 import sys
+import threading
+import time
 from collections.abc import Iterator
+from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.context import BaseContext
 
-__all__ = ["WORKER_THREAD_VARIABLES", "process_pool_context", "single_threaded_workers"]
+__all__ = [
+    "WORKER_THREAD_VARIABLES",
+    "WATCHDOG_PERIOD_S",
+    "CampaignInterrupted",
+    "InterruptGuard",
+    "interrupt_guard",
+    "process_pool_context",
+    "single_threaded_workers",
+    "stop_pool",
+    "worker_lifeline",
+    "worker_pool",
+]
 
 WORKER_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 """thread counts of OpenBLAS, OpenMP and MKL, read from the environment when the library loads"""
+
+WATCHDOG_PERIOD_S = 0.5
+"""how often a worker checks that its parent is alive (the portable fallback of ``PR_SET_PDEATHSIG``)"""
+
+ORPHAN_EXIT_CODE = 70
+"""exit status of a worker that found its parent gone"""
+
+_PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
 
 
 def process_pool_context() -> BaseContext:
@@ -63,3 +108,228 @@ def single_threaded_workers() -> Iterator[dict[str, str]]:
         for name, value in added.items():
             if os.environ.get(name) == value:
                 del os.environ[name]
+
+
+# ----------------------------------------------------------------------------- workers that die with their parent
+
+
+def _set_parent_death_signal(signum: int) -> bool:
+    """Linux: ask the kernel to send ``signum`` to this process when its parent dies; False elsewhere."""
+    if not sys.platform.startswith("linux"):
+        return False
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        return libc.prctl(_PR_SET_PDEATHSIG, int(signum), 0, 0, 0) == 0
+    except (OSError, AttributeError):  # no prctl in this libc
+        return False
+
+
+def _watch_parent(parent_pid: int, period: float) -> None:
+    while True:
+        time.sleep(period)
+        if os.getppid() != parent_pid:
+            os._exit(ORPHAN_EXIT_CODE)  # no cleanup: the parent that wanted the results is gone
+
+
+def worker_lifeline(parent_pid: int, period: float = WATCHDOG_PERIOD_S) -> None:
+    """Initializer of a pool worker: die with the parent (``parent_pid``) and leave interrupts to it.
+
+    * ``SIGINT`` is ignored (the parent stops the workers; a Ctrl-C reaches the whole process group)
+      and ``SIGTERM`` has its default action (the parent terminates workers with it);
+    * Linux: ``PR_SET_PDEATHSIG`` = ``SIGKILL``, then the parent is checked once more, because it may
+      have died between starting this process and the ``prctl`` call.  The kernel sends the signal when
+      the *thread* that started the worker ends; :func:`worker_pool` starts workers in ``submit``, from
+      the thread that runs the campaign and outlives the pool;
+    * everywhere: a daemon thread checks ``os.getppid()`` every ``period`` seconds and ends the
+      process with :data:`ORPHAN_EXIT_CODE` once the parent has changed.
+    """
+    if hasattr(signal, "SIGINT"):
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if hasattr(signal, "SIGTERM"):
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a forked worker inherits the parent's handler
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})  # see worker_pool: blocked while starting
+    if hasattr(signal, "SIGKILL"):
+        _set_parent_death_signal(signal.SIGKILL)
+    if os.getppid() != parent_pid:
+        os._exit(ORPHAN_EXIT_CODE)
+    threading.Thread(target=_watch_parent, args=(parent_pid, period), name="fsmctl-parent-watch", daemon=True).start()
+
+
+@contextlib.contextmanager
+def _sigint_blocked_in_new_processes() -> Iterator[None]:
+    """Processes started inside this block (from this thread) begin with ``SIGINT`` blocked.
+
+    A spawned worker imports NumPy and fsmctl before its initializer can ignore ``SIGINT``; a Ctrl-C
+    in that window would print a worker traceback.  The signal mask is inherited through fork and exec,
+    so a worker started with ``SIGINT`` blocked keeps a Ctrl-C pending until :func:`worker_lifeline`
+    ignores (and so discards) it.  Only this thread's mask changes: the parent's own ``SIGINT`` is
+    delivered to another thread meanwhile, or to this one when the block ends.
+    """
+    if not hasattr(signal, "pthread_sigmask") or threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+class _LifelinePool(ProcessPoolExecutor):
+    """A ``ProcessPoolExecutor`` whose workers start with :func:`worker_lifeline` and ``SIGINT`` blocked."""
+
+    def __init__(self, max_workers: int, mp_context: BaseContext):
+        super().__init__(
+            max_workers=max_workers, mp_context=mp_context, initializer=worker_lifeline, initargs=(os.getpid(),)
+        )
+
+    def submit(self, fn, /, *args, **kwargs):
+        with _sigint_blocked_in_new_processes():  # workers are started here, as tasks are submitted
+            return super().submit(fn, *args, **kwargs)
+
+
+def stop_pool(executor: ProcessPoolExecutor, grace_s: float = 2.0) -> None:
+    """Cancel the queued tasks and end the workers now: ``SIGTERM``, then ``SIGKILL`` after ``grace_s``."""
+    processes = list((getattr(executor, "_processes", None) or {}).values())  # before shutdown clears it
+    with contextlib.suppress(Exception):
+        executor.shutdown(wait=False, cancel_futures=True)
+    for p in processes:
+        with contextlib.suppress(Exception):
+            if p.is_alive():
+                p.terminate()
+    deadline = time.monotonic() + grace_s
+    for p in processes:
+        with contextlib.suppress(Exception):
+            p.join(max(0.0, deadline - time.monotonic()))
+    for p in processes:
+        with contextlib.suppress(Exception):
+            if p.is_alive():
+                p.kill()
+                p.join(1.0)
+
+
+@contextlib.contextmanager
+def worker_pool(max_workers: int, mp_context: BaseContext | None = None) -> Iterator[ProcessPoolExecutor]:
+    """A process pool whose workers die with this process; leaving by an exception stops them at once.
+
+    Parameters
+    ----------
+    max_workers : int
+        Worker processes.
+    mp_context : multiprocessing context, optional
+        Default :func:`process_pool_context`.
+
+    On a normal exit the pool is shut down as ``with ProcessPoolExecutor(...)`` would (waiting for the
+    tasks); on an exception (:class:`CampaignInterrupted`, an error while handling a result) the queued
+    tasks are cancelled and the workers terminated (:func:`stop_pool`), so nothing outlives the block.
+    """
+    executor = _LifelinePool(max_workers, mp_context or process_pool_context())
+    try:
+        yield executor
+        executor.shutdown(wait=True)  # all tasks are done here, unless an interrupt arrives meanwhile
+    except BaseException:
+        stop_pool(executor)
+        raise
+
+
+# ----------------------------------------------------------------------------- interrupts
+
+
+class CampaignInterrupted(KeyboardInterrupt):
+    """``SIGINT`` or ``SIGTERM`` arrived during a campaign; raised after the workers were stopped.
+
+    Attributes
+    ----------
+    signum : int
+        The signal.
+    exit_code : int
+        ``128 + signum``: 130 for ``SIGINT``, 143 for ``SIGTERM``.
+    detail : str
+        Filled in by the campaign: what was kept (set before the exception leaves it).
+    """
+
+    def __init__(self, signum: int, detail: str = ""):
+        super().__init__(signum)
+        self.signum = int(signum)
+        self.detail = detail
+
+    @property
+    def signal_name(self) -> str:
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:
+            return f"signal {self.signum}"
+
+    @property
+    def exit_code(self) -> int:
+        return 128 + self.signum
+
+    def __str__(self) -> str:
+        return f"interrupted by {self.signal_name}" + (f": {self.detail}" if self.detail else "")
+
+
+class InterruptGuard:
+    """The state behind :func:`interrupt_guard` (``active`` is False when no handler could be installed)."""
+
+    def __init__(self) -> None:
+        self.active = False
+        self.received: int | None = None
+        """the first signal that arrived"""
+        self._pending: int | None = None
+        self._depth = 0
+        self._closing = False
+
+    def _handler(self, signum: int, frame) -> None:
+        if self.received is None:
+            self.received = signum
+        if self._closing:
+            return  # a second Ctrl-C while the workers are being stopped: already on the way out
+        if self._depth:
+            self._pending = signum
+            return
+        self._closing = True
+        raise CampaignInterrupted(signum)
+
+    @contextlib.contextmanager
+    def deferred(self) -> Iterator[None]:
+        """An interrupt that arrives inside this block is raised when it ends (a file is not left half-written)."""
+        self._depth += 1
+        try:
+            yield
+        finally:
+            self._depth -= 1
+        if not self._depth and self._pending is not None and not self._closing:
+            signum, self._pending = self._pending, None
+            self._closing = True
+            raise CampaignInterrupted(signum)
+
+    def closing(self) -> None:
+        """From now on signals are only recorded (the caller is already shutting down)."""
+        self._closing = True
+
+
+@contextlib.contextmanager
+def interrupt_guard() -> Iterator[InterruptGuard]:
+    """Turn ``SIGINT`` and ``SIGTERM`` into :class:`CampaignInterrupted` inside the block (main thread only).
+
+    The previous handlers are restored on exit.  Outside the main thread (where Python cannot install
+    handlers) the guard is inactive and the process keeps its handlers.  The first signal raises; later
+    ones, while the campaign shuts down, are recorded and ignored.
+    """
+    guard = InterruptGuard()
+    if threading.current_thread() is not threading.main_thread():
+        yield guard
+        return
+    names = [n for n in ("SIGINT", "SIGTERM") if hasattr(signal, n)]
+    previous = {}
+    try:
+        for n in names:
+            sig = getattr(signal, n)
+            previous[sig] = signal.signal(sig, guard._handler)
+        guard.active = True
+        yield guard
+    finally:
+        guard.closing()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler if handler is not None else signal.SIG_DFL)

@@ -14,7 +14,7 @@ import xarray as xr
 from scipy import stats
 
 from fsmctl import montecarlo as mc
-from fsmctl.scenario import ScenarioError
+from fsmctl.errors import InputError
 
 SHORT = {"t_final": 0.3, "chunk_size": 2, "output_interval": 0.05}
 
@@ -47,6 +47,26 @@ def test_attitudes_uniform_over_so3():
     ball = v / np.linalg.norm(v, axis=1, keepdims=True) * rng.uniform(0, 1, (20000, 1)) ** (1 / 3)
     wrong = 4 * np.arctan(np.linalg.norm(ball, axis=1))
     assert stats.kstest(wrong, lambda t: (t - np.sin(t)) / np.pi).pvalue < 1e-6
+
+
+@pytest.mark.parametrize("bound_deg", [30.0, 1e-3])
+def test_attitudes_restricted_to_a_principal_angle(bound_deg):
+    """attitude_bound_deg: the Haar measure conditioned on theta <= bound, CDF (theta - sin theta) / (b - sin b)."""
+    rng = np.random.default_rng(2)
+    sigma = mc.sample_attitudes_mrp(rng, 20000, bound_deg)
+    norm = np.linalg.norm(sigma, axis=1)
+    theta, b = 4 * np.arctan(norm), np.radians(bound_deg)
+    assert theta.max() <= b * (1 + 1e-12)
+    # the CDF of the truncated law, with its series for small angles (t - sin t loses every digit there)
+    cdf = np.vectorize(
+        lambda t: float(sum((-1) ** m * t ** (2 * m + 3) / math.factorial(2 * m + 3) for m in range(12)))
+    )
+    assert stats.kstest(theta, lambda t: cdf(t) / cdf(b)).pvalue > 1e-3
+    axis = sigma / norm[:, None]
+    assert stats.kstest(axis[:, 0], "uniform", args=(-1, 2)).pvalue > 1e-3
+    # 180 deg is the unrestricted law, drawn exactly as before the option existed
+    a, c = np.random.default_rng(5), np.random.default_rng(5)
+    assert np.array_equal(mc.sample_attitudes_mrp(a, 7), mc.sample_attitudes_mrp(c, 7, 180.0))
 
 
 def test_inertia_perturbation_spd_realizable_and_bounded():
@@ -85,6 +105,15 @@ def test_run_scenario_respects_bounds():
     assert again.agents == sc.agents and again.topology == sc.topology
 
 
+def test_run_scenario_attitude_bound():
+    s = mc.CampaignSettings(attitude_bound_deg=10.0)
+    base = mc._base_scenario(s)
+    for k in range(5):
+        sc = mc.sample_run_scenario(base, s, np.random.SeedSequence(k))
+        angles = 4 * np.degrees(np.arctan(np.linalg.norm([a.sigma0 for a in sc.agents], axis=1)))
+        assert angles.max() <= 10.0 + 1e-9
+
+
 # ----------------------------------------------------------------------------- campaigns
 
 
@@ -113,13 +142,27 @@ def test_resume_after_interruption(tmp_path):
     (out / "chunks" / "chunk_00002.nc").unlink()
     (out / "chunks" / "chunk_00001.nc").write_bytes(b"CDF\x01 truncated")
     (out / "montecarlo.nc").unlink()
-    with pytest.raises(ScenarioError, match="--resume"):
+    with pytest.raises(InputError, match="--resume"):
         mc.run_campaign(_settings(runs=6), out, workers=1, progress=False, figures=False)
-    with pytest.raises(ScenarioError, match="different settings"):
+    with pytest.raises(InputError, match="different settings"):
         mc.run_campaign(_settings(runs=6, seed=99), out, workers=1, resume=True, progress=False, figures=False)
     resumed = mc.run_campaign(_settings(runs=6), out, workers=1, resume=True, progress=False, figures=False)
     assert resumed.resumed_chunks == 1
     xr.testing.assert_identical(_physics(resumed.dataset), _physics(full.dataset))
+
+
+def test_case_defaults_to_the_first_and_resume_accepts_it_spelled_out(tmp_path):
+    """--case omitted = the scenario's first case; campaign.json names it, so --case 1 resumes the same campaign."""
+    assert mc.CampaignSettings().case is None
+    resolved, base = mc.campaign_base(_settings())
+    assert resolved.case == "1" and base.case == "1"
+    first = mc.run_campaign(_settings(runs=2), tmp_path / "o", workers=1, progress=False, figures=False)
+    assert first.settings.case == "1"
+    assert json.loads((tmp_path / "o" / "campaign.json").read_text())["case"] == "1"
+    again = mc.run_campaign(
+        _settings(runs=2, case="1"), tmp_path / "o", workers=1, resume=True, progress=False, figures=False
+    )
+    assert again.resumed_chunks == 1
 
 
 def failing_run(base, settings, index, seed):
@@ -173,11 +216,16 @@ def test_dask_local_cluster_matches_process_pool(tmp_path):
     distributed = pytest.importorskip("distributed")
     local = mc.run_campaign(_settings(), tmp_path / "local", workers=1, progress=False, figures=False)
     with distributed.LocalCluster(
-        n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None
+        n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None, protocol="tcp"
     ) as cluster:
         with distributed.Client(cluster) as client:
             res = mc.run_campaign(_settings(), tmp_path / "dask", dask=client, progress=False, figures=False)
+        # by address: the pre-flight handshake check accepts a real scheduler
+        by_address = mc.run_campaign(
+            _settings(), tmp_path / "addr", dask=cluster.scheduler_address, progress=False, figures=False
+        )
     xr.testing.assert_identical(_physics(res.dataset), _physics(local.dataset))
+    xr.testing.assert_identical(_physics(by_address.dataset), _physics(local.dataset))
 
 
 def test_cli_campaign_and_bad_input(tmp_path):

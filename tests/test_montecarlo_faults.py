@@ -1,0 +1,430 @@
+"""Monte Carlo campaigns under faults: signals, dead parents, non-Dask endpoints, unusable output folders.
+
+Also the campaign's inputs and outputs that the faults exposed: scenario files without ``[cases]``, every
+sampling range an option with its default, a link-weight default that keeps Theorem 1 satisfiable,
+"final" values taken at ``t_final``, strict JSON.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import json
+import math
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+import xarray as xr
+
+from fsmctl import montecarlo as mc
+from fsmctl.errors import EnvironmentProblem
+
+psutil = pytest.importorskip("psutil")
+
+CLI = [sys.executable, "-m", "fsmctl.cli", "montecarlo"]
+TINY = ["--runs", "1", "--t-final", "0.1", "--workers", "1", "--no-progress"]
+# chunks of 2 runs of the 100 s paper horizon (~0.5 s per run): long enough to signal mid-campaign
+
+
+def _long(runs: int) -> list[str]:
+    return ["--runs", str(runs), "--chunk-size", "2", "--t-final", "100", "--workers", "2", "--no-progress"]
+
+
+def _one_line(stderr: str) -> str:
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in stderr, stderr
+    return lines[0]
+
+
+def _chunk_files(out: Path) -> list[Path]:
+    return sorted((out / "chunks").glob("chunk_*.nc"))
+
+
+def _start_mid_campaign(out: Path, runs: int = 12) -> tuple[subprocess.Popen, list]:
+    """A running ``fsmctl montecarlo`` (own process group) with its first chunk written; its descendants."""
+    proc = subprocess.Popen(
+        [*CLI, *_long(runs), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    while not _chunk_files(out):
+        if proc.poll() is not None or time.monotonic() > deadline:
+            _kill_tree(proc, [])
+            pytest.fail(f"campaign ended or stalled before its first chunk: {proc.returncode} {proc.stderr.read()}")
+        time.sleep(0.05)
+    workers = psutil.Process(proc.pid).children(recursive=True)
+    assert len(workers) >= 2, workers  # two workers (and multiprocessing's resource tracker)
+    return proc, workers
+
+
+def _kill_tree(proc: subprocess.Popen, descendants: list) -> None:
+    with contextlib.suppress(Exception):
+        proc.kill()
+        proc.wait(5)
+    for p in descendants:
+        with contextlib.suppress(psutil.Error):
+            p.kill()
+
+
+def _gone_within(procs: list, seconds: float) -> list[int]:
+    _, alive = psutil.wait_procs(procs, timeout=seconds)
+    return [p.pid for p in alive]
+
+
+# ----------------------------------------------------------------------------- signals
+
+
+@pytest.mark.parametrize(
+    ("signame", "to_group", "exit_code", "runs", "resume"),
+    [
+        # `kill PID`: orderly shutdown, exit 128 + 15, then --resume completes the campaign
+        ("SIGTERM", False, 143, 12, True),
+        # Ctrl-C in a terminal reaches the whole process group; ~10 s of queued work must not be waited for
+        ("SIGINT", True, 130, 40, False),
+    ],
+    ids=["sigterm-then-resume", "ctrl-c-to-process-group"],
+)
+def test_signal_stops_workers_keeps_chunks(tmp_path, signame, to_group, exit_code, runs, resume):
+    out = tmp_path / "mc"
+    proc, workers = _start_mid_campaign(out, runs)
+    try:
+        sig = getattr(signal, signame)
+        if to_group:
+            os.killpg(proc.pid, sig)
+        else:
+            os.kill(proc.pid, sig)
+        t0 = time.monotonic()
+        _, err = proc.communicate(timeout=30)
+        assert time.monotonic() - t0 < 5, "the queued chunks were waited for instead of cancelled"
+        assert proc.returncode == exit_code, err
+        assert _gone_within(workers, 5) == [], "workers outlived the campaign"
+        line = _one_line(err)
+        assert signame in line and "kept" in line and "--resume" in line, line
+        kept = {p.name: p.read_bytes() for p in _chunk_files(out)}
+        assert 1 <= len(kept) < runs // 2 and not (out / mc.COMPLETE_MARKER).exists()
+    finally:
+        _kill_tree(proc, workers)
+    if not resume:
+        return
+    done = subprocess.run(
+        [*CLI, *_long(runs), "--out", str(out), "--resume"], capture_output=True, text=True, timeout=240
+    )
+    assert done.returncode == 0, done.stderr
+    assert f"({len(kept)} chunks resumed)" in done.stdout
+    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+        assert ds.run.values.tolist() == list(range(runs))  # every run exactly once
+        assert set(ds.status.values.tolist()) == {"ok"}
+    for name, data in kept.items():  # the kept chunks were not run again
+        assert (out / "chunks" / name).read_bytes() == data
+    assert json.loads((out / mc.COMPLETE_MARKER).read_text())["runs"] == runs
+
+
+def test_sigkill_of_the_campaign_ends_its_workers(tmp_path):
+    proc, workers = _start_mid_campaign(tmp_path / "mc")
+    try:
+        proc.kill()  # SIGKILL: no handler runs in the parent
+        proc.wait(10)
+        assert _gone_within(workers, 5) == [], "workers outlived a killed parent"
+    finally:
+        _kill_tree(proc, workers)
+
+
+_ORPHAN_SCRIPT = """
+import multiprocessing, os, sys, time
+from fsmctl import parallel
+if sys.argv[1] == "watchdog":
+    parallel._set_parent_death_signal = lambda signum: False  # only the portable fallback is left
+# pdeathsig: a watchdog that would wake after an hour, so the kernel's signal alone must end the child
+period = 3600.0 if sys.argv[1] == "pdeathsig" else parallel.WATCHDOG_PERIOD_S
+parent = os.getpid()
+ctx = multiprocessing.get_context("fork")
+ready = ctx.Event()
+def child():
+    parallel.worker_lifeline(parent, period)
+    ready.set()
+    time.sleep(120)
+p = ctx.Process(target=child)
+p.start()
+print(p.pid if ready.wait(30) else "the child's initializer failed", flush=True)
+time.sleep(120)
+"""
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+@pytest.mark.parametrize("mechanism", ["pdeathsig", "watchdog"])
+def test_worker_lifeline_ends_an_orphaned_worker(mechanism):
+    """A worker initialized by worker_lifeline dies when its parent is SIGKILLed: by prctl alone, or by the watchdog alone."""
+    if mechanism == "pdeathsig" and not sys.platform.startswith("linux"):
+        pytest.skip("PR_SET_PDEATHSIG is Linux-only")
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _ORPHAN_SCRIPT, mechanism], stdout=subprocess.PIPE, text=True, start_new_session=True
+    )
+    child = None
+    try:
+        line = parent.stdout.readline().strip()
+        assert line.isdigit(), line
+        child = psutil.Process(int(line))  # its initializer has run
+        assert child.status() != psutil.STATUS_ZOMBIE
+        parent.kill()
+        parent.wait(10)
+        assert _gone_within([child], 3) == []
+    finally:
+        _kill_tree(parent, [child] if child is not None else [])
+
+
+# ----------------------------------------------------------------------------- Dask endpoints
+
+
+class _FakeEndpoint:
+    """A TCP server on 127.0.0.1 that answers every connection with ``reply`` (None: says nothing, b"": closes)."""
+
+    def __init__(self, reply: bytes | None, lifetime_s: float = 40.0):
+        self.reply = reply
+        self.sock = socket.create_server(("127.0.0.1", 0))
+        self.sock.settimeout(0.1)
+        self.port = self.sock.getsockname()[1]
+        self.deadline = time.monotonic() + lifetime_s
+        self.stop = threading.Event()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+
+    def _serve(self) -> None:
+        conns = []
+        try:
+            while not self.stop.is_set() and time.monotonic() < self.deadline:  # bounded
+                try:
+                    conn, _ = self.sock.accept()
+                except TimeoutError:
+                    continue
+                if self.reply == b"":
+                    conn.close()
+                    continue
+                conns.append(conn)
+                if self.reply:
+                    with contextlib.suppress(OSError):
+                        conn.sendall(self.reply)
+        finally:
+            for conn in conns:
+                conn.close()
+            self.sock.close()
+
+    def __enter__(self) -> _FakeEndpoint:
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.stop.set()
+        self.thread.join(5)
+
+
+@pytest.mark.parametrize(
+    "reply",
+    [
+        b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\nConnection: close\r\n\r\n",  # exabytes in Dask's framing
+        b"\x00\x00\x00\x00\x10\x00\x00\x00" + b"\x01" * 64,  # a 64 GiB length prefix, then nothing more
+        None,  # accepts and says nothing
+        b"",  # accepts and closes
+    ],
+    ids=["http", "huge-length", "silent", "closes"],
+)
+def test_non_dask_endpoint_is_one_line_exit_2_in_bounded_time(tmp_path, capsys, reply):
+    from fsmctl.cli import main
+
+    out = tmp_path / "out"
+    with _FakeEndpoint(reply) as server:
+        t0 = time.monotonic()
+        code = main(
+            ["montecarlo", *TINY, "--out", str(out), "--dask", f"tcp://127.0.0.1:{server.port}", "--dask-timeout", "2"]
+        )
+        elapsed = time.monotonic() - t0
+    err = capsys.readouterr().err
+    assert code == 2 and elapsed < 15, (code, elapsed, err)
+    assert "not a Dask scheduler" in _one_line(err)
+    assert not out.exists()  # nothing was written, so no folder either
+
+
+# ----------------------------------------------------------------------------- output folders
+
+
+def _read_only_place(tmp_path: Path) -> Path:
+    if os.geteuid() == 0:  # root ignores permission bits; sysfs refuses new folders even to root
+        return Path("/sys/fsmctl-montecarlo-test/out")
+    ro = tmp_path / "read-only"
+    ro.mkdir()
+    ro.chmod(0o555)
+    return ro / "out"
+
+
+@pytest.mark.parametrize("where", ["inside-dev-full", "dev-full", "read-only"])
+def test_unusable_output_folder_is_environment_problem(tmp_path, capsys, where):
+    from fsmctl.cli import main
+
+    out = {
+        "inside-dev-full": Path("/dev/full/x"),
+        "dev-full": Path("/dev/full"),
+        "read-only": _read_only_place(tmp_path),
+    }[where]
+    settings = mc.CampaignSettings(runs=1, t_final=0.1)
+    with pytest.raises(EnvironmentProblem, match="cannot create the output folder"):
+        mc.run_campaign(settings, out, workers=1, progress=False, figures=False)
+    code = main(["montecarlo", *TINY, "--out", str(out)])
+    assert code == 2 and str(out) in _one_line(capsys.readouterr().err)
+
+
+@pytest.mark.skipif(sys.platform == "win32", reason="RLIMIT_FSIZE")
+@pytest.mark.parametrize("max_file_bytes", [300, 3000], ids=["campaign.json-does-not-fit", "first-chunk-does-not-fit"])
+def test_full_device_is_one_line_and_leaves_no_folder(tmp_path, max_file_bytes):
+    """Writes beyond RLIMIT_FSIZE fail like a full device (Python ignores SIGXFSZ, so write() gets EFBIG)."""
+    import resource
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (max_file_bytes, max_file_bytes))
+
+    out = tmp_path / "new" / "campaign"
+    proc = subprocess.run(
+        [*CLI, *TINY, "--out", str(out)], capture_output=True, text=True, timeout=120, preexec_fn=limit
+    )
+    assert not (tmp_path / "new").exists()  # the folders it created are gone again
+    assert proc.returncode == 2
+    assert "cannot write" in _one_line(proc.stderr)
+
+
+# ----------------------------------------------------------------------------- inputs and outputs
+
+
+def test_scenario_without_cases_runs_and_settings_are_printed_and_stored(tmp_path):
+    text = (Path(mc.__file__).parent / "scenarios" / "paper.toml").read_text()
+    no_cases = tmp_path / "single.toml"
+    no_cases.write_text(text[: text.index("[cases.")])
+    out = tmp_path / "out"
+    proc = subprocess.run(
+        [*CLI, "--scenario", str(no_cases), "--runs", "2", "--t-final", "0.2", "--workers", "1", "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert proc.returncode == 0, proc.stderr
+    head = proc.stdout.splitlines()
+    assert head[0].startswith("montecarlo: paper: 6 agents")  # no case in the label
+    for option in ("--attitude-bound-deg", "--rate-bound", "--inertia-bound", "--coupling-high", "--link-dropout"):
+        assert any(option in line for line in head[:10]), option
+    assert "2 ok, 0 failed" in proc.stdout
+    summary = json.loads((out / "summary.json").read_text())
+    stored = json.loads((out / "campaign.json").read_text())
+    assert summary["settings"] == stored and stored["case"] is None and stored["coupling_high"] == 1.0
+    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+        assert json.loads(ds.attrs["settings"]) == stored
+    assert (out / mc.COMPLETE_MARKER).is_file()
+
+
+def test_every_sampling_range_is_an_option_with_its_default(capsys):
+    from fsmctl.cli import build_parser
+
+    expected = {  # field -> default, written out here independently of the module's table
+        "attitude_bound_deg": 180.0,
+        "rate_bound": 0.5,
+        "inertia_bound": 0.3,
+        "disturbance_scale": 1.0,
+        "link_dropout": 0.2,
+        "coupling_low": 0.5,
+        "coupling_high": 1.0,
+    }
+    d = mc.CampaignSettings()
+    assert {name for name, _ in mc.SAMPLING_RANGES} == set(expected)
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["montecarlo", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    for name, default in expected.items():
+        flag = "--" + name.replace("_", "-")
+        assert getattr(d, name) == default
+        after = text.split(f"{flag} {name.upper()} ", 1)[1]
+        assert after.split(" --", 1)[0].endswith(f"(default: {default})"), (flag, after[:300])
+    assert "(default: its first case" in text and "130 (SIGINT) or 143 (SIGTERM)" in text
+
+
+def test_default_link_weights_keep_theorem1(paper_case1):
+    """k^j factors up to 1 keep k^i >= k^j (eq 27) on every link; the former 1.7 broke it in most runs."""
+    from fsmctl.proofs.theorem1 import analyze_topology
+
+    d = mc.CampaignSettings()
+    assert d.coupling_high <= 1.0 < mc.theorem1_factor_limit(paper_case1.topology)
+
+    def holds(settings: mc.CampaignSettings, k: int) -> tuple[bool, bool]:
+        run = mc.sample_run_scenario(paper_case1, settings, np.random.SeedSequence(11).spawn(k + 1)[k])
+        per_link = all(link.k_i >= link.k_j.max for link in run.topology.links)
+        return per_link, analyze_topology(run.topology, 100.0).holds
+
+    default = [holds(d, k) for k in range(16)]
+    assert all(p for p, _ in default) and sum(h for _, h in default) >= 14
+    wide = [holds(dataclasses.replace(d, coupling_high=1.7), k) for k in range(16)]
+    assert sum(h for _, h in wide) <= 8  # negative control: the old range
+
+
+def test_final_values_are_at_t_final(tmp_path):
+    """The campaign's own output grid (0.1 s requested) is lowered to divide t_final = 0.25 s."""
+    from fsmctl.simulator import simulate
+
+    s = mc.CampaignSettings(runs=1, seed=3, t_final=0.25, output_interval=0.1)
+    _, base = mc.campaign_base(s)
+    assert math.isclose(base.simulation.output_interval, 0.05)
+    res = mc.run_campaign(s, tmp_path / "o", workers=1, progress=False, figures=False)
+    assert res.dataset.status.values.tolist() == ["ok"]
+    fine = simulate(
+        mc.sample_run_scenario(base, s, np.random.SeedSequence(3).spawn(1)[0]).replace(
+            simulation={"output_interval": 0.001}
+        ),
+        progress=False,
+    )
+    assert math.isclose(fine.time[-1], 0.25)
+    assert float(res.dataset.aaem_final_deg[0]) == pytest.approx(float(fine.aaem_deg[-1]), rel=1e-9)
+
+
+def test_result_not_ending_at_t_final_is_failed_not_ok(tmp_path, monkeypatch):
+    import fsmctl.simulator as simulator
+
+    real = simulator.simulate
+
+    def early(scenario, **kw):  # a grid that stops one sample short of t_final
+        r = real(scenario, **kw)
+        return dataclasses.replace(r, time=r.time - scenario.simulation.output_interval)
+
+    monkeypatch.setattr(simulator, "simulate", early)
+    res = mc.run_campaign(
+        mc.CampaignSettings(runs=1, t_final=0.2), tmp_path / "o", workers=1, progress=False, figures=False
+    )
+    assert res.dataset.status.values.tolist() == ["failed"]
+    assert "t_final" in str(res.dataset.message.values[0])
+
+
+def _always_fails(base, settings, index, seed):
+    raise RuntimeError("injected")
+
+
+def test_json_outputs_are_strict(tmp_path):
+    """No run ok: the fractions are NaN in memory and null in summary.json (never the non-JSON token NaN)."""
+
+    def strict(text: str):
+        return json.loads(text, parse_constant=lambda token: pytest.fail(f"non-strict JSON token {token}"))
+
+    res = mc.run_campaign(
+        mc.CampaignSettings(runs=2, t_final=0.1, torque_limit=math.inf),
+        tmp_path / "o",
+        workers=1,
+        progress=False,
+        run_fn=_always_fails,
+        figures=False,
+    )
+    assert math.isnan(res.summary["converged_fraction"])
+    summary = strict((tmp_path / "o" / "summary.json").read_text())
+    assert summary["converged_fraction"] is None and summary["ok"] == 0
+    assert strict((tmp_path / "o" / "campaign.json").read_text())["torque_limit"] == "inf"
