@@ -38,7 +38,7 @@ import numpy as np
 
 from .errors import InputError
 from .outputs import atomic_path, environment_problem, write_json, write_text
-from .parallel import process_pool_context, single_threaded_workers
+from .parallel import single_threaded_workers, stop_pool, worker_pool
 
 __all__ = [
     "REPRODUCED",
@@ -1078,7 +1078,7 @@ def reproduce(
         if jobs > 1:
             # one BLAS thread per worker; the environment is restored once the pool has shut down
             worker_env.enter_context(single_threaded_workers())
-            executor = cf.ProcessPoolExecutor(max_workers=jobs, mp_context=process_pool_context())
+            executor = worker_env.enter_context(worker_pool(jobs))  # workers die with this process
         if executor is None:
             for spec in simulated:
                 records[spec.key] = execute_run(source, spec, fast, str(out))
@@ -1118,10 +1118,12 @@ def reproduce(
                 for fut in cf.as_completed([executor.submit(_render_overlay, *task) for task in tasks]):
                     files += fut.result()
                     bar.update(1)
+    except BaseException:
+        if executor is not None:
+            stop_pool(executor)  # an error or Ctrl-C: cancel the queue and stop the workers now
+        raise
     finally:
         bar.close()
-        if executor is not None:
-            executor.shutdown(cancel_futures=True)
         worker_env.close()
     records = {s.key: records[s.key] for s in plan}
     for rec in records.values():

@@ -21,6 +21,7 @@
 # topology feasible.
 
 # %%
+# %matplotlib inline
 import os
 
 import numpy as np

@@ -22,6 +22,7 @@
 # those of the paper's runs).  Nothing here implements the model: everything comes from `fsmctl`.
 
 # %%
+# %matplotlib inline
 import os
 import tempfile
 from pathlib import Path

@@ -23,6 +23,7 @@
 # limit, the inertia uncertainty/disturbance, and the coupling (`fsmctl compare-surfaces`).
 
 # %%
+# %matplotlib inline
 import os
 
 from IPython.display import Markdown, display

@@ -24,6 +24,7 @@
 # so every cell would be "not settled".  Small grids and a 10 s horizon when `FSMCTL_FAST=1`.
 
 # %%
+# %matplotlib inline
 import dataclasses
 import math
 import os

@@ -67,6 +67,8 @@ Checked and found consistent: eq 5, eq 10 (Lemma 1), eq 12, eq 15 bound, eq 20 f
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 
 __all__ = [
@@ -76,6 +78,7 @@ __all__ = [
     "control_law_eqs_16_19",
     "dcm_to_mrp",
     "error_rates",
+    "k_j_exact",
     "lagrange_M_C_E",
     "mrp_G",
     "mrp_G_dot",
@@ -415,6 +418,18 @@ _PHASES = np.array(
 def _k_base(t: float) -> float:
     """Table 2 base switching weight k(t) = 5 if mod(t, 8) <= 6.5 else 0."""
     return 5.0 if float(np.mod(t, 8.0)) <= 6.5 else 0.0
+
+
+def k_j_exact(i: int, j: int, t: float, on: float = 5.0) -> float:
+    """Table 2's k^j_ij(t) = k(t + phi_ij), k(t) = on if mod(t, 8) <= 6.5 else 0, in exact rational arithmetic at
+    the double ``t`` and the printed decimal phase (1-based agents; 0 without a link).  Unlike ``k_j`` of
+    :func:`paper_scenario` (float ``np.mod``), it is right within an ulp of a switching instant."""
+    if not (1 <= i <= 6 and 1 <= j <= 6):
+        raise ValueError("agent indices are 1-based, 1..6")
+    if i == j:
+        return 0.0
+    tau = Fraction(float(t)) + Fraction(repr(float(_PHASES[i - 1, j - 1])))
+    return float(on) if tau % 8 <= Fraction(13, 2) else 0.0
 
 
 def paper_scenario() -> dict:

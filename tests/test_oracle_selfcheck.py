@@ -469,3 +469,18 @@ def test_paper_scenario_data():
     for ki, kj in sc["case3_weights"]:
         eta = ki / 2
         assert ki > eta and 4 * eta * (ki - eta) >= kj**2
+
+
+def test_table2_exact_weights():
+    """``k_j_exact`` is Table 2's rule in exact arithmetic: the float ``k_j`` away from the switches, the paper's
+    ``<=`` at an exact instant, and the side of the switch the double really lies on next to one."""
+    sc = o.paper_scenario()
+    for t in np.arange(0.0, 16.0, 0.05) + 0.0123:  # 0.0123 s away from every switch (phases are multiples of 0.1)
+        for i in range(1, 7):
+            for j in range(1, 7):
+                assert o.k_j_exact(i, j, t) == sc["k_j"](i, j, t)
+    assert o.k_j_exact(1, 2, 6.5) == 5.0 and o.k_j_exact(1, 2, 8.0) == 5.0  # phi_12 = 0: mod 6.5 and 0 are on
+    assert o.k_j_exact(2, 1, 5.0) == 5.0  # phi_21 = 1.5: exactly 6.5
+    assert o.k_j_exact(1, 4, 3.7) == 0.0  # phi_14 = 2.8: the double 3.7 is 1.8e-16 above 3.7, so mod > 6.5
+    assert sc["k_j"](1, 4, 3.7) == 5.0  # (the float rule rounds 3.7 + 2.8 to 6.5 and says on)
+    assert o.k_j_exact(3, 3, 1.0) == 0.0 and o.k_j_exact(1, 2, 1.0, on=0.6) == 0.6

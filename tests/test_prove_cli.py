@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
+import shutil
 import subprocess
 import sys
+import sysconfig
 from pathlib import Path
 
 import pytest
@@ -82,7 +85,7 @@ def test_case_option_on_a_user_file(capsys):
     [
         (["no-such-claim"], "unknown claim id(s) no-such-claim"),
         (["--scenario", str(DATA / "prove_bad_syntax.toml")], "not valid TOML"),
-        (["--scenario", str(DATA / "prove_bad_alpha.toml")], "0.5 < alpha < 1"),
+        (["--scenario", str(DATA / "prove_bad_alpha.toml")], "alpha: must be > 0.5, got 0.4"),  # 0.5 < alpha < 1
         (["--scenario", str(DATA / "prove_negative_delta.toml")], "delta: every component must be > 0"),
         (["--scenario", str(DATA / "missing.toml")], "cannot read scenario file"),
         (["--case", "7"], "no case '7'"),
@@ -99,12 +102,38 @@ def test_input_errors_exit_2_with_one_line(capsys, argv, message):
     assert out == ""
 
 
-def test_console_script_exit_codes():
-    """The installed entry point: no traceback, exit 2 on an unknown claim."""
-    proc = subprocess.run(
-        [sys.executable, "-c", "import sys; from fsmctl.cli import main; sys.exit(main())", "prove", "bogus"],
-        capture_output=True,
-        text=True,
-        timeout=120,
-    )
-    assert proc.returncode == 2 and "Traceback" not in proc.stderr and "unknown claim" in proc.stderr
+def _console_script() -> str | None:
+    """The installed ``fsmctl`` script: the one next to this interpreter first (a PATH shim such as pyenv's may
+    resolve to another Python), else whatever ``fsmctl`` is on PATH."""
+    here = Path(sysconfig.get_path("scripts")) / ("fsmctl.exe" if os.name == "nt" else "fsmctl")
+    if here.is_file() and os.access(here, os.X_OK):
+        return str(here)
+    beside = Path(sys.executable).with_name(here.name)
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return str(beside)
+    return shutil.which("fsmctl")
+
+
+@pytest.mark.parametrize(
+    ("argv", "code", "stdout_has", "stderr_has"),
+    [
+        (["prove", "lemma2-sqrt-sum"], 0, "every claim as expected", None),
+        (["prove", "theorem1-gains", "--scenario", str(DATA / "prove_theorem1_violation.toml")], 1,
+         "k^i_12 = 2 < max_t k^j_12(t) = 5", None),
+        (["prove", "bogus"], 2, None, "unknown claim id(s) bogus"),
+    ],
+)  # fmt: skip
+def test_installed_console_script_exit_codes(argv, code, stdout_has, stderr_has, tmp_path):
+    """The ``fsmctl`` entry point pip installed, run as a program: its exit codes 0/1/2 and one-line errors."""
+    script = _console_script()
+    if script is None:
+        pytest.skip("the fsmctl console script is not installed (pip install -e .)")
+    proc = subprocess.run([script, *argv], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert proc.returncode == code, (script, proc.returncode, proc.stdout[-2000:], proc.stderr[-2000:])
+    assert "Traceback" not in proc.stderr
+    if stdout_has is not None:
+        assert stdout_has in proc.stdout
+    if stderr_has is not None:
+        assert proc.stdout == ""
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and stderr_has in lines[0], proc.stderr

@@ -2,15 +2,46 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from fractions import Fraction
 
 import numpy as np
+import oracle_numpy as oracle
 import pytest
 
 from fsmctl import paper_scenario
 from fsmctl.proofs.theorem1 import analyze_topology, configurations, eta_interval
 from fsmctl.topology import Link, Schedule, Topology, all_to_all
+
+
+def _exact_k_j(topology: Topology, t: float) -> np.ndarray:
+    """K_j(t) from each link's schedule data by the left-closed rule, in exact arithmetic (independent of
+    ``Topology.k_j_matrix``; used only at segment midpoints, away from any switch)."""
+    K = np.zeros((topology.n_agents, topology.n_agents))
+    for link in topology.links:
+        s = link.k_j
+        tau = Fraction(t) + Fraction(link.phase)
+        if s.period is not None:
+            tau %= Fraction(s.period)
+        value = s.values[0]
+        for b, v in zip(s.breakpoints, s.values, strict=True):
+            if Fraction(b) <= tau:
+                value = v
+        K[link.receiver, link.sender] = value
+    return K
+
+
+def _table2_k_j(t: float) -> np.ndarray:
+    """Table 2 (Case 1): k^j_ij(t) = 5 if mod(t + phi_ij, 8) <= 6.5 else 0, exact (the NumPy oracle)."""
+    return np.array([[oracle.k_j_exact(i, j, t) for j in range(1, 7)] for i in range(1, 7)])
+
+
+def _table2_segments() -> list[tuple[Fraction, Fraction, np.ndarray]]:
+    """The segments of one 8 s period between Table 2's exact switching instants, with K_j on each."""
+    phases = [Fraction(repr(float(p))) for p in oracle.paper_scenario()["phases"].ravel() if np.isfinite(p)]
+    cuts = {Fraction(0), Fraction(8)} | {(b - p) % 8 for p in phases for b in (Fraction(0), Fraction(13, 2))}
+    return [(a, b, _table2_k_j(float((a + b) / 2))) for a, b in itertools.pairwise(sorted(cuts))]
 
 
 def _block_psd(ki: float, kj: float, eta: float) -> bool:
@@ -39,23 +70,33 @@ def test_paper_case1_every_configuration_and_certified_eta():
     sc = paper_scenario("1")
     an = analyze_topology(sc.topology, sc.simulation.t_final)
     assert "common period [0, 8)" in an.window
-    # 30 links, each switching twice per period at its own phase: many distinct configurations
-    assert len(an.configurations) > 10
+    # 30 links, each switching twice per period at its own phase: as many distinct K_j as the oracle's Table 2 has
+    assert len(an.configurations) == len({K.tobytes() for _, _, K in _table2_segments()}) == 44
     assert an.holds and an.symmetric_constant and an.printed_strict and an.exact_holds
     assert len(an.pairs) == 15
     for p in an.pairs:
         assert p.interval == pytest.approx(((8 - math.sqrt(39)) / 2, (8 + math.sqrt(39)) / 2))
         assert p.eta == Fraction(4)
-    # L = 40 I - K_j(t): Gershgorin gives >= 15, attained when every k^j is on
+    # L = 40 I - K_j(t): Gershgorin gives >= 15, attained when every k^j is on (at t = 0: every phi_ij < 6.5),
+    # where sym L = 45 I - 5 ones(6, 6) has eigenvalues 45 and 45 - 30 = 15
     assert an.lambda_min == pytest.approx(15.0)
 
 
 def test_configurations_cover_every_switch_of_table2():
+    """Every segment of Table 2's period (exact switching instants) lies in one configuration with Table 2's K_j
+    there, every configuration's K_j is Table 2's on each of its segments (evaluated exactly at the segment's
+    midpoint: fsmctl's float switching times may leave slivers of 1 ulp, which must still be right), and the
+    segments tile [0, 8)."""
     sc = paper_scenario("1")
     confs, _ = configurations(sc.topology, sc.simulation.t_final)
-    seen = {c.k_j.tobytes() for c in confs}
-    for t in np.linspace(0.0, 40.0, 401):
-        assert sc.topology.k_j_matrix(t).tobytes() in seen
+    for a, b, K in _table2_segments():
+        mid = float((a + b) / 2)
+        holding = [c for c in confs if any(lo <= mid < hi for lo, hi in c.segments)]
+        assert len(holding) == 1 and np.array_equal(holding[0].k_j, K), (a, b)
+    for c in confs:
+        for lo, hi in c.segments:
+            assert np.array_equal(c.k_j, _table2_k_j(0.5 * (lo + hi))), (lo, hi)
+    assert sum(hi - lo for c in confs for lo, hi in c.segments) == pytest.approx(8.0, abs=1e-12)
 
 
 def test_paper_case2_outside_printed_theorem_but_corrected_condition_holds():
@@ -117,20 +158,30 @@ def test_non_periodic_schedules_use_the_horizon():
 
 
 def test_batched_configurations_and_lambda_min_equal_the_per_segment_computation():
-    """K_j at each segment, and min_t lambda_min(sym L(t)) (eqs 25-27), as one matrix at a time would give them."""
-    import itertools
-
+    """Random Monte Carlo topologies (period 8, random phases and weights): every segment between the exact
+    switching instants (from the links' data) lies in one configuration with the exactly evaluated K_j there, and
+    min_t lambda_min(sym L(t)) (eqs 25-27) is the minimum over those matrices, computed here one at a time."""
     from fsmctl import montecarlo as mc
 
     sc = paper_scenario("1")
     for seed in range(3):
         topo = mc._random_topology(np.random.default_rng(seed), sc.topology, mc.CampaignSettings())
+        assert {link.k_j.period for link in topo.links} == {8.0}
         confs, _ = configurations(topo, sc.simulation.t_final)
-        where = {seg: c for c in confs for seg in c.segments}
-        for a, b in itertools.pairwise(np.unique(np.concatenate(([0.0], topo.switching_times(0.0, 8.0), [8.0])))):
-            assert np.array_equal(where[(float(a), float(b))].k_j, topo.k_j_matrix(0.5 * (a + b)))
-        Ki = topo.k_i_matrix()
-        lam = [float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]) for L in (np.diag(Ki.sum(axis=1)) - c.k_j for c in confs)]
+        cuts = sorted({Fraction(0), Fraction(8)} | {(Fraction(b) - Fraction(link.phase)) % 8
+                                                     for link in topo.links for b in link.k_j.breakpoints})  # fmt: skip
+        Ki = np.zeros((6, 6))
+        for link in topo.links:
+            Ki[link.receiver, link.sender] = link.k_i
+        lam = []
+        for a, b in itertools.pairwise(cuts):
+            mid = float((a + b) / 2)
+            K = _exact_k_j(topo, mid)
+            holding = [c for c in confs if any(lo <= mid < hi for lo, hi in c.segments)]
+            assert len(holding) == 1 and np.array_equal(holding[0].k_j, K), (seed, mid)
+            L = np.diag(Ki.sum(axis=1)) - K
+            lam.append(float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]))
         an = analyze_topology(topo, sc.simulation.t_final)
-        assert an.lambda_min == min(lam)
-        assert an.lambda_min_time == confs[lam.index(min(lam))].t
+        assert an.lambda_min == pytest.approx(min(lam), rel=1e-12, abs=1e-12)
+        L = np.diag(Ki.sum(axis=1)) - _exact_k_j(topo, an.lambda_min_time)
+        assert float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]) == pytest.approx(min(lam), rel=1e-12, abs=1e-12)
