@@ -1404,7 +1404,19 @@ def run(args: argparse.Namespace) -> int:
 
     if args.jobs < 1:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
-    rep = reproduce(
+    from .outputs import output_folder
+
+    with output_folder(args.out):  # a run that fails before writing anything leaves no empty folder
+        rep = _reproduce_for_cli(args)
+    print()
+    print(format_claims(rep))
+    print()
+    print(f"report: {rep.out_dir / 'report.md'} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s)")
+    return 0
+
+
+def _reproduce_for_cli(args: argparse.Namespace) -> Reproduction:
+    return reproduce(
         args.scenario,
         args.out,
         fast=args.fast,
@@ -1413,11 +1425,6 @@ def run(args: argparse.Namespace) -> int:
         figures=not args.no_figures,
         log=print,
     )
-    print()
-    print(format_claims(rep))
-    print()
-    print(f"report: {rep.out_dir / 'report.md'} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s)")
-    return 0
 
 
 def format_claims(rep: Reproduction, width: int = 110) -> str:

@@ -625,10 +625,17 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 def run(args: argparse.Namespace) -> int:
     """Run ``fsmctl compare-surfaces``: print the table, write CSV/JSON/figures; 0 on success."""
+    from .outputs import output_folder
     from .scenario import load_scenario
-    from .theorem3 import plot_settling_time_against_initial_error, write_scalar_study_csv
 
     scenario = load_scenario(args.scenario, case=args.case)
+    with output_folder(args.out):  # checked before the runs; removed again if nothing gets written
+        return _compare_for_cli(args, scenario)
+
+
+def _compare_for_cli(args: argparse.Namespace, scenario: Scenario) -> int:
+    from .theorem3 import plot_settling_time_against_initial_error, write_scalar_study_csv
+
     comp = compare_surfaces(
         scenario,
         fast=args.fast,
