@@ -50,7 +50,7 @@ import numpy as np
 
 from .errors import InputError
 from .generated_code import casadi_function
-from .scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid
+from .scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid, check_inertia
 from .topology import Schedule, schedule_weight
 
 __all__ = [
@@ -160,14 +160,7 @@ def _scalar(value: Any, where: str, *, minimum: float | None = None, strict: boo
 def _inertia(value: Any, where: str) -> np.ndarray:
     """A finite, symmetric positive-definite 3x3 matrix (read-only)."""
     a = _numbers(value, (3, 3), "a 3x3 matrix of real numbers", where)
-    scale = max(1.0, float(np.max(np.abs(a))))
-    asym = np.abs(a - a.T)
-    if asym.max() > 1e-9 * scale:
-        i, j = np.unravel_index(np.argmax(asym), a.shape)
-        raise ScenarioError(f"{where}: not symmetric (element [{i}, {j}] is {a[i, j]}, [{j}, {i}] is {a[j, i]})")
-    eig = np.linalg.eigvalsh(a)
-    if eig[0] <= 0:
-        raise ScenarioError(f"{where}: not positive definite (eigenvalues {np.round(eig, 6).tolist()})")
+    check_inertia(a, where, physical=False)  # the scenario's SPD rule, written once
     return a
 
 

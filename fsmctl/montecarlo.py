@@ -77,6 +77,7 @@ import numpy as np
 
 from .cli_types import finite_or_inf_float, nonnegative_int, positive_float, positive_int
 from .errors import EnvironmentProblem, InputError
+from .outputs import atomic_path, jsonable, temporary_files, write_json
 from .parallel import CampaignInterrupted, interrupt_guard, single_threaded_workers, worker_pool
 from .scenario import Agent, Scenario, Sinusoid, load_scenario
 from .topology import Link, Topology
@@ -545,69 +546,15 @@ def _run_chunk(
 # ----------------------------------------------------------------------------- files
 
 
-def _jsonable(obj: Any) -> Any:
-    """``obj`` for strict JSON: NaN -> None, +-inf -> "inf"/"-inf", NumPy scalars/arrays -> Python, Path -> str."""
-    if isinstance(obj, dict):
-        return {str(k): _jsonable(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_jsonable(v) for v in obj]
-    if isinstance(obj, np.ndarray):
-        return _jsonable(obj.tolist())
-    if isinstance(obj, (bool, np.bool_)):
-        return bool(obj)
-    if isinstance(obj, (int, np.integer)):
-        return int(obj)
-    if isinstance(obj, (float, np.floating)):
-        x = float(obj)
-        if math.isnan(x):
-            return None
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return x
-    if isinstance(obj, Path):
-        return str(obj)
-    return obj
-
-
-def _json_text(obj: Any) -> str:
-    return json.dumps(_jsonable(obj), indent=2, allow_nan=False) + "\n"
-
-
 def _environment_problem(what: str, exc: OSError) -> EnvironmentProblem:
     if isinstance(exc, EnvironmentProblem):
         return exc
     return EnvironmentProblem(exc.errno or errno.EIO, f"{what}: {exc.strerror or exc}")
 
 
-def _write_atomic(path: Path, write: Callable[[Path], None]) -> None:
-    """``write(tmp)`` to a hidden temporary file next to ``path``, flush it to disk, rename it to ``path``.
-
-    A reader (or a resumed campaign) sees the old file or the complete new one, never a partial file.
-    An ``OSError`` (read-only folder, full device) becomes :class:`~fsmctl.errors.EnvironmentProblem`.
-    """
-    tmp = path.with_name(f".{path.name}.tmp")
-    try:
-        write(tmp)
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    except BaseException as exc:
-        with contextlib.suppress(OSError):
-            tmp.unlink()
-        if isinstance(exc, OSError):
-            raise _environment_problem(f"cannot write {path}", exc) from exc
-        raise
-
-
-def _write_text(path: Path, text: str) -> None:
-    _write_atomic(path, lambda tmp: tmp.write_text(text, encoding="utf-8"))
-
-
 def _write_netcdf(ds, path: Path) -> None:
-    _write_atomic(path, lambda tmp: ds.to_netcdf(tmp, engine="scipy"))
+    with atomic_path(path) as tmp:
+        ds.to_netcdf(tmp, engine="scipy")
 
 
 def _chunk_path(out: Path, c: int) -> Path:
@@ -668,7 +615,7 @@ class _OutputFolder:
                 exc.errno or errno.EIO, f"--out {out}: cannot create the output folder ({exc.strerror or exc})"
             ) from None
         meta = out / "campaign.json"
-        ident = _jsonable(settings.identity())
+        ident = jsonable(settings.identity())
         if meta.is_file():
             try:
                 old = json.loads(meta.read_text(encoding="utf-8"))
@@ -690,7 +637,7 @@ class _OutputFolder:
         except OSError as exc:
             raise _environment_problem(f"cannot remove {marker}", exc) from exc
         try:
-            _write_text(meta, _json_text(ident))
+            write_json(meta, ident)
         except BaseException:
             self.discard_if_empty()
             raise
@@ -708,7 +655,7 @@ class _OutputFolder:
             return kept
         for folder in (self.chunks, self.out):
             with contextlib.suppress(OSError):
-                for tmp in folder.glob(".*.tmp"):
+                for tmp in temporary_files(folder):
                     tmp.unlink()
         if self._created_meta:
             with contextlib.suppress(OSError):
@@ -1099,7 +1046,7 @@ def finish_campaign(
     ds = xr.concat(parts, dim="run")
     for var in ds.variables.values():
         var.encoding = {}  # string widths differ between chunks
-    ident = _jsonable(settings.identity())
+    ident = jsonable(settings.identity())
     ds.attrs.update(
         {
             "title": f"fsmctl Monte Carlo campaign: {base.label}, {settings.runs} runs, seed {settings.seed}",
@@ -1120,8 +1067,8 @@ def finish_campaign(
     files = {"dataset": out / "montecarlo.nc", "summary": out / "summary.json"}
     if figures:
         files.update(plot_histograms(ds, out / "histograms", settings))
-    _write_text(out / "summary.json", _json_text(summary))
-    for tmp in (out / "chunks").glob(".*.tmp"):  # left by an interrupted earlier attempt
+    write_json(out / "summary.json", summary)
+    for tmp in temporary_files(out / "chunks"):  # left by an interrupted earlier attempt
         with contextlib.suppress(OSError):
             tmp.unlink()
     marker = {
@@ -1130,7 +1077,7 @@ def finish_campaign(
         "ok": summary["ok"],
         "files": sorted(str(p.relative_to(out)) for p in files.values()),
     }
-    _write_text(out / COMPLETE_MARKER, _json_text(marker))
+    write_json(out / COMPLETE_MARKER, marker)
     files["complete"] = out / COMPLETE_MARKER
     return CampaignResult(ds, summary, out, summary["campaign_wall_time_s"], resumed, files, settings)
 
@@ -1178,6 +1125,8 @@ def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
 
+    from .figures import save_figure
+
     ok = np.array([str(s) == STATUS_OK for s in ds.status.values])
     panels = [
         ("aaem_settling_s", f"AAEM settling time to {settings.tolerance_deg:g} deg (s)"),
@@ -1208,16 +1157,11 @@ def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
         f"{int(ds.theorem2_at_reference_holds.values[ok].sum())}; {int((~ok).sum())} failed/died",
         fontsize=10,
     )
-    stem = Path(stem)
-    files = {}
     try:
-        for ext in ("png", "svg"):
-            path = stem.with_suffix(f".{ext}")
-            _write_atomic(path, lambda tmp, ext=ext: fig.savefig(tmp, dpi=110, format=ext))
-            files[ext] = path
+        png, svg = save_figure(fig, stem, dpi=110)
     finally:
         plt.close(fig)
-    return files
+    return {"png": png, "svg": svg}
 
 
 # ----------------------------------------------------------------------------- CLI

@@ -31,7 +31,26 @@ import numpy as np
 
 from .errors import EnvironmentProblem
 
-__all__ = ["atomic_path", "write_text", "write_json", "jsonable", "output_folder", "environment_problem"]
+__all__ = [
+    "atomic_path",
+    "write_text",
+    "write_json",
+    "jsonable",
+    "output_folder",
+    "environment_problem",
+    "temporary_files",
+]
+
+_TEMP_MARK = ".tmp"
+"""temporary files are named ``.<stem>.<random>.tmp<pid><suffix>`` (hidden, with the writer's pid)"""
+
+
+def temporary_files(folder: str | os.PathLike) -> list[Path]:
+    """Temporary files of :func:`atomic_path` in ``folder`` (left behind only by a killed process)."""
+    try:
+        return sorted(p for p in Path(folder).glob(f".*{_TEMP_MARK}*") if p.is_file())
+    except OSError:
+        return []
 
 
 def environment_problem(action: str, path: str | os.PathLike, exc: OSError) -> EnvironmentProblem:
@@ -77,13 +96,20 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         # the suffix is kept, so writers that choose a format by it (NetCDF, savefig) see the real one
-        fd, name = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=f".tmp{os.getpid()}{path.suffix}", dir=path.parent)
+        fd, name = tempfile.mkstemp(
+            prefix=f".{path.stem}.", suffix=f"{_TEMP_MARK}{os.getpid()}{path.suffix}", dir=path.parent
+        )
         os.close(fd)
     except OSError as exc:
         raise environment_problem("write", path, exc) from None
     tmp = Path(name)
     try:
         yield tmp
+        fd = os.open(tmp, os.O_RDONLY)  # on disk before the rename makes it visible
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
         os.replace(tmp, path)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
@@ -96,11 +122,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
 def write_text(path: str | os.PathLike, text: str) -> Path:
     """Write ``text`` (UTF-8) atomically; returns the path."""
     with atomic_path(path) as tmp:
-        with open(tmp, "w", encoding="utf-8") as fh:
-            fh.write(text)
-            fh.flush()
-            if stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-                os.fsync(fh.fileno())
+        Path(tmp).write_text(text, encoding="utf-8")
     return Path(path)
 
 

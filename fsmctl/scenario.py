@@ -200,6 +200,15 @@ def _loc(loc: Sequence[Any]) -> str:
     return out
 
 
+_BOUNDS = {
+    "greater_than": (">", "gt"),
+    "greater_than_equal": (">=", "ge"),
+    "less_than": ("<", "lt"),
+    "less_than_equal": ("<=", "le"),
+}
+"""pydantic's range errors: comparison symbol and the key of the bound in the error's context"""
+
+
 def _message(err: Mapping[str, Any]) -> str:
     kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")
     if kind in ("value_error", "assertion_error"):
@@ -207,14 +216,9 @@ def _message(err: Mapping[str, Any]) -> str:
         for p in _PREFIXES:
             msg = msg.removeprefix(p)
         return msg
-    if kind == "greater_than":
-        return f"must be > {ctx['gt']}, got {value!r}"
-    if kind == "greater_than_equal":
-        return f"must be >= {ctx['ge']}, got {value!r}"
-    if kind == "less_than":
-        return f"must be < {ctx['lt']}, got {value!r}"
-    if kind == "less_than_equal":
-        return f"must be <= {ctx['le']}, got {value!r}"
+    if kind in _BOUNDS:
+        symbol, key = _BOUNDS[kind]
+        return f"must be {symbol} {ctx[key]}, got {value!r}"
     if kind == "finite_number":
         return f"must be finite, got {value!r}"
     if kind == "literal_error":
