@@ -51,8 +51,8 @@ def _child(n: int, t_final: float, figures: bool, out_dir: str) -> dict:
     times = {}
     warnings.filterwarnings("ignore", message=".*triangle inequality.*")
     import fsmctl
-    from fsmctl.simulator import simulate
-    from fsmctl.topology import ring
+    from fsmctl.simulation.simulator import simulate
+    from fsmctl.model.topology import ring
 
     base = fsmctl.paper_scenario("1")
     agents = tuple(base.agents[i % base.n_agents] for i in range(n))
@@ -75,7 +75,7 @@ def _child(n: int, t_final: float, figures: bool, out_dir: str) -> dict:
     times["netcdf_s"] = time.perf_counter() - t0
     phases["netcdf"] = peak()
     if figures:
-        from fsmctl.figures import save_figure, simulation_figures
+        from fsmctl.studies.figures import save_figure, simulation_figures
 
         t0 = time.perf_counter()
         for name, fig in simulation_figures(result).items():

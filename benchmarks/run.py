@@ -80,7 +80,7 @@ def machine_info() -> dict:
     except OSError:
         pass
     info["load_average_start"] = os.getloadavg()
-    from fsmctl.generated_code import compiled_library
+    from fsmctl.model.generated_code import compiled_library
 
     lib = compiled_library()
     info["compile_flags"] = list(lib.flags) if lib else None
@@ -108,7 +108,7 @@ def compiled_final(scenario):
 def compiled_capped(scenario, cap_s: float):
     """Compiled driver with a wall-time cap (via the progress callback); returns (final state | None, info)."""
     from fsmctl import simulator as S
-    from fsmctl.problem import pack
+    from fsmctl.model.problem import pack
 
     p = pack(scenario)
     dll = S._driver()
@@ -153,7 +153,7 @@ def python_control_run(scenario, t_final: float, rtol: float, atol: float, cap_s
     import control as ct
 
     import fsmctl
-    from fsmctl.iosys import initial_state, mrp_state
+    from fsmctl.plugin.iosys import initial_state, mrp_state
 
     sys_ = fsmctl.formation(scenario)
     orig = sys_._rhs
@@ -246,7 +246,7 @@ class PythonRK4:
     """
 
     def __init__(self, scenario, backend: str):
-        from fsmctl.problem import pack
+        from fsmctl.model.problem import pack
 
         self.p = pack(scenario)
         self.n = self.p.n_agents
@@ -255,12 +255,12 @@ class PythonRK4:
         names = ["reference_rhs", f"sliding_{em}", "control_core", "disturbance_torque", "plant_rhs", "mrp_shadow"]
         names += ["sliding_constants"]
         if backend == "numpy":
-            from derive.functions import function_catalogue
+            from derive.catalogue import function_catalogue
 
             specs = {s.name: s for s in function_catalogue()}
             self.f = {k: LambdifiedFunction(specs[k]) for k in names}
         else:
-            from fsmctl.generated_code import casadi_function
+            from fsmctl.model.generated_code import casadi_function
 
             self.f = {k: casadi_function(k) for k in names}
         self.f["sliding"] = self.f[f"sliding_{em}"]
@@ -371,7 +371,7 @@ def _shadow_canonical(x) -> np.ndarray:
     The compiled driver switches MRPs to the shadow set after each step, python-control's plug-in does not;
     the attitude is the same, so states are compared in one representation.
     """
-    from fsmctl.generated_code import casadi_function
+    from fsmctl.model.generated_code import casadi_function
 
     x = np.array(x, dtype=float)
     shadow = casadi_function("mrp_shadow")
@@ -604,8 +604,8 @@ def kernels_section(quick: bool, log) -> dict:
     agent. Alternated, 5 repeats each.
     """
     import fsmctl
-    from fsmctl.problem import pack
-    from fsmctl.simulator import simulate_packed
+    from fsmctl.model.problem import pack
+    from fsmctl.simulation.simulator import simulate_packed
 
     sc = fsmctl.paper_scenario("1")
     p = pack(sc)
@@ -636,7 +636,7 @@ def kernels_section(quick: bool, log) -> dict:
     )
     identical_trajectories = all(fb[key].tobytes() == fs[key].tobytes() for key in fb)
     out = {
-        "scenario": f"paper_scenario('1') packed with fsmctl.problem.pack: {p.n_agents} agents, {p.n_links} links, "
+        "scenario": f"paper_scenario('1') packed with fsmctl.model.problem.pack: {p.n_agents} agents, {p.n_links} links, "
         f"{p.n_steps} RK4 steps of {p.dt:g} s",
         "n_steps": int(p.n_steps),
         "repeats": reps,
@@ -719,7 +719,7 @@ def smooth_ring_section(quick: bool, log) -> dict:
 def _scale_scenario(n: int, kind: str, k_j=None):
     """Case 1's agents repeated to ``n`` on a ring or all-to-all graph (k^i = 8; k^j: Table 2's schedule or ``k_j``)."""
     import fsmctl
-    from fsmctl.topology import all_to_all, ring
+    from fsmctl.model.topology import all_to_all, ring
 
     base = fsmctl.paper_scenario("1")
     agents = [base.agents[i % base.n_agents] for i in range(n)]
@@ -768,7 +768,7 @@ SPECIAL_OPS = {"OP_SQRT", "OP_POW", "OP_CONSTPOW", "OP_SIN", "OP_COS", "OP_TAN",
 def op_counts(name: str) -> dict:
     import casadi as ca
 
-    from fsmctl.generated_code import generated_dir
+    from fsmctl.model.generated_code import generated_dir
 
     f = ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
     names = {getattr(ca, k): k for k in dir(ca) if k.startswith("OP_")}
@@ -862,13 +862,13 @@ def subprocess_section(log) -> dict:
     out = {}
     with tempfile.TemporaryDirectory() as tmp:
         for label, cmd in (
-            ("fsmctl prove", [sys.executable, "-m", "fsmctl.cli", "prove"]),
+            ("fsmctl prove", [sys.executable, "-m", "fsmctl.cli.main", "prove"]),
             ("python -m derive --check", [sys.executable, "-m", "derive", "--check"]),
             (
                 "fsmctl reproduce",
-                [sys.executable, "-m", "fsmctl.cli", "reproduce", "--out", f"{tmp}/reproduction", "--no-progress"],
+                [sys.executable, "-m", "fsmctl.cli.main", "reproduce", "--out", f"{tmp}/reproduction", "--no-progress"],
             ),
-            ("fsmctl compare-surfaces", [sys.executable, "-m", "fsmctl.cli", "compare-surfaces", "--out", f"{tmp}/cs"]),
+            ("fsmctl compare-surfaces", [sys.executable, "-m", "fsmctl.cli.main", "compare-surfaces", "--out", f"{tmp}/cs"]),
         ):
             t = time.perf_counter()
             proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)

@@ -1,29 +1,81 @@
-"""``python -m derive``: derive, verify and generate code.
+"""``python -m derive``: derive, verify and generate the project's code.
 
-Runs the symbolic proofs of :mod:`derive.verify` and the errata checks of
-:mod:`derive.errata` (any failure stops with exit code 1), translates the
-function catalogue to CasADi and writes ``generated/``.
+Runs the symbolic proofs of :mod:`fsmctl.proofs.identities` and the errata checks of
+:mod:`fsmctl.proofs.errata` (any failure stops with exit code 1), translates the model's function
+catalogue (``derive/catalogue.py``) to CasADi and writes ``generated/``, then derives every built-in law
+(``derive/laws/*.py``, the same kind of derivation script a user writes) into ``generated/laws/<name>/``.
 
-``--check`` regenerates into a temporary folder instead and exits 1 with a
-diff when ``generated/`` is stale.
+``--check`` regenerates into a temporary folder instead and exits 1 with a diff when ``generated/`` (or any
+built-in law) is stale.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
 import time
 from pathlib import Path
 
-from .codegen import DEFAULT_OUTPUT, build_functions, check_generated, write_generated
-from .errata import errata
-from .verify import all_identities
+from derive.catalogue import GAIN_CONSTANTS_LAYOUT, GAINS_LAYOUT, SINUSOID_LAYOUT, function_catalogue
+from derive.laws import BUILTIN_LAWS
+from fsmctl.codegen.laws import write_law
+from fsmctl.codegen.writer import build_functions, check_generated, write_generated
+from fsmctl.proofs.errata import errata
+from fsmctl.proofs.identities import all_identities
+from fsmctl.symbolic.law import law_variants
+
+DEFAULT_OUTPUT = Path(__file__).resolve().parent.parent / "generated"
+
+INIT = '''"""CasADi-generated code for fsmctl.
+
+DO NOT EDIT: every file in this folder is written by ``python -m derive`` from
+the symbolic model in ``derive/`` (and ``laws/<name>/`` from ``derive/laws/<name>.py``);
+``manifest.json`` files list them with their sha256.  Installed as the package data ``fsmctl._generated``.
+"""
+'''
+
+
+def builtin_law_variants():
+    """``{name: LawVariants}`` of the built-in laws, from their derivation scripts."""
+    out = {}
+    for module_name in BUILTIN_LAWS:
+        module = importlib.import_module(f"derive.laws.{module_name}")
+        variants = law_variants(module.law, getattr(module, "EXTRA_FUNCTIONS", ()))
+        out[variants.name] = variants
+    return out
+
+
+def write_everything(out: Path, *, functions, identities, errata_found, laws) -> int:
+    """Write the model folder and every law folder; return the number of functions written."""
+    write_generated(
+        out,
+        functions=functions,
+        layouts={
+            "gains": list(GAINS_LAYOUT),
+            "gain_constants": list(GAIN_CONSTANTS_LAYOUT),
+            "sinusoid_params": list(SINUSOID_LAYOUT),
+        },
+        documents={
+            "identities.json": [
+                {"id": r.id, "equations": r.equations, "statement": r.statement, "holds": r.holds, "method": r.method}
+                for r in identities
+            ],
+            "errata.json": [e.to_dict() for e in errata_found],
+        },
+        init_text=INIT,
+    )
+    count = len(functions)
+    for name, variants in laws.items():
+        manifest = write_law(out / "laws" / name, variants, source=f"derive/laws/{name}.py")
+        count += len(manifest["functions"])
+    return count
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="python -m derive",
-        description="Derive the FSM formation model (Liang et al. 2012), prove its identities, generate CasADi code.",
+        description="Derive the formation model and the built-in laws, prove the identities, generate CasADi code.",
     )
     p.add_argument("--out", type=Path, default=DEFAULT_OUTPUT, help="output folder (default: %(default)s)")
     p.add_argument(
@@ -56,21 +108,20 @@ def main(argv: list[str] | None = None) -> int:
             print(f"erratum {e.id} (eq {e.equation}) could not be confirmed", file=sys.stderr)
         return 1
 
-    functions = build_functions()
-    kwargs = dict(functions=functions, identities=identities, errata=found)
+    functions = build_functions(function_catalogue())
+    laws = builtin_law_variants()
+    say(f"  laws: {', '.join(laws)}")
+    kwargs = dict(functions=functions, identities=identities, errata_found=found, laws=laws)
     if args.check:
-        ok, report = check_generated(args.out, **kwargs)
+        ok, report = check_generated(args.out, write=lambda fresh: write_everything(fresh, **kwargs))
         if not ok:
             sys.stdout.write(report)
             print(f"{args.out} is stale: run `python -m derive` to regenerate", file=sys.stderr)
             return 1
-        print(f"{args.out} is current ({len(functions)} functions, {time.perf_counter() - t0:.1f} s)")
+        print(f"{args.out} is current ({len(functions)} model functions, {len(laws)} laws, {time.perf_counter() - t0:.1f} s)")
         return 0
-    manifest = write_generated(args.out, **kwargs)
-    print(
-        f"wrote {len(manifest['sha256']) + 1} files for {len(functions)} functions to {args.out} "
-        f"({time.perf_counter() - t0:.1f} s)"
-    )
+    count = write_everything(args.out, **kwargs)
+    print(f"wrote {count} functions ({len(laws)} laws) to {args.out} ({time.perf_counter() - t0:.1f} s)")
     return 0
 
 

@@ -1,18 +1,25 @@
-"""fsmctl: the fast-sliding-mode formation attitude controller of Liang, Sun & Wang (2012), derivable, provable, fast.
+"""fsmctl: spacecraft-formation attitude control laws, derivable (SymPy), provable, generated and fast to fly.
 
-* :mod:`derive` (top-level package) holds the symbolic model and writes ``generated/``;
-* :mod:`fsmctl.scenario`, :mod:`fsmctl.topology`: typed scenarios (the paper's Section 4 is built in);
-* :mod:`fsmctl.simulator`: the compiled whole-loop simulator (:func:`simulate`);
-* :mod:`fsmctl.iosys`: python-control factories (:func:`spacecraft`, :func:`fsm_controller`, :func:`formation`);
-* :mod:`fsmctl.proofs`: the proof check behind ``fsmctl prove``;
-* :mod:`fsmctl.cli`: the ``fsmctl`` command.
+It started from Liang, Sun & Wang (2012), whose fast-sliding-mode law is built in. The package's folders are
+its layers, and imports flow one way (``tests/test_layers.py`` enforces it):
+
+* :mod:`fsmctl.cli`: the ``fsmctl`` command;
+* :mod:`fsmctl.studies`: reproduction of the paper, law comparisons, Monte Carlo campaigns, figures;
+* :mod:`fsmctl.simulation` (the compiled whole-loop simulator, :func:`simulate`), :mod:`fsmctl.proofs`
+  (``fsmctl prove``) and :mod:`fsmctl.plugin` (python-control systems);
+* :mod:`fsmctl.model`: scenarios, topologies, laws at run time, the generated code;
+* :mod:`fsmctl.codegen`: SymPy -> CasADi -> C;
+* :mod:`fsmctl.symbolic`: the symbolic model and the law API derivation scripts use (pure SymPy);
+* :mod:`fsmctl.errors`, :mod:`fsmctl.outputs`: the error types and atomic output files everyone uses.
+
+``derive/`` (beside the package) holds the project's own derivation scripts: the model and the built-in laws.
 """
 
 from __future__ import annotations
 
 __version__ = "0.1.0"
 
-from .scenario import (
+from fsmctl.model.scenario import (
     Agent,
     ControllerSettings,
     Reference,
@@ -23,7 +30,7 @@ from .scenario import (
     load_scenario,
     paper_scenario,
 )
-from .topology import Link, Schedule, Topology
+from fsmctl.model.topology import Link, Schedule, Topology
 
 __all__ = [
     "__version__",
@@ -46,16 +53,22 @@ __all__ = [
     "fsm_controller",
     "reference_generator",
     "formation",
+    "initial_state",
+    "resolve_law",
+    "builtin_laws",
 ]
 
 _LAZY = {
-    "simulate": "simulator",
-    "SimulationResult": "simulator",
-    "StepSizeWarning": "simulator",
-    "spacecraft": "iosys",
-    "fsm_controller": "iosys",
-    "reference_generator": "iosys",
-    "formation": "iosys",
+    "simulate": "fsmctl.simulation.simulator",
+    "SimulationResult": "fsmctl.simulation.simulator",
+    "StepSizeWarning": "fsmctl.simulation.simulator",
+    "spacecraft": "fsmctl.plugin.iosys",
+    "fsm_controller": "fsmctl.plugin.iosys",
+    "reference_generator": "fsmctl.plugin.iosys",
+    "formation": "fsmctl.plugin.iosys",
+    "initial_state": "fsmctl.plugin.iosys",
+    "resolve_law": "fsmctl.model.laws",
+    "builtin_laws": "fsmctl.model.laws",
 }
 
 
@@ -64,5 +77,5 @@ def __getattr__(name: str):
     if name in _LAZY:
         import importlib
 
-        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        return getattr(importlib.import_module(_LAZY[name]), name)
     raise AttributeError(f"module 'fsmctl' has no attribute {name!r}")

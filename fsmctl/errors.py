@@ -1,6 +1,6 @@
 """fsmctl's exception hierarchy: the one place that says which failures are the user's input or environment.
 
-The command line maps these to exit codes (:mod:`fsmctl.cli`); library code raises them and never the
+The command line maps these to exit codes (:mod:`fsmctl.cli.main`); library code raises them and never the
 command line's own types:
 
 ==================================  =====================================================  ====

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import EnvironmentProblem
+from fsmctl.errors import EnvironmentProblem
 
 __all__ = [
     "atomic_path",

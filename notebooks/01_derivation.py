@@ -19,7 +19,7 @@
 # hundreds of terms; they are shown in full for a rotation about one body axis
 # ($\sigma_e = (0, 0, \sigma_3)$, $J = \mathrm{diag}(J_1, J_2, J_3)$, $\omega_d = (0, 0, \omega_{d3})$),
 # which is still the output of the same functions.  The paper's misprints found on the way are
-# listed at the end, as printed next to the corrected form (`derive.errata`, `generated/errata.json`).
+# listed at the end, as printed next to the corrected form (`fsmctl.proofs.errata`, `generated/errata.json`).
 
 # %%
 import json
@@ -28,7 +28,7 @@ import os
 import sympy as sp
 from IPython.display import Markdown, display
 
-from fsmctl.generated_code import generated_dir
+from fsmctl.model.generated_code import generated_dir
 from fsmctl.symbolic import (
     SingularityFix,
     closed_loop_acceleration,
@@ -91,7 +91,7 @@ show(r"\ddot\sigma_e", closed_loop_acceleration(se, sed, s_vec, c1, c2, alpha, d
 
 # %% [markdown]
 # ## Control torque $u = -u^F - u^D - u^C$ (eqs 16-19), single-axis case
-# Built literally from $M$, $C$, $E$ (`fsmctl.symbolic.control_law_pieces`, i.e. `derive.controller`).
+# Built literally from $M$, $C$, $E$ (`fsmctl.symbolic.control_law_pieces`, i.e. `fsmctl.symbolic.controller`).
 
 # %%
 from fsmctl.symbolic import control_law_pieces
@@ -113,7 +113,7 @@ show("u_3", sp.simplify(pieces.u[2]))
 
 # %% [markdown]
 # ## Errata: the paper as printed vs the correct form
-# Each is refuted symbolically (counterexample or residual) and the correction is checked (`derive.errata`).
+# Each is refuted symbolically (counterexample or residual) and the correction is checked (`fsmctl.proofs.errata`).
 
 # %%
 recorded = json.loads((generated_dir() / "errata.json").read_text())

@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 from IPython.display import Markdown, display
 
-from fsmctl.figures import metric_figure, principal_angles_figure, torques_figure
-from fsmctl.reproduce import format_claims, overlay_figures, reproduce
+from fsmctl.studies.figures import metric_figure, principal_angles_figure, torques_figure
+from fsmctl.studies.reproduce import format_claims, overlay_figures, reproduce
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
 OUT = Path(os.environ.get("FSMCTL_OUT") or tempfile.mkdtemp(prefix="fsmctl-reproduction-"))

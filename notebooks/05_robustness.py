@@ -33,7 +33,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from fsmctl import paper_scenario, simulate
-from fsmctl.topology import k_nearest
+from fsmctl.model.topology import k_nearest
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
 TOL_DEG = 0.03

@@ -1,4 +1,4 @@
-"""Evaluate a derive.functions.FunctionSpec with SymPy's lambdify (the "SymPy-lambdified" route of the tests)."""
+"""Evaluate a derive.catalogue.FunctionSpec with SymPy's lambdify (the "SymPy-lambdified" route of the tests)."""
 
 from __future__ import annotations
 

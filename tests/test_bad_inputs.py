@@ -1,7 +1,7 @@
 """Bad inputs, table-driven: every way in (CLI, scenario files, the Python API, the plug-in) gets the same answer.
 
 Each row names an input and its expected outcome: an exit code with a one-line message and no traceback
-(CLI), a :class:`~fsmctl.scenario.ScenarioError` / :class:`~fsmctl.errors.InputError` whose one-line
+(CLI), a :class:`~fsmctl.model.scenario.ScenarioError` / :class:`~fsmctl.errors.InputError` whose one-line
 message matches a pattern (Python API, files), or a correct result (normalised values run the model that
 was asked for).  Faults of the environment that need their own processes (cache damage, signals, a fake
 Dask endpoint) are in ``test_cache_faults.py``, ``test_montecarlo_faults.py`` and
@@ -23,11 +23,11 @@ import numpy as np
 import pytest
 
 import fsmctl
-from fsmctl.cli import main
+from fsmctl.cli.main import main
 from fsmctl.errors import InputError
-from fsmctl.problem import pack
-from fsmctl.scenario import ScenarioError, load_scenario
-from fsmctl.topology import Link, Schedule, Topology, ring
+from fsmctl.model.problem import pack
+from fsmctl.model.scenario import ScenarioError, load_scenario
+from fsmctl.model.topology import Link, Schedule, Topology, ring
 
 PAPER_TOML = (Path(fsmctl.__file__).parent / "scenarios" / "paper.toml").read_text()
 PAPER = fsmctl.paper_scenario("1")

@@ -19,11 +19,11 @@ import pytest
 from formations import with_agents
 
 import fsmctl
-from derive.batched import LANES, UnsupportedInstructionError, batched_header, batched_source, kernel_name
-from fsmctl.generated_code import compiled_library, manifest
-from fsmctl.problem import pack
-from fsmctl.simulator import batched_kernels_preferred, simulate_packed
-from fsmctl.topology import ring
+from fsmctl.codegen.batched import LANES, UnsupportedInstructionError, batched_header, batched_source, kernel_name
+from fsmctl.model.generated_code import compiled_library, manifest
+from fsmctl.model.problem import pack
+from fsmctl.simulation.simulator import batched_kernels_preferred, simulate_packed
+from fsmctl.model.topology import ring
 
 BATCHED = [f["name"] for f in manifest()["functions"] if "batched_kernel" in f]
 SPECIAL = np.array([0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 1e-4, np.inf, -np.inf, np.nan, 0.5, 2.0, 1e300])
@@ -155,7 +155,7 @@ def test_batched_and_scalar_simulations_are_bit_identical(library, paper_case1, 
 
 def _build_defines(macro: str) -> bool | None:
     """Whether the library's compiler, with the library's flags, predefines ``macro`` (None: cannot tell)."""
-    from fsmctl.generated_code import _compiler
+    from fsmctl.model.generated_code import _compiler
 
     cc, flags = _compiler(), [f for f in compiled_library().flags if f not in ("-shared", "-fPIC")]
     try:
@@ -206,7 +206,7 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     """Each operation the printer knows, compiled both ways with the library's compiler and flags, on every pair
     of special values (signed zeros, subnormals, huge, infinities, NaN): bit-identical, except fmin/fmax ties of
     +0 and -0 (unspecified in C99)."""
-    from fsmctl.generated_code import _compiler, compile_flags
+    from fsmctl.model.generated_code import _compiler, compile_flags
 
     cc = _compiler()
     if cc is None:

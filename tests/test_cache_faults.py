@@ -3,7 +3,7 @@
 A damaged library can kill the process that maps it (SIGBUS), so every case runs a short simulation
 in a fresh ``python -c`` subprocess with its own ``FSMCTL_CACHE_DIR`` and ``TMPDIR`` under
 ``tmp_path``; the subprocess reports its backend, final state and the warnings of
-``fsmctl.generated_code`` as JSON.  One good build (a module fixture) is copied into the cases that
+``fsmctl.model.generated_code`` as JSON.  One good build (a module fixture) is copied into the cases that
 need a built cache, so that only the cases that must compile do.  Oracle: the compiled run of that
 good build; a rebuilt library must give the same final state and the CasADi fallback the same to 1e-12.
 """
@@ -35,7 +35,7 @@ with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     exec(sys.argv[1])
     import fsmctl
-    from fsmctl.generated_code import compiled_library
+    from fsmctl.model.generated_code import compiled_library
     scenario = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.05, "output_interval": 0.05})
     r = fsmctl.simulate(scenario)
     lib = compiled_library()
@@ -44,10 +44,10 @@ print("RESULT " + json.dumps({
     "library": None if lib is None else str(lib.path),
     "state": [r.sigma[-1].tolist(), r.omega[-1].tolist()],
     "warnings": [[w.category.__name__, str(w.message)] for w in caught
-                 if w.category.__module__ == "fsmctl.generated_code"],
+                 if w.category.__module__ == "fsmctl.model.generated_code"],
 }))
 """
-# only the warnings of fsmctl.generated_code are counted: the scenario's own are another subject
+# only the warnings of fsmctl.model.generated_code are counted: the scenario's own are another subject
 _TIMEOUT_S = 300
 _LIB = "libfsmctl.dll" if sys.platform == "win32" else "libfsmctl.so"
 
@@ -239,7 +239,7 @@ def test_concurrent_first_runs_share_one_build(good, tmp_path, monkeypatch):
     cc = _wrapper(tmp_path, real, f'echo "$$" >> "{log}"\nexec "{real}" "$@"')
     environ = {k: v for k, v in os.environ.items() if k not in ("FSMCTL_NO_COMPILE", "CC")}
     environ.update(FSMCTL_CACHE_DIR=str(tmp_path / "cache"), CC=cc)
-    code = "from fsmctl.generated_code import compiled_library; assert compiled_library() is not None"
+    code = "from fsmctl.model.generated_code import compiled_library; assert compiled_library() is not None"
     procs = [
         subprocess.Popen(
             [sys.executable, "-W", "error::RuntimeWarning", "-c", code], env=environ, stderr=subprocess.PIPE, text=True
@@ -388,7 +388,7 @@ def test_the_temporary_file_of_a_build_killed_half_way_is_removed_by_the_next_ru
     cache = tmp_path / "cache"
     environ = {k: v for k, v in os.environ.items() if k not in ("FSMCTL_NO_COMPILE", "CC")}
     environ.update(FSMCTL_CACHE_DIR=str(cache))
-    code = "from fsmctl.generated_code import compiled_library; compiled_library()"
+    code = "from fsmctl.model.generated_code import compiled_library; compiled_library()"
     proc = subprocess.Popen([sys.executable, "-c", code], env=environ, start_new_session=True)
     try:
         deadline = time.monotonic() + 120

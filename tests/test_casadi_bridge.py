@@ -11,7 +11,7 @@ import sympy as sp
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from derive.casadi_bridge import SympyToCasadi, UnsupportedExpressionError, to_casadi_function
+from fsmctl.codegen.casadi_bridge import SympyToCasadi, UnsupportedExpressionError, to_casadi_function
 
 x, y, a = sp.symbols("x y a", real=True)
 finite = st.floats(-50, 50, allow_nan=False, allow_infinity=False)
@@ -51,7 +51,7 @@ def test_translation_matches_sympy(expr, xv, yv, av):
     if expr.has(sp.Pow) and any(p.exp.is_negative for p in expr.atoms(sp.Pow)) and abs(xv) < 1e-6:
         return
     if isinstance(expr, sp.atan2) and xv == yv == 0:
-        return  # SymPy: nan, C: 0 (documented in derive.casadi_bridge)
+        return  # SymPy: nan, C: 0 (documented in fsmctl.codegen.casadi_bridge)
     want = float(expr.subs({x: xv, y: yv, a: av}).evalf(30))
     got = _eval(expr, x=xv, y=yv, a=av)
     assert got == pytest.approx(want, rel=1e-12, abs=1e-12)

@@ -11,10 +11,10 @@ from pathlib import Path
 import pytest
 import sympy as sp
 
-from derive.codegen import DEFAULT_OUTPUT, build_functions, check_generated
-from derive.errata import ERRATA_CHECKS, Erratum
-from derive.model import ErrorModel, lagrange_C_as_printed, lagrange_model
-from derive.verify import (
+from fsmctl.codegen.writer import DEFAULT_OUTPUT, build_functions, check_generated
+from fsmctl.proofs.errata import ERRATA_CHECKS, Erratum
+from fsmctl.symbolic.model import ErrorModel, lagrange_C_as_printed, lagrange_model
+from fsmctl.proofs.identities import (
     IdentityResult,
     _euler_residual,
     lagrange_residual_of_printed_C,

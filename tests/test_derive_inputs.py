@@ -5,16 +5,16 @@ from __future__ import annotations
 import pytest
 import sympy as sp
 
-from derive.controller import (
+from fsmctl.symbolic.controller import (
     SingularityFix,
     closed_loop_acceleration,
     saturate,
     sliding_variable,
     switching_function,
 )
-from derive.model import ErrorModel, euler_rotational_dynamics, lagrange_model, lagrange_uncertainty
-from derive.mrp import mrp_error, mrp_G, skew
-from derive.symbols import DerivationInputError, check_alpha, symmetric_matrix_symbols, vector_symbols
+from fsmctl.symbolic.model import ErrorModel, euler_rotational_dynamics, lagrange_model, lagrange_uncertainty
+from fsmctl.symbolic.mrp import mrp_error, mrp_G, skew
+from fsmctl.symbolic.symbols import DerivationInputError, check_alpha, symmetric_matrix_symbols, vector_symbols
 
 sigma = vector_symbols("sigma")
 J = symmetric_matrix_symbols("J")

@@ -14,8 +14,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 from spec_numpy import LambdifiedSpec
 
-from derive.functions import function_catalogue
-from fsmctl.generated_code import casadi_function
+from derive.catalogue import function_catalogue
+from fsmctl.model.generated_code import casadi_function
 
 SETTINGS = settings(max_examples=200, derandomize=True, deadline=None, database=None)
 SPECS = {s.name: s for s in function_catalogue()}

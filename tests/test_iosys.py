@@ -16,9 +16,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fsmctl
-from fsmctl.generated_code import casadi_function
-from fsmctl.iosys import Neighbour, initial_state
-from fsmctl.topology import Schedule
+from fsmctl.model.generated_code import casadi_function
+from fsmctl.plugin.iosys import Neighbour, initial_state
+from fsmctl.model.topology import Schedule
 
 
 def skew(v):
@@ -203,7 +203,7 @@ def test_formation_structure_and_per_agent_params(paper):
 def test_compiled_time_response_uses_the_formation_state_layout(paper):
     """``SimulationResult.to_time_response()`` labels its states like :func:`fsmctl.formation` (quaternions).
 
-    Needs the quaternion layout in ``fsmctl/simulator.py`` (see ``fsmctl.iosys.quaternion_from_mrp``).
+    Needs the quaternion layout in ``fsmctl/simulator.py`` (see ``fsmctl.plugin.iosys.quaternion_from_mrp``).
     """
     sys = fsmctl.formation(paper)
     r = fsmctl.simulate(paper.replace(simulation={"t_final": 0.05}))
@@ -262,7 +262,7 @@ def test_input_output_response_agrees_with_the_compiled_simulator(paper):
     )
     assert resp.success
     states = _mrp_states(resp.states, s.n_agents)
-    assert np.allclose(fsmctl.iosys.mrp_state(resp.states), states, rtol=0, atol=1e-15)
+    assert np.allclose(fsmctl.plugin.iosys.mrp_state(resp.states), states, rtol=0, atol=1e-15)
     for result, tol in ((dopri, 1e-6), (rk4, 2e-4)):
         assert np.abs(states - _compiled_states(result)).max() < tol
         tr = result.to_time_response()
@@ -285,7 +285,7 @@ def test_time_response_plots(paper, tmp_path):
     import matplotlib.pyplot as plt
 
     # two agents (18 outputs) keep the full plot fast; the paper's 54-output plot works the same way
-    two = dataclasses.replace(paper, agents=paper.agents[:2], topology=fsmctl.topology.ring(2, 8.0, 5.0))
+    two = dataclasses.replace(paper, agents=paper.agents[:2], topology=fsmctl.model.topology.ring(2, 8.0, 5.0))
     r = fsmctl.simulate(two.replace(simulation={"t_final": 1.0, "output_interval": 0.01}))
     tr = r.to_time_response()
     assert isinstance(tr, ct.TimeResponseData)

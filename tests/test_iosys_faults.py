@@ -131,7 +131,7 @@ def test_copied_spacecraft_flies_with_its_own_inertia():
     assert np.abs(r.states[:7] - r.states[7:]).max() < 1e-12  # both with J1 (BLAS rounding aside)
     # a copied interconnection (deep copy of the container) keeps its subsystems' tags consistent
     loop = fsmctl.formation(fsmctl.paper_scenario("1"))
-    x = fsmctl.iosys.initial_state(fsmctl.paper_scenario("1"))
+    x = fsmctl.plugin.iosys.initial_state(fsmctl.paper_scenario("1"))
     assert np.array_equal(loop.copy().dynamics(0.0, x, []), loop.dynamics(0.0, x, []))
 
 
@@ -268,7 +268,7 @@ def test_attitude_kinematics_match_scipy_rotation():
 
 def test_mrp_quaternion_conversions_match_scipy():
     """``quaternion_from_mrp`` / ``mrp_from_quaternion`` / ``mrp_state`` against scipy's Rotation."""
-    from fsmctl.iosys import initial_state, mrp_from_quaternion, mrp_state, quaternion_from_mrp
+    from fsmctl.plugin.iosys import initial_state, mrp_from_quaternion, mrp_state, quaternion_from_mrp
 
     rng = np.random.default_rng(11)
     sigma = rng.normal(size=(2, 50, 3))  # |sigma| up to ~3: both sides of the shadow switch
@@ -327,8 +327,8 @@ def test_spacecraft_rejects_bad_inertias_in_one_line():
 
 def test_factories_reject_bad_numbers_in_one_line():
     """Every numeric argument of the factories is checked: finite, the right shape and sign, not a bool/str."""
-    from fsmctl.iosys import Neighbour
-    from fsmctl.topology import Schedule
+    from fsmctl.plugin.iosys import Neighbour
+    from fsmctl.model.topology import Schedule
 
     paper = fsmctl.paper_scenario("1")
     c = paper.controller
@@ -361,7 +361,7 @@ def test_factories_reject_bad_numbers_in_one_line():
         (lambda: fsmctl.reference_generator([0.1, 0.0, 0.0]), "omega_d: expected a fsmctl.Sinusoid"),
         (lambda: fsmctl.reference_generator(paper.reference.omega, normalization_gain=math.inf), "must be finite"),
         (lambda: fsmctl.formation("paper"), "formation: expected a Scenario"),
-        (lambda: fsmctl.iosys.initial_state(None), "initial_state: expected a Scenario"),
+        (lambda: fsmctl.plugin.iosys.initial_state(None), "initial_state: expected a Scenario"),
     ]
     for make, match in cases:
         with pytest.raises(ScenarioError, match=match) as exc:

@@ -1,6 +1,6 @@
 """Imports flow one way, and library code never imports or raises the command line's types.
 
-Layers, from the top: command line (``fsmctl.cli``, the ``add_parser``/``run`` functions of the command
+Layers, from the top: command line (``fsmctl.cli.main``, the ``add_parser``/``run`` functions of the command
 modules) -> studies (reproduce, surfaces, theorem3, montecarlo) -> simulation / proofs / plug-in -> model
 (scenario, topology, problem) -> symbolic (``derive``).  Checked on the source (AST), so a violation is
 found without running the code path.
@@ -15,11 +15,11 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "fsmctl"
-CLI_MODULES = {"fsmctl.cli", "fsmctl.__main__"}
+CLI_MODULES = {"fsmctl.cli.main", "fsmctl.__main__"}
 CLI_FUNCTIONS = {"add_parser", "run", "_cli", "main", "console_main"}
-MODEL = {"fsmctl.errors", "fsmctl.scenario", "fsmctl.topology", "fsmctl.outputs", "fsmctl.scenario_schema"}
-ABOVE_MODEL = ("fsmctl.simulator", "fsmctl.iosys", "fsmctl.proofs", "fsmctl.reproduce", "fsmctl.surfaces",
-               "fsmctl.montecarlo", "fsmctl.theorem3", "fsmctl.cli", "fsmctl.commands")  # fmt: skip
+MODEL = {"fsmctl.errors", "fsmctl.model.scenario", "fsmctl.model.topology", "fsmctl.outputs", "fsmctl.model.scenario_schema"}
+ABOVE_MODEL = ("fsmctl.simulation.simulator", "fsmctl.plugin.iosys", "fsmctl.proofs", "fsmctl.studies.reproduce", "fsmctl.studies.surfaces",
+               "fsmctl.studies.montecarlo", "fsmctl.studies.theorem3", "fsmctl.cli.main", "fsmctl.cli.commands")  # fmt: skip
 
 
 def _modules():
@@ -64,7 +64,7 @@ def test_library_code_never_imports_the_cli(module, path):
         return
     tree = ast.parse(path.read_text())
     for name, function, node in _imports(tree, module):
-        if name in ("fsmctl.cli", "fsmctl.cli.UsageError"):
+        if name in ("fsmctl.cli.main", "fsmctl.cli.main.UsageError"):
             assert function in CLI_FUNCTIONS, (
                 f"{path.relative_to(ROOT)}:{node.lineno} imports the command line's {name} in "
                 f"{function or 'module scope'}; library code raises fsmctl.errors.InputError"
@@ -89,4 +89,4 @@ def test_the_checker_sees_a_violation(tmp_path):
     """The AST walk finds imports inside functions and relative imports (a checker that cannot fail is no check)."""
     tree = ast.parse("def f():\n    from ..cli import UsageError\n    raise UsageError('x')\n")
     found = [(n, f) for n, f, _ in _imports(tree, "fsmctl.proofs.claims")]
-    assert ("fsmctl.cli.UsageError", "f") in found
+    assert ("fsmctl.cli.main.UsageError", "f") in found

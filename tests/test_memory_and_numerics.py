@@ -28,8 +28,8 @@ from scipy.spatial.transform import Rotation
 import fsmctl
 from fsmctl import metrics, simulator
 from fsmctl.errors import InputError, ResourceLimitError
-from fsmctl.problem import output_buffer_bytes, pack
-from fsmctl.simulator import SimulationError, StepSizeWarning, simulate, simulate_packed, step_size_report
+from fsmctl.model.problem import output_buffer_bytes, pack
+from fsmctl.simulation.simulator import SimulationError, StepSizeWarning, simulate, simulate_packed, step_size_report
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -149,7 +149,7 @@ def test_refused_before_allocation_with_a_one_line_message(paper_case1, monkeypa
 
 
 def test_the_casadi_fallback_is_bounded_the_same_way(paper_case1, monkeypatch):
-    import fsmctl.casadi_formation as cf
+    import fsmctl.simulation.casadi_formation as cf
 
     monkeypatch.setattr(simulator, "_driver", lambda: None)
     monkeypatch.setattr(simulator, "available_memory", lambda: 50 * 10**6)
@@ -200,7 +200,7 @@ def test_peak_memory_of_200_agents_in_a_fresh_process(tmp_path):
 
 
 def test_figures_cap_the_per_agent_drawing():
-    from fsmctl.figures import MAX_AGENTS_DRAWN, principal_angles_figure, torques_figure
+    from fsmctl.studies.figures import MAX_AGENTS_DRAWN, principal_angles_figure, torques_figure
 
     rng = np.random.default_rng(6)
     T, n = 50, 40
@@ -277,7 +277,7 @@ def test_sigint_during_simulate_exits_130_without_a_traceback(tmp_path, progress
     _warm_library()
     env = {**os.environ, "PYTHONUNBUFFERED": "1", "MPLBACKEND": "Agg"}
     # 3000 s of Case 1 is ~30 s of compiled loop: the signal lands inside it
-    cmd = [sys.executable, "-m", "fsmctl.cli", "simulate", "--scenario", "paper", "--t-final", "3000",
+    cmd = [sys.executable, "-m", "fsmctl.cli.main", "simulate", "--scenario", "paper", "--t-final", "3000",
            "--output-interval", "1", "--no-figures", progress, "--out", str(tmp_path / "out")]  # fmt: skip
     t0 = time.monotonic()
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
@@ -298,7 +298,7 @@ def test_sigint_in_the_library_raises_keyboardinterrupt_and_restores_the_handler
         import os, signal, threading, time, warnings
         warnings.filterwarnings("ignore", message=".*triangle.*")
         import fsmctl
-        from fsmctl.simulator import simulate
+        from fsmctl.simulation.simulator import simulate
         s = fsmctl.paper_scenario("1")
         simulate(s.replace(simulation={"t_final": 0.01}), progress=False)
         long_run = s.replace(simulation={"t_final": 3000.0, "output_interval": 1.0})

@@ -1,4 +1,4 @@
-"""Monte Carlo campaigns (fsmctl.montecarlo): sampling laws, determinism, resume, failures, Dask."""
+"""Monte Carlo campaigns (fsmctl.studies.montecarlo): sampling laws, determinism, resume, failures, Dask."""
 
 from __future__ import annotations
 
@@ -188,7 +188,7 @@ def test_failing_run_and_dead_worker_are_reported(tmp_path):
 
 def report_thread_environment(base, settings, index, seed):
     """Fails on purpose, naming the BLAS/OpenMP thread variables the worker process started with."""
-    from fsmctl.parallel import WORKER_THREAD_VARIABLES
+    from fsmctl.studies.parallel import WORKER_THREAD_VARIABLES
 
     raise RuntimeError(" ".join(f"{k}={os.environ.get(k)}" for k in WORKER_THREAD_VARIABLES))
 
@@ -230,7 +230,7 @@ def test_dask_local_cluster_matches_process_pool(tmp_path):
 
 def test_cli_campaign_and_bad_input(tmp_path):
     out = tmp_path / "cli"
-    cmd = [sys.executable, "-m", "fsmctl.cli", "montecarlo", "--runs", "2", "--t-final", "0.2", "--workers", "1"]
+    cmd = [sys.executable, "-m", "fsmctl.cli.main", "montecarlo", "--runs", "2", "--t-final", "0.2", "--workers", "1"]
     proc = subprocess.run([*cmd, "--out", str(out), "--no-progress"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr
     assert "2 ok, 0 failed" in proc.stdout
@@ -251,7 +251,7 @@ def test_cli_campaign_and_bad_input(tmp_path):
     ],
 )
 def test_cli_unusable_out_or_scheduler_is_one_line(tmp_path, capsys, extra, message):
-    from fsmctl.cli import main
+    from fsmctl.cli.main import main
 
     a_file = tmp_path / "taken"
     a_file.write_text("not a folder")

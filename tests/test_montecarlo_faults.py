@@ -29,7 +29,7 @@ from fsmctl.errors import EnvironmentProblem
 
 psutil = pytest.importorskip("psutil")
 
-CLI = [sys.executable, "-m", "fsmctl.cli", "montecarlo"]
+CLI = [sys.executable, "-m", "fsmctl.cli.main", "montecarlo"]
 TINY = ["--runs", "1", "--t-final", "0.1", "--workers", "1", "--no-progress"]
 # chunks of 2 runs of the 100 s paper horizon (~0.5 s per run): long enough to signal mid-campaign
 
@@ -238,7 +238,7 @@ class _FakeEndpoint:
     ids=["http", "huge-length", "silent", "closes"],
 )
 def test_non_dask_endpoint_is_one_line_exit_2_in_bounded_time(tmp_path, capsys, reply):
-    from fsmctl.cli import main
+    from fsmctl.cli.main import main
 
     out = tmp_path / "out"
     with _FakeEndpoint(reply) as server:
@@ -267,7 +267,7 @@ def _read_only_place(tmp_path: Path) -> Path:
 
 @pytest.mark.parametrize("where", ["inside-dev-full", "dev-full", "read-only"])
 def test_unusable_output_folder_is_environment_problem(tmp_path, capsys, where):
-    from fsmctl.cli import main
+    from fsmctl.cli.main import main
 
     out = {
         "inside-dev-full": Path("/dev/full/x"),
@@ -328,7 +328,7 @@ def test_scenario_without_cases_runs_and_settings_are_printed_and_stored(tmp_pat
 
 
 def test_every_sampling_range_is_an_option_with_its_default(capsys):
-    from fsmctl.cli import build_parser
+    from fsmctl.cli.main import build_parser
 
     expected = {  # field -> default, written out here independently of the module's table
         "attitude_bound_deg": 180.0,
@@ -372,7 +372,7 @@ def test_default_link_weights_keep_theorem1(paper_case1):
 
 def test_final_values_are_at_t_final(tmp_path):
     """The campaign's own output grid (0.1 s requested) is lowered to divide t_final = 0.25 s."""
-    from fsmctl.simulator import simulate
+    from fsmctl.simulation.simulator import simulate
 
     s = mc.CampaignSettings(runs=1, seed=3, t_final=0.25, output_interval=0.1)
     _, base = mc.campaign_base(s)
@@ -390,7 +390,7 @@ def test_final_values_are_at_t_final(tmp_path):
 
 
 def test_result_not_ending_at_t_final_is_failed_not_ok(tmp_path, monkeypatch):
-    import fsmctl.simulator as simulator
+    import fsmctl.simulation.simulator as simulator
 
     real = simulator.simulate
 

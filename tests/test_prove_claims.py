@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from derive.errata import ERRATA_CHECKS, Erratum
+from fsmctl.proofs.errata import ERRATA_CHECKS, Erratum
 from fsmctl import paper_scenario
 from fsmctl.proofs import claims as C
 from fsmctl.proofs.claims import CLAIMS, ProofContext, claim_ids, run_claims

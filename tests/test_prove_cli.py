@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from fsmctl.cli import main
+from fsmctl.cli.main import main
 from fsmctl.proofs.claims import claim_ids
 
 DATA = Path(__file__).parent / "data"

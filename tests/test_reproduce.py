@@ -19,8 +19,8 @@ import pytest
 import xarray as xr
 
 from fsmctl import paper_scenario
-from fsmctl.cli import main
-from fsmctl.reproduce import (
+from fsmctl.cli.main import main
+from fsmctl.studies.reproduce import (
     DIFFERS,
     IMPOSSIBLE,
     REPRODUCED,

@@ -247,7 +247,7 @@ def test_disabled_controller_is_a_documented_setting(tmp_path):
     "case_id", ["J-not-symmetric", "alpha-1.2", "phase-table-5-rows", "unknown-controller", "toml-syntax"]
 )
 def test_cli_reports_bad_files_in_one_line(tmp_path, capsys, case_id):
-    from fsmctl.cli import main
+    from fsmctl.cli.main import main
 
     text, pattern = next((t, p) for i, t, p in BAD_FILES if i == case_id)
     path = tmp_path / "bad.toml"
@@ -261,7 +261,7 @@ def test_cli_reports_bad_files_in_one_line(tmp_path, capsys, case_id):
 
 
 def test_settling_time_counts_nan_as_not_settled():
-    from fsmctl.metrics import settling_time
+    from fsmctl.simulation.metrics import settling_time
 
     t = np.arange(5.0)
     assert settling_time(t, np.array([5.0, 0.5, 0.1, 0.1, 0.1]), 1.0) == 1.0

@@ -12,13 +12,13 @@ import pytest
 
 import fsmctl
 from fsmctl import scenario as sc
-from fsmctl.scenario_schema import REFERENCE_PATH, ROOT, file_schema, main, shipped_schema
+from fsmctl.model.scenario_schema import REFERENCE_PATH, ROOT, file_schema, main, shipped_schema
 
 PAPER_TOML = (Path(fsmctl.__file__).parent / "scenarios" / "paper.toml").read_text()
 
 
 def test_generated_files_are_current():
-    assert main(["--check"]) == 0, "run `python -m fsmctl.scenario_schema`"
+    assert main(["--check"]) == 0, "run `python -m fsmctl.model.scenario_schema`"
 
 
 def test_shipped_schema_is_the_generated_one():

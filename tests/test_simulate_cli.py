@@ -18,7 +18,7 @@ import pytest
 import xarray as xr
 from matplotlib.figure import Figure
 
-from fsmctl.cli import main
+from fsmctl.cli.main import main
 
 
 def _run(argv, capsys):
@@ -134,7 +134,7 @@ def test_bad_scenario_file_exits_2_one_line_subprocess(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text("name = 'x'\n[controller\n")
     proc = subprocess.run(
-        [sys.executable, "-m", "fsmctl.cli", "simulate", "--scenario", str(bad), "--out", str(tmp_path / "o")],
+        [sys.executable, "-m", "fsmctl.cli.main", "simulate", "--scenario", str(bad), "--out", str(tmp_path / "o")],
         capture_output=True,
         text=True,
         timeout=120,
@@ -151,7 +151,7 @@ def test_bad_scenario_file_exits_2_one_line_subprocess(tmp_path):
 
 
 def test_metric_figure_has_inset_of_the_last_part():
-    from fsmctl.figures import metric_figure
+    from fsmctl.studies.figures import metric_figure
 
     t = np.linspace(0, 100, 1001)
     fig = metric_figure(t, 100 * np.exp(-t / 5), metric="AAEM", tolerances_deg=(0.03,))
@@ -169,7 +169,7 @@ def test_metric_figure_has_inset_of_the_last_part():
 
 
 def test_torques_figure_one_panel_per_agent_with_limits():
-    from fsmctl.figures import torques_figure
+    from fsmctl.studies.figures import torques_figure
 
     t = np.linspace(0, 10, 101)
     u = np.clip(np.sin(t)[:, None, None] * np.arange(1, 7)[None, :, None] * np.ones(3), -2, 2)
@@ -185,7 +185,7 @@ def test_torques_figure_one_panel_per_agent_with_limits():
 
 
 def test_principal_angles_and_overlay_figures(tmp_path):
-    from fsmctl.figures import overlay_figure, principal_angles_figure, save_figure
+    from fsmctl.studies.figures import overlay_figure, principal_angles_figure, save_figure
 
     t = np.linspace(0, 10, 101)
     theta = np.degrees(np.abs(np.sin(t))[:, None] * np.ones(6))

@@ -25,8 +25,8 @@ from scipy.spatial.transform import Rotation
 
 import fsmctl
 from fsmctl import Sinusoid, Topology
-from fsmctl.problem import pack
-from fsmctl.simulator import DiscontinuousControlWarning, SimulationError
+from fsmctl.model.problem import pack
+from fsmctl.simulation.simulator import DiscontinuousControlWarning, SimulationError
 
 ZERO3x3 = ((0.0, 0.0, 0.0),) * 3
 
@@ -84,7 +84,7 @@ class CompiledRHS:
     """The driver's exported ``fsm_rhs`` (one evaluation of the formation right-hand side)."""
 
     def __init__(self, scenario):
-        from fsmctl.simulator import _CProblem, _driver, _ptr
+        from fsmctl.simulation.simulator import _CProblem, _driver, _ptr
 
         self.dll = _driver()
         if self.dll is None:
@@ -113,7 +113,7 @@ def paper():
 
 
 def test_default_backend_is_the_compiled_generated_code(paper):
-    from fsmctl.simulator import _driver
+    from fsmctl.simulation.simulator import _driver
 
     dll = _driver()
     if dll is None:
@@ -296,7 +296,7 @@ def test_shadow_switching_keeps_the_attitude_and_theta_continuous(paper):
 def test_plant_uses_true_inertia_and_disturbance_controller_uses_nominal(paper):
     """One evaluation of the formation RHS against Euler's equation (eq 4) with J = J0 + dJ (eq 29), d_i(t) of
     Sec. 4, and the controller's torque recomputed from the generated law with J0 (not J)."""
-    from fsmctl.generated_code import casadi_function
+    from fsmctl.model.generated_code import casadi_function
 
     rhs = CompiledRHS(paper)
     p = rhs.p
@@ -379,7 +379,7 @@ def test_coordination_uses_only_what_the_agent_receives(paper):
         # agents 1-4 always receive from 6 at these times
         assert np.abs(u1[0] - u0[0]).max() > 1e-3
     # a sparse graph: in a ring of 6, agent 1 never hears agent 4
-    ring = fsmctl.topology.ring(6, 8.0, 5.0)
+    ring = fsmctl.model.topology.ring(6, 8.0, 5.0)
     rr = CompiledRHS(s.with_topology(ring))
     x_pert = x.copy()
     x_pert[3 + 6 * 3 : 9 + 6 * 3] += 0.05
@@ -678,7 +678,7 @@ def _clear_backend_caches() -> None:
 
 def _simulate_without_compiler(scenario, monkeypatch):
     """Run ``scenario`` with ``FSMCTL_NO_COMPILE=1`` (serialized CasADi functions), restoring the backend after."""
-    from fsmctl.generated_code import CompilerUnavailableWarning
+    from fsmctl.model.generated_code import CompilerUnavailableWarning
 
     monkeypatch.setenv("FSMCTL_NO_COMPILE", "1")
     _clear_backend_caches()

@@ -23,7 +23,7 @@ from scipy.integrate import trapezoid
 
 import fsmctl
 from fsmctl import surfaces as sf
-from fsmctl.cli import main
+from fsmctl.cli.main import main
 
 
 @pytest.fixture(scope="module")
@@ -47,7 +47,7 @@ def test_variant_scenarios(paper_case1):
 
 def test_remark6_slope_matches_derive(paper_case1):
     """The generated surface's slope at sigma_e = 0 and at the band edge equals c1 + c2 phi'(x) of derive (SymPy)."""
-    from derive.controller import SingularityFix, surface_term_slope
+    from fsmctl.symbolic.controller import SingularityFix, surface_term_slope
 
     c = paper_case1.controller
     x = sp.Symbol("x", real=True)

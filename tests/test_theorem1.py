@@ -12,7 +12,7 @@ import pytest
 
 from fsmctl import paper_scenario
 from fsmctl.proofs.theorem1 import analyze_topology, configurations, eta_interval
-from fsmctl.topology import Link, Schedule, Topology, all_to_all
+from fsmctl.model.topology import Link, Schedule, Topology, all_to_all
 
 
 def _exact_k_j(topology: Topology, t: float) -> np.ndarray:

@@ -9,7 +9,7 @@ import oracle_numpy as oracle
 import pytest
 
 from fsmctl import load_scenario, paper_scenario
-from fsmctl.generated_code import casadi_function
+from fsmctl.model.generated_code import casadi_function
 from fsmctl.proofs.theorem2 import Region, delta_requirements, drift_function, proportional_kappa
 
 DATA = Path(__file__).parent / "data"
@@ -140,7 +140,7 @@ def test_buffered_evaluation_and_output_subsets_are_bit_identical(case1, error_m
     """
     import casadi as ca
 
-    from fsmctl.casadi_eval import evaluate_mapped
+    from fsmctl.model.casadi_eval import evaluate_mapped
 
     rng = np.random.default_rng(4)
     n = 300

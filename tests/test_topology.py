@@ -33,7 +33,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fsmctl
-from fsmctl.topology import Link, Schedule, Topology
+from fsmctl.model.topology import Link, Schedule, Topology
 
 PERIOD = Fraction(8)  # Table 2: mod(t, 8)
 ON_UNTIL = Fraction(13, 2)  # Table 2: on while mod(t, 8) <= 6.5
@@ -186,7 +186,7 @@ def test_left_closed_instants_are_exact_and_isolated(cases):
 def test_packed_problem_and_compiled_driver_use_table2(cases):
     """The weights the simulator uses: ``PackedProblem.link_weights`` (scalar and array) and the C driver."""
     from fsmctl import simulator
-    from fsmctl.problem import pack
+    from fsmctl.model.problem import pack
 
     for case in ("1", "3b"):
         sc = cases[case]

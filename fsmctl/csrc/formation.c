@@ -1,43 +1,117 @@
 /*
- * Whole-loop formation simulator: see formation.h.  Compiled by fsmctl together
- * with the CasADi-generated sources of generated/c into one shared library.
- * No model equation is written here: every physical or control formula is a
- * call into the generated code.
+ * Whole-loop formation simulator: see formation.h.  Compiled by fsmctl together with the CasADi-generated
+ * sources of the model (generated/c) and of one law into one shared library.  No model or control equation
+ * is written here: every physical or control formula is a call into the generated code.
  */
 #include "formation.h"
 
 #include <math.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "batched.h"
-#include "control_core.h"
 #include "disturbance_torque.h"
+#include "error_state_exact.h"
+#include "error_state_paper.h"
+#include "law_batched.h"
+#include "law_constants.h"
+#include "law_control_exact.h"
+#include "law_control_paper.h"
+#include "law_local_exact.h"
+#include "law_local_paper.h"
 #include "mrp_shadow.h"
 #include "plant_rhs.h"
 #include "reference_rhs.h"
-#include "sliding_constants.h"
-#include "sliding_exact.h"
-#include "sliding_paper.h"
 
 typedef int (*casadi_fn)(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 typedef int (*casadi_work_fn)(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
 typedef const casadi_int *(*casadi_sparsity_fn)(casadi_int i);
 typedef int (*batched_fn)(const double *const *arg, double *const *res, int lanes);
 
+/* ------------------------------------------------------------------------------------------------ ABI */
+#define FSM_FIELD(T, f) (long long)offsetof(T, f)
+int fsm_abi(long long *out, int capacity) {
+  const long long v[] = {
+      FSM_ABI_VERSION, (long long)sizeof(fsm_problem), (long long)sizeof(fsm_output),
+      FSM_FIELD(fsm_problem, n_agents), FSM_FIELD(fsm_problem, error_model), FSM_FIELD(fsm_problem, integrator),
+      FSM_FIELD(fsm_problem, kernels), FSM_FIELD(fsm_problem, n_params), FSM_FIELD(fsm_problem, n_states),
+      FSM_FIELD(fsm_problem, n_broadcast), FSM_FIELD(fsm_problem, n_links), FSM_FIELD(fsm_problem, t0),
+      FSM_FIELD(fsm_problem, dt), FSM_FIELD(fsm_problem, n_steps), FSM_FIELD(fsm_problem, output_every),
+      FSM_FIELD(fsm_problem, hold_steps), FSM_FIELD(fsm_problem, rtol), FSM_FIELD(fsm_problem, atol),
+      FSM_FIELD(fsm_problem, h_min), FSM_FIELD(fsm_problem, max_steps), FSM_FIELD(fsm_problem, J_true),
+      FSM_FIELD(fsm_problem, J0), FSM_FIELD(fsm_problem, params), FSM_FIELD(fsm_problem, u_max),
+      FSM_FIELD(fsm_problem, dist_params), FSM_FIELD(fsm_problem, ref_params), FSM_FIELD(fsm_problem, link_receiver),
+      FSM_FIELD(fsm_problem, link_sender), FSM_FIELD(fsm_problem, link_k_i), FSM_FIELD(fsm_problem, sched_period),
+      FSM_FIELD(fsm_problem, sched_phase), FSM_FIELD(fsm_problem, sched_start), FSM_FIELD(fsm_problem, sched_count),
+      FSM_FIELD(fsm_problem, sched_times), FSM_FIELD(fsm_problem, sched_values),
+      FSM_FIELD(fsm_output, capacity), FSM_FIELD(fsm_output, written), FSM_FIELD(fsm_output, t),
+      FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
+      FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
+      FSM_FIELD(fsm_output, u_unsat), FSM_FIELD(fsm_output, broadcast), FSM_FIELD(fsm_output, z),
+      FSM_FIELD(fsm_output, saturated_time), FSM_FIELD(fsm_output, u_total_variation),
+      FSM_FIELD(fsm_output, u_unsat_max), FSM_FIELD(fsm_output, steps_taken), FSM_FIELD(fsm_output, steps_rejected),
+      FSM_FIELD(fsm_output, fail_time), FSM_FIELD(fsm_output, fail_agent)};
+  const int n = (int)(sizeof v / sizeof v[0]);
+  for (int k = 0; k < n && k < capacity; ++k) out[k] = v[k];
+  return n;
+}
+
+/* Nonzeros of a CasADi sparsity pattern: {nrow, ncol, 1} is the compact form of a dense pattern,
+ * otherwise {nrow, ncol, colind[0] = 0, ..., colind[ncol], rows...}. */
+static int sparsity_nnz(const casadi_int *sp) { return (int)(sp[2] == 1 ? sp[0] * sp[1] : sp[2 + sp[1]]); }
+
+/* Law sizes, read from the generated functions' sparsity (law_local: 10 inputs, 2 outputs; law_control: 15, 3). */
+enum { LI_T, LI_SIGMA, LI_OMEGA, LI_Z, LI_SD, LI_WD, LI_WDD, LI_J0, LI_PARAMS, LI_CONST, N_LOCAL_IN };
+enum { CI_CACHE = N_LOCAL_IN, CI_KSUM, CI_RECV, CI_KRS, CI_UMAX, N_CONTROL_IN };
+
+void fsm_law_sizes(long long *out) {
+  out[0] = sparsity_nnz(law_local_paper_sparsity_in(LI_PARAMS));
+  out[1] = sparsity_nnz(law_local_paper_sparsity_in(LI_Z));
+  out[2] = sparsity_nnz(law_local_paper_sparsity_out(0));
+  out[3] = sparsity_nnz(law_constants_sparsity_out(0));
+  out[4] = sparsity_nnz(law_local_paper_sparsity_out(1));
+}
+
+/* The contract of fsmctl.symbolic.law, checked against the generated functions: argument counts and sizes. */
+static int law_contract_ok(const fsm_problem *P, int *nk, int *nc) {
+  casadi_sparsity_fn lin[2] = {law_local_paper_sparsity_in, law_local_exact_sparsity_in};
+  casadi_sparsity_fn lout[2] = {law_local_paper_sparsity_out, law_local_exact_sparsity_out};
+  casadi_sparsity_fn cin[2] = {law_control_paper_sparsity_in, law_control_exact_sparsity_in};
+  casadi_sparsity_fn cout[2] = {law_control_paper_sparsity_out, law_control_exact_sparsity_out};
+  if (law_local_paper_n_in() != N_LOCAL_IN || law_local_exact_n_in() != N_LOCAL_IN) return 0;
+  if (law_control_paper_n_in() != N_CONTROL_IN || law_control_exact_n_in() != N_CONTROL_IN) return 0;
+  if (law_local_paper_n_out() != 2 || law_local_exact_n_out() != 2) return 0;
+  if (law_control_paper_n_out() != 3 || law_control_exact_n_out() != 3) return 0;
+  *nk = sparsity_nnz(law_constants_sparsity_out(0));
+  *nc = sparsity_nnz(law_local_paper_sparsity_out(1));
+  if (sparsity_nnz(law_constants_sparsity_in(0)) != P->n_params) return 0;
+  const int sizes[N_CONTROL_IN] = {1, 3, 3, P->n_states, 3, 3, 3, 9, P->n_params, *nk,
+                                   *nc, 1, P->n_broadcast, 1, 1};
+  for (int m = 0; m < 2; ++m) {
+    for (int a = 0; a < N_CONTROL_IN; ++a) {
+      if (sparsity_nnz(cin[m](a)) != sizes[a]) return 0;
+      if (a < N_LOCAL_IN && sparsity_nnz(lin[m](a)) != sizes[a]) return 0;
+    }
+    if (sparsity_nnz(lout[m](0)) != P->n_broadcast || sparsity_nnz(lout[m](1)) != *nc) return 0;
+    if (sparsity_nnz(cout[m](0)) != 3 || sparsity_nnz(cout[m](1)) != 3 || sparsity_nnz(cout[m](2)) != P->n_states)
+      return 0;
+  }
+  return 1;
+}
+
 /* Lane-batched evaluation.  Agents are taken FSM_LANES at a time ("groups"); each group owns one block of
- * LANE_ROWS rows x FSM_LANES doubles, element k of lane l of a row at row[FSM_LANES * k + l] (the layout of
- * the kernels of generated/c/batched.c).  The rows hold every argument and result of the three per-agent
- * functions, so sliding_* writes the error state where control_core reads it, and the run constants (gains,
- * inertias, limits) are packed once.  Lanes past the last agent repeat it; their results are never read. */
+ * rows x FSM_LANES doubles, element k of lane l of a row at row[FSM_LANES * k + l] (the layout of the
+ * generated kernels).  The rows hold every argument and result of the per-agent functions, so law_local
+ * writes the cache where law_control reads it, and the run constants (parameters, inertias) are packed
+ * once.  Row offsets follow from the law's sizes.  Lanes past the last agent repeat it; their results are
+ * never read. */
 enum {
-  R_SIGMA = 0, R_OMEGA = 3, R_SIGMA_D = 6, R_OMEGA_D = 9, R_OMEGA_D_DOT = 12, R_GAINS = 15, R_GC = 21, /* sliding in */
-  R_S = 22, R_SE = 25, R_WE = 28, R_WR = 31, R_WRD = 34, R_SLOPE = 37,                           /* sliding out */
-  R_J0 = 40, R_DELTA = 49, R_KSUM = 52, R_RECV = 53, R_UMAX = 56,                                /* control in */
-  R_U = 57, R_UU = 60,                                                                           /* control out */
-  R_TAU = 63, R_JTRUE = 66,                                                                      /* plant in */
-  R_SIGMA_DOT = 75, R_OMEGA_DOT = 78,                                                            /* plant out */
-  LANE_ROWS = 81
+  RW_T, RW_SIGMA, RW_OMEGA, RW_Z, RW_SD, RW_WD, RW_WDD, RW_J0, RW_PARAMS, RW_CONST, /* law inputs, as LI_* */
+  RW_CACHE, RW_KSUM, RW_RECV, RW_KRS, RW_UMAX,                                /* control inputs, as CI_* */
+  RW_B, RW_U, RW_UU, RW_ZDOT,                                                 /* law outputs */
+  RW_TAU, RW_JTRUE, RW_SIGMA_DOT, RW_OMEGA_DOT,                               /* plant */
+  RW_END
 };
 #define LANE(g, row) ((g) + FSM_LANES * (row))
 
@@ -52,21 +126,21 @@ static inline void from_lane(double *dst, const double *row, int nnz, int l) {
 }
 
 typedef struct {
-  int n;
+  int n, nz, nb, np, nk, nc, stride;     /* agents, law states, broadcast, params, constants, cache; state stride */
   int batched;                           /* 1: lane-batched kernels for the per-agent functions */
   int n_groups;                          /* ceil(n / FSM_LANES) */
-  double *lanes;                         /* n_groups blocks of LANE_ROWS x FSM_LANES doubles */
-  batched_fn sliding_x;
-  casadi_fn sliding;
-  double *s, *se, *we, *wr, *wrd, *slope; /* n x 3 (scalar kernels; batched: only s) */
-  double *recv, *ksum;                   /* n x 3, n */
-  double *u, *uu;                        /* computed control, n x 3 */
-  double *u_hold, *uu_hold;              /* held control (zero-order hold) */
-  const double *u_apply, *uu_apply;      /* what the plant sees */
+  int row[RW_END + 1];                   /* row offsets of the lane blocks */
+  double *lanes;                         /* n_groups blocks of row[RW_END] x FSM_LANES doubles */
+  batched_fn local_x, control_x;
+  casadi_fn local, control, error_state;
+  double *b, *cache, *konst;             /* n x nb, n x nc, n x nk */
+  double *recv, *ksum, *krs;             /* n x nb, n, n */
+  double *u, *uu, *zdot;                 /* computed control (n x 3, n x 3, n x nz) */
+  double *u_hold, *uu_hold, *zdot_hold;  /* held control (zero-order hold) */
+  const double *u_apply, *uu_apply, *zdot_apply; /* what the plant and the law states see */
   double *d;                             /* disturbance torques, n x 3 */
   double d_time;
   int d_valid;
-  double *gc;                            /* n: sliding_constants */
   double wd[3], wdd[3];
   double *k_val, *k_base, *k_lo, *k_hi;  /* per-link schedule cache */
   double *k_now;                         /* k^j of every link at k_time (all RK4 stages of a step share it) */
@@ -80,7 +154,7 @@ typedef struct {
 } workspace;
 
 static void free_workspace(workspace *W) {
-  free(W->s);
+  free(W->b);
   free(W->lanes);
   free(W->iw);
   free(W->w);
@@ -90,8 +164,7 @@ static void free_workspace(workspace *W) {
 /* The batched kernels pay off with 256-bit vector registers (AVX: one register per 4 lanes).  Without AVX the
  * compiler splits each 4-lane operation into SSE2 halves and the scalar functions are faster (measured with
  * FSMCTL_PORTABLE=1 builds), so "auto" picks the scalar path there.  Both paths give the same results, bit for
- * bit, except the sign of a zero torque from fmin/fmax of +0 and -0 (u_max = 0, e.g. open loop), which C99
- * leaves unspecified and compilers resolve differently. */
+ * bit, except the sign of a zero from fmin/fmax of +0 and -0, which C99 leaves unspecified. */
 int fsm_batched_available(void) {
 #ifdef FSM_HAVE_BATCHED
   return 1;
@@ -109,107 +182,89 @@ int fsm_batched_preferred(void) {
 }
 
 #ifndef FSM_HAVE_BATCHED
-/* A compiler without the GCC/Clang vector extension compiles no kernels (generated/c/batched.c is empty);
+/* A compiler without the GCC/Clang vector extension compiles no kernels (the batched sources are empty);
  * these stand-ins are never called: alloc_workspace refuses FSM_KERNELS_BATCHED and "auto" means scalar. */
 static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes) {
   (void)arg, (void)res, (void)lanes;
   return 1;
 }
-#define sliding_paper_x4 fsm_no_kernel
-#define sliding_exact_x4 fsm_no_kernel
-#define control_core_x4 fsm_no_kernel
+#define law_local_paper_x4 fsm_no_kernel
+#define law_local_exact_x4 fsm_no_kernel
+#define law_control_paper_x4 fsm_no_kernel
+#define law_control_exact_x4 fsm_no_kernel
 #define plant_rhs_x4 fsm_no_kernel
 #endif
 
-/* Nonzeros of a CasADi sparsity pattern: {nrow, ncol, 1} is the compact form of a dense pattern,
- * otherwise {nrow, ncol, colind[0] = 0, ..., colind[ncol], rows...}. */
-static int sparsity_nnz(const casadi_int *sp) { return (int)(sp[2] == 1 ? sp[0] * sp[1] : sp[2 + sp[1]]); }
-
-/* The lane rows above assume the argument sizes of the generated functions; check them against the
- * generated sparsity so that a change in derive/ cannot silently misalign the batched evaluation. */
-static int rows_match(casadi_sparsity_fn sp, int count, const int *row, int next) {
-  for (int a = 0; a < count; ++a)
-    if (sparsity_nnz(sp(a)) != (a + 1 < count ? row[a + 1] : next) - row[a]) return 0;
-  return 1;
+static void lane_rows(workspace *W) {
+  const int size[RW_END] = {1, 3, 3, W->nz, 3, 3, 3, 9, W->np, W->nk, W->nc, 1, W->nb, 1, 1,
+                            W->nb, 3, 3, W->nz, 3, 9, 3, 3};
+  W->row[0] = 0;
+  for (int r = 0; r < RW_END; ++r) W->row[r + 1] = W->row[r] + size[r];
 }
 
-static int lane_layout_ok(void) {
-  static const int sl_in[] = {R_SIGMA, R_OMEGA, R_SIGMA_D, R_OMEGA_D, R_OMEGA_D_DOT, R_GAINS, R_GC};
-  static const int sl_out[] = {R_S, R_SE, R_WE, R_WR, R_WRD, R_SLOPE};
-  static const int cc_in[] = {R_SE, R_WE, R_WR, R_WRD, R_S, R_SLOPE, R_J0, R_GAINS, R_DELTA, R_KSUM, R_RECV, R_UMAX};
-  static const int cc_in_next[] = {R_WE, R_WR, R_WRD, R_SLOPE, R_SE, R_J0, R_J0 + 9, R_GAINS + 6, R_KSUM,
-                                   R_RECV, R_UMAX, R_U};
-  static const int cc_out[] = {R_U, R_UU};
-  static const int pl_in[] = {R_SIGMA, R_OMEGA, R_TAU, R_JTRUE};
-  static const int pl_in_next[] = {R_OMEGA, R_SIGMA_D, R_JTRUE, R_SIGMA_DOT};
-  static const int pl_out[] = {R_SIGMA_DOT, R_OMEGA_DOT};
-  casadi_sparsity_fn sl_sp_in[2] = {sliding_paper_sparsity_in, sliding_exact_sparsity_in};
-  casadi_sparsity_fn sl_sp_out[2] = {sliding_paper_sparsity_out, sliding_exact_sparsity_out};
-  for (int m = 0; m < 2; ++m)
-    if (!rows_match(sl_sp_in[m], 7, sl_in, R_S) || !rows_match(sl_sp_out[m], 6, sl_out, R_J0)) return 0;
-  if (sliding_paper_n_in() != 7 || sliding_exact_n_in() != 7 || sliding_paper_n_out() != 6 ||
-      sliding_exact_n_out() != 6 || control_core_n_in() != 12 || control_core_n_out() != 2 ||
-      plant_rhs_n_in() != 4 || plant_rhs_n_out() != 2)
-    return 0;
-  for (int a = 0; a < 12; ++a)
-    if (sparsity_nnz(control_core_sparsity_in(a)) != cc_in_next[a] - cc_in[a]) return 0;
-  if (!rows_match(control_core_sparsity_out, 2, cc_out, R_TAU)) return 0;
-  for (int a = 0; a < 4; ++a)
-    if (sparsity_nnz(plant_rhs_sparsity_in(a)) != pl_in_next[a] - pl_in[a]) return 0;
-  return rows_match(plant_rhs_sparsity_out, 2, pl_out, LANE_ROWS);
-}
+static double *group_block(workspace *W, int g) { return W->lanes + (size_t)g * W->row[RW_END] * FSM_LANES; }
+#define ROW(G, r) LANE(G, W->row[r])
 
-/* Pack the run constants (gains, sliding constants, inertias, delta, torque limits) into the lane rows. */
+/* Pack the run constants (parameters, law constants, inertias) into the lane rows. */
 static void pack_lane_constants(workspace *W, const fsm_problem *P) {
   for (int g = 0; g < W->n_groups; ++g) {
-    double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+    double *G = group_block(W, g);
     for (int l = 0; l < FSM_LANES; ++l) {
       const int i = lane_agent(g, l, W->n);
-      to_lane(LANE(G, R_GAINS), P->gains + 6 * i, 6, l);
-      to_lane(LANE(G, R_GC), W->gc + i, 1, l);
-      to_lane(LANE(G, R_J0), P->J0 + 9 * i, 9, l);
-      to_lane(LANE(G, R_DELTA), P->delta + 3 * i, 3, l);
-      to_lane(LANE(G, R_UMAX), P->u_max + i, 1, l);
-      to_lane(LANE(G, R_JTRUE), P->J_true + 9 * i, 9, l);
+      to_lane(ROW(G, RW_PARAMS), P->params + (size_t)W->np * i, W->np, l);
+      to_lane(ROW(G, RW_CONST), W->konst + (size_t)W->nk * i, W->nk, l);
+      to_lane(ROW(G, RW_J0), P->J0 + 9 * i, 9, l);
+      to_lane(ROW(G, RW_UMAX), P->u_max + i, 1, l);
+      to_lane(ROW(G, RW_JTRUE), P->J_true + 9 * i, 9, l);
     }
   }
 }
 
 static int alloc_workspace(workspace *W, const fsm_problem *P) {
   memset(W, 0, sizeof(*W));
-  int n = P->n_agents;
+  int n = P->n_agents, nk = 0, nc = 0;
+  if (!law_contract_ok(P, &nk, &nc)) return FSM_BAD_PROBLEM;
   W->n = n;
-  W->sliding = P->error_model == 1 ? sliding_exact : sliding_paper;
+  W->nz = P->n_states;
+  W->nb = P->n_broadcast;
+  W->np = P->n_params;
+  W->nk = nk;
+  W->nc = nc;
+  W->stride = 6 + P->n_states;
+  W->local = P->error_model == 1 ? law_local_exact : law_local_paper;
+  W->control = P->error_model == 1 ? law_control_exact : law_control_paper;
+  W->error_state = P->error_model == 1 ? error_state_exact : error_state_paper;
   /* one block for all per-agent doubles */
-  size_t per3 = (size_t)3 * n, L = (size_t)P->n_links;
-  size_t total = per3 * 13 + (size_t)n * 2 + L * 5;
+  size_t N = (size_t)n, L = (size_t)P->n_links, nb = (size_t)W->nb, nz = (size_t)W->nz;
+  size_t total = N * (nb * 2 + (size_t)nc + (size_t)nk + 2 + 3 * 6 + nz * 2) + L * 5;
   double *block = calloc(total > 0 ? total : 1, sizeof(double));
   if (!block) return FSM_NOMEM;
   double *p = block;
-  W->s = p; p += per3;
-  W->se = p; p += per3;
-  W->we = p; p += per3;
-  W->wr = p; p += per3;
-  W->wrd = p; p += per3;
-  W->slope = p; p += per3;
-  W->recv = p; p += per3;
-  W->u = p; p += per3;
-  W->uu = p; p += per3;
-  W->u_hold = p; p += per3;
-  W->uu_hold = p; p += per3;
-  W->d = p; p += per3;
-  W->ksum = p; p += n;
-  W->gc = p; p += n;
+  W->b = p; p += N * nb;
+  W->cache = p; p += N * (size_t)nc;
+  W->konst = p; p += N * (size_t)nk;
+  W->recv = p; p += N * nb;
+  W->ksum = p; p += N;
+  W->krs = p; p += N;
+  W->u = p; p += 3 * N;
+  W->uu = p; p += 3 * N;
+  W->u_hold = p; p += 3 * N;
+  W->uu_hold = p; p += 3 * N;
+  W->d = p; p += 3 * N;
+  W->tau = p; p += 3 * N;
+  W->zdot = p; p += N * nz;
+  W->zdot_hold = p; p += N * nz;
   W->k_val = p; p += L;
   W->k_base = p; p += L;
   W->k_lo = p; p += L;
   W->k_hi = p; p += L;
   W->k_now = p; p += L;
-  W->tau = p; p += per3;
   for (size_t e = 0; e < L; ++e) { W->k_lo[e] = INFINITY; W->k_hi[e] = -INFINITY; } /* empty: forces evaluation */
   /* CasADi work arrays: the largest need of the functions used */
-  casadi_work_fn works[] = {plant_rhs_work, sliding_paper_work, sliding_exact_work, control_core_work,
-                            reference_rhs_work, disturbance_torque_work, mrp_shadow_work, sliding_constants_work};
+  casadi_work_fn works[] = {plant_rhs_work,         law_local_paper_work,   law_local_exact_work,
+                            law_control_paper_work, law_control_exact_work, law_constants_work,
+                            reference_rhs_work,     disturbance_torque_work, mrp_shadow_work,
+                            error_state_paper_work, error_state_exact_work};
   casadi_int max_iw = 1, max_w = 1;
   for (size_t k = 0; k < sizeof(works) / sizeof(works[0]); ++k) {
     casadi_int a, r, iw, w;
@@ -220,23 +275,25 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->batched = P->kernels == FSM_KERNELS_BATCHED || (P->kernels == FSM_KERNELS_AUTO && fsm_batched_preferred());
   if (W->batched && !fsm_batched_available()) { free_workspace(W); return FSM_BAD_PROBLEM; }
   if (W->batched) {
-    if (!lane_layout_ok()) { free_workspace(W); return FSM_BAD_PROBLEM; }
-    W->sliding_x = P->error_model == 1 ? sliding_exact_x4 : sliding_paper_x4;
+    lane_rows(W);
+    W->local_x = P->error_model == 1 ? law_local_exact_x4 : law_local_paper_x4;
+    W->control_x = P->error_model == 1 ? law_control_exact_x4 : law_control_paper_x4;
     W->n_groups = (n + FSM_LANES - 1) / FSM_LANES;
-    W->lanes = calloc((size_t)W->n_groups * LANE_ROWS * FSM_LANES, sizeof(double));
+    W->lanes = calloc((size_t)W->n_groups * W->row[RW_END] * FSM_LANES, sizeof(double));
     if (!W->lanes) { free_workspace(W); return FSM_NOMEM; }
   }
   W->iw = calloc((size_t)max_iw, sizeof(casadi_int));
   W->w = calloc((size_t)max_w, sizeof(double));
   if (!W->iw || !W->w) { free_workspace(W); return FSM_NOMEM; }
-  for (int i = 0; i < n; ++i) { /* per-agent constants of the sliding functions */
-    const double *arg[1] = {P->gains + 6 * i};
-    double *res[1] = {W->gc + i};
-    sliding_constants(arg, res, W->iw, W->w, 0);
+  for (int i = 0; i < n; ++i) { /* per-agent constants of the law */
+    const double *arg[1] = {P->params + (size_t)W->np * i};
+    double *res[1] = {W->konst + (size_t)nk * i};
+    law_constants(arg, res, W->iw, W->w, 0);
   }
   if (W->batched) pack_lane_constants(W, P);
   W->u_apply = W->u;
   W->uu_apply = W->uu;
+  W->zdot_apply = W->zdot;
   W->bad_agent = -2;
   W->bad_time = NAN;
   return FSM_OK;
@@ -271,11 +328,52 @@ static double link_weight(workspace *W, const fsm_problem *P, int e, double t) {
 
 double fsm_link_weight(const fsm_problem *P, int e, double t) { return link_weight(NULL, P, e, t); }
 
-/* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque.  The piecewise-constant
- * link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop: see simulate_rk4). */
+/* The neighbour aggregation (eq 19 for any broadcast b), the one place it is written: with the link weights
+ * k^j_ij(t_link) (cached per t_link: the four RK4 stages of a step share them),
+ * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij. */
+static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
+  const int n = W->n, nb = W->nb;
+  if (!W->k_valid || W->k_time != t_link) {
+    memset(W->ksum, 0, sizeof(double) * n);
+    memset(W->krs, 0, sizeof(double) * n);
+    for (int e = 0; e < P->n_links; ++e) {
+      W->k_now[e] = link_weight(W, P, e, t_link);
+      W->ksum[P->link_receiver[e]] += P->link_k_i[e];
+      W->krs[P->link_receiver[e]] += W->k_now[e];
+    }
+    W->k_time = t_link;
+    W->k_valid = 1;
+  }
+  memset(W->recv, 0, sizeof(double) * (size_t)nb * n);
+  for (int e = 0; e < P->n_links; ++e) {
+    const double kj = W->k_now[e];
+    if (kj != 0.0) {
+      const double *bj = W->b + (size_t)nb * P->link_sender[e];
+      double *ri = W->recv + (size_t)nb * P->link_receiver[e];
+      for (int k = 0; k < nb; ++k) ri[k] += kj * bj[k];
+    }
+  }
+}
+
+/* The commanded torques just computed must be finite. */
+static void check_commands(workspace *W, double t) {
+  for (int i = 0; i < W->n; ++i) {
+    const double *uu = W->uu + 3 * i;
+    /* A non-finite command (e.g. the Remark 6 term alpha|sigma_e|^(alpha-1) times 0 at sigma_e = 0 with
+     * singularity_fix = none) must not pass silently: the limit would turn NaN into -u_max.  Flag it; the
+     * loops stop with FSM_NONFINITE_CONTROL. */
+    if (W->bad_agent == -2 && !(isfinite(uu[0]) && isfinite(uu[1]) && isfinite(uu[2]))) {
+      W->bad_agent = i;
+      W->bad_time = t;
+    }
+  }
+}
+
+/* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque and law-state rates.  The
+ * piecewise-constant link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop: see simulate_rk4). */
 static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
                      int compute_control) {
-  const int n = W->n;
+  const int n = W->n, S = W->stride, nz = W->nz, nb = W->nb, nc = W->nc;
   const double *sd = x;
   {
     const double *arg[3] = {&t, sd, P->ref_params};
@@ -284,87 +382,70 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   }
   if (W->batched) {
     for (int g = 0; g < W->n_groups; ++g) {
-      double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+      double *G = group_block(W, g);
       for (int l = 0; l < FSM_LANES; ++l) {
         const int i = lane_agent(g, l, n);
-        to_lane(LANE(G, R_SIGMA), x + 3 + 6 * i, 6, l); /* sigma_i, omega_i: rows R_SIGMA, R_OMEGA */
-        to_lane(LANE(G, R_SIGMA_D), sd, 3, l);
-        to_lane(LANE(G, R_OMEGA_D), W->wd, 3, l);
-        to_lane(LANE(G, R_OMEGA_D_DOT), W->wdd, 3, l);
+        const double *xi = x + 3 + (size_t)S * i;
+        to_lane(ROW(G, RW_T), &t, 1, l);
+        to_lane(ROW(G, RW_SIGMA), xi, 3, l);
+        to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
+        to_lane(ROW(G, RW_Z), xi + 6, nz, l);
+        to_lane(ROW(G, RW_SD), sd, 3, l);
+        to_lane(ROW(G, RW_WD), W->wd, 3, l);
+        to_lane(ROW(G, RW_WDD), W->wdd, 3, l);
       }
-      const double *arg[7] = {LANE(G, R_SIGMA), LANE(G, R_OMEGA), LANE(G, R_SIGMA_D), LANE(G, R_OMEGA_D),
-                              LANE(G, R_OMEGA_D_DOT), LANE(G, R_GAINS), LANE(G, R_GC)};
-      double *res[6] = {LANE(G, R_S), LANE(G, R_SE), LANE(G, R_WE), LANE(G, R_WR), LANE(G, R_WRD), LANE(G, R_SLOPE)};
-      W->sliding_x(arg, res, active_lanes(g, n));
-      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
-        from_lane(W->s + 3 * (g * FSM_LANES + l), LANE(G, R_S), 3, l); /* s_j for the links */
+      if (compute_control) {
+        const double *arg[N_LOCAL_IN];
+        for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = ROW(G, RW_T + a);
+        double *res[2] = {ROW(G, RW_B), ROW(G, RW_CACHE)};
+        W->local_x(arg, res, active_lanes(g, n));
+        for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
+          from_lane(W->b + (size_t)nb * (g * FSM_LANES + l), ROW(G, RW_B), nb, l); /* b_j for the links */
+      }
     }
-  } else {
+  } else if (compute_control) {
     for (int i = 0; i < n; ++i) {
-      const double *xi = x + 3 + 6 * i;
-      const double *arg[7] = {xi, xi + 3, sd, W->wd, W->wdd, P->gains + 6 * i, W->gc + i};
-      double *res[6] = {W->s + 3 * i, W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->slope + 3 * i};
-      W->sliding(arg, res, W->iw, W->w, 0);
+      const double *xi = x + 3 + (size_t)S * i;
+      const double *arg[N_LOCAL_IN] = {&t, xi, xi + 3, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
+                                       P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i};
+      double *res[2] = {W->b + (size_t)nb * i, W->cache + (size_t)nc * i};
+      W->local(arg, res, W->iw, W->w, 0);
     }
   }
   if (compute_control) {
-    /* k^j_ij(t_link) and sum_j k^i_ij: evaluated once per t_link (the four RK4 stages of a step share it) */
-    if (!W->k_valid || W->k_time != t_link) {
-      memset(W->ksum, 0, sizeof(double) * n);
-      for (int e = 0; e < P->n_links; ++e) {
-        W->k_now[e] = link_weight(W, P, e, t_link);
-        W->ksum[P->link_receiver[e]] += P->link_k_i[e];
-      }
-      W->k_time = t_link;
-      W->k_valid = 1;
-    }
-    memset(W->recv, 0, sizeof(double) * 3 * n);
-    for (int e = 0; e < P->n_links; ++e) {
-      const double kj = W->k_now[e];
-      if (kj != 0.0) {
-        const double *sj = W->s + 3 * P->link_sender[e];
-        double *ri = W->recv + 3 * P->link_receiver[e];
-        ri[0] += kj * sj[0];
-        ri[1] += kj * sj[1];
-        ri[2] += kj * sj[2];
-      }
-    }
+    aggregate(W, P, t_link);
     if (W->batched) {
       for (int g = 0; g < W->n_groups; ++g) {
-        double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+        double *G = group_block(W, g);
         for (int l = 0; l < FSM_LANES; ++l) {
           const int i = lane_agent(g, l, n);
-          to_lane(LANE(G, R_KSUM), W->ksum + i, 1, l);
-          to_lane(LANE(G, R_RECV), W->recv + 3 * i, 3, l);
+          to_lane(ROW(G, RW_KSUM), W->ksum + i, 1, l);
+          to_lane(ROW(G, RW_RECV), W->recv + (size_t)nb * i, nb, l);
+          to_lane(ROW(G, RW_KRS), W->krs + i, 1, l);
         }
-        const double *arg[12] = {LANE(G, R_SE),    LANE(G, R_WE),    LANE(G, R_WR),   LANE(G, R_WRD),
-                                 LANE(G, R_S),     LANE(G, R_SLOPE), LANE(G, R_J0),   LANE(G, R_GAINS),
-                                 LANE(G, R_DELTA), LANE(G, R_KSUM),  LANE(G, R_RECV), LANE(G, R_UMAX)};
-        double *res[2] = {LANE(G, R_U), LANE(G, R_UU)};
-        control_core_x4(arg, res, active_lanes(g, n));
+        const double *arg[N_CONTROL_IN];
+        for (int a = 0; a < N_CONTROL_IN; ++a) arg[a] = ROW(G, RW_T + a);
+        double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), ROW(G, RW_ZDOT)};
+        W->control_x(arg, res, active_lanes(g, n));
         for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
-          from_lane(W->u + 3 * (g * FSM_LANES + l), LANE(G, R_U), 3, l);
-          from_lane(W->uu + 3 * (g * FSM_LANES + l), LANE(G, R_UU), 3, l);
+          const int i = g * FSM_LANES + l;
+          from_lane(W->u + 3 * i, ROW(G, RW_U), 3, l);
+          from_lane(W->uu + 3 * i, ROW(G, RW_UU), 3, l);
+          from_lane(W->zdot + (size_t)nz * i, ROW(G, RW_ZDOT), nz, l);
         }
       }
-    }
-    for (int i = 0; i < n; ++i) {
-      if (!W->batched) {
-        const double *arg[12] = {W->se + 3 * i, W->we + 3 * i, W->wr + 3 * i, W->wrd + 3 * i, W->s + 3 * i,
-                                 W->slope + 3 * i, P->J0 + 9 * i, P->gains + 6 * i, P->delta + 3 * i,
-                                 W->ksum + i, W->recv + 3 * i, P->u_max + i};
-        double *res[2] = {W->u + 3 * i, W->uu + 3 * i};
-        control_core(arg, res, W->iw, W->w, 0);
-      }
-      /* A non-finite command (e.g. the Remark 6 term alpha|sigma_e|^(alpha-1) times 0 at sigma_e = 0 with
-       * singularity_fix = none) must not pass silently: the saturation fmin(u_max, fmax(-u_max, NaN)) would
-       * turn it into -u_max.  Flag it; the loops stop with FSM_NONFINITE_CONTROL. */
-      const double *uu = W->uu + 3 * i;
-      if (W->bad_agent == -2 && !(isfinite(uu[0]) && isfinite(uu[1]) && isfinite(uu[2]))) {
-        W->bad_agent = i;
-        W->bad_time = t;
+    } else {
+      for (int i = 0; i < n; ++i) {
+        const double *xi = x + 3 + (size_t)S * i;
+        const double *arg[N_CONTROL_IN] = {&t, xi, xi + 3, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
+                                           P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i,
+                                           W->cache + (size_t)nc * i, W->ksum + i, W->recv + (size_t)nb * i,
+                                           W->krs + i, P->u_max + i};
+        double *res[3] = {W->u + 3 * i, W->uu + 3 * i, W->zdot + (size_t)nz * i};
+        W->control(arg, res, W->iw, W->w, 0);
       }
     }
+    check_commands(W, t);
   }
   /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3 */
   if (!W->d_valid || W->d_time != t) {
@@ -377,38 +458,39 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     W->d_valid = 1;
   }
   const double *ua = compute_control ? W->u : W->u_apply;
+  const double *za = compute_control ? W->zdot : W->zdot_apply;
   for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
   if (W->batched) {
     for (int g = 0; g < W->n_groups; ++g) {
-      double *G = W->lanes + (size_t)g * LANE_ROWS * FSM_LANES;
+      double *G = group_block(W, g);
       for (int l = 0; l < FSM_LANES; ++l) {
         const int i = lane_agent(g, l, n);
-        to_lane(LANE(G, R_TAU), W->tau + 3 * i, 3, l); /* rows R_SIGMA, R_OMEGA still hold this x */
+        to_lane(ROW(G, RW_TAU), W->tau + 3 * i, 3, l); /* rows RW_SIGMA, RW_OMEGA still hold this x */
       }
-      const double *arg[4] = {LANE(G, R_SIGMA), LANE(G, R_OMEGA), LANE(G, R_TAU), LANE(G, R_JTRUE)};
-      double *res[2] = {LANE(G, R_SIGMA_DOT), LANE(G, R_OMEGA_DOT)};
+      const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
+      double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
       plant_rhs_x4(arg, res, active_lanes(g, n));
-      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
-        for (int k = 0; k < 3; ++k) {
-          const int i = g * FSM_LANES + l;
-          dx[3 + 6 * i + k] = LANE(G, R_SIGMA_DOT)[FSM_LANES * k + l];
-          dx[6 + 6 * i + k] = LANE(G, R_OMEGA_DOT)[FSM_LANES * k + l];
-        }
+      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
+        const int i = g * FSM_LANES + l;
+        from_lane(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), 3, l);
+        from_lane(dx + 6 + (size_t)S * i, ROW(G, RW_OMEGA_DOT), 3, l);
+      }
     }
   } else {
     for (int i = 0; i < n; ++i) {
-      const double *xi = x + 3 + 6 * i;
+      const double *xi = x + 3 + (size_t)S * i;
       const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
-      double *res[2] = {dx + 3 + 6 * i, dx + 6 + 6 * i};
+      double *res[2] = {dx + 3 + (size_t)S * i, dx + 6 + (size_t)S * i};
       plant_rhs(arg, res, W->iw, W->w, 0);
     }
   }
+  for (int i = 0; i < n; ++i) memcpy(dx + 9 + (size_t)S * i, za + (size_t)nz * i, sizeof(double) * nz);
 }
 
-static void shadow_all(workspace *W, double *x, int n) {
+static void shadow_all(workspace *W, double *x) {
   double tmp[3];
-  for (int b = 0; b < n + 1; ++b) {
-    double *sig = b == 0 ? x : x + 3 + 6 * (b - 1);
+  for (int b = 0; b < W->n + 1; ++b) {
+    double *sig = b == 0 ? x : x + 3 + (size_t)W->stride * (b - 1);
     if (sig[0] * sig[0] + sig[1] * sig[1] + sig[2] * sig[2] > 1.0) {
       const double *arg[1] = {sig};
       double *res[1] = {tmp};
@@ -418,39 +500,37 @@ static void shadow_all(workspace *W, double *x, int n) {
   }
 }
 
-static int first_nonfinite(const double *x, int n) {
-  for (int k = 0; k < 3 + 6 * n; ++k)
-    if (!isfinite(x[k])) return k < 3 ? -1 : (k - 3) / 6;
+static int first_nonfinite(const workspace *W, const double *x) {
+  const long long N = 3 + (long long)W->stride * W->n;
+  for (long long k = 0; k < N; ++k)
+    if (!isfinite(x[k])) return k < 3 ? -1 : (int)((k - 3) / W->stride);
   return -2;
 }
 
-static void record(fsm_output *O, workspace *W, const fsm_problem *P, double t, const double *x) {
+/* One output row: the true state, the true error state (the model's error_state_* function: what the metrics
+ * see, whatever the law computes), what each agent broadcasts, its law states and the applied torque. */
+static void record(fsm_output *O, workspace *W, double t, const double *x) {
   if (O->written >= O->capacity) return;
-  const int n = W->n;
+  const int n = W->n, S = W->stride, nb = W->nb, nz = W->nz;
   long long r = O->written++;
   O->t[r] = t;
   memcpy(O->sigma_d + 3 * r, x, 3 * sizeof(double));
   for (int i = 0; i < n; ++i) {
     size_t o = (size_t)(r * n + i) * 3;
-    const double *xi = x + 3 + 6 * i;
+    const double *xi = x + 3 + (size_t)S * i;
     memcpy(O->sigma + o, xi, 3 * sizeof(double));
     memcpy(O->omega + o, xi + 3, 3 * sizeof(double));
-    if (W->batched) {
-      const double *G = W->lanes + (size_t)(i / FSM_LANES) * LANE_ROWS * FSM_LANES;
-      from_lane(O->sigma_e + o, LANE(G, R_SE), 3, i % FSM_LANES);
-      from_lane(O->omega_e + o, LANE(G, R_WE), 3, i % FSM_LANES);
-    } else {
-      memcpy(O->sigma_e + o, W->se + 3 * i, 3 * sizeof(double));
-      memcpy(O->omega_e + o, W->we + 3 * i, 3 * sizeof(double));
-    }
-    memcpy(O->s + o, W->s + 3 * i, 3 * sizeof(double));
+    const double *arg[4] = {xi, xi + 3, x, W->wd};
+    double *res[2] = {O->sigma_e + o, O->omega_e + o};
+    W->error_state(arg, res, W->iw, W->w, 0);
+    memcpy(O->broadcast + (size_t)(r * n + i) * nb, W->b + (size_t)nb * i, sizeof(double) * nb);
+    memcpy(O->z + (size_t)(r * n + i) * nz, xi + 6, sizeof(double) * nz);
     memcpy(O->u + o, W->u_apply + 3 * i, 3 * sizeof(double));
     memcpy(O->u_unsat + o, W->uu_apply + 3 * i, 3 * sizeof(double));
   }
-  (void)P;
 }
 
-/* Statistics of the applied torque u (unsaturated uu) held over an interval of length h. */
+/* Run statistics of the applied torque u (unsaturated uu) held over an interval of length h. */
 static void accumulate(fsm_output *O, int n, const fsm_problem *P, const double *u, const double *uu, double h,
                        double *u_prev, int first) {
   for (int i = 0; i < n; ++i) {
@@ -476,22 +556,26 @@ static void stage_one(workspace *W, const fsm_problem *P, double t, double t_lin
     eval_rhs(W, P, t, t_link, x, k1, 1);
     W->u_apply = W->u;
     W->uu_apply = W->uu;
+    W->zdot_apply = W->zdot;
     return;
   }
   if (sample) {
     eval_rhs(W, P, t, t_link, x, k1, 1);
     memcpy(W->u_hold, W->u, sizeof(double) * 3 * W->n);
     memcpy(W->uu_hold, W->uu, sizeof(double) * 3 * W->n);
+    memcpy(W->zdot_hold, W->zdot, sizeof(double) * (size_t)W->nz * W->n);
   } else {
     eval_rhs(W, P, t, t_link, x, k1, 0);
   }
   W->u_apply = W->u_hold;
   W->uu_apply = W->uu_hold;
+  W->zdot_apply = W->zdot_hold;
 }
 
 static int validate(const fsm_problem *P) {
   if (P->kernels != FSM_KERNELS_AUTO && P->kernels != FSM_KERNELS_BATCHED && P->kernels != FSM_KERNELS_SCALAR) return 0;
   if (P->n_agents < 1 || !(P->dt > 0) || P->n_steps < 0 || P->output_every < 1 || P->n_links < 0) return 0;
+  if (P->n_params < 0 || P->n_states < 0 || P->n_broadcast < 0) return 0;
   for (int e = 0; e < P->n_links; ++e) {
     if (P->link_receiver[e] < 0 || P->link_receiver[e] >= P->n_agents) return 0;
     if (P->link_sender[e] < 0 || P->link_sender[e] >= P->n_agents) return 0;
@@ -503,7 +587,8 @@ static int validate(const fsm_problem *P) {
 
 static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_output *O, double *buf,
                         fsm_progress_fn progress, long long every) {
-  const int n = W->n, N = 3 + 6 * n;
+  const int n = W->n;
+  const size_t N = 3 + (size_t)W->stride * n;
   double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *xt = k4 + N, *u_prev = xt + N;
   const double dt = P->dt, t0 = P->t0;
   const int continuous = P->hold_steps <= 0;
@@ -518,20 +603,20 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
     int sample = continuous || (k % P->hold_steps == 0);
     stage_one(W, P, t, t_link, x, k1, sample);
     if (W->bad_agent != -2) break;
-    if (k % P->output_every == 0) record(O, W, P, t, x);
+    if (k % P->output_every == 0) record(O, W, t, x);
     if (k == P->n_steps) break;
     accumulate(O, n, P, W->u_apply, W->uu_apply, dt, u_prev, k == 0);
     const double th = t0 + ((double)k + 0.5) * dt, t1 = t0 + (double)(k + 1) * dt;
-    for (int m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
+    for (size_t m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
     eval_rhs(W, P, th, t_link, xt, k2, continuous);
-    for (int m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k2[m];
+    for (size_t m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k2[m];
     eval_rhs(W, P, th, t_link, xt, k3, continuous);
-    for (int m = 0; m < N; ++m) xt[m] = x[m] + dt * k3[m];
+    for (size_t m = 0; m < N; ++m) xt[m] = x[m] + dt * k3[m];
     eval_rhs(W, P, t1, t_link, xt, k4, continuous);
     if (W->bad_agent != -2) break;
-    for (int m = 0; m < N; ++m) x[m] += dt / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m]);
-    shadow_all(W, x, n);
-    int bad = first_nonfinite(x, n);
+    for (size_t m = 0; m < N; ++m) x[m] += dt / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m]);
+    shadow_all(W, x);
+    int bad = first_nonfinite(W, x);
     if (bad != -2) {
       O->fail_time = t1;
       O->fail_agent = bad;
@@ -562,7 +647,8 @@ static const double E1 = 71.0 / 57600, E3 = -71.0 / 16695, E4 = 71.0 / 1920, E5 
 
 static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_output *O, double *buf,
                           fsm_progress_fn progress, long long every) {
-  const int n = W->n, N = 3 + 6 * n;
+  const int n = W->n;
+  const size_t N = 3 + (size_t)W->stride * n;
   double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *k5 = k4 + N, *k6 = k5 + N, *k7 = k6 + N,
          *xt = k7 + N, *xn = xt + N, *u_prev = xn + N, *u_snap = u_prev + 3 * n, *uu_snap = u_snap + 3 * n;
   const double t0 = P->t0, t_end = t0 + (double)P->n_steps * P->dt;
@@ -581,7 +667,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
     if (W->bad_agent != -2) break;
     memcpy(u_snap, W->u_apply, sizeof(double) * 3 * n);
     memcpy(uu_snap, W->uu_apply, sizeof(double) * 3 * n);
-    if (fabs(t - (t0 + (double)m_out * out_dt)) <= eps_t) { record(O, W, P, t, x); m_out++; }
+    if (fabs(t - (t0 + (double)m_out * out_dt)) <= eps_t) { record(O, W, t, x); m_out++; }
     if (t >= t_end - eps_t) break;
     /* next event: output time, sample time, end */
     double t_next = fmin(t_end, t0 + (double)m_out * out_dt);
@@ -593,27 +679,27 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       double hs = fmin(h, t_next - t);
       int lands = hs >= t_next - t - eps_t;
       if (lands) hs = t_next - t;
-      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * A21 * k1[m];
+      for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * A21 * k1[m];
       eval_rhs(W, P, t + C2 * hs, t + C2 * hs, xt, k2, continuous);
-      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A31 * k1[m] + A32 * k2[m]);
+      for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * (A31 * k1[m] + A32 * k2[m]);
       eval_rhs(W, P, t + C3 * hs, t + C3 * hs, xt, k3, continuous);
-      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A41 * k1[m] + A42 * k2[m] + A43 * k3[m]);
+      for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * (A41 * k1[m] + A42 * k2[m] + A43 * k3[m]);
       eval_rhs(W, P, t + C4 * hs, t + C4 * hs, xt, k4, continuous);
-      for (int m = 0; m < N; ++m) xt[m] = x[m] + hs * (A51 * k1[m] + A52 * k2[m] + A53 * k3[m] + A54 * k4[m]);
+      for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * (A51 * k1[m] + A52 * k2[m] + A53 * k3[m] + A54 * k4[m]);
       eval_rhs(W, P, t + C5 * hs, t + C5 * hs, xt, k5, continuous);
-      for (int m = 0; m < N; ++m)
+      for (size_t m = 0; m < N; ++m)
         xt[m] = x[m] + hs * (A61 * k1[m] + A62 * k2[m] + A63 * k3[m] + A64 * k4[m] + A65 * k5[m]);
       eval_rhs(W, P, t + hs, t + hs, xt, k6, continuous);
-      for (int m = 0; m < N; ++m)
+      for (size_t m = 0; m < N; ++m)
         xn[m] = x[m] + hs * (B1 * k1[m] + B3 * k3[m] + B4 * k4[m] + B5 * k5[m] + B6 * k6[m]);
       eval_rhs(W, P, t + hs, t + hs, xn, k7, continuous);
       double err = 0.0;
-      for (int m = 0; m < N; ++m) {
+      for (size_t m = 0; m < N; ++m) {
         double e = hs * (E1 * k1[m] + E3 * k3[m] + E4 * k4[m] + E5 * k5[m] + E6 * k6[m] + E7 * k7[m]);
         double sc = P->atol + P->rtol * fmax(fabs(x[m]), fabs(xn[m]));
         err += (e / sc) * (e / sc);
       }
-      err = sqrt(err / N);
+      err = sqrt(err / (double)N);
       if (!isfinite(err)) err = 1e10;
       double factor = err > 0 ? 0.9 * pow(err, -0.2) : 5.0;
       factor = fmin(5.0, fmax(0.2, factor));
@@ -637,8 +723,8 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       }
     }
     if (W->bad_agent != -2) break;
-    shadow_all(W, x, n);
-    int bad = first_nonfinite(x, n);
+    shadow_all(W, x);
+    int bad = first_nonfinite(W, x);
     if (bad != -2) {
       O->fail_time = t;
       O->fail_agent = bad;
@@ -664,8 +750,9 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
   workspace W;
   int rc = alloc_workspace(&W, P);
   if (rc != FSM_OK) return rc;
-  const int n = P->n_agents, N = 3 + 6 * n;
-  double *buf = calloc((size_t)N * 11 + 9 * (size_t)n, sizeof(double));
+  const int n = P->n_agents;
+  const size_t N = 3 + (size_t)W.stride * n;
+  double *buf = calloc(N * 11 + 9 * (size_t)n, sizeof(double));
   if (!buf) { free_workspace(&W); return FSM_NOMEM; }
   double *x = buf;
   memcpy(x, x0, sizeof(double) * N);
@@ -679,7 +766,7 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
   O->steps_rejected = 0;
   O->fail_time = NAN;
   O->fail_agent = -2;
-  shadow_all(&W, x, n);
+  shadow_all(&W, x);
   if (P->integrator == 1)
     rc = simulate_dopri(&W, P, x, O, buf + N, progress, every);
   else

@@ -1,17 +1,18 @@
 /*
- * Whole-loop simulator of an n-spacecraft formation under the FSM control law
- * (Liang, Sun & Wang 2012).  Hand-written driver: it contains no model
- * equations; it calls the CasADi-generated per-agent functions of generated/c
- * (plant_rhs, sliding_*, control_core, reference_rhs, disturbance_torque,
- * mrp_shadow, sliding_constants; the first three through their lane-batched
- * kernels of generated/c/batched.c, FSM_LANES agents per call, same results)
- * and does the bookkeeping around them:
- * the time loop (fixed-step RK4 or adaptive Dormand-Prince 5(4)), the
- * communication graph (what agent i receives: sum_j k^j_ij(t) s_j), the
- * switching schedules, zero-order-hold sampling, MRP shadow switching after
- * each step, output decimation and run statistics.
+ * Whole-loop simulator of an n-spacecraft formation flying any control law of fsmctl's law contract
+ * (fsmctl.symbolic.law).  Hand-written, law-agnostic driver: it contains no model or control equation.
+ * It calls the generated per-agent functions
+ *   - of the model (generated/c): plant_rhs, reference_rhs, disturbance_torque, mrp_shadow, error_state_*;
+ *   - of one law (generated/laws/<law>/c, or a user's derived folder): law_constants, law_local_<model>,
+ *     law_control_<model>;
+ * (plant_rhs and the law's functions through their lane-batched kernels, FSM_LANES agents per call, same
+ * results) and does the formation-level bookkeeping around them, each rule once: the time loop (fixed-step
+ * RK4 or adaptive Dormand-Prince 5(4)), the neighbour aggregation over the time-varying directed topology
+ * (received_i = sum_j k^j_ij(t) b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij(t), Liang et al.
+ * 2012 eq 19 for any broadcast b), the switching schedules, zero-order-hold sampling, MRP shadow switching after each step, output decimation and run statistics.
  *
- * State layout: x = [sigma_d (3), then for each agent i: sigma_i (3), omega_i (3)].
+ * State layout: x = [sigma_d (3), then for each agent i: sigma_i (3), omega_i (3), z_i (n_states)].
+ * The ABI (struct sizes and field offsets, FSM_ABI_VERSION) is exported by fsm_abi() and checked by Python at load.
  */
 #ifndef FSMCTL_FORMATION_H
 #define FSMCTL_FORMATION_H
@@ -20,10 +21,17 @@
 extern "C" {
 #endif
 
+#define FSM_ABI_VERSION 2
+
 typedef struct {
   int n_agents;
   int error_model;          /* 0: paper kinematics (eqs 7-8), 1: exact */
   int integrator;           /* 0: RK4 fixed step, 1: Dormand-Prince 5(4) adaptive */
+  int kernels;              /* FSM_KERNELS_*: how the per-agent functions are evaluated; results are the same */
+  int n_params;             /* per agent, must equal the law's */
+  int n_states;             /* law states per agent, must equal the law's */
+  int n_broadcast;          /* must equal the law's */
+  int n_links;
   double t0;
   double dt;                /* RK4 step; initial step for the adaptive method */
   long long n_steps;        /* RK4: number of steps; adaptive: t_final = t0 + n_steps*dt */
@@ -33,13 +41,11 @@ typedef struct {
   long long max_steps;      /* adaptive method only: give up after this many accepted+rejected steps */
   const double *J_true;     /* n x 9, row-major, the plant's inertia J0 + Delta_J */
   const double *J0;         /* n x 9, nominal inertia used by the controller */
-  const double *gains;      /* n x 6: c1, c2, alpha, boundary_layer, epsilon, fix_mode */
-  const double *delta;      /* n x 3 */
-  const double *u_max;      /* n: per-component torque limit (may be +inf) */
+  const double *params;     /* n x n_params: the law's parameters */
+  const double *u_max;      /* n: per-component torque limit of the actuator (may be +inf; 0: open loop) */
   const double *dist_params;/* n x 12: disturbance sinusoid */
   const double *ref_params; /* 12: omega_d sinusoid */
-  int n_links;
-  const int *link_receiver; /* i of k^i_ij, k^j_ij: agent i receives s_j */
+  const int *link_receiver; /* i of k^i_ij, k^j_ij: agent i receives b_j */
   const int *link_sender;   /* j */
   const double *link_k_i;   /* k^i_ij (constant) */
   const double *sched_period;  /* per link: period of k^j_ij(t); <= 0 for aperiodic */
@@ -48,12 +54,11 @@ typedef struct {
   const int *sched_count;      /* per link: number of segments */
   const double *sched_times;   /* segment m holds on [times[m], times[m+1]) (last: up to the period / +inf) */
   const double *sched_values;
-  int kernels;                 /* FSM_KERNELS_*: how the per-agent functions are evaluated; results are the same */
 } fsm_problem;
 
 enum {
   FSM_KERNELS_AUTO = 0,    /* batched where the build has AVX (fsm_batched_preferred), else scalar */
-  FSM_KERNELS_BATCHED = 1, /* lane-batched kernels of generated/c/batched.c, FSM_LANES agents per call */
+  FSM_KERNELS_BATCHED = 1, /* lane-batched kernels, FSM_LANES agents per call */
   FSM_KERNELS_SCALAR = 2   /* the scalar CasADi functions, agent by agent */
 };
 
@@ -62,7 +67,9 @@ typedef struct {
   long long written;        /* rows written */
   double *t;                /* capacity */
   double *sigma_d;          /* capacity x 3 */
-  double *sigma, *omega, *sigma_e, *omega_e, *s, *u, *u_unsat; /* capacity x n x 3 */
+  double *sigma, *omega, *sigma_e, *omega_e, *u, *u_unsat; /* capacity x n x 3 */
+  double *broadcast;        /* capacity x n x n_broadcast */
+  double *z;                /* capacity x n x n_states */
   double *saturated_time;   /* n: time with at least one saturated component */
   double *u_total_variation;/* n: sum over steps of |u(t_k) - u(t_k-1)|_1 */
   double *u_unsat_max;      /* n: max |u_unsat| component */
@@ -86,12 +93,19 @@ enum {
   FSM_NONFINITE_CONTROL = 7 /* the control law returned a non-finite torque command (fail_time, fail_agent) */
 };
 
+/* The ABI: out[0] = FSM_ABI_VERSION, out[1] = sizeof(fsm_problem), out[2] = sizeof(fsm_output), then the
+ * offset of every field of fsm_problem and of fsm_output in declaration order.  Returns the number of entries
+ * (writes at most `capacity`). */
+int fsm_abi(long long *out, int capacity);
+/* The law's sizes as compiled: [n_params, n_states, n_broadcast, n_constants, n_cache]. */
+void fsm_law_sizes(long long *out);
 int fsm_batched_available(void); /* 1 if this build has the batched kernels (GCC/Clang vector extension) */
 int fsm_batched_preferred(void); /* 1 if FSM_KERNELS_AUTO means batched in this build (available and AVX) */
 int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every);
 
 /* One evaluation of the formation right-hand side (control computed at this state; link weights at t).
- * Returns FSM_NONFINITE_CONTROL (dx still filled) if a commanded torque is non-finite. */
+ * Returns FSM_NONFINITE_CONTROL (dx still filled) if a commanded torque is non-finite.  u_out: n x 3 applied
+ * torque (after the actuator limit), may be NULL. */
 int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double *u_out);
 
 /* Value of link e's k^j_ij at time t (for tests and plots). */

@@ -4,11 +4,11 @@
 * :mod:`fsmctl.proofs.theorem1`: Theorem 1's gain/eta conditions for a concrete, time-varying topology;
 * :mod:`fsmctl.proofs.theorem2`: the exact uncertainty of Theorem 2 and the delta a scenario needs;
 * :mod:`fsmctl.proofs.report`: text table, JSON and Markdown/LaTeX report;
-* :mod:`fsmctl.proofs.cli`: the ``fsmctl prove`` subcommand.
+* :mod:`fsmctl.cli.prove`: the ``fsmctl prove`` subcommand.
 """
 
 from __future__ import annotations
 
-from .claims import CLAIMS, VERDICTS, ClaimResult, ProofContext, claim_ids, run_claims
+from fsmctl.proofs.claims import CLAIMS, VERDICTS, ClaimResult, ProofContext, claim_ids, run_claims
 
 __all__ = ["CLAIMS", "VERDICTS", "ClaimResult", "ProofContext", "claim_ids", "run_claims"]

@@ -11,7 +11,7 @@ whose verdict is one of
     and it is not a proof;
 ``erratum``
     the printed statement is false: the detail shows the counterexample or residual and
-    the corrected statement, itself checked (the errata are those of :mod:`derive.errata`);
+    the corrected statement, itself checked (the errata are those of :mod:`fsmctl.proofs.errata`);
 ``fails for this scenario``
     a scenario-dependent condition does not hold for the chosen scenario.
 
@@ -32,9 +32,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import sympy as sp
 
-from ..scenario import Scenario
-from . import theorem1 as t1
-from . import theorem2 as t2
+from fsmctl.model.scenario import Scenario
+import fsmctl.proofs.theorem1 as t1
+import fsmctl.proofs.theorem2 as t2
 
 __all__ = [
     "CLAIMS",
@@ -136,14 +136,14 @@ def _expand_zero(m) -> bool:
 
 
 def _erratum(check: Callable, own_steps: list[tuple[bool, str]] | None = None, extra: list[str] | None = None):
-    """Run one :mod:`derive.errata` check and turn it into an ``erratum`` outcome."""
+    """Run one :mod:`fsmctl.proofs.errata` check and turn it into an ``erratum`` outcome."""
     e = check()
     lines = [
         f"as printed: {e.as_printed}",
         f"counterexample / residual: {e.residual}",
         f"correct: {e.correct}",
         f"consequence: {e.consequence}",
-        f"[{_mark(e.checked)}] derive.errata '{e.id}': printed form refuted and corrected form checked",
+        f"[{_mark(e.checked)}] fsmctl.proofs.errata '{e.id}': printed form refuted and corrected form checked",
     ]
     lines += [f"[{_mark(ok)}] {text}" for ok, text in (own_steps or [])]
     lines += extra or []
@@ -225,7 +225,7 @@ def _lemma2(ctx: ProofContext) -> _Outcome:
 
 def _reaching_law(ctx: ProofContext) -> _Outcome:
     """Eqs 14-15: on ``s = 0``, ``V_dot <= -2^((alpha+1)/2) c2 V^((alpha+1)/2)``."""
-    from derive.controller import sigpow
+    from fsmctl.symbolic.controller import sigpow
 
     alpha, c1, c2, p, V = sp.symbols("alpha c1 c2 p V", positive=True)
     x = sp.Symbol("x", real=True)
@@ -281,21 +281,21 @@ def _reaching_law(ctx: ProofContext) -> _Outcome:
 
 
 def _error_kinematics(ctx: ProofContext) -> _Outcome:
-    from derive.errata import erratum_error_kinematics
+    from fsmctl.proofs.errata import erratum_error_kinematics
 
     return _erratum(erratum_error_kinematics)
 
 
 def _lagrange_C(ctx: ProofContext) -> _Outcome:
-    from derive.errata import erratum_lagrange_C
+    from fsmctl.proofs.errata import erratum_lagrange_C
 
     return _erratum(erratum_lagrange_C)
 
 
 def _closed_loop(ctx: ProofContext) -> _Outcome:
-    """Eq 20 from eq 9 and eqs 16-19, for free ``M`` (invertible), ``C``, ``E`` (reuses derive.verify)."""
-    from derive.controller import SingularityFix
-    from derive.verify import verify_closed_loop
+    """Eq 20 from eq 9 and eqs 16-19, for free ``M`` (invertible), ``C``, ``E`` (reuses fsmctl.proofs.identities)."""
+    from fsmctl.symbolic.controller import SingularityFix
+    from fsmctl.proofs.identities import verify_closed_loop
 
     r = verify_closed_loop(SingularityFix.NONE)
     steps = [
@@ -311,8 +311,8 @@ def _closed_loop(ctx: ProofContext) -> _Outcome:
 
 
 def _fractional_power(ctx: ProofContext) -> _Outcome:
-    from derive.errata import erratum_fractional_power
-    from derive.verify import verify_sigpow_derivative
+    from fsmctl.proofs.errata import erratum_fractional_power
+    from fsmctl.proofs.identities import verify_sigpow_derivative
 
     r = verify_sigpow_derivative()
     return _erratum(erratum_fractional_power, [(r.holds, r.statement)])
@@ -323,9 +323,9 @@ def _fractional_power(ctx: ProofContext) -> _Outcome:
 
 def _vdot_i(ctx: ProofContext) -> _Outcome:
     """Eqs 23-24, step by step; the ``||delta|| ||s||`` step is the erratum ``eq24-norm-bound``."""
-    from derive.controller import SingularityFix, closed_loop_acceleration, switching_function
-    from derive.errata import erratum_norm_inequality
-    from derive.verify import model_symbols, verify_sigpow_derivative
+    from fsmctl.symbolic.controller import SingularityFix, closed_loop_acceleration, switching_function
+    from fsmctl.proofs.errata import erratum_norm_inequality
+    from fsmctl.proofs.identities import model_symbols, verify_sigpow_derivative
 
     sym = model_symbols()
     sd = closed_loop_acceleration(
@@ -446,7 +446,7 @@ def _complete_square(ctx: ProofContext) -> _Outcome:
 
 def _gamma_condition(ctx: ProofContext) -> _Outcome:
     """``gamma_ij >= 0`` iff Theorem 1's ``k``/``eta`` conditions; the exact per-pair condition is a 2x2 PSD block."""
-    from derive.errata import erratum_theorem1_eta_strict
+    from fsmctl.proofs.errata import erratum_theorem1_eta_strict
 
     ki, kj, eta = sp.symbols("k_i k_j eta", positive=True)
     r = sp.Symbol("r", positive=True)  # k^i - eta
@@ -471,7 +471,7 @@ def _gamma_condition(ctx: ProofContext) -> _Outcome:
 
 def _vdot_mu(ctx: ProofContext) -> _Outcome:
     """Eq 28 with Lemma 2; the value of ``mu`` is the erratum ``eq28-mu``."""
-    from derive.errata import erratum_reaching_rate
+    from fsmctl.proofs.errata import erratum_reaching_rate
 
     V = sp.Symbol("V", positive=True)
     n = sp.Symbol("n", positive=True)
@@ -511,7 +511,7 @@ def _vdot_mu(ctx: ProofContext) -> _Outcome:
 
 def _initial_V(sc: Scenario) -> float:
     """``V(0) = sum_i s_i(0)^T s_i(0) / 2`` with the generated sliding function (eq 13, 21-22)."""
-    from ..generated_code import casadi_function
+    from fsmctl.model.generated_code import casadi_function
 
     f = casadi_function(f"sliding_{sc.controller.error_model}")
     const = casadi_function("sliding_constants")
@@ -626,7 +626,7 @@ def _theorem1_gains(ctx: ProofContext) -> _Outcome:
 
 def _theorem2_condition(ctx: ProofContext) -> _Outcome:
     """Eqs 29-33: the exact Delta_d, why the printed condition is circular, and the correct sufficient condition."""
-    from derive.errata import erratum_uncertainty_term
+    from fsmctl.proofs.errata import erratum_uncertainty_term
 
     steps = t2_symbolic_steps()
     out = _erratum(erratum_uncertainty_term, steps)
@@ -648,17 +648,17 @@ def t2_symbolic_steps() -> list[tuple[bool, str]]:
         condition is circular; ``s_dot = -P v + P w0 + (P - I) a_eq``; ``P = I/(1+kappa)`` for
         ``Delta_J = kappa J0``; the resulting condition; ``a_eq`` unbounded without the Remark 6 fix.
     """
-    from derive.controller import (
+    from fsmctl.symbolic.controller import (
         SingularityFix,
         closed_loop_acceleration,
         computed_torque_pieces,
         surface_term_slope,
         switching_function,
     )
-    from derive.model import lagrange_uncertainty
-    from derive.mrp import mrp_G, mrp_G_dot, mrp_G_inverse, skew
-    from derive.symbols import symmetric_matrix_symbols, vector_symbols
-    from derive.verify import model_symbols
+    from fsmctl.symbolic.model import lagrange_uncertainty
+    from fsmctl.symbolic.mrp import mrp_G, mrp_G_dot, mrp_G_inverse, skew
+    from fsmctl.symbolic.symbols import symmetric_matrix_symbols, vector_symbols
+    from fsmctl.proofs.identities import model_symbols
 
     sym = model_symbols()
     J0 = sym.J
@@ -722,7 +722,7 @@ def t2_symbolic_steps() -> list[tuple[bool, str]]:
     return [
         (
             a_ok,
-            "exact Delta_d (derive.model.lagrange_uncertainty): d Delta_d / d sigma_e_ddot = -Delta_J G^-1 != 0, "
+            "exact Delta_d (fsmctl.symbolic.model.lagrange_uncertainty): d Delta_d / d sigma_e_ddot = -Delta_J G^-1 != 0, "
             "so Delta_d depends on sigma_e_ddot, i.e. on the control",
         ),
         (
@@ -860,7 +860,7 @@ def _finite(v) -> list:
 
 
 def _fsm_closed_forms():
-    from derive.theorem3 import settling_time_closed_forms
+    from fsmctl.symbolic.theorem3 import settling_time_closed_forms
 
     return tuple(settling_time_closed_forms())
 
@@ -957,7 +957,7 @@ def _theorem3_tsm(ctx: ProofContext) -> _Outcome:
 
 
 def _remark4(ctx: ProofContext) -> _Outcome:
-    from derive.errata import erratum_remark4_looser
+    from fsmctl.proofs.errata import erratum_remark4_looser
 
     extra = []
     topo = ctx.scenario.topology
@@ -981,7 +981,7 @@ def _remark4(ctx: ProofContext) -> _Outcome:
 
 def _remark6(ctx: ProofContext) -> _Outcome:
     """Remark 6: on the surface the singular term equals -c1 c2 alpha sig^alpha - c2^2 alpha sig^(2 alpha - 1)."""
-    from derive.controller import sigpow
+    from fsmctl.symbolic.controller import sigpow
 
     c1, c2, p, alpha = sp.symbols("c1 c2 p alpha", positive=True)
     x = sp.Symbol("x", real=True)

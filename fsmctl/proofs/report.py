@@ -11,8 +11,8 @@ import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..scenario import Scenario
-from .claims import CLAIMS, ClaimResult
+from fsmctl.model.scenario import Scenario
+from fsmctl.proofs.claims import CLAIMS, ClaimResult
 
 __all__ = ["format_list", "format_table", "summary_line", "to_json", "to_markdown", "write_report"]
 
@@ -167,6 +167,6 @@ def write_report(path: str | Path, results: Sequence[ClaimResult], scenario: Sce
     Path
         The file written.
     """
-    from ..outputs import write_text
+    from fsmctl.outputs import write_text
 
     return write_text(path, to_markdown(results, scenario))

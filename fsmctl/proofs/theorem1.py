@@ -33,7 +33,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from ..topology import Topology
+from fsmctl.model.topology import Topology
 
 __all__ = [
     "Configuration",

@@ -1,7 +1,7 @@
 """Theorem 2 (robustness, Liang et al. 2012, eqs 29-33): the exact uncertainty and the delta it needs.
 
 Symbolic part
-    The exact lumped uncertainty ``Delta_d`` of eq 29 (:func:`derive.model.lagrange_uncertainty`)
+    The exact lumped uncertainty ``Delta_d`` of eq 29 (:func:`fsmctl.symbolic.model.lagrange_uncertainty`)
     contains ``sigma_e_ddot`` and hence the control itself, so the printed condition
     ``(delta_i)_k > |M0^-1 G^-T Delta_d_i|_k`` is circular.  The correct statement works
     with the sliding variable directly.  With the true inertia ``J = J0 + Delta_J``, the law
@@ -35,9 +35,9 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
-from ..casadi_eval import evaluate_mapped
-from ..generated_code import casadi_function, generated_dir
-from ..scenario import SINGULARITY_FIXES, Scenario
+from fsmctl.model.casadi_eval import evaluate_mapped
+from fsmctl.model.generated_code import casadi_function, generated_dir
+from fsmctl.model.scenario import SINGULARITY_FIXES, Scenario
 
 __all__ = [
     "AgentDelta",
@@ -240,7 +240,7 @@ def _evaluate(fn: ca.Function, sig, om, wd, ud, J0, J, gains, wdd) -> list[np.nd
     Returns each output in the layout of the ``DM`` results of ``fn.map(n)`` converted by ``np.array``:
     vectors (``d``, ``s``) as C-contiguous (3, n), matrices (``P``, ``A``, ``B``) as (n, 3, 3) views of a
     (3, n, 3) array, so every later NumPy reduction sees the same memory order; evaluated through NumPy
-    buffers (:func:`fsmctl.casadi_eval.evaluate_mapped`).
+    buffers (:func:`fsmctl.model.casadi_eval.evaluate_mapped`).
     """
     n = sig.shape[1]
     args = [np.transpose(x) for x in (sig, om, wd, ud)]  # (n, 3): sample-major
@@ -448,7 +448,7 @@ def _coupling_text(scenario: Scenario, kappas: list) -> str:
             f"1/(1+kappa) = {1 / (1 + kappas[0]):.4g} and stays dissipative under Theorem 1's condition"
         )
     if all(k is not None for k in kappas):
-        from .theorem1 import scaled_coupling_lambda_min
+        from fsmctl.proofs.theorem1 import scaled_coupling_lambda_min
 
         lam, t = scaled_coupling_lambda_min(
             scenario.topology, 1.0 / (1.0 + np.asarray(kappas)), scenario.simulation.t_final

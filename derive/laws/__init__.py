@@ -1,0 +1,8 @@
+"""The built-in control laws, each a derivation script written with the public API (:mod:`fsmctl.symbolic.law`).
+
+``python -m derive`` generates each into ``generated/laws/<name>/``; a user's script has the same form and is
+derived with ``fsmctl derive FILE.py``.
+"""
+
+BUILTIN_LAWS: tuple[str, ...] = ("fsm",)
+"""Module names under ``derive/laws/``, in the order ``fsmctl laws`` lists them."""

@@ -1,0 +1,197 @@
+"""The ``fsmctl`` command line.
+
+Subcommands live in their own modules, each exposing ``add_parser(subparsers)``
+(which sets ``func`` on its parser) so this file only dispatches:
+
+========================  ===============================================
+``fsmctl prove``          proof check of Section 3 (:mod:`fsmctl.cli.prove`)
+``fsmctl simulate``       one scenario/case (:mod:`fsmctl.cli.commands`)
+``fsmctl reproduce``      Section 4 reproduction report (:mod:`fsmctl.studies.reproduce`)
+``fsmctl compare-surfaces``  FSM vs TSM vs LSM (:mod:`fsmctl.studies.surfaces`)
+``fsmctl montecarlo``     robustness campaigns (:mod:`fsmctl.studies.montecarlo`)
+========================  ===============================================
+
+Exit codes (the one place they are decided, :func:`main`):
+
+====  =========================================================================================
+0     success (every claim as expected, the run finished, the files were written)
+1     a claim fails for the scenario, a simulation failed (non-finite state, ...), or an
+      internal error (one line; ``--debug`` shows the traceback)
+2     usage, input or environment error: a bad option or scenario file, a file that is not
+      UTF-8, an unusable output folder (read-only, full), a run that would exceed the memory,
+      an address that is not a Dask scheduler (one line on stderr, never a traceback)
+130   interrupted (Ctrl-C / SIGINT); finished outputs are kept, partial files are not written
+143   terminated (SIGTERM); as for 130
+====  =========================================================================================
+
+``--debug`` (or ``FSMCTL_DEBUG=1``) lets every exception propagate with its traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import errno
+import importlib
+import os
+import signal
+import sys
+import warnings
+
+from fsmctl.errors import EnvironmentProblem, InputError
+
+__all__ = ["main", "UsageError", "SUBCOMMAND_MODULES", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERRUPTED"]
+
+EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
+
+SUBCOMMAND_MODULES = (
+    "fsmctl.cli.prove",
+    "fsmctl.cli.commands",
+    "fsmctl.studies.reproduce",
+    "fsmctl.studies.surfaces",
+    "fsmctl.studies.montecarlo",
+)
+
+
+class UsageError(InputError):
+    """Bad command-line input detected by a subcommand: printed as one line, exit code 2.
+
+    Only the command-line modules raise it; library code raises :class:`fsmctl.errors.InputError`.
+    """
+
+
+class Terminated(BaseException):
+    """SIGTERM, turned into an exception so that ``finally`` blocks (temporary files, workers) run."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one line, exit 2 (argparse's default prints usage too)
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="fsmctl",
+        description="Fast-sliding-mode formation attitude control (Liang, Sun & Wang 2012): prove, simulate, reproduce.",
+    )
+    from fsmctl import __version__
+
+    parser.add_argument("--version", action="version", version=f"fsmctl {__version__}")
+    parser.add_argument(
+        "--debug",
+        action="store_true",
+        default=os.environ.get("FSMCTL_DEBUG", "") not in ("", "0"),
+        help="show tracebacks instead of one-line errors (also FSMCTL_DEBUG=1)",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    for name in SUBCOMMAND_MODULES:
+        try:
+            module = importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            if exc.name == name:
+                continue  # subcommand not present in this build
+            raise
+        module.add_parser(sub)
+    return parser
+
+
+def _input_errors() -> tuple[type[BaseException], ...]:
+    """Exceptions that are the user's input or environment: one line, exit 2."""
+    from fsmctl.symbolic.symbols import DerivationInputError
+
+    from fsmctl.errors import InputError
+
+    return (InputError, DerivationInputError, OSError, MemoryError, UnicodeError)
+
+
+def _one_line(exc: BaseException) -> str:
+    if isinstance(exc, MemoryError):
+        return f"out of memory{': ' + str(exc) if str(exc) else ''} (shorten t_final or enlarge output_interval)"
+    if isinstance(exc, EnvironmentProblem) and exc.strerror:
+        return exc.strerror  # already "cannot <action> <path>: <reason>"
+    if isinstance(exc, OSError) and exc.strerror:
+        if exc.filename:
+            return f"{exc.strerror}: {exc.filename}"
+        return (
+            f"cannot write output: {exc.strerror}"
+            if exc.errno in (errno.ENOSPC, errno.EROFS, errno.EIO)
+            else exc.strerror
+        )
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the ``fsmctl`` command line; returns the exit code (see the module docstring)."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "func", None) is None:
+        parser.print_help()
+        return EXIT_INPUT
+    errors = _input_errors()
+    name = f"fsmctl {args.command}"
+    previous = None
+    with contextlib.suppress(ValueError):  # not the main thread: leave SIGTERM alone
+        previous = signal.signal(signal.SIGTERM, _raise_terminated)
+    try:
+        with warnings.catch_warnings():
+            warnings.filterwarnings("once")
+            code = int(args.func(args) or 0)
+        try:
+            sys.stdout.flush()  # a full or closed stdout is reported here, not at exit
+        except BrokenPipeError:
+            raise
+        except OSError as exc:
+            raise EnvironmentProblem(exc.errno, f"cannot write to standard output: {exc.strerror}") from None
+        return code
+    except KeyboardInterrupt:
+        if args.debug:
+            raise
+        print(f"{name}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except Terminated:
+        if args.debug:
+            raise
+        print(f"{name}: terminated", file=sys.stderr)
+        return EXIT_TERMINATED
+    except BrokenPipeError:
+        # the reader went away (`fsmctl prove --list | head -1`): stop quietly
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return EXIT_FAILED
+    except errors as exc:
+        if args.debug:
+            raise
+        print(f"{name}: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_INPUT
+    except Exception as exc:  # a bug: one line, and the traceback behind --debug
+        if args.debug:
+            raise
+        print(
+            f"{name}: internal error: {type(exc).__name__}: {_one_line(exc)} (run with --debug for the traceback)",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def console_main() -> None:
+    """Entry point of the ``fsmctl`` console script: exit with :func:`main`'s code, stdout flushed safely."""
+    code = main()
+    try:
+        sys.stdout.flush()
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        code = code or EXIT_INPUT
+    sys.exit(code)
+
+
+if __name__ == "__main__":
+    console_main()

@@ -1,0 +1,141 @@
+"""``fsmctl prove``: check the claims of Liang, Sun & Wang (2012), Section 3, for a scenario.
+
+Exit codes: 0 every claim as expected (known errata included), 1 a claim fails for the
+scenario (or a check did not go through), 2 usage or input error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+__all__ = ["add_parser", "run"]
+
+EPILOG = """verdicts: proved (symbolic), numeric (sampling only, not a proof), erratum (the printed statement is
+false; the corrected one is checked), fails for this scenario.
+exit codes: 0 every claim as expected, 1 a claim fails for the scenario, 2 usage or input error."""
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register the ``prove`` subcommand (proof check of Liang et al. 2012, Section 3, eqs 7-41).
+
+    Parameters
+    ----------
+    subparsers : argparse subparsers action
+        From :func:`fsmctl.cli.main.build_parser`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``prove`` parser, with ``func = run``.
+    """
+    from fsmctl.proofs.theorem2 import Region
+
+    default = Region()
+    p = subparsers.add_parser(
+        "prove",
+        help="check every step of Section 3 (symbolically) and Theorems 1-2 for a scenario",
+        description="Proof check of Liang, Sun & Wang (2012), Section 3, on the model derived in derive/.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("claims", nargs="*", metavar="CLAIM_ID", help="claims to check (default: all; see --list)")
+    p.add_argument("--list", action="store_true", help="list the claim ids and exit")
+    p.add_argument(
+        "--scenario", default="paper", metavar="FILE", help="'paper' (built in) or a TOML file (default: paper)"
+    )
+    p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
+    p.add_argument("--json", action="store_true", help="print a JSON array, one object per claim")
+    p.add_argument("--report", metavar="FILE.md", type=Path, help="also write a Markdown report with LaTeX")
+    p.add_argument(
+        "--region-sigma",
+        type=float,
+        default=default.sigma,
+        metavar="R",
+        help="Theorem 2 region: |sigma_e,k| <= R (default: %(default)s)",
+    )
+    p.add_argument(
+        "--region-omega",
+        type=float,
+        default=default.omega,
+        metavar="R",
+        help="Theorem 2 region: |omega_e,k| <= R rad/s (default: %(default)s)",
+    )
+    p.add_argument(
+        "--samples",
+        type=int,
+        default=3000,
+        metavar="N",
+        help="random state samples per agent for Theorem 2, added to the grid (default: %(default)s)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default: %(default)s)")
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=2,
+        metavar="N",
+        help="processes for the symbolic checks: 1 = sequential (default: %(default)s)",
+    )
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run the proof check of Liang et al. 2012, Section 3 (eqs 7-41) for the chosen scenario.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed ``fsmctl prove`` options.
+
+    Returns
+    -------
+    int
+        0 every claim as expected (known errata included), 1 a claim fails for the scenario or a
+        check did not go through; bad input raises :class:`fsmctl.cli.main.UsageError` (exit code 2).
+    """
+    from fsmctl.errors import InputError as UsageError  # one line, exit 2
+    from fsmctl.proofs import report
+    from fsmctl.proofs.claims import ProofContext, claim_ids, run_claims
+    from fsmctl.proofs.theorem2 import Region
+
+    if args.list:
+        print(report.format_list())
+        return 0
+    known = claim_ids()
+    unknown = [c for c in args.claims if c not in known]
+    if unknown:
+        raise UsageError(f"unknown claim id(s) {', '.join(unknown)}; known: {', '.join(known)}")
+    for name, value in (("--region-sigma", args.region_sigma), ("--region-omega", args.region_omega)):
+        if not (math.isfinite(value) and value >= 0):
+            raise UsageError(f"{name} must be a finite number >= 0, got {value}")
+    if args.region_sigma > 1:
+        raise UsageError(f"--region-sigma must be <= 1 (MRPs of the shadow set), got {args.region_sigma}")
+    if args.jobs < 1:
+        raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
+    if args.samples < 0:
+        raise UsageError(f"--samples must be >= 0, got {args.samples}")
+    scenario = _load(args.scenario, args.case)
+    ctx = ProofContext(scenario, Region(args.region_sigma, args.region_omega), args.samples, args.seed)
+    ids = list(dict.fromkeys(args.claims))
+    results = run_claims(ids or None, ctx, jobs=args.jobs)
+    if args.json:
+        print(report.to_json(results))
+    else:
+        print(report.format_table(results, scenario))
+    if args.report is not None:
+        try:
+            report.write_report(args.report, results, scenario)
+        except OSError as exc:
+            raise UsageError(f"cannot write report {args.report}: {exc.strerror or exc}") from None
+        if not args.json:
+            print(f"report written to {args.report}", file=sys.stderr)
+    return 0 if all(r.expected for r in results) else 1
+
+
+def _load(source: str, case: str | None):
+    from fsmctl.model.scenario import load_scenario
+
+    return load_scenario(source, case=case)

@@ -1,0 +1,211 @@
+"""Lane-batched C kernels: the same CasADi ``SX`` graph evaluated for several agents at once.
+
+CasADi's own code generator prints one scalar statement per instruction of an
+``SX`` function.  This module prints the *same instruction list* once more, on
+a C vector type of :data:`LANES` doubles (GCC/Clang ``vector_size``
+extension), so one call evaluates the function for ``LANES`` agents with SIMD
+arithmetic.  Every lane performs exactly the scalar program: the same IEEE
+operations in the same order (``+ - * /`` are correctly rounded per lane, the
+library functions ``pow``/``sin``/``cos``/... are called per lane, and
+comparisons, ``if_else``, ``sign``, ``fmin``/``fmax`` and ``fabs`` are bit
+selections with the C99 semantics of CasADi's scalar helpers), so with FMA
+contraction off a lane's result is bit-identical to the scalar CasADi C
+function.  The one latitude is the sign of a zero from ``fmin``/``fmax`` of
+``+0`` and ``-0``, which C99 leaves unspecified (the compiler may resolve the
+scalar call either way).  ``tests/test_batched_kernels.py`` checks this on
+random and edge-case inputs and on whole simulations.
+
+Memory layout ("lane-major"): argument ``i`` of a kernel is a block of
+``nnz_i * LANES`` doubles with element ``(k, lane)`` at ``arg[i][LANES*k + lane]``;
+results likewise.  Every argument and result pointer must be non-null.  The
+last argument, ``lanes``, is the number of active lanes: the per-lane library
+calls (the expensive part) skip the others, whose results are unspecified.
+
+Pure: builds strings from CasADi functions, no I/O (``fsmctl.codegen.writer`` writes them).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import casadi as ca
+
+__all__ = ["LANES", "UnsupportedInstructionError", "batched_source", "batched_header", "kernel_name"]
+
+LANES = 4
+"""Lanes per kernel call: 4 doubles = one 256-bit AVX register (two SSE2 registers without AVX)."""
+
+
+class UnsupportedInstructionError(ValueError):
+    """The CasADi graph holds an operation this printer has no exact lane-wise rule for."""
+
+
+def kernel_name(function_name: str) -> str:
+    """C name of the batched kernel of a generated function (``sliding_paper`` -> ``sliding_paper_x4``)."""
+    return f"{function_name}_x{LANES}"
+
+
+def _literal(value: float) -> str:
+    if math.isnan(value):
+        return "NAN"
+    if math.isinf(value):
+        return "INFINITY" if value > 0 else "(-INFINITY)"
+    text = repr(float(value))  # shortest string that round-trips exactly
+    return f"({text})" if text.startswith("-") else text
+
+
+# Binary operations: C expression templates on vectors; the scalar CasADi rule in the comment.
+_BINARY = {
+    ca.OP_ADD: "{a} + {b}",
+    ca.OP_SUB: "{a} - {b}",
+    ca.OP_MUL: "{a} * {b}",
+    ca.OP_DIV: "{a} / {b}",
+    ca.OP_LT: "fsm_bool({a} < {b})",
+    ca.OP_LE: "fsm_bool({a} <= {b})",
+    ca.OP_EQ: "fsm_bool({a} == {b})",
+    ca.OP_NE: "fsm_bool({a} != {b})",
+    ca.OP_AND: "fsm_bool(({a} != 0) & ({b} != 0))",  # x && y
+    ca.OP_OR: "fsm_bool(({a} != 0) | ({b} != 0))",  # x || y
+    ca.OP_IF_ELSE_ZERO: "fsm_if_else_zero({a}, {b})",  # x ? y : 0
+    ca.OP_FMIN: "fsm_fmin({a}, {b})",
+    ca.OP_FMAX: "fsm_fmax({a}, {b})",
+    ca.OP_POW: "fsm_pow({a}, {b}, lanes)",
+    ca.OP_CONSTPOW: "fsm_pow({a}, {b}, lanes)",
+}
+_UNARY = {
+    ca.OP_NEG: "-{a}",
+    ca.OP_SQ: "{a} * {a}",  # casadi_sq(x) = x*x
+    ca.OP_TWICE: "2.0 * {a}",  # 2.*x
+    ca.OP_INV: "1.0 / {a}",  # 1./x
+    ca.OP_NOT: "fsm_bool({a} == 0)",  # !x
+    ca.OP_FABS: "fsm_fabs({a})",
+    ca.OP_SIGN: "fsm_sign({a})",
+    ca.OP_SQRT: "fsm_sqrt({a}, lanes)",
+    ca.OP_SIN: "fsm_sin({a}, lanes)",
+    ca.OP_COS: "fsm_cos({a}, lanes)",
+    ca.OP_EXP: "fsm_exp({a}, lanes)",
+    ca.OP_LOG: "fsm_log({a}, lanes)",
+}
+
+_PRELUDE = """\
+#include <math.h>
+#include <string.h>
+
+#include "{header}"
+
+#ifdef FSM_HAVE_BATCHED
+#ifdef __GNUC__
+#pragma GCC diagnostic ignored "-Wpsabi" /* static helpers: the vector-ABI note does not apply */
+#endif
+
+typedef double fsm_v __attribute__((vector_size({bytes})));
+typedef long long fsm_m __attribute__((vector_size({bytes})));
+
+static inline fsm_v fsm_load(const double *p) {{ fsm_v v; memcpy(&v, p, sizeof v); return v; }}
+static inline void fsm_store(double *p, fsm_v v) {{ memcpy(p, &v, sizeof v); }}
+static inline fsm_v fsm_splat(double c) {{ fsm_v v = {{{splat}}}; return v; }}
+/* mask (-1 / 0 per lane) -> 1.0 / 0.0, as C's comparison result converted to double */
+static inline fsm_v fsm_bool(fsm_m m) {{ return (fsm_v)(m & (fsm_m)fsm_splat(1.0)); }}
+static inline fsm_v fsm_select(fsm_m m, fsm_v a, fsm_v b) {{ return (fsm_v)(((fsm_m)a & m) | ((fsm_m)b & ~m)); }}
+/* c ? x : 0 (c is true when nonzero, NaN included) */
+static inline fsm_v fsm_if_else_zero(fsm_v c, fsm_v x) {{ return (fsm_v)((fsm_m)x & (c != 0)); }}
+/* fabs: clear the sign bit */
+static inline fsm_v fsm_fabs(fsm_v x) {{ return (fsm_v)((fsm_m)x & ~(fsm_m)fsm_splat(-0.0)); }}
+/* casadi_sign: x<0 ? -1 : x>0 ? 1 : x */
+static inline fsm_v fsm_sign(fsm_v x) {{
+  return fsm_select(x < 0, fsm_splat(-1.0), fsm_select(x > 0, fsm_splat(1.0), x));
+}}
+/* C99 fmax/fmin: a NaN argument is ignored; equal arguments (+0/-0) give the second, as x86 maxsd/minsd */
+static inline fsm_v fsm_fmax(fsm_v x, fsm_v y) {{ return fsm_select((x > y) | (y != y), x, y); }}
+static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) {{ return fsm_select((x < y) | (y != y), x, y); }}
+/* library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm result;
+ * inactive lanes keep x (their results are unspecified and never read) */
+static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {{
+  fsm_v r = x;
+  for (int l = 0; l < lanes; ++l) r[l] = pow(x[l], y[l]);
+  return r;
+}}
+#define FSM_LANEWISE(name, fn) \\
+  static inline fsm_v name(fsm_v x, int lanes) {{ \\
+    fsm_v r = x; \\
+    for (int l = 0; l < lanes; ++l) r[l] = fn(x[l]); \\
+    return r; \\
+  }}
+FSM_LANEWISE(fsm_sqrt, sqrt)
+FSM_LANEWISE(fsm_sin, sin)
+FSM_LANEWISE(fsm_cos, cos)
+FSM_LANEWISE(fsm_exp, exp)
+FSM_LANEWISE(fsm_log, log)
+"""
+
+_EPILOGUE = "#endif /* FSM_HAVE_BATCHED */\n"
+
+HEADER = """\
+/*
+ * DO NOT EDIT: generated by `{generator}` (fsmctl/codegen/batched.py) from the CasADi graphs of the
+ * functions named below; the same instruction lists as their CasADi-generated scalar C, evaluated
+ * for {lanes} agents per call.
+ * Regenerate with `{generator}`; `{generator} --check` verifies this file is current.
+ *
+ * Needs the GCC/Clang vector extension: other compilers get no kernels (FSM_HAVE_BATCHED undefined).
+ * Layout: argument/result i is a block of nnz_i*{lanes} doubles, element (k, lane) at p[{lanes}*k + lane].
+ * All pointers must be non-null.  `lanes` (1..{lanes}) is the number of active lanes: library functions
+ * (pow, sin, ...) are evaluated for those only; results in the other lanes are unspecified.  Returns 0.
+ */
+"""
+
+
+def _signature(name: str) -> str:
+    return f"int {kernel_name(name)}(const double *const *arg, double *const *res, int lanes)"
+
+
+def _kernel(name: str, function: ca.Function) -> str:
+    if not function.is_a("SXFunction"):
+        raise UnsupportedInstructionError(f"{name}: batched kernels need an SX function")
+    op_names = {getattr(ca, n): n for n in dir(ca) if n.startswith("OP_")}
+    lines = [f"{_signature(name)} {{", f"  if (lanes > {LANES}) lanes = {LANES}; /* never index past the vector */"]
+    n_work = function.sz_w()
+    for start in range(0, n_work, 12):
+        names = ", ".join(f"w{k}" for k in range(start, min(n_work, start + 12)))
+        lines.append(f"  fsm_v {names};")
+    for k in range(function.n_instructions()):
+        op = function.instruction_id(k)
+        ins, outs = function.instruction_input(k), function.instruction_output(k)
+        if op == ca.OP_INPUT:
+            lines.append(f"  w{outs[0]} = fsm_load(arg[{ins[0]}] + {LANES * ins[1]});")
+        elif op == ca.OP_OUTPUT:
+            lines.append(f"  fsm_store(res[{outs[0]}] + {LANES * outs[1]}, w{ins[0]});")
+        elif op == ca.OP_CONST:
+            lines.append(f"  w{outs[0]} = fsm_splat({_literal(function.instruction_constant(k))});")
+        elif op in _BINARY:
+            expr = _BINARY[op].format(a=f"w{ins[0]}", b=f"w{ins[1]}")
+            lines.append(f"  w{outs[0]} = {expr};")
+        elif op in _UNARY:
+            lines.append(f"  w{outs[0]} = {_UNARY[op].format(a=f'w{ins[0]}')};")
+        else:
+            raise UnsupportedInstructionError(
+                f"{name}: instruction {k} is {op_names.get(op, op)}, which has no lane-wise rule in fsmctl/codegen/batched.py"
+            )
+    lines += ["  return 0;", "}", ""]
+    return "\n".join(lines)
+
+
+def batched_header(names: Sequence[str], guard: str = "FSMCTL_BATCHED_H", generator: str = "python -m derive") -> str:
+    """C header declaring the batched kernels of ``names``."""
+    body = [HEADER.format(lanes=LANES, generator=generator), f"#ifndef {guard}", f"#define {guard}", ""]
+    body += ["#ifndef FSM_LANES", f"#define FSM_LANES {LANES}", "#endif", ""]
+    body += ["#if defined(__GNUC__) || defined(__clang__)", "#define FSM_HAVE_BATCHED 1", "#ifdef __cplusplus"]
+    body += ['extern "C" {', "#endif"]
+    body += [f"{_signature(n)};" for n in names]
+    body += ["#ifdef __cplusplus", "}", "#endif", "#endif", "", f"#endif /* {guard} */", ""]
+    return "\n".join(body)
+
+
+def batched_source(
+    functions: Sequence[tuple[str, ca.Function]], header: str, generator: str = "python -m derive"
+) -> str:
+    """C source with one batched kernel per ``(name, function)``, including ``header``."""
+    prelude = _PRELUDE.format(header=header, bytes=8 * LANES, lanes=LANES, splat=", ".join(["c"] * LANES))
+    kernels = "\n".join(_kernel(n, f) for n, f in functions)
+    return HEADER.format(lanes=LANES, generator=generator) + prelude + "\n" + kernels + _EPILOGUE

@@ -1,0 +1,116 @@
+"""Generate a control law's code: the contract functions, their batched kernels, ``law.json`` and a manifest.
+
+The same generator as the project's ``generated/`` (:func:`fsmctl.codegen.writer.write_generated`), so a law
+folder has the same do-not-edit headers, serialized CasADi functions and sha256 manifest:
+
+    law.json                        the law's parameters (units, ranges, defaults), states, broadcast, cache
+    c/law_constants.c/.h            per-agent constants
+    c/law_local_{paper,exact}.c/.h  broadcast and cache (fsmctl.symbolic.law)
+    c/law_control_{paper,exact}.c/.h  torque and law-state derivative
+    c/law_batched.c/.h              the lane-batched kernels of the local and control functions
+    casadi/*.casadi                 the same functions for the no-compiler fallback and the plug-in
+    manifest.json
+
+:func:`load_derivation_script` imports a derivation script (a file defining ``law(error_model)``).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.util
+import sys
+from pathlib import Path
+
+from fsmctl.codegen.writer import GeneratedFunction, build_functions, check_generated, write_generated
+from fsmctl.symbolic.law import Law, LawDefinitionError, LawVariants, law_variants
+
+__all__ = [
+    "LAW_FILE",
+    "law_functions",
+    "write_law",
+    "check_law",
+    "load_derivation_script",
+]
+
+LAW_FILE = "law.json"
+LAW_FORMAT = 1
+
+
+def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
+    """The CasADi functions of a law: constants, then local and control for each error model."""
+    specs = [variants.paper.constants_spec()]
+    for law in variants:
+        specs += [law.local_spec(), law.control_spec()]
+    specs += list(variants.extra)
+    return build_functions(specs)
+
+
+def _metadata(law: Law, source: str) -> dict:
+    return {"format": LAW_FORMAT, "source": source, **law.metadata()}
+
+
+def write_law(
+    out_dir: Path | str, variants: LawVariants, *, source: str, generator: str = "python -m derive", functions=None
+) -> dict:
+    """Write a law's folder (see the module docstring) and return its manifest."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    return write_generated(
+        out,
+        functions=law_functions(variants) if functions is None else functions,
+        documents={LAW_FILE: _metadata(variants.paper, source)},
+        generator=generator,
+        source=source,
+        batched_name="law_batched",
+    )
+
+
+def check_law(reference: Path | str, variants: LawVariants, *, source: str, generator: str = "python -m derive"):
+    """``(identical, report)``: whether ``reference`` is what :func:`write_law` writes now."""
+    return check_generated(
+        reference, write=lambda fresh, **kw: write_law(fresh, variants, source=source, generator=generator)
+    )
+
+
+def load_derivation_script(path: Path | str) -> LawVariants:
+    """Import a derivation script and build its law for both error models.
+
+    The script defines ``law(error_model) -> Law`` (see :mod:`fsmctl.symbolic.law`) and may define
+    ``EXTRA_FUNCTIONS`` (``FunctionSpec`` objects generated beside the contract, e.g. for plots).
+
+    Raises
+    ------
+    LawDefinitionError
+        The file is missing, is not Python, fails to import, or defines no ``law``.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise LawDefinitionError(f"{path}: no such derivation script")
+    if path.suffix != ".py":
+        raise LawDefinitionError(f"{path}: a derivation script is a .py file")
+    digest = hashlib.sha256(str(path.resolve()).encode()).hexdigest()[:12]
+    name = f"fsmctl_user_law_{digest}"
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise LawDefinitionError(f"{path}: cannot be imported")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except LawDefinitionError:
+        raise
+    except SyntaxError as exc:
+        raise LawDefinitionError(f"{path}:{exc.lineno}: syntax error: {exc.msg}") from exc
+    except Exception as exc:
+        raise LawDefinitionError(f"{path}: importing the script failed: {type(exc).__name__}: {exc}") from exc
+    finally:
+        sys.modules.pop(name, None)
+    build = getattr(module, "law", None)
+    if not callable(build):
+        raise LawDefinitionError(f"{path}: defines no function law(error_model) (see fsmctl.symbolic.law)")
+    try:
+        return law_variants(build, getattr(module, "EXTRA_FUNCTIONS", ()))
+    except LawDefinitionError:
+        raise
+    except Exception as exc:
+        raise LawDefinitionError(f"{path}: law(error_model) failed: {type(exc).__name__}: {exc}") from exc

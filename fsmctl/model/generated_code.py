@@ -1,0 +1,763 @@
+"""Load the code that ``python -m derive`` generated, compiling it once.
+
+``generated/`` (installed as the package data ``fsmctl._generated``) holds the
+CasADi C sources of every per-agent function, their serialized CasADi
+``Function`` objects, and ``manifest.json``.  On first use the C sources and
+the whole-loop driver ``fsmctl/csrc/formation.c`` are compiled with the system
+C compiler into one shared library, cached under a folder named by the sha256
+of everything that went into it (sources, flags, compiler, CasADi version).
+Functions are then loaded with :func:`casadi.external`; the driver is loaded
+with :mod:`ctypes` by :mod:`fsmctl.simulation.simulator`.
+
+Without a working compiler (or with ``FSMCTL_NO_COMPILE=1``) the serialized
+functions are loaded instead, with a :class:`CompilerUnavailableWarning`: the
+same derivation, evaluated by CasADi's virtual machine, slower.
+
+Compile flags: the portable :data:`CFLAGS` plus, when the compiler accepts them,
+:data:`OPTIMIZE_FLAGS` (``-O3``, direct calls between the generated functions
+instead of PLT indirections: ~15 % faster whole-loop runs, bit-identical results
+because ``-std=c99`` keeps floating-point contraction off) and
+:data:`NATIVE_FLAGS` (``-march=native``).  A library built for the local CPU is
+not safe in a cache shared across machines, so the cache key includes the
+compiler's resolution of ``-march=native`` (the concrete ``-march``/feature
+list, e.g. ``-march=znver3 -mavx2 ...``): another CPU gets its own build.
+``FSMCTL_PORTABLE=1`` drops the native and optimisation flags (plain ``CFLAGS``).
+
+Environment: ``FSMCTL_CACHE_DIR`` (default ``$XDG_CACHE_HOME/fsmctl`` or
+``~/.cache/fsmctl``), ``CC`` (default: the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``; a
+``CC`` that is set is used as given, never replaced by another compiler), ``FSMCTL_NO_COMPILE``,
+``FSMCTL_PORTABLE``.
+
+The cache is verified, repaired and never fatal:
+
+* **What is loaded is what was built.**  A library is compiled into a temporary file
+  ``.tmp-<host>-<pid>-<random>-libfsmctl.so`` in its cache folder, renamed into place with
+  :func:`os.replace` (other processes see a complete file or none), and then its sha256 is recorded
+  beside it in ``libfsmctl.so.sha256`` (``sha256sum`` format, written the same atomic way).  Before a
+  cached library is used, its sha256 is checked against that record (before anything maps it: a
+  truncated mapped library kills the process with SIGBUS) and it is loaded once with :mod:`ctypes`
+  (a damaged ELF raises :class:`OSError` there, not in the simulator).
+* **Damage is repaired once.**  A cached library without a record, with another sha256, or that does
+  not load is deleted and rebuilt, with a :class:`LibraryCacheWarning`.  If the rebuilt library fails
+  the same checks, fsmctl falls back to the CasADi functions with a :class:`CompilerUnavailableWarning`.
+* **An unusable cache folder** (cannot be created, is or lies under a file, is read-only) is replaced
+  by a private temporary folder: the library is compiled there for this process only, deleted at
+  exit, with a :class:`LibraryCacheWarning` (the run keeps the compiled speed but pays a compile).
+  A read-only cache that already holds a valid library is simply used.  If the temporary folder
+  fails too, fsmctl falls back to the CasADi functions with a :class:`CompilerUnavailableWarning`.
+* **A compiler that fails** (``CC`` not found, non-zero exit, killed by a signal, timed out) means the
+  CasADi functions, with one :class:`CompilerUnavailableWarning` that carries the compiler's message.
+  (If the optional flags are rejected, the portable :data:`CFLAGS` are tried first, as always.)
+* **Temporary files of killed builds are removed** whenever the cache is next used: those whose
+  process on this host no longer exists, and any older than an hour (a build times out after ten
+  minutes).  Private temporary folders (``fsmctl-build-<host>-<pid>-<random>``) of dead processes
+  are removed the same way.
+* **Concurrent builds** of one library are serialised by an exclusive ``flock`` on its cache folder
+  (POSIX; where locking is unavailable, e.g. Windows or some network file systems, processes may
+  compile the same library concurrently, and :func:`os.replace` still keeps every file whole).
+"""
+
+from __future__ import annotations
+
+import atexit
+import contextlib
+import ctypes
+import functools
+import hashlib
+import json
+import os
+import platform
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import casadi as ca
+
+try:
+    import fcntl
+except ImportError:  # pragma: no cover - Windows: no advisory locks, os.replace keeps files whole
+    fcntl = None
+
+__all__ = [
+    "CompilerUnavailableWarning",
+    "LibraryCacheWarning",
+    "GeneratedCodeError",
+    "generated_dir",
+    "manifest",
+    "layout",
+    "compiled_library",
+    "casadi_function",
+    "backend",
+    "compile_flags",
+]
+
+CFLAGS = ("-O2", "-fPIC", "-shared", "-fno-math-errno", "-std=c99")
+"""Portable flags: always used (the fallback when the optional flags below are rejected)."""
+OPTIMIZE_FLAGS = ("-O3", "-ffp-contract=off", "-fno-semantic-interposition", "-fno-plt")
+"""Optional: later ``-O3`` overrides ``-O2``; no FMA contraction (clang contracts by default); direct calls."""
+NATIVE_FLAGS = ("-march=native",)
+"""Optional: instructions of the build machine's CPU; the cache key includes what ``native`` resolves to."""
+
+
+class CompilerUnavailableWarning(RuntimeWarning):
+    """No usable compiled library: fsmctl runs the serialized CasADi functions (slower).
+
+    Issued once per process, with the reason: no C compiler, ``CC`` not found, the compiler failed or
+    crashed, or a damaged cached library could not be rebuilt into a working one.
+    """
+
+
+class LibraryCacheWarning(RuntimeWarning):
+    """The library cache had a problem that fsmctl worked around; the compiled library is still used.
+
+    Either a cached library was damaged (missing or wrong sha256 record, unloadable) and was rebuilt,
+    or the cache folder cannot be used and the library was compiled in a private temporary folder.
+    """
+
+
+class GeneratedCodeError(RuntimeError):
+    """``generated/`` is missing, inconsistent with its manifest, or failed to compile."""
+
+
+def generated_dir() -> Path:
+    """The folder of generated code (``generated/`` of the source tree or the installed package data)."""
+    try:
+        path = Path(str(resources.files("fsmctl._generated")))
+    except ModuleNotFoundError as exc:  # pragma: no cover - broken installation
+        raise GeneratedCodeError("fsmctl._generated is not installed; run `python -m derive`") from exc
+    if not (path / "manifest.json").is_file():
+        raise GeneratedCodeError(f"{path}/manifest.json not found; run `python -m derive` to generate code")
+    return path
+
+
+@functools.cache
+def manifest() -> dict:
+    """The parsed ``manifest.json`` of the generated code."""
+    return json.loads((generated_dir() / "manifest.json").read_text())
+
+
+def layout(name: str) -> tuple[str, ...]:
+    """A packed-parameter layout from the manifest (``gains``, ``gain_constants``, ``sinusoid_params``)."""
+    return tuple(manifest()["layouts"][name])
+
+
+def _driver_dir() -> Path:
+    return Path(__file__).resolve().parent.parent / "csrc"
+
+
+def default_law_dir() -> Path:
+    """The folder of the built-in law the engine flies when none is named (the paper's FSM law)."""
+    return generated_dir() / "laws" / "fsm"
+
+
+def _sources(law_dir: Path) -> list[Path]:
+    gen = generated_dir()
+    return sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(_driver_dir().glob("*.c"))
+
+
+def _cache_root() -> Path:
+    if os.environ.get("FSMCTL_CACHE_DIR"):
+        return Path(os.environ["FSMCTL_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "fsmctl"
+
+
+def _compiler() -> str | None:
+    """The C compiler's path: ``$CC`` if set (None if it is not found), else ``cc``, ``gcc`` or ``clang``."""
+    cc = os.environ.get("CC")
+    if cc:
+        return shutil.which(cc)
+    return shutil.which("cc") or shutil.which("gcc") or shutil.which("clang")
+
+
+@functools.cache
+def _compiler_id(cc: str) -> str:
+    try:
+        return subprocess.run([cc, "--version"], capture_output=True, text=True, timeout=30).stdout.splitlines()[0]
+    except (OSError, subprocess.SubprocessError, IndexError):
+        return cc
+
+
+@functools.cache
+def _native_target(cc: str) -> str | None:
+    """What ``-march=native`` means on this machine for ``cc`` (None if the compiler does not support it).
+
+    ``cc -march=native -### -c`` prints the driver's command line with ``native`` expanded to the
+    concrete CPU and feature flags (gcc: ``"-march=znver3" -mavx2 ...``; clang: ``-target-cpu``
+    and ``-target-feature`` entries), which is exactly what decides the generated instructions.
+    """
+    try:
+        proc = subprocess.run(
+            [cc, "-march=native", "-###", "-x", "c", "-c", os.devnull, "-o", os.devnull],
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+    except (OSError, subprocess.SubprocessError):
+        return None
+    if proc.returncode != 0:
+        return None
+    lines = [ln for ln in proc.stderr.splitlines() if "march" in ln or "target-cpu" in ln or "target-feature" in ln]
+    words = " ".join(lines).replace('"', " ").split()
+    keep = [w for w in words if w.startswith(("-march=", "-m", "+", "-target-cpu")) or w.isidentifier()]
+    target = " ".join(w for w in keep if not w.startswith("-mtune")) or None
+    if target is None:
+        return None
+    return f"{platform.machine()} {target}"
+
+
+def compile_flags(cc: str | None = None) -> tuple[tuple[str, ...], str]:
+    """The flags the library is (first) compiled with and the CPU target they depend on (for the cache key).
+
+    Returns ``(flags, target)``; ``target`` is ``"portable"`` when no CPU-specific flag is used.
+    """
+    cc = cc or _compiler()
+    if cc is None or os.environ.get("FSMCTL_PORTABLE"):
+        return CFLAGS, "portable"
+    native = _native_target(cc)
+    if native is None:
+        return (*CFLAGS, *OPTIMIZE_FLAGS), "portable"
+    return (*CFLAGS, *OPTIMIZE_FLAGS, *NATIVE_FLAGS), native
+
+
+@dataclass(frozen=True)
+class CompiledLibrary:
+    path: Path
+    key: str
+    flags: tuple[str, ...] = CFLAGS
+    """compiler flags the library was built with"""
+
+
+_lock = threading.Lock()
+
+
+def _check_hashes(folder: Path | None = None) -> None:
+    """Every C file of a generated folder (the model's, or a law's) matches its manifest."""
+    gen = generated_dir() if folder is None else folder
+    shown = "generated" if folder is None else str(folder)
+    listed = manifest() if folder is None else json.loads((folder / "manifest.json").read_text())
+    for rel, digest in listed["sha256"].items():
+        p = gen / rel
+        if not p.is_file():
+            raise GeneratedCodeError(f"{shown}/{rel} listed in the manifest is missing; regenerate it")
+        if rel.startswith("c/") and hashlib.sha256(p.read_bytes()).hexdigest() != digest:
+            raise GeneratedCodeError(
+                f"{shown}/{rel} does not match its sha256 in manifest.json (edited by hand?); regenerate it"
+            )
+
+
+def _library_key(sources: list[Path], flags: tuple[str, ...], target: str, cc: str) -> str:
+    h = hashlib.sha256()
+    for p in sources + sorted(_driver_dir().glob("*.h")):
+        h.update(p.name.encode())
+        h.update(p.read_bytes())
+    h.update(" ".join(flags).encode())
+    h.update(target.encode())
+    h.update(_compiler_id(cc).encode())
+    h.update(ca.__version__.encode())
+    h.update(sys.platform.encode())
+    return h.hexdigest()[:24]
+
+
+# ----------------------------------------------------------------------------- cache files
+
+_LIB_NAME = "libfsmctl" + (".dll" if sys.platform == "win32" else ".so")
+_RECORD_SUFFIX = ".sha256"
+_BUILD_TIMEOUT_S = 600.0
+_STALE_AFTER_S = 3600.0
+"""A temporary file older than this is a leftover whatever its pid (a build times out after 600 s)."""
+_LOCK_TIMEOUT_S = 900.0
+"""How long to wait for another process's build of the same library before building alongside it."""
+_TEMP_FILE = re.compile(r"^\.tmp-(?P<host>[A-Za-z0-9_.]*)-(?P<pid>\d+)-")
+_PRIVATE_DIR = re.compile(r"^fsmctl-build-(?P<host>[A-Za-z0-9_.]*)-(?P<pid>\d+)-")
+_loaded: dict[str, ctypes.CDLL] = {}
+"""Libraries verified and loaded by this process (kept so that later loads of the path reuse the handle)."""
+_fallback_explained = threading.Event()
+"""Set once :func:`compiled_library` has warned why the CasADi functions are used."""
+
+
+_Attempts = list[tuple[tuple[str, ...], str]]
+"""``(flags, cache key)`` pairs to try in order."""
+
+
+class _Unusable(Exception):
+    """Internal: no compiled library can be used in this process; the message says why."""
+
+
+@dataclass(frozen=True)
+class _BuildResult:
+    """The outcome of one compiler run."""
+
+    ok: bool
+    message: str = ""
+    compiler_ran: bool = True
+    """False when the compiler could not be started or timed out (no point trying other flags)."""
+
+
+@functools.cache
+def _host_tag() -> str:
+    """This machine's name as it appears in temporary file names (no ``-``, at most 64 characters)."""
+    return re.sub(r"[^A-Za-z0-9_.]", "_", platform.node() or "host")[:64]
+
+
+def _record_path(library: Path) -> Path:
+    """The sha256 record written beside ``library`` once it is in place."""
+    return library.with_name(library.name + _RECORD_SUFFIX)
+
+
+def _sha256_file(path: Path) -> str:
+    """The hex sha256 of a file's contents."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def _temp_file(folder: Path, name: str) -> Path:
+    """A new empty file ``.tmp-<host>-<pid>-<random>-<name>`` in ``folder`` (recognisable if left behind).
+
+    Raises
+    ------
+    OSError
+        ``folder`` does not exist or is not writable.
+    """
+    fd, tmp = tempfile.mkstemp(dir=folder, prefix=f".tmp-{_host_tag()}-{os.getpid()}-", suffix=f"-{name}")
+    os.close(fd)
+    return Path(tmp)
+
+
+def _fsync(path: Path) -> None:
+    """Flush ``path`` to disk, best effort (so that a power cut cannot leave a renamed but empty file)."""
+    with contextlib.suppress(OSError), open(path, "rb+") as f:
+        os.fsync(f.fileno())
+
+
+def _write_atomically(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and :func:`os.replace`."""
+    tmp = _temp_file(path.parent, path.name)
+    try:
+        tmp.write_text(text)
+        tmp.chmod(0o644)  # readable by everyone who may read the library (mkstemp makes it private)
+        _fsync(tmp)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _read_record(library: Path) -> str:
+    """The sha256 recorded for ``library`` when it was built.
+
+    Raises
+    ------
+    OSError
+        There is no readable record.
+    ValueError
+        The record is not a sha256.
+    """
+    words = _record_path(library).read_text().split()
+    if not words or not re.fullmatch(r"[0-9a-f]{64}", words[0]):
+        raise ValueError("its sha256 record is malformed")
+    return words[0]
+
+
+def _damage(library: Path) -> str | None:
+    """Why ``library`` must not be used (None: it matches its record and loads).
+
+    The sha256 is checked before the library is mapped (a truncated mapped library raises SIGBUS); a
+    library that passes is loaded with :mod:`ctypes` and kept loaded, so that the loads of
+    :mod:`fsmctl.simulation.simulator` and :func:`casadi.external` reuse the verified mapping.
+    """
+    try:
+        recorded = _read_record(library)
+    except FileNotFoundError:
+        return "no sha256 was recorded for it: built by an older fsmctl, or its build was interrupted"
+    except (OSError, ValueError) as exc:
+        return f"its sha256 record cannot be used: {exc}"
+    try:
+        actual = _sha256_file(library)
+    except OSError as exc:
+        return f"it cannot be read: {exc}"
+    if actual != recorded:
+        return f"its sha256 is {actual[:12]}..., not the {recorded[:12]}... recorded when it was built"
+    try:
+        _loaded[str(library)] = ctypes.CDLL(str(library))
+    except OSError as exc:
+        return f"it cannot be loaded: {exc}"
+    return None
+
+
+def _remove_library(library: Path) -> None:
+    """Delete a library and its record.
+
+    Raises
+    ------
+    OSError
+        They exist and cannot be deleted (read-only cache).
+    """
+    library.unlink(missing_ok=True)
+    _record_path(library).unlink(missing_ok=True)
+
+
+# ----------------------------------------------------------------------------- leftovers of killed builds
+
+
+def _pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists on this machine (True when that cannot be told)."""
+    if pid <= 0:
+        return False
+    if sys.platform == "win32":  # pragma: no cover - os.kill(pid, 0) would terminate the process there
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:  # PermissionError: it exists, owned by another user
+        return True
+    return True
+
+
+def _is_stale_temp_file(entry: os.DirEntry, host: str, pid: int) -> bool:
+    """A temporary file is stale if older than :data:`_STALE_AFTER_S`, or if its process here is gone."""
+    try:
+        age = time.time() - entry.stat(follow_symlinks=False).st_mtime
+    except OSError:
+        return False
+    return age > _STALE_AFTER_S or (host == _host_tag() and not _pid_alive(pid))
+
+
+def _entries(folder: Path | str) -> list[os.DirEntry]:
+    """The entries of ``folder`` ([] if it cannot be listed)."""
+    try:
+        with os.scandir(folder) as it:
+            return list(it)
+    except OSError:
+        return []
+
+
+def _is_folder(entry: os.DirEntry) -> bool:
+    """Whether ``entry`` is a folder (not a link to one); False if that cannot be told."""
+    try:
+        return entry.is_dir(follow_symlinks=False)
+    except OSError:
+        return False
+
+
+def _remove_stale_temp_files(root: Path) -> None:
+    """Delete the temporary files that killed builds left in the cache ``root`` and its key folders."""
+    folders = [root, *(Path(e.path) for e in _entries(root) if _is_folder(e))]
+    for folder in folders:
+        for entry in _entries(folder):
+            match = _TEMP_FILE.match(entry.name)
+            if match and _is_stale_temp_file(entry, match["host"], int(match["pid"])):
+                with contextlib.suppress(OSError):
+                    os.unlink(entry.path)
+
+
+def _remove_dead_private_dirs() -> None:
+    """Delete the private build folders (see :func:`_private_dir`) of processes on this host that are gone."""
+    for entry in _entries(tempfile.gettempdir()):
+        match = _PRIVATE_DIR.match(entry.name)
+        if match and match["host"] == _host_tag() and not _pid_alive(int(match["pid"])):
+            shutil.rmtree(entry.path, ignore_errors=True)
+
+
+def _private_dir() -> Path:
+    """A new temporary folder for this process's library, deleted at exit.
+
+    Raises
+    ------
+    OSError
+        No temporary folder can be created.
+    """
+    _remove_dead_private_dirs()
+    path = Path(tempfile.mkdtemp(prefix=f"fsmctl-build-{_host_tag()}-{os.getpid()}-"))
+    atexit.register(shutil.rmtree, path, ignore_errors=True)
+    return path
+
+
+# ----------------------------------------------------------------------------- building
+
+
+@contextlib.contextmanager
+def _folder_lock(folder: Path) -> Iterator[None]:
+    """Hold an exclusive ``flock`` on ``folder`` while building or checking its library (best effort).
+
+    Without advisory locks (Windows, some network file systems) or after :data:`_LOCK_TIMEOUT_S`, the
+    body runs unlocked: concurrent builds then only waste time, since files are replaced atomically.
+    """
+    fd = _acquire_lock(folder)
+    try:
+        yield
+    finally:
+        if fd is not None:
+            os.close(fd)  # releases the lock
+
+
+def _acquire_lock(folder: Path) -> int | None:
+    """A descriptor of ``folder`` holding an exclusive ``flock`` on it, or None if no lock was taken."""
+    if fcntl is None:  # pragma: no cover - Windows
+        return None
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return None
+    deadline = time.monotonic() + _LOCK_TIMEOUT_S
+    while True:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return fd
+        except BlockingIOError:
+            if time.monotonic() > deadline:
+                break
+            time.sleep(0.05)
+        except OSError:  # e.g. NFS without flock emulation
+            break
+    os.close(fd)
+    return None
+
+
+def _build(cc: str, flags: tuple[str, ...], sources: list[Path], target: Path) -> _BuildResult:
+    """Compile into ``target``: a temporary file, :func:`os.replace`, then the sha256 record.
+
+    Raises
+    ------
+    OSError
+        The folder of ``target`` cannot be written (the compiler's own failures are in the result).
+    """
+    tmp = _temp_file(target.parent, target.name)
+    includes = [f"-I{d}" for d in dict.fromkeys(p.parent for p in sources)]
+    cmd = [cc, *flags, *includes, *map(str, sources), "-o", str(tmp), "-lm"]
+    try:
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=_BUILD_TIMEOUT_S)
+        except (OSError, subprocess.SubprocessError) as exc:
+            return _BuildResult(False, f"the C compiler {cc} could not run ({exc})", compiler_ran=False)
+        if proc.returncode != 0:
+            how = f"killed by signal {-proc.returncode}" if proc.returncode < 0 else f"exit status {proc.returncode}"
+            shown = [cc, *flags, f"<{len(sources)} sources of generated/c, the law and fsmctl/csrc>", "-o", str(tmp), "-lm"]
+            detail = proc.stderr[-4000:].strip() or "(no message from the compiler)"
+            return _BuildResult(False, f"compiling the generated code failed ({how}): {' '.join(shown)}\n{detail}")
+        tmp.chmod(0o755)  # loadable by everyone who shares the cache (mkstemp made the file private)
+        _fsync(tmp)
+        digest = _sha256_file(tmp)
+        os.replace(tmp, target)  # atomic: concurrent processes see a complete file or none
+        _write_atomically(_record_path(target), f"{digest}  {target.name}\n")
+        return _BuildResult(True)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _cached(library: Path) -> str | None:
+    """Check a cached ``library``: None if it is verified and loaded, else why not (a damaged one is deleted).
+
+    Returns ``""`` when nothing is cached yet, else the damage (see :func:`_damage`).
+
+    Raises
+    ------
+    OSError
+        A damaged library cannot be deleted.
+    """
+    if not library.exists() and not _record_path(library).exists():
+        return ""
+    problem = _damage(library)
+    if problem is not None:
+        _remove_library(library)
+    return problem
+
+
+def _check_built(library: Path) -> None:
+    """Verify a library just built; an unusable one is deleted.
+
+    Raises
+    ------
+    _Unusable
+        It does not match its record or does not load.
+    """
+    problem = _damage(library)
+    if problem is not None:
+        with contextlib.suppress(OSError):
+            _remove_library(library)
+        raise _Unusable(f"the freshly compiled library {library} cannot be used ({problem})")
+
+
+def _library_in(root: Path, cc: str, sources: list[Path], attempts: _Attempts) -> CompiledLibrary:
+    """The verified library in ``root`` for the first of ``attempts`` (``(flags, key)``) that builds.
+
+    A damaged cached library is deleted and rebuilt (once); that is reported in one warning: a
+    :class:`LibraryCacheWarning` if the rebuild works, else in the message of :class:`_Unusable`.
+
+    Raises
+    ------
+    OSError
+        ``root`` cannot be used (cannot be created or written).
+    _Unusable
+        The compiler fails, or what it built does not verify.
+    """
+    damaged = ""
+    message = "no compile flags to try"
+    try:
+        for flags, key in attempts:
+            folder = root / key
+            folder.mkdir(parents=True, exist_ok=True)
+            with _folder_lock(folder):
+                library = folder / _LIB_NAME
+                problem = _cached(library)
+                if problem is None:
+                    return CompiledLibrary(library, key, flags)
+                if problem and not damaged:
+                    damaged = f"the cached compiled library {library} was unusable ({problem})"
+                result = _build(cc, flags, sources, library)
+                if result.ok:
+                    _check_built(library)
+                    if damaged:
+                        warnings.warn(f"{damaged}; rebuilt it", LibraryCacheWarning, stacklevel=4)
+                    return CompiledLibrary(library, key, flags)
+                if not result.compiler_ran:
+                    raise _Unusable(result.message)
+                message = result.message
+        raise _Unusable(message)
+    except _Unusable as exc:
+        if damaged:
+            raise _Unusable(f"{damaged}; deleted it, but rebuilding it failed: {exc}") from None
+        raise
+
+
+def _library_anywhere(cc: str, sources: list[Path], attempts: _Attempts) -> CompiledLibrary:
+    """The library from the cache or, if the cache cannot be used, from a private temporary folder.
+
+    Raises
+    ------
+    _Unusable
+        No library can be built or loaded anywhere.
+    """
+    try:
+        root = _cache_root()
+    except RuntimeError as exc:  # Path.home(): no home folder to hold the default cache
+        problem = f"there is no folder for the compiled-library cache ({exc})"
+    else:
+        _remove_stale_temp_files(root)
+        try:
+            return _library_in(root, cc, sources, attempts)
+        except OSError as exc:
+            problem = f"the compiled-library cache {root} cannot be used ({exc})"
+    try:
+        library = _library_in(_private_dir(), cc, sources, attempts)
+    except OSError as exc:
+        raise _Unusable(f"{problem}, nor can a temporary folder ({exc})") from None
+    except _Unusable as exc:
+        raise _Unusable(f"{problem}; compiling in a temporary folder instead: {exc}") from None
+    warnings.warn(
+        f"{problem}: compiled the library in a private temporary folder, {library.path.parent}, for this process "
+        "only (deleted at exit); set FSMCTL_CACHE_DIR to a writable folder to compile it once",
+        LibraryCacheWarning,
+        stacklevel=3,  # the caller of compiled_library()
+    )
+    return library
+
+
+def _warn_unavailable(reason: str) -> None:
+    """The one warning that the CasADi functions replace the compiled library, and why."""
+    _fallback_explained.set()
+    warnings.warn(
+        f"{reason}\nfsmctl uses the serialized CasADi functions of generated/casadi instead "
+        "(same derivation, evaluated by CasADi's virtual machine, about 10-50x slower)",
+        CompilerUnavailableWarning,
+        stacklevel=3,
+    )
+
+
+def compiled_library(law_dir: Path | None = None) -> CompiledLibrary | None:
+    """Compile (once, cached by content hash) and return the verified shared library, or None.
+
+    The library holds the model's generated functions, one law's (``law_dir``, default the paper's FSM law)
+    and the whole-loop driver.
+
+    Tries :func:`compile_flags` first and falls back to the portable :data:`CFLAGS` if the compiler
+    rejects the optional flags; the cache key covers sources, flags, CPU target, compiler and CasADi.
+    The returned library matches the sha256 recorded when it was built and has been loaded once;
+    damage is repaired by one rebuild and an unusable cache by a private build (see the module
+    docstring).  None means the CasADi functions are to be used: no compiler or ``FSMCTL_NO_COMPILE``
+    (silently; :func:`casadi_function` warns), or a failure, with a :class:`CompilerUnavailableWarning`.
+
+    Raises
+    ------
+    GeneratedCodeError
+        ``generated/`` does not match its manifest (regenerate it with ``python -m derive``).
+    """
+    return _compiled_library((law_dir or default_law_dir()).resolve())
+
+
+@functools.cache
+def _compiled_library(law_dir: Path) -> CompiledLibrary | None:
+    if os.environ.get("FSMCTL_NO_COMPILE"):
+        return None
+    cc = _compiler()
+    if cc is None:
+        if os.environ.get("CC"):
+            _warn_unavailable(f"the C compiler CC={os.environ['CC']!r} was not found")
+        return None
+    _check_hashes()
+    _check_hashes(law_dir)
+    sources = _sources(law_dir)
+    flags, target_cpu = compile_flags(cc)
+    options = [(flags, target_cpu)] + ([(CFLAGS, "portable")] if flags != CFLAGS else [])
+    attempts = [(fl, _library_key(sources, fl, tgt, cc)) for fl, tgt in options]
+    with _lock:
+        try:
+            return _library_anywhere(cc, sources, attempts)
+        except _Unusable as exc:
+            _warn_unavailable(str(exc))
+            return None
+
+
+@functools.cache
+def _warn_fallback() -> None:
+    if _fallback_explained.is_set():  # compiled_library() already said why, in one warning
+        return
+    warnings.warn(
+        "no C compiler found (or FSMCTL_NO_COMPILE set): using the serialized CasADi functions of generated/casadi "
+        "(same derivation, evaluated by CasADi's virtual machine, about 10-50x slower)",
+        CompilerUnavailableWarning,
+        stacklevel=3,
+    )
+
+
+def backend() -> str:
+    """``"compiled"`` (C, shared library) or ``"casadi-vm"`` (serialized functions)."""
+    return "compiled" if compiled_library() is not None else "casadi-vm"
+
+
+@functools.cache
+def casadi_function(name: str) -> ca.Function:
+    """A generated per-agent function by name (see ``manifest()['functions']``)."""
+    names = [f["name"] for f in manifest()["functions"]]
+    if name not in names:
+        raise KeyError(f"no generated function {name!r}; available: {', '.join(names)}")
+    lib = compiled_library()
+    if lib is not None:
+        return ca.external(name, str(lib.path))
+    _warn_fallback()
+    return ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
+
+
+@functools.cache
+def _law_casadi_function(law_dir: Path, name: str) -> ca.Function:
+    lib = compiled_library(law_dir)
+    if lib is not None:
+        return ca.external(name, str(lib.path))
+    _warn_fallback()
+    return ca.Function.deserialize((law_dir / "casadi" / f"{name}.casadi").read_text())
+
+
+def law_casadi_function(law_dir: Path, name: str) -> ca.Function:
+    """A law's generated function (``law_constants``, ``law_local_paper``, ...) from its folder."""
+    return _law_casadi_function(Path(law_dir).resolve(), name)
+
+
+compiled_library.cache_clear = _compiled_library.cache_clear  # type: ignore[attr-defined]

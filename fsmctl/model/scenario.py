@@ -1,0 +1,943 @@
+"""Typed, validated formation scenarios, loadable from TOML (Liang et al. 2012, Section 4).
+
+A :class:`Scenario` fixes everything a run needs: the agents (nominal inertia
+``J0``, perturbation ``delta_J``, initial attitude and rate, switching gain
+``delta``, disturbance torque), the reference (``sigma_d(0)`` and a sinusoidal
+``omega_d(t)``), the communication topology (:class:`~fsmctl.model.topology.Topology`),
+the controller settings and the numerical settings.  Named *cases* are partial
+overrides of the base scenario (the paper's Cases 1, 2, 3a-3c).
+
+One validation path
+-------------------
+Every class here is a frozen pydantic dataclass: constructing one, by keyword
+arguments, from a TOML file (:func:`load_scenario`), through :meth:`Scenario.replace`,
+:meth:`Scenario.with_agents`, :meth:`Scenario.with_topology` or ``dataclasses.replace``,
+runs the same validators.  Types are strict (a bool, a string or NaN is never a
+number), option strings are normalised to lower case (``"DOPRI45"`` is stored and run as
+``"dopri45"``), and the physics checks (SPD and realizable inertia, the alpha range,
+grids that are multiples of dt and end at t_final, topology vs agent count) are
+code called from the validators.  A failure is one :class:`ScenarioError` whose
+message names the key path (``agents[2].J0: ...``), never a traceback from deep
+inside NumPy or pydantic.
+
+The scenario *file* format is described by the same field types
+(:mod:`fsmctl.model.scenario_schema` adds the file's shorthands and writes the reference page
+``docs/scenario-reference.md`` and the JSON Schema ``fsmctl/scenarios/scenario.schema.json``).
+
+Units: inertia kg m^2, angles rad, rates rad/s, torques N m, time s.
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import functools
+import math
+import tomllib
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import field
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BeforeValidator, ConfigDict, Field, ValidationError, model_validator
+from pydantic.dataclasses import dataclass
+
+from fsmctl.errors import InputError
+from fsmctl.model.topology import Topology, TopologyError
+
+__all__ = [
+    "ScenarioError",
+    "InertiaWarning",
+    "Sinusoid",
+    "Agent",
+    "Reference",
+    "ControllerSettings",
+    "SimulationSettings",
+    "Scenario",
+    "load_scenario",
+    "paper_scenario",
+    "scenario_from_dict",
+    "check_inertia",
+    "BUILTIN_SCENARIOS",
+]
+
+BUILTIN_SCENARIOS = ("paper",)
+SINGULARITY_FIXES = {"none": 0, "switch": 1, "clamp": 2}
+ERROR_MODELS = ("paper", "exact")
+SURFACES = ("fsm", "tsm", "lsm")
+INTEGRATORS = ("rk4", "dopri45")
+GRID_RTOL = 1e-9
+"""relative tolerance of "a multiple of dt" (float rounding only: 0.1 / 0.001 = 99.999...)"""
+
+
+class ScenarioError(InputError):
+    """A scenario (file or object) is malformed; the message names the key path."""
+
+
+class InertiaWarning(UserWarning):
+    """An inertia matrix is positive definite but not physically realizable (J1 + J2 < J3)."""
+
+
+# ----------------------------------------------------------------------------- value types
+# Each rule about a single value is written here, once; the dataclasses below and the file schema use these types.
+
+
+def _is_real(v: Any) -> bool:
+    return not isinstance(v, (bool, np.bool_)) and isinstance(v, (int, float, np.integer, np.floating))
+
+
+def _real(v: Any) -> float:
+    """A real number: int or float (Python or NumPy); never a bool or a string."""
+    if not _is_real(v):
+        raise ValueError(f"expected a number, got {v!r}")
+    return float(v)
+
+
+def _real_array(v: Any, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """A strictly numeric array of the given shape: bools, strings and None are refused element by element."""
+    if isinstance(v, np.ndarray):
+        if v.dtype.kind not in "iuf":
+            raise ValueError(f"expected {what}, got an array of dtype {v.dtype}")
+        a = v.astype(float)
+    else:
+        if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, Sequence):
+            raise ValueError(f"expected {what}, got {v!r}")
+
+        def conv(x, depth):
+            if depth == len(shape):
+                if not _is_real(x):
+                    raise ValueError(f"expected {what}, got the element {x!r}")
+                return float(x)
+            if isinstance(x, np.ndarray):
+                return conv(x.tolist(), depth)
+            if isinstance(x, (str, bytes, Mapping)) or not isinstance(x, Sequence):
+                raise ValueError(f"expected {what}, got {v!r}")
+            return [conv(y, depth + 1) for y in x]
+
+        nested = conv(v, 0)
+        try:
+            a = np.array(nested, dtype=float)
+        except ValueError:
+            raise ValueError(f"expected {what}, got a ragged array {v!r}") from None
+    if a.shape != shape:
+        raise ValueError(f"expected {what}, got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"values must be finite, got {a.tolist()}")
+    return a
+
+
+def _vec3(v: Any) -> tuple[float, float, float]:
+    return tuple(float(x) for x in _real_array(v, (3,), "3 numbers"))
+
+
+def _mat3(v: Any) -> tuple[tuple[float, ...], ...]:
+    return tuple(tuple(float(x) for x in row) for row in _real_array(v, (3, 3), "a 3x3 matrix"))
+
+
+def _lower(v: Any) -> Any:
+    return v.lower() if isinstance(v, str) else v
+
+
+def _strict_bool(v: Any) -> bool:
+    if not isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"expected true or false, got {v!r}")
+    return bool(v)
+
+
+def _strict_str(v: Any) -> str:
+    if not isinstance(v, str):
+        raise ValueError(f"expected a string, got {v!r}")
+    return v
+
+
+def _inf_words(v: Any) -> Any:
+    """``"inf"``, ``"infinity"``, ``"none"`` (any case) mean no limit; everything else is checked as a number."""
+    if isinstance(v, str) and v.strip().lower() in ("inf", "infinity", "none"):
+        return math.inf
+    if isinstance(v, float) and math.isinf(v) and v > 0:
+        return v
+    return _real(v)
+
+
+def _doc(description: str, unit: str | None = None, **kw) -> Any:
+    extra = {"unit": unit} if unit else None
+    return Field(description=description, json_schema_extra=extra, **kw)
+
+
+Real = Annotated[float, BeforeValidator(_real)]
+Vec3 = Annotated[tuple[float, float, float], BeforeValidator(_vec3)]
+Mat3 = Annotated[
+    tuple[tuple[float, float, float], tuple[float, float, float], tuple[float, float, float]], BeforeValidator(_mat3)
+]
+Bool = Annotated[bool, BeforeValidator(_strict_bool)]
+Text = Annotated[str, BeforeValidator(_strict_str)]
+SingularityFix = Annotated[Literal["switch", "clamp", "none"], BeforeValidator(_lower)]
+ErrorModel = Annotated[Literal["paper", "exact"], BeforeValidator(_lower)]
+Surface = Annotated[Literal["fsm", "tsm", "lsm"], BeforeValidator(_lower)]
+Integrator = Annotated[Literal["rk4", "dopri45"], BeforeValidator(_lower)]
+TorqueLimit = Annotated[float, Field(gt=0, allow_inf_nan=True), BeforeValidator(_inf_words)]
+
+_CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, arbitrary_types_allowed=True)
+ZERO3 = (0.0, 0.0, 0.0)
+
+
+# ----------------------------------------------------------------------------- error messages
+
+_PREFIXES = ("Value error, ", "Assertion failed, ")
+
+
+def _loc(loc: Sequence[Any]) -> str:
+    out = ""
+    for i, part in enumerate(loc):
+        if isinstance(part, int):
+            # agents are numbered from 1 in messages (as in the paper and the file's [[agents]] order)
+            out += f"[{part + 1}]" if out.endswith("agents") else f"[{part}]"
+        else:
+            out += ("." if i else "") + str(part)
+    return out
+
+
+_BOUNDS = {
+    "greater_than": (">", "gt"),
+    "greater_than_equal": (">=", "ge"),
+    "less_than": ("<", "lt"),
+    "less_than_equal": ("<=", "le"),
+}
+"""pydantic's range errors: comparison symbol and the key of the bound in the error's context"""
+
+
+def _message(err: Mapping[str, Any]) -> str:
+    kind, ctx, value = err["type"], err.get("ctx") or {}, err.get("input")
+    if kind in ("value_error", "assertion_error"):
+        msg = str(err["msg"])
+        for p in _PREFIXES:
+            msg = msg.removeprefix(p)
+        return msg
+    if kind in _BOUNDS:
+        symbol, key = _BOUNDS[kind]
+        return f"must be {symbol} {ctx[key]}, got {value!r}"
+    if kind == "finite_number":
+        return f"must be finite, got {value!r}"
+    if kind == "literal_error":
+        return f"must be one of {ctx.get('expected', '')}, got {value!r}"
+    if kind == "missing" or kind == "missing_argument":
+        return "missing"
+    if kind in ("unexpected_keyword_argument", "extra_forbidden"):
+        return "unknown key"
+    if kind in ("dataclass_type", "dataclass_exact_type", "dict_type", "model_type"):
+        return f"expected a table, got {value!r}"
+    if kind in ("tuple_type", "list_type"):
+        return f"expected an array, got {value!r}"
+    if kind == "is_instance_of":
+        return f"expected {ctx.get('class', 'an instance')}, got {type(value).__name__}"
+    return f"{err['msg']} (got {value!r})"
+
+
+def _scenario_error(exc: ValidationError, where: str = "") -> ScenarioError:
+    errors = exc.errors(include_url=False)
+    first = errors[0]
+    path = _loc(first["loc"])
+    unknown = [e for e in errors if e["type"] in ("unexpected_keyword_argument", "extra_forbidden")]
+    if unknown and first in unknown and len(unknown) > 1:
+        keys = sorted(str(e["loc"][-1]) for e in unknown)
+        parent = _loc(first["loc"][:-1])
+        msg = f"{parent + ': ' if parent else ''}unknown keys {keys}"
+    else:
+        msg = f"{path}: {_message(first)}" if path else _message(first)
+    if len(errors) > 1 and not (unknown and first in unknown):
+        msg += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
+    return ScenarioError(f"{where}: {msg}" if where else msg)
+
+
+def _validated(cls):
+    """A frozen pydantic dataclass whose construction raises :class:`ScenarioError` (one line, with the key path).
+
+    ``dataclasses.replace`` calls ``__init__``, so copies are validated too.
+    """
+    cls = dataclass(frozen=True, config=_CONFIG)(cls)
+    init = cls.__init__
+
+    @functools.wraps(init)
+    def __init__(self, *args, **kwargs):
+        try:
+            init(self, *args, **kwargs)
+        except ValidationError as exc:
+            raise _scenario_error(exc) from None
+
+    cls.__init__ = __init__
+    return cls
+
+
+# ----------------------------------------------------------------------------- physics checks
+
+
+def check_inertia(J, where: str, *, physical: bool = True) -> None:
+    """Raise :class:`ScenarioError` unless ``J`` is symmetric positive definite (and warn unless realizable).
+
+    Parameters
+    ----------
+    J : array_like, shape (3, 3)
+        Inertia matrix (kg m^2).
+    where : str
+        Key path used in the message.
+    physical : bool
+        Warn (:class:`InertiaWarning`) when the principal moments violate the triangle inequality.
+    """
+    try:
+        a = _real_array(J, (3, 3), "a 3x3 matrix")
+    except ValueError as exc:
+        raise ScenarioError(f"{where}: {exc}") from None
+    problem = _inertia_problem(a, where, physical=physical)
+    if problem:
+        raise ScenarioError(problem)
+
+
+def _inertia_problem(a: np.ndarray, where: str, *, physical: bool = True) -> str | None:
+    scale = max(1.0, float(np.max(np.abs(a))))
+    if np.max(np.abs(a - a.T)) > 1e-9 * scale:
+        i, j = np.unravel_index(np.argmax(np.abs(a - a.T)), a.shape)
+        return f"{where}: not symmetric ({where}[{i}][{j}] = {a[i, j]}, {where}[{j}][{i}] = {a[j, i]})"
+    eig = np.linalg.eigvalsh(0.5 * (a + a.T))
+    if eig[0] <= 0:
+        return f"{where}: not positive definite (eigenvalues {np.round(eig, 6).tolist()})"
+    # A flat plate has J1 + J2 = J3; violations below 1e-3 relative are rounding of such bodies
+    # (the paper's J0_4 is one: 1.9e-5) and are reported by `fsmctl reproduce`, not warned about.
+    if physical and eig[0] + eig[1] < eig[2] * (1 - 1e-3):
+        warnings.warn(
+            f"{where}: principal moments {np.round(eig, 6).tolist()} violate the triangle inequality "
+            f"J1 + J2 >= J3 of a rigid body by {eig[2] - eig[0] - eig[1]:.3g} kg m^2 (not physically realizable; "
+            "simulated as given)",
+            InertiaWarning,
+            stacklevel=2,
+        )
+    return None
+
+
+def _is_multiple(value: float, step: float) -> bool:
+    ratio = value / step
+    return abs(ratio - round(ratio)) <= GRID_RTOL * max(1.0, ratio) and round(ratio) >= 1
+
+
+# ----------------------------------------------------------------------------- data classes
+
+
+@_validated
+class Sinusoid:
+    """``v_k(t) = amplitude_k cos(frequency_k t + phase_k) + offset_k``, k = 1..3.
+
+    Examples
+    --------
+    >>> from fsmctl import Sinusoid
+    >>> Sinusoid(amplitude=[0.1, 0, 0], frequency=[0.025, 0, 0]).bound().tolist()
+    [0.1, 0.0, 0.0]
+    """
+
+    amplitude: Vec3 = _doc(
+        "amplitude per axis (the unit of the signal: N m for torques, rad/s for rates)", default=ZERO3
+    )
+    frequency: Vec3 = _doc("angular frequency per axis", "rad/s", default=ZERO3)
+    phase: Vec3 = _doc("phase per axis (of the cosine)", "rad", default=ZERO3)
+    offset: Vec3 = _doc("constant offset per axis (the unit of the signal)", default=ZERO3)
+
+    def params(self) -> np.ndarray:
+        """Packed ``[amplitude, frequency, phase, offset]`` (the generated code's layout)."""
+        return np.array([*self.amplitude, *self.frequency, *self.phase, *self.offset], dtype=float)
+
+    def __call__(self, t) -> np.ndarray:
+        """Values at time(s) ``t``: shape ``(..., 3)``.
+
+        Evaluated by the generated ``disturbance_torque`` function (the same sinusoid layout), so the
+        formula exists once, in ``derive/``.
+        """
+        from fsmctl.model.casadi_eval import evaluate_mapped
+        from fsmctl.model.generated_code import casadi_function
+
+        t = np.asarray(t, dtype=float)
+        flat = t.reshape(-1)
+        if flat.size == 0:
+            return np.zeros((*t.shape, 3))
+        (values,) = evaluate_mapped(
+            casadi_function("disturbance_torque"), flat.size, [flat, self.params()], shared=(1,)
+        )
+        values = np.ascontiguousarray(values.T).T  # (m, 3) view of a (3, m) array, the layout callers always had
+        return values.reshape(*t.shape, 3)
+
+    def bound(self) -> np.ndarray:
+        """Componentwise bound ``|amplitude| + |offset|`` on ``|v_k(t)|``."""
+        return np.abs(self.amplitude) + np.abs(self.offset)
+
+    def rate_bound(self) -> np.ndarray:
+        """Componentwise bound ``|amplitude frequency|`` on ``|dv_k/dt|``."""
+        return np.abs(np.asarray(self.amplitude) * np.asarray(self.frequency))
+
+    @classmethod
+    def from_mapping(cls, d: Mapping, where: str = "sinusoid") -> Sinusoid:
+        """From a file table with ``amplitude``, ``frequency``, ``phase``, ``offset``, optional ``kind``.
+
+        ``kind = ["cos"|"sin", ...]`` per axis: a ``sin`` component ``a sin(w t + p)`` is stored as
+        ``a cos(w t + p - pi/2)``.
+        """
+        if not isinstance(d, Mapping):
+            raise ScenarioError(f"{where}: expected a table, got {d!r}")
+        d = dict(d)
+        kind = d.pop("kind", ["cos", "cos", "cos"])
+        if isinstance(kind, str) or not isinstance(kind, Sequence) or len(kind) != 3:
+            raise ScenarioError(f"{where}.kind: expected three of 'cos'/'sin', got {kind!r}")
+        kinds = [_lower(k) for k in kind]
+        for k, kd in enumerate(kinds):
+            if kd not in ("cos", "sin"):
+                raise ScenarioError(f"{where}.kind[{k}]: must be 'cos' or 'sin', got {kind[k]!r}")
+        try:
+            s = cls(**d)
+        except ScenarioError as exc:
+            raise ScenarioError(f"{where}.{exc}") from None
+        if "sin" in kinds:
+            phase = [p - (math.pi / 2 if kd == "sin" else 0.0) for p, kd in zip(s.phase, kinds, strict=True)]
+            s = dataclasses.replace(s, phase=tuple(phase))
+        return s
+
+
+@_validated
+class Agent:
+    """One spacecraft: inertia, initial state, switching gain and disturbance (Liang et al. 2012, eqs 9, 18, 29)."""
+
+    J0: Mat3 = _doc("nominal inertia, used by the controller (symmetric positive definite)", "kg m^2")
+    delta_J: Mat3 = _doc("inertia perturbation: the plant has J = J0 + delta_J (eq 29)", "kg m^2")
+    sigma0: Vec3 = _doc("initial attitude (MRP, inertial to body)", "1")
+    omega0: Vec3 = _doc("initial body angular velocity", "rad/s")
+    delta: Vec3 = _doc("switching gain delta_i of eq 18, every component > 0", "1/s^2")
+    disturbance: Sinusoid = _doc("disturbance torque d_i(t)", "N m", default_factory=Sinusoid)
+
+    @model_validator(mode="after")
+    def _physics(self) -> Agent:
+        for where, J in (("J0", np.array(self.J0)), ("J0 + delta_J", np.array(self.J0) + np.array(self.delta_J))):
+            problem = _inertia_problem(J, where)
+            if problem:
+                raise ValueError(problem)
+        if not all(d > 0 for d in self.delta):
+            raise ValueError(f"delta: every component must be > 0 (eq 18), got {list(self.delta)}")
+        if np.linalg.norm(self.sigma0) > 1e6:
+            raise ValueError(f"sigma0: |sigma0| = {np.linalg.norm(self.sigma0):.3g} is beyond any attitude")
+        return self
+
+    @property
+    def J0_array(self) -> np.ndarray:
+        return np.array(self.J0)
+
+    @property
+    def J_true(self) -> np.ndarray:
+        return np.array(self.J0) + np.array(self.delta_J)
+
+
+@_validated
+class Reference:
+    """Reference attitude ``sigma_d(0)`` and rate ``omega_d(t)`` (Sec. 4)."""
+
+    sigma0: Vec3 = _doc("reference attitude at t = 0 (MRP)", "1")
+    omega: Sinusoid = _doc("reference body rate omega_d(t)", "rad/s")
+
+
+@_validated
+class ControllerSettings:
+    """The control law and its parameters, the actuator limit and the error kinematics.
+
+    ``law`` names a built-in law (``fsmctl laws``), a derivation script (``.py``) or a derived law folder.
+    The paper's FSM law (Liang et al. 2012, eqs 13-19, Remarks 6-7) has typed keys below; any law's
+    parameters are set by name as further ``[controller]`` keys (gathered in ``parameters``), checked
+    against the ranges the law declares; unset ones take the law's defaults.
+    """
+
+    law: Text = _doc("control law: a built-in name (fsmctl laws), a derivation script FILE.py or a derived folder", default="fsm")
+    parameters: dict[str, Any] = _doc(
+        "the law's named parameters (in a TOML file: further [controller] keys, e.g. K = 2.0)", default_factory=dict
+    )
+    c1: Real | None = _doc(
+        "FSM: linear gain of the fast sliding surface s = omega_e + c1 sigma_e + c2 sig(sigma_e)^alpha (eq 13); "
+        "unset: the law's default",
+        "1/s",
+        ge=0,
+        default=None,
+    )
+    c2: Real | None = _doc("FSM: terminal gain of the surface (eq 13); unset: the law's default", "1/s", ge=0, default=None)
+    alpha: Real | None = _doc(
+        "FSM: exponent of sig(sigma_e)^alpha, 0.5 < alpha < 1 (eq 13); unset: the law's default",
+        "1",
+        gt=0.5,
+        lt=1,
+        default=None,
+    )
+    boundary_layer: Real = _doc("FSM: phi of sat(s/phi) (Remark 7); 0 means sgn", "1/s", ge=0, default=0.0)
+    singularity_fix: SingularityFix = _doc(
+        "Remark 6 device near sigma_e = 0: 'switch' (C^1 extension inside |x| < epsilon), 'clamp' or 'none'",
+        default="switch",
+    )
+    epsilon: Real = _doc("band of the Remark 6 fix", "1 (MRP)", gt=0, default=1e-4)
+    torque_limit: TorqueLimit = _doc('per-component torque bound; inf (or "inf") for none', "N m", default=math.inf)
+    error_model: ErrorModel = _doc(
+        "controller's error kinematics: 'paper' (eqs 7-8 as printed) or 'exact'", default="paper"
+    )
+    surface: Surface = _doc("'fsm' (eq 13), 'tsm' (c1 -> 0) or 'lsm' (c2 -> 0), Sec. 3.3", default="fsm")
+    enabled: Bool = _doc(
+        "false: the torque is not applied (u = 0, open loop); the law is still evaluated and reported as "
+        "u_unsaturated (torque-free and disturbance-only runs)",
+        default=True,
+    )
+
+    @model_validator(mode="after")
+    def _surface_gains(self) -> ControllerSettings:
+        if self.c1 is not None and self.surface in ("fsm", "lsm") and not self.c1 > 0:
+            raise ValueError(f"c1: must be > 0 for the {self.surface} surface, got {self.c1}")
+        if self.c2 is not None and self.surface in ("fsm", "tsm") and not self.c2 > 0:
+            raise ValueError(f"c2: must be > 0 for the {self.surface} surface, got {self.c2}")
+        for key in self.parameters:
+            if not isinstance(key, str) or key in _CONTROLLER_FIELDS:
+                raise ValueError(f"parameters: {key!r} is a [controller] key of its own")
+        return self
+
+    def typed_law_parameters(self) -> dict[str, Any]:
+        """The typed keys given, by law-parameter name (the ``surface`` applied: TSM has c1 = 0, LSM c2 = 0)."""
+        out: dict[str, Any] = {"boundary_layer": self.boundary_layer, "epsilon": self.epsilon}
+        out["singularity_fix"] = self.singularity_fix
+        if self.alpha is not None:
+            out["alpha"] = self.alpha
+        if self.surface == "tsm":
+            out["c1"] = 0.0
+        elif self.c1 is not None:
+            out["c1"] = self.c1
+        if self.surface == "lsm":
+            out["c2"] = 0.0
+        elif self.c2 is not None:
+            out["c2"] = self.c2
+        return out
+
+    @property
+    def effective_torque_limit(self) -> float:
+        """Per-component bound the plant sees: ``torque_limit``, or 0 when the controller is disabled."""
+        return self.torque_limit if self.enabled else 0.0
+
+    def gains_vector(self) -> np.ndarray:
+        """``[c1, c2, alpha, boundary_layer, epsilon, fix_mode]`` with the surface applied."""
+        c1 = 0.0 if self.surface == "tsm" else self.c1
+        c2 = 0.0 if self.surface == "lsm" else self.c2
+        return np.array(
+            [c1, c2, self.alpha, self.boundary_layer, self.epsilon, SINGULARITY_FIXES[self.singularity_fix]], float
+        )
+
+
+_CONTROLLER_FIELDS = frozenset(f.name for f in dataclasses.fields(ControllerSettings))
+
+
+@_validated
+class SimulationSettings:
+    """Horizon, integrator, step and output grid.
+
+    The grid rule: ``t_final``, ``output_interval`` and ``control_period`` are multiples of ``dt``, and
+    ``t_final`` is a multiple of ``output_interval``, so the last output sample is the state at ``t_final``.
+    """
+
+    t_final: Real = _doc("horizon", "s", gt=0, default=100.0)
+    dt: Real = _doc("integration step (rk4) or initial step (dopri45)", "s", gt=0, default=1e-3)
+    integrator: Integrator = _doc(
+        "'rk4' (fixed step, default: sgn defeats adaptive steps) or 'dopri45' (adaptive)", default="rk4"
+    )
+    output_interval: Real = _doc(
+        "spacing of the output samples (a multiple of dt dividing t_final)", "s", gt=0, default=0.01
+    )
+    control_period: Real = _doc("0: continuous control; > 0: zero-order hold with this period", "s", ge=0, default=0.0)
+    rtol: Real = _doc("relative tolerance (dopri45)", "1", gt=0, default=1e-8)
+    atol: Real = _doc("absolute tolerance (dopri45)", "1", gt=0, default=1e-10)
+
+    @model_validator(mode="after")
+    def _grid(self) -> SimulationSettings:
+        if self.dt > self.t_final:
+            raise ValueError(f"dt = {self.dt} exceeds t_final = {self.t_final}")
+        for name in ("t_final", "output_interval") + (("control_period",) if self.control_period > 0 else ()):
+            if not _is_multiple(getattr(self, name), self.dt):
+                raise ValueError(f"{name} = {getattr(self, name)} must be a multiple of dt = {self.dt}")
+        if not _is_multiple(self.t_final, self.output_interval):
+            raise ValueError(
+                f"t_final = {self.t_final} must be a multiple of output_interval = {self.output_interval} "
+                "(the output grid must end at t_final)"
+            )
+        return self
+
+    @property
+    def n_steps(self) -> int:
+        return round(self.t_final / self.dt)
+
+    @property
+    def output_every(self) -> int:
+        return max(1, round(self.output_interval / self.dt))
+
+    @property
+    def n_outputs(self) -> int:
+        """Number of output samples, ``t = 0`` and ``t_final`` included."""
+        return self.n_steps // self.output_every + 1
+
+    @property
+    def hold_steps(self) -> int:
+        return round(self.control_period / self.dt) if self.control_period > 0 else 0
+
+
+def _is_topology(v: Any) -> Topology:
+    if not isinstance(v, Topology):
+        raise ValueError(f"expected a fsmctl.model.topology.Topology, got {type(v).__name__}")
+    return v
+
+
+def _choices(v: Any) -> tuple[tuple[str, str], ...]:
+    items = v.items() if isinstance(v, Mapping) else v
+    try:
+        pairs = tuple((k, t) for k, t in items)
+    except (TypeError, ValueError):
+        raise ValueError(f"expected a table of strings, got {v!r}") from None
+    if not all(isinstance(k, str) and isinstance(t, str) for k, t in pairs):
+        raise ValueError("expected a table of strings")
+    return pairs
+
+
+@_validated
+class Scenario:
+    """A complete formation scenario (one case).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "integrator": "DOPRI45"})
+    >>> s.simulation.integrator
+    'dopri45'
+    """
+
+    name: Text
+    agents: tuple[Agent, ...]
+    reference: Reference
+    topology: Annotated[Topology, BeforeValidator(_is_topology)]
+    controller: ControllerSettings
+    simulation: SimulationSettings = field(default_factory=SimulationSettings)
+    case: Annotated[str | None, BeforeValidator(lambda v: v if v is None else _strict_str(v))] = None
+    description: Text = ""
+    choices: Annotated[tuple[tuple[str, str], ...], BeforeValidator(_choices)] = ()
+    """what the source leaves open, and why each value was chosen (printed with every result)"""
+    cases: tuple[Text, ...] = ()
+    """names of the cases defined by the source file"""
+    source: dict = field(default_factory=dict, compare=False, repr=False)
+    """the merged raw mapping this scenario was built from"""
+
+    @model_validator(mode="after")
+    def _formation(self) -> Scenario:
+        if not self.agents:
+            raise ValueError("agents: at least one agent is required")
+        if self.topology.n_agents != len(self.agents):
+            raise ValueError(
+                f"topology: describes {self.topology.n_agents} agents but the scenario has {len(self.agents)}"
+            )
+        from fsmctl.model.laws import parameter_matrix, resolve_law  # the law's declared parameters and ranges
+
+        parameter_matrix(resolve_law(self.controller.law), self)
+        return self
+
+    @property
+    def law(self):
+        """The :class:`~fsmctl.model.laws.LawCode` this scenario flies (``controller.law``)."""
+        from fsmctl.model.laws import resolve_law
+
+        return resolve_law(self.controller.law)
+
+    @property
+    def n_agents(self) -> int:
+        return len(self.agents)
+
+    @property
+    def label(self) -> str:
+        return f"{self.name}" + (f" case {self.case}" if self.case else "")
+
+    def with_case(self, case: str) -> Scenario:
+        """The scenario with the named case's overrides applied to the base."""
+        if case not in self.cases:
+            raise ScenarioError(f"scenario {self.name!r} has no case {case!r} (cases: {list(self.cases)})")
+        return scenario_from_dict(self.source, case=case)
+
+    def replace(self, **sections: Any) -> Scenario:
+        """A validated copy with fields of ``controller``, ``simulation`` or ``reference`` replaced.
+
+        Keyword arguments: ``controller``, ``simulation``, ``reference`` (mappings of field names to new
+        values), ``agents`` (a sequence of :class:`Agent`) and ``topology`` (a
+        :class:`~fsmctl.model.topology.Topology`; give both when the agent count changes).  The copy goes through
+        the same validators as a file: a bad value raises :class:`ScenarioError` naming ``section.key``.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> s = fsmctl.paper_scenario("1")
+        >>> s.replace(controller={"boundary_layer": 0.0}, simulation={"t_final": 10}).simulation.t_final
+        10.0
+        """
+        unknown = sorted(set(sections) - {"controller", "simulation", "reference", "agents", "topology"})
+        if unknown:
+            raise ScenarioError(
+                f"replace: cannot replace {unknown} (known: controller, simulation, reference, agents, topology)"
+            )
+        controller, simulation, reference = (sections.get(k) for k in ("controller", "simulation", "reference"))
+        agents, topology = sections.get("agents"), sections.get("topology")
+        changes: dict[str, Any] = {}
+        for section, values in (("controller", controller), ("simulation", simulation), ("reference", reference)):
+            if values is None:
+                continue
+            if not isinstance(values, Mapping):
+                raise ScenarioError(f"replace({section}=...): expected a mapping of field names to values")
+            current = {
+                f.name: getattr(getattr(self, section), f.name) for f in dataclasses.fields(getattr(self, section))
+            }
+            changes[section] = {**current, **dict(values)}
+        if agents is not None:
+            if isinstance(agents, (str, bytes, Mapping)) or not isinstance(agents, Sequence):
+                raise ScenarioError(f"agents: expected a sequence of Agent, got {agents!r}")
+            changes["agents"] = tuple(agents)
+        if topology is not None:
+            changes["topology"] = topology
+        return dataclasses.replace(self, **changes)
+
+    def with_agents(self, agents: Sequence[Agent]) -> Scenario:
+        """A validated copy with another agent list (same count as the topology)."""
+        return self.replace(agents=agents)
+
+    def with_topology(self, topology: Topology) -> Scenario:
+        """A validated copy with another communication topology."""
+        return self.replace(topology=topology)
+
+    def describe(self) -> list[str]:
+        """Human-readable lines: settings and the documented choices."""
+        c, s = self.controller, self.simulation
+        lines = [
+            f"scenario {self.label}: {self.n_agents} agents, {len(self.topology.links)} links",
+            f"  controller: surface={c.surface} c1={c.c1} c2={c.c2} alpha={c.alpha} boundary_layer={c.boundary_layer} "
+            f"singularity_fix={c.singularity_fix} epsilon={c.epsilon} torque_limit={c.torque_limit} "
+            f"error_model={c.error_model}" + ("" if c.enabled else " enabled=False (open loop, u = 0)"),
+            f"  delta_i: {sorted({a.delta for a in self.agents})}",
+            f"  simulation: t_final={s.t_final} s, dt={s.dt} s, integrator={s.integrator}, "
+            f"output_interval={s.output_interval} s, control_period={s.control_period} s",
+        ]
+        lines += [f"  choice {k}: {v}" for k, v in self.choices]
+        return lines
+
+
+# ----------------------------------------------------------------------------- the file format
+
+
+def _deep_merge(base: dict, over: Mapping) -> dict:
+    out = copy.deepcopy(base)
+    for k, v in over.items():
+        if isinstance(v, Mapping) and isinstance(out.get(k), Mapping):
+            out[k] = _deep_merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+TOP_KEYS = ("name", "description", "simulation", "controller", "reference", "agents", "topology", "cases", "choices")
+AGENT_DEFAULT_KEYS = ("delta", "delta_J", "disturbance")
+"""keys of ``[controller]`` that are defaults for every agent (the file's shorthand)"""
+AGENT_KEYS = ("J0", "delta_J", "sigma0", "omega0", "delta", "disturbance")
+
+
+def _unknown(d: Mapping, known: Sequence[str], where: str) -> None:
+    if not isinstance(d, Mapping):
+        raise ScenarioError(f"{where}: expected a table, got {d!r}")
+    unknown = sorted(set(d) - set(known))
+    if unknown:
+        raise ScenarioError(f"{where}: unknown key(s) {unknown} (known: {sorted(known)})")
+
+
+def _within(where: str, build, *args, **kwargs):
+    """Call a constructor and prefix its one-line error with the file's key path."""
+    try:
+        return build(*args, **kwargs)
+    except (ScenarioError, TopologyError) as exc:
+        msg = str(exc)
+        raise ScenarioError(msg if msg.startswith(where) else f"{where}.{msg}") from None
+
+
+def _agent_from_table(d: Mapping, i: int, defaults: Mapping) -> Agent:
+    where = f"agents[{i + 1}]"
+    _unknown(d, AGENT_KEYS, where)
+    for key in ("J0", "sigma0", "omega0"):
+        if key not in d:
+            raise ScenarioError(f"{where}.{key}: missing")
+    J0 = _within(where, lambda v: _mat3_or_error(v, "J0"), d["J0"])
+    dJ = d.get("delta_J", defaults.get("delta_J", {"scale": 0.0}))
+    src = "delta_J" if "delta_J" in d else "controller.delta_J"
+    if isinstance(dJ, Mapping):
+        _unknown(dJ, ("scale",), f"{where}.{src}" if src == "delta_J" else src)
+        scale = dJ.get("scale", 0.0)
+        if not _is_real(scale) or not math.isfinite(scale):
+            raise ScenarioError(
+                f"{where if src == 'delta_J' else 'controller'}.delta_J.scale: expected a finite number, got {scale!r}"
+            )
+        dJ = tuple(tuple(scale * x for x in row) for row in J0)
+    delta = d.get("delta", defaults.get("delta"))
+    if delta is None:
+        raise ScenarioError(f"{where}.delta: missing (set controller.delta for all agents or delta per agent)")
+    if _is_real(delta):
+        delta = [delta] * 3
+    dist = d.get("disturbance", defaults.get("disturbance"))
+    disturbance = Sinusoid() if dist is None else Sinusoid.from_mapping(dist, f"{where}.disturbance")
+    return _within(
+        where, Agent, J0=J0, delta_J=dJ, sigma0=d["sigma0"], omega0=d["omega0"], delta=delta, disturbance=disturbance
+    )
+
+
+def _mat3_or_error(v: Any, key: str) -> tuple[tuple[float, ...], ...]:
+    try:
+        return _mat3(v)
+    except ValueError as exc:
+        raise ScenarioError(f"{key}: {exc}") from None
+
+
+def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "scenario") -> Scenario:
+    """Build a validated :class:`Scenario` from a mapping (a parsed TOML file), optionally applying a case.
+
+    The file's shorthands (``delta``/``delta_J``/``disturbance`` defaults in ``[controller]``,
+    ``delta_J = {scale = ...}``, a scalar ``delta``, ``kind = ["cos"|"sin", ...]`` of sinusoids, the
+    topology tables) are expanded here; every value is then checked by the dataclasses' validators.
+    """
+    _unknown(data, TOP_KEYS, where)
+    cases = data.get("cases", {})
+    if not isinstance(cases, Mapping):
+        raise ScenarioError(f"{where}.cases: expected a table of named cases")
+    merged = dict(data)
+    if case is not None:
+        if not isinstance(case, str):
+            raise ScenarioError(f"case: expected a case name (string), got {case!r}")
+        if case not in cases:
+            raise ScenarioError(f"no case {case!r} (cases: {list(cases)})")
+        override = cases[case]
+        if not isinstance(override, Mapping):
+            raise ScenarioError(f"cases.{case}: expected a table")
+        override = {k: v for k, v in override.items() if k != "description"}
+        _unknown(override, TOP_KEYS, f"cases.{case}")
+        if "agents" in override:
+            raise ScenarioError(f"cases.{case}: cases cannot replace the agent list (override controller.* instead)")
+        merged = _deep_merge(merged, override)
+    for key in ("controller", "reference", "agents", "topology"):
+        if key not in merged:
+            raise ScenarioError(f"{key}: missing")
+    ctrl = merged["controller"]
+    if not isinstance(ctrl, Mapping):
+        raise ScenarioError("controller: expected a table")
+    known = {*(f.name for f in dataclasses.fields(ControllerSettings)), *AGENT_DEFAULT_KEYS}
+    # further keys are the law's named parameters (checked against the law's declared ones)
+    law_params = {k: v for k, v in ctrl.items() if k not in known}
+    law_params.update(ctrl.get("parameters", {}) if isinstance(ctrl.get("parameters", {}), Mapping) else {})
+    controller = _within(
+        "controller",
+        ControllerSettings,
+        **{k: v for k, v in ctrl.items() if k in known and k not in AGENT_DEFAULT_KEYS and k != "parameters"},
+        parameters=law_params,
+    )
+    defaults = {k: ctrl[k] for k in AGENT_DEFAULT_KEYS if k in ctrl}
+    sim = merged.get("simulation", {})
+    _unknown(sim, [f.name for f in dataclasses.fields(SimulationSettings)], "simulation")
+    simulation = _within("simulation", SimulationSettings, **sim)
+    ref = merged["reference"]
+    _unknown(ref, ("sigma0", "omega"), "reference")
+    if "sigma0" not in ref or "omega" not in ref:
+        raise ScenarioError("reference: needs sigma0 and omega")
+    reference = _within(
+        "reference", Reference, sigma0=ref["sigma0"], omega=Sinusoid.from_mapping(ref["omega"], "reference.omega")
+    )
+    agents_raw = merged["agents"]
+    if not isinstance(agents_raw, Sequence) or isinstance(agents_raw, (str, bytes)) or not agents_raw:
+        raise ScenarioError("agents: expected a non-empty array of tables ([[agents]])")
+    agents = tuple(_agent_from_table(a, i, defaults) for i, a in enumerate(agents_raw))
+    try:
+        topology = Topology.from_mapping(merged["topology"], len(agents), where="topology")
+    except TopologyError as exc:
+        raise ScenarioError(str(exc)) from None
+    choices = merged.get("choices", {})
+    if not isinstance(choices, Mapping):
+        raise ScenarioError("choices: expected a table of strings")
+    description = merged.get("description", "")
+    if not isinstance(description, str):
+        raise ScenarioError(f"description: expected a string, got {description!r}")
+    if case is not None and isinstance(cases[case], Mapping) and "description" in cases[case]:
+        case_description = cases[case]["description"]
+        if not isinstance(case_description, str):
+            raise ScenarioError(f"cases.{case}.description: expected a string, got {case_description!r}")
+        description = f"{description} / case {case}: {case_description}".strip(" /")
+    return Scenario(
+        name=merged.get("name", "scenario"),
+        agents=agents,
+        reference=reference,
+        topology=topology,
+        controller=controller,
+        simulation=simulation,
+        case=case,
+        description=description,
+        choices=choices,
+        cases=tuple(str(k) for k in cases),
+        source=dict(data),
+    )
+
+
+def _read_toml(path: Path) -> dict:
+    try:
+        raw = path.read_bytes()
+    except IsADirectoryError:
+        raise ScenarioError(f"cannot read scenario file {path}: it is a directory") from None
+    except OSError as exc:
+        raise ScenarioError(f"cannot read scenario file {path}: {exc.strerror or exc}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise ScenarioError(
+            f"{path}: not UTF-8 text (byte {exc.start}: {raw[exc.start : exc.start + 1]!r}); TOML files are UTF-8"
+        ) from None
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ScenarioError(f"{path}: not valid TOML ({exc})") from None
+
+
+def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scenario:
+    """Load a built-in scenario by name (``"paper"``) or a TOML file, optionally selecting a case.
+
+    Without ``case`` a file that defines cases gets its first one (for the paper: Case 1); a file
+    without ``[cases]`` is its own single scenario.
+
+    Examples
+    --------
+    >>> from fsmctl import load_scenario
+    >>> load_scenario("paper", case="2").label
+    'paper case 2'
+    """
+    if isinstance(source, str) and source in BUILTIN_SCENARIOS:
+        data = tomllib.loads(resources.files("fsmctl").joinpath("scenarios", f"{source}.toml").read_text("utf-8"))
+        where = f"built-in scenario {source!r}"
+    else:
+        if not isinstance(source, (str, Path)):
+            raise ScenarioError(f"scenario: expected 'paper' or a path to a TOML file, got {source!r}")
+        path = Path(source)
+        data = _read_toml(path)
+        where = str(path)
+    if case is None and isinstance(data.get("cases"), Mapping) and data["cases"]:
+        case = next(iter(data["cases"]))
+    try:
+        return scenario_from_dict(data, case=None if case is None else str(case), where=where)
+    except ScenarioError as exc:
+        msg = str(exc)
+        raise ScenarioError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+
+
+def paper_scenario(case: str = "1") -> Scenario:
+    """The built-in Section 4 scenario (Liang et al. 2012) for Case ``"1"``, ``"2"``, ``"3a"``, ``"3b"`` or ``"3c"``.
+
+    Examples
+    --------
+    >>> from fsmctl import paper_scenario
+    >>> paper_scenario("1").n_agents
+    6
+    """
+    return load_scenario("paper", case=str(case))

@@ -1,0 +1,981 @@
+"""python-control plug-in: the spacecraft, the FSM controller and the formation as ``NonlinearIOSystem``.
+
+Every callback evaluates the generated per-agent functions (the same code the compiled simulator runs), so
+``ct.input_output_response(fsmctl.formation(s), ...)`` and :func:`fsmctl.simulate` integrate the same model.
+
+Signal names follow python-control conventions: ``sigma[0..2]``, ``omega[0..2]``, ``tau[0..2]``, ``s[0..2]``;
+in a formation the agents are ``sc1, sc2, ...`` (plants), ``ctrl1, ...`` (controllers) and ``reference``.
+
+Parameters and ownership
+------------------------
+:func:`control.interconnect` merges the ``params`` dicts of all subsystems into one namespace and hands that
+merged dict back to every subsystem, so two subsystems with a common key would silently fly with one value.
+Every system made here is a :class:`ParameterizedSystem`: its parameters live under keys prefixed with the
+system's name (``"sc1_J"``, ``"ctrl1_J0"``, ...), together with an owner tag (``"sc1_owner"``) that is unique
+to the instance.  A system that is handed another instance's tag (two systems made with one ``name`` in one
+interconnection) raises :class:`fsmctl.errors.InputError` on its first evaluation instead of using foreign
+values; ``sys.copy()`` (also used by :func:`control.interconnect` for a system listed twice) gives the copy its
+new name's keys and its own tag; without a ``name`` a factory uses python-control's unique ``sys[<id>]``.
+Parameter values passed explicitly (``params=`` of :func:`control.input_output_response`, ``dynamics``,
+``output`` or ``interconnect``) are used as given, after the same validation as the factory arguments; a key
+addresses every system whose parameters carry that prefix (an explicit ``interconnect(..., params={"x_J": J})``
+sets ``J`` of every system made with ``name="x"``: python-control then does not merge the subsystems' params).
+
+Attitude states
+---------------
+A continuous-time system cannot jump its state, so MRPs cannot be shadow-switched inside
+:func:`control.input_output_response`, and unswitched MRPs diverge at a 360 deg rotation.  The plant and the
+reference therefore integrate Euler parameters (unit quaternions, scalar first, ``q = (cos(phi/2),
+e sin(phi/2))`` of the principal rotation ``(e, phi)`` from the inertial frame N to the body frame B), which are
+valid at every attitude, and output the MRPs of the shadow set, ``|sigma| <= 1`` (Schaub & Junkins, Analytical
+Mechanics of Space Systems, Sec. 3.5-3.7).  The kinematics carry a normalisation-drift control term
+``k (1 - q.q) q``; it changes only ``|q|`` (``q`` and ``c q`` are the same attitude, and every output is formed
+from ``q / |q|``), so it keeps ``|q| -> 1`` without touching the attitude.  The controller forms its error in the
+shadow set, exactly like the compiled simulator, whose MRPs are shadow-switched.
+"""
+
+from __future__ import annotations
+
+import copy
+import functools
+import math
+import uuid
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import control as ct
+import numpy as np
+
+from fsmctl.errors import InputError
+from fsmctl.model.generated_code import casadi_function
+from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid, check_inertia
+from fsmctl.model.topology import Schedule, schedule_weight
+
+__all__ = [
+    "Neighbour",
+    "ParameterizedSystem",
+    "spacecraft",
+    "reference_generator",
+    "fsm_controller",
+    "formation",
+    "initial_state",
+    "mrp_state",
+    "quaternion_from_mrp",
+    "mrp_from_quaternion",
+    "DEFAULT_NORMALIZATION_GAIN",
+]
+
+DEFAULT_NORMALIZATION_GAIN = 1.0
+"""Gain ``k`` (1/s) of the quaternion normalisation-drift control ``k (1 - q.q) q``."""
+
+
+def _labels(name: str, n: int = 3) -> list[str]:
+    return [f"{name}[{k}]" for k in range(n)]
+
+
+# ----------------------------------------------------------------------------- argument validation
+# Factory arguments and parameter values passed at simulation time go through these checks; every failure is
+# a ScenarioError with a one-line message that names the argument.
+
+_OK = object()
+
+
+def _show(value: Any) -> str:
+    """A one-line, bounded description of a value for an error message."""
+    if isinstance(value, np.ndarray):
+        text = np.array2string(value, separator=", ", max_line_width=10**6, threshold=20)
+    else:
+        text = repr(value)
+    text = " ".join(text.split())
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
+def _first_non_number(value: Any) -> Any:
+    """The first element of ``value`` that is not a real number (bools and strings are not), else ``_OK``."""
+    if isinstance(value, np.ndarray):
+        return _OK if value.dtype.kind in "iuf" else value
+    if isinstance(value, (list, tuple)):
+        for element in value:
+            bad = _first_non_number(element)
+            if bad is not _OK:
+                return bad
+        return _OK
+    if isinstance(value, (bool, np.bool_)):
+        return value
+    if isinstance(value, (int, float, np.integer, np.floating)):
+        return _OK
+    return value
+
+
+def _describe_non_number(bad: Any) -> str:
+    if isinstance(bad, np.ndarray):
+        return f"an array of dtype {bad.dtype}"
+    return f"{_show(bad)} ({type(bad).__name__})"
+
+
+def _numbers(value: Any, shape: tuple[int, ...], what: str, where: str) -> np.ndarray:
+    """A finite float array of the given shape (read-only copy); bools, strings, None, complex are refused."""
+    if (
+        isinstance(value, np.ndarray)
+        and value.dtype == np.float64
+        and value.shape == shape
+        and not value.flags.writeable
+        and value.flags.owndata
+        and np.isfinite(value).all()
+    ):
+        return value  # already checked (what this module stores): no copy, so later lookups are by identity
+    bad = _first_non_number(value)
+    if bad is not _OK:
+        raise ScenarioError(f"{where}: expected {what}, got {_describe_non_number(bad)}")
+    try:
+        a = np.array(value, dtype=float)
+    except ValueError:
+        raise ScenarioError(f"{where}: expected {what}, got the ragged {_show(value)}") from None
+    if a.shape != shape:
+        raise ScenarioError(f"{where}: expected {what}, got shape {a.shape}")
+    finite = np.isfinite(a)
+    if not finite.all():
+        index = np.unravel_index(np.argmin(finite), a.shape)
+        raise ScenarioError(f"{where}: not finite (element {list(map(int, index))} is {a[index]})")
+    a.setflags(write=False)
+    return a
+
+
+def _scalar(value: Any, where: str, *, minimum: float | None = None, strict: bool = False, inf: bool = False) -> float:
+    """A real number (never a bool or a string), finite unless ``inf``, ``> minimum`` (strict) or ``>= minimum``."""
+    if isinstance(value, np.ndarray) and value.shape == ():
+        value = value[()]
+    if _first_non_number(value) is not _OK or isinstance(value, (list, tuple, np.ndarray)):
+        raise ScenarioError(f"{where}: expected a real number, got {_describe_non_number(value)}")
+    x = float(value)
+    if math.isnan(x) or (math.isinf(x) and not (inf and x > 0)):
+        raise ScenarioError(f"{where}: must be {'a number or +inf' if inf else 'finite'}, got {x}")
+    if minimum is not None and (x <= minimum if strict else x < minimum):
+        raise ScenarioError(f"{where}: must be {'>' if strict else '>='} {minimum}, got {x}")
+    return x
+
+
+def _inertia(value: Any, where: str) -> np.ndarray:
+    """A finite, symmetric positive-definite 3x3 matrix (read-only)."""
+    a = _numbers(value, (3, 3), "a 3x3 matrix of real numbers", where)
+    check_inertia(a, where, physical=False)  # the scenario's SPD rule, written once
+    return a
+
+
+def _positive3(value: Any, where: str) -> np.ndarray:
+    a = _numbers(value, (3,), "three real numbers", where)
+    if not np.all(a > 0):
+        raise ScenarioError(f"{where}: every component must be > 0 (eq 18), got {a.tolist()}")
+    return a
+
+
+def _twelve(value: Any, where: str) -> np.ndarray:
+    """The packed sinusoid ``[amplitude, frequency, phase, offset]`` (manifest layout ``sinusoid_params``)."""
+    return _numbers(value, (12,), "12 real numbers [amplitude, frequency, phase, offset]", where)
+
+
+def _gains(value: Any, where: str) -> np.ndarray:
+    """``[c1, c2, alpha, boundary_layer, epsilon, fix_mode]`` (manifest layout ``gains``)."""
+    g = _numbers(value, (6,), "6 real numbers [c1, c2, alpha, boundary_layer, epsilon, fix_mode]", where)
+    c1, c2, alpha, phi, eps, fix = g
+    if c1 < 0 or c2 < 0 or not 0.5 < alpha < 1 or phi < 0 or eps <= 0 or fix not in (0.0, 1.0, 2.0):
+        raise ScenarioError(
+            f"{where}: need c1, c2 >= 0, 0.5 < alpha < 1, boundary_layer >= 0, epsilon > 0, fix_mode in "
+            f"{{0, 1, 2}}, got {g.tolist()}"
+        )
+    return g
+
+
+def _torque_limit(value: Any, where: str) -> float:
+    return _scalar(value, where, minimum=0.0, inf=True)
+
+
+def _sinusoid(value: Any, where: str) -> np.ndarray:
+    if not isinstance(value, Sinusoid):
+        raise ScenarioError(f"{where}: expected a fsmctl.Sinusoid, got {type(value).__name__}")
+    return _twelve(value.params(), where)
+
+
+def _system_name(name: Any, kind: str) -> str | None:
+    if name is None:
+        return None
+    if not isinstance(name, str) or not name or "." in name:
+        raise ScenarioError(f"{kind}: name must be a non-empty string without '.', got {_show(name)}")
+    return name
+
+
+# ----------------------------------------------------------------------------- attitude kinematics
+# Euler parameters q = (q0, q1, q2, q3), scalar first, of the rotation N -> B; sigma = (q1, q2, q3) / (1 + q0).
+# The three formulas below are the only place they are written; tests check them against
+# scipy.spatial.transform.Rotation and against the MRP kinematics of eq 3.
+
+
+def _quaternion_rate(q, omega, gain: float):
+    """``q_dot = 1/2 B(q) omega + gain (1 - q.q) q`` (Schaub & Junkins eq 3.104 plus drift control).
+
+    ``B(q) omega = (-q_v . omega, q0 omega + q_v x omega)`` with the body rate ``omega`` in B.  The drift term
+    is radial: it leaves ``q / |q|`` (the attitude) unchanged and drives ``|q|`` to 1 at the rate ``2 gain``.
+    """
+    q0, qv = q[0], q[1:4]
+    rate = 0.5 * ca.vertcat(-ca.dot(qv, omega), q0 * omega + ca.cross(qv, omega))
+    return rate + gain * (1 - ca.dot(q, q)) * q
+
+
+def _mrp_of_quaternion(q):
+    """The MRP of ``q / |q|`` in the shadow set: ``sign(q0) q_v / (|q| + |q0|)`` (``|sigma| <= 1``, no cancellation).
+
+    ``q0 >= 0`` gives ``q_v / (1 + q0)`` (the principal rotation, ``phi <= 180 deg``); ``q0 < 0`` gives the shadow
+    MRP ``-q_v / (1 - q0)`` of the same attitude.
+    """
+    q0, qv = q[0], q[1:4]
+    sign = ca.if_else(q0 < 0, -1, 1)
+    return sign * qv / (ca.norm_2(q) + ca.fabs(q0))
+
+
+def _quaternion_of_mrp(sigma):
+    """Euler parameters of an MRP: ``((1 - s^2), 2 sigma) / (1 + s^2)`` with ``s^2 = sigma.sigma`` (``q0 >= 0`` iff ``|sigma| <= 1``)."""
+    s2 = ca.dot(sigma, sigma)
+    return ca.vertcat(1 - s2, 2 * sigma) / (1 + s2)
+
+
+@functools.cache
+def _conversion(kind: str) -> ca.Function:
+    if kind == "mrp":
+        q = ca.SX.sym("q", 4)
+        return ca.Function("mrp_of_quaternion", [q], [_mrp_of_quaternion(q)])
+    sigma = ca.SX.sym("sigma", 3)
+    return ca.Function("quaternion_of_mrp", [sigma], [_quaternion_of_mrp(sigma)])
+
+
+def _map_rows(fn: ca.Function, x: Any, n_in: int, n_out: int, what: str) -> np.ndarray:
+    a = np.asarray(x, dtype=float)
+    if a.ndim == 0 or a.shape[-1] != n_in:
+        raise ValueError(f"expected {what} with a last axis of length {n_in}, got shape {a.shape}")
+    flat = a.reshape(-1, n_in)
+    if flat.shape[0] == 0:
+        return np.zeros((*a.shape[:-1], n_out))
+    out = np.asarray(fn.map(flat.shape[0])(flat.T)).reshape(n_out, -1)
+    return out.T.reshape(*a.shape[:-1], n_out)
+
+
+def quaternion_from_mrp(sigma) -> np.ndarray:
+    """Euler parameters (scalar first) of MRPs.
+
+    Parameters
+    ----------
+    sigma : array_like, shape (..., 3)
+        MRPs of the rotation from N to B (any magnitude; ``|sigma| <= 1`` gives ``q0 >= 0``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        Unit quaternions ``(q0, q1, q2, q3)``.
+
+    Examples
+    --------
+    >>> from fsmctl.plugin.iosys import quaternion_from_mrp
+    >>> quaternion_from_mrp([0.0, 0.0, 1.0]).round(12).tolist()  # 180 deg about z
+    [0.0, 0.0, 0.0, 1.0]
+    """
+    return _map_rows(_conversion("quaternion"), sigma, 3, 4, "MRPs")
+
+
+def mrp_from_quaternion(q) -> np.ndarray:
+    """MRPs in the shadow set (``|sigma| <= 1``) of quaternions of any non-zero norm.
+
+    Parameters
+    ----------
+    q : array_like, shape (..., 4)
+        Euler parameters ``(q0, q1, q2, q3)``, scalar first; ``q`` and ``c q`` (``c != 0``) are one attitude.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+
+    Examples
+    --------
+    >>> from fsmctl.plugin.iosys import mrp_from_quaternion
+    >>> (mrp_from_quaternion([-0.6, 0.0, 0.0, 0.8]).round(12) + 0.0).tolist()  # 254 deg about z = -106 deg
+    [0.0, 0.0, -0.5]
+    """
+    return _map_rows(_conversion("mrp"), q, 4, 3, "quaternions")
+
+
+# ----------------------------------------------------------------------------- CasADi calls
+
+
+class _FlatCall:
+    """Evaluate a CasADi function through one flat input and one flat output buffer.
+
+    Calling a :class:`casadi.Function` with NumPy arguments converts every
+    argument to a ``DM`` (about 20 us each); a solver calls the right-hand side
+    tens of thousands of times.  This wrapper builds, once, a function of a
+    single stacked input vector (each argument flattened column-major) returning
+    the stacked selected outputs, and evaluates it through a
+    :meth:`casadi.Function.buffer` on preallocated NumPy arrays (about 2 us).
+    The result is the same generated code; only the calling convention differs.
+    Not thread-safe (one buffer per instance), like python-control's callbacks.
+    """
+
+    def __init__(self, build: Callable[..., Sequence], shapes: Sequence[tuple[int, int]], name: str):
+        sizes = [r * c for r, c in shapes]
+        z = ca.MX.sym("z", sum(sizes))
+        args, offset = [], 0
+        for (r, c), size in zip(shapes, sizes, strict=True):
+            args.append(ca.reshape(z[offset : offset + size], r, c))
+            offset += size
+        out = ca.vertcat(*[ca.vec(o) for o in build(*args)])
+        self._fn = ca.Function(name, [z], [out])
+        self._offsets = np.cumsum([0, *sizes])
+        self._in = np.zeros(int(self._offsets[-1]))
+        self._out = np.zeros(out.numel())
+        self._buffer, self._eval = self._fn.buffer()
+        self._buffer.set_arg(0, memoryview(self._in))
+        self._buffer.set_res(0, memoryview(self._out))
+
+    def __call__(self, *values) -> np.ndarray:
+        o = self._offsets
+        for k, v in enumerate(values):
+            # column-major flattening (CasADi's layout); inertias are symmetric anyway
+            self._in[o[k] : o[k + 1]] = np.ravel(v, order="F")
+        self._eval()
+        return self._out.copy()
+
+
+def _scalar_schedule(schedule: Schedule, phase: float) -> Callable[[float], float]:
+    """``t -> k^j_ij(t) = schedule(t + phase)`` for a scalar ``t``, without NumPy overhead.
+
+    The rule of :func:`fsmctl.model.topology.schedule_weight` (the compiled driver's ``link_weight``).
+    """
+    breakpoints = list(schedule.breakpoints)
+    values = list(schedule.values)
+    period = schedule.period
+
+    if len(set(values)) == 1:
+        constant = float(values[0])
+        return lambda t: constant
+
+    return lambda t: schedule_weight(breakpoints, values, period, t + phase)
+
+
+# ----------------------------------------------------------------------------- parameter ownership
+
+
+@dataclass(frozen=True)
+class _Owner:
+    """The tag under ``f"{prefix}_owner"``: which instance the ``f"{prefix}_..."`` parameters belong to."""
+
+    kind: str
+    prefix: str
+    serial: str
+
+    def __repr__(self) -> str:
+        return f"<fsmctl {self.kind} {self.prefix!r} #{self.serial[:8]}>"
+
+
+_Model = Callable[[float, np.ndarray, np.ndarray, Mapping[str, Any]], np.ndarray]
+
+
+class ParameterizedSystem(ct.NonlinearIOSystem):
+    """A :class:`control.NonlinearIOSystem` whose parameters are owned by the instance (what the factories return).
+
+    The model callbacks see parameters by their local names (``"J"``, ``"disturbance"``, ...); in ``params``
+    they are stored under ``f"{prefix}_{local}"`` plus the owner tag ``f"{prefix}_owner"``, where ``prefix``
+    is the system's name when it was made or copied (:meth:`param_key` gives the key).  On every evaluation the
+    system reads its keys from the params python-control hands it (its own ``params``, updated by an
+    interconnection's merged ``params`` and by any ``params=`` passed explicitly), so explicit values win;
+    each value is validated once per object (again when a writeable array's contents change).
+
+    Raises
+    ------
+    fsmctl.errors.InputError
+        On evaluation, when the owner tag in the params is another instance's: two systems made with one name
+        were merged into one parameter namespace (give each a unique ``name``), or the params of another
+        system were passed explicitly.
+    fsmctl.model.scenario.ScenarioError
+        On evaluation, when a parameter value is invalid (for example a non-finite inertia).
+
+    Notes
+    -----
+    ``sys.copy(name)`` (python-control's duplication, also used by :func:`control.interconnect` for a system
+    listed twice) re-keys the copy to its new name with a new owner tag, carrying the current values.
+    ``copy.deepcopy(sys)`` and ``copy.copy(sys)`` give a twin with the same name and keys but its own tag, so
+    twin and original in one interconnection raise; a deep copy of a container (an interconnection) keeps the
+    tags, so the copied container stays consistent.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> import fsmctl
+    >>> a = fsmctl.spacecraft(np.diag([100.0, 150.0, 200.0]), name="a")
+    >>> b = a.copy("b")
+    >>> b.param_key("J")
+    'b_J'
+    >>> b.params["b_J"] = np.diag([10.0, 15.0, 20.0])  # b only; a keeps its inertia
+    >>> sorted(a.params)
+    ['a_J', 'a_disturbance', 'a_owner']
+    """
+
+    def __init__(
+        self,
+        kind: str,
+        update: _Model | None,
+        output: _Model,
+        values: Mapping[str, Any],
+        validators: Mapping[str, Callable[[Any, str], Any]],
+        *,
+        name: str | None = None,
+        **kwargs,
+    ):
+        self._kind = kind
+        self._model_update = update
+        self._model_output = output
+        self._validators = dict(validators)
+        super().__init__(self._updfcn if update is not None else None, self._outfcn, name=name, **kwargs)
+        self._locals = tuple(values)
+        self.params = {}
+        self._bind(self.name, dict(values))
+
+    # -- keys
+
+    def param_key(self, local: str) -> str:
+        """The ``params`` key of the parameter ``local`` (``"J"`` -> ``"sc1_J"``).
+
+        Examples
+        --------
+        >>> import fsmctl, numpy as np
+        >>> fsmctl.spacecraft(np.eye(3), name="sc1").param_key("J")
+        'sc1_J'
+        """
+        if local not in self._keys:
+            raise KeyError(f"{self._where}: no parameter {local!r} (has {list(self._keys)})")
+        return self._keys[local]
+
+    @property
+    def _where(self) -> str:
+        return f"{self._kind} {self._prefix!r}"
+
+    def _bind(self, prefix: str, values: dict[str, Any] | None = None) -> None:
+        """Store the parameters under ``f"{prefix}_..."`` keys with a new owner tag (other keys are kept)."""
+        if values is None:
+            values = {local: self.params.pop(key, None) for local, key in self._keys.items()}
+            self.params.pop(self._owner_key, None)
+        self._prefix = prefix
+        self._keys = {local: f"{prefix}_{local}" for local in self._locals}
+        self._owner_key = f"{prefix}_owner"
+        self._owner = _Owner(self._kind, prefix, uuid.uuid4().hex)
+        for local in self._locals:
+            self.params[self._keys[local]] = values[local]
+        self.params[self._owner_key] = self._owner
+        self._current_params = self.params.copy()
+        self._seen: dict[str, tuple[Any, Any]] = {}
+        self._last: tuple[Any, Any] = (None, None)
+
+    def _retag(self) -> None:
+        self._owner = _Owner(self._kind, self._prefix, uuid.uuid4().hex)
+        self.params[self._owner_key] = self._owner
+        self._current_params = self.params.copy()
+        self._last = (None, None)
+
+    # -- copies
+
+    def copy(self, name: str | None = None, use_prefix_suffix: bool = True) -> ParameterizedSystem:
+        """A copy with a new name (python-control's rule), its parameters re-keyed to that name, its own tag.
+
+        Parameters
+        ----------
+        name : str, optional
+            Name of the copy; by default the name with python-control's duplicate prefix/suffix (``"a$copy"``).
+        use_prefix_suffix : bool
+            As in :meth:`control.InputOutputSystem.copy`.
+
+        Examples
+        --------
+        >>> import fsmctl, numpy as np
+        >>> sorted(fsmctl.spacecraft(np.eye(3), name="a").copy().params)
+        ['a$copy_J', 'a$copy_disturbance', 'a$copy_owner']
+        """
+        new = super().copy(name=name, use_prefix_suffix=use_prefix_suffix)
+        new._bind(new.name)
+        return new
+
+    def __deepcopy__(self, memo: dict) -> ParameterizedSystem:
+        top_level = not memo  # copy.deepcopy(sys) itself, not a deep copy of a container holding sys
+        new = type(self).__new__(type(self))
+        memo[id(self)] = new
+        for key, value in self.__dict__.items():
+            new.__dict__[key] = copy.deepcopy(value, memo)
+        for key in (*self._keys.values(), self._owner_key):
+            # NumPy's deep copy of a read-only array is writeable: keep checked values read-only
+            old, value = self.params.get(key), new.params.get(key)
+            if isinstance(old, np.ndarray) and not old.flags.writeable and isinstance(value, np.ndarray):
+                value.setflags(write=False)
+        new._last = (None, None)
+        if top_level:
+            new._retag()
+        return new
+
+    def __copy__(self) -> ParameterizedSystem:
+        # a shallow copy would share the params dict with the original: copy everything, as a top-level deep copy
+        return self.__deepcopy__({})
+
+    # -- evaluation
+
+    def _resolve(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        # python-control hands every call of one simulation the same dict (a new one per _update_params)
+        if params is self._last[0]:
+            return self._last[1]
+        owner = params.get(self._owner_key)
+        if owner is not self._owner and owner != self._owner:
+            if owner is None:
+                raise InputError(
+                    f"{self._where}: params lack {self._owner_key!r} (the tag of which system the "
+                    f"'{self._prefix}_*' parameters belong to); was sys.params replaced?"
+                )
+            raise InputError(
+                f"{self._where}: the '{self._prefix}_*' parameters belong to another system ({owner!r}): two "
+                f"systems made with name={self._prefix!r} share one parameter namespace after interconnect; "
+                "give each fsmctl system a unique name (sys.copy() renames and re-keys automatically)"
+            )
+        out = {}
+        for local, key in self._keys.items():
+            if key not in params:
+                raise InputError(f"{self._where}: parameter {key!r} is missing from params")
+            value = params[key]
+            seen = self._seen.get(local)
+            if seen is not None and seen[0] is value and _unchanged(value, seen[1]):
+                out[local] = seen[1]
+                continue
+            checked = self._validators[local](value, f"{self._where}: parameter {key!r}")
+            self._seen[local] = (value, checked)
+            out[local] = checked
+        self._last = (params, out)
+        return out
+
+    def _updfcn(self, t, x, u, params):
+        return self._model_update(t, x, u, self._resolve(params))
+
+    def _outfcn(self, t, x, u, params):
+        return self._model_output(t, x, u, self._resolve(params))
+
+
+def _unchanged(value: Any, checked: Any) -> bool:
+    """Whether a value seen before still holds what was validated (immutable, ours, or equal contents)."""
+    if value is checked or isinstance(value, (float, int)):
+        return True
+    if isinstance(value, np.ndarray):
+        return value.shape == np.shape(checked) and bool(np.array_equal(value, checked))
+    return False  # lists and other containers may have been modified in place: validate again
+
+
+# ----------------------------------------------------------------------------- factories
+
+
+def spacecraft(
+    J,
+    *,
+    disturbance: Sinusoid | None = None,
+    normalization_gain: float = DEFAULT_NORMALIZATION_GAIN,
+    name: str | None = None,
+) -> ParameterizedSystem:
+    """A rigid spacecraft (Liang et al. 2012, eqs 3-4) as a python-control system, valid at every attitude.
+
+    ``J omega_dot = -omega x J omega + tau + d(t)`` (the generated ``plant_rhs``), attitude integrated as Euler
+    parameters ``q`` (``q_dot = 1/2 B(q) omega + k (1 - q.q) q``), output as shadow-set MRPs.
+
+    Parameters
+    ----------
+    J : array_like, shape (3, 3)
+        True inertia (kg m^2): finite, symmetric positive definite.
+    disturbance : Sinusoid, optional
+        Disturbance torque ``d(t)`` added to the input (N m); none by default (stored as zero amplitudes).
+    normalization_gain : float
+        ``k`` >= 0 (1/s) of the normalisation-drift control; it does not change the attitude.
+    name : str, optional
+        System name (no ``'.'``); default python-control's unique ``sys[<id>]``.
+
+    Returns
+    -------
+    ParameterizedSystem
+        Inputs ``tau[0..2]`` (N m); states ``q[0..3]`` (Euler parameters, scalar first, N -> B) and
+        ``omega[0..2]`` (rad/s, body frame); outputs ``sigma[0..2]`` (MRP, ``|sigma| <= 1``) and ``omega[0..2]``.
+        Parameters ``f"{name}_J"`` (3x3), ``f"{name}_disturbance"`` (12: amplitude, frequency, phase, offset)
+        and the owner tag ``f"{name}_owner"``; values passed with ``params=`` replace them for that call.
+
+    Raises
+    ------
+    fsmctl.ScenarioError
+        ``J`` not a finite symmetric positive-definite 3x3 matrix of numbers (bools and strings are not
+        numbers), ``disturbance`` not a Sinusoid, a bad ``normalization_gain`` or ``name``.
+
+    Notes
+    -----
+    Initial states take quaternions: :func:`quaternion_from_mrp` converts an MRP.  A linearization has seven
+    states; the direction of ``q`` itself (its norm) is the drift control's decay ``-2 k``.
+
+    Examples
+    --------
+    >>> import control as ct, numpy as np
+    >>> import fsmctl
+    >>> from fsmctl.plugin.iosys import quaternion_from_mrp
+    >>> sc = fsmctl.spacecraft(np.diag([100.0, 150.0, 200.0]), name="sc")
+    >>> sc.state_labels[:4], sc.output_labels[:3]
+    (['q[0]', 'q[1]', 'q[2]', 'q[3]'], ['sigma[0]', 'sigma[1]', 'sigma[2]'])
+    >>> x0 = np.concatenate([quaternion_from_mrp([0.1, 0.0, 0.0]), [0.0, 0.0, 1.0]])
+    >>> r = ct.input_output_response(sc, np.linspace(0, 10, 11), 0, x0)
+    >>> bool(np.linalg.norm(r.outputs[:3], axis=0).max() <= 1)
+    True
+    >>> float(sc.dynamics(0.0, x0, [0, 0, 1.0], params={"sc_J": np.eye(3)})[6])  # J = I: 1 rad/s^2
+    1.0
+    """
+    name = _system_name(name, "spacecraft")
+    where = f"spacecraft {name!r}" if name else "spacecraft"
+    J = _inertia(J, f"{where}: J")
+    d = np.zeros(12) if disturbance is None else _sinusoid(disturbance, f"{where}: disturbance")
+    d.setflags(write=False)
+    gain = _scalar(normalization_gain, f"{where}: normalization_gain", minimum=0.0)
+    plant = casadi_function("plant_rhs")
+    dist = casadi_function("disturbance_torque")
+    zero3 = ca.DM.zeros(3, 1)  # plant_rhs's sigma_dot is not used: the attitude is integrated as q
+    rhs = _FlatCall(
+        lambda t, x, u, J, d: [_quaternion_rate(x[:4], x[4:], gain), plant(zero3, x[4:], u + dist(t, d), J)[1]],
+        [(1, 1), (7, 1), (3, 1), (3, 3), (12, 1)],
+        "spacecraft_rhs",
+    )
+    out = _FlatCall(lambda x: [_mrp_of_quaternion(x[:4]), x[4:]], [(7, 1)], "spacecraft_out")
+    return ParameterizedSystem(
+        "spacecraft",
+        lambda t, x, u, p: rhs(t, x, u, p["J"], p["disturbance"]),
+        lambda t, x, u, p: out(x),
+        {"J": J, "disturbance": d},
+        {"J": _inertia, "disturbance": _twelve},
+        inputs=_labels("tau"),
+        outputs=_labels("sigma") + _labels("omega"),
+        states=_labels("q", 4) + _labels("omega"),
+        name=name,
+    )
+
+
+def reference_generator(
+    omega_d: Sinusoid,
+    *,
+    normalization_gain: float = DEFAULT_NORMALIZATION_GAIN,
+    name: str | None = None,
+) -> ParameterizedSystem:
+    """Reference attitude driven by a sinusoidal ``omega_d(t)`` (Sec. 4), valid at every attitude.
+
+    Parameters
+    ----------
+    omega_d : Sinusoid
+        Reference body rate (rad/s); ``omega_d`` and ``omega_d_dot`` come from the generated ``reference_rhs``.
+    normalization_gain : float
+        ``k`` >= 0 (1/s) of the normalisation-drift control, as in :func:`spacecraft`.
+    name : str, optional
+        System name; default python-control's unique ``sys[<id>]``.
+
+    Returns
+    -------
+    ParameterizedSystem
+        No inputs; states ``q_d[0..3]`` (Euler parameters, scalar first); outputs ``sigma_d`` (MRP,
+        ``|sigma_d| <= 1``), ``omega_d``, ``omega_d_dot`` (rad/s, rad/s^2). Parameter ``f"{name}_omega_d"`` (12).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.plugin.iosys import quaternion_from_mrp
+    >>> ref = fsmctl.reference_generator(fsmctl.Sinusoid(offset=(0.0, 0.0, 0.1)), name="reference")
+    >>> ref.output(0.0, quaternion_from_mrp([0.0, 0.0, 0.5]), []).round(12).tolist()[:6]
+    [0.0, 0.0, 0.5, 0.0, 0.0, 0.1]
+    """
+    name = _system_name(name, "reference_generator")
+    where = f"reference_generator {name!r}" if name else "reference_generator"
+    p = _sinusoid(omega_d, f"{where}: omega_d")
+    gain = _scalar(normalization_gain, f"{where}: normalization_gain", minimum=0.0)
+    ref = casadi_function("reference_rhs")
+    rhs = _FlatCall(
+        lambda t, x, p: [_quaternion_rate(x, ref(t, _mrp_of_quaternion(x), p)[1], gain)],
+        [(1, 1), (4, 1), (12, 1)],
+        "reference_rhs",
+    )
+
+    def outputs(t, x, p):
+        sigma = _mrp_of_quaternion(x)
+        return [sigma, *ref(t, sigma, p)[1:]]
+
+    out = _FlatCall(outputs, [(1, 1), (4, 1), (12, 1)], "reference_out")
+    return ParameterizedSystem(
+        "reference_generator",
+        lambda t, x, u, prm: rhs(t, x, prm["omega_d"]),
+        lambda t, x, u, prm: out(t, x, prm["omega_d"]),
+        {"omega_d": p},
+        {"omega_d": _twelve},
+        inputs=[],
+        outputs=_labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot"),
+        states=_labels("q_d", 4),
+        name=name,
+    )
+
+
+@dataclass(frozen=True)
+class Neighbour:
+    """A neighbour ``j`` of agent ``i``: weights ``k^i_ij`` and ``k^j_ij(t) = k_j(t + phase)`` (eq 19).
+
+    Parameters
+    ----------
+    name : str
+        Suffix of the controller inputs ``s_<name>[0..2]`` that carry ``s_j``.
+    k_i : float
+        ``k^i_ij >= 0``, finite.
+    k_j : Schedule
+        ``k^j_ij`` as a schedule of time.
+    phase : float
+        Finite time shift of the schedule (s).
+
+    Examples
+    --------
+    >>> from fsmctl.plugin.iosys import Neighbour
+    >>> from fsmctl.model.topology import Schedule
+    >>> Neighbour("sc2", 8.0, Schedule.constant(5.0)).k_i
+    8.0
+    """
+
+    name: str
+    k_i: float
+    k_j: Schedule
+    phase: float = 0.0
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name or "." in self.name:
+            raise ScenarioError(f"Neighbour: name must be a non-empty string without '.', got {_show(self.name)}")
+        where = f"Neighbour {self.name!r}"
+        object.__setattr__(self, "k_i", _scalar(self.k_i, f"{where}: k_i", minimum=0.0))
+        if not isinstance(self.k_j, Schedule):
+            raise ScenarioError(f"{where}: k_j: expected a fsmctl.Schedule, got {type(self.k_j).__name__}")
+        object.__setattr__(self, "phase", _scalar(self.phase, f"{where}: phase"))
+
+
+def fsm_controller(
+    J0,
+    controller: ControllerSettings,
+    delta: Sequence[float],
+    *,
+    neighbours: Sequence[Neighbour] = (),
+    name: str | None = None,
+) -> ParameterizedSystem:
+    """One agent's fast-sliding-mode controller (eqs 13, 16-19) as a static python-control system.
+
+    Parameters
+    ----------
+    J0 : array_like, shape (3, 3)
+        Nominal inertia used by the law: finite, symmetric positive definite.
+    controller : ControllerSettings
+        Gains, boundary layer, Remark 6 fix, torque limit (0, i.e. no torque, when ``enabled`` is False),
+        error model, surface.
+    delta : sequence of 3 floats
+        Switching gain of eq 18 (finite, positive).
+    neighbours : sequence of Neighbour
+        Agents whose sliding variables this one receives (unique names); each adds inputs ``s_<name>[0..2]``.
+    name : str, optional
+        System name; default python-control's unique ``sys[<id>]``.
+
+    Returns
+    -------
+    ParameterizedSystem
+        Inputs ``sigma``, ``omega`` (own state), ``sigma_d``, ``omega_d``, ``omega_d_dot`` (reference) and
+        ``s_<neighbour>``; outputs ``tau[0..2]`` (saturated torque) and ``s[0..2]``.  Parameters
+        ``f"{name}_J0"``, ``_gains`` (6: c1, c2, alpha, boundary_layer, epsilon, fix_mode), ``_delta``,
+        ``_u_max`` and the owner tag.
+
+    Raises
+    ------
+    fsmctl.ScenarioError
+        A bad ``J0``, ``delta``, ``controller``, ``neighbours`` or ``name``.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> paper = fsmctl.paper_scenario("1")
+    >>> a = paper.agents[0]
+    >>> ctrl = fsmctl.fsm_controller(a.J0_array, paper.controller, a.delta, name="ctrl1")
+    >>> ctrl.output_labels
+    ['tau[0]', 'tau[1]', 'tau[2]', 's[0]', 's[1]', 's[2]']
+    >>> float(ctrl.params["ctrl1_u_max"])
+    2.0
+    """
+    name = _system_name(name, "fsm_controller")
+    where = f"fsm_controller {name!r}" if name else "fsm_controller"
+    J0 = _inertia(J0, f"{where}: J0")
+    delta = _positive3(delta, f"{where}: delta")
+    if not isinstance(controller, ControllerSettings):
+        raise ScenarioError(f"{where}: controller: expected ControllerSettings, got {type(controller).__name__}")
+    gains = _gains(controller.gains_vector(), f"{where}: controller")
+    u_max = _torque_limit(controller.effective_torque_limit, f"{where}: controller torque limit")
+    if isinstance(neighbours, (str, bytes)) or not isinstance(neighbours, Sequence):
+        raise ScenarioError(f"{where}: neighbours: expected a sequence of Neighbour, got {_show(neighbours)}")
+    nbrs = tuple(neighbours)
+    for nb in nbrs:
+        if not isinstance(nb, Neighbour):
+            raise ScenarioError(f"{where}: neighbours: expected Neighbour, got {type(nb).__name__}")
+    names = [nb.name for nb in nbrs]
+    if len(set(names)) != len(names):
+        raise ScenarioError(f"{where}: neighbours: names must be unique, got {names}")
+    law = casadi_function(f"control_law_{controller.error_model}")
+    consts = casadi_function("sliding_constants")
+    k_sum = float(sum(nb.k_i for nb in nbrs))
+    weights = [_scalar_schedule(nb.k_j, nb.phase) for nb in nbrs]
+    inputs = _labels("sigma") + _labels("omega") + _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot")
+    for nb in nbrs:
+        inputs += _labels(f"s_{nb.name}")
+
+    # one flat call: (own/reference signals, gains, J0, delta, k_sum, received, u_max) -> (tau, s); the sliding
+    # constants are computed from the gains inside the call, so gains passed with params= are used consistently
+    def build(y, g, J, d, ks, r, um):
+        return law(y[0:3], y[3:6], y[6:9], y[9:12], y[12:15], g, consts(g), J, d, ks, r, um)[:2]
+
+    call = _FlatCall(build, [(15, 1), (6, 1), (3, 3), (3, 1), (1, 1), (3, 1), (1, 1)], "fsm_controller_law")
+
+    def output(t, x, u, p):
+        # eq 19: agent i only knows sum_j k^j_ij(t) s_j, built from the s_j it receives
+        received = np.zeros(3)
+        for m, weight in enumerate(weights):
+            kj = weight(t)
+            if kj:
+                received += kj * u[15 + 3 * m : 18 + 3 * m]
+        return call(u[:15], p["gains"], p["J0"], p["delta"], k_sum, received, p["u_max"])
+
+    return ParameterizedSystem(
+        "fsm_controller",
+        None,
+        output,
+        {"J0": J0, "gains": gains, "delta": delta, "u_max": u_max},
+        {"J0": _inertia, "gains": _gains, "delta": _positive3, "u_max": _torque_limit},
+        inputs=inputs,
+        outputs=_labels("tau") + _labels("s"),
+        name=name,
+    )
+
+
+def formation(
+    scenario: Scenario, *, normalization_gain: float = DEFAULT_NORMALIZATION_GAIN, name: str = "formation"
+) -> ct.InterconnectedSystem:
+    """The closed-loop formation of a scenario, assembled with :func:`control.interconnect`.
+
+    Subsystems: ``reference``, plants ``sc1..scn`` (true inertia ``J0 + delta_J`` and disturbance),
+    controllers ``ctrl1..ctrln`` (nominal ``J0``). Controller ``i`` receives ``s_j`` from controller ``j`` for
+    each link ``i <- j`` of the topology.
+
+    Parameters
+    ----------
+    scenario : Scenario
+    normalization_gain : float
+        Quaternion normalisation-drift gain of the plants and the reference (see :func:`spacecraft`).
+    name : str
+
+    Returns
+    -------
+    control.InterconnectedSystem
+        No inputs. States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``
+        (:func:`initial_state` builds them from the scenario, :func:`mrp_state` maps them back to MRPs);
+        outputs ``sc<i>_sigma[k]`` (``|sigma| <= 1``), ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the output labels
+        of :meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
+        ``ctrl<i>_J0``, ... of the subsystems; pass ``params={"sc2_J": ...}`` to change one agent.
+
+    Examples
+    --------
+    >>> import control as ct, numpy as np
+    >>> import fsmctl
+    >>> from fsmctl.plugin.iosys import initial_state
+    >>> s = fsmctl.paper_scenario("1").replace(controller={"boundary_layer": 0.05})
+    >>> loop = fsmctl.formation(s)
+    >>> loop.nstates, loop.noutputs
+    (46, 54)
+    >>> r = ct.input_output_response(loop, [0.0, 0.01], 0, initial_state(s))
+    >>> r.outputs.shape
+    (54, 2)
+    """
+    if not isinstance(scenario, Scenario):
+        raise ScenarioError(f"formation: expected a Scenario, got {type(scenario).__name__}")
+    n = scenario.n_agents
+    systems = [reference_generator(scenario.reference.omega, normalization_gain=normalization_gain, name="reference")]
+    connections = []
+    for i, agent in enumerate(scenario.agents, start=1):
+        systems.append(
+            spacecraft(
+                agent.J_true, disturbance=agent.disturbance, normalization_gain=normalization_gain, name=f"sc{i}"
+            )
+        )
+        nbrs = [
+            Neighbour(f"sc{link.sender + 1}", link.k_i, link.k_j, link.phase)
+            for link in scenario.topology.links
+            if link.receiver == i - 1
+        ]
+        systems.append(
+            fsm_controller(agent.J0_array, scenario.controller, agent.delta, neighbours=nbrs, name=f"ctrl{i}")
+        )
+        connections += [
+            [f"ctrl{i}.sigma", f"sc{i}.sigma"],
+            [f"ctrl{i}.omega", f"sc{i}.omega"],
+            [f"ctrl{i}.sigma_d", "reference.sigma_d"],
+            [f"ctrl{i}.omega_d", "reference.omega_d"],
+            [f"ctrl{i}.omega_d_dot", "reference.omega_d_dot"],
+            [f"sc{i}.tau", f"ctrl{i}.tau"],
+        ]
+        connections += [[f"ctrl{i}.s_{nb.name}", f"ctrl{nb.name[2:]}.s"] for nb in nbrs]
+    outlist = [
+        f"{sys}{i}.{sig}" for i in range(1, n + 1) for sys, sig in (("sc", "sigma"), ("sc", "omega"), ("ctrl", "tau"))
+    ]
+    outputs = [f"sc{i}_{sig}[{k}]" for i in range(1, n + 1) for sig in ("sigma", "omega", "tau") for k in range(3)]
+    return ct.interconnect(systems, connections=connections, outlist=outlist, outputs=outputs, name=name, inputs=[])
+
+
+def initial_state(scenario: Scenario) -> np.ndarray:
+    """The formation's initial state vector (order of :func:`formation`'s states): quaternions from the MRPs.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.plugin.iosys import initial_state
+    >>> initial_state(fsmctl.paper_scenario("1")).shape
+    (46,)
+    """
+    if not isinstance(scenario, Scenario):
+        raise ScenarioError(f"initial_state: expected a Scenario, got {type(scenario).__name__}")
+    x = [quaternion_from_mrp(scenario.reference.sigma0)]
+    for a in scenario.agents:
+        x += [quaternion_from_mrp(a.sigma0), np.asarray(a.omega0, dtype=float)]
+    return np.concatenate(x)
+
+
+def mrp_state(x) -> np.ndarray:
+    """Formation states (of :func:`formation`) in the compiled simulator's MRP layout.
+
+    Parameters
+    ----------
+    x : array_like, shape (4 + 7 n, ...)
+        ``[q_d, q_1, omega_1, ..., q_n, omega_n]`` along the first axis (e.g. ``response.states``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (3 + 6 n, ...)
+        ``[sigma_d, sigma_1, omega_1, ..., sigma_n, omega_n]`` with every MRP in the shadow set ``|sigma| <= 1``
+        (the layout of :func:`fsmctl.simulate`'s ``sigma_d``, ``sigma``, ``omega``).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.plugin.iosys import initial_state, mrp_state
+    >>> s = fsmctl.paper_scenario("1")
+    >>> mrp_state(initial_state(s))[:3].round(12).tolist() == list(s.reference.sigma0)
+    True
+    """
+    a = np.asarray(x, dtype=float)
+    if a.ndim == 0 or (a.shape[0] - 4) % 7 or a.shape[0] < 4:
+        raise ValueError(f"expected formation states of length 4 + 7 n along the first axis, got shape {a.shape}")
+    n = (a.shape[0] - 4) // 7
+    rows = [mrp_from_quaternion(np.moveaxis(a[:4], 0, -1))]
+    for i in range(n):
+        o = 4 + 7 * i
+        rows += [mrp_from_quaternion(np.moveaxis(a[o : o + 4], 0, -1)), np.moveaxis(a[o + 4 : o + 7], 0, -1)]
+    return np.moveaxis(np.concatenate(rows, axis=-1), -1, 0)

@@ -1,0 +1,1024 @@
+"""Simulate a formation with the generated code (whole time loop in compiled C).
+
+:func:`simulate` packs a :class:`~fsmctl.model.scenario.Scenario`, runs the
+whole-loop driver ``fsmctl/csrc/formation.c`` (fixed-step RK4 by default, or
+adaptive Dormand-Prince 5(4)), and returns a :class:`SimulationResult` with the
+time series, the metrics of eqs 42-43, run statistics, and converters to an
+:class:`xarray.Dataset` (NetCDF) and :class:`control.TimeResponseData`.
+
+The piecewise-constant link weights ``k^j_ij(t)`` are evaluated at each RK4 step's midpoint, so the
+switches of a schedule that fall on the step grid (all of Table 2 when dt divides 0.1 s) cost no accuracy.
+A non-finite torque command stops the run with :class:`SimulationError` (the saturation would otherwise
+turn NaN into ``-u_max``).
+
+Without a C compiler the same loop runs in CasADi's virtual machine
+(:mod:`fsmctl.simulation.casadi_formation`), with a warning.
+
+Reliability guarantees of :func:`simulate` / :func:`simulate_packed`:
+
+* memory: the output buffers (:func:`fsmctl.model.problem.output_buffer_bytes`) are estimated before they are
+  allocated and a run whose results would not fit in the available memory (:func:`available_memory`) is
+  refused with :class:`~fsmctl.errors.ResourceLimitError`; the relative attitude metric (eq 43) is computed
+  in blocks of samples (:func:`fsmctl.simulation.metrics.streamed_raem_deg`), never as a ``T x n x n`` array;
+* the last output sample is the final state: ``time[-1] == t_final`` or :class:`SimulationError`;
+* Ctrl-C: while the compiled loop runs, SIGINT only sets a flag that the progress callback polls; the loop
+  stops at its next callback and :class:`KeyboardInterrupt` is raised from :func:`simulate_packed` (no
+  exception ever passes through the ctypes callback);
+* step size: :class:`StepSizeWarning` when the fixed RK4 step is too coarse for the loop's fastest time
+  constant or for the rotation per step (:func:`step_size_report`).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import math
+import signal
+import sys
+import threading
+import time as _time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fsmctl.errors import ResourceLimitError
+from fsmctl.model.generated_code import compiled_library, default_law_dir, manifest
+from fsmctl.simulation.metrics import (
+    RAEM_WORKING_BYTES,
+    aaem_deg,
+    pair_angles,
+    principal_angles,
+    relative_angles_at,
+    relative_angles_bytes,
+    relative_principal_angles,
+    settling_time,
+    steady_state_max,
+    streamed_raem_deg,
+)
+from fsmctl.model.problem import PackedProblem, output_buffer_bytes, pack
+from fsmctl.model.scenario import Scenario
+
+__all__ = [
+    "SimulationError",
+    "DiscontinuousControlWarning",
+    "StepSizeWarning",
+    "SimulationResult",
+    "simulate",
+    "simulate_packed",
+    "batched_kernels_preferred",
+    "available_memory",
+    "check_output_memory",
+    "RESULT_MEMORY_FACTOR",
+    "step_size_report",
+    "MAX_ROTATION_PER_STEP",
+    "MAX_STEP_RATE",
+]
+
+
+class SimulationError(RuntimeError):
+    """A run failed (non-finite state, step size underflow, ...); the message says where and why."""
+
+
+class DiscontinuousControlWarning(RuntimeWarning):
+    """An adaptive integrator was asked to integrate the discontinuous sgn(s) law."""
+
+
+class StepSizeWarning(RuntimeWarning):
+    """The fixed RK4 step is too coarse for the loop's fastest time constant or rotates too far per step."""
+
+
+# ----------------------------------------------------------------------------- ctypes binding
+
+_dp = ctypes.POINTER(ctypes.c_double)
+_ip = ctypes.POINTER(ctypes.c_int)
+
+
+class _Problem(ctypes.Structure):
+    """Mirror of ``fsm_problem`` (fsmctl/csrc/formation.h); checked against the library at load (:func:`_check_abi`)."""
+
+    _fields_ = [
+        ("n_agents", ctypes.c_int),
+        ("error_model", ctypes.c_int),
+        ("integrator", ctypes.c_int),
+        ("kernels", ctypes.c_int),
+        ("n_params", ctypes.c_int),
+        ("n_states", ctypes.c_int),
+        ("n_broadcast", ctypes.c_int),
+        ("n_links", ctypes.c_int),
+        ("t0", ctypes.c_double),
+        ("dt", ctypes.c_double),
+        ("n_steps", ctypes.c_longlong),
+        ("output_every", ctypes.c_longlong),
+        ("hold_steps", ctypes.c_longlong),
+        ("rtol", ctypes.c_double),
+        ("atol", ctypes.c_double),
+        ("h_min", ctypes.c_double),
+        ("max_steps", ctypes.c_longlong),
+        ("J_true", _dp),
+        ("J0", _dp),
+        ("params", _dp),
+        ("u_max", _dp),
+        ("dist_params", _dp),
+        ("ref_params", _dp),
+        ("link_receiver", _ip),
+        ("link_sender", _ip),
+        ("link_k_i", _dp),
+        ("sched_period", _dp),
+        ("sched_phase", _dp),
+        ("sched_start", _ip),
+        ("sched_count", _ip),
+        ("sched_times", _dp),
+        ("sched_values", _dp),
+    ]
+
+
+class _Output(ctypes.Structure):
+    """Mirror of ``fsm_output`` (fsmctl/csrc/formation.h); checked against the library at load."""
+
+    _fields_ = [
+        ("capacity", ctypes.c_longlong),
+        ("written", ctypes.c_longlong),
+        ("t", _dp),
+        ("sigma_d", _dp),
+        ("sigma", _dp),
+        ("omega", _dp),
+        ("sigma_e", _dp),
+        ("omega_e", _dp),
+        ("u", _dp),
+        ("u_unsat", _dp),
+        ("broadcast", _dp),
+        ("z", _dp),
+        ("saturated_time", _dp),
+        ("u_total_variation", _dp),
+        ("u_unsat_max", _dp),
+        ("steps_taken", ctypes.c_longlong),
+        ("steps_rejected", ctypes.c_longlong),
+        ("fail_time", ctypes.c_double),
+        ("fail_agent", ctypes.c_int),
+    ]
+
+
+ABI_VERSION = 2
+"""``FSM_ABI_VERSION`` of fsmctl/csrc/formation.h that these mirrors describe."""
+
+_PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong)
+_RC = {
+    1: "a state became non-finite",
+    2: "aborted",
+    3: "out of memory",
+    4: "the packed problem is inconsistent (or the law's code does not match its description)",
+    5: "the adaptive step size fell below h_min",
+    6: "the adaptive integrator exceeded its step budget",
+    7: "the control law returned a non-finite torque command",
+}
+
+
+def _expected_abi() -> list[int]:
+    """``fsm_abi()`` as these ctypes mirrors see it: version, sizes, then every field offset."""
+    return [
+        ABI_VERSION,
+        ctypes.sizeof(_Problem),
+        ctypes.sizeof(_Output),
+        *(getattr(_Problem, name).offset for name, _ in _Problem._fields_),
+        *(getattr(_Output, name).offset for name, _ in _Output._fields_),
+    ]
+
+
+def _check_abi(dll: ctypes.CDLL, where: str) -> None:
+    """The library's struct layout must be the one mirrored here (a stale or foreign library is refused)."""
+    expected = _expected_abi()
+    buf = (ctypes.c_longlong * (len(expected) + 8))()
+    count = dll.fsm_abi(buf, len(buf))
+    got = list(buf[: min(count, len(buf))])
+    if count != len(expected) or got != expected:
+        raise SimulationError(
+            f"{where}: the compiled driver's struct layout (fsm_abi: {got[:3]}, {count} entries) does not match "
+            f"fsmctl's ({expected[:3]}, {len(expected)} entries); clear the cache ({where}) and retry"
+        )
+
+
+@functools.cache
+def _driver_for(law_dir: Path) -> ctypes.CDLL | None:
+    lib = compiled_library(law_dir)
+    if lib is None:
+        return None
+    dll = ctypes.CDLL(str(lib.path))
+    dll.fsm_abi.argtypes = [ctypes.POINTER(ctypes.c_longlong), ctypes.c_int]
+    dll.fsm_abi.restype = ctypes.c_int
+    _check_abi(dll, str(lib.path))
+    dll.fsm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.POINTER(_Output), _PROGRESS, ctypes.c_longlong]
+    dll.fsm_simulate.restype = ctypes.c_int
+    dll.fsm_rhs.argtypes = [ctypes.POINTER(_Problem), ctypes.c_double, _dp, _dp, _dp]
+    dll.fsm_rhs.restype = ctypes.c_int
+    dll.fsm_link_weight.argtypes = [ctypes.POINTER(_Problem), ctypes.c_int, ctypes.c_double]
+    dll.fsm_link_weight.restype = ctypes.c_double
+    dll.fsm_law_sizes.argtypes = [ctypes.POINTER(ctypes.c_longlong)]
+    dll.fsm_law_sizes.restype = None
+    for name in ("fsm_batched_available", "fsm_batched_preferred"):
+        getattr(dll, name).argtypes = []
+        getattr(dll, name).restype = ctypes.c_int
+    return dll
+
+
+def _driver(law=None) -> ctypes.CDLL | None:
+    """The compiled driver for a law (a :class:`~fsmctl.model.laws.LawCode`, default the paper's FSM law)."""
+    folder = default_law_dir() if law is None else law.folder
+    return _driver_for(Path(folder).resolve())
+
+
+_driver.cache_clear = _driver_for.cache_clear  # type: ignore[attr-defined]
+
+
+def batched_kernels_preferred() -> bool:
+    """Whether ``kernels="auto"`` uses the lane-batched kernels (the compiled library has AVX); False without C."""
+    dll = _driver()
+    return bool(dll is not None and dll.fsm_batched_preferred())
+
+
+def _ptr(a: np.ndarray, ctype=ctypes.c_double):
+    return a.ctypes.data_as(ctypes.POINTER(ctype))
+
+
+_KERNELS = {"auto": 0, "batched": 1, "scalar": 2}
+
+
+class _CProblem:
+    """Keeps the arrays alive while C holds pointers into them."""
+
+    def __init__(self, p: PackedProblem, max_steps: int = 0, kernels: str = "auto"):
+        self._keep = {}
+
+        def f(name, arr, dtype=np.float64):
+            a = np.ascontiguousarray(arr, dtype=dtype)
+            if a.size == 0:
+                a = np.zeros(1, dtype=dtype)
+            self._keep[name] = a
+            return _ptr(a, ctypes.c_double if dtype == np.float64 else ctypes.c_int)
+
+        self.struct = _Problem(
+            n_agents=p.n_agents,
+            error_model=p.error_model,
+            integrator=p.integrator,
+            n_params=p.law.n_params,
+            n_states=p.n_states,
+            n_broadcast=p.n_broadcast,
+            t0=p.t0,
+            dt=p.dt,
+            n_steps=p.n_steps,
+            output_every=p.output_every,
+            hold_steps=p.hold_steps,
+            rtol=p.rtol,
+            atol=p.atol,
+            h_min=1e-12 * max(1.0, p.dt * p.n_steps),
+            max_steps=max_steps or 200 * p.n_steps + 10_000,
+            J_true=f("J_true", p.J_true),
+            J0=f("J0", p.J0),
+            params=f("params", p.params),
+            u_max=f("u_max", p.u_max),
+            dist_params=f("dist", p.dist_params),
+            ref_params=f("ref", p.ref_params),
+            n_links=p.n_links,
+            link_receiver=f("lr", p.link_receiver, np.int32),
+            link_sender=f("ls", p.link_sender, np.int32),
+            link_k_i=f("lk", p.link_k_i),
+            sched_period=f("sp", p.sched_period),
+            sched_phase=f("sph", p.sched_phase),
+            sched_start=f("ss", p.sched_start, np.int32),
+            sched_count=f("sc", p.sched_count, np.int32),
+            sched_times=f("st", p.sched_times),
+            sched_values=f("sv", p.sched_values),
+            kernels=_KERNELS[kernels],
+        )
+
+
+class _DeferredSigint:
+    """Context manager: while the compiled loop runs, SIGINT only records itself.
+
+    Python runs signal handlers between bytecodes of the main thread, and while C runs the next bytecodes
+    are those of the progress callback: the default handler raises :class:`KeyboardInterrupt` inside the
+    ctypes callback, typically at its first line, before its ``try`` (or inside tqdm).  ctypes then prints
+    "Exception ignored on calling ctypes callback function" with the traceback, discards the exception and
+    hands C an undefined return value (observed: the loop stopped, the run was reported as "simulation
+    failed: aborted" and ``fsmctl simulate`` exited 1).  This handler raises nothing; the callback polls
+    :attr:`pending` and asks C to stop, and :meth:`deliver` runs the original handler (by default: raise
+    :class:`KeyboardInterrupt`) once C has returned.
+
+    Installed only in the main thread (the only one that receives signals) and only over a Python-level
+    handler; a SIGINT that is ignored (``SIG_IGN``, e.g. in pool workers) or left to the OS stays so.
+    """
+
+    def __init__(self):
+        self.pending: tuple | None = None
+        self._previous = None
+
+    def _record(self, signum, frame):
+        self.pending = (signum, frame)
+
+    def __enter__(self) -> _DeferredSigint:
+        if threading.current_thread() is threading.main_thread():
+            previous = signal.getsignal(signal.SIGINT)
+            if callable(previous):
+                try:
+                    signal.signal(signal.SIGINT, self._record)
+                except (ValueError, OSError):  # pragma: no cover - e.g. an embedded interpreter
+                    return self
+                self._previous = previous
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+
+    def deliver(self) -> None:
+        """Run the handler that was deferred (after C returned); raises :class:`KeyboardInterrupt` by default."""
+        if self.pending is not None:
+            pending, self.pending = self.pending, None
+            if self._previous is not None:
+                self._previous(*pending)
+            raise KeyboardInterrupt
+
+
+def _progress_callback(total: int, enabled: bool, label: str, guard: _DeferredSigint | None = None):
+    """The ctypes progress callback; a nonzero return stops the loop.
+
+    Nothing may escape a ctypes callback (ctypes would print it and carry on), so every exception is caught
+    and kept in ``state["error"]``; a deferred SIGINT (``guard.pending``) stops the loop too.
+    """
+    state = {"bar": None, "interrupted": False, "error": None}
+    if enabled:
+        from tqdm.auto import tqdm
+
+        state["bar"] = tqdm(total=total, desc=label, unit="step", unit_scale=True, leave=False, file=sys.stderr)
+
+    def cb(done, planned):
+        try:
+            if guard is not None and guard.pending is not None:
+                state["interrupted"] = True
+                return 1
+            bar = state["bar"]
+            if bar is not None:
+                bar.update(int(done) - bar.n)
+            return 0
+        except BaseException as exc:  # re-raised by simulate_packed once C has returned
+            state["interrupted"] = isinstance(exc, KeyboardInterrupt)
+            state["error"] = exc
+            return 1
+
+    return _PROGRESS(cb), state
+
+
+_CALLBACK_AGENT_STEPS = 50_000
+"""The progress callback (which also polls for Ctrl-C) runs at least every this many agent-steps
+(~20 ms of compiled loop), and at most 200 times per run for small formations."""
+
+
+def _callback_every(p: PackedProblem) -> int:
+    return max(1, min(max(1, p.n_steps // 200), _CALLBACK_AGENT_STEPS // max(1, p.n_agents)))
+
+
+# ----------------------------------------------------------------------------- memory
+
+
+def available_memory() -> int | None:
+    """Bytes of memory a new allocation can use, or None when unknown (then nothing is checked).
+
+    ``psutil.virtual_memory().available`` when psutil is importable, else ``MemAvailable`` of
+    ``/proc/meminfo``; lowered to the room left under a cgroup v2 limit (``memory.max - memory.current``
+    of ``/sys/fs/cgroup``, i.e. a container's limit) when there is one.
+    """
+    avail = None
+    try:
+        import psutil
+    except ImportError:
+        try:
+            with open("/proc/meminfo") as fh:
+                for line in fh:
+                    if line.startswith("MemAvailable:"):
+                        avail = int(line.split()[1]) * 1024
+                        break
+        except (OSError, ValueError, IndexError):
+            avail = None
+    else:
+        try:
+            avail = int(psutil.virtual_memory().available)
+        except Exception:  # psutil unsupported on this platform: no check
+            avail = None
+    try:
+        with open("/sys/fs/cgroup/memory.max") as fh:
+            limit = fh.read().strip()
+        if limit != "max":
+            with open("/sys/fs/cgroup/memory.current") as fh:
+                room = int(limit) - int(fh.read().strip())
+            avail = room if avail is None else min(avail, room)
+    except (OSError, ValueError):
+        pass
+    return avail
+
+
+def _fmt_bytes(x: float) -> str:
+    for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if abs(x) >= scale:
+            return f"{x / scale:.3g} {unit}"
+    return f"{x:.0f} B"
+
+
+RESULT_MEMORY_FACTOR = 2.5
+"""Peak memory of a run's results as a multiple of its output buffers: the buffers, what the results derive
+from them (``theta_e``, the metrics) and, while the NetCDF file is written, SciPy's in-memory copy of the
+whole dataset (measured by ``benchmarks/memory.py``: 0.81 GB above the interpreter for 0.34 GB of buffers,
+200 agents over 100 s)."""
+
+
+def check_output_memory(p: PackedProblem, *, available: int | None = None) -> int:
+    """Estimate the memory of a run's results and refuse (:class:`ResourceLimitError`) when it is not there.
+
+    The estimate is :func:`fsmctl.model.problem.output_buffer_bytes` (seven ``(T, n, 3)`` float64 arrays, time,
+    ``sigma_d`` and the per-agent statistics, ``T = n_outputs + 1`` rows) times :data:`RESULT_MEMORY_FACTOR`
+    plus the streamed metric's working memory (:data:`fsmctl.simulation.metrics.RAEM_WORKING_BYTES`): what ``fsmctl
+    simulate`` needs to run, summarise and save the results.  It is compared with ``available`` (default:
+    :func:`available_memory`; None: no check) before anything is allocated.  Returns the estimate in bytes.
+    """
+    buffers = output_buffer_bytes(p.n_agents, p.n_outputs + 1)
+    needed = int(RESULT_MEMORY_FACTOR * buffers) + RAEM_WORKING_BYTES
+    if available is None:
+        available = available_memory()
+    if available is not None and needed > available:
+        dt_out = p.output_every * p.dt
+        t_final = p.n_steps * p.dt
+        per_row = max(1, int(RESULT_MEMORY_FACTOR * output_buffer_bytes(p.n_agents, 1)))
+        rows_fit = max(2, (available - RAEM_WORKING_BYTES) // per_row - 1)
+        every_fit = max(p.output_every, -(-p.n_steps // max(1, rows_fit - 1)))
+        raise ResourceLimitError(
+            f"this run's results would need ~{_fmt_bytes(needed)} of memory ({p.n_agents} agents x "
+            f"{p.n_outputs:,} output samples) but only {_fmt_bytes(available)} is available: raise "
+            f"output_interval (now {dt_out:g} s; >= {every_fit * p.dt:.3g} s dividing t_final would fit) or shorten t_final "
+            f"(now {t_final:g} s)"
+        )
+    return needed
+
+
+# ----------------------------------------------------------------------------- results
+
+
+@dataclass
+class SimulationResult:
+    """Time series and statistics of one run.
+
+    Arrays (``T`` output samples, ``n`` agents): ``time`` (T,) s; ``sigma``,
+    ``sigma_e`` (T, n, 3) MRP; ``omega``, ``omega_e`` (T, n, 3) rad/s (the true error state, whatever the
+    law computes); ``broadcast`` (T, n, n_b): what each agent sends (for the paper's law the sliding
+    variable, also available as ``s``); ``z`` (T, n, n_z): the law's own states;
+    ``u``, ``u_unsaturated`` (T, n, 3) N m (applied and commanded); ``sigma_d`` (T, 3).
+    """
+
+    scenario: Scenario
+    time: np.ndarray
+    sigma: np.ndarray
+    omega: np.ndarray
+    sigma_e: np.ndarray
+    omega_e: np.ndarray
+    broadcast: np.ndarray
+    z: np.ndarray
+    u: np.ndarray
+    u_unsaturated: np.ndarray
+    sigma_d: np.ndarray
+    saturated_time: np.ndarray
+    """(n,) s with at least one torque component saturated"""
+    u_total_variation: np.ndarray
+    """(n,) N m: sum over steps of |u(t_k) - u(t_k-1)|_1"""
+    u_unsaturated_max: np.ndarray
+    backend: str
+    wall_time: float
+    steps_taken: int = 0
+    steps_rejected: int = 0
+    _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def n_agents(self) -> int:
+        return self.sigma.shape[1]
+
+    @property
+    def law(self):
+        """The :class:`~fsmctl.model.laws.LawCode` that was flown."""
+        return self.scenario.law
+
+    @property
+    def s(self) -> np.ndarray:
+        """(T, n, 3) 1/s: the sliding variable of a sliding-mode law (its broadcast, when the law calls it ``s``)."""
+        if self.law.broadcast_name != "s":
+            raise AttributeError(f"the law {self.law.name!r} broadcasts {self.law.broadcast_name!r}, not a sliding variable s")
+        return self.broadcast
+
+    @property
+    def theta_e(self) -> np.ndarray:
+        """(T, n) rad: principal angle of each agent's attitude error."""
+        if "theta_e" not in self._cache:
+            self._cache["theta_e"] = principal_angles(self.sigma_e)
+        return self._cache["theta_e"]
+
+    @property
+    def theta_relative(self) -> np.ndarray:
+        """(T, n, n) rad: principal angle between agents i and j at every output sample.
+
+        Costly: ``T n^2`` doubles (200 agents over 100 s at 0.01 s: 3.2 GB, twice that while it is
+        computed; :func:`fsmctl.simulation.metrics.relative_angles_bytes`), so it is computed on each access (cached
+        only below 64 MiB), refused with :class:`~fsmctl.errors.ResourceLimitError` when it would not fit
+        in the available memory, and used by nothing else here: :attr:`raem_deg` streams, and
+        :meth:`relative_angles_at` (one sample) and :meth:`pair_angles` (one pair) are cheap.
+        """
+        if "theta_ij" in self._cache:
+            return self._cache["theta_ij"]
+        T, n = self.sigma_e.shape[:2]
+        needed = relative_angles_bytes(T, n)
+        available = available_memory()
+        if available is not None and needed > available:
+            raise ResourceLimitError(
+                f"theta_relative ({T:,} samples x {n} x {n} agents) would need ~{_fmt_bytes(needed)} of memory "
+                f"but only {_fmt_bytes(available)} is available: use relative_angles_at(k), pair_angles(i, j) "
+                "or raem_deg (streamed)"
+            )
+        theta = relative_principal_angles(self.sigma_e)
+        if theta.nbytes <= RAEM_WORKING_BYTES:
+            self._cache["theta_ij"] = theta
+        return theta
+
+    def relative_angles_at(self, k: int) -> np.ndarray:
+        """(n, n) rad: the relative principal angles of every pair of agents at output sample ``k``."""
+        return relative_angles_at(self.sigma_e[k])
+
+    def pair_angles(self, i: int, j: int) -> np.ndarray:
+        """(T,) rad: the relative principal angle of agents ``i`` and ``j`` (0-based) over time."""
+        return pair_angles(self.sigma_e, i, j)
+
+    @property
+    def aaem_deg(self) -> np.ndarray:
+        """Absolute attitude error metric, eq 42 (deg)."""
+        return aaem_deg(self.theta_e)
+
+    @property
+    def raem_deg(self) -> np.ndarray:
+        """Relative attitude error metric, eq 43 (deg); streamed over blocks of samples (O(n^2) memory), cached."""
+        if "raem_deg" not in self._cache:
+            self._cache["raem_deg"] = streamed_raem_deg(self.sigma_e)
+        return self._cache["raem_deg"]
+
+    @property
+    def chattering_index(self) -> np.ndarray:
+        """(n,) N m/s: total variation of the applied torque per second of simulated time."""
+        span = float(self.time[-1] - self.time[0]) or 1.0
+        return self.u_total_variation / span
+
+    def summary(self, tolerances_deg=(1.0, 0.1, 0.05, 0.03, 0.01), steady_window: float = 40.0) -> dict:
+        """Settling times of AAEM/RAEM per tolerance, steady-state accuracy, torque statistics."""
+        t, a, r = self.time, self.aaem_deg, self.raem_deg
+        window = min(steady_window, float(t[-1] - t[0]))
+        return {
+            "scenario": self.scenario.label,
+            "backend": self.backend,
+            "wall_time_s": self.wall_time,
+            "aaem_initial_deg": float(a[0]),
+            "raem_initial_deg": float(r[0]),
+            "aaem_peak_deg": float(a.max()),
+            "raem_peak_deg": float(r.max()),
+            "aaem_settling_s": {f"{tol:g}": settling_time(t, a, tol) for tol in tolerances_deg},
+            "raem_settling_s": {f"{tol:g}": settling_time(t, r, tol) for tol in tolerances_deg},
+            "steady_window_s": window,
+            "aaem_steady_max_deg": steady_state_max(t, a, window),
+            "raem_steady_max_deg": steady_state_max(t, r, window),
+            "u_max_abs_N_m": float(np.abs(self.u).max()),
+            "u_unsaturated_max_N_m": float(self.u_unsaturated_max.max()),
+            "saturated_time_s": self.saturated_time.tolist(),
+            "last_saturation_s": self.last_saturation_time(),
+            "chattering_index_N_m_per_s": self.chattering_index.tolist(),
+        }
+
+    def last_saturation_time(self) -> float:
+        """Last output time at which any torque component was at the limit (NaN if never)."""
+        limit = self.scenario.controller.effective_torque_limit
+        if not math.isfinite(limit):
+            return float("nan")
+        hit = np.nonzero(np.any(np.abs(self.u_unsaturated) > limit, axis=(1, 2)))[0]
+        return float(self.time[hit[-1]]) if hit.size else float("nan")
+
+    # --- conversion -------------------------------------------------------------------
+    def to_dataset(self):
+        """An :class:`xarray.Dataset` with units in the variable names and attributes."""
+        import xarray as xr
+
+        n = self.n_agents
+        coords = {
+            "time_s": self.time,
+            "agent": np.arange(1, n + 1, dtype=np.int32),
+            "axis": np.arange(3, dtype=np.int32),
+        }
+        tna = ("time_s", "agent", "axis")
+
+        def var(data, dims, units, long_name):
+            return xr.Variable(dims, data, {"units": units, "long_name": long_name})
+
+        ds = xr.Dataset(
+            {
+                "sigma": var(self.sigma, tna, "1", "MRP attitude sigma_i (shadow set)"),
+                "omega_rad_per_s": var(self.omega, tna, "rad/s", "body angular velocity omega_i"),
+                "sigma_e": var(self.sigma_e, tna, "1", "MRP attitude error sigma_ei"),
+                "omega_e_rad_per_s": var(self.omega_e, tna, "rad/s", "angular velocity error omega_ei"),
+                f"broadcast_{self.law.broadcast_name}": var(
+                    self.broadcast,
+                    ("time_s", "agent", "broadcast_component"),
+                    "1",
+                    f"what each agent broadcasts to its neighbours ({self.law.broadcast_name}, law {self.law.name})",
+                ),
+                "law_state": var(self.z, ("time_s", "agent", "law_state"), "1", f"the states of law {self.law.name}"),
+                "u_N_m": var(self.u, tna, "N m", "applied control torque u_i"),
+                "u_unsaturated_N_m": var(self.u_unsaturated, tna, "N m", "commanded torque before saturation"),
+                "sigma_d": var(self.sigma_d, ("time_s", "axis"), "1", "reference MRP sigma_d"),
+                "theta_e_deg": var(
+                    np.degrees(self.theta_e), ("time_s", "agent"), "deg", "error principal angle theta_ei"
+                ),
+                "aaem_deg": var(self.aaem_deg, ("time_s",), "deg", "absolute attitude error metric (eq 42)"),
+                "raem_deg": var(self.raem_deg, ("time_s",), "deg", "relative attitude error metric (eq 43)"),
+                "saturated_time_s": var(self.saturated_time, ("agent",), "s", "time with a saturated component"),
+                "u_total_variation_N_m": var(self.u_total_variation, ("agent",), "N m", "total variation of u"),
+                "u_unsaturated_max_N_m": var(self.u_unsaturated_max, ("agent",), "N m", "max |commanded torque|"),
+            },
+            coords=coords,
+        )
+        ds["time_s"].attrs["units"] = "s"
+        ds.attrs.update(
+            {
+                "title": f"fsmctl simulation: {self.scenario.label}",
+                "scenario": "\n".join(self.scenario.describe()),
+                "backend": self.backend,
+                "generated_code": ", ".join(f"{k} {v}" for k, v in manifest()["versions"].items()),
+                "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
+                "law": self.law.name,
+                "law_source": self.law.source,
+                "law_states": ", ".join(self.law.state_labels()),
+            }
+        )
+        return ds
+
+    def save(self, path: str | Path) -> Path:
+        """Write NetCDF (``.nc``) or NumPy (``.npz``), chosen by the suffix, atomically (:mod:`fsmctl.outputs`)."""
+        from fsmctl.outputs import atomic_path
+
+        path = Path(path)
+        with atomic_path(path) as tmp:
+            if path.suffix == ".npz":
+                ds = self.to_dataset()
+                with open(tmp, "wb") as fh:  # a file object: np.savez would append ".npz" to the temporary name
+                    np.savez_compressed(fh, **{k: v.values for k, v in ds.variables.items()})
+            else:
+                self.to_dataset().to_netcdf(tmp, engine="scipy")
+        return path
+
+    def to_time_response(self):
+        """A :class:`control.TimeResponseData` with the signal names of :func:`fsmctl.formation`."""
+        import control as ct
+
+        n = self.n_agents
+        T = self.time.size
+        from fsmctl.plugin.iosys import quaternion_from_mrp
+
+        x = np.concatenate(
+            [quaternion_from_mrp(self.sigma_d).T]
+            + [np.concatenate([quaternion_from_mrp(self.sigma[:, i]).T, self.omega[:, i].T]) for i in range(n)]
+        )
+        y = np.concatenate([np.concatenate([self.sigma[:, i].T, self.omega[:, i].T, self.u[:, i].T]) for i in range(n)])
+        state_labels = [f"reference_q_d[{k}]" for k in range(4)] + [
+            f"sc{i + 1}_{v}[{k}]" for i in range(n) for v, m in (("q", 4), ("omega", 3)) for k in range(m)
+        ]
+        output_labels = [f"sc{i + 1}_{v}[{k}]" for i in range(n) for v in ("sigma", "omega", "tau") for k in range(3)]
+        return ct.TimeResponseData(
+            self.time,
+            y,
+            x,
+            np.zeros((0, T)),
+            output_labels=output_labels,
+            state_labels=state_labels,
+            input_labels=[],
+            sysname=f"formation ({self.scenario.label})",
+            title=f"fsmctl formation: {self.scenario.label}",
+            issiso=False,
+            plot_inputs=False,  # a closed formation has no inputs: plot() shows the outputs
+        )
+
+
+# ----------------------------------------------------------------------------- running
+
+
+def _check_integrator(p: PackedProblem, scenario: Scenario) -> None:
+    if p.integrator == 1 and scenario.controller.boundary_layer == 0:
+        warnings.warn(
+            "adaptive integration of the discontinuous sgn(s) control (boundary_layer = 0): the step size will "
+            "collapse near the sliding surface; use integrator='rk4' or a boundary layer (Remark 7)",
+            DiscontinuousControlWarning,
+            stacklevel=3,
+        )
+
+
+def _check_output_grid(p: PackedProblem) -> None:
+    """The output grid must end on the final state (the loop records every ``output_every`` steps)."""
+    if p.n_steps % p.output_every:
+        raise SimulationError(
+            f"the output grid misses the final state: outputs every {p.output_every} steps "
+            f"({p.output_every * p.dt:g} s) do not divide the run's {p.n_steps} steps ({p.n_steps * p.dt:g} s), "
+            f"so the last {p.n_steps % p.output_every} steps would not be recorded; make output_interval divide t_final"
+        )
+
+
+def _check_final_sample(time: np.ndarray, t_final: float, backend: str) -> None:
+    """Raise :class:`SimulationError` unless the last output sample is at ``t_final`` (to rounding)."""
+    tol = 1e-9 * max(1.0, abs(t_final))
+    last = float(time[-1]) if time.size else float("nan")
+    if not abs(last - t_final) <= tol:
+        raise SimulationError(
+            f"simulation failed: the {backend} run's last output sample is at t = {last:.12g} s, not at "
+            f"t_final = {t_final:.12g} s ({time.size} samples written); the final state would be lost"
+        )
+
+
+def _singularity_fix_none(p: PackedProblem) -> bool:
+    """Whether the FSM law runs with ``singularity_fix = none`` (for the hint of a non-finite command)."""
+    try:
+        fix = p.law.parameter("singularity_fix")
+    except KeyError:
+        return False
+    k = sum(q.size for q in p.law.parameters[: p.law.parameters.index(fix)])
+    return bool(np.any(p.params[:, k] == fix.choices.index("none")))
+
+
+def simulate_packed(
+    p: PackedProblem, *, progress: bool = False, label: str = "simulate", kernels: str = "auto"
+) -> dict:
+    """Run a packed problem on the compiled driver (or the CasADi fallback); returns raw arrays.
+
+    ``kernels`` (compiled driver only): ``"batched"`` evaluates the per-agent functions through the
+    lane-batched kernels of ``generated/c/batched.c`` (4 agents per call, SIMD); ``"scalar"`` calls
+    the CasADi-generated scalar functions agent by agent; ``"auto"`` (default) is ``"batched"`` when the
+    library was built with AVX (see :func:`batched_kernels_preferred`), else ``"scalar"``.  The results are
+    bit-identical (up to the sign of a zero from ``fmin``/``fmax`` of ``+0`` and ``-0``).
+
+    Before anything is allocated: the output grid must end on the final state (else
+    :class:`SimulationError`) and the results must fit in memory (:func:`check_output_memory`, else
+    :class:`~fsmctl.errors.ResourceLimitError`), on both backends.  After the run the last sample is checked
+    to be at ``t0 + n_steps dt``.  SIGINT during the compiled loop stops it and raises
+    :class:`KeyboardInterrupt` here (see :class:`_DeferredSigint`).
+    """
+    if kernels not in _KERNELS:
+        raise ValueError(f"kernels must be one of {sorted(_KERNELS)}, got {kernels!r}")
+    _check_output_grid(p)
+    check_output_memory(p)
+    t_end = p.t0 + p.n_steps * p.dt
+    dll = _driver(p.law)
+    if dll is None:
+        from fsmctl.simulation.casadi_formation import simulate_casadi
+
+        raw = simulate_casadi(p, progress=progress, label=label)
+        _check_final_sample(raw["t"], t_end, "casadi-vm")
+        return raw
+    if kernels == "batched" and not dll.fsm_batched_available():
+        raise SimulationError(
+            "kernels='batched': this build of the library has no batched kernels (the C compiler lacks the "
+            "GCC/Clang vector extension); use kernels='auto' or 'scalar'"
+        )
+    n, cap = p.n_agents, p.n_outputs + 1
+    bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat")}
+    bufs["broadcast"] = np.zeros((cap, n, p.n_broadcast))
+    bufs["z"] = np.zeros((cap, n, p.n_states))
+    bufs["t"] = np.zeros(cap)
+    bufs["sigma_d"] = np.zeros((cap, 3))
+    stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
+    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()})
+    cp = _CProblem(p, kernels=kernels)
+    x0 = np.ascontiguousarray(p.x0, dtype=float)
+    guard = _DeferredSigint()
+    t0 = _time.perf_counter()
+    with guard:
+        cb, state = _progress_callback(p.n_steps, progress, label, guard)
+        try:
+            rc = dll.fsm_simulate(ctypes.byref(cp.struct), _ptr(x0), ctypes.byref(out), cb, _callback_every(p))
+        finally:
+            if state["bar"] is not None:
+                state["bar"].close()
+    wall = _time.perf_counter() - t0
+    guard.deliver()  # a SIGINT during the loop: its handler runs now (KeyboardInterrupt by default)
+    if state["error"] is not None:
+        raise state["error"]
+    if rc == 2 and state["interrupted"]:
+        raise KeyboardInterrupt
+    if rc != 0:
+        detail = _RC.get(rc, f"error code {rc}")
+        if rc in (1, 7):
+            who = "the reference" if out.fail_agent == -1 else f"agent {out.fail_agent + 1}"
+            detail += f" at t = {out.fail_time:.6g} s in {who}"
+            detail += (
+                " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
+                if _singularity_fix_none(p)
+                else " (check inertias, gains and the step size)"
+            )
+        elif rc == 5:
+            detail += f" at t = {out.fail_time:.6g} s (discontinuous control? use rk4 or a boundary layer)"
+        raise SimulationError(f"simulation failed: {detail}")
+    w = out.written
+    raw = {k: v[:w] for k, v in bufs.items()}
+    _check_final_sample(raw["t"], t_end, "compiled")
+    raw.update(stats)
+    if kernels == "auto":
+        kernels = "batched" if dll.fsm_batched_preferred() else "scalar"
+    raw.update(wall_time=wall, backend="compiled", steps_taken=out.steps_taken, steps_rejected=out.steps_rejected)
+    raw["kernels"] = kernels
+    return raw
+
+
+# ----------------------------------------------------------------------------- step size
+
+MAX_ROTATION_PER_STEP = 0.1
+"""rad: largest rotation per RK4 step ``max|omega| dt`` without :class:`StepSizeWarning`."""
+MAX_STEP_RATE = 0.5
+"""Largest ``dt * rho`` (``rho``: bound on the loop's fastest rate, 1/s) without :class:`StepSizeWarning`."""
+
+
+def step_size_report(scenario: Scenario | PackedProblem) -> dict:
+    """Bounds on the fastest rates of a scenario's closed loop and what they mean for the RK4 step ``dt``.
+
+    Rates (1/s), each from the (packed) scenario alone, no run; over agents the worst value is taken:
+
+    * ``surface = c1 + c2 slope``: the sliding surface (eq 13) on which ``sigma_e`` decays at
+      ``c1 + c2 d sig(x)^alpha/dx``; the slope is largest in the Remark 6 band: ``r1 = (2 - alpha)
+      epsilon^(alpha-1)`` for ``switch`` (the ``c2 r1`` of the paper scenario's [choices] 'step' text),
+      ``alpha epsilon^(alpha-1)`` for ``clamp`` and, since the printed law (``none``) is unbounded as
+      ``sigma_e -> 0``, also that band-edge value for ``none`` (an underestimate).
+    * ``layer = max delta_k / phi``: inside the boundary layer ``sat(s/phi)`` (Remark 7) s decays at
+      ``delta/phi`` (0 for ``sgn``, which has no time constant).
+    * ``coordination = max_i (sum_j k^i_ij + sum_j max_t |k^j_ij(t)|)``: Gershgorin's bound on the
+      eigenvalues of the coupling ``k_sum_i s_i - sum_j k^j_ij s_j`` (eq 19) over the receiving agents.
+    * ``gain = max_i ||(J0_i + delta_J_i)^-1 J0_i||_2``: the controller computes torques with ``J0``, the plant
+      divides by ``J = J0 + delta_J``, so every closed-loop rate is scaled by up to this factor (the
+      conditioning of ``J0`` against ``J0 + delta_J``; 1/1.3 in the paper's Case 1).  With
+      ``s = sigma_e_dot + a sigma_e`` the linearised loop per axis is
+      ``sigma_e_ddot = -g((a + b + k) sigma_e_dot + (b + k) a sigma_e)``, whose roots
+      have modulus at most ``max(g, sqrt(g)) (a + b + k)``: ``loop = max(gain, sqrt(gain)) (surface + layer
+      + coordination)`` (0 with the controller disabled).
+    * ``gyroscopic = max_i sqrt(sum_k ||A_ik||^2) omega_max``: the Jacobian of Euler's
+      ``-J^-1 (omega x J omega)`` is ``sum_k omega_k A_k`` with ``A_k = J^-1 ((J e_k)^x - e_k^x J)``, of norm at
+      most ``|omega| sqrt(sum_k ||A_k||^2)`` (Cauchy-Schwarz).  For a rigid body (``|J2 - J3| <= J1``, the
+      triangle inequality) this is about ``|omega|``; an unphysical or ill-conditioned inertia makes it
+      large (``(J2 - J3)/J1 omega`` of Euler's equations).  ``omega_max`` is the largest initial body rate
+      ``|omega_i(0)|`` or the reference's rate bound ``|omega_d|`` (amplitude + offset).
+
+    ``rho = loop + gyroscopic`` bounds the spectral radius of the linearised right-hand side (a sum of
+    the parts' norms).  RK4 is stable for ``dt rho < 2.78`` on the negative real axis and accurate to
+    ``(dt rho)^5 / 120`` per step; ``dt rho <= 0.5`` (:data:`MAX_STEP_RATE`, ``dt`` at most half the fastest
+    time constant ``1/rho``) keeps that below 3e-4.  ``rotation = omega_max dt`` must stay below
+    :data:`MAX_ROTATION_PER_STEP` (0.1 rad): the kinematics ``sigma_dot = G(sigma) omega`` are integrated
+    through the MRP shadow switch, and a step that turns the body by a sizeable angle loses accuracy however
+    slow the loop is.  The paper scenario (dt = 1 ms, Case 1): ``rho ~ 78 1/s``, ``dt rho ~ 0.08``, rotation 7e-4 rad.
+
+    Returns a dict with these rates, ``rho``, ``omega_max`` (rad/s), ``dt`` and the list ``problems``
+    (empty when the step is fine; only the fixed-step RK4 integrator is judged: dopri45 controls its own
+    steps).
+    """
+    p = pack(scenario) if isinstance(scenario, Scenario) else scenario
+    n = p.n_agents
+    J, J0 = np.asarray(p.J_true, dtype=float), np.asarray(p.J0, dtype=float)
+    c1, c2, alpha, phi, eps = (float(np.max(p.gains[:, k])) for k in range(5))
+    switch = bool(np.any(p.gains[:, 5] == 1))
+    slope = (2.0 - alpha) * eps ** (alpha - 1.0) if switch else alpha * eps ** (alpha - 1.0)
+    surface = c1 + c2 * slope
+    layer = float(np.max(p.delta)) / phi if phi > 0 else 0.0
+    k_in = np.zeros(n)
+    for e in range(p.n_links):
+        start, count = int(p.sched_start[e]), int(p.sched_count[e])
+        k_in[int(p.link_receiver[e])] += abs(float(p.link_k_i[e])) + float(
+            np.max(np.abs(p.sched_values[start : start + count]))
+        )
+    coordination = float(k_in.max()) if n else 0.0
+    gain = max(float(np.linalg.norm(np.linalg.solve(J[i], J0[i]), 2)) for i in range(n))
+    enabled = bool(np.any(p.u_max > 0))  # a disabled controller is packed with a zero torque limit
+    loop = max(gain, math.sqrt(gain)) * (surface + layer + coordination) if enabled else 0.0
+    omega0 = p.x0[3:].reshape(n, 6)[:, 3:]
+    ref = np.asarray(p.ref_params, dtype=float)
+    omega_max = max(
+        float(np.max(np.linalg.norm(omega0, axis=1))), float(np.linalg.norm(np.abs(ref[0:3]) + np.abs(ref[9:12])))
+    )
+    gyroscopic = _gyroscopic_gain(J) * omega_max
+    rho = loop + gyroscopic
+    dt = p.dt
+    problems = []
+    if p.integrator == 0:  # rk4
+        if dt * rho > MAX_STEP_RATE:
+            parts = ", ".join(
+                f"{name} {value:.3g}"
+                for name, value in (
+                    ("surface c1 + c2 r1", surface),
+                    ("boundary layer delta/phi", layer),
+                    ("coordination", coordination),
+                    ("inertia gain ||J^-1 J0||", gain),
+                    ("gyroscopic", gyroscopic),
+                )
+            )
+            problems.append(
+                f"dt = {dt:g} s is coarse for the loop's fastest rate rho ~ {rho:.3g} 1/s (dt rho = {dt * rho:.3g} > "
+                f"{MAX_STEP_RATE:g}; {parts}): use dt <= {MAX_STEP_RATE / rho:.2g} s"
+            )
+        if omega_max * dt > MAX_ROTATION_PER_STEP:
+            problems.append(
+                f"dt = {dt:g} s turns a body by up to {omega_max * dt:.3g} rad per step (|omega| <= {omega_max:.3g} "
+                f"rad/s; bound {MAX_ROTATION_PER_STEP:g} rad): use dt <= {MAX_ROTATION_PER_STEP / omega_max:.2g} s"
+            )
+    return {
+        "dt": dt,
+        "surface": surface,
+        "layer": layer,
+        "coordination": coordination,
+        "gain": gain,
+        "loop": loop,
+        "gyroscopic": gyroscopic,
+        "rho": rho,
+        "omega_max": omega_max,
+        "rotation_per_step": omega_max * dt,
+        "problems": problems,
+    }
+
+
+def _skew(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def _gyroscopic_gain(J: np.ndarray) -> float:
+    """``max_i sqrt(sum_k ||A_ik||_2^2)`` with ``A_ik = J_i^-1 ((J_i e_k)^x - e_k^x J_i)``: the Jacobian of Euler's
+    ``-J^-1 (omega x J omega)`` is ``sum_k omega_k A_k``, whose norm is at most this times ``|omega|``."""
+    worst = 0.0
+    for Ji in J:
+        Jinv = np.linalg.inv(Ji)
+        parts = [Jinv @ (_skew(Ji[:, k]) - _skew(np.eye(3)[k]) @ Ji) for k in range(3)]
+        worst = max(worst, math.sqrt(sum(float(np.linalg.norm(A, 2)) ** 2 for A in parts)))
+    return worst
+
+
+def _warn_step_size(scenario: Scenario, p: PackedProblem) -> None:
+    for problem in step_size_report(p)["problems"]:
+        warnings.warn(f"{scenario.label}: {problem}", StepSizeWarning, stacklevel=3)
+
+
+def _warn_rotation_reached(scenario: Scenario, omega: np.ndarray) -> None:
+    """After an RK4 run: the rotation per step actually reached (largest |omega| of the output samples)."""
+    if scenario.simulation.integrator != "rk4" or omega.size == 0:
+        return
+    dt = scenario.simulation.dt
+    peak = 0.0
+    for start in range(0, omega.shape[0], 4096):  # blocks: no (T, n) temporary
+        block = omega[start : start + 4096]
+        peak = max(peak, float(np.sqrt(np.max(np.einsum("...k,...k->...", block, block)))))
+    if not math.isfinite(peak) or peak * dt > MAX_ROTATION_PER_STEP:
+        warnings.warn(
+            f"{scenario.label}: a body reached |omega| = {peak:.4g} rad/s, {peak * dt:.3g} rad per step of "
+            f"dt = {dt:g} s (bound {MAX_ROTATION_PER_STEP:g} rad): the results are not resolved in time; "
+            f"use dt <= {MAX_ROTATION_PER_STEP / peak if peak > 0 else dt:.2g} s or check the inertias and gains",
+            StepSizeWarning,
+            stacklevel=3,
+        )
+
+
+def simulate(scenario: Scenario, *, progress: bool | None = None) -> SimulationResult:
+    """Simulate ``scenario`` with the generated code; see :class:`SimulationResult`.
+
+    ``progress``: show a progress bar (default: for runs of more than 10^6 agent-steps on a terminal).
+
+    Warns (:class:`StepSizeWarning`) before the run when the RK4 step is too coarse
+    (:func:`step_size_report`) and after it when the rotation per step actually reached exceeds
+    :data:`MAX_ROTATION_PER_STEP`.  Raises :class:`~fsmctl.errors.ResourceLimitError` when the results would
+    not fit in memory, :class:`SimulationError` when the run fails or its last sample is not at ``t_final``,
+    and :class:`KeyboardInterrupt` on Ctrl-C.
+    """
+    p = pack(scenario)
+    _check_integrator(p, scenario)
+    _warn_step_size(scenario, p)
+    if progress is None:
+        progress = p.n_steps * p.n_agents > 1_000_000 and sys.stderr.isatty()
+    raw = simulate_packed(p, progress=progress, label=scenario.label)
+    _check_final_sample(raw["t"], scenario.simulation.t_final, raw["backend"])
+    _warn_rotation_reached(scenario, raw["omega"])
+    return SimulationResult(
+        scenario=scenario,
+        time=raw["t"],
+        sigma=raw["sigma"],
+        omega=raw["omega"],
+        sigma_e=raw["sigma_e"],
+        omega_e=raw["omega_e"],
+        broadcast=raw["broadcast"],
+        z=raw["z"],
+        u=raw["u"],
+        u_unsaturated=raw["u_unsat"],
+        sigma_d=raw["sigma_d"],
+        saturated_time=raw["saturated_time"],
+        u_total_variation=raw["u_total_variation"],
+        u_unsaturated_max=raw["u_unsat_max"],
+        backend=raw["backend"],
+        wall_time=raw["wall_time"],
+        steps_taken=int(raw["steps_taken"]),
+        steps_rejected=int(raw["steps_rejected"]),
+    )

@@ -1,0 +1,664 @@
+"""FSM vs TSM vs LSM in the full formation loop, and ``fsmctl compare-surfaces``.
+
+Theorem 3 (Liang et al. 2012, Sec. 3.3, eqs 34-41) compares the three sliding surfaces on the
+ideal sliding phase of a scalar error: FSM settles faster than TSM (same ``c2``) and LSM (same
+``c1``).  This module asks whether that ordering survives in the closed loop of eqs 16-20 with
+what the theorem leaves out: the reaching phase, the torque limit (saturation), the inertia
+uncertainty and disturbance of Case 1 (eq 29), and the coupling through the topology (eq 19).
+
+The surface is selected by :attr:`fsmctl.model.scenario.ControllerSettings.surface` (``tsm`` sets
+``c1 = 0``, ``lsm`` sets ``c2 = 0`` in the generated code).  Per agent it measures
+
+* the reaching time: first time ``||s_i|| <= reach_threshold``;
+* the settling time: first time after which every ``|sigma_ei,k| <= sigma_tolerance``;
+* the sliding-phase time (settling minus reaching; negative when the attitude settled before
+  ``s_i`` reached the threshold, i.e. the reaching phase did the work), next to Theorem 3's prediction
+  ``max_k T_surface(|sigma_ei,k(t_reach)|, sigma_tolerance)`` (eqs 34-36, the closed forms of
+  :mod:`fsmctl.studies.theorem3`), exact if ``s_i`` stayed 0 after reaching;
+* the control effort ``int sum_k |u_ik| dt`` (N m s);
+
+and per run the settling of AAEM and RAEM (eqs 42-43) to a tolerance and their steady state.
+
+Remark 6 (the ``alpha |sigma_e|^(alpha-1)`` singularity) is handled for TSM exactly as for FSM:
+the generated code applies the scenario's ``singularity_fix`` (default ``switch``) to the term
+``c2 sig(sigma_e)^alpha`` whatever ``c1`` is; :func:`remark6_treatment` reads the resulting slope
+of the surface at ``sigma_e = 0`` from the generated ``closed_loop`` function.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import math
+import sys
+import time
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fsmctl.outputs import atomic_path, environment_problem, write_json
+from fsmctl.model.scenario import Scenario, Sinusoid
+from fsmctl.model.topology import Topology
+
+__all__ = [
+    "SURFACES",
+    "Variant",
+    "default_variants",
+    "variant_scenario",
+    "remark6_treatment",
+    "SurfaceComparison",
+    "compare_surfaces",
+    "plot_error_metrics",
+    "plot_agent_times",
+    "add_parser",
+    "run",
+]
+
+SURFACES = ("fsm", "tsm", "lsm")
+PAPER_TORQUE_LIMIT_N_M = 2.0
+
+
+@dataclass(frozen=True)
+class Variant:
+    """Which of saturation, uncertainty (dJ and disturbance, eq 29) and coupling (eq 19) are on."""
+
+    torque_limit: bool
+    uncertainty: bool
+    coupling: bool
+
+    @property
+    def name(self) -> str:
+        return "/".join(
+            (
+                "limit" if self.torque_limit else "no-limit",
+                "uncertain" if self.uncertainty else "nominal",
+                "coupled" if self.coupling else "uncoupled",
+            )
+        )
+
+
+def default_variants() -> list[Variant]:
+    """All eight combinations, the paper's (limit, uncertain, coupled) first."""
+    return [Variant(a, b, c) for a in (True, False) for b in (True, False) for c in (True, False)]
+
+
+def variant_scenario(scenario: Scenario, variant: Variant, surface: str) -> Scenario:
+    """The scenario with the surface set and the variant's features switched off where asked.
+
+    ``torque_limit``: the scenario's limit (the paper's 2 N m if the scenario has none) or none;
+    ``uncertainty`` off: ``delta_J = 0`` and no disturbance; ``coupling`` off: no links.
+    """
+    limit = scenario.controller.torque_limit
+    if variant.torque_limit and not math.isfinite(limit):
+        limit = PAPER_TORQUE_LIMIT_N_M
+    s = scenario.replace(controller={"surface": surface, "torque_limit": limit if variant.torque_limit else math.inf})
+    if not variant.uncertainty:
+        zero = tuple(tuple(0.0 for _ in row) for row in scenario.agents[0].J0)
+        s = s.with_agents([dataclasses.replace(a, delta_J=zero, disturbance=Sinusoid()) for a in s.agents])
+    if not variant.coupling:
+        s = s.with_topology(Topology(s.n_agents, ()))
+    return s
+
+
+# ----------------------------------------------------------------------------- Remark 6
+
+
+def remark6_treatment(scenario: Scenario) -> list[dict]:
+    """Slope ``ds/dsigma_e`` of each surface at ``sigma_e = 0`` and at the band edge, from the generated code.
+
+    The surface ``s = sigma_e_dot + c1 sigma_e + c2 phi(sigma_e)`` (eq 13) with the Remark 6 fix
+    ``phi`` has slope ``c1 + c2 phi'(x)``; without a fix ``phi'(x) = alpha |x|^(alpha-1)`` is
+    infinite at 0 for FSM and TSM.  With ``switch`` the slope at 0 is finite, so inside the band
+    ``|x| < epsilon`` the sliding mode is linear with that rate (exponential, not finite-time).
+
+    Returns
+    -------
+    list of dict
+        Per surface: ``slope_at_zero_per_s``, ``slope_at_band_edge_per_s``, ``band_time_constant_s``,
+        the fix and ``epsilon``; computed by CasADi AD of the generated ``closed_loop`` function.
+    """
+    import casadi as ca
+
+    from fsmctl.model.generated_code import generated_dir, manifest
+
+    entry = next(f for f in manifest()["functions"] if f["name"] == "closed_loop")
+    fn = ca.Function.deserialize((generated_dir() / entry["serialized"]).read_text())
+    x = ca.SX.sym("x", 3)
+    out = []
+    for surface in SURFACES:
+        c = scenario.replace(controller={"surface": surface}).controller
+        gains = c.gains_vector()
+        s = fn(x, ca.DM.zeros(3), gains, ca.DM.ones(3), ca.DM.zeros(3))[1]
+        slope = ca.Function("slope", [x], [ca.jacobian(s, x)[0, 0]])
+        at_zero = float(slope(ca.DM.zeros(3)))
+        edge = float(slope(ca.DM([c.epsilon * (1 + 1e-9), 0.0, 0.0])))
+        out.append(
+            {
+                "surface": surface,
+                "singularity_fix": c.singularity_fix,
+                "epsilon": c.epsilon,
+                "c1_used": float(gains[0]),
+                "c2_used": float(gains[1]),
+                "slope_at_zero_per_s": at_zero,
+                "slope_at_band_edge_per_s": edge,
+                "band_time_constant_s": 1.0 / at_zero if math.isfinite(at_zero) and at_zero > 0 else math.nan,
+            }
+        )
+    return out
+
+
+# ----------------------------------------------------------------------------- measurements
+
+
+_trapezoid = getattr(np, "trapezoid", None) or np.trapz  # noqa: NPY201 (NumPy < 2 has only trapz)
+
+
+def _first_time_below(time_s: np.ndarray, values: np.ndarray, threshold: float) -> float:
+    idx = np.nonzero(values <= threshold)[0]
+    return float(time_s[idx[0]]) if idx.size else math.nan
+
+
+def _settling(time_s: np.ndarray, values: np.ndarray, threshold: float) -> float:
+    from fsmctl.simulation.metrics import settling_time
+
+    return settling_time(time_s, values, threshold)
+
+
+def _predicted_sliding_time(surface: str, sigma_e: np.ndarray, tol: float, c) -> float:
+    """Theorem 3 (eqs 34-36): time for every component to reach ``|x| <= tol`` on the ideal sliding mode."""
+    from fsmctl.studies.theorem3 import closed_form_settling_time
+
+    times = [
+        closed_form_settling_time(surface, float(x), tol, c.c1, c.c2, c.alpha) for x in sigma_e if abs(float(x)) > tol
+    ]
+    return max(times, default=0.0)
+
+
+def _measure(result, surface: str, variant: Variant, opts: dict) -> tuple[dict, list[dict], dict]:
+    t = result.time
+    c = result.scenario.controller
+    s_norm = np.linalg.norm(result.s, axis=2)
+    sig_max = np.max(np.abs(result.sigma_e), axis=2)
+    abs_u = np.sum(np.abs(result.u), axis=2)
+    effort = _trapezoid(abs_u, t, axis=0)
+    agents = []
+    for i in range(result.n_agents):
+        reach = _first_time_below(t, s_norm[:, i], opts["reach_threshold"])
+        settle = _settling(t, sig_max[:, i], opts["sigma_tolerance"])
+        if math.isfinite(reach):
+            k = int(np.searchsorted(t, reach))
+            predicted = _predicted_sliding_time(surface, result.sigma_e[k, i], opts["sigma_tolerance"], c)
+        else:
+            predicted = math.nan
+        agents.append(
+            {
+                "variant": variant.name,
+                "surface": surface,
+                "agent": i + 1,
+                "reaching_time_s": reach,
+                "settling_time_s": settle,
+                "sliding_phase_time_s": settle - reach,
+                "sliding_phase_theorem3_s": predicted,
+                "control_effort_N_m_s": float(effort[i]),
+                "saturated_time_s": float(result.saturated_time[i]),
+            }
+        )
+    window = min(40.0, 0.4 * float(t[-1] - t[0]))
+    summary = result.summary(tolerances_deg=(opts["metric_tolerance_deg"],), steady_window=window)
+    tol = f"{opts['metric_tolerance_deg']:g}"
+    run = {
+        "variant": variant.name,
+        "surface": surface,
+        "torque_limit": variant.torque_limit,
+        "uncertainty": variant.uncertainty,
+        "coupling": variant.coupling,
+        "t_final_s": float(t[-1]),
+        "aaem_settling_s": summary["aaem_settling_s"][tol],
+        "raem_settling_s": summary["raem_settling_s"][tol],
+        "aaem_steady_max_deg": summary["aaem_steady_max_deg"],
+        "raem_steady_max_deg": summary["raem_steady_max_deg"],
+        # the means are NaN (= not reached: infinitely slow for the verdicts) unless every agent gets there
+        "n_agents": len(agents),
+        "agents_reached": int(sum(math.isfinite(a["reaching_time_s"]) for a in agents)),
+        "agents_settled": int(sum(math.isfinite(a["settling_time_s"]) for a in agents)),
+        "mean_reaching_time_s": float(np.mean([a["reaching_time_s"] for a in agents])),
+        "mean_sliding_phase_time_s": float(np.mean([a["sliding_phase_time_s"] for a in agents])),
+        "mean_sliding_phase_theorem3_s": float(np.mean([a["sliding_phase_theorem3_s"] for a in agents])),
+        "control_effort_N_m_s": float(effort.sum()),
+        "u_unsaturated_max_N_m": summary["u_unsaturated_max_N_m"],
+        "max_saturated_time_s": float(np.max(result.saturated_time)),
+        "wall_time_s": result.wall_time,
+    }
+    step = max(1, len(t) // 2000)
+    series = {"time_s": t[::step], "aaem_deg": result.aaem_deg[::step], "raem_deg": result.raem_deg[::step]}
+    return run, agents, series
+
+
+def _faster(a: float, b: float) -> str:
+    """'yes' if a < b (NaN = did not settle = infinitely slow), 'no', or 'n/a' when neither settles."""
+    fa, fb = math.isfinite(a), math.isfinite(b)
+    if not fa and not fb:
+        return "n/a"
+    if fa and not fb:
+        return "yes"
+    if fb and not fa:
+        return "no"
+    return "yes" if a < b else "no"
+
+
+@dataclass
+class SurfaceComparison:
+    """Results of :func:`compare_surfaces`: per-run and per-agent rows, ordering verdicts, Remark 6, time series."""
+
+    scenario_label: str
+    settings: dict
+    runs: list[dict]
+    agents: list[dict]
+    series: dict = field(default_factory=dict)
+    remark6: list[dict] = field(default_factory=list)
+    scalar: dict = field(default_factory=dict)
+    wall_time_s: float = 0.0
+    scalar_study: object = field(default=None, repr=False)
+    """the :class:`fsmctl.studies.theorem3.ScalarStudy` behind ``scalar`` (None without the scalar check)"""
+
+    def run_row(self, variant: str, surface: str) -> dict:
+        return next(r for r in self.runs if r["variant"] == variant and r["surface"] == surface)
+
+    def ordering(self) -> list[dict]:
+        """Per variant and metric: does FSM beat TSM and LSM (Theorem 3's ordering, eqs 37-41)?"""
+        out = []
+        variants = list(dict.fromkeys(r["variant"] for r in self.runs))
+        for v in variants:
+            for metric in ("aaem_settling_s", "raem_settling_s", "mean_sliding_phase_time_s"):
+                t = {s: self.run_row(v, s)[metric] for s in SURFACES}
+                if metric == "mean_sliding_phase_time_s" and any(x < 0 for x in t.values() if math.isfinite(x)):
+                    # some agent's attitude settled before its s_i reached the threshold: no sliding phase to compare
+                    out.append({"variant": v, "metric": metric, **{f"{s}_s": t[s] for s in SURFACES},
+                                "fsm_faster_than_tsm": "n/a (settled before reaching)",
+                                "fsm_faster_than_lsm": "n/a (settled before reaching)"})  # fmt: skip
+                    continue
+                out.append(
+                    {
+                        "variant": v,
+                        "metric": metric,
+                        **{f"{s}_s": t[s] for s in SURFACES},
+                        "fsm_faster_than_tsm": _faster(t["fsm"], t["tsm"]),
+                        "fsm_faster_than_lsm": _faster(t["fsm"], t["lsm"]),
+                    }
+                )
+        return out
+
+    def table(self) -> str:
+        """Plain-text table: one line per run, then the ordering verdicts."""
+        tol = self.settings["metric_tolerance_deg"]
+        head = (
+            f"{'variant':<28} {'surf':<4} {'AAEM<' + format(tol, 'g') + 'deg':>11} {'RAEM<' + format(tol, 'g') + 'deg':>11} "
+            f"{'AAEM_ss':>9} {'reached':>7} {'reach':>7} {'slide':>7} {'slide_T3':>8} {'effort':>9} {'sat_max':>7}"
+        )
+        units = (
+            f"{'':<28} {'':<4} {'s':>11} {'s':>11} {'deg':>9} {'agents':>7} {'s':>7} {'s':>7} {'s':>8} {'N m s':>9} "
+            f"{'s':>7}"
+        )
+        lines = [f"compare-surfaces: {self.scenario_label}", head, units]
+        for r in self.runs:
+            lines.append(
+                f"{r['variant']:<28} {r['surface']:<4} {_fmt(r['aaem_settling_s']):>11} {_fmt(r['raem_settling_s']):>11} "
+                f"{_fmt(r['aaem_steady_max_deg'], '.3g'):>9} {str(r['agents_reached']) + '/' + str(r['n_agents']):>7} "
+                f"{_fmt(r['mean_reaching_time_s']):>7} "
+                f"{_fmt(r['mean_sliding_phase_time_s']):>7} {_fmt(r['mean_sliding_phase_theorem3_s']):>8} "
+                f"{_fmt(r['control_effort_N_m_s'], '.4g'):>9} {_fmt(r['max_saturated_time_s'], '.1f'):>7}"
+            )
+        lines.append("")
+        lines.append(
+            "reach/slide are means over agents: nan unless every agent reached the surface (|s| below the threshold)"
+        )
+        lines.append("Theorem 3 ordering (nan = not settled within the horizon): FSM faster than TSM / than LSM")
+        for o in self.ordering():
+            lines.append(
+                f"  {o['variant']:<28} {o['metric']:<26} fsm {_fmt(o['fsm_s'])} tsm {_fmt(o['tsm_s'])} "
+                f"lsm {_fmt(o['lsm_s'])}: vs TSM {o['fsm_faster_than_tsm']}, vs LSM {o['fsm_faster_than_lsm']}"
+            )
+        lines.append("")
+        lines.append("Remark 6 fix per surface (slope ds/dsigma_e of the generated surface):")
+        for r in self.remark6:
+            lines.append(
+                f"  {r['surface']}: fix={r['singularity_fix']} eps={r['epsilon']:g} c1={r['c1_used']:g} c2={r['c2_used']:g} "
+                f"slope at 0 = {r['slope_at_zero_per_s']:.4g} 1/s, at the band edge = {r['slope_at_band_edge_per_s']:.4g} 1/s"
+            )
+        if self.scalar:
+            lines.append(
+                f"scalar Theorem 3 check: {self.scalar['n_measurements']} simulated settling times, max relative error "
+                f"{self.scalar['max_relative_error']:.2e} vs eqs 34-36; ordering holds everywhere: "
+                f"{self.scalar['ordering_holds_everywhere']}"
+            )
+        lines.append(f"reach: first ||s_i|| <= {self.settings['reach_threshold']:g}; slide: until every "
+                     f"|sigma_ei,k| <= {self.settings['sigma_tolerance']:g} for good; slide_T3: Theorem 3 (eqs 34-36) "
+                     f"from sigma_e at reaching; effort: sum_i int sum_k |u_ik| dt")  # fmt: skip
+        lines.append(f"wall time {self.wall_time_s:.1f} s")
+        return "\n".join(lines)
+
+    def to_json(self) -> dict:
+        return {
+            "scenario": self.scenario_label,
+            "settings": self.settings,
+            "runs": self.runs,
+            "agents": self.agents,
+            "ordering": self.ordering(),
+            "remark6": self.remark6,
+            "scalar_theorem3": self.scalar,
+            "wall_time_s": self.wall_time_s,
+        }
+
+    def write(self, out_dir: str | Path, *, figures: bool = True) -> list[Path]:
+        """Write ``surfaces_runs.csv``, ``surfaces_agents.csv``, ``surfaces_ordering.csv``, ``surfaces.json``, figures."""
+        out = Path(out_dir)
+        out.mkdir(parents=True, exist_ok=True)
+        paths = [
+            _write_csv(out / "surfaces_runs.csv", self.runs),
+            _write_csv(out / "surfaces_agents.csv", self.agents),
+            _write_csv(out / "surfaces_ordering.csv", self.ordering()),
+        ]
+        paths.append(write_json(out / "surfaces.json", self.to_json(), indent=1))
+        if figures:
+            for name, fig in (
+                ("surfaces_error_metrics", plot_error_metrics(self)),
+                ("surfaces_agents", plot_agent_times(self)),
+            ):
+                for ext in ("png", "svg"):
+                    fp = out / f"{name}.{ext}"
+                    with atomic_path(fp) as tmp:
+                        fig.savefig(tmp, dpi=120, format=ext)
+                    paths.append(fp)
+        return paths
+
+
+def _fmt(v: float, spec: str = ".2f") -> str:
+    return "nan" if v is None or not math.isfinite(v) else format(v, spec)
+
+
+def _write_csv(path: Path, rows: list[dict]) -> Path:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    return path
+
+
+def compare_surfaces(
+    scenario: Scenario,
+    *,
+    fast: bool = False,
+    t_final: float | None = None,
+    variants: Sequence[Variant] | None = None,
+    reach_threshold: float = 1e-3,
+    sigma_tolerance: float = 1e-3,
+    metric_tolerance_deg: float = 0.03,
+    jobs: int = 2,
+    scalar_check: bool = True,
+    progress: bool | None = None,
+) -> SurfaceComparison:
+    """Run the scenario with each sliding surface under each variant and measure Theorem 3's quantities.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Base scenario (e.g. :func:`fsmctl.paper_scenario`).
+    fast : bool
+        10 s horizon at dt = 2 ms, and the small scalar grid (for tests and notebooks).
+    t_final : float, optional
+        Horizon in s (default: the scenario's; 10 s with ``fast``).
+    variants : sequence of Variant, optional
+        Default :func:`default_variants` (limit x uncertainty x coupling).
+    reach_threshold : float
+        ``||s_i||`` below which agent i counts as having reached the surface.
+    sigma_tolerance : float
+        Target ``tau`` of Theorem 3 for every ``|sigma_ei,k|`` (MRP); keep it above the Remark 6 band ``epsilon``.
+    metric_tolerance_deg : float
+        Tolerance of the AAEM/RAEM settling times (eqs 42-43).
+    jobs : int
+        Simulations run concurrently in threads (the compiled loop releases the GIL).
+    scalar_check : bool
+        Also run the scalar Theorem 3 grid (:func:`fsmctl.studies.theorem3.scalar_settling_study`).
+    progress : bool, optional
+        tqdm progress bar (default: on a terminal).
+
+    Returns
+    -------
+    SurfaceComparison
+    """
+    from tqdm import tqdm
+
+    from fsmctl.errors import InputError as UsageError
+    from fsmctl.simulation.simulator import simulate
+
+    for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),
+                    ("metric_tolerance_deg", metric_tolerance_deg)):  # fmt: skip
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise UsageError(f"{name} must be a finite number > 0, got {v}")
+    if sigma_tolerance <= scenario.controller.epsilon:
+        raise UsageError(
+            f"sigma_tolerance = {sigma_tolerance:g} must exceed the Remark 6 band epsilon = {scenario.controller.epsilon:g} "
+            "(inside the band the surface is linear and Theorem 3 does not apply)"
+        )
+    if jobs < 1:
+        raise UsageError(f"jobs must be >= 1, got {jobs}")
+    sim = {}
+    if fast:
+        sim = {"t_final": 10.0, "dt": 0.002, "output_interval": 0.02}
+    if t_final is not None:
+        if not (math.isfinite(t_final) and t_final > 0):
+            raise UsageError(f"t_final must be > 0, got {t_final}")
+        sim["t_final"] = float(t_final)
+    base = scenario.replace(simulation=sim) if sim else scenario
+    variants = list(default_variants() if variants is None else variants)
+    jobs_list = [(v, s) for v in variants for s in SURFACES]
+    opts = {
+        "reach_threshold": reach_threshold,
+        "sigma_tolerance": sigma_tolerance,
+        "metric_tolerance_deg": metric_tolerance_deg,
+    }
+    if progress is None:
+        progress = sys.stderr.isatty()
+    start = time.perf_counter()
+
+    def one(job):
+        v, s = job
+        return _measure(simulate(variant_scenario(base, v, s), progress=False), s, v, opts)
+
+    with ThreadPoolExecutor(max_workers=jobs) as pool:
+        results = list(
+            tqdm(pool.map(one, jobs_list), total=len(jobs_list), desc="compare-surfaces", disable=not progress)
+        )
+    runs, agents, series = [], [], {}
+    for (v, s), (run_row, agent_rows, ser) in zip(jobs_list, results, strict=True):
+        runs.append(run_row)
+        agents += agent_rows
+        series[(v.name, s)] = ser
+    scalar = {}
+    if scalar_check:
+        from fsmctl.studies.theorem3 import default_extreme_grid, fast_grid, scalar_settling_study
+
+        study = scalar_settling_study(fast_grid() if fast else default_extreme_grid(), progress=progress)
+        scalar = study.summary()
+        scalar["study"] = study
+    settings = {
+        **opts,
+        "t_final_s": base.simulation.t_final,
+        "dt_s": base.simulation.dt,
+        "fast": fast,
+        "variants": [v.name for v in variants],
+        "controller": dataclasses.asdict(base.controller),
+    }
+    comp = SurfaceComparison(
+        scenario_label=base.label,
+        settings=settings,
+        runs=runs,
+        agents=agents,
+        series=series,
+        remark6=remark6_treatment(base),
+        scalar={k: v for k, v in scalar.items() if k != "study"},
+        wall_time_s=time.perf_counter() - start,
+        scalar_study=scalar.get("study"),
+    )
+    return comp
+
+
+# ----------------------------------------------------------------------------- figures
+
+
+def plot_error_metrics(comparison: SurfaceComparison, metric: str = "aaem_deg"):
+    """AAEM (eq 42) or RAEM (eq 43) against time, one panel per variant, one line per surface.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    variants = list(dict.fromkeys(v for v, _ in comparison.series))
+    ncol = min(4, len(variants))
+    nrow = math.ceil(len(variants) / ncol)
+    fig = Figure(figsize=(3.6 * ncol, 2.8 * nrow), layout="constrained")
+    axes = fig.subplots(nrow, ncol, squeeze=False, sharey=True)
+    for ax, v in zip(axes.flat, variants, strict=False):
+        for s in SURFACES:
+            ser = comparison.series[(v, s)]
+            ax.semilogy(ser["time_s"], np.maximum(ser[metric], 1e-8), label=s.upper(), lw=1)
+        ax.axhline(comparison.settings["metric_tolerance_deg"], color="k", lw=0.6, ls=":")
+        ax.set_title(v, fontsize=9)
+        ax.set_xlabel("t (s)")
+        ax.grid(True, alpha=0.3)
+    for ax in axes.flat[len(variants) :]:
+        ax.set_visible(False)
+    axes[0, 0].set_ylabel(f"{metric.split('_')[0].upper()} (deg)")
+    axes[0, 0].legend(fontsize=8)
+    fig.suptitle(f"{comparison.scenario_label}: {metric.split('_')[0].upper()} by sliding surface (Liang et al. 2012, eq "
+                 f"{'42' if metric == 'aaem_deg' else '43'})", fontsize=10)  # fmt: skip
+    return fig
+
+
+def plot_agent_times(comparison: SurfaceComparison, variant: str | None = None):
+    """Per agent: reaching time and sliding-phase time (measured and Theorem 3's prediction) for each surface.
+
+    ``variant`` defaults to the first variant in which every surface settles (else the first).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from matplotlib.figure import Figure
+
+    if variant is None:
+        names = list(dict.fromkeys(r["variant"] for r in comparison.runs))
+        settled = [
+            v for v in names if all(math.isfinite(comparison.run_row(v, s)["aaem_settling_s"]) for s in SURFACES)
+        ]
+        variant = (settled or names)[0]
+    rows = [a for a in comparison.agents if a["variant"] == variant]
+    n = max(a["agent"] for a in rows)
+    fig = Figure(figsize=(10, 3.8), layout="constrained")
+    axes = fig.subplots(1, 3)
+    width = 0.27
+    x = np.arange(1, n + 1)
+    for k, s in enumerate(SURFACES):
+        r = sorted((a for a in rows if a["surface"] == s), key=lambda a: a["agent"])
+        axes[0].bar(x + (k - 1) * width, [a["reaching_time_s"] for a in r], width, label=s.upper())
+        axes[1].bar(x + (k - 1) * width, [a["sliding_phase_time_s"] for a in r], width, label=s.upper())
+        axes[1].plot(x + (k - 1) * width, [a["sliding_phase_theorem3_s"] for a in r], "k_", ms=9)
+        axes[2].bar(x + (k - 1) * width, [a["control_effort_N_m_s"] for a in r], width, label=s.upper())
+    axes[0].set_ylabel("reaching time (s)")
+    axes[1].set_ylabel("sliding-phase time (s); - = Theorem 3")
+    axes[2].set_ylabel(r"control effort $\int \sum_k |u_k| dt$ (N m s)")
+    for ax in axes:
+        ax.set_xlabel("agent")
+        ax.set_xticks(x)
+        ax.grid(True, axis="y", alpha=0.3)
+    axes[0].legend(fontsize=8)
+    fig.suptitle(f"{comparison.scenario_label}, {variant}", fontsize=10)
+    return fig
+
+
+# ----------------------------------------------------------------------------- CLI
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``fsmctl compare-surfaces`` (FSM vs TSM vs LSM, Liang et al. 2012, Theorem 3, eqs 34-41).
+
+    Parameters
+    ----------
+    subparsers : argparse subparsers action
+        From :func:`fsmctl.cli.main.build_parser`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser, with ``func = run``.
+    """
+    p = subparsers.add_parser(
+        "compare-surfaces",
+        help="FSM vs TSM vs LSM: Theorem 3 in the scalar case and in the full loop",
+        description="Compare the fast, terminal and linear sliding surfaces (Liang et al. 2012, Theorem 3) in the scalar "
+        "sliding mode (simulation vs eqs 34-36) and in the formation loop, with and without the torque limit, the "
+        "inertia uncertainty/disturbance and the coupling.",
+    )
+    p.add_argument("--scenario", default="paper", metavar="paper|FILE", help="'paper' (built in) or a TOML file")
+    p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
+    p.add_argument("--out", type=Path, default=Path("compare-surfaces"), metavar="DIR",
+                   help="output directory for CSV, JSON and figures (default: %(default)s)")  # fmt: skip
+    p.add_argument("--fast", action="store_true", help="10 s horizon at dt = 2 ms and a small scalar grid")
+    p.add_argument("--t-final", type=float, default=None, metavar="S", help="horizon in s (default: the scenario's)")
+    p.add_argument("--reach-threshold", type=float, default=1e-3, metavar="S",
+                   help="||s_i|| below which the surface counts as reached (default: %(default)s)")  # fmt: skip
+    p.add_argument("--sigma-tolerance", type=float, default=1e-3, metavar="TAU",
+                   help="Theorem 3 target for every |sigma_e,k| (MRP, default: %(default)s)")  # fmt: skip
+    p.add_argument("--metric-tolerance", type=float, default=0.03, metavar="DEG",
+                   help="AAEM/RAEM settling tolerance in deg (default: %(default)s)")  # fmt: skip
+    p.add_argument("--jobs", type=int, default=2, metavar="N", help="concurrent simulations (default: %(default)s)")
+    p.add_argument("--no-figures", action="store_true", help="write CSV/JSON only")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fsmctl compare-surfaces``: print the table, write CSV/JSON/figures; 0 on success."""
+    from fsmctl.outputs import output_folder
+    from fsmctl.model.scenario import load_scenario
+
+    scenario = load_scenario(args.scenario, case=args.case)
+    with output_folder(args.out):  # checked before the runs; removed again if nothing gets written
+        return _compare_for_cli(args, scenario)
+
+
+def _compare_for_cli(args: argparse.Namespace, scenario: Scenario) -> int:
+    from fsmctl.studies.theorem3 import plot_settling_time_against_initial_error, write_scalar_study_csv
+
+    comp = compare_surfaces(
+        scenario,
+        fast=args.fast,
+        t_final=args.t_final,
+        reach_threshold=args.reach_threshold,
+        sigma_tolerance=args.sigma_tolerance,
+        metric_tolerance_deg=args.metric_tolerance,
+        jobs=args.jobs,
+    )
+    try:
+        paths = comp.write(args.out, figures=not args.no_figures)
+        if comp.scalar_study is not None:
+            paths.append(write_scalar_study_csv(comp.scalar_study, args.out / "theorem3_scalar.csv"))
+        if not args.no_figures:
+            c = scenario.controller
+            fig = plot_settling_time_against_initial_error(c.c1, c.c2, c.alpha, args.sigma_tolerance,
+                                                           np.geomspace(2 * args.sigma_tolerance, 1.0, 6 if args.fast else 12))  # fmt: skip
+            for ext in ("png", "svg"):
+                with atomic_path(args.out / f"theorem3_scalar.{ext}") as tmp:
+                    fig.savefig(tmp, dpi=120, format=ext)
+                paths.append(args.out / f"theorem3_scalar.{ext}")
+    except OSError as exc:
+        raise environment_problem("write to", args.out, exc) from None
+    print(comp.table())
+    print(f"wrote {len(paths)} files to {args.out}", file=sys.stderr)
+    return 0

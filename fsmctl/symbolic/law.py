@@ -1,0 +1,736 @@
+"""Write a control law once, in SymPy: the public API of derivation scripts.
+
+A *law* is what one spacecraft of the formation computes.  fsmctl's engine (the compiled whole-loop
+simulator, its no-compiler fallback and the python-control plug-in) flies any law through one fixed
+per-agent contract, and aggregates the neighbours over the time-varying topology itself:
+
+1. ``law_constants(params) -> constants``: once per agent and run (e.g. ``epsilon^(alpha-1)``);
+2. ``law_local_<model>(t, sigma, omega, z, sigma_d, omega_d, omega_d_dot, J0, params, constants)
+   -> (broadcast, cache)``: what the agent sends to its neighbours, and the intermediate results the
+   torque needs (the *local stages*);
+3. ``law_control_<model>(t, sigma, omega, z, sigma_d, omega_d, omega_d_dot, J0, params, constants, cache,
+   k_sum, received, k_received_sum, u_max) -> (u, u_commanded, z_dot)``: the commanded body torque, the
+   torque the ideal actuator applies (``min(u_max, max(-u_max, u_commanded))`` per axis,
+   :func:`fsmctl.symbolic.controller.saturate`) and the derivative of the law's own states ``z``, given
+   what the agent received.
+
+What the agent receives (Liang et al. 2012, eq 19, for any broadcast ``b``), computed by the engine:
+``received = sum_j k^j_ij(t) b_j`` over the links ``j -> i`` active at ``t``, ``k_sum = sum_j k^i_ij`` and
+``k_received_sum = sum_j k^j_ij(t)``; so ``k_sum b_i - received`` is the paper's coordination term and
+``k_received_sum b_i - received`` the usual consensus term ``sum_j a_ij(t) (b_i - b_j)``.
+``<model>`` is ``paper`` or ``exact``: the error kinematics (eqs 7-8 as printed, or exact), chosen per run.
+
+A derivation script is a Python file that defines ``law(error_model) -> Law``, built with
+:class:`LawBuilder`::
+
+    import sympy as sp
+    from fsmctl.symbolic.law import LawBuilder
+
+    def law(error_model):
+        b = LawBuilder("pd", error_model, doc="MRP PD with consensus on the attitude error")
+        K = b.parameter("K", 1.0, unit="N m", minimum=0.0, doc="attitude gain")
+        P = b.parameter("P", 10.0, unit="N m s", minimum=0.0, doc="rate gain")
+        e = b.error_state()                      # sigma_e, omega_e, omega_r, omega_r_dot (stages)
+        b.broadcast("sigma_e", e.sigma_e)        # the neighbours receive sum_j k^j_ij sigma_e_j
+        u = -K * e.sigma_e - P * e.omega_e - K * (b.k_sum * e.sigma_e - b.received)
+        b.torque(u)
+        return b.build()
+
+``fsmctl derive FILE.py`` checks and generates it; ``fsmctl simulate --law FILE.py`` flies it.
+
+Pure SymPy: no NumPy, no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+from fsmctl.symbolic.functions import FunctionSpec
+from fsmctl.symbolic.controller import saturate
+from fsmctl.symbolic.model import ErrorModel, reference_acceleration_in_body, reference_rate_in_body
+from fsmctl.symbolic.mrp import mrp_error
+from fsmctl.symbolic.symbols import DerivationInputError, symmetric_matrix_symbols, vector_symbols
+
+__all__ = [
+    "AGENT_INPUTS",
+    "ErrorState",
+    "Law",
+    "LawBuilder",
+    "LawDefinitionError",
+    "LawParameter",
+    "LawState",
+    "Lyapunov",
+    "contract_names",
+]
+
+AGENT_INPUTS: tuple[str, ...] = ("t", "sigma", "omega", "z", "sigma_d", "omega_d", "omega_d_dot", "J0", "params", "constants")
+"""Inputs of ``law_local_*`` (and the first inputs of ``law_control_*``), in order."""
+NEIGHBOUR_INPUTS: tuple[str, ...] = ("cache", "k_sum", "received", "k_received_sum", "u_max")
+"""The further inputs of ``law_control_*``, in order."""
+
+_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
+_RESERVED = set(AGENT_INPUTS) | set(NEIGHBOUR_INPUTS) | {"u", "u_commanded", "z_dot", "broadcast"}
+
+
+class LawDefinitionError(DerivationInputError):
+    """A derivation script builds a law that breaks the contract (one line, names what is wrong)."""
+
+
+def contract_names(error_model: ErrorModel | str) -> tuple[str, str]:
+    """Names of the generated ``(local, control)`` functions for an error model."""
+    m = ErrorModel(error_model).value
+    return f"law_local_{m}", f"law_control_{m}"
+
+
+@dataclass(frozen=True)
+class LawParameter:
+    """A named parameter of a law: its default, unit, admissible range and meaning.
+
+    ``choices`` makes it an option: the scenario gives one of the strings, the generated code receives
+    its index (``choices[k] -> k``).  ``size > 1`` makes it a vector (e.g. ``delta``, 3 components).
+    """
+
+    name: str
+    default: tuple[float, ...]
+    unit: str = "1"
+    minimum: float | None = None
+    maximum: float | None = None
+    exclusive_minimum: bool = False
+    exclusive_maximum: bool = False
+    doc: str = ""
+    choices: tuple[str, ...] = ()
+    tunable: bool = True
+
+    @property
+    def size(self) -> int:
+        return len(self.default)
+
+    def range_text(self) -> str:
+        if self.choices:
+            return " | ".join(self.choices)
+        lo = "" if self.minimum is None else f"{self.minimum:g} {'<' if self.exclusive_minimum else '<='} "
+        hi = "" if self.maximum is None else f" {'<' if self.exclusive_maximum else '<='} {self.maximum:g}"
+        return f"{lo}{self.name}{hi}" if (lo or hi) else "any real"
+
+    def problem(self, value: float) -> str | None:
+        """Why ``value`` (one component) is outside the range, or None."""
+        if not math.isfinite(value):
+            return f"must be finite, got {value!r}"
+        if self.minimum is not None and (value <= self.minimum if self.exclusive_minimum else value < self.minimum):
+            return f"must be {'>' if self.exclusive_minimum else '>='} {self.minimum:g}, got {value:g}"
+        if self.maximum is not None and (value >= self.maximum if self.exclusive_maximum else value > self.maximum):
+            return f"must be {'<' if self.exclusive_maximum else '<='} {self.maximum:g}, got {value:g}"
+        return None
+
+    def to_dict(self) -> dict:
+        return {
+            "name": self.name,
+            "default": list(self.default) if self.size > 1 else self.default[0],
+            "size": self.size,
+            "unit": self.unit,
+            "minimum": self.minimum,
+            "maximum": self.maximum,
+            "exclusive_minimum": self.exclusive_minimum,
+            "exclusive_maximum": self.exclusive_maximum,
+            "choices": list(self.choices),
+            "tunable": self.tunable,
+            "doc": self.doc,
+        }
+
+
+@dataclass(frozen=True)
+class LawState:
+    """A state of the law (integral term, adaptive gain, observer), integrated together with the plant."""
+
+    name: str
+    initial: tuple[float, ...]
+    unit: str = ""
+    doc: str = ""
+
+    @property
+    def size(self) -> int:
+        return len(self.initial)
+
+    def to_dict(self) -> dict:
+        return {"name": self.name, "size": self.size, "initial": list(self.initial), "unit": self.unit, "doc": self.doc}
+
+
+@dataclass(frozen=True)
+class Lyapunov:
+    """A Lyapunov candidate declared by a law, for ``fsmctl prove --law``.
+
+    ``V`` is written in the agent's symbols (``sigma``, ``omega``, ``z``, the parameters, ``J0``);
+    the proof check evaluates its derivative along the isolated agent's closed loop (``J = J0``, no
+    disturbance, no neighbours, the reference at rest, so ``sigma_e = sigma`` and ``omega_e = omega``).
+    ``claimed_derivative``, if given, is what ``V_dot`` should simplify to (e.g. ``-omega^T P omega``); it
+    must be manifestly non-positive for the check to call it a proof.  ``region`` bounds the numeric
+    evidence when no symbolic proof is found: ``{"sigma": 1.0, "omega": 0.5, "z": 1.0}`` (norm bounds).
+    """
+
+    V: sp.Expr
+    claimed_derivative: sp.Expr | None = None
+    region: tuple[tuple[str, float], ...] = (("sigma", 1.0), ("omega", 0.5), ("z", 1.0))
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class ErrorState:
+    """The error state of an agent, as stage symbols (Liang et al. 2012, eqs 5-8)."""
+
+    sigma_e: sp.ImmutableMatrix
+    omega_e: sp.ImmutableMatrix
+    omega_r: sp.ImmutableMatrix
+    omega_r_dot: sp.ImmutableMatrix
+
+
+@dataclass(frozen=True)
+class Law:
+    """A control law, checked and split into the engine's contract (see the module docstring).
+
+    Build one with :class:`LawBuilder`; :meth:`function_specs` gives what :mod:`fsmctl.codegen` generates.
+    """
+
+    name: str
+    doc: str
+    reference: str
+    error_model: ErrorModel
+    parameters: tuple[LawParameter, ...]
+    states: tuple[LawState, ...]
+    broadcast_name: str
+    symbols: Mapping[str, sp.ImmutableMatrix]
+    """the contract's input symbols by name (``t``, ``sigma``, ..., ``k_received_sum``)"""
+    constants: tuple[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix], ...]
+    local_stages: tuple[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix], ...]
+    control_stages: tuple[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix], ...]
+    cache: tuple[tuple[str, sp.ImmutableMatrix], ...]
+    """local stages the control side reads, in order, as ``(name, symbols)``"""
+    broadcast: sp.ImmutableMatrix
+    torque: sp.ImmutableMatrix
+    state_derivative: sp.ImmutableMatrix
+    lyapunov: Lyapunov | None = None
+    batched: bool = True
+
+    # -- sizes -------------------------------------------------------------------------------------
+    @property
+    def n_params(self) -> int:
+        return sum(p.size for p in self.parameters)
+
+    @property
+    def n_states(self) -> int:
+        return sum(s.size for s in self.states)
+
+    @property
+    def n_broadcast(self) -> int:
+        return self.broadcast.rows
+
+    @property
+    def n_constants(self) -> int:
+        return sum(m.rows for _, m, _ in self.constants)
+
+    @property
+    def n_cache(self) -> int:
+        return sum(len(m) for _, m in self.cache)
+
+    def parameter(self, name: str) -> LawParameter:
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    # -- symbols -----------------------------------------------------------------------------------
+    def parameter_symbols(self) -> dict[str, sp.Expr | sp.ImmutableMatrix]:
+        """Each parameter's symbol (a scalar) or column of symbols (a vector), by name."""
+        out, k = {}, 0
+        params = self.symbols["params"]
+        for p in self.parameters:
+            out[p.name] = params[k] if p.size == 1 else sp.ImmutableMatrix(params[k : k + p.size, 0])
+            k += p.size
+        return out
+
+    def state_symbols(self) -> dict[str, sp.ImmutableMatrix]:
+        out, k = {}, 0
+        z = self.symbols["z"]
+        for s in self.states:
+            out[s.name] = sp.ImmutableMatrix(z[k : k + s.size, 0])
+            k += s.size
+        return out
+
+    def expanded(self, expr) -> sp.ImmutableMatrix:
+        """``expr`` with every stage and constant symbol replaced by its definition (in agent inputs only)."""
+        expr = sp.ImmutableMatrix(expr) if isinstance(expr, sp.MatrixBase) else sp.ImmutableMatrix([expr])
+        for _, syms, value in reversed((*self.constants, *self.local_stages, *self.control_stages)):
+            expr = expr.xreplace(dict(zip(syms, value, strict=True)))
+        return expr
+
+    # -- generated functions -----------------------------------------------------------------------
+    def _inputs(self, names: Iterable[str]) -> tuple[tuple[str, sp.ImmutableMatrix], ...]:
+        return tuple((n, self.symbols[n]) for n in names)
+
+    def constants_spec(self) -> FunctionSpec:
+        values = [v for _, _, v in self.constants]
+        out = sp.ImmutableMatrix.vstack(*values) if values else sp.ImmutableMatrix.zeros(0, 1)
+        return FunctionSpec(
+            name="law_constants",
+            doc=f"{self.name}: per-agent constants {[n for n, _, _ in self.constants]} of the parameters",
+            inputs=self._inputs(("params",)),
+            outputs=(("constants", out),),
+        )
+
+    def local_spec(self) -> FunctionSpec:
+        local, _ = contract_names(self.error_model)
+        cache = [s for _, s in self.cache]
+        return FunctionSpec(
+            name=local,
+            doc=(
+                f"{self.name} ({self.error_model.value} error kinematics): what the agent broadcasts "
+                f"({self.broadcast_name}) and the cached stages {[n for n, _ in self.cache]}"
+            ),
+            inputs=self._inputs(AGENT_INPUTS),
+            stages=tuple((s, v) for _, s, v in self.local_stages),
+            outputs=(
+                ("broadcast", self.broadcast),
+                ("cache", sp.ImmutableMatrix.vstack(*cache) if cache else sp.ImmutableMatrix.zeros(0, 1)),
+            ),
+            batched=self.batched,
+        )
+
+    def control_spec(self) -> FunctionSpec:
+        _, control = contract_names(self.error_model)
+        return FunctionSpec(
+            name=control,
+            doc=(
+                f"{self.name} ({self.error_model.value} error kinematics): applied torque u (the ideal actuator's "
+                "per-axis limit u_max), commanded torque u_commanded and the law-state derivative z_dot, given "
+                "what the agent received"
+            ),
+            inputs=self._inputs(AGENT_INPUTS + NEIGHBOUR_INPUTS),
+            stages=tuple((s, v) for _, s, v in self.control_stages),
+            outputs=(
+                ("u", saturate(self.torque, self.symbols["u_max"][0])),
+                ("u_commanded", self.torque),
+                ("z_dot", self.state_derivative),
+            ),
+            batched=self.batched,
+        )
+
+    def metadata(self) -> dict:
+        """What the runtime needs to know about the law (written to ``law.json``)."""
+        return {
+            "name": self.name,
+            "doc": self.doc,
+            "reference": self.reference,
+            "parameters": [p.to_dict() for p in self.parameters],
+            "states": [s.to_dict() for s in self.states],
+            "broadcast": {"name": self.broadcast_name, "size": self.n_broadcast},
+            "constants": [{"name": n, "size": m.rows} for n, m, _ in self.constants],
+            "cache": [{"name": n, "size": len(m)} for n, m in self.cache],
+            "lyapunov": None if self.lyapunov is None else {"doc": self.lyapunov.doc},
+        }
+
+
+def _matrix(value, what: str) -> sp.ImmutableMatrix:
+    if isinstance(value, sp.MatrixBase):
+        m = sp.ImmutableMatrix(value)
+        if m.cols != 1 and m.rows == 1:
+            m = m.T
+        if m.cols != 1:
+            raise LawDefinitionError(f"{what}: expected a scalar or a column vector, got shape {m.shape}")
+        return m
+    if isinstance(value, (list, tuple)):
+        return sp.ImmutableMatrix([sp.sympify(v) for v in value])
+    try:
+        return sp.ImmutableMatrix([sp.sympify(value)])
+    except (sp.SympifyError, TypeError) as exc:
+        raise LawDefinitionError(f"{what}: not a SymPy expression: {value!r}") from exc
+
+
+def _floats(value, what: str) -> tuple[float, ...]:
+    items = list(value) if isinstance(value, (list, tuple)) else [value]
+    out = []
+    for v in items:
+        if isinstance(v, bool) or not isinstance(v, (int, float, sp.Number)):
+            raise LawDefinitionError(f"{what}: expected numbers, got {v!r}")
+        out.append(float(v))
+    return tuple(out)
+
+
+class LawBuilder:
+    """Build a :class:`Law` step by step (see the module docstring for an example).
+
+    Parameters
+    ----------
+    name : str
+        The law's name (letters, digits, ``_``): what ``fsmctl laws`` lists and ``--law`` selects.
+    error_model : ErrorModel or str
+        ``"paper"`` (eqs 7-8 as printed: ``omega_r = omega_d``) or ``"exact"`` (``omega_r = C omega_d``);
+        a derivation script's ``law(error_model)`` receives it and passes it on.
+    doc : str
+        One line saying what the law is.
+    reference : str
+        Where it comes from (a citation).
+
+    Attributes
+    ----------
+    t : Symbol
+        time, s
+    sigma, omega : Matrix
+        the agent's attitude (MRP, body to inertial) and body rate (rad/s), as it measures them
+    sigma_d, omega_d, omega_d_dot : Matrix
+        the reference attitude (MRP), its rate and angular acceleration (rad/s, rad/s^2; inertial-frame
+        components as printed in Section 4)
+    J0 : Matrix
+        the nominal inertia the controller knows (kg m^2, symmetric)
+    """
+
+    def __init__(self, name: str, error_model: ErrorModel | str = ErrorModel.PAPER, *, doc: str, reference: str = ""):
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise LawDefinitionError(f"law name must be letters, digits and _ (starting with a letter), got {name!r}")
+        try:
+            self.error_model = ErrorModel(error_model)
+        except ValueError:
+            raise LawDefinitionError(f"error_model must be 'paper' or 'exact', got {error_model!r}") from None
+        self.name, self.doc, self.reference = name, str(doc), str(reference)
+        self.t = sp.Symbol("t", real=True)
+        self.sigma, self.omega = vector_symbols("sigma"), vector_symbols("omega")
+        self.sigma_d, self.omega_d = vector_symbols("sigma_d"), vector_symbols("omega_d")
+        self.omega_d_dot = vector_symbols("omega_d_dot")
+        self.J0 = symmetric_matrix_symbols("J0")
+        self._parameters: list[LawParameter] = []
+        self._param_symbols: list[sp.Symbol] = []
+        self._states: list[LawState] = []
+        self._state_symbols: list[sp.Symbol] = []
+        self._derivatives: dict[str, sp.ImmutableMatrix] = {}
+        self._constants: list[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix]] = []
+        self._stages: list[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix]] = []
+        self._names: set[str] = set()
+        self._broadcast: tuple[str, sp.ImmutableMatrix] | None = None
+        self._neighbour: dict[str, sp.ImmutableMatrix] = {}
+        self._torque: sp.ImmutableMatrix | None = None
+        self._error: ErrorState | None = None
+        self._lyapunov: Lyapunov | None = None
+        self.batched = True
+
+    # -- declarations -----------------------------------------------------------------------------
+    def _claim(self, name: str, what: str) -> None:
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise LawDefinitionError(f"{self.name}: {what} name must be letters, digits and _, got {name!r}")
+        if name in self._names or name in _RESERVED:
+            raise LawDefinitionError(f"{self.name}: the name {name!r} is already used (or reserved)")
+        self._names.add(name)
+
+    def parameter(
+        self,
+        name: str,
+        default,
+        *,
+        unit: str = "1",
+        minimum: float | None = None,
+        maximum: float | None = None,
+        exclusive_minimum: bool = False,
+        exclusive_maximum: bool = False,
+        doc: str = "",
+        choices: Sequence[str] = (),
+        tunable: bool = True,
+    ):
+        """Declare a named parameter; returns its symbol (a column of symbols for a vector default).
+
+        A scenario sets it by name under ``[controller]``; ``choices`` makes it an option whose symbol
+        takes the index of the chosen string.
+        """
+        self._claim(name, "parameter")
+        if choices:
+            choices = tuple(str(c) for c in choices)
+            if default not in choices:
+                raise LawDefinitionError(f"{self.name}: parameter {name}: default {default!r} is not in {choices}")
+            values = (float(choices.index(default)),)
+            minimum, maximum, tunable = 0.0, float(len(choices) - 1), False
+        else:
+            values = _floats(default, f"{self.name}: parameter {name} default")
+        p = LawParameter(
+            name, values, str(unit), None if minimum is None else float(minimum),
+            None if maximum is None else float(maximum), bool(exclusive_minimum), bool(exclusive_maximum),
+            str(doc), tuple(choices), bool(tunable),
+        )  # fmt: skip
+        if not choices:
+            for v in values:
+                if (why := p.problem(v)) is not None:
+                    raise LawDefinitionError(f"{self.name}: parameter {name}: default {why}")
+        self._parameters.append(p)
+        symbols = [sp.Symbol(name if p.size == 1 else f"{name}[{k}]", real=True) for k in range(p.size)]
+        self._param_symbols.extend(symbols)
+        return symbols[0] if p.size == 1 else sp.ImmutableMatrix(symbols)
+
+    def state(self, name: str, size: int = 3, *, initial=0.0, unit: str = "", doc: str = "") -> sp.ImmutableMatrix:
+        """Declare a law state of ``size`` components (integrated with the plant); returns its symbols.
+
+        Give its derivative with :meth:`derivative`.  ``initial`` is a number or ``size`` numbers.
+        """
+        self._claim(name, "state")
+        if isinstance(size, bool) or not isinstance(size, int) or size < 1:
+            raise LawDefinitionError(f"{self.name}: state {name}: size must be a positive integer, got {size!r}")
+        init = _floats(initial, f"{self.name}: state {name} initial value")
+        if len(init) == 1:
+            init = init * size
+        if len(init) != size:
+            raise LawDefinitionError(f"{self.name}: state {name}: {len(init)} initial values for size {size}")
+        self._states.append(LawState(name, init, str(unit), str(doc)))
+        symbols = [sp.Symbol(f"{name}[{k}]", real=True) for k in range(size)]
+        self._state_symbols.extend(symbols)
+        return sp.ImmutableMatrix(symbols)
+
+    def constant(self, name: str, expr):
+        """A per-agent constant computed once per run from the parameters only; returns its symbol(s)."""
+        self._claim(name, "constant")
+        value = _matrix(expr, f"{self.name}: constant {name}")
+        allowed = set(self._param_symbols)
+        extra = value.free_symbols - allowed
+        if extra:
+            raise LawDefinitionError(
+                f"{self.name}: constant {name} may depend on parameters only, not {sorted(map(str, extra))}"
+            )
+        symbols = self._symbols(name, value.rows)
+        self._constants.append((name, symbols, value))
+        return symbols[0] if value.rows == 1 and not isinstance(expr, sp.MatrixBase) else symbols
+
+    def stage(self, name: str, expr):
+        """An intermediate result, computed once per evaluation; returns symbols standing for it.
+
+        Stages that do not depend on what the agent receives are evaluated with the broadcast (and the
+        ones the torque reads are passed on in ``cache``); the others with the torque.
+        """
+        self._claim(name, "stage")
+        value = _matrix(expr, f"{self.name}: stage {name}")
+        symbols = self._symbols(name, value.rows)
+        self._stages.append((name, symbols, value))
+        return symbols[0] if value.rows == 1 and not isinstance(expr, (sp.MatrixBase, list, tuple)) else symbols
+
+    def _symbols(self, name: str, n: int) -> sp.ImmutableMatrix:
+        # plain symbols (not Dummy): generated code must not depend on how many Dummies exist (byte-reproducible);
+        # the names are unique because every declared name is (see _claim)
+        return sp.ImmutableMatrix([sp.Symbol(f"{name}[{k}]" if n > 1 else name, real=True) for k in range(n)])
+
+    def error_state(self) -> ErrorState:
+        """The error state of the law's error model, as stages (Liang et al. 2012, eqs 5-8).
+
+        ``sigma_e = sigma (x) sigma_d^-1`` in the shadow set, ``omega_r`` the reference rate in the body
+        frame (``omega_d`` in the paper's model, ``C(sigma_e) omega_d`` in the exact one),
+        ``omega_e = omega - omega_r`` and ``omega_r_dot`` its body-frame derivative.  Called twice, it
+        returns the same stages.
+        """
+        if self._error is None:
+            se = self.stage("sigma_e", mrp_error(self.sigma, self.sigma_d))
+            wr = self.stage("omega_r", reference_rate_in_body(self.error_model, se, self.omega_d))
+            we = self.stage("omega_e", self.omega - wr)
+            wrd = self.stage(
+                "omega_r_dot", reference_acceleration_in_body(self.error_model, se, we, self.omega_d, self.omega_d_dot)
+            )
+            self._error = ErrorState(se, we, wr, wrd)
+        return self._error
+
+    def broadcast(self, name: str, expr) -> None:
+        """Declare what the agent sends to its neighbours (a vector; e.g. the sliding variable ``s``).
+
+        Afterwards :attr:`received`, :attr:`k_sum` and :attr:`k_received_sum` are available.
+        """
+        if self._broadcast is not None:
+            raise LawDefinitionError(f"{self.name}: broadcast is declared twice")
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise LawDefinitionError(f"{self.name}: broadcast name must be letters, digits and _, got {name!r}")
+        value = _matrix(expr, f"{self.name}: broadcast {name}")
+        self._broadcast = (name, value)
+        self._neighbour = {
+            "k_sum": sp.ImmutableMatrix([sp.Symbol("k_sum", real=True)]),
+            "received": vector_symbols("received", value.rows),
+            "k_received_sum": sp.ImmutableMatrix([sp.Symbol("k_received_sum", real=True)]),
+        }
+
+    def _neighbour_symbol(self, key: str):
+        if self._broadcast is None:
+            raise LawDefinitionError(f"{self.name}: declare the broadcast before using what the agent receives")
+        return self._neighbour[key]
+
+    @property
+    def received(self) -> sp.ImmutableMatrix:
+        """``sum_j k^j_ij(t) b_j``: the weighted sum of the neighbours' broadcasts (eq 19)."""
+        return self._neighbour_symbol("received")
+
+    @property
+    def k_sum(self) -> sp.Symbol:
+        """``sum_j k^i_ij``: the agent's own constant weights of its incoming links (eq 19)."""
+        return self._neighbour_symbol("k_sum")[0]
+
+    @property
+    def k_received_sum(self) -> sp.Symbol:
+        """``sum_j k^j_ij(t)``: the total weight of what the agent receives at ``t``."""
+        return self._neighbour_symbol("k_received_sum")[0]
+
+    def torque(self, u) -> None:
+        """The commanded body torque (3 components, N m), before the actuator's limit."""
+        if self._torque is not None:
+            raise LawDefinitionError(f"{self.name}: torque is declared twice")
+        u = _matrix(u, f"{self.name}: torque")
+        if u.shape != (3, 1):
+            raise LawDefinitionError(f"{self.name}: torque must have 3 components, got {u.rows}")
+        self._torque = u
+
+    def derivative(self, state: sp.ImmutableMatrix, expr) -> None:
+        """The time derivative of a law state declared with :meth:`state`."""
+        state = sp.ImmutableMatrix(state)
+        for s in self._states:
+            k = self._state_offset(s.name)
+            if tuple(state) == tuple(self._state_symbols[k : k + s.size]):
+                value = _matrix(expr, f"{self.name}: derivative of {s.name}")
+                if value.rows != s.size:
+                    raise LawDefinitionError(
+                        f"{self.name}: derivative of {s.name} has {value.rows} components, the state {s.size}"
+                    )
+                if s.name in self._derivatives:
+                    raise LawDefinitionError(f"{self.name}: derivative of {s.name} is given twice")
+                self._derivatives[s.name] = value
+                return
+        raise LawDefinitionError(f"{self.name}: derivative(): the first argument must be a state from state()")
+
+    def _state_offset(self, name: str) -> int:
+        k = 0
+        for s in self._states:
+            if s.name == name:
+                return k
+            k += s.size
+        raise KeyError(name)
+
+    def lyapunov(self, V, *, claimed_derivative=None, region: Mapping[str, float] | None = None, doc: str = "") -> None:
+        """Declare a Lyapunov candidate for ``fsmctl prove --law`` (see :class:`Lyapunov`)."""
+        region = dict(region or {"sigma": 1.0, "omega": 0.5, "z": 1.0})
+        for key, bound in region.items():
+            if key not in ("sigma", "omega", "z") or not (isinstance(bound, (int, float)) and bound > 0):
+                raise LawDefinitionError(f"{self.name}: lyapunov region: {key}={bound!r} (keys sigma, omega, z; > 0)")
+        self._lyapunov = Lyapunov(
+            sp.sympify(V),
+            None if claimed_derivative is None else sp.sympify(claimed_derivative),
+            tuple(sorted((k, float(v)) for k, v in region.items())),
+            str(doc),
+        )
+
+    # -- build --------------------------------------------------------------------------------------
+    def build(self) -> Law:
+        """Check the law against the contract and split it into the generated functions."""
+        if self._broadcast is None:
+            raise LawDefinitionError(f"{self.name}: no broadcast declared (what the agent sends to its neighbours)")
+        if self._torque is None:
+            raise LawDefinitionError(f"{self.name}: no torque declared")
+        missing = [s.name for s in self._states if s.name not in self._derivatives]
+        if missing:
+            raise LawDefinitionError(f"{self.name}: states without a derivative: {missing}")
+        n_params = len(self._param_symbols)
+        symbols = {
+            "t": sp.ImmutableMatrix([self.t]),
+            "sigma": self.sigma,
+            "omega": self.omega,
+            "z": sp.ImmutableMatrix(self._state_symbols) if self._state_symbols else sp.ImmutableMatrix.zeros(0, 1),
+            "sigma_d": self.sigma_d,
+            "omega_d": self.omega_d,
+            "omega_d_dot": self.omega_d_dot,
+            "J0": self.J0,
+            "params": sp.ImmutableMatrix(self._param_symbols) if n_params else sp.ImmutableMatrix.zeros(0, 1),
+        }
+        const_syms = [s for _, m, _ in self._constants for s in m]
+        symbols["constants"] = sp.ImmutableMatrix(const_syms) if const_syms else sp.ImmutableMatrix.zeros(0, 1)
+        agent = set().union(*(m.free_symbols for m in symbols.values()))
+        neighbour = set().union(*(m.free_symbols for m in self._neighbour.values()))
+        # split the stages: a stage is on the control side if it reads a neighbour input or a control stage
+        local, control, control_syms = [], [], set(neighbour)
+        known = set(agent)
+        for name, syms, value in self._stages:
+            free = value.free_symbols
+            unknown = free - known - neighbour - set(self._param_symbols)
+            if unknown:
+                raise LawDefinitionError(
+                    f"{self.name}: stage {name} uses symbols that are no input of the law: {sorted(map(str, unknown))}"
+                )
+            (control if free & control_syms else local).append((name, syms, value))
+            if free & control_syms:
+                control_syms |= set(syms)
+            known |= set(syms)
+        bname, bvalue = self._broadcast
+        outputs = {"broadcast": bvalue, "torque": self._torque}
+        derivative = (
+            sp.ImmutableMatrix.vstack(*(self._derivatives[s.name] for s in self._states))
+            if self._states
+            else sp.ImmutableMatrix.zeros(0, 1)
+        )
+        outputs["state derivative"] = derivative
+        for what, value in outputs.items():
+            unknown = value.free_symbols - known - neighbour
+            if unknown:
+                raise LawDefinitionError(
+                    f"{self.name}: {what} uses symbols that are no input of the law: {sorted(map(str, unknown))}"
+                )
+        if bvalue.free_symbols & control_syms:
+            raise LawDefinitionError(f"{self.name}: the broadcast must not depend on what the agent receives")
+        # the local stages the control side reads
+        needed = set().union(self._torque.free_symbols, derivative.free_symbols)
+        for _, _, value in control:
+            needed |= value.free_symbols
+        cache = tuple((name, syms) for name, syms, _ in local if set(syms) & needed)
+        symbols["cache"] = (
+            sp.ImmutableMatrix([s for _, m in cache for s in m]) if cache else sp.ImmutableMatrix.zeros(0, 1)
+        )
+        symbols.update(self._neighbour)
+        symbols["u_max"] = sp.ImmutableMatrix([sp.Symbol("u_max", real=True)])
+        return Law(
+            name=self.name,
+            doc=self.doc,
+            reference=self.reference,
+            error_model=self.error_model,
+            parameters=tuple(self._parameters),
+            states=tuple(self._states),
+            broadcast_name=bname,
+            symbols=symbols,
+            constants=tuple(self._constants),
+            local_stages=tuple(local),
+            control_stages=tuple(control),
+            cache=cache,
+            broadcast=bvalue,
+            torque=self._torque,
+            state_derivative=derivative,
+            lyapunov=self._lyapunov,
+            batched=self.batched,
+        )
+
+
+@dataclass(frozen=True)
+class LawVariants:
+    """A law derived for both error models (what a derivation script's ``law(error_model)`` yields)."""
+
+    paper: Law
+    exact: Law
+    extra: tuple[FunctionSpec, ...] = field(default=())
+
+    @property
+    def name(self) -> str:
+        return self.paper.name
+
+    def __iter__(self):
+        return iter((self.paper, self.exact))
+
+
+def law_variants(build, extra: Sequence[FunctionSpec] = ()) -> LawVariants:
+    """Call a derivation script's ``law(error_model)`` for both error models and check they agree."""
+    laws = []
+    for model in (ErrorModel.PAPER, ErrorModel.EXACT):
+        law = build(model)
+        if not isinstance(law, Law):
+            raise LawDefinitionError(f"law({model.value!r}) must return LawBuilder(...).build(), got {type(law).__name__}")
+        if law.error_model is not model:
+            raise LawDefinitionError(f"law({model.value!r}) built a law for the {law.error_model.value} error model")
+        laws.append(law)
+    a, b = laws
+    for what in ("name", "parameters", "states", "broadcast_name", "n_broadcast", "n_constants"):
+        if getattr(a, what) != getattr(b, what):
+            raise LawDefinitionError(f"{a.name}: the paper and exact variants differ in {what}")
+    return LawVariants(a, b, tuple(extra))
