@@ -1,8 +1,12 @@
-"""Benchmarks of fsmctl, measured side by side in one run (``python benchmarks/run.py [--quick]``).
+"""Benchmarks of fsmctl, measured side by side in one run (``python benchmarks/run.py [--quick] [--only ...]``).
 
 Writes ``benchmarks/results.json`` (every measurement) and ``benchmarks/results.md`` (tables).
 Machines are shared and noisy: every timing is repeated; min and median are reported, ratios
 use the minima (the least disturbed measurement of each).
+
+No formation rule is written here: the RK4 stages, the link weights' time and the zero-order hold are the
+no-compiler fallback's (:mod:`fsmctl.simulation.casadi_formation`), the neighbour aggregation is
+:func:`fsmctl.model.coupling.aggregate`.
 
 1. Case 1 of Liang et al. (2012) at dt = 1 ms, two controller variants (boundary layer
    phi = 0.001 as in the scenario, and the discontinuous sgn(s) law, phi = 0):
@@ -14,22 +18,27 @@ use the minima (the least disturbed measurement of each).
      (SciPy RK45), under a wall-time cap, on a short horizon scaled to 100 s; swept over rtol without a
      step limit (it steps over the fast saturation switchings: the sweep records its error floor), then
      with ``max_step = dt``; the ratio uses the fastest setting at the compiled RK4's accuracy;
-   * ``numpy-rk4``: a plain RK4 loop in Python whose right-hand side is the SymPy model of
-     ``derive/`` lambdified to NumPy, vectorised over agents (no equation re-typed), short horizon;
-   * ``casadi-per-step``: the same RK4 loop calling the generated CasADi functions agent by agent.
+   * ``numpy-rk4``: a Python RK4 loop whose right-hand side is the SymPy model and law of ``derive/``
+     lambdified to NumPy, vectorised over agents (no equation re-typed; the fallback's RK4 update and the
+     coupling's aggregation), short horizon;
+   * ``casadi-per-step``: a Python loop calling the fallback's RK4 step (one CasADi call per step);
+   * ``casadi-fallback``: the no-compiler fallback itself (``simulate_casadi``: CasADi's ``mapaccum``
+     between outputs).
 
    Accuracy: the final state of each method against a tight reference (compiled RK4 at
    dt = 1e-5 s) on the same horizon; speed ratios are per simulated second.
    Then the compiled driver's two kernel paths on the 100 s Case 1 run (``simulate_packed(p,
    kernels="batched" | "scalar")``), alternated, checked bit-identical.
-2. Scaling in the number of agents n = 6, 24, 96, 384 on a ring and all-to-all: time per
+2. Every built-in law (:func:`fsmctl.model.laws.builtin_laws`) on the batched kernels: each law's Case 1,
+   100 s RK4, batched vs scalar.
+3. Scaling in the number of agents n = 6, 24, 96, 384 on a ring and all-to-all: time per
    simulated second, exponents fitted in n and in the number of links (n = 24..384).
-3. Floating-point work per right-hand side from the CasADi graphs of the generated functions
+4. Floating-point work per right-hand side from the CasADi graphs of the generated functions
    against the measured time per right-hand side on the default (batched) kernel path (achieved
    GFLOP/s vs this machine's limits).
-4. Wall times of ``fsmctl prove``, ``python -m derive --check``, ``fsmctl reproduce`` and
+5. Wall times of ``fsmctl prove``, ``python -m derive --check``, ``fsmctl reproduce`` and
    ``fsmctl compare-surfaces`` (subprocesses), against the issues' bars.
-5. A Monte Carlo campaign of Case 1 (1000 runs of 100 s at dt = 1 ms, both cores).
+6. A Monte Carlo campaign of Case 1 (1000 runs of 100 s at dt = 1 ms, both cores).
 """
 
 from __future__ import annotations
@@ -107,13 +116,16 @@ def compiled_final(scenario):
 
 def compiled_capped(scenario, cap_s: float):
     """Compiled driver with a wall-time cap (via the progress callback); returns (final state | None, info)."""
-    from fsmctl import simulator as S
     from fsmctl.model.problem import pack
+    from fsmctl.simulation import simulator as S
 
     p = pack(scenario)
-    dll = S._driver()
+    dll = S._driver(p.law)
     n, cap = p.n_agents, p.n_outputs + 1
-    bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")}
+    # the output buffers of simulate_packed
+    bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat")}
+    bufs["broadcast"] = np.zeros((cap, n, p.n_broadcast))
+    bufs["z"] = np.zeros((cap, n, p.n_states))
     bufs["t"] = np.zeros(cap)
     bufs["sigma_d"] = np.zeros((cap, 3))
     stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
@@ -230,6 +242,8 @@ class LambdifiedFunction:
         m = max(np.shape(a)[-1] if np.ndim(a) == 2 else 1 for a in arrays)
         for (_, occ), a in zip(self.inputs, arrays, strict=True):
             a = np.asarray(a, dtype=float)
+            if a.size == 0:  # an empty input (a law without states or constants): no symbols to read
+                continue
             a = a.reshape(a.shape[0], -1) if a.ndim >= 1 else a.reshape(1, 1)
             vals += [a[idx] for _, idx in occ]
         with np.errstate(all="ignore"):
@@ -238,128 +252,124 @@ class LambdifiedFunction:
             return [np.array([np.broadcast_to(v, (m,)) for v in f(*vals)]) for f in self.outputs]
 
 
-class PythonRK4:
-    """A plain RK4 loop in Python over a packed problem (the compiled driver's algorithm, in NumPy).
+class NumpyFormation:
+    """The formation in NumPy: the law's and the model's SymPy expressions lambdified, vectorised over agents.
 
-    ``backend="numpy"``: the SymPy model of ``derive/`` lambdified to NumPy, vectorised over agents;
-    ``backend="casadi"``: the generated CasADi functions called agent by agent (a Python loop per step).
+    Only the expressions are NumPy's: the formation rules are the engine's, written once elsewhere: the RK4
+    stages and the link weights' time (:func:`fsmctl.simulation.casadi_formation.rk4_update` and
+    :func:`~fsmctl.simulation.casadi_formation.step_times`), the neighbour aggregation
+    (:func:`fsmctl.model.coupling.aggregate`) and the shadow switch (the fallback's ``shadow`` function).
+    Continuous control only (the benchmark's scenarios).
     """
 
-    def __init__(self, scenario, backend: str):
+    def __init__(self, scenario):
+        from derive.catalogue import function_catalogue
+        from fsmctl.codegen.laws import load_derivation_script
         from fsmctl.model.problem import pack
+        from fsmctl.simulation.casadi_formation import FormationFunctions
 
-        self.p = pack(scenario)
-        self.n = self.p.n_agents
-        self.backend = backend
-        em = "paper" if self.p.error_model == 0 else "exact"
-        names = ["reference_rhs", f"sliding_{em}", "control_core", "disturbance_torque", "plant_rhs", "mrp_shadow"]
-        names += ["sliding_constants"]
-        if backend == "numpy":
-            from derive.catalogue import function_catalogue
+        self.p = p = pack(scenario)
+        if p.hold_steps > 0:
+            raise ValueError("NumpyFormation: continuous control only")
+        self.n = n = p.n_agents
+        law = p.law
+        variants = load_derivation_script(ROOT / law.source)  # a built-in law: derive/laws/<name>.py
+        sym = variants.exact if p.error_model == 1 else variants.paper
+        self.local = LambdifiedFunction(sym.local_spec())
+        self.control = LambdifiedFunction(sym.control_spec())
+        specs = {s.name: s for s in function_catalogue()}
+        self.f = {k: LambdifiedFunction(specs[k]) for k in ("reference_rhs", "disturbance_torque", "plant_rhs")}
+        self.shadow_fn = FormationFunctions(p).shadow
 
-            specs = {s.name: s for s in function_catalogue()}
-            self.f = {k: LambdifiedFunction(specs[k]) for k in names}
-        else:
-            from fsmctl.model.generated_code import casadi_function
+        def columns(a):  # (n, ...) per agent -> (rows * cols, n), column-major like the generated functions
+            a = np.asarray(a, dtype=float)
+            return a.transpose(0, *range(a.ndim - 1, 0, -1)).reshape(n, -1).T.copy()
 
-            self.f = {k: casadi_function(k) for k in names}
-        self.f["sliding"] = self.f[f"sliding_{em}"]
-        p = self.p
-        self.gains = p.gains.T.copy()  # (6, n)
-        self.J0 = p.J0.transpose(0, 2, 1).reshape(self.n, 9).T.copy()  # column-major (9, n)
-        self.J = p.J_true.transpose(0, 2, 1).reshape(self.n, 9).T.copy()
-        self.delta = p.delta.T.copy()
+        self.J0, self.J = columns(p.J0), columns(p.J_true)
+        self.params = columns(p.params) if p.law.n_params else np.zeros((0, n))
+        self.konst = LambdifiedFunction(sym.constants_spec())(self.params)[0].reshape(-1, n)
         self.u_max = p.u_max[None, :].copy()
-        self.dist = p.dist_params.T.copy()
+        self.dist = columns(p.dist_params)
         self.ref = p.ref_params[:, None].copy()
-        if backend == "numpy":
-            self.gc = self.f["sliding_constants"](self.gains)[0]
-        else:
-            self.gc = np.array([[float(self.f["sliding_constants"](self.gains[:, i])) for i in range(self.n)]])
-        L = p.n_links
-        self.recv_idx, self.send_idx = p.link_receiver.astype(int), p.link_sender.astype(int)
-        cmax = int(p.sched_count.max()) if L else 1
-        self.bp = np.full((L, cmax), np.inf)
-        self.bv = np.zeros((L, cmax))
-        for e in range(L):
-            s, c = p.sched_start[e], p.sched_count[e]
-            self.bp[e, :c] = p.sched_times[s : s + c]
-            self.bv[e, :c] = p.sched_values[s : s + c]
-        self.ksum = np.zeros((1, self.n))
-        np.add.at(self.ksum[0], self.recv_idx, p.link_k_i)
 
-    def weights(self, t):
-        p = self.p
-        tau = t + p.sched_phase
-        per = p.sched_period
-        tau = np.where(per > 0, tau - np.floor(tau / np.where(per > 0, per, 1.0)) * per, tau)
-        m = np.maximum(np.sum(self.bp <= tau[:, None], axis=1) - 1, 0)
-        return self.bv[np.arange(p.n_links), m]
+    def rhs(self, t, x, kw):
+        from fsmctl.model.coupling import aggregate
 
-    def rhs(self, t, x):
-        n = self.n
+        p, n, f = self.p, self.n, self.f
         sd = x[:3]
-        xa = x[3:].reshape(n, 6).T  # (6, n)
-        if self.backend == "numpy":
-            f = self.f
-            sdd, wd, wdd = (o[:, 0] for o in f["reference_rhs"](np.array([[t]]), sd[:, None], self.ref))
-            s, se, we, wr, wrd, slope = f["sliding"](
-                xa[:3], xa[3:], sd[:, None], wd[:, None], wdd[:, None], self.gains, self.gc
-            )
-            recv = np.zeros((3, n))
-            if self.p.n_links:
-                np.add.at(recv.T, self.recv_idx, (self.weights(t)[:, None] * s[:, self.send_idx].T))
-            u, _ = f["control_core"](
-                se, we, wr, wrd, s, slope, self.J0, self.gains, self.delta, self.ksum, recv, self.u_max
-            )
-            d = f["disturbance_torque"](np.array([[t]]), self.dist)[0]
-            sdot, wdot = f["plant_rhs"](xa[:3], xa[3:], u + d, self.J)
-            return np.concatenate([sdd, np.vstack([sdot, wdot]).T.ravel()])
-        f = self.f
-        sdd, wd, wdd = (np.asarray(v).ravel() for v in f["reference_rhs"](t, sd, self.p.ref_params))
-        sl = [f["sliding"](xa[:3, i], xa[3:, i], sd, wd, wdd, self.gains[:, i], self.gc[0, i]) for i in range(n)]
-        s = np.array([np.asarray(o[0]).ravel() for o in sl]).T
-        recv = np.zeros((3, n))
-        if self.p.n_links:
-            np.add.at(recv.T, self.recv_idx, (self.weights(t)[:, None] * s[:, self.send_idx].T))
-        dx = np.empty(3 + 6 * n)
-        dx[:3] = sdd
-        for i in range(n):
-            _, se, we, wr, wrd, slope = sl[i]
-            u, _ = f["control_core"](
-                se, we, wr, wrd, s[:, i], slope, self.J0[:, i].reshape(3, 3, order="F"), self.gains[:, i], self.delta[:, i],
-                self.ksum[0, i], recv[:, i], self.u_max[0, i],
-            )  # fmt: skip
-            d = f["disturbance_torque"](t, self.dist[:, i])
-            sdot, wdot = f["plant_rhs"](
-                xa[:3, i],
-                xa[3:, i],
-                np.asarray(u).ravel() + np.asarray(d).ravel(),
-                self.J[:, i].reshape(3, 3, order="F"),
-            )
-            dx[3 + 6 * i : 6 + 6 * i] = np.asarray(sdot).ravel()
-            dx[6 + 6 * i : 9 + 6 * i] = np.asarray(wdot).ravel()
-        return dx
-
-    def shadow(self, x):
-        for b in range(self.n + 1):
-            sl = slice(0, 3) if b == 0 else slice(3 + 6 * (b - 1), 6 + 6 * (b - 1))
-            if x[sl] @ x[sl] > 1.0:
-                out = self.f["mrp_shadow"](x[sl][:, None] if self.backend == "numpy" else x[sl])
-                x[sl] = np.asarray(out[0] if self.backend == "numpy" else out).ravel()
+        sdd, wd, wdd = (o[:, 0] for o in f["reference_rhs"](np.array([[t]]), sd[:, None], self.ref))
+        a = x[3:].reshape(n, p.stride).T  # (stride, n)
+        common = (
+            np.full((1, n), t), a[0:3], a[3:6], a[6:], np.repeat(sd[:, None], n, 1), np.repeat(wd[:, None], n, 1),
+            np.repeat(wdd[:, None], n, 1), self.J0, self.params, self.konst,
+        )  # fmt: skip
+        b, cache = self.local(*common)
+        b = b.reshape(-1, n)
+        received, k_sum, k_received_sum = aggregate(
+            list(b.T), kw, p.link_receiver, p.link_sender, p.link_k_i, zero=lambda: np.zeros(b.shape[0])
+        )
+        u, _, z_dot = self.control(
+            *common, cache.reshape(-1, n), k_sum[None, :], np.array(received).T.reshape(-1, n),
+            np.array(k_received_sum, dtype=float)[None, :], self.u_max,
+        )  # fmt: skip
+        d = f["disturbance_torque"](np.array([[t]]), self.dist)[0]
+        sdot, wdot = f["plant_rhs"](a[0:3], a[3:6], u + d, self.J)
+        return np.concatenate([sdd, np.vstack([sdot, wdot, z_dot.reshape(-1, n)]).T.ravel()])
 
     def run(self, t_final: float):
-        dt, x = self.p.dt, self.p.x0.copy()
-        self.shadow(x)
-        for k in range(round(t_final / dt)):
-            t = k * dt
-            k1 = self.rhs(t, x)
-            k2 = self.rhs(t + 0.5 * dt, x + 0.5 * dt * k1)
-            k3 = self.rhs(t + 0.5 * dt, x + 0.5 * dt * k2)
-            k4 = self.rhs(t + dt, x + dt * k3)
-            x = x + dt / 6.0 * (k1 + 2.0 * (k2 + k3) + k4)
-            self.shadow(x)
+        from fsmctl.simulation.casadi_formation import rk4_update, step_times
+
+        p = self.p
+        x = np.asarray(self.shadow_fn(p.x0)).ravel()
+        for k in range(round(t_final / p.dt)):
+            t, t_half, t_next, t_link = step_times(p, k)
+            kw = p.link_weights(t_link)
+
+            def f(tt, xx, kw=kw):
+                return self.rhs(tt, xx, kw)
+
+            x = np.asarray(self.shadow_fn(rk4_update(f, x, f(t, x), p.dt, t_half, t_next))).ravel()
         return x
+
+
+class CasadiStepLoop:
+    """A Python loop calling the no-compiler fallback's RK4 step (one CasADi call per step).
+
+    :meth:`fsmctl.simulation.casadi_formation.FormationFunctions.rk4_step`: the formation of ``formation.c``
+    assembled from the generated per-agent functions in CasADi (here the compiled ones when a C compiler is
+    available, as :func:`fsmctl.model.generated_code.casadi_function` loads them).
+    """
+
+    def __init__(self, scenario):
+        from fsmctl.model.problem import pack
+        from fsmctl.simulation.casadi_formation import FormationFunctions
+
+        self.p = pack(scenario)
+        self.f = FormationFunctions(self.p)
+        self.step = self.f.rk4_step()
+
+    def run(self, t_final: float):
+        from fsmctl.simulation.casadi_formation import step_times
+
+        p, f = self.p, self.f
+        xa = np.concatenate([np.asarray(f.shadow(p.x0)).ravel(), np.zeros(f.n_control)])
+        for k in range(round(t_final / p.dt)):
+            t, t_half, t_next, t_link = step_times(p, k)
+            sample = 1.0 if p.hold_steps <= 0 or k % p.hold_steps == 0 else 0.0
+            xa = np.asarray(self.step(xa, t, t_half, t_next, f.weights_arg(p.link_weights(t_link)), sample)[0]).ravel()
+        return xa[: f.nx]
+
+
+def casadi_fallback_final(scenario):
+    """The no-compiler fallback as a user gets it (:func:`fsmctl.simulation.casadi_formation.simulate_casadi`)."""
+    from fsmctl.model.problem import pack
+    from fsmctl.simulation.casadi_formation import simulate_casadi
+
+    r = simulate_casadi(pack(scenario))
+    return np.concatenate(
+        [r["sigma_d"][-1]]
+        + [np.concatenate([r["sigma"][-1, i], r["omega"][-1, i]]) for i in range(r["sigma"].shape[1])]
+    )
 
 
 # ----------------------------------------------------------------------------- sections
@@ -558,12 +568,18 @@ def compare_section(quick: bool, log) -> dict:
         v["python_control"] = {
             **chosen, "equal_accuracy": bool(ok), "horizon_s": T_short, "target_error": target_err,
         }  # fmt: skip
-        # python RK4 loops (same algorithm as the compiled driver: same accuracy by construction; checked)
-        for backend in ("numpy", "casadi"):
-            log(f"  python RK4 loop ({backend})")
-            loop = PythonRK4(short, backend)
-            mn_p, md_p, _, xp = timed(lambda loop=loop: loop.run(T_short), 1)
-            v[f"{backend}_rk4_loop"] = {
+        # Python loops over the engine's own rules (same algorithm as the compiled driver: same accuracy by
+        # construction; checked): NumPy expressions, the fallback's step per CasADi call, the fallback itself
+        loops = (
+            ("numpy_rk4_loop", "NumPy", lambda short=short: NumpyFormation(short).run),
+            ("casadi_rk4_loop", "CasADi per step", lambda short=short: CasadiStepLoop(short).run),
+            ("casadi_fallback", "CasADi fallback", lambda short=short: lambda T: casadi_fallback_final(short)),
+        )
+        for key, label, make in loops:
+            log(f"  python RK4 loop ({label})")
+            run = make()
+            mn_p, md_p, _, xp = timed(lambda run=run: run(T_short), 1)
+            v[key] = {
                 "horizon_s": T_short, "wall_min_s": mn_p, "wall_median_s": md_p, "per_simulated_s": mn_p / T_short,
                 "final_state_error": state_error(xp, ref_short), "difference_from_compiled": state_error(xp, xs),
             }  # fmt: skip
@@ -587,6 +603,7 @@ def compare_section(quick: bool, log) -> dict:
             ratios["python_control_over_compiled_dopri45_same_tolerance_rtol"] = e["rtol"]
         ratios["numpy_rk4_over_compiled"] = v["numpy_rk4_loop"]["per_simulated_s"] / per_compiled
         ratios["casadi_per_step_over_compiled"] = v["casadi_rk4_loop"]["per_simulated_s"] / per_compiled
+        ratios["casadi_fallback_over_compiled"] = v["casadi_fallback"]["per_simulated_s"] / per_compiled
         if phi > 0 and v.get("compiled_dopri45"):
             ratios["compiled_dopri45_over_compiled_rk4"] = v["compiled_dopri45"]["wall_min_s"] / mn
         v["ratios"] = ratios
@@ -621,7 +638,7 @@ def kernels_section(quick: bool, log) -> dict:
             raw = simulate_packed(p, kernels=k)
             walls[k].append(time.perf_counter() - t)
             loops[k].append(float(raw["wall_time"]))
-            traj = {key: raw[key] for key in ("t", "sigma_d", "sigma", "omega", "s", "u", "u_unsat")}
+            traj = {key: raw[key] for key in ("t", "sigma_d", "sigma", "omega", "broadcast", "u", "u_unsat")}
             if k in finals:
                 deterministic &= all(
                     np.asarray(traj[key]).tobytes() == np.asarray(finals[k][key]).tobytes() for key in traj
@@ -655,6 +672,66 @@ def kernels_section(quick: bool, log) -> dict:
         f"kernels: batched {out['batched']['wall_min_s']:.3f} s, scalar {out['scalar']['wall_min_s']:.3f} s "
         f"(min of {reps}), scalar/batched = {out['scalar_over_batched_min']:.2f}; bit-identical final states"
     )
+    return out
+
+
+def laws_section(quick: bool, log) -> dict:
+    """Every built-in law (:func:`fsmctl.model.laws.builtin_laws`) on the batched kernels: Case 1, 100 s, RK4.
+
+    Each law flies the paper's Case 1 (its parameters: the scenario's where the law declares them, else its
+    defaults) through ``simulate_packed(p, kernels="batched" | "scalar")``, alternated; the C loop's time
+    (``wall_time``) and the call's are recorded, and the two paths' trajectories compared.
+    """
+    import fsmctl
+    from fsmctl.model.laws import builtin_laws
+    from fsmctl.model.problem import pack
+    from fsmctl.simulation.simulator import SimulationError, _driver, simulate_packed
+
+    sc = fsmctl.paper_scenario("1")  # 100 s at dt = 1 ms
+    reps = 2 if quick else 5
+    out: dict = {"horizon_s": sc.simulation.t_final, "dt_s": sc.simulation.dt, "repeats": reps, "laws": {}}
+    for name, law in builtin_laws().items():
+        entry: dict = {"n_states": law.n_states, "n_broadcast": law.n_broadcast, "n_params": law.n_params}
+        out["laws"][name] = entry
+        dll = _driver(law)
+        if dll is None:
+            entry["skipped"] = "no C compiler: the compiled driver is not available"
+            log(f"laws: {name}: skipped (no compiler)")
+            continue
+        paths = ("batched", "scalar") if dll.fsm_batched_available() else ("scalar",)
+        if len(paths) == 1:
+            entry["note"] = "this build has no batched kernels (the compiler lacks the vector extension)"
+        p = pack(sc, law)
+        walls = {k: [] for k in paths}
+        loops = {k: [] for k in paths}
+        first: dict = {}
+        try:
+            for r in range(reps):
+                for k in paths if r % 2 == 0 else paths[::-1]:
+                    t = time.perf_counter()
+                    raw = simulate_packed(p, kernels=k)
+                    walls[k].append(time.perf_counter() - t)
+                    loops[k].append(float(raw["wall_time"]))
+                    first.setdefault(k, raw)
+        except SimulationError as exc:
+            entry["failed"] = str(exc)
+            log(f"laws: {name}: {exc}")
+            continue
+        for k in paths:
+            entry[k] = {
+                "wall_min_s": min(walls[k]), "wall_median_s": statistics.median(walls[k]),
+                "c_loop_min_s": min(loops[k]), "c_loop_median_s": statistics.median(loops[k]),
+            }  # fmt: skip
+        if len(paths) == 2:
+            keys = ("sigma_d", "sigma", "omega", "broadcast", "z", "u", "u_unsat")
+            # equal values (array_equal: the paths may differ in the sign of a zero from fmin/fmax only)
+            entry["trajectories_equal"] = all(np.array_equal(first["batched"][k], first["scalar"][k]) for k in keys)
+            entry["scalar_over_batched_c_loop"] = entry["scalar"]["c_loop_min_s"] / entry["batched"]["c_loop_min_s"]
+        log(
+            f"laws: {name}: "
+            + ", ".join(f"{k} {entry[k]['c_loop_min_s']:.3f} s" for k in paths)
+            + (f", scalar/batched = {entry['scalar_over_batched_c_loop']:.2f}" if len(paths) == 2 else "")
+        )
     return out
 
 
@@ -765,12 +842,13 @@ SPECIAL_OPS = {"OP_SQRT", "OP_POW", "OP_CONSTPOW", "OP_SIN", "OP_COS", "OP_TAN",
                "OP_LOG", "OP_ACOS", "OP_ASIN"}  # fmt: skip
 
 
-def op_counts(name: str) -> dict:
+def op_counts(name: str, folder: Path | None = None) -> dict:
+    """Instruction counts of a generated function (``folder``: a law's folder; default the model's)."""
     import casadi as ca
 
     from fsmctl.model.generated_code import generated_dir
 
-    f = ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
+    f = ca.Function.deserialize(((folder or generated_dir()) / "casadi" / f"{name}.casadi").read_text())
     names = {getattr(ca, k): k for k in dir(ca) if k.startswith("OP_")}
     c = collections.Counter(names.get(f.instruction_id(k), str(k)) for k in range(f.n_instructions()))
     return {
@@ -785,29 +863,34 @@ def op_counts(name: str) -> dict:
 
 
 def flops_section(compare: dict, log, kernels: dict | None = None) -> dict:
-
     import fsmctl
-    from fsmctl import simulator as S
+    from fsmctl.simulation import simulator as S
 
     sc = fsmctl.paper_scenario("1")
+    law = sc.law
     n, L = sc.n_agents, len(sc.topology.links)
-    per = {
-        k: op_counts(k) for k in ("sliding_paper", "control_core", "plant_rhs", "reference_rhs", "disturbance_torque")
-    }
-    # one formation RHS: n x (sliding + control + plant) + reference + links (3 mul + 3 add each) + the
-    # disturbance, evaluated at 2 distinct times per RK4 step of 4 RHS evaluations
+    per = {k: op_counts(k, law.folder) for k in ("law_local_paper", "law_control_paper")}
+    per.update({k: op_counts(k) for k in ("plant_rhs", "reference_rhs", "disturbance_torque")})
+    agent = ("law_local_paper", "law_control_paper", "plant_rhs")
+    # one formation RHS: n x (law local + law control + plant) + reference + the aggregation (per link nb
+    # multiply-adds into received and one add into k_received_sum) + the disturbance, evaluated at 2 distinct
+    # times per RK4 step of 4 RHS evaluations
     flops = (
-        n * (per["sliding_paper"]["flops"] + per["control_core"]["flops"] + per["plant_rhs"]["flops"])
-        + per["reference_rhs"]["flops"] + 6 * L + 0.5 * n * per["disturbance_torque"]["flops"]
+        n * sum(per[k]["flops"] for k in agent)
+        + per["reference_rhs"]["flops"] + (2 * law.n_broadcast + 1) * L + 0.5 * n * per["disturbance_torque"]["flops"]
     )  # fmt: skip
     special = (
-        n * (per["sliding_paper"]["special"] + per["control_core"]["special"] + per["plant_rhs"]["special"])
+        n * sum(per[k]["special"] for k in agent)
         + per["reference_rhs"]["special"] + 0.5 * n * per["disturbance_torque"]["special"]
     )  # fmt: skip
     # time per RHS from the compare section's compiled run: fsmctl.simulate -> simulate_packed with its default
     # kernels (the lane-batched path); the flop count is the same for both paths (same instruction lists)
     kernel_path = "batched" if S.batched_kernels_preferred() else "scalar"  # what the default kernels="auto" uses
-    c = compare["variants"]["boundary_layer"]["compiled"]
+    if compare:
+        c = compare["variants"]["boundary_layer"]["compiled"]
+    else:  # the compare section was not run: time Case 1's compiled run here
+        mn, _, _, _ = timed(lambda: compiled_final(sc), 3)
+        c = {"horizon_s": sc.simulation.t_final, "wall_min_s": mn, "source": "a compiled RK4 run of Case 1 (100 s)"}
     n_steps = round(c["horizon_s"] / sc.simulation.dt)
     t_rhs = c["wall_min_s"] / (4 * n_steps)
     achieved = flops / t_rhs
@@ -838,6 +921,7 @@ def flops_section(compare: dict, log, kernels: dict | None = None) -> dict:
         "rhs_flops": flops,
         "rhs_special_functions": special,
         "rhs_time_s": t_rhs,
+        "rhs_time_source": c.get("source", "compiled RK4 run of the compare section"),
         "kernels": kernel_path,
         "achieved_gflops": achieved / 1e9,
         "by_kernel_path_c_loop": by_path,
@@ -868,7 +952,10 @@ def subprocess_section(log) -> dict:
                 "fsmctl reproduce",
                 [sys.executable, "-m", "fsmctl.cli.main", "reproduce", "--out", f"{tmp}/reproduction", "--no-progress"],
             ),
-            ("fsmctl compare-surfaces", [sys.executable, "-m", "fsmctl.cli.main", "compare-surfaces", "--out", f"{tmp}/cs"]),
+            (
+                "fsmctl compare-surfaces",
+                [sys.executable, "-m", "fsmctl.cli.main", "compare-surfaces", "--out", f"{tmp}/cs"],
+            ),
         ):
             t = time.perf_counter()
             proc = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT)
@@ -879,7 +966,7 @@ def subprocess_section(log) -> dict:
 
 
 def montecarlo_section(runs: int, log) -> dict:
-    from fsmctl import montecarlo as mc
+    from fsmctl.studies import montecarlo as mc
 
     settings = mc.CampaignSettings(runs=runs, seed=2012, chunk_size=10)
     with tempfile.TemporaryDirectory() as tmp:
@@ -918,132 +1005,132 @@ def markdown(res: dict) -> str:
         f"({m.get('cpu_model', '?')}, {m.get('cpus')} CPUs, load average at start {m['load_average_start']}, "
         f"at end {res['load_average_end']}). Total {res['total_wall_s']:.0f} s. Shared machine: min of repeats.",
         f"Compile flags: `{' '.join(m.get('compile_flags') or [])}`.",
-        "",
-        "## Case 1, dt = 1 ms: compiled vs python-control vs Python RK4 loops",
-        "",
     ]
-    c = res["compare"]
-    lines.append(
-        f"Compiled runs cover {c['horizon_full_s']:g} s; python-control and the Python loops cover "
-        f"{c['horizon_short_s']:g} s and are scaled per simulated second (wall-time cap {c['wall_cap_s']:g} s per run). "
-        "Errors: max |final state - tight reference| on the same horizon; reference: "
-        + c.get("reference", "compiled RK4 at a small step")
-        + ". python-control (SciPy RK45) is swept over rtol (atol = rtol/100) without a step limit, then with "
-        "max_step = dt; the row marked 'equal accuracy' is the fastest setting whose error is <= the compiled RK4's "
-        "on the short horizon, and its ratio uses that setting's time per simulated second."
-    )
-    lines.append("")
-    lines.append(
-        "| variant | method | horizon (s) | wall min (s) | s per simulated s | final-state error | ratio to compiled |"
-    )
-    lines.append("|---|---|---|---|---|---|---|")
-    for name, v in c["variants"].items():
-        per_c = v["compiled"]["per_simulated_s_min"]
+    c = res.get("compare")
+    if c:
+        lines += ["", "## Case 1, dt = 1 ms: compiled vs python-control vs Python RK4 loops", ""]
         lines.append(
-            f"| {name} | compiled RK4 | {v['compiled']['horizon_s']:g} | {_f(v['compiled']['wall_min_s'])} | {_f(per_c)} | {_f(v['compiled']['final_state_error'])} | 1 |"
+            f"Compiled runs cover {c['horizon_full_s']:g} s; python-control and the Python loops cover "
+            f"{c['horizon_short_s']:g} s and are scaled per simulated second (wall-time cap {c['wall_cap_s']:g} s per run). "
+            "Errors: max |final state - tight reference| on the same horizon; reference: "
+            + c.get("reference", "compiled RK4 at a small step")
+            + ". python-control (SciPy RK45) is swept over rtol (atol = rtol/100) without a step limit, then with "
+            "max_step = dt; the row marked 'equal accuracy' is the fastest setting whose error is <= the compiled RK4's "
+            "on the short horizon, and its ratio uses that setting's time per simulated second."
         )
-        d = v.get("compiled_dopri45") or {}
-        if "wall_min_s" in d:
+        lines.append("")
+        lines.append(
+            "| variant | method | horizon (s) | wall min (s) | s per simulated s | final-state error | ratio to compiled |"
+        )
+        lines.append("|---|---|---|---|---|---|---|")
+        for name, v in c["variants"].items():
+            per_c = v["compiled"]["per_simulated_s_min"]
             lines.append(
-                f"| {name} | compiled dopri45 rtol {d['rtol']:g} | {c['horizon_full_s']:g} | {_f(d['wall_min_s'])} | {_f(d['wall_min_s'] / c['horizon_full_s'])} | {_f(d['final_state_error'])} | {_f(d['wall_min_s'] / v['compiled']['wall_min_s'])} |"
+                f"| {name} | compiled RK4 | {v['compiled']['horizon_s']:g} | {_f(v['compiled']['wall_min_s'])} | {_f(per_c)} | {_f(v['compiled']['final_state_error'])} | 1 |"
             )
-        elif d:
+            d = v.get("compiled_dopri45") or {}
+            if "wall_min_s" in d:
+                lines.append(
+                    f"| {name} | compiled dopri45 rtol {d['rtol']:g} | {c['horizon_full_s']:g} | {_f(d['wall_min_s'])} | {_f(d['wall_min_s'] / c['horizon_full_s'])} | {_f(d['final_state_error'])} | {_f(d['wall_min_s'] / v['compiled']['wall_min_s'])} |"
+                )
+            elif d:
+                lines.append(
+                    f"| {name} | compiled dopri45 rtol {d['rtol']:g} | "
+                    + ("stalled: " if d["meaning"] != "ok" else "did not stall: ")
+                    + f"reached {_f(d['simulated_s_reached'])} s in {_f(d['wall_s'])} s ({d['meaning']}, {d['steps_rejected']} rejected steps) | | | | |"
+                )
+            p = v["python_control"]
+            label = f"ct.input_output_response RK45 rtol {p['rtol']:g}, " + _max_step_label(p.get("max_step"))
+            if p.get("capped"):
+                lines.append(
+                    f"| {name} | {label} | capped: reached {_f(p['simulated_s_reached'])} s in {_f(p['wall_s'])} s | | | | > {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))} |"
+                )
+            else:
+                ratio = v["ratios"].get("python_control_over_compiled")
+                lines.append(
+                    f"| {name} | {label} ({'equal accuracy' if p['equal_accuracy'] else 'NOT equal accuracy: lower bound'}) | {p['horizon_s']:g} | {_f(p['wall_s'])} | {_f(p['per_simulated_s'])} | {_f(p.get('final_state_error'))} | "
+                    + (
+                        _f(ratio)
+                        if p["equal_accuracy"]
+                        else f"> {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))}"
+                    )
+                    + " |"
+                )
+            nm = [e for e in v["python_control_sweep"] if e["max_step"] is None and "final_state_error" in e]
+            e = min(nm, key=lambda e: e["final_state_error"]) if nm else None
+            if e is not None and (e["rtol"], e["max_step"]) != (p["rtol"], p.get("max_step")):
+                lines.append(
+                    f"| {name} | ct.input_output_response RK45 rtol {e['rtol']:g}, no step limit (most accurate of that sweep) | {c['horizon_short_s']:g} | {_f(e['wall_s'])} | {_f(e['per_simulated_s'])} | {_f(e['final_state_error'])} | {_f(e['per_simulated_s'] / per_c)} |"
+                )
+            for key, label in (
+                ("numpy_rk4_loop", "NumPy RK4 loop (lambdified SymPy, the engine's rules)"),
+                ("casadi_rk4_loop", "Python RK4 loop, the fallback's step per CasADi call"),
+                ("casadi_fallback", "no-compiler fallback (simulate_casadi, mapaccum between outputs)"),
+            ):
+                q = v[key]
+                lines.append(
+                    f"| {name} | {label} | {q['horizon_s']:g} | {_f(q['wall_min_s'])} | {_f(q['per_simulated_s'])} | {_f(q['final_state_error'])} (vs compiled {_f(q['difference_from_compiled'])}) | {_f(q['per_simulated_s'] / per_c)} |"
+                )
+        lines += [
+            "",
+            "Targets: compiled >= 100x faster than ct.input_output_response, >= 50x faster than the NumPy RK4 loop.",
+            "",
+        ]
+        for name, v in c["variants"].items():
+            r = v["ratios"]
+            pc = r.get("python_control_over_compiled", r.get("python_control_over_compiled_lower_bound"))
             lines.append(
-                f"| {name} | compiled dopri45 rtol {d['rtol']:g} | "
-                + ("stalled: " if d["meaning"] != "ok" else "did not stall: ")
-                + f"reached {_f(d['simulated_s_reached'])} s in {_f(d['wall_s'])} s ({d['meaning']}, {d['steps_rejected']} rejected steps) | | | | |"
-            )
-        p = v["python_control"]
-        label = f"ct.input_output_response RK45 rtol {p['rtol']:g}, " + _max_step_label(p.get("max_step"))
-        if p.get("capped"):
-            lines.append(
-                f"| {name} | {label} | capped: reached {_f(p['simulated_s_reached'])} s in {_f(p['wall_s'])} s | | | | > {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))} |"
-            )
-        else:
-            ratio = v["ratios"].get("python_control_over_compiled")
-            lines.append(
-                f"| {name} | {label} ({'equal accuracy' if p['equal_accuracy'] else 'NOT equal accuracy: lower bound'}) | {p['horizon_s']:g} | {_f(p['wall_s'])} | {_f(p['per_simulated_s'])} | {_f(p.get('final_state_error'))} | "
+                f"* {name}: python-control / compiled dopri45 at the same tolerance (rtol {_f(r.get('python_control_over_compiled_dopri45_same_tolerance_rtol'), 'g')}, no step limit) = {_f(r.get('python_control_over_compiled_dopri45_same_tolerance'))}; "
+                f"python-control / compiled = {_f(pc)}"
                 + (
-                    _f(ratio)
-                    if p["equal_accuracy"]
-                    else f"> {_f(v['ratios'].get('python_control_over_compiled_lower_bound'))}"
+                    (
+                        " (lower bound: capped)"
+                        if v["python_control"].get("capped")
+                        else " (lower bound: not equal accuracy)"
+                    )
+                    if "python_control_over_compiled_lower_bound" in r
+                    else ""
                 )
-                + " |"
+                + " "
+                f"({'met' if pc and pc >= 100 else ('MISSED' if 'python_control_over_compiled' in r else 'undecided: lower bound < 100')}); NumPy RK4 / compiled = {_f(r['numpy_rk4_over_compiled'])} "
+                f"({'met' if r['numpy_rk4_over_compiled'] >= 50 else 'MISSED'}); CasADi-per-step / compiled = {_f(r['casadi_per_step_over_compiled'])}"
             )
-        nm = [e for e in v["python_control_sweep"] if e["max_step"] is None and "final_state_error" in e]
-        e = min(nm, key=lambda e: e["final_state_error"]) if nm else None
-        if e is not None and (e["rtol"], e["max_step"]) != (p["rtol"], p.get("max_step")):
+            pcv = v["python_control"]
             lines.append(
-                f"| {name} | ct.input_output_response RK45 rtol {e['rtol']:g}, no step limit (most accurate of that sweep) | {c['horizon_short_s']:g} | {_f(e['wall_s'])} | {_f(e['per_simulated_s'])} | {_f(e['final_state_error'])} | {_f(e['per_simulated_s'] / per_c)} |"
-            )
-        for key, label in (
-            ("numpy_rk4_loop", "NumPy RK4 loop (lambdified SymPy)"),
-            ("casadi_rk4_loop", "Python RK4 loop, CasADi per step"),
-        ):
-            q = v[key]
-            lines.append(
-                f"| {name} | {label} | {q['horizon_s']:g} | {_f(q['wall_min_s'])} | {_f(q['per_simulated_s'])} | {_f(q['final_state_error'])} (vs compiled {_f(q['difference_from_compiled'])}) | {_f(q['per_simulated_s'] / per_c)} |"
-            )
-    lines += [
-        "",
-        "Targets: compiled >= 100x faster than ct.input_output_response, >= 50x faster than the NumPy RK4 loop.",
-        "",
-    ]
-    for name, v in c["variants"].items():
-        r = v["ratios"]
-        pc = r.get("python_control_over_compiled", r.get("python_control_over_compiled_lower_bound"))
-        lines.append(
-            f"* {name}: python-control / compiled dopri45 at the same tolerance (rtol {_f(r.get('python_control_over_compiled_dopri45_same_tolerance_rtol'), 'g')}, no step limit) = {_f(r.get('python_control_over_compiled_dopri45_same_tolerance'))}; "
-            f"python-control / compiled = {_f(pc)}"
-            + (
-                (
-                    " (lower bound: capped)"
-                    if v["python_control"].get("capped")
-                    else " (lower bound: not equal accuracy)"
+                f"  python-control setting used for the ratio: rtol {pcv['rtol']:g}, atol {pcv['atol']:g}, "
+                f"{_max_step_label(pcv.get('max_step'))}: "
+                + (
+                    f"equal accuracy reached (error {_f(pcv['final_state_error'])} <= compiled RK4's {_f(pcv['target_error'])})."
+                    if pcv["equal_accuracy"]
+                    else f"equal accuracy NOT reached (target error {_f(pcv['target_error'])}); the ratio is a lower bound."
                 )
-                if "python_control_over_compiled_lower_bound" in r
-                else ""
             )
-            + " "
-            f"({'met' if pc and pc >= 100 else ('MISSED' if 'python_control_over_compiled' in r else 'undecided: lower bound < 100')}); NumPy RK4 / compiled = {_f(r['numpy_rk4_over_compiled'])} "
-            f"({'met' if r['numpy_rk4_over_compiled'] >= 50 else 'MISSED'}); CasADi-per-step / compiled = {_f(r['casadi_per_step_over_compiled'])}"
-        )
-        pcv = v["python_control"]
-        lines.append(
-            f"  python-control setting used for the ratio: rtol {pcv['rtol']:g}, atol {pcv['atol']:g}, "
-            f"{_max_step_label(pcv.get('max_step'))}: "
-            + (
-                f"equal accuracy reached (error {_f(pcv['final_state_error'])} <= compiled RK4's {_f(pcv['target_error'])})."
-                if pcv["equal_accuracy"]
-                else f"equal accuracy NOT reached (target error {_f(pcv['target_error'])}); the ratio is a lower bound."
-            )
-        )
-    lines.append("")
-    lines.append("Finding (measured in this run):")
-    lines.append("")
-    for name, v in c["variants"].items():
-        lines.append(f"* {name}: {v['finding']}")
-    lines += [
-        "",
-        "python-control sweeps (short horizon; compiled dopri45 at the same rtol, also without a step limit):",
-        "",
-        "| variant | max_step (s) | rtol | wall (s) | RHS calls | final-state error | compiled dopri45 error (steps) |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    for name, v in c["variants"].items():
-        for e in v["python_control_sweep"]:
-            d = e.get("compiled_dopri45_same_tolerance")
-            err = (
-                _f(e["final_state_error"])
-                if "final_state_error" in e
-                else f"capped at t = {_f(e.get('simulated_s_reached'))} s"
-            )
-            lines.append(
-                f"| {name} | {_f(e['max_step'], 'g') if e['max_step'] is not None else 'none'} | {e['rtol']:g} | "
-                f"{_f(e['wall_s'])} | {e['rhs_calls']} | {err} | "
-                + (f"{_f(d['final_state_error'])} ({d['steps']})" if d else "")
-                + " |"
-            )
+        lines.append("")
+        lines.append("Finding (measured in this run):")
+        lines.append("")
+        for name, v in c["variants"].items():
+            lines.append(f"* {name}: {v['finding']}")
+        lines += [
+            "",
+            "python-control sweeps (short horizon; compiled dopri45 at the same rtol, also without a step limit):",
+            "",
+            "| variant | max_step (s) | rtol | wall (s) | RHS calls | final-state error | compiled dopri45 error (steps) |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for name, v in c["variants"].items():
+            for e in v["python_control_sweep"]:
+                d = e.get("compiled_dopri45_same_tolerance")
+                err = (
+                    _f(e["final_state_error"])
+                    if "final_state_error" in e
+                    else f"capped at t = {_f(e.get('simulated_s_reached'))} s"
+                )
+                lines.append(
+                    f"| {name} | {_f(e['max_step'], 'g') if e['max_step'] is not None else 'none'} | {e['rtol']:g} | "
+                    f"{_f(e['wall_s'])} | {e['rhs_calls']} | {err} | "
+                    + (f"{_f(d['final_state_error'])} ({d['steps']})" if d else "")
+                    + " |"
+                )
     k = res.get("kernels")
     if k:
         lines += [
@@ -1068,21 +1155,47 @@ def markdown(res: dict) -> str:
             "",
             f"scalar / batched = {_f(k['scalar_over_batched_min'])} (min), {_f(k['scalar_over_batched_median'])} (median).",
         ]
-    s = res["scale"]
-    lines += [
-        "",
-        "## Scaling in the number of agents (time per simulated second)",
-        "",
-        "| topology | n | links | horizon (s) | s per simulated s |",
-        "|---|---|---|---|---|",
-    ]
-    for kind, t in s["topologies"].items():
-        for r in t["rows"]:
-            lines.append(f"| {kind} | {r['n']} | {r['links']} | {r['horizon_s']:g} | {_f(r['per_simulated_s'])} |")
-    lines.append("")
-    for kind, t in s["topologies"].items():
-        lines.append(f"* {kind}: exponent in n (24..{s['n'][-1]}) = {_f(t['exponent_in_n'])}, in links = {_f(t['exponent_in_links'])}"
-                     + (f" (target <= 1.15: {'met' if t['exponent_in_n'] <= 1.15 else 'MISSED'})" if kind == "ring" else ""))  # fmt: skip
+    lw = res.get("laws")
+    if lw:
+        lines += [
+            "",
+            "## Every built-in law on the batched kernels",
+            "",
+            f"Case 1, {lw['horizon_s']:g} s at dt = {lw['dt_s']:g} s (RK4), `simulate_packed(p, kernels=...)` "
+            f"alternated, min of {lw['repeats']}; C-loop times (the run's `wall_time`).",
+            "",
+            "| law | states | broadcast | batched C loop (s) | scalar C loop (s) | scalar / batched | equal trajectories |",
+            "|---|---|---|---|---|---|---|",
+        ]
+        for name, e in lw["laws"].items():
+            if "batched" not in e and "scalar" not in e:
+                lines.append(
+                    f"| {name} | {e['n_states']} | {e['n_broadcast']} | {e.get('skipped') or e.get('failed')} | | | |"
+                )
+                continue
+            b, sc_ = e.get("batched", {}), e.get("scalar", {})
+            eq = e.get("trajectories_equal")
+            lines.append(
+                f"| {name} | {e['n_states']} | {e['n_broadcast']} | {_f(b.get('c_loop_min_s'))} | "
+                f"{_f(sc_.get('c_loop_min_s'))} | {_f(e.get('scalar_over_batched_c_loop'))} | "
+                f"{'n/a' if eq is None else ('yes' if eq else 'NO')} |"
+            )
+    s = res.get("scale")
+    if s:
+        lines += [
+            "",
+            "## Scaling in the number of agents (time per simulated second)",
+            "",
+            "| topology | n | links | horizon (s) | s per simulated s |",
+            "|---|---|---|---|---|",
+        ]
+        for kind, t in s["topologies"].items():
+            for r in t["rows"]:
+                lines.append(f"| {kind} | {r['n']} | {r['links']} | {r['horizon_s']:g} | {_f(r['per_simulated_s'])} |")
+        lines.append("")
+        for kind, t in s["topologies"].items():
+            lines.append(f"* {kind}: exponent in n (24..{s['n'][-1]}) = {_f(t['exponent_in_n'])}, in links = {_f(t['exponent_in_links'])}"
+                         + (f" (target <= 1.15: {'met' if t['exponent_in_n'] <= 1.15 else 'MISSED'})" if kind == "ring" else ""))  # fmt: skip
     sr = res.get("smooth_ring")
     if sr:
         lines += [
@@ -1108,41 +1221,42 @@ def markdown(res: dict) -> str:
                 f"as accurate, {e['fastest_compiled_at_least_as_accurate']} (error {_f(e['compiled_error'])}): "
                 f"{_f(e['python_control_over_compiled'])}x"
             )
-    fl = res["flops"]
-    lines += [
-        "",
-        "## Floating-point work per right-hand side (Case 1, 6 agents, 30 links)",
-        "",
-        f"{fl['rhs_flops']:.0f} flops (+,-,*,/ of the CasADi graphs) and {fl['rhs_special_functions']:.0f} pow/sqrt/sin/cos per RHS; "
-        f"measured {fl['rhs_time_s'] * 1e6:.2f} us per RHS on the default `{fl.get('kernels', 'batched')}` kernel path "
-        "(compiled RK4 run of the compare section) "
-        f"-> {fl['achieved_gflops']:.2f} GFLOP/s = "
-        f"{fl['fraction_of_scalar_peak']:.0%} of a 2-flop/cycle scalar peak ({fl['scalar_peak_gflops_2_per_cycle']:.1f} GFLOP/s) and "
-        f"{fl['fraction_of_matmul']:.1%} of single-thread dense matmul ({fl['matmul_single_thread_gflops']:.1f} GFLOP/s). "
-        "The flop count is that of the CasADi instruction lists, the same for both kernel paths"
-        + (
-            "; C-loop time per RHS of the kernels section: "
-            + ", ".join(
-                f"{kp} {q['rhs_time_s'] * 1e6:.2f} us ({q['achieved_gflops']:.2f} GFLOP/s)"
-                for kp, q in fl["by_kernel_path_c_loop"].items()
+    fl = res.get("flops")
+    if fl:
+        lines += [
+            "",
+            "## Floating-point work per right-hand side (Case 1, 6 agents, 30 links)",
+            "",
+            f"{fl['rhs_flops']:.0f} flops (+,-,*,/ of the CasADi graphs) and {fl['rhs_special_functions']:.0f} pow/sqrt/sin/cos per RHS; "
+            f"measured {fl['rhs_time_s'] * 1e6:.2f} us per RHS on the default `{fl.get('kernels', 'batched')}` kernel path "
+            f"({fl.get('rhs_time_source', 'compiled RK4 run of the compare section')}) "
+            f"-> {fl['achieved_gflops']:.2f} GFLOP/s = "
+            f"{fl['fraction_of_scalar_peak']:.0%} of a 2-flop/cycle scalar peak ({fl['scalar_peak_gflops_2_per_cycle']:.1f} GFLOP/s) and "
+            f"{fl['fraction_of_matmul']:.1%} of single-thread dense matmul ({fl['matmul_single_thread_gflops']:.1f} GFLOP/s). "
+            "The flop count is that of the CasADi instruction lists, the same for both kernel paths"
+            + (
+                "; C-loop time per RHS of the kernels section: "
+                + ", ".join(
+                    f"{kp} {q['rhs_time_s'] * 1e6:.2f} us ({q['achieved_gflops']:.2f} GFLOP/s)"
+                    for kp, q in fl["by_kernel_path_c_loop"].items()
+                )
+                if fl.get("by_kernel_path_c_loop")
+                else ""
             )
-            if fl.get("by_kernel_path_c_loop")
-            else ""
-        )
-        + ".",
-        "",
-        "| function | instructions | flops | pow/sqrt/trig | other (fmin/fmax/if/sign) |",
-        "|---|---|---|---|---|",
-    ]
-    for k, v in fl["per_function"].items():
-        lines.append(f"| {k} | {v['instructions']} | {v['flops']} | {v['special']} | {v['other']} |")
+            + ".",
+            "",
+            "| function | instructions | flops | pow/sqrt/trig | other (fmin/fmax/if/sign) |",
+            "|---|---|---|---|---|",
+        ]
+        for k, v in fl["per_function"].items():
+            lines.append(f"| {k} | {v['instructions']} | {v['flops']} | {v['special']} | {v['other']} |")
     lines += ["", "## Tool wall times", ""]
-    for k, v in res.get("subprocess", {}).items():
+    for k, v in (res.get("subprocess") or {}).items():
         bar = v.get("bar_s")
         verdict = "" if bar is None else f"; bar <= {bar:g} s: {'met' if v['wall_s'] <= bar else 'MISSED'}"
         lines.append(f"* `{k}`: {_f(v['wall_s'])} s (exit {v['exit_code']}{verdict})")
     if not res.get("subprocess"):
-        lines.append("* skipped (--quick)")
+        lines.append("* skipped (--quick or not selected)")
     mc = res.get("montecarlo")
     if mc:
         lines += [
@@ -1157,11 +1271,21 @@ def markdown(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+SECTIONS = ("compare", "kernels", "laws", "scale", "smooth_ring", "flops", "subprocess", "montecarlo")
+"""The sections of a run, in order (``--only`` selects some)."""
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="shorter horizons, fewer repeats (about 2 minutes)")
     ap.add_argument("--montecarlo-runs", type=int, default=None, help="Monte Carlo runs (default 1000, quick 20)")
     ap.add_argument("--out", default=str(HERE), help="folder for results.json / results.md")
+    ap.add_argument(
+        "--only",
+        metavar="SECTIONS",
+        default=None,
+        help=f"comma-separated sections to run (default all): {', '.join(SECTIONS)}",
+    )
     args = ap.parse_args(argv)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     t0 = time.perf_counter()
@@ -1169,15 +1293,25 @@ def main(argv=None) -> int:
     def log(msg):
         print(f"[{time.perf_counter() - t0:6.1f} s] {msg}", file=sys.stderr, flush=True)
 
+    only = set(SECTIONS) if args.only is None else {x.strip() for x in args.only.split(",") if x.strip()}
+    unknown = sorted(only - set(SECTIONS))
+    if unknown:
+        ap.error(f"--only: unknown section(s) {', '.join(unknown)}; choose from {', '.join(SECTIONS)}")
     res = {"quick": args.quick, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "machine": machine_info()}
-    res["compare"] = compare_section(args.quick, log)
-    res["kernels"] = kernels_section(args.quick, log)
-    res["scale"] = scale_section(args.quick, log)
-    res["smooth_ring"] = smooth_ring_section(args.quick, log)
-    res["flops"] = flops_section(res["compare"], log, res["kernels"])
-    res["subprocess"] = {} if args.quick else subprocess_section(log)
+    res["sections"] = [k for k in SECTIONS if k in only]
+
+    def section(key, run):
+        res[key] = run() if key in only else None
+
+    section("compare", lambda: compare_section(args.quick, log))
+    section("kernels", lambda: kernels_section(args.quick, log))
+    section("laws", lambda: laws_section(args.quick, log))
+    section("scale", lambda: scale_section(args.quick, log))
+    section("smooth_ring", lambda: smooth_ring_section(args.quick, log))
+    section("flops", lambda: flops_section(res["compare"], log, res["kernels"]))
+    section("subprocess", lambda: {} if args.quick else subprocess_section(log))
     runs = args.montecarlo_runs if args.montecarlo_runs is not None else (20 if args.quick else 1000)
-    res["montecarlo"] = montecarlo_section(runs, log) if runs > 0 else None
+    section("montecarlo", lambda: montecarlo_section(runs, log) if runs > 0 else None)
     res["load_average_end"] = os.getloadavg()
     res["total_wall_s"] = time.perf_counter() - t0
     out = Path(args.out)

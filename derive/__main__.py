@@ -23,6 +23,7 @@ from fsmctl.codegen.laws import write_law
 from fsmctl.codegen.writer import build_functions, check_generated, write_generated
 from fsmctl.proofs.errata import errata
 from fsmctl.proofs.identities import all_identities
+from fsmctl.proofs.seed_audit import audit_errata
 from fsmctl.symbolic.law import law_variants
 
 DEFAULT_OUTPUT = Path(__file__).resolve().parent.parent / "generated"
@@ -36,6 +37,10 @@ the symbolic model in ``derive/`` (and ``laws/<name>/`` from ``derive/laws/<name
 '''
 
 
+LAW_SOURCES: dict[str, str] = {}
+"""law name -> its derivation script (filled by :func:`builtin_law_variants`)."""
+
+
 def builtin_law_variants():
     """``{name: LawVariants}`` of the built-in laws, from their derivation scripts."""
     out = {}
@@ -43,6 +48,7 @@ def builtin_law_variants():
         module = importlib.import_module(f"derive.laws.{module_name}")
         variants = law_variants(module.law, getattr(module, "EXTRA_FUNCTIONS", ()))
         out[variants.name] = variants
+        LAW_SOURCES[variants.name] = f"derive/laws/{module_name}.py"
     return out
 
 
@@ -67,7 +73,7 @@ def write_everything(out: Path, *, functions, identities, errata_found, laws) ->
     )
     count = len(functions)
     for name, variants in laws.items():
-        manifest = write_law(out / "laws" / name, variants, source=f"derive/laws/{name}.py")
+        manifest = write_law(out / "laws" / name, variants, source=LAW_SOURCES[name])
         count += len(manifest["functions"])
     return count
 
@@ -99,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"identity {r.id} (eq {r.equations}) does not hold: {r.statement}", file=sys.stderr)
         return 1
 
-    found = errata()
+    found = errata() + audit_errata()  # the errata of the proofs, then those of the re-audit against the print
     for e in found:
         say(f"  {'erratum' if e.checked else 'UNCHECKED':9} {e.id:24} eq {e.equation}")
     unchecked = [e for e in found if not e.checked]
@@ -118,7 +124,9 @@ def main(argv: list[str] | None = None) -> int:
             sys.stdout.write(report)
             print(f"{args.out} is stale: run `python -m derive` to regenerate", file=sys.stderr)
             return 1
-        print(f"{args.out} is current ({len(functions)} model functions, {len(laws)} laws, {time.perf_counter() - t0:.1f} s)")
+        print(
+            f"{args.out} is current ({len(functions)} model functions, {len(laws)} laws, {time.perf_counter() - t0:.1f} s)"
+        )
         return 0
     count = write_everything(args.out, **kwargs)
     print(f"wrote {count} functions ({len(laws)} laws) to {args.out} ({time.perf_counter() - t0:.1f} s)")

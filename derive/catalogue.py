@@ -24,18 +24,17 @@ from __future__ import annotations
 
 import sympy as sp
 
-from fsmctl.symbolic.functions import FunctionSpec
-
 from fsmctl.symbolic.controller import (
     closed_loop_acceleration,
     computed_torque_pieces,
     coordination_term,
     saturate,
-    share_fractional_powers,
     scalar_sliding_mode,
+    share_fractional_powers,
     sliding_variable,
     surface_term_slope,
 )
+from fsmctl.symbolic.functions import FunctionSpec
 from fsmctl.symbolic.model import ErrorModel, plant_rhs, reference_acceleration_in_body, reference_rate_in_body
 from fsmctl.symbolic.mrp import mrp_error, mrp_G, mrp_kinematics, mrp_principal_angle, mrp_shadow, mrp_to_dcm
 from fsmctl.symbolic.symbols import symmetric_matrix_symbols, vector_symbols

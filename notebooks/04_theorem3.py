@@ -29,8 +29,8 @@ import os
 from IPython.display import Markdown, display
 
 from fsmctl import paper_scenario
-from fsmctl import surfaces as sf
-from fsmctl import theorem3 as t3
+from fsmctl.studies import surfaces as sf
+from fsmctl.studies import theorem3 as t3
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
 

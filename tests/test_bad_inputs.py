@@ -111,7 +111,7 @@ API_REJECTED = [
     ("agents-not-sequence", {"agents": {}}, r"agents: expected a sequence of Agent"),
     ("agents-empty", {"agents": ()}, r"at least one agent"),
     ("agents-count-vs-topology", {"agents": PAPER.agents[:2]}, r"topology: describes 6 agents but the scenario has 2"),
-    ("topology-not-topology", {"topology": "ring"}, r"topology: expected a fsmctl\.topology\.Topology"),
+    ("topology-not-topology", {"topology": "ring"}, r"topology: expected a fsmctl\.model\.topology\.Topology"),
 ]
 
 
@@ -126,6 +126,17 @@ def test_python_api_rejects_with_one_line(changes, pattern):
 # ----------------------------------------------------------------------------- Python API: normalised values run
 # what was asked for (defect: "DOPRI45" ran RK4, "TSM" ran FSM, "EXACT" ran the paper model, "NONE" raised KeyError)
 
+
+def _param(packed, name: str):
+    """Every agent's packed value of the law parameter ``name`` (the index of a choice), ``(n,)`` or ``(n, size)``."""
+    k = 0
+    for q in packed.law.parameters:
+        if q.name == name:
+            return packed.params[:, k] if q.size == 1 else packed.params[:, k : k + q.size]
+        k += q.size
+    raise KeyError(name)
+
+
 NORMALISED = [
     (
         "integrator-upper",
@@ -135,12 +146,12 @@ NORMALISED = [
     (
         "surface-upper",
         {"controller": {"surface": "TSM"}},
-        lambda s, p: s.controller.surface == "tsm" and p.gains[0, 0] == 0.0,
+        lambda s, p: s.controller.surface == "tsm" and _param(p, "c1")[0] == 0.0,
     ),
     (
         "surface-lsm-mixed",
         {"controller": {"surface": "Lsm"}},
-        lambda s, p: s.controller.surface == "lsm" and p.gains[0, 1] == 0.0,
+        lambda s, p: s.controller.surface == "lsm" and _param(p, "c2")[0] == 0.0,
     ),
     (
         "error-model-upper",
@@ -150,9 +161,9 @@ NORMALISED = [
     (
         "fix-upper",
         {"controller": {"singularity_fix": "NONE"}},
-        lambda s, p: s.controller.singularity_fix == "none" and p.gains[0, 5] == 0,
+        lambda s, p: s.controller.singularity_fix == "none" and _param(p, "singularity_fix")[0] == 0,
     ),
-    ("fix-clamp", {"controller": {"singularity_fix": "Clamp"}}, lambda s, p: p.gains[0, 5] == 2),
+    ("fix-clamp", {"controller": {"singularity_fix": "Clamp"}}, lambda s, p: _param(p, "singularity_fix")[0] == 2),
     (
         "torque-inf-word",
         {"controller": {"torque_limit": "INF"}},

@@ -1,7 +1,8 @@
-"""Lane-batched kernels (generated/c/batched.c, derive/batched.py) equal the scalar CasADi C bit for bit.
+"""Lane-batched kernels (fsmctl/codegen/batched.py) equal the scalar CasADi C bit for bit, for every law.
 
-Two levels: each kernel against its scalar CasADi-generated function (both from the compiled
-library) on random and edge-case inputs, lane by lane; and whole simulations with
+Two levels: each kernel (the model's ``plant_rhs`` and every built-in law's ``law_local_*``/``law_control_*``)
+against its scalar CasADi-generated function (both from the law's compiled library) on random and edge-case
+inputs, lane by lane; and whole simulations with
 ``kernels="batched"`` against ``kernels="scalar"`` (agent counts that do and do not fill the
 lanes, both error models, zero-order hold, the adaptive integrator).
 """
@@ -21,25 +22,39 @@ from formations import with_agents
 import fsmctl
 from fsmctl.codegen.batched import LANES, UnsupportedInstructionError, batched_header, batched_source, kernel_name
 from fsmctl.model.generated_code import compiled_library, manifest
+from fsmctl.model.laws import builtin_laws
 from fsmctl.model.problem import pack
 from fsmctl.simulation.simulator import batched_kernels_preferred, simulate_packed
 from fsmctl.model.topology import ring
 
-BATCHED = [f["name"] for f in manifest()["functions"] if "batched_kernel" in f]
+LAWS = builtin_laws()
+BATCHED = [("fsm", f["name"]) for f in manifest()["functions"] if "batched_kernel" in f] + [
+    (law.name, f["name"])
+    for law in LAWS.values()
+    for f in __import__("json").loads((law.folder / "manifest.json").read_text())["functions"]
+    if "batched_kernel" in f
+]
 SPECIAL = np.array([0.0, -0.0, 1.0, -1.0, 1e-300, -1e-300, 1e-4, np.inf, -np.inf, np.nan, 0.5, 2.0, 1e300])
 _P = ctypes.POINTER(ctypes.c_double)
 
 
-@pytest.fixture(scope="module")
-def library():
-    lib = compiled_library()
+def _law_library(law: str):
+    lib = compiled_library(LAWS[law].folder)
     if lib is None:
         pytest.skip("no C compiler: the compiled library is not available")
     return ctypes.CDLL(str(lib.path))
 
 
-def _sizes(name: str) -> tuple[list[int], list[int]]:
-    entry = next(f for f in manifest()["functions"] if f["name"] == name)
+@pytest.fixture(scope="module")
+def library():
+    return _law_library("fsm")
+
+
+def _sizes(law: str, name: str) -> tuple[list[int], list[int]]:
+    functions = manifest()["functions"] + __import__("json").loads((LAWS[law].folder / "manifest.json").read_text())[
+        "functions"
+    ]
+    entry = next(f for f in functions if f["name"] == name)
     return [int(np.prod(io["shape"])) for io in entry["inputs"]], [int(np.prod(io["shape"])) for io in entry["outputs"]]
 
 
@@ -74,15 +89,18 @@ def _same_bits(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _zero_tie_allowed(name: str, output: int, lane_inputs: list[np.ndarray]) -> bool:
-    """The one documented latitude: ``control_core``'s saturated ``u`` = fmin(u_max, fmax(-u_max, .)) at
-    ``u_max = 0``, where C99 leaves the sign of ``fmax(-0.0, +0.0)`` unspecified and compilers differ."""
-    return name == "control_core" and output == 0 and lane_inputs[11][0] == 0
+    """The one documented latitude: a law's limited ``u`` = fmin(u_max, fmax(-u_max, .)) at ``u_max = 0``
+    (input 14 of ``law_control_*``), where C99 leaves the sign of ``fmax(-0.0, +0.0)`` unspecified."""
+    return name.startswith("law_control_") and output == 0 and lane_inputs[14][0] == 0
 
 
-@pytest.mark.parametrize("name", BATCHED)
-def test_batched_kernel_equals_scalar_function_bit_for_bit(library, name):
-    assert set(BATCHED) >= {"sliding_paper", "sliding_exact", "control_core", "plant_rhs"}
-    n_in, n_out = _sizes(name)
+@pytest.mark.parametrize(("law", "name"), BATCHED, ids=[f"{law}-{name}" for law, name in BATCHED])
+def test_batched_kernel_equals_scalar_function_bit_for_bit(law, name):
+    every_law = {(law_name, f"law_{part}_{model}") for law_name in LAWS for part in ("local", "control")
+                 for model in ("paper", "exact")}  # fmt: skip
+    assert set(BATCHED) >= {("fsm", "plant_rhs"), *every_law}  # the kernels are printed for every law
+    library = _law_library(law)
+    n_in, n_out = _sizes(law, name)
     rng = np.random.default_rng(sum(map(ord, name)))
     compared = 0
     for trial in range(300):
@@ -144,7 +162,7 @@ def test_batched_and_scalar_simulations_are_bit_identical(library, paper_case1, 
     p = pack(CASES[case](paper_case1))
     batched = simulate_packed(p, kernels="batched")
     scalar = simulate_packed(p, kernels="scalar")
-    keys = ("t", "sigma_d", "sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")
+    keys = ("t", "sigma_d", "sigma", "omega", "sigma_e", "omega_e", "broadcast", "z", "u", "u_unsat")
     for key in (*keys, "saturated_time", "u_total_variation", "u_unsat_max"):
         assert batched[key].shape == scalar[key].shape
         assert _same_bits(np.asarray(batched[key]), np.asarray(scalar[key])).all(), f"{case}: {key} differs"

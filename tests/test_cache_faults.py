@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from fsmctl import generated_code
+from fsmctl.model import generated_code
 
 _PROGRAM = r"""
 import json, sys, warnings

@@ -1,7 +1,9 @@
-"""The python-control plug-in (``fsmctl.spacecraft``, ``fsmctl.fsm_controller``, ``fsmctl.formation``).
+"""The python-control plug-in (``fsmctl.spacecraft``, ``law_controller``, ``fsmctl.fsm_controller``,
+``fsmctl.formation``).
 
 Oracles: Euler's equation and the MRP kinematics (eqs 3-5) written out in NumPy, the paper's omega_d(t)
-(Sec. 4), the generated control law called directly, and the compiled simulator.
+(Sec. 4), the generated control laws called directly (the paper's analysis function ``control_law_*`` and a
+law's contract functions, with the neighbour sums written out), and the compiled simulator.
 Liang, Sun & Wang, Acta Astronautica 81 (2012).
 """
 
@@ -17,8 +19,26 @@ from hypothesis import strategies as st
 
 import fsmctl
 from fsmctl.model.generated_code import casadi_function
-from fsmctl.plugin.iosys import Neighbour, initial_state
+from fsmctl.model.laws import derive_script, initial_law_states, parameter_matrix, resolve_law
 from fsmctl.model.topology import Schedule
+from fsmctl.plugin.iosys import Neighbour, initial_state, law_controller, law_parameter_values, mrp_state
+
+PI_LAW = """
+from fsmctl.symbolic.law import LawBuilder
+
+
+def law(error_model):
+    b = LawBuilder("pi", error_model, doc="PI on the attitude error, consensus on it (test law)")
+    K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
+    P = b.parameter("P", 20.0, unit="N m s", minimum=0.0, doc="rate gain")
+    Ki = b.parameter("Ki", 0.2, unit="N m / s", minimum=0.0, doc="integral gain")
+    z = b.state("integral", 3, initial=0.01, doc="integral of sigma_e (with consensus)")
+    e = b.error_state()
+    b.broadcast("sigma_e", e.sigma_e)
+    b.derivative(z, e.sigma_e + 0.1 * (b.k_received_sum * e.sigma_e - b.received))
+    b.torque(-K * e.sigma_e - P * e.omega_e - Ki * z - K * (b.k_sum * e.sigma_e - b.received))
+    return b.build()
+"""
 
 
 def skew(v):
@@ -55,6 +75,13 @@ def mrp_of_quat(q):
 @pytest.fixture(scope="module")
 def paper():
     return fsmctl.paper_scenario("1")
+
+
+@pytest.fixture(scope="module")
+def pi_law(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("pi_law")
+    (folder / "pi_law.py").write_text(PI_LAW)
+    return resolve_law(str(derive_script(folder / "pi_law.py", out=folder / "pi")))
 
 
 # ----------------------------------------------------------------------------- spacecraft
@@ -171,6 +198,101 @@ def test_disabled_controller_outputs_zero_torque(paper):
     assert np.all(y[:3] == 0.0) and np.abs(y[3:]).max() > 0
 
 
+def _own_signals(paper):
+    return np.concatenate([[0.1, -0.2, 0.3], [0.01, 0.02, -0.03], paper.reference.sigma0, [0.1, 0, -0.1], [0, 0, 0]])
+
+
+def test_fsm_controller_is_law_controller_of_the_papers_law(paper):
+    """``fsm_controller`` (gains and delta as today) and ``law_controller("fsm", ...)`` (one parameter per law
+    parameter, by name): the same system, the same outputs."""
+    agent = paper.agents[2]
+    c = paper.controller.__class__(**{**paper.controller.__dict__, "torque_limit": math.inf, "boundary_layer": 0.01})
+    s = paper.replace(controller={"torque_limit": math.inf, "boundary_layer": 0.01})
+    law = resolve_law("fsm")
+    values = law_parameter_values(law, parameter_matrix(law, s)[2])
+    assert values["singularity_fix"] == "switch" and np.array_equal(values["delta"], agent.delta)
+    sched = Schedule((0.0, 6.5), (5.0, 0.0), period=8.0)
+    nbrs = [Neighbour("a", 8.0, sched), Neighbour("b", 3.0, sched, phase=6.0)]
+    old = fsmctl.fsm_controller(agent.J0_array, c, agent.delta, neighbours=nbrs, name="old")
+    new = law_controller(law, agent.J0_array, parameters=values, neighbours=nbrs, name="new")
+    assert old.input_labels == new.input_labels and old.output_labels == new.output_labels
+    assert sorted(old.params) == ["old_J0", "old_delta", "old_gains", "old_owner", "old_u_max"]
+    assert sorted(new.params) == sorted(f"new_{k}" for k in [*values, "J0", "u_max", "owner"])
+    rng = np.random.default_rng(8)
+    for t in (0.0, 1.0, 7.3):
+        u = np.concatenate([_own_signals(paper), rng.normal(size=6) * 1e-2])
+        assert np.array_equal(old.output(t, [], u), new.output(t, [], u))
+    # a parameter by name, at evaluation time: c1 = 0 is the TSM surface (gains[0] of fsm_controller)
+    u = np.concatenate([_own_signals(paper), rng.normal(size=6) * 1e-2])
+    g = c.gains_vector().copy()
+    g[0] = 0.0
+    assert np.array_equal(
+        old.output(1.0, [], u, params={"old_gains": g}), new.output(1.0, [], u, params={"new_c1": 0.0})
+    )
+    assert not np.array_equal(new.output(1.0, [], u), new.output(1.0, [], u, params={"new_c1": 0.0}))
+    fix = new.output(1.0, [], u, params={"new_singularity_fix": "clamp"})
+    g = c.gains_vector().copy()
+    g[5] = 2.0
+    assert np.array_equal(fix, old.output(1.0, [], u, params={"old_gains": g}))
+
+
+def test_law_controller_with_a_state_is_the_generated_law(paper, pi_law):
+    """A law with a state: the system's states are the law's, its outputs and state derivative are the contract
+    functions' with ``received = sum_j k^j_ij(t) b_j``, ``k_sum = sum_j k^i_ij``, ``k_received_sum = sum_j
+    k^j_ij(t)`` written out."""
+    agent = paper.agents[0]
+    sched = Schedule((0.0, 6.5), (5.0, 0.0), period=8.0)
+    nbrs = [Neighbour("sc2", 8.0, sched), Neighbour("sc3", 2.0, Schedule.constant(4.0), phase=6.0)]
+    ctrl = law_controller(pi_law, agent.J0_array, parameters={"K": 3.0}, u_max=0.5, neighbours=nbrs, name="pi1")
+    assert ctrl.nstates == 3 and ctrl.state_labels == ["integral[0]", "integral[1]", "integral[2]"]
+    assert ctrl.input_labels[15:] == [f"sigma_e_sc{j}[{k}]" for j in (2, 3) for k in range(3)]
+    assert ctrl.output_labels == ["tau[0]", "tau[1]", "tau[2]", "sigma_e[0]", "sigma_e[1]", "sigma_e[2]"]
+    assert {"pi1_K", "pi1_P", "pi1_Ki", "pi1_J0", "pi1_u_max"} < set(ctrl.params)
+    assert np.array_equal(initial_law_states(pi_law), [0.01] * 3)
+    local, control = pi_law.casadi("law_local_paper"), pi_law.casadi("law_control_paper")
+    rng = np.random.default_rng(2)
+    own = _own_signals(paper)
+    for t in (0.0, 1.0, 2.5):
+        z = rng.normal(size=3) * 0.1
+        b2, b3 = rng.normal(size=3) * 0.1, rng.normal(size=3) * 0.1
+        u = np.concatenate([own, b2, b3])
+        k2, k3 = sched.value(t), 4.0
+        params = np.array([3.0, 20.0, 0.2])
+        agent_in = (t, *np.split(own[:6], 2), z, *np.split(own[6:], 3), agent.J0_array, params, np.zeros(0))
+        b, cache = local(*agent_in)
+        out = control(*agent_in, cache, 10.0, k2 * b2 + k3 * b3, k2 + k3, 0.5)
+        y = ctrl.output(t, z, u)
+        assert np.allclose(y[:3], np.asarray(out[0]).ravel(), rtol=1e-14, atol=1e-15)
+        assert np.abs(y[:3]).max() <= 0.5 and np.abs(np.asarray(out[1])).max() > 0.5  # the limit is applied
+        assert np.allclose(y[3:], np.asarray(b).ravel(), rtol=1e-14, atol=1e-16)
+        assert np.allclose(ctrl.dynamics(t, z, u), np.asarray(out[2]).ravel(), rtol=1e-14, atol=1e-16)
+
+
+def test_law_controller_rejects_bad_parameters_in_one_line(paper, pi_law):
+    J0 = paper.agents[0].J0_array
+    cases = [
+        (lambda: law_controller(pi_law, J0, parameters={"Kd": 1.0}), "has no parameter 'Kd'.*K, P, Ki"),
+        (lambda: law_controller(pi_law, J0, parameters={"K": -1.0}), "K: must be >= 0"),
+        (lambda: law_controller(pi_law, J0, parameters={"K": [1.0, 2.0]}), "K"),
+        (lambda: law_controller(pi_law, J0, parameters=[("K", 1.0)]), "parameters: expected a mapping"),
+        (lambda: law_controller("fsm", J0, parameters={"singularity_fix": "sometimes"}), "must be one of"),
+        (lambda: law_controller("fsm", J0, parameters={"delta": [1.0, 1.0]}), "expected 3 numbers"),
+        (lambda: law_controller("fsm", J0, error_model="approx"), "error_model"),
+        (lambda: law_controller("fsm", J0, u_max=-1.0), "u_max: must be >= 0"),
+        (lambda: law_controller("fsm", np.eye(2)), "J0"),
+    ]
+    for make, match in cases:
+        with pytest.raises(fsmctl.ScenarioError, match=match) as exc:
+            make()
+        assert "\n" not in str(exc.value)
+    ctrl = law_controller(pi_law, J0, name="pi")
+    own = _own_signals(paper)
+    with pytest.raises(fsmctl.ScenarioError, match=r"'pi_P'.*must be >= 0"):
+        ctrl.output(0.0, np.zeros(3), own, params={"pi_P": -2.0})
+    with pytest.raises(fsmctl.model.laws.LawError, match="not a built-in law"):
+        law_controller("no-such-law", J0)
+
+
 # ----------------------------------------------------------------------------- formation
 
 
@@ -273,6 +395,32 @@ def test_input_output_response_agrees_with_the_compiled_simulator(paper):
         assert np.abs(y_io[:, 0] - y_c[:, 0]).max() < tol  # attitudes (both in the shadow set)
     err_dopri = np.abs(states - _compiled_states(dopri)).max()
     assert err_dopri < np.abs(states - _compiled_states(rk4)).max()
+
+
+def test_formation_of_a_law_with_a_state_agrees_with_the_compiled_simulator(paper, pi_law):
+    """``formation(scenario)`` flies ``scenario.law``: a PI law with a state (1 s of Case 1, 2 N m limit) against
+    the compiled engine's adaptive loop (rtol 1e-11); 1.0e-6 measured (states), 1e-5 allowed."""
+    s = paper.replace(
+        controller={"law": str(pi_law.folder), "parameters": {"K": 3.0}},
+        simulation={"t_final": 1.0, "output_interval": 0.05},
+    )
+    ref = fsmctl.simulate(s.replace(simulation={"integrator": "dopri45", "rtol": 1e-11, "atol": 1e-13}))
+    loop = fsmctl.formation(s)
+    n = s.n_agents
+    assert loop.nstates == 4 + 7 * n + 3 * n
+    assert loop.state_labels[4 + 7 * n :][:3] == ["ctrl1_integral[0]", "ctrl1_integral[1]", "ctrl1_integral[2]"]
+    assert float(loop.params["ctrl1_K"]) == 3.0 and float(loop.params["ctrl1_Ki"]) == 0.2
+    x0 = initial_state(s)
+    assert np.array_equal(x0[4 + 7 * n :], np.full(3 * n, 0.01))
+    resp = ct.input_output_response(
+        loop, ref.time, 0, x0, solve_ivp_method="RK45", solve_ivp_kwargs={"rtol": 1e-9, "atol": 1e-11}
+    )
+    assert resp.success
+    assert np.abs(mrp_state(resp.states, n) - _compiled_states(ref)).max() < 1e-5
+    z = resp.states[4 + 7 * n :].reshape(n, 3, -1)
+    assert np.abs(z - ref.z.transpose(1, 2, 0)).max() < 1e-5 and np.abs(ref.z).max() > 0.1
+    torques = resp.outputs.reshape(n, 3, 3, -1)[:, 2]
+    assert np.abs(torques - ref.u.transpose(1, 2, 0)).max() < 1e-4
 
 
 @pytest.mark.filterwarnings("ignore:Tight layout not applied")

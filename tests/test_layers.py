@@ -1,25 +1,107 @@
 """Imports flow one way, and library code never imports or raises the command line's types.
 
-Layers, from the top: command line (``fsmctl.cli.main``, the ``add_parser``/``run`` functions of the command
-modules) -> studies (reproduce, surfaces, theorem3, montecarlo) -> simulation / proofs / plug-in -> model
-(scenario, topology, problem) -> symbolic (``derive``).  Checked on the source (AST), so a violation is
-found without running the code path.
+The rules are the contracts of ``.importlinter`` (import-linter, ``lint-imports --config .importlinter``):
+
+* layers, from the top: ``fsmctl.cli`` -> ``fsmctl.studies`` -> ``fsmctl.simulation | fsmctl.proofs |
+  fsmctl.plugin`` (independent siblings) -> ``fsmctl.model`` -> ``fsmctl.codegen`` -> ``fsmctl.symbolic`` ->
+  ``fsmctl.outputs`` -> ``fsmctl.errors``; an import may only go down (indirect chains included);
+* nothing but ``fsmctl.cli`` (and the ``fsmctl.__main__`` entry point) imports ``fsmctl.cli``;
+* ``fsmctl.symbolic`` is pure SymPy: it imports neither NumPy nor CasADi, even indirectly.
+
+They are checked on the source, so a violation is found without running the code path.  A fixture copy of
+the package with planted violations shows that the check can fail.  The AST checks below add what an import
+graph cannot see: library code never raises or subclasses the command line's exception types.
 """
 
 from __future__ import annotations
 
 import ast
+import os
+import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "fsmctl"
-CLI_MODULES = {"fsmctl.cli.main", "fsmctl.__main__"}
-CLI_FUNCTIONS = {"add_parser", "run", "_cli", "main", "console_main"}
-MODEL = {"fsmctl.errors", "fsmctl.model.scenario", "fsmctl.model.topology", "fsmctl.outputs", "fsmctl.model.scenario_schema"}
-ABOVE_MODEL = ("fsmctl.simulation.simulator", "fsmctl.plugin.iosys", "fsmctl.proofs", "fsmctl.studies.reproduce", "fsmctl.studies.surfaces",
-               "fsmctl.studies.montecarlo", "fsmctl.studies.theorem3", "fsmctl.cli.main", "fsmctl.cli.commands")  # fmt: skip
+CONFIG = ROOT / ".importlinter"
+CONTRACTS = ("layers", "cli-only-at-the-top", "symbolic-is-pure-sympy")
+CLI_PACKAGE = "fsmctl.cli"
+ENTRY_POINTS = {"fsmctl.__main__"}
+
+
+def _lint(cwd: Path, *contracts: str) -> subprocess.CompletedProcess:
+    """``lint-imports --config .importlinter --no-cache [--contract ID ...]`` in ``cwd``, with this interpreter."""
+    pytest.importorskip("importlinter", reason="pip install import-linter (the project's test extra)")
+    argv = [sys.executable, "-c", "from importlinter.cli import lint_imports_command; lint_imports_command()"]
+    argv += ["--config", str(cwd / ".importlinter"), "--no-cache"]
+    for c in contracts:
+        argv += ["--contract", c]
+    env = {**os.environ, "COLUMNS": "200", "NO_COLOR": "1", "PYTHONPATH": str(cwd)}
+    return subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, timeout=300)
+
+
+def test_config_declares_the_contracts():
+    text = CONFIG.read_text()
+    for contract in CONTRACTS:
+        assert f"[importlinter:contract:{contract}]" in text
+
+
+@pytest.mark.parametrize("contract", CONTRACTS)
+def test_import_contract_is_kept(contract):
+    proc = _lint(ROOT, contract)
+    assert proc.returncode == 0, f"import contract {contract!r} is broken:\n{proc.stdout[-6000:]}{proc.stderr[-2000:]}"
+    assert "KEPT" in proc.stdout and "BROKEN" not in proc.stdout
+
+
+def _copy_sources(dest: Path) -> None:
+    for package in ("fsmctl", "derive"):
+        for path in (ROOT / package).rglob("*.py"):
+            if "__pycache__" in path.parts:
+                continue
+            target = dest / path.relative_to(ROOT)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copyfile(path, target)
+    shutil.copyfile(CONFIG, dest / ".importlinter")
+
+
+PLANTED = {
+    # module in the fixture copy -> (its source, text import-linter must print)
+    "fsmctl/studies/_planted_cli.py": (
+        "def run():\n    from fsmctl.cli.main import UsageError\n    raise UsageError('x')\n",
+        "fsmctl.studies._planted_cli -> fsmctl.cli.main",
+    ),
+    "fsmctl/proofs/_planted_sibling.py": (
+        "from fsmctl.simulation import metrics\n",
+        "fsmctl.proofs._planted_sibling -> fsmctl.simulation.metrics",
+    ),
+    "fsmctl/model/_planted_up.py": (
+        "from ..studies import figures\n",
+        "fsmctl.model._planted_up -> fsmctl.studies.figures",
+    ),
+    "fsmctl/symbolic/_planted_numpy.py": (
+        "import numpy as np\n",
+        "fsmctl.symbolic._planted_numpy -> numpy",
+    ),
+}
+
+
+def test_the_contracts_catch_planted_violations(tmp_path):
+    """A copy of the sources with one violation of each kind: every contract breaks and names the import."""
+    _copy_sources(tmp_path)
+    for rel, (source, _) in PLANTED.items():
+        (tmp_path / rel).write_text(source)
+    proc = _lint(tmp_path)
+    out = " ".join(proc.stdout.split())
+    assert proc.returncode != 0, proc.stdout[-4000:]
+    for _, needle in PLANTED.values():
+        assert needle in out, (needle, proc.stdout[-6000:])
+    assert out.count("BROKEN") >= len(CONTRACTS), proc.stdout[-6000:]
+
+
+# ----------------------------------------------------------------------------- the command line's types (AST)
 
 
 def _modules():
@@ -28,21 +110,25 @@ def _modules():
         yield ".".join(rel.parts).removesuffix(".__init__"), path
 
 
-def _imports(tree: ast.AST, module: str):
-    """(imported module, enclosing function name or None, node) for every import in ``tree``."""
-    package = module if module.endswith("__init__") else module.rsplit(".", 1)[0]
-    stack: list[str] = []
+def _cli_types() -> set[str]:
+    """Names of the classes the command-line package defines (``UsageError``, ...)."""
+    names = set()
+    for module, path in _modules():
+        if module == CLI_PACKAGE or module.startswith(CLI_PACKAGE + "."):
+            names |= {n.name for n in ast.walk(ast.parse(path.read_text())) if isinstance(n, ast.ClassDef)}
+    return names
 
-    def visit(node):
-        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
-            stack.append(node.name)
-            for child in ast.iter_child_nodes(node):
-                yield from visit(child)
-            stack.pop()
-            return
+
+def _bindings(tree: ast.AST, module: str) -> dict[str, str]:
+    """Every name an import binds anywhere in ``tree`` -> the dotted name it refers to."""
+    package = module if module.endswith("__init__") else module.rsplit(".", 1)[0]
+    out: dict[str, str] = {}
+    for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for alias in node.names:
-                yield alias.name, (stack[0] if stack else None), node
+                out[(alias.asname or alias.name).split(".")[0]] = (
+                    alias.name if alias.asname else alias.name.split(".")[0]
+                )
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
@@ -50,43 +136,91 @@ def _imports(tree: ast.AST, module: str):
                 parts = parts[: len(parts) - (node.level - 1)]
                 base = ".".join(parts + ([base] if base else []))
             for alias in node.names:
-                yield base, (stack[0] if stack else None), node
-                yield f"{base}.{alias.name}", (stack[0] if stack else None), node
-        for child in ast.iter_child_nodes(node):
-            yield from visit(child)
+                out[alias.asname or alias.name] = f"{base}.{alias.name}"
+    return out
 
-    yield from visit(tree)
+
+def _dotted(node: ast.AST) -> str | None:
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        head = _dotted(node.value)
+        return None if head is None else f"{head}.{node.attr}"
+    if isinstance(node, ast.Call):
+        return _dotted(node.func)
+    return None
+
+
+def cli_type_uses(tree: ast.AST, module: str, cli_types: set[str]) -> list[tuple[int, str, str]]:
+    """``(line, what, name)`` for every ``raise`` of, or class derived from, a command-line type in ``tree``.
+
+    A name counts when it resolves (through the module's imports) into ``fsmctl.cli``, or when it is spelled
+    as one of the command line's class names without being bound to something else by an import (so
+    ``from fsmctl.errors import InputError as UsageError`` is an ``InputError``).
+    """
+    bound = _bindings(tree, module)
+
+    def resolve(name: str) -> str:
+        head, _, rest = name.partition(".")
+        target = bound.get(head, head)
+        return f"{target}.{rest}" if rest else target
+
+    def is_cli(name: str | None) -> bool:
+        if name is None:
+            return False
+        full = resolve(name)
+        if full == CLI_PACKAGE or full.startswith(CLI_PACKAGE + "."):
+            return True
+        return name.split(".")[0] not in bound and name.rsplit(".", 1)[-1] in cli_types
+
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Raise) and node.exc is not None and is_cli(_dotted(node.exc)):
+            found.append((node.lineno, "raises", _dotted(node.exc)))
+        elif isinstance(node, ast.ClassDef):
+            for base in node.bases:
+                if is_cli(_dotted(base)):
+                    found.append((node.lineno, "subclasses", _dotted(base)))
+        elif isinstance(node, ast.Import):
+            found += [(node.lineno, "imports", a.name) for a in node.names if is_cli(a.name)]
+        elif isinstance(node, ast.ImportFrom):
+            names = {n for n, t in _bindings(node, module).items() if is_cli(t)}
+            found += [(node.lineno, "imports", n) for n in sorted(names)]
+    return found
 
 
 @pytest.mark.parametrize(("module", "path"), list(_modules()), ids=[m for m, _ in _modules()])
-def test_library_code_never_imports_the_cli(module, path):
-    if module in CLI_MODULES:
+def test_library_code_never_imports_raises_or_subclasses_the_cli_types(module, path):
+    if module == CLI_PACKAGE or module.startswith(CLI_PACKAGE + ".") or module in ENTRY_POINTS:
         return
-    tree = ast.parse(path.read_text())
-    for name, function, node in _imports(tree, module):
-        if name in ("fsmctl.cli.main", "fsmctl.cli.main.UsageError"):
-            assert function in CLI_FUNCTIONS, (
-                f"{path.relative_to(ROOT)}:{node.lineno} imports the command line's {name} in "
-                f"{function or 'module scope'}; library code raises fsmctl.errors.InputError"
-            )
+    found = cli_type_uses(ast.parse(path.read_text()), module, _cli_types())
+    assert not found, (
+        f"{path.relative_to(ROOT)}: "
+        + "; ".join(f"line {line}: {what} {name}" for line, what, name in found)
+        + " (library code raises fsmctl.errors.InputError or a subclass; UsageError is the command line's)"
+    )
 
 
-def test_model_layer_imports_nothing_above_it():
-    for module, path in _modules():
-        if module not in MODEL:
-            continue
-        for name, _, node in _imports(ast.parse(path.read_text()), module):
-            assert not name.startswith(ABOVE_MODEL), f"{path.relative_to(ROOT)}:{node.lineno} imports {name}"
+def test_the_cli_defines_usage_error_as_an_input_error():
+    from fsmctl.cli.main import UsageError
+    from fsmctl.errors import InputError
+
+    assert issubclass(UsageError, InputError)
+    assert "UsageError" in _cli_types()
 
 
-def test_symbolic_layer_never_imports_fsmctl():
-    for path in sorted((ROOT / "derive").rglob("*.py")):
-        for name, _, node in _imports(ast.parse(path.read_text()), "derive." + path.stem):
-            assert not name.startswith("fsmctl"), f"{path.relative_to(ROOT)}:{node.lineno} imports {name}"
-
-
-def test_the_checker_sees_a_violation(tmp_path):
-    """The AST walk finds imports inside functions and relative imports (a checker that cannot fail is no check)."""
-    tree = ast.parse("def f():\n    from ..cli import UsageError\n    raise UsageError('x')\n")
-    found = [(n, f) for n, f, _ in _imports(tree, "fsmctl.proofs.claims")]
-    assert ("fsmctl.cli.main.UsageError", "f") in found
+@pytest.mark.parametrize(
+    ("source", "expected"),
+    [
+        ("def f():\n    from ..cli.main import UsageError\n    raise UsageError('x')\n", {"raises", "imports"}),
+        ("from fsmctl.cli import main\nclass E(main.UsageError):\n    pass\n", {"subclasses", "imports"}),
+        ("import fsmctl.cli.main\ndef f():\n    raise fsmctl.cli.main.UsageError('x')\n", {"raises", "imports"}),
+        ("class E(UsageError):\n    pass\n", {"subclasses"}),
+        ("from fsmctl.errors import InputError as UsageError\nraise UsageError('x')\n", set()),
+        ("from fsmctl.errors import InputError\nraise InputError('x')\n", set()),
+    ],
+)
+def test_the_ast_checker_sees_a_violation(source, expected):
+    """The AST walk finds raises and subclasses in functions, through relative imports and aliases."""
+    found = cli_type_uses(ast.parse(source), "fsmctl.proofs.claims", {"UsageError", "Terminated"})
+    assert {what for _, what, _ in found} == expected, found

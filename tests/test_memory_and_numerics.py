@@ -26,7 +26,8 @@ from formations import with_agents
 from scipy.spatial.transform import Rotation
 
 import fsmctl
-from fsmctl import metrics, simulator
+from fsmctl.simulation import metrics
+from fsmctl.simulation import simulator
 from fsmctl.errors import InputError, ResourceLimitError
 from fsmctl.model.problem import output_buffer_bytes, pack
 from fsmctl.simulation.simulator import SimulationError, StepSizeWarning, simulate, simulate_packed, step_size_report
@@ -114,11 +115,13 @@ def test_output_estimate_counts_the_buffers(paper_case1):
     p = pack(paper_case1.replace(simulation={"t_final": 2.0}))
     raw = simulate_packed(p)
     rows = p.n_outputs + 1  # what simulate_packed allocates
-    arrays = ("sigma", "omega", "sigma_e", "omega_e", "s", "u", "u_unsat")
+    arrays = ("sigma", "omega", "sigma_e", "omega_e", "broadcast", "z", "u", "u_unsat")
     allocated = sum(raw[k].base.nbytes if raw[k].base is not None else raw[k].nbytes for k in arrays)
+    # six 3-vectors per agent, the paper law's broadcast s (3) and no law state
     assert allocated == 7 * rows * p.n_agents * 3 * 8
-    assert output_buffer_bytes(p.n_agents, rows) >= allocated + 8 * rows * 4  # + time and sigma_d
-    assert p.output_bytes == output_buffer_bytes(p.n_agents, rows)
+    assert output_buffer_bytes(p.n_agents, rows, p.n_broadcast, p.n_states) >= allocated + 8 * rows * 4  # + t, sigma_d
+    assert p.output_bytes == output_buffer_bytes(p.n_agents, rows, 3, 0)
+    assert output_buffer_bytes(p.n_agents, rows, 3, 3) == p.output_bytes + 3 * 8 * rows * p.n_agents  # law states
 
 
 def test_available_memory_sources(monkeypatch):
@@ -151,7 +154,7 @@ def test_refused_before_allocation_with_a_one_line_message(paper_case1, monkeypa
 def test_the_casadi_fallback_is_bounded_the_same_way(paper_case1, monkeypatch):
     import fsmctl.simulation.casadi_formation as cf
 
-    monkeypatch.setattr(simulator, "_driver", lambda: None)
+    monkeypatch.setattr(simulator, "_driver", lambda *law: None)
     monkeypatch.setattr(simulator, "available_memory", lambda: 50 * 10**6)
     monkeypatch.setattr(cf, "simulate_casadi", lambda *a, **k: pytest.fail("the fallback run was started"))
     with pytest.raises(ResourceLimitError, match="output_interval"):
@@ -239,7 +242,7 @@ def test_last_sample_is_t_final(paper_case1, integrator):
 @pytest.mark.parametrize("backend", ["compiled", "casadi-vm"])
 def test_an_output_grid_that_misses_t_final_is_an_error(paper_case1, monkeypatch, backend):
     if backend == "casadi-vm":
-        monkeypatch.setattr(simulator, "_driver", lambda: None)
+        monkeypatch.setattr(simulator, "_driver", lambda *law: None)
     p = dataclasses.replace(pack(paper_case1.replace(simulation={"t_final": 0.1})), output_every=30)  # 100 steps
     with pytest.raises(SimulationError, match=r"output grid misses the final state.*last 10 steps"):
         simulate_packed(p)
@@ -252,7 +255,7 @@ def test_no_backend_returns_without_the_final_state(paper_case1, monkeypatch, ba
     """With the up-front check disabled, every backend and integrator must still return the final state or
     raise: never silently drop it."""
     if backend == "casadi-vm":
-        monkeypatch.setattr(simulator, "_driver", lambda: None)
+        monkeypatch.setattr(simulator, "_driver", lambda *law: None)
     monkeypatch.setattr(simulator, "_check_output_grid", lambda p: None)
     p = dataclasses.replace(
         pack(paper_case1.replace(simulation={"t_final": 0.1})), output_every=30, integrator=integrator

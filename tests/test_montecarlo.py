@@ -13,7 +13,7 @@ import pytest
 import xarray as xr
 from scipy import stats
 
-from fsmctl import montecarlo as mc
+from fsmctl.studies import montecarlo as mc
 from fsmctl.errors import InputError
 
 SHORT = {"t_final": 0.3, "chunk_size": 2, "output_interval": 0.05}

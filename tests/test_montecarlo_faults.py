@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fsmctl import montecarlo as mc
+from fsmctl.studies import montecarlo as mc
 from fsmctl.errors import EnvironmentProblem
 
 psutil = pytest.importorskip("psutil")
@@ -142,7 +142,7 @@ def test_sigkill_of_the_campaign_ends_its_workers(tmp_path):
 
 _ORPHAN_SCRIPT = """
 import multiprocessing, os, sys, time
-from fsmctl import parallel
+from fsmctl.studies import parallel
 if sys.argv[1] == "watchdog":
     parallel._set_parent_death_signal = lambda signum: False  # only the portable fallback is left
 # pdeathsig: a watchdog that would wake after an hour, so the kernel's signal alone must end the child

@@ -137,3 +137,81 @@ def test_installed_console_script_exit_codes(argv, code, stdout_has, stderr_has,
         assert proc.stdout == ""
         lines = proc.stderr.strip().splitlines()
         assert len(lines) == 1 and stderr_has in lines[0], proc.stderr
+
+
+# ----------------------------------------------------------------------------- fsmctl prove --law
+
+
+class _FakeReport:
+    def __init__(self, ok: bool):
+        self.ok = ok
+
+    def to_text(self) -> str:
+        return f"law check: {'ok' if self.ok else 'FAILS'}"
+
+    def to_dict(self) -> dict:
+        return {"ok": self.ok, "margin": float("inf"), "worst": float("nan")}
+
+    def to_markdown(self) -> str:
+        return "# law check\n\n$$V = \\sigma^T \\sigma$$\n"
+
+
+@pytest.fixture
+def fake_law_check(monkeypatch):
+    """Replaces :mod:`fsmctl.proofs.law_check` (its API: ``check_law(spec, error_model, samples, seed)``)."""
+    import types
+
+    calls = []
+    module = types.ModuleType("fsmctl.proofs.law_check")
+
+    def check_law(spec, *, error_model, samples, seed):
+        calls.append({"spec": spec, "error_model": error_model, "samples": samples, "seed": seed})
+        return _FakeReport(ok=spec != "failing")
+
+    module.check_law = check_law
+    monkeypatch.setitem(sys.modules, "fsmctl.proofs.law_check", module)
+    return calls
+
+
+def test_prove_law_calls_check_law_and_maps_ok_to_the_exit_code(fake_law_check, capsys, tmp_path):
+    code, out, _ = _run(capsys, "--law", "fsm")
+    assert code == 0 and out.strip() == "law check: ok"
+    assert fake_law_check[-1] == {"spec": "fsm", "error_model": "paper", "samples": 3000, "seed": 0}
+    report = tmp_path / "law.md"
+    code, out, err = _run(
+        capsys, "--law", "failing", "--error-model", "exact", "--samples", "10", "--seed", "3", "--json",
+        "--report", str(report),
+    )  # fmt: skip
+    assert code == 1
+    assert json.loads(out) == {"ok": False, "margin": "inf", "worst": None}  # strict JSON
+    assert report.read_text().startswith("# law check") and err == ""
+    assert fake_law_check[-1] == {"spec": "failing", "error_model": "exact", "samples": 10, "seed": 3}
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--law", "fsm", "zero-sum"], "CLAIM_ID cannot be combined with --law"),
+        (["--law", "fsm", "--list"], "--list cannot be combined with --law"),
+        (["--law", "fsm", "--scenario", "paper", "--case", "1"], "--scenario, --case cannot be combined with --law"),
+        (["--law", "fsm", "--samples", "-1"], "--samples must be >= 0"),
+        (["--error-model", "exact", "zero-sum"], "--error-model applies to --law only"),
+        (["--law", "fsm", "--error-model", "bogus"], "invalid choice: 'bogus'"),
+    ],
+)
+def test_prove_law_usage_errors_exit_2(fake_law_check, capsys, argv, message):
+    try:
+        code, out, err = _run(capsys, *argv)
+    except SystemExit as exc:  # argparse
+        code, (out, err) = exc.code, capsys.readouterr()
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1 and out == ""
+    assert fake_law_check == []
+
+
+def test_prove_law_with_the_real_checker(capsys):
+    pytest.importorskip("fsmctl.proofs.law_check")
+    code, out, _ = _run(capsys, "--law", "fsm", "--samples", "20", "--json")
+    assert code in (0, 1)
+    assert isinstance(json.loads(out), dict)
+    code, _, err = _run(capsys, "--law", "no-such-law")
+    assert code == 2 and len(err.strip().splitlines()) == 1

@@ -154,7 +154,10 @@ BAD_FILES = [
     ),
     # unknown keys
     ("unknown-top", "speed_of_light = 3e8\n" + PAPER_TOML, r"unknown key\(s\) \['speed_of_light'\]"),
-    ("unknown-controller", edited("c1 = 0.6 ", "c3 = 1.0\nc1 = 0.6 "), r"controller: unknown key\(s\) \['c3'\]"),
+    # a further [controller] key is a law parameter: one the law does not declare is named with the law's list
+    ("unknown-controller", edited("c1 = 0.6 ", "c3 = 1.0\nc1 = 0.6 "), r"controller: the law 'fsm' has no parameter 'c3'"),
+    ("unknown-law", edited("c1 = 0.6 ", 'law = "no-such-law"\nc1 = 0.6 '), r"law 'no-such-law': not a built-in law"),
+    ("law-parameter-range", edited("c1 = 0.6 ", 'law = "pid"\nK = -1.0\nc1 = 0.6 '), r"controller\.K: must be >= 0"),
     (
         "unknown-simulation",
         edited("dt = 0.001 ", "steps = 10\ndt = 0.001 "),
@@ -174,7 +177,7 @@ BAD_FILES = [
     # syntax and structure
     ("toml-syntax", edited("c1 = 0.6 ", "c1 = "), r"not valid TOML"),
     ("toml-unclosed", edited("c2 = 0.8 ", "c2 = [0.8 "), r"not valid TOML"),
-    ("missing-c1", edited("c1 = 0.6 ", "# c1 "), r"controller\.c1: missing"),
+    ("missing-reference", edited("[reference]", "[reference_]"), r"reference"),
     ("no-agents", PAPER_TOML[: PAPER_TOML.index("[[agents]]")], r"agents: missing|agents: expected"),
 ]
 
@@ -267,3 +270,19 @@ def test_settling_time_counts_nan_as_not_settled():
     assert settling_time(t, np.array([5.0, 0.5, 0.1, 0.1, 0.1]), 1.0) == 1.0
     assert settling_time(t, np.array([5.0, 0.5, np.nan, 0.1, 0.1]), 1.0) == 3.0
     assert np.isnan(settling_time(t, np.array([5.0, 0.5, 0.1, 0.1, np.nan]), 1.0))
+
+
+def test_unset_fsm_keys_take_the_laws_declared_defaults():
+    """c1, c2, alpha are optional: a scenario without them flies the FSM law's declared defaults (law.json),
+    the one place they are written (derive/laws/fsm.py)."""
+    import json
+
+    from fsmctl.model.laws import parameter_matrix, resolve_law
+
+    paper = fsmctl.paper_scenario("1")
+    bare = paper.replace(controller={"c1": None, "c2": None, "alpha": None})
+    law = resolve_law("fsm")
+    declared = {p["name"]: p["default"] for p in json.loads((law.folder / "law.json").read_text())["parameters"]}
+    row = parameter_matrix(law, bare)[0]
+    assert list(row[:3]) == [declared["c1"], declared["c2"], declared["alpha"]]
+    assert list(parameter_matrix(law, paper)[0][:3]) == [paper.controller.c1, paper.controller.c2, paper.controller.alpha]

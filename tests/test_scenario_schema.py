@@ -11,7 +11,7 @@ import jsonschema
 import pytest
 
 import fsmctl
-from fsmctl import scenario as sc
+from fsmctl.model import scenario as sc
 from fsmctl.model.scenario_schema import REFERENCE_PATH, ROOT, file_schema, main, shipped_schema
 
 PAPER_TOML = (Path(fsmctl.__file__).parent / "scenarios" / "paper.toml").read_text()
@@ -38,7 +38,8 @@ def test_paper_scenario_file_is_valid_under_the_schema():
         ("alpha = 0.7 ", "alpha = 1.2 "),
         ("sigma0 = [0.3, 0.2, -0.3]", "sigma0 = [0.3, 0.2]"),
         ("dt = 0.001 ", "dt = 0.0 "),
-        ('surface = "fsm"', 'surface = "fsm"\ngain = 3'),
+        ('integrator = "rk4"', 'integrator = "rk4"\ngain = 3'),  # [simulation] has no extra keys
+        ('surface = "fsm"', 'surface = "fsm"\nparameters = { gain = true }'),  # a law parameter is no bool
     ],
 )
 def test_schema_and_loader_reject_the_same_bad_values(tmp_path, old, new):
@@ -63,6 +64,7 @@ def test_reference_page_documents_every_key_with_unit_and_default():
         for f in dataclasses.fields(cls):
             assert f"`{prefix}{f.name}`" in page, f"{prefix}{f.name} missing from {REFERENCE_PATH}"
     assert "| `simulation.dt` | number (> 0) | s | `0.001` |" in page
-    assert "| `controller.alpha` | number (> 0.5, < 1) | 1 | required |" in page
+    assert "| `controller.alpha` | number (> 0.5, < 1) | 1 | the law's |" in page
+    assert "| `controller.law` | string |  | `\"fsm\"` |" in page
     # defaults in the page are the dataclasses' defaults
     assert sc.SimulationSettings().dt == 0.001 and math.isinf(sc.ControllerSettings(c1=1, c2=1, alpha=0.7).torque_limit)

@@ -1,4 +1,5 @@
-"""``fsmctl simulate`` (fsmctl/commands.py) and the figure builders (fsmctl/figures.py).
+"""``fsmctl simulate`` (fsmctl/cli/commands.py), the figure builders (fsmctl/studies/figures.py), and the law
+commands: ``fsmctl laws``, ``fsmctl derive`` and ``--law``/``--set`` on ``simulate`` and ``montecarlo``.
 
 Oracles: the initial AAEM/RAEM (eqs 42-43) of the written NetCDF file are recomputed from
 Table 1 with the independent NumPy transcription in ``tests/oracle_numpy.py``; exit codes and
@@ -9,6 +10,8 @@ from __future__ import annotations
 
 import json
 import math
+import re
+import shutil
 import subprocess
 import sys
 
@@ -201,3 +204,238 @@ def test_principal_angles_and_overlay_figures(tmp_path):
     paths = save_figure(over, tmp_path / "sub" / "overlay")
     assert [p.suffix for p in paths] == [".png", ".svg"]
     assert all(p.stat().st_size > 1000 for p in paths)
+
+
+# ----------------------------------------------------------------------------- laws: fsmctl laws, derive, --law
+
+PD_LAW = '''\
+"""A PD law with consensus on the attitude error (test fixture)."""
+from fsmctl.symbolic.law import LawBuilder
+
+
+def law(error_model):
+    b = LawBuilder("pd", error_model, doc="MRP PD with consensus on the attitude error")
+    K = b.parameter("K", 1.0, unit="N m", minimum=0.0, doc="attitude gain")
+    P = b.parameter("P", 10.0, unit="N m s", minimum=0.0, doc="rate gain")
+    e = b.error_state()
+    b.broadcast("sigma_e", e.sigma_e)
+    b.torque(-K * e.sigma_e - P * e.omega_e - K * (b.k_sum * e.sigma_e - b.received))
+    return b.build()
+'''
+
+
+@pytest.fixture(scope="module")
+def pd_law(tmp_path_factory):
+    """``fsmctl derive pd.py --out DIR``: the script, the folder, and what the command printed."""
+    import contextlib
+    import io
+
+    root = tmp_path_factory.mktemp("pd_law")
+    script = root / "pd.py"
+    script.write_text(PD_LAW)
+    folder = root / "pd_law"
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        rc = main(["derive", str(script), "--out", str(folder)])
+    return script, folder, rc, out.getvalue()
+
+
+def test_laws_lists_the_builtin_laws_with_their_parameters(capsys):
+    rc, out, err = _run(["laws"], capsys)
+    assert rc == 0, err
+    assert "built-in laws: fsm" in out
+    assert "reference: Liang, Sun & Wang" in out and "broadcast: s (3 values" in out and "states:    none" in out
+    rows = {line.split()[0]: line for line in out.splitlines() if line.startswith("    ") and line.split()}
+    assert {"c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix", "delta"} <= set(rows)
+    assert "0.5 < x < 1" in rows["alpha"] and "0.7" in rows["alpha"]
+    assert "none | switch | clamp" in rows["singularity_fix"] and "switch" in rows["singularity_fix"].split()[1]
+    assert "[0.005, 0.005, 0.005]" in rows["delta"] and "1/s^2" in rows["delta"]
+
+
+def test_laws_json_one_and_all(capsys):
+    rc, out, _ = _run(["laws", "--json"], capsys)
+    assert rc == 0
+    laws = json.loads(out)
+    assert laws[0]["name"] == "fsm"
+    rc, out, _ = _run(["laws", "fsm", "--json"], capsys)
+    fsm = json.loads(out)
+    assert rc == 0 and fsm["builtin"] is True and fsm["broadcast"] == {"name": "s", "size": 3}
+    alpha = next(p for p in fsm["parameters"] if p["name"] == "alpha")
+    assert alpha["default"] == 0.7 and alpha["minimum"] == 0.5 and alpha["exclusive_minimum"] is True
+    assert next(p for p in fsm["parameters"] if p["name"] == "singularity_fix")["default"] == "switch"
+
+
+def test_laws_unknown_is_one_line_exit_2(capsys, tmp_path):
+    for arg, needle in (("nope", "not a built-in law"), (str(tmp_path), "not a law folder")):
+        rc, out, err = _run(["laws", arg], capsys)
+        assert rc == 2 and needle in err and len(err.strip().splitlines()) == 1 and out == ""
+
+
+def test_derive_checks_and_writes_a_law_folder(pd_law):
+    _, folder, rc, out = pd_law
+    assert rc == 0, out
+    assert (folder / "law.json").is_file() and (folder / "manifest.json").is_file()
+    assert not [p for p in folder.parent.iterdir() if p.name.startswith(".")]  # no temporary folder left
+    meta = json.loads((folder / "law.json").read_text())
+    assert meta["name"] == "pd" and meta["source"] == "pd.py"
+    assert [p["name"] for p in meta["parameters"]] == ["K", "P"]
+    assert "ok  broadcast 'sigma_e' (3 values) does not depend on what the agent receives" in out
+    assert "ok  both error models give the same name, parameters, states, broadcast and constants" in out
+    manifest = json.loads((folder / "manifest.json").read_text())
+    for f in manifest["functions"]:
+        assert re.search(rf"^  {f['name']}\s+{f['n_instructions']} instructions", out, re.M), f["name"]
+    assert {"law_local_paper", "law_control_exact"} <= {f["name"] for f in manifest["functions"]}
+    assert "fsmctl derive pd.py" in manifest["_comment"]  # the generator named in the do-not-edit header
+
+
+def test_laws_shows_a_derived_folder(pd_law, capsys):
+    _, folder, _, _ = pd_law
+    rc, out, _ = _run(["laws", str(folder)], capsys)
+    assert rc == 0
+    assert out.startswith("pd: MRP PD with consensus") and "broadcast: sigma_e (3 values" in out
+    assert re.search(r"^    K\s+1\s+N m\s+0 <= x\s+attitude gain$", out, re.M)
+
+
+def test_derive_check_up_to_date_and_stale(pd_law, tmp_path, capsys):
+    script, folder, _, _ = pd_law
+    rc, out, err = _run(["derive", str(script), "--out", str(folder), "--check"], capsys)
+    assert rc == 0 and "is up to date" in out, err
+    stale = tmp_path / "stale"
+    shutil.copytree(folder, stale)
+    law_json = stale / "law.json"
+    law_json.write_text(law_json.read_text().replace("attitude gain", "old text"))
+    before = sorted((p.relative_to(stale), p.read_bytes()) for p in stale.rglob("*") if p.is_file())
+    rc, out, err = _run(["derive", str(script), "--out", str(stale), "--check"], capsys)
+    assert rc == 1
+    assert "differs: law.json" in out and '-      "doc": "old text"' in out and '+      "doc": "attitude gain"' in out
+    assert "is stale" in err and len(err.strip().splitlines()) == 1
+    assert sorted((p.relative_to(stale), p.read_bytes()) for p in stale.rglob("*") if p.is_file()) == before
+    rc, _, err = _run(["derive", str(script), "--out", str(tmp_path / "missing"), "--check"], capsys)
+    assert rc == 1 and "is missing" in err
+
+
+def test_derive_default_out_is_the_law_name_in_the_current_folder(pd_law, tmp_path, monkeypatch, capsys):
+    script, _, _, _ = pd_law
+    monkeypatch.chdir(tmp_path)
+    rc, _, err = _run(["derive", str(script)], capsys)
+    assert rc == 0, err
+    assert (tmp_path / "pd" / "law.json").is_file()
+    rc, _, err = _run(["derive", str(script)], capsys)  # again: a law folder is replaced
+    assert rc == 0, err
+
+
+BROKEN_SCRIPTS = [
+    ("syntax", "def law(error_model:\n", r"broken\.py:1: syntax error"),
+    ("no-law", "x = 1\n", r"defines no function law\(error_model\)"),
+    ("returns-int", "def law(error_model):\n    return 1\n", r"must return LawBuilder\(\.\.\.\)\.build\(\), got int"),
+    (
+        "no-torque",
+        "from fsmctl.symbolic.law import LawBuilder\n\ndef law(m):\n    b = LawBuilder('x', m, doc='d')\n"
+        "    e = b.error_state()\n    b.broadcast('s', e.sigma_e)\n    return b.build()\n",
+        r"x: no torque declared",
+    ),
+    (
+        "raises",
+        "def law(error_model):\n    raise RuntimeError('boom')\n",
+        r"law\(error_model\) failed: RuntimeError: boom",
+    ),
+    ("import-fails", "import no_such_module_xyz\n", r"importing the script failed: ModuleNotFoundError"),
+]
+
+
+@pytest.mark.parametrize(("text", "pattern"), [pytest.param(t, p, id=i) for i, t, p in BROKEN_SCRIPTS])
+def test_derive_broken_script_is_one_line_exit_2(text, pattern, tmp_path, capsys):
+    script = tmp_path / "broken.py"
+    script.write_text(text)
+    rc, out, err = _run(["derive", str(script), "--out", str(tmp_path / "out")], capsys)
+    assert rc == 2, (out, err)
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert err.startswith("fsmctl derive: error: ") and re.search(pattern, err), err
+    assert not (tmp_path / "out").exists()
+
+
+def test_derive_refuses_an_unusable_out(pd_law, tmp_path, capsys):
+    script, _, _, _ = pd_law
+    taken = tmp_path / "taken"
+    taken.mkdir()
+    (taken / "notes.txt").write_text("mine")
+    a_file = tmp_path / "a_file"
+    a_file.write_text("x")
+    for out_dir, needle in (
+        (taken, "exists and is not a law folder"),
+        (a_file, "exists and is not a folder"),
+        (a_file / "pd", f"cannot write the law folder {a_file / 'pd'}"),
+    ):
+        rc, _, err = _run(["derive", str(script), "--out", str(out_dir)], capsys)
+        assert rc == 2 and needle in err and len(err.strip().splitlines()) == 1
+    assert (taken / "notes.txt").read_text() == "mine" and sorted(p.name for p in taken.iterdir()) == ["notes.txt"]
+    rc, _, err = _run(["derive", str(tmp_path / "missing.py")], capsys)
+    assert rc == 2 and "no such derivation script" in err
+
+
+def _sigma(folder):
+    with xr.open_dataset(folder / "paper_case_1.nc") as ds:
+        return ds["sigma"].values.copy(), ds["u_N_m"].values.copy()
+
+
+def test_simulate_flies_a_derived_law_with_set_parameters(pd_law, tmp_path, capsys):
+    """``--law DIR --set K=0 --set P=0`` commands no torque: the run equals the open-loop run of the paper's law."""
+    _, folder, _, _ = pd_law
+    short = ["--scenario", "paper", "--case", "1", "--t-final", "0.2", "--no-figures", "--no-progress"]
+    rc, out, err = _run(
+        ["simulate", *short, "--law", str(folder), "--set", "K=0", "--set", "P=0.0", "--out", str(tmp_path / "zero")],
+        capsys,
+    )
+    assert rc == 0, err
+    assert f"law: pd ({folder})" in out and "parameters K=0, P=0.0" in out
+    summary = json.loads((tmp_path / "zero" / "summary.json").read_text())
+    assert summary["law"] == str(folder)
+    assert summary["overrides"]["controller"] == {"law": str(folder), "parameters": {"K": 0, "P": 0.0}}
+    rc, _, err = _run(["simulate", *short, "--set", "enabled=false", "--out", str(tmp_path / "open")], capsys)
+    assert rc == 0, err
+    sigma_zero, u_zero = _sigma(tmp_path / "zero")
+    sigma_open, _ = _sigma(tmp_path / "open")
+    assert np.all(u_zero == 0.0)
+    np.testing.assert_allclose(sigma_zero, sigma_open, rtol=0, atol=1e-12)
+    rc, _, err = _run(["simulate", *short, "--law", str(folder), "--set", "K=2", "--out", str(tmp_path / "k2")], capsys)
+    assert rc == 0, err
+    sigma_k2, u_k2 = _sigma(tmp_path / "k2")
+    assert np.abs(u_k2).max() > 0 and not np.allclose(sigma_k2, sigma_open)
+
+
+@pytest.mark.parametrize(
+    ("extra", "needle"),
+    [
+        (["--set", "K"], "expected KEY=VALUE"),
+        (["--set", "K=[1,"], "is not a TOML value"),
+        (["--set", "nope=1"], "has no parameter 'nope'"),
+        (["--set", "K=-1"], "controller.K: must be >= 0, got -1"),
+        (["--set", "K=[1, 2]"], "controller.K: expected"),
+        (["--set", "law=fsm"], "--set law=...: use --law"),
+    ],
+)
+def test_simulate_bad_law_parameters_exit_2_with_one_line(pd_law, extra, needle, tmp_path, capsys):
+    _, folder, _, _ = pd_law
+    rc, _, err = _run(["simulate", "--law", str(folder), *extra, "--out", str(tmp_path / "o")], capsys)
+    assert rc == 2 and needle in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_simulate_unknown_law_exit_2(tmp_path, capsys):
+    rc, _, err = _run(["simulate", "--law", "no-such-law", "--out", str(tmp_path / "o")], capsys)
+    assert rc == 2 and "not a built-in law" in err and len(err.strip().splitlines()) == 1
+
+
+def test_montecarlo_flies_a_derived_law(pd_law, tmp_path):
+    _, folder, _, _ = pd_law
+    cmd = [sys.executable, "-m", "fsmctl.cli.main", "montecarlo", "--runs", "2", "--t-final", "0.2", "--workers", "1"]
+    cmd += ["--no-progress", "--law", str(folder), "--set", "K=2.0", "--out", str(tmp_path / "mc")]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    head = proc.stdout.splitlines()
+    assert head[0].startswith("montecarlo: paper case 1: 6 agents")
+    assert any(line.startswith(f"  law: pd ({folder}), parameters K=2.0") for line in head[:12]), head[:12]
+    assert "2 ok, 0 failed" in proc.stdout
+    resume = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=120)
+    assert resume.returncode == 2 and "--resume cannot be combined with --law/--set" in resume.stderr

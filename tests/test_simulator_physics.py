@@ -307,12 +307,12 @@ def test_plant_uses_true_inertia_and_disturbance_controller_uses_nominal(paper):
     ref = casadi_function("reference_rhs")
     sliding = casadi_function("sliding_paper")
     law = casadi_function("control_law_paper")
-    gc = float(casadi_function("sliding_constants")(p.gains[0]))
+    gc = float(casadi_function("sliding_constants")(p.params[0, :6]))
     sd_dot, wd, wdd = (np.asarray(v).ravel() for v in ref(t, x[:3], p.ref_params))
     assert np.allclose(dx[:3], sd_dot, rtol=1e-13, atol=1e-15)
     s_all = [
         np.asarray(
-            sliding(x[3 + 6 * j : 6 + 6 * j], x[6 + 6 * j : 9 + 6 * j], x[:3], wd, wdd, p.gains[j], gc)[0]
+            sliding(x[3 + 6 * j : 6 + 6 * j], x[6 + 6 * j : 9 + 6 * j], x[:3], wd, wdd, p.params[j, :6], gc)[0]
         ).ravel()
         for j in range(6)
     ]
@@ -332,8 +332,8 @@ def test_plant_uses_true_inertia_and_disturbance_controller_uses_nominal(paper):
         assert np.allclose(dx[3 + 6 * i : 6 + 6 * i], mrp_G(sigma) @ omega, rtol=1e-12, atol=1e-15)
         # controller: nominal J0, and only sum_j k^j_ij(t) s_j from the neighbours
         received = sum(K[i, j] * s_all[j] for j in range(6))
-        args = (sigma, omega, x[:3], wd, wdd, p.gains[i], gc)
-        tail = (p.delta[i], Ki[i].sum(), received, p.u_max[i])
+        args = (sigma, omega, x[:3], wd, wdd, p.params[i, :6], gc)
+        tail = (p.params[i, 6:9], Ki[i].sum(), received, p.u_max[i])
         u_J0 = np.asarray(law(*args, agent.J0_array, *tail)[6]).ravel()  # unsaturated: a sharper comparison
         u_J = np.asarray(law(*args, agent.J_true, *tail)[6]).ravel()
         assert np.allclose(np.clip(u_J0, -2, 2), u[i], rtol=1e-12, atol=1e-12)
@@ -651,7 +651,7 @@ def test_netcdf_round_trip_with_units(converging, tmp_path):
         "omega_rad_per_s": (r.omega, "rad/s"),
         "u_N_m": (r.u, "N m"),
         "u_unsaturated_N_m": (r.u_unsaturated, "N m"),
-        "s": (r.s, "1/s"),
+        "broadcast_s": (r.s, "1/s"),
         "aaem_deg": (r.aaem_deg, "deg"),
         "raem_deg": (r.raem_deg, "deg"),
         "saturated_time_s": (r.saturated_time, "s"),
@@ -670,7 +670,8 @@ def test_netcdf_round_trip_with_units(converging, tmp_path):
 
 
 def _clear_backend_caches() -> None:
-    from fsmctl import generated_code, simulator
+    from fsmctl.model import generated_code
+    from fsmctl.simulation import simulator
 
     for cache in (generated_code.compiled_library, generated_code.casadi_function, simulator._driver):
         cache.cache_clear()

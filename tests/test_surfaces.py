@@ -22,8 +22,8 @@ from formations import with_agents
 from scipy.integrate import trapezoid
 
 import fsmctl
-from fsmctl import surfaces as sf
 from fsmctl.cli.main import main
+from fsmctl.studies import surfaces as sf
 
 
 @pytest.fixture(scope="module")
@@ -141,6 +141,31 @@ def test_per_agent_measurements_against_the_trajectory(ideal_rerun):
     assert run["control_effort_N_m_s"] == pytest.approx(sum(efforts), rel=1e-12)
     assert run["mean_reaching_time_s"] == pytest.approx(np.mean(reaches), rel=1e-12)
     assert run["agents_reached"] == 6
+
+
+def test_full_loop_runs_are_a_law_comparison(fast_comparison):
+    """Each variant is fsmctl.studies.compare.compare_laws over three runs of the law fsm (surface fsm/tsm/lsm);
+    the run rows carry its metrics (run_metrics) unchanged, and its series are the ones plotted."""
+    assert set(fast_comparison.law_comparisons) == {"no-limit/nominal/coupled", "limit/uncertain/coupled"}
+    for variant, comp in fast_comparison.law_comparisons.items():
+        assert [(r.label, r.law, r.parameters) for r in comp.runs] == [(s, "fsm", {"surface": s}) for s in sf.SURFACES]
+        for s in sf.SURFACES:
+            row, run = comp.row(s), fast_comparison.run_row(variant, s)
+            assert row["law"] == "fsm" and row["status"] == "ok"
+            for ours, theirs in (
+                ("aaem_settling_s", "aaem_settling_0.03deg_s"),
+                ("raem_settling_s", "raem_settling_0.03deg_s"),
+                ("aaem_steady_max_deg", "aaem_steady_max_deg"),
+                ("control_effort_N_m_s", "control_effort_N_m_s"),
+                ("u_unsaturated_max_N_m", "peak_commanded_torque_N_m"),
+                ("max_saturated_time_s", "saturated_time_max_s"),
+            ):
+                assert run[ours] == row[theirs] or (math.isnan(run[ours]) and math.isnan(row[theirs])), (ours, s)
+            assert fast_comparison.series[(variant, s)] is comp.series[s]
+            assert [a for a in fast_comparison.agents if a["variant"] == variant and a["surface"] == s] == comp.extras[
+                s
+            ]
+        assert comp.settings["steady_window_s"] == 4.0  # 40 % of the 10 s fast horizon
 
 
 def test_saturated_effort_is_bounded_by_the_torque_limit(fast_comparison):

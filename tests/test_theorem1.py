@@ -161,7 +161,7 @@ def test_batched_configurations_and_lambda_min_equal_the_per_segment_computation
     """Random Monte Carlo topologies (period 8, random phases and weights): every segment between the exact
     switching instants (from the links' data) lies in one configuration with the exactly evaluated K_j there, and
     min_t lambda_min(sym L(t)) (eqs 25-27) is the minimum over those matrices, computed here one at a time."""
-    from fsmctl import montecarlo as mc
+    from fsmctl.studies import montecarlo as mc
 
     sc = paper_scenario("1")
     for seed in range(3):

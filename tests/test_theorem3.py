@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from scipy.integrate import quad
 
-from fsmctl import theorem3 as t3
+from fsmctl.studies import theorem3 as t3
 
 TOL = 1e-6
 

@@ -60,11 +60,9 @@ def law(error_model) -> Law:
     def share(m):
         return share_fractional_powers(m, e.sigma_e, alpha, epsilon, p, q)
 
-    slope = b.stage(
-        "slope", share(sp.ImmutableMatrix([surface_term_slope(x, alpha, fix, epsilon) for x in e.sigma_e]))
-    )
+    slope = b.stage("slope", share(sp.ImmutableMatrix([surface_term_slope(x, alpha, fix, epsilon) for x in e.sigma_e])))
     s = b.stage("s", share(sliding_variable(e.sigma_e, mrp_G(e.sigma_e) * e.omega_e, c1, c2, alpha, fix, epsilon)))
-    b.broadcast("s", s)
+    b.broadcast("s", s, unit="1/s")
 
     pieces = computed_torque_pieces(
         b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta,

@@ -5,6 +5,9 @@ Writes ``DIR/<label>.nc`` (NetCDF, units in the variable names and attributes),
 torque statistics, the scenario's settings and documented choices) and, unless
 ``--no-figures``, ``DIR/<label>_{aaem,raem,theta_e,torques}.{png,svg}`` (analogues of Figs 1-4).
 
+``--law NAME|FILE.py|DIR`` flies another control law and ``--set KEY=VALUE`` sets its parameters
+(:mod:`fsmctl.cli.law_options`); the summary records both.
+
 Exit codes: 0 the run finished, 1 the simulation failed (non-finite state, ...),
 2 usage or input error (one line on stderr).
 """
@@ -17,6 +20,7 @@ import re
 import sys
 from pathlib import Path
 
+from fsmctl.cli.law_options import add_law_options, controller_changes
 from fsmctl.cli.types import nonnegative_float, positive_float, torque_limit
 from fsmctl.outputs import output_folder, write_json
 from fsmctl.studies.reproduce import SETTLING_TOLERANCES_DEG
@@ -74,6 +78,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="PHI",
         help="boundary layer phi of sat(s/phi), 0 = sgn (Remark 7)",
     )
+    add_law_options(p, what="the formation")
     p.set_defaults(func=run)
     return p
 
@@ -94,13 +99,15 @@ def run(args: argparse.Namespace) -> int:
     -------
     int
         0 when the run finished and its files were written, 1 when the simulation failed;
-        bad input raises :class:`fsmctl.model.scenario.ScenarioError` or :class:`fsmctl.cli.main.UsageError` (exit 2).
+        bad input raises :class:`fsmctl.model.scenario.ScenarioError`, :class:`fsmctl.model.laws.LawError` or
+        :class:`fsmctl.cli.main.UsageError` (exit 2).
     """
     from fsmctl.model.scenario import load_scenario
     from fsmctl.simulation.simulator import SimulationError, simulate
 
     scenario = load_scenario(args.scenario, case=args.case)
-    controller = {
+    controller = controller_changes(args, scenario)  # --law, --set
+    controller |= {
         k: v
         for k, v in (
             ("error_model", args.error_model),
@@ -127,6 +134,10 @@ def run(args: argparse.Namespace) -> int:
     with output_folder(args.out) as out:
         for line in scenario.describe():
             print(line)
+        if controller.keys() & {"law", "parameters"}:
+            law = scenario.law
+            given = ", ".join(f"{k}={v}" for k, v in scenario.controller.parameters.items())
+            print(f"  law: {law.name} ({law.folder})" + (f", parameters {given}" if given else ""))
         try:
             result = simulate(scenario, progress=args.progress)
         except SimulationError as exc:
@@ -149,6 +160,7 @@ def _write_summary(args, scenario, controller, simulation, summary, files, out: 
     payload = {
         "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
         "scenario": scenario.label,
+        "law": scenario.controller.law,
         "description": scenario.description,
         "settings": scenario.describe(),
         "choices": dict(scenario.choices),

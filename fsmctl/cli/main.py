@@ -3,23 +3,34 @@
 Subcommands live in their own modules, each exposing ``add_parser(subparsers)``
 (which sets ``func`` on its parser) so this file only dispatches:
 
-========================  ===============================================
-``fsmctl prove``          proof check of Section 3 (:mod:`fsmctl.cli.prove`)
-``fsmctl simulate``       one scenario/case (:mod:`fsmctl.cli.commands`)
-``fsmctl reproduce``      Section 4 reproduction report (:mod:`fsmctl.studies.reproduce`)
-``fsmctl compare-surfaces``  FSM vs TSM vs LSM (:mod:`fsmctl.studies.surfaces`)
-``fsmctl montecarlo``     robustness campaigns (:mod:`fsmctl.studies.montecarlo`)
-========================  ===============================================
+============================  ======================================================================
+``fsmctl prove``              proof check of Section 3, or of a law (``--law``) (:mod:`fsmctl.cli.prove`)
+``fsmctl simulate``           one scenario/case, any law (:mod:`fsmctl.cli.commands`)
+``fsmctl reproduce``          Section 4 reproduction report (:mod:`fsmctl.cli.reproduce`)
+``fsmctl compare-surfaces``   FSM vs TSM vs LSM, Theorem 3 (:mod:`fsmctl.cli.surfaces`)
+``fsmctl compare``            laws compared on one scenario (:mod:`fsmctl.cli.compare`)
+``fsmctl montecarlo``         robustness campaigns (:mod:`fsmctl.cli.montecarlo`)
+``fsmctl laws``               the built-in laws and their parameters (:mod:`fsmctl.cli.laws`)
+``fsmctl derive``             check and generate a law from a derivation script (:mod:`fsmctl.cli.derive`)
+============================  ======================================================================
+
+The library below (:mod:`fsmctl.studies` and down) never imports this package; it raises
+:class:`fsmctl.errors.InputError` (and subclasses), which :func:`main` turns into one line and exit code 2.
+:class:`UsageError` is for the command-line modules only (``.importlinter``, ``tests/test_layers.py``).
 
 Exit codes (the one place they are decided, :func:`main`):
 
 ====  =========================================================================================
-0     success (every claim as expected, the run finished, the files were written)
-1     a claim fails for the scenario, a simulation failed (non-finite state, ...), or an
-      internal error (one line; ``--debug`` shows the traceback)
-2     usage, input or environment error: a bad option or scenario file, a file that is not
-      UTF-8, an unusable output folder (read-only, full), a run that would exceed the memory,
-      an address that is not a Dask scheduler (one line on stderr, never a traceback)
+0     success (every claim as expected, the run finished, the files were written, the law
+      folder is up to date)
+1     a claim (or a law check) fails, a simulation failed (non-finite state, ...), a law folder
+      is stale (``fsmctl derive --check``), or an internal error (one line; ``--debug`` shows
+      the traceback)
+2     usage, input or environment error: a bad option or scenario file, an unknown law or a
+      derivation script that does not derive, a file that is not UTF-8, an unusable output
+      folder (read-only, full, or an existing folder that is not a law's for ``fsmctl derive``),
+      a run that would exceed the memory, an address that is not a Dask scheduler (one line on
+      stderr, never a traceback)
 130   interrupted (Ctrl-C / SIGINT); finished outputs are kept, partial files are not written
 143   terminated (SIGTERM); as for 130
 ====  =========================================================================================
@@ -47,10 +58,15 @@ EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 1
 SUBCOMMAND_MODULES = (
     "fsmctl.cli.prove",
     "fsmctl.cli.commands",
-    "fsmctl.studies.reproduce",
-    "fsmctl.studies.surfaces",
-    "fsmctl.studies.montecarlo",
+    "fsmctl.cli.reproduce",
+    "fsmctl.cli.surfaces",
+    "fsmctl.cli.compare",
+    "fsmctl.cli.montecarlo",
+    "fsmctl.cli.laws",
+    "fsmctl.cli.derive",
 )
+"""Modules of the subcommands, in the order ``fsmctl --help`` lists them; each has ``add_parser(subparsers)``
+(which sets ``func`` on its parser).  A module missing from a build is skipped."""
 
 
 class UsageError(InputError):
@@ -72,7 +88,8 @@ class _Parser(argparse.ArgumentParser):
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="fsmctl",
-        description="Fast-sliding-mode formation attitude control (Liang, Sun & Wang 2012): prove, simulate, reproduce.",
+        description="Spacecraft-formation attitude control laws, from Liang, Sun & Wang (2012)'s fast sliding mode: "
+        "prove, simulate, reproduce, compare; list the laws, derive your own.",
     )
     from fsmctl import __version__
 
@@ -97,9 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _input_errors() -> tuple[type[BaseException], ...]:
     """Exceptions that are the user's input or environment: one line, exit 2."""
-    from fsmctl.symbolic.symbols import DerivationInputError
-
     from fsmctl.errors import InputError
+    from fsmctl.symbolic.symbols import DerivationInputError
 
     return (InputError, DerivationInputError, OSError, MemoryError, UnicodeError)
 

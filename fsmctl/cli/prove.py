@@ -1,7 +1,11 @@
-"""``fsmctl prove``: check the claims of Liang, Sun & Wang (2012), Section 3, for a scenario.
+"""``fsmctl prove``: check the claims of Liang, Sun & Wang (2012), Section 3, for a scenario; or a law's.
 
-Exit codes: 0 every claim as expected (known errata included), 1 a claim fails for the
-scenario (or a check did not go through), 2 usage or input error.
+``fsmctl prove`` checks the paper's claims (:mod:`fsmctl.proofs.claims`); ``fsmctl prove --law L`` checks
+what a law declares instead (:func:`fsmctl.proofs.law_check.check_law`: its contract, and its Lyapunov
+candidate when it declares one).
+
+Exit codes: 0 every claim as expected (known errata included) / the law's checks passed, 1 a claim fails
+for the scenario / a law check failed (or a check did not go through), 2 usage or input error.
 """
 
 from __future__ import annotations
@@ -15,7 +19,10 @@ __all__ = ["add_parser", "run"]
 
 EPILOG = """verdicts: proved (symbolic), numeric (sampling only, not a proof), erratum (the printed statement is
 false; the corrected one is checked), fails for this scenario.
-exit codes: 0 every claim as expected, 1 a claim fails for the scenario, 2 usage or input error."""
+--law NAME|FILE.py|DIR checks a law instead of the paper's claims (--error-model, --samples, --seed,
+--json and --report apply).
+exit codes: 0 every claim as expected (or the law's checks passed), 1 a claim (or a law check) fails,
+2 usage or input error."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -36,7 +43,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     default = Region()
     p = subparsers.add_parser(
         "prove",
-        help="check every step of Section 3 (symbolically) and Theorems 1-2 for a scenario",
+        help="check every step of Section 3 (symbolically) and Theorems 1-2 for a scenario, or a law (--law)",
         description="Proof check of Liang, Sun & Wang (2012), Section 3, on the model derived in derive/.",
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
@@ -44,7 +51,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("claims", nargs="*", metavar="CLAIM_ID", help="claims to check (default: all; see --list)")
     p.add_argument("--list", action="store_true", help="list the claim ids and exit")
     p.add_argument(
-        "--scenario", default="paper", metavar="FILE", help="'paper' (built in) or a TOML file (default: paper)"
+        "--scenario", default=None, metavar="FILE", help="'paper' (built in) or a TOML file (default: paper)"
     )
     p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
     p.add_argument("--json", action="store_true", help="print a JSON array, one object per claim")
@@ -71,6 +78,19 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="random state samples per agent for Theorem 2, added to the grid (default: %(default)s)",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default: %(default)s)")
+    g = p.add_argument_group("a law instead of the paper's claims")
+    g.add_argument(
+        "--law",
+        default=None,
+        metavar="NAME|FILE.py|DIR",
+        help="check this law (a built-in name, a derivation script or a folder written by fsmctl derive)",
+    )
+    g.add_argument(
+        "--error-model",
+        choices=("paper", "exact"),
+        default=None,
+        help="with --law: the error kinematics of the checked variant (default: paper)",
+    )
     p.add_argument(
         "--jobs",
         type=int,
@@ -96,11 +116,15 @@ def run(args: argparse.Namespace) -> int:
         0 every claim as expected (known errata included), 1 a claim fails for the scenario or a
         check did not go through; bad input raises :class:`fsmctl.cli.main.UsageError` (exit code 2).
     """
-    from fsmctl.errors import InputError as UsageError  # one line, exit 2
+    from fsmctl.cli.main import UsageError  # one line, exit 2
     from fsmctl.proofs import report
     from fsmctl.proofs.claims import ProofContext, claim_ids, run_claims
     from fsmctl.proofs.theorem2 import Region
 
+    if args.law is not None:
+        return _run_law(args)
+    if args.error_model is not None:
+        raise UsageError("--error-model applies to --law only (the paper's claims use the scenario's)")
     if args.list:
         print(report.format_list())
         return 0
@@ -117,7 +141,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
     if args.samples < 0:
         raise UsageError(f"--samples must be >= 0, got {args.samples}")
-    scenario = _load(args.scenario, args.case)
+    scenario = _load(args.scenario or "paper", args.case)
     ctx = ProofContext(scenario, Region(args.region_sigma, args.region_omega), args.samples, args.seed)
     ids = list(dict.fromkeys(args.claims))
     results = run_claims(ids or None, ctx, jobs=args.jobs)
@@ -139,3 +163,38 @@ def _load(source: str, case: str | None):
     from fsmctl.model.scenario import load_scenario
 
     return load_scenario(source, case=case)
+
+
+def _run_law(args: argparse.Namespace) -> int:
+    """``fsmctl prove --law L``: the law's checks (:func:`fsmctl.proofs.law_check.check_law`); 0 if they pass."""
+    import json
+
+    from fsmctl.cli.main import UsageError
+    from fsmctl.outputs import jsonable, write_text
+
+    refused = [
+        option
+        for option, given in (
+            ("CLAIM_ID", bool(args.claims)),
+            ("--list", args.list),
+            ("--scenario", args.scenario is not None),
+            ("--case", args.case is not None),
+        )
+        if given
+    ]
+    if refused:
+        raise UsageError(f"{', '.join(refused)} cannot be combined with --law (they select the paper's claims)")
+    if args.samples < 0:
+        raise UsageError(f"--samples must be >= 0, got {args.samples}")
+    from fsmctl.proofs.law_check import check_law
+
+    rep = check_law(args.law, error_model=args.error_model or "paper", samples=args.samples, seed=args.seed)
+    if args.json:
+        print(json.dumps(jsonable(rep.to_dict()), indent=2, allow_nan=False))
+    else:
+        print(rep.to_text())
+    if args.report is not None:
+        write_text(args.report, rep.to_markdown())  # atomic; an unwritable place is EnvironmentProblem (exit 2)
+        if not args.json:
+            print(f"report written to {args.report}", file=sys.stderr)
+    return 0 if rep.ok else 1

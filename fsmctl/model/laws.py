@@ -121,6 +121,7 @@ class LawCode:
     parameters: tuple[LawParameterInfo, ...]
     states: tuple[dict, ...]
     broadcast_name: str
+    broadcast_unit: str
     n_broadcast: int
     n_constants: int
     n_cache: int
@@ -191,6 +192,7 @@ def _read_law(folder: Path) -> LawCode:
         parameters=params,
         states=tuple(meta["states"]),
         broadcast_name=meta["broadcast"]["name"],
+        broadcast_unit=meta["broadcast"].get("unit", "1"),
         n_broadcast=int(meta["broadcast"]["size"]),
         n_constants=sum(int(c["size"]) for c in meta["constants"]),
         n_cache=sum(int(c["size"]) for c in meta["cache"]),
@@ -274,7 +276,9 @@ def resolve_law(law: str | Path | LawCode | None) -> LawCode:
     Raises
     ------
     LawError
-        Unknown name, missing path, or a script that does not derive.
+        Unknown name or missing path.
+    fsmctl.symbolic.law.LawDefinitionError
+        A script that does not import or breaks the law contract (both are :class:`~fsmctl.errors.InputError`).
     """
     if isinstance(law, LawCode):
         return law

@@ -1,10 +1,13 @@
-"""python-control plug-in: the spacecraft, the FSM controller and the formation as ``NonlinearIOSystem``.
+"""python-control plug-in: the spacecraft, any control law and the formation as ``NonlinearIOSystem``.
 
-Every callback evaluates the generated per-agent functions (the same code the compiled simulator runs), so
+Every callback evaluates the generated per-agent functions (the same code the compiled simulator runs): the
+model's, and the law's contract functions (:func:`law_controller`; :func:`fsm_controller` is the paper's law),
+with the neighbour aggregation of :func:`fsmctl.model.coupling.aggregate`; so
 ``ct.input_output_response(fsmctl.formation(s), ...)`` and :func:`fsmctl.simulate` integrate the same model.
 
-Signal names follow python-control conventions: ``sigma[0..2]``, ``omega[0..2]``, ``tau[0..2]``, ``s[0..2]``;
-in a formation the agents are ``sc1, sc2, ...`` (plants), ``ctrl1, ...`` (controllers) and ``reference``.
+Signal names follow python-control conventions: ``sigma[0..2]``, ``omega[0..2]``, ``tau[0..2]`` and the law's
+broadcast (``s[0..2]`` for the paper's law); in a formation the agents are ``sc1, sc2, ...`` (plants),
+``ctrl1, ...`` (controllers) and ``reference``.
 
 Parameters and ownership
 ------------------------
@@ -49,7 +52,16 @@ import control as ct
 import numpy as np
 
 from fsmctl.errors import InputError
+from fsmctl.model.coupling import aggregate
 from fsmctl.model.generated_code import casadi_function
+from fsmctl.model.laws import (
+    LawCode,
+    LawError,
+    LawParameterInfo,
+    initial_law_states,
+    parameter_matrix,
+    resolve_law,
+)
 from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid, check_inertia
 from fsmctl.model.topology import Schedule, schedule_weight
 
@@ -59,6 +71,8 @@ __all__ = [
     "spacecraft",
     "reference_generator",
     "fsm_controller",
+    "law_controller",
+    "law_parameter_values",
     "formation",
     "initial_state",
     "mrp_state",
@@ -563,7 +577,7 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
 
 def _unchanged(value: Any, checked: Any) -> bool:
     """Whether a value seen before still holds what was validated (immutable, ours, or equal contents)."""
-    if value is checked or isinstance(value, (float, int)):
+    if value is checked or isinstance(value, (float, int, str)):
         return True
     if isinstance(value, np.ndarray):
         return value.shape == np.shape(checked) and bool(np.array_equal(value, checked))
@@ -725,7 +739,8 @@ class Neighbour:
     Parameters
     ----------
     name : str
-        Suffix of the controller inputs ``s_<name>[0..2]`` that carry ``s_j``.
+        Suffix of the controller inputs ``<broadcast>_<name>[k]`` that carry the neighbour's broadcast ``b_j``
+        (``s_<name>[0..2]`` for the paper's law, which broadcasts its sliding variable ``s``).
     k_i : float
         ``k^i_ij >= 0``, finite.
     k_j : Schedule
@@ -756,6 +771,256 @@ class Neighbour:
         object.__setattr__(self, "phase", _scalar(self.phase, f"{where}: phase"))
 
 
+def _neighbours(neighbours: Any, where: str) -> tuple[Neighbour, ...]:
+    if isinstance(neighbours, (str, bytes)) or not isinstance(neighbours, Sequence):
+        raise ScenarioError(f"{where}: neighbours: expected a sequence of Neighbour, got {_show(neighbours)}")
+    nbrs = tuple(neighbours)
+    for nb in nbrs:
+        if not isinstance(nb, Neighbour):
+            raise ScenarioError(f"{where}: neighbours: expected Neighbour, got {type(nb).__name__}")
+    names = [nb.name for nb in nbrs]
+    if len(set(names)) != len(names):
+        raise ScenarioError(f"{where}: neighbours: names must be unique, got {names}")
+    return nbrs
+
+
+def _law_parameter(info: LawParameterInfo) -> Callable[[Any, str], np.ndarray]:
+    """Validator of one law parameter's value (a number, ``size`` numbers, or one of its options by name)."""
+
+    def check(value: Any, where: str) -> np.ndarray:
+        if isinstance(value, np.ndarray) and value.shape == ():
+            value = value[()]
+        try:
+            packed = np.array(info.values(value, where), dtype=float)
+        except LawError as exc:
+            raise ScenarioError(str(exc)) from None
+        except TypeError:
+            raise ScenarioError(f"{where}: expected {info.size} real number(s), got {_show(value)}") from None
+        packed.setflags(write=False)
+        return packed
+
+    return check
+
+
+def _parameter_value(info: LawParameterInfo, packed: Sequence[float]) -> Any:
+    """The user-facing value of a packed law parameter (an option's name, a number, or a read-only array)."""
+    if info.choices:
+        return info.choices[int(packed[0])]
+    if info.size == 1:
+        return float(packed[0])
+    a = np.array(packed, dtype=float)
+    a.setflags(write=False)
+    return a
+
+
+def law_parameter_values(law: LawCode | str, packed: Sequence[float]) -> dict[str, Any]:
+    """A law's packed parameter vector (a row of :func:`fsmctl.model.laws.parameter_matrix`) by parameter name.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.model.laws import parameter_matrix
+    >>> from fsmctl.plugin.iosys import law_parameter_values
+    >>> law = fsmctl.resolve_law("fsm")
+    >>> law_parameter_values(law, parameter_matrix(law, fsmctl.paper_scenario("1"))[0])["singularity_fix"]
+    'switch'
+    """
+    law = resolve_law(law)
+    row = np.asarray(packed, dtype=float).reshape(-1)
+    if row.size != law.n_params:
+        raise ScenarioError(f"law {law.name!r}: expected {law.n_params} packed parameters, got {row.size}")
+    out, k = {}, 0
+    for info in law.parameters:
+        out[info.name] = _parameter_value(info, row[k : k + info.size])
+        k += info.size
+    return out
+
+
+@dataclass(frozen=True)
+class _ParameterScheme:
+    """How a controller's python-control parameters (local names) become the law's packed parameter vector."""
+
+    values: dict[str, Any]
+    validators: dict[str, Callable[[Any, str], Any]]
+    pack: Callable[[Mapping[str, Any]], np.ndarray]
+
+
+def _law_scheme(law: LawCode, given: Mapping[str, Any], where: str) -> _ParameterScheme:
+    """One python-control parameter per law parameter, named like it (``K``, ``P``, ...)."""
+    names = [p.name for p in law.parameters]
+    unknown = sorted(set(given) - set(names))
+    if unknown:
+        raise ScenarioError(
+            f"{where}: parameters: the law {law.name!r} has no parameter {unknown[0]!r} "
+            f"(its parameters: {', '.join(names) or 'none'})"
+        )
+    clash = sorted(set(names) & {"J0", "u_max", "owner"})
+    if clash:
+        raise ScenarioError(f"{where}: the law's parameter {clash[0]!r} clashes with the controller's own parameter")
+    values, validators = {}, {}
+    for info in law.parameters:
+        check = _law_parameter(info)
+        validators[info.name] = check
+        if info.name in given:
+            check(given[info.name], f"{where}: parameters: {info.name}")  # fail at construction, not at first use
+            value = given[info.name]
+            values[info.name] = value.lower() if isinstance(value, str) else value
+        else:
+            values[info.name] = _parameter_value(info, info.default)
+
+    def pack(checked: Mapping[str, Any]) -> np.ndarray:
+        return np.concatenate([np.zeros(0)] + [checked[name] for name in names])
+
+    return _ParameterScheme(values, validators, pack)
+
+
+def _controller(
+    kind: str,
+    law: LawCode,
+    J0: np.ndarray,
+    scheme: _ParameterScheme,
+    u_max: float,
+    error_model: str,
+    nbrs: tuple[Neighbour, ...],
+    name: str | None,
+) -> ParameterizedSystem:
+    """One agent's law (the contract of :mod:`fsmctl.symbolic.law`) as a python-control system."""
+    where = f"{kind} {name!r}" if name else kind
+    nz, nb, bname = law.n_states, law.n_broadcast, law.broadcast_name
+    if bname == "tau":
+        raise ScenarioError(f"{where}: the law's broadcast is named 'tau', the controller's torque output")
+    local = law.casadi(f"law_local_{error_model}")  # the contract's names (fsmctl.symbolic.law.contract_names)
+    control = law.casadi(f"law_control_{error_model}")
+    constants = law.casadi("law_constants")
+    k_i = [nb_.k_i for nb_ in nbrs]
+    weights = [_scalar_schedule(nb_.k_j, nb_.phase) for nb_ in nbrs]
+    inputs = _labels("sigma") + _labels("omega") + _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot")
+    for nb_ in nbrs:
+        inputs += _labels(f"{bname}_{nb_.name}", nb)
+
+    # one flat call: (t, own/reference signals, z, params, J0, aggregates, u_max) -> (torque, broadcast, z_dot);
+    # the law's constants are computed from the parameters inside the call, so params= values are used consistently
+    def build(t, y, z, prm, J, k_sum, received, k_received_sum, um):
+        agent = (t, y[0:3], y[3:6], z, y[6:9], y[9:12], y[12:15], J, prm, constants(prm))
+        b, cache = local(*agent)
+        u, _, z_dot = control(*agent, cache, k_sum, received, k_received_sum, um)
+        return [u, b, z_dot]
+
+    shapes = [(1, 1), (15, 1), (nz, 1), (law.n_params, 1), (3, 3), (1, 1), (nb, 1), (1, 1), (1, 1)]
+    call = _FlatCall(build, shapes, f"{kind}_law")
+    zero = np.zeros(nb)
+
+    def evaluate(t, x, u, p):
+        # eq 19: the agent knows only what it receives, sum_j k^j_ij(t) b_j, from the b_j on its inputs; the
+        # rule is fsmctl.model.coupling.aggregate, here with the agent as receiver 0 and its neighbours 1..m
+        broadcasts = [zero] + [u[15 + nb * m : 15 + nb * (m + 1)] for m in range(len(nbrs))]
+        received, k_sum, k_received_sum = aggregate(
+            broadcasts, [w(t) for w in weights], [0] * len(nbrs), range(1, len(nbrs) + 1), k_i, zero=lambda: zero
+        )
+        prm = scheme.pack(p)
+        return call(t, u[:15], x, prm, p["J0"], k_sum[0], received[0], k_received_sum[0], p["u_max"])
+
+    update = None if nz == 0 else (lambda t, x, u, p: evaluate(t, x, u, p)[3 + nb :])
+    return ParameterizedSystem(
+        kind,
+        update,
+        lambda t, x, u, p: evaluate(t, x, u, p)[: 3 + nb],
+        {"J0": J0, **scheme.values, "u_max": u_max},
+        {"J0": _inertia, **scheme.validators, "u_max": _torque_limit},
+        inputs=inputs,
+        outputs=_labels("tau") + _labels(bname, nb),
+        name=name,
+        **({"states": law.state_labels()} if nz else {}),
+    )
+
+
+def law_controller(
+    law: LawCode | str,
+    J0,
+    *,
+    parameters: Mapping[str, Any] | None = None,
+    u_max: float = math.inf,
+    error_model: str = "paper",
+    neighbours: Sequence[Neighbour] = (),
+    name: str | None = None,
+) -> ParameterizedSystem:
+    """One agent's control law, any law (built-in, derived folder or derivation script), as a python-control system.
+
+    The system evaluates the law's generated contract functions (``law_constants``, ``law_local_<model>``,
+    ``law_control_<model>``, :mod:`fsmctl.symbolic.law`): the same code the compiled simulator flies.  What the
+    agent receives from its neighbours is aggregated by :func:`fsmctl.model.coupling.aggregate` (the engine's
+    rule: ``received = sum_j k^j_ij(t) b_j``, ``k_sum = sum_j k^i_ij``, ``k_received_sum = sum_j k^j_ij(t)``).
+
+    Parameters
+    ----------
+    law : LawCode or str
+        A built-in law's name (``"fsm"``, the paper's), a derived folder or a derivation script
+        (:func:`fsmctl.model.laws.resolve_law`).
+    J0 : array_like, shape (3, 3)
+        Nominal inertia used by the law: finite, symmetric positive definite.
+    parameters : mapping, optional
+        The law's parameters by name (an option by its name, e.g. ``singularity_fix="switch"``); the others
+        take the law's defaults.  Checked against the law's declared ranges.
+    u_max : float
+        Per-axis torque limit (N m) of the ideal actuator, ``>= 0`` (``inf``: none).
+    error_model : {"paper", "exact"}
+        The error kinematics the law uses.
+    neighbours : sequence of Neighbour
+        Agents whose broadcasts this one receives (unique names); each adds inputs
+        ``<broadcast>_<name>[k]`` (e.g. ``s_sc2[0..2]`` for the paper's law).
+    name : str, optional
+        System name; default python-control's unique ``sys[<id>]``.
+
+    Returns
+    -------
+    ParameterizedSystem
+        States: the law's states ``z`` (labels of :meth:`LawCode.state_labels`; none: a static system).
+        Inputs ``sigma``, ``omega`` (own state), ``sigma_d``, ``omega_d``, ``omega_d_dot`` (reference) and each
+        neighbour's broadcast.  Outputs ``tau[0..2]`` (the applied, limited torque: the plant's input) and the
+        broadcast ``<broadcast>[k]``.  Parameters ``f"{name}_J0"``, one per law parameter under its name
+        (``f"{name}_K"``, ...), ``f"{name}_u_max"`` and the owner tag.  Initial law states:
+        :func:`fsmctl.model.laws.initial_law_states`.
+
+    Raises
+    ------
+    fsmctl.ScenarioError
+        A bad ``J0``, parameter, ``u_max``, ``error_model``, ``neighbours`` or ``name``.
+    fsmctl.model.laws.LawError
+        An unknown law.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.plugin.iosys import law_controller
+    >>> paper = fsmctl.paper_scenario("1")
+    >>> ctrl = law_controller("fsm", paper.agents[0].J0_array, parameters={"c1": 0.5}, u_max=2.0, name="c")
+    >>> ctrl.nstates, ctrl.output_labels
+    (0, ['tau[0]', 'tau[1]', 'tau[2]', 's[0]', 's[1]', 's[2]'])
+    >>> float(ctrl.params["c_c1"]), ctrl.params["c_singularity_fix"]
+    (0.5, 'switch')
+    """
+    name = _system_name(name, "law_controller")
+    where = f"law_controller {name!r}" if name else "law_controller"
+    law = resolve_law(law)
+    J0 = _inertia(J0, f"{where}: J0")
+    if parameters is None:
+        parameters = {}
+    if not isinstance(parameters, Mapping):
+        raise ScenarioError(
+            f"{where}: parameters: expected a mapping of parameter names to values, got {_show(parameters)}"
+        )
+    if error_model not in ("paper", "exact"):
+        raise ScenarioError(f"{where}: error_model: must be 'paper' or 'exact', got {_show(error_model)}")
+    scheme = _law_scheme(law, parameters, where)
+    u_max = _torque_limit(u_max, f"{where}: u_max")
+    nbrs = _neighbours(neighbours, where)
+    return _controller("law_controller", law, J0, scheme, u_max, error_model, nbrs, name)
+
+
+_GAINS = ("c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix")
+"""The paper law's parameters packed in ``fsm_controller``'s ``gains`` (manifest layout ``gains``)."""
+
+
 def fsm_controller(
     J0,
     controller: ControllerSettings,
@@ -764,7 +1029,7 @@ def fsm_controller(
     neighbours: Sequence[Neighbour] = (),
     name: str | None = None,
 ) -> ParameterizedSystem:
-    """One agent's fast-sliding-mode controller (eqs 13, 16-19) as a static python-control system.
+    """One agent's fast-sliding-mode controller (eqs 13, 16-19): :func:`law_controller` of the paper's law.
 
     Parameters
     ----------
@@ -783,8 +1048,8 @@ def fsm_controller(
     Returns
     -------
     ParameterizedSystem
-        Inputs ``sigma``, ``omega`` (own state), ``sigma_d``, ``omega_d``, ``omega_d_dot`` (reference) and
-        ``s_<neighbour>``; outputs ``tau[0..2]`` (saturated torque) and ``s[0..2]``.  Parameters
+        Static.  Inputs ``sigma``, ``omega`` (own state), ``sigma_d``, ``omega_d``, ``omega_d_dot`` (reference)
+        and ``s_<neighbour>``; outputs ``tau[0..2]`` (saturated torque) and ``s[0..2]``.  Parameters
         ``f"{name}_J0"``, ``_gains`` (6: c1, c2, alpha, boundary_layer, epsilon, fix_mode), ``_delta``,
         ``_u_max`` and the owner tag.
 
@@ -812,59 +1077,31 @@ def fsm_controller(
         raise ScenarioError(f"{where}: controller: expected ControllerSettings, got {type(controller).__name__}")
     gains = _gains(controller.gains_vector(), f"{where}: controller")
     u_max = _torque_limit(controller.effective_torque_limit, f"{where}: controller torque limit")
-    if isinstance(neighbours, (str, bytes)) or not isinstance(neighbours, Sequence):
-        raise ScenarioError(f"{where}: neighbours: expected a sequence of Neighbour, got {_show(neighbours)}")
-    nbrs = tuple(neighbours)
-    for nb in nbrs:
-        if not isinstance(nb, Neighbour):
-            raise ScenarioError(f"{where}: neighbours: expected Neighbour, got {type(nb).__name__}")
-    names = [nb.name for nb in nbrs]
-    if len(set(names)) != len(names):
-        raise ScenarioError(f"{where}: neighbours: names must be unique, got {names}")
-    law = casadi_function(f"control_law_{controller.error_model}")
-    consts = casadi_function("sliding_constants")
-    k_sum = float(sum(nb.k_i for nb in nbrs))
-    weights = [_scalar_schedule(nb.k_j, nb.phase) for nb in nbrs]
-    inputs = _labels("sigma") + _labels("omega") + _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot")
-    for nb in nbrs:
-        inputs += _labels(f"s_{nb.name}")
+    nbrs = _neighbours(neighbours, where)
+    law = resolve_law("fsm")
+    order = []  # where each of the law's packed parameters comes from: (local name, index)
+    for info in law.parameters:
+        if info.name == "delta":
+            order += [("delta", k) for k in range(3)]
+        else:
+            order.append(("gains", _GAINS.index(info.name)))
 
-    # one flat call: (own/reference signals, gains, J0, delta, k_sum, received, u_max) -> (tau, s); the sliding
-    # constants are computed from the gains inside the call, so gains passed with params= are used consistently
-    def build(y, g, J, d, ks, r, um):
-        return law(y[0:3], y[3:6], y[6:9], y[9:12], y[12:15], g, consts(g), J, d, ks, r, um)[:2]
+    def pack(checked: Mapping[str, Any]) -> np.ndarray:
+        return np.array([checked[local][k] for local, k in order])
 
-    call = _FlatCall(build, [(15, 1), (6, 1), (3, 3), (3, 1), (1, 1), (3, 1), (1, 1)], "fsm_controller_law")
-
-    def output(t, x, u, p):
-        # eq 19: agent i only knows sum_j k^j_ij(t) s_j, built from the s_j it receives
-        received = np.zeros(3)
-        for m, weight in enumerate(weights):
-            kj = weight(t)
-            if kj:
-                received += kj * u[15 + 3 * m : 18 + 3 * m]
-        return call(u[:15], p["gains"], p["J0"], p["delta"], k_sum, received, p["u_max"])
-
-    return ParameterizedSystem(
-        "fsm_controller",
-        None,
-        output,
-        {"J0": J0, "gains": gains, "delta": delta, "u_max": u_max},
-        {"J0": _inertia, "gains": _gains, "delta": _positive3, "u_max": _torque_limit},
-        inputs=inputs,
-        outputs=_labels("tau") + _labels("s"),
-        name=name,
-    )
+    scheme = _ParameterScheme({"gains": gains, "delta": delta}, {"gains": _gains, "delta": _positive3}, pack)
+    return _controller("fsm_controller", law, J0, scheme, u_max, controller.error_model, nbrs, name)
 
 
 def formation(
     scenario: Scenario, *, normalization_gain: float = DEFAULT_NORMALIZATION_GAIN, name: str = "formation"
 ) -> ct.InterconnectedSystem:
-    """The closed-loop formation of a scenario, assembled with :func:`control.interconnect`.
+    """The closed-loop formation of a scenario, flying its law (``scenario.law``), assembled with :func:`control.interconnect`.
 
     Subsystems: ``reference``, plants ``sc1..scn`` (true inertia ``J0 + delta_J`` and disturbance),
-    controllers ``ctrl1..ctrln`` (nominal ``J0``). Controller ``i`` receives ``s_j`` from controller ``j`` for
-    each link ``i <- j`` of the topology.
+    controllers ``ctrl1..ctrln`` (:func:`law_controller` with the nominal ``J0`` and the agent's law parameters,
+    :func:`fsmctl.model.laws.parameter_matrix`). Controller ``i`` receives the broadcast ``b_j`` of controller
+    ``j`` (``s_j`` for the paper's law) for each link ``i <- j`` of the topology.
 
     Parameters
     ----------
@@ -876,11 +1113,13 @@ def formation(
     Returns
     -------
     control.InterconnectedSystem
-        No inputs. States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``
-        (:func:`initial_state` builds them from the scenario, :func:`mrp_state` maps them back to MRPs);
-        outputs ``sc<i>_sigma[k]`` (``|sigma| <= 1``), ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the output labels
-        of :meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
-        ``ctrl<i>_J0``, ... of the subsystems; pass ``params={"sc2_J": ...}`` to change one agent.
+        No inputs. States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``, then
+        the controllers' law states ``ctrl<i>_<state>[k]`` if the law has any (:func:`initial_state` builds them
+        from the scenario, :func:`mrp_state` maps them back to MRPs); outputs ``sc<i>_sigma[k]``
+        (``|sigma| <= 1``), ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the output labels of
+        :meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
+        ``ctrl<i>_J0``, ``ctrl<i>_<law parameter>``, ... of the subsystems; pass ``params={"sc2_J": ...}`` to
+        change one agent.
 
     Examples
     --------
@@ -891,6 +1130,8 @@ def formation(
     >>> loop = fsmctl.formation(s)
     >>> loop.nstates, loop.noutputs
     (46, 54)
+    >>> float(loop.params["ctrl1_boundary_layer"])
+    0.05
     >>> r = ct.input_output_response(loop, [0.0, 0.01], 0, initial_state(s))
     >>> r.outputs.shape
     (54, 2)
@@ -898,10 +1139,16 @@ def formation(
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"formation: expected a Scenario, got {type(scenario).__name__}")
     n = scenario.n_agents
-    systems = [reference_generator(scenario.reference.omega, normalization_gain=normalization_gain, name="reference")]
-    connections = []
+    law = scenario.law
+    c = scenario.controller
+    try:
+        rows = parameter_matrix(law, scenario)
+    except LawError as exc:
+        raise ScenarioError(str(exc)) from None
+    bname = law.broadcast_name
+    plants, controllers, connections = [], [], []
     for i, agent in enumerate(scenario.agents, start=1):
-        systems.append(
+        plants.append(
             spacecraft(
                 agent.J_true, disturbance=agent.disturbance, normalization_gain=normalization_gain, name=f"sc{i}"
             )
@@ -911,8 +1158,16 @@ def formation(
             for link in scenario.topology.links
             if link.receiver == i - 1
         ]
-        systems.append(
-            fsm_controller(agent.J0_array, scenario.controller, agent.delta, neighbours=nbrs, name=f"ctrl{i}")
+        controllers.append(
+            law_controller(
+                law,
+                agent.J0_array,
+                parameters=law_parameter_values(law, rows[i - 1]),
+                u_max=c.effective_torque_limit,
+                error_model=c.error_model,
+                neighbours=nbrs,
+                name=f"ctrl{i}",
+            )
         )
         connections += [
             [f"ctrl{i}.sigma", f"sc{i}.sigma"],
@@ -922,16 +1177,27 @@ def formation(
             [f"ctrl{i}.omega_d_dot", "reference.omega_d_dot"],
             [f"sc{i}.tau", f"ctrl{i}.tau"],
         ]
-        connections += [[f"ctrl{i}.s_{nb.name}", f"ctrl{nb.name[2:]}.s"] for nb in nbrs]
+        if law.n_broadcast:
+            connections += [[f"ctrl{i}.{bname}_{nb.name}", f"ctrl{nb.name[2:]}.{bname}"] for nb in nbrs]
     outlist = [
         f"{sys}{i}.{sig}" for i in range(1, n + 1) for sys, sig in (("sc", "sigma"), ("sc", "omega"), ("ctrl", "tau"))
     ]
     outputs = [f"sc{i}_{sig}[{k}]" for i in range(1, n + 1) for sig in ("sigma", "omega", "tau") for k in range(3)]
-    return ct.interconnect(systems, connections=connections, outlist=outlist, outputs=outputs, name=name, inputs=[])
+    # plants before controllers: the attitude states come first, in the layout of SimulationResult.to_time_response
+    systems = [reference_generator(scenario.reference.omega, normalization_gain=normalization_gain, name="reference")]
+    return ct.interconnect(
+        systems + plants + controllers,
+        connections=connections,
+        outlist=outlist,
+        outputs=outputs,
+        name=name,
+        inputs=[],
+    )
 
 
 def initial_state(scenario: Scenario) -> np.ndarray:
-    """The formation's initial state vector (order of :func:`formation`'s states): quaternions from the MRPs.
+    """The formation's initial state vector (order of :func:`formation`'s states): quaternions from the MRPs,
+    then the law's initial states of every agent (none for the paper's law).
 
     Examples
     --------
@@ -945,16 +1211,21 @@ def initial_state(scenario: Scenario) -> np.ndarray:
     x = [quaternion_from_mrp(scenario.reference.sigma0)]
     for a in scenario.agents:
         x += [quaternion_from_mrp(a.sigma0), np.asarray(a.omega0, dtype=float)]
+    z0 = initial_law_states(scenario.law)
+    x += [z0] * scenario.n_agents
     return np.concatenate(x)
 
 
-def mrp_state(x) -> np.ndarray:
+def mrp_state(x, n_agents: int | None = None) -> np.ndarray:
     """Formation states (of :func:`formation`) in the compiled simulator's MRP layout.
 
     Parameters
     ----------
-    x : array_like, shape (4 + 7 n, ...)
-        ``[q_d, q_1, omega_1, ..., q_n, omega_n]`` along the first axis (e.g. ``response.states``).
+    x : array_like, shape (4 + 7 n [+ law states], ...)
+        ``[q_d, q_1, omega_1, ..., q_n, omega_n]`` along the first axis (e.g. ``response.states``), optionally
+        followed by the controllers' law states (then give ``n_agents``).
+    n_agents : int, optional
+        The number of agents ``n``; by default ``(len(x) - 4) / 7`` (a law without states).
 
     Returns
     -------
@@ -971,9 +1242,14 @@ def mrp_state(x) -> np.ndarray:
     True
     """
     a = np.asarray(x, dtype=float)
-    if a.ndim == 0 or (a.shape[0] - 4) % 7 or a.shape[0] < 4:
-        raise ValueError(f"expected formation states of length 4 + 7 n along the first axis, got shape {a.shape}")
-    n = (a.shape[0] - 4) // 7
+    if n_agents is None:
+        if a.ndim == 0 or (a.shape[0] - 4) % 7 or a.shape[0] < 4:
+            raise ValueError(f"expected formation states of length 4 + 7 n along the first axis, got shape {a.shape}")
+        n = (a.shape[0] - 4) // 7
+    else:
+        n = int(n_agents)
+        if a.ndim == 0 or n < 0 or a.shape[0] < 4 + 7 * n:
+            raise ValueError(f"expected formation states of length >= 4 + 7 * {n} along the first axis, got {a.shape}")
     rows = [mrp_from_quaternion(np.moveaxis(a[:4], 0, -1))]
     for i in range(n):
         o = 4 + 7 * i

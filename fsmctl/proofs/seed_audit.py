@@ -430,8 +430,12 @@ def erratum_delta_diag(corrected: Callable = corrected_switching_torque) -> Erra
             L.sigma, L.sigma_dot, L.s, L.c1, L.c2, L.alpha, L.delta, L.coordination, fix=SingularityFix.NONE
         )
         loop_term = _expand_zero(sd.jacobian(L.delta) + sp.diag(*list(sgn)))
-        return _expand_zero(u_D - fsmctl) and in_loop and dissipation and loop_term and _holds(
-            lambda: sp.Matrix(corrected(GtM0, d0, s0)) == reference
+        return (
+            _expand_zero(u_D - fsmctl)
+            and in_loop
+            and dissipation
+            and loop_term
+            and _holds(lambda: sp.Matrix(corrected(GtM0, d0, s0)) == reference)
         )
 
     return Erratum(
@@ -556,8 +560,7 @@ def erratum_scalar_gains(corrected: Callable = corrected_scalar_surface) -> Erra
         # 'we have that -x_dot = c1 x + c2 sig(x)^a, -x_dot = c2 sig(x)^a and -x_dot = c1 x' (FSM, TSM, LSM)
         modes = ((c1, c2), (0, c2), (c1, 0))
         same = all(
-            sp.simplify(sliding_dynamics(form, g1, g2) - scalar_sliding_mode(x, g1, g2, alpha)) == 0
-            for g1, g2 in modes
+            sp.simplify(sliding_dynamics(form, g1, g2) - scalar_sliding_mode(x, g1, g2, alpha)) == 0 for g1, g2 in modes
         )
         # eq 34 is the integral of dt = -dx / x_dot from tau to |x0|: dT/dx0 = -1/x_dot(x0), x0 > 0
         rate = sliding_dynamics(form, c1, c2).subs(x, x0)

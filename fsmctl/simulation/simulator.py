@@ -508,7 +508,9 @@ class SimulationResult:
     def s(self) -> np.ndarray:
         """(T, n, 3) 1/s: the sliding variable of a sliding-mode law (its broadcast, when the law calls it ``s``)."""
         if self.law.broadcast_name != "s":
-            raise AttributeError(f"the law {self.law.name!r} broadcasts {self.law.broadcast_name!r}, not a sliding variable s")
+            raise AttributeError(
+                f"the law {self.law.name!r} broadcasts {self.law.broadcast_name!r}, not a sliding variable s"
+            )
         return self.broadcast
 
     @property
@@ -627,10 +629,14 @@ class SimulationResult:
                 f"broadcast_{self.law.broadcast_name}": var(
                     self.broadcast,
                     ("time_s", "agent", "broadcast_component"),
-                    "1",
+                    self.law.broadcast_unit,
                     f"what each agent broadcasts to its neighbours ({self.law.broadcast_name}, law {self.law.name})",
                 ),
-                "law_state": var(self.z, ("time_s", "agent", "law_state"), "1", f"the states of law {self.law.name}"),
+                **(
+                    {"law_state": var(self.z, ("time_s", "agent", "law_state"), "1", f"states of law {self.law.name}")}
+                    if self.z.shape[-1]
+                    else {}  # NetCDF 3 has no zero-length fixed dimension
+                ),
                 "u_N_m": var(self.u, tna, "N m", "applied control torque u_i"),
                 "u_unsaturated_N_m": var(self.u_unsaturated, tna, "N m", "commanded torque before saturation"),
                 "sigma_d": var(self.sigma_d, ("time_s", "axis"), "1", "reference MRP sigma_d"),
@@ -884,11 +890,15 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
     p = pack(scenario) if isinstance(scenario, Scenario) else scenario
     n = p.n_agents
     J, J0 = np.asarray(p.J_true, dtype=float), np.asarray(p.J0, dtype=float)
-    c1, c2, alpha, phi, eps = (float(np.max(p.gains[:, k])) for k in range(5))
-    switch = bool(np.any(p.gains[:, 5] == 1))
-    slope = (2.0 - alpha) * eps ** (alpha - 1.0) if switch else alpha * eps ** (alpha - 1.0)
-    surface = c1 + c2 * slope
-    layer = float(np.max(p.delta)) / phi if phi > 0 else 0.0
+    fsm = _law_columns(p, ("c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix", "delta"))
+    if fsm is not None:  # the paper's law (and its variants): its rates in closed form
+        c1, c2, alpha, phi, eps = (float(np.max(fsm[k])) for k in ("c1", "c2", "alpha", "boundary_layer", "epsilon"))
+        switch = bool(np.any(fsm["singularity_fix"] == 1))
+        slope = (2.0 - alpha) * eps ** (alpha - 1.0) if switch else alpha * eps ** (alpha - 1.0)
+        surface = c1 + c2 * slope
+        layer = float(np.max(fsm["delta"])) / phi if phi > 0 else 0.0
+    else:  # any other law: its linearisation at the initial state, by finite differences (an estimate)
+        surface, layer = _law_rate_estimate(p), 0.0
     k_in = np.zeros(n)
     for e in range(p.n_links):
         start, count = int(p.sched_start[e]), int(p.sched_count[e])
@@ -899,7 +909,7 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
     gain = max(float(np.linalg.norm(np.linalg.solve(J[i], J0[i]), 2)) for i in range(n))
     enabled = bool(np.any(p.u_max > 0))  # a disabled controller is packed with a zero torque limit
     loop = max(gain, math.sqrt(gain)) * (surface + layer + coordination) if enabled else 0.0
-    omega0 = p.x0[3:].reshape(n, 6)[:, 3:]
+    omega0 = p.x0[3:].reshape(n, p.stride)[:, 3:6]
     ref = np.asarray(p.ref_params, dtype=float)
     omega_max = max(
         float(np.max(np.linalg.norm(omega0, axis=1))), float(np.linalg.norm(np.abs(ref[0:3]) + np.abs(ref[9:12])))
@@ -942,6 +952,58 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
         "rotation_per_step": omega_max * dt,
         "problems": problems,
     }
+
+
+def _law_columns(p: PackedProblem, names: tuple[str, ...]) -> dict[str, np.ndarray] | None:
+    """The packed parameters of ``names`` by name (``(n,)`` or ``(n, size)``), or None if the law lacks one."""
+    offsets, k = {}, 0
+    for q in p.law.parameters:
+        offsets[q.name] = (k, q.size)
+        k += q.size
+    if not all(name in offsets for name in names):
+        return None
+    return {
+        name: p.params[:, offsets[name][0]]
+        if offsets[name][1] == 1
+        else p.params[:, slice(offsets[name][0], sum(offsets[name]))]
+        for name in names
+    }
+
+
+def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:
+    """A law's loop rate at the initial state (1/s): ``a + sqrt(b)`` for the linearised ``omega_dot = J0^-1 u`` with
+    ``a = ||J0^-1 du/domega||``, ``b = ||J0^-1 du/dsigma|| / 4`` (``G(0) = I/4``), the worst agent; finite
+    differences of the generated law with no neighbours (an estimate, for laws without a closed form here)."""
+    from fsmctl.model.generated_code import casadi_function
+
+    model = "exact" if p.error_model == 1 else "paper"
+    local, control = p.law.casadi(f"law_local_{model}"), p.law.casadi(f"law_control_{model}")
+    constants = p.law.casadi("law_constants")
+    _, wd, wdd = (
+        np.asarray(v, dtype=float).ravel() for v in casadi_function("reference_rhs")(0.0, p.x0[:3], p.ref_params)
+    )
+    worst = 0.0
+    for i in range(p.n_agents):
+        xi = p.x0[p.agent_slice(i)]
+        k = np.asarray(constants(p.params[i]), dtype=float).ravel()
+
+        def torque(x, i=i, k=k):
+            args = [0.0, x[0:3], x[3:6], x[6:], p.x0[:3], wd, wdd, p.J0[i], p.params[i], k]
+            _, cache = local(*args)
+            return np.asarray(control(*args, cache, 0.0, np.zeros(p.n_broadcast), 0.0, np.inf)[1], dtype=float).ravel()
+
+        base = torque(xi)
+        jac = np.zeros((3, 6))
+        for c in range(6):
+            dx = np.zeros_like(xi)
+            dx[c] = h
+            jac[:, c] = (torque(xi + dx) - base) / h
+        Jinv = np.linalg.inv(p.J0[i])
+        a = float(np.linalg.norm(Jinv @ jac[:, 3:6], 2))
+        b = float(np.linalg.norm(Jinv @ jac[:, 0:3], 2)) / 4.0
+        if np.isfinite(a) and np.isfinite(b):
+            worst = max(worst, a + math.sqrt(b))
+    return worst
 
 
 def _skew(v: np.ndarray) -> np.ndarray:

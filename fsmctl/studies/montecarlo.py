@@ -56,7 +56,6 @@ is killed (``SIGKILL``): see :func:`fsmctl.studies.parallel.worker_pool`.
 
 from __future__ import annotations
 
-import argparse
 import contextlib
 import errno
 import json
@@ -66,7 +65,7 @@ import socket
 import struct
 import sys
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import FIRST_COMPLETED, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field, replace
@@ -75,7 +74,6 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.cli.types import finite_or_inf_float, nonnegative_int, positive_float, positive_int
 from fsmctl.errors import EnvironmentProblem, InputError
 from fsmctl.outputs import atomic_path, jsonable, temporary_files, write_json
 from fsmctl.studies.parallel import CampaignInterrupted, interrupt_guard, single_threaded_workers, worker_pool
@@ -98,7 +96,6 @@ __all__ = [
     "finish_campaign",
     "summarize",
     "plot_histograms",
-    "add_parser",
 ]
 
 STATUS_OK, STATUS_FAILED, STATUS_DIED = "ok", "failed", "worker-died"
@@ -1162,136 +1159,3 @@ def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
     finally:
         plt.close(fig)
     return {"png": png, "svg": svg}
-
-
-# ----------------------------------------------------------------------------- CLI
-
-
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``fsmctl montecarlo`` (every sampling range is an option; ``--help`` shows the defaults)."""
-    p = subparsers.add_parser(
-        "montecarlo",
-        help="robustness campaign: random inertia, disturbances, initial attitudes/rates and topologies",
-        description=(
-            "Monte Carlo campaign over random Delta_J (SPD, realizable, <= rho J0), disturbance amplitudes and phases, "
-            "initial attitudes uniform over SO(3) and bounded rates, and random switching topologies (Liang et al. 2012). "
-            "Writes OUT/montecarlo.nc, OUT/summary.json, OUT/histograms.png/.svg, one file per chunk (resumable) and, "
-            "last, OUT/complete.json. The settings are printed first and stored in the outputs. "
-            "Ctrl-C (SIGINT) or SIGTERM stops the workers and keeps the finished chunks; exit code 130 (SIGINT) or "
-            "143 (SIGTERM); --resume continues."
-        ),
-    )
-    d = CampaignSettings()
-    p.add_argument("--scenario", default=d.scenario, help="built-in name or TOML file (default: %(default)s)")
-    p.add_argument(
-        "--case",
-        default=None,
-        help="case of the scenario (default: its first case; a file without [cases] is used as it is)",
-    )
-    p.add_argument("--runs", type=positive_int, default=d.runs, help="number of runs (default: %(default)s)")
-    p.add_argument("--workers", type=positive_int, default=None, help="local worker processes (default: all CPUs)")
-    p.add_argument("--seed", type=nonnegative_int, default=d.seed, help="campaign seed (default: %(default)s)")
-    p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on an existing Dask distributed scheduler")
-    p.add_argument(
-        "--dask-timeout",
-        type=positive_float,
-        default=DASK_TIMEOUT_S,
-        metavar="S",
-        help="seconds the scheduler gets to accept the connection and answer (default: %(default)s)",
-    )
-    p.add_argument("--out", default="montecarlo_out", help="output folder (default: %(default)s)")
-    p.add_argument("--resume", action="store_true", help="continue the campaign already in --out")
-    p.add_argument(
-        "--chunk-size", type=positive_int, default=d.chunk_size, help="runs per chunk file (default: %(default)s)"
-    )
-    p.add_argument("--t-final", type=finite_or_inf_float, default=None, help="horizon in s (default: the scenario's)")
-    p.add_argument("--dt", type=finite_or_inf_float, default=None, help="step in s (default: the scenario's)")
-    p.add_argument(
-        "--output-interval",
-        type=finite_or_inf_float,
-        default=d.output_interval,
-        help="output grid in s, lowered to the largest multiple of dt dividing t_final (default: %(default)s)",
-    )
-    p.add_argument(
-        "--torque-limit", type=finite_or_inf_float, default=None, help="N m per component (default: the scenario's)"
-    )
-    sampling = p.add_argument_group("sampling ranges (every run draws from these)")
-    for name, text in SAMPLING_RANGES:
-        sampling.add_argument(
-            "--" + name.replace("_", "-"),
-            type=finite_or_inf_float,
-            default=getattr(d, name),
-            help=text.replace("%", "%%") + " (default: %(default)s)",
-        )
-    p.add_argument(
-        "--tolerance-deg",
-        type=finite_or_inf_float,
-        default=d.tolerance_deg,
-        help="convergence tolerance of AAEM and RAEM at t_final, in deg (default: %(default)s)",
-    )
-    p.add_argument(
-        "--steady-window",
-        type=finite_or_inf_float,
-        default=d.steady_window,
-        help="steady-state window at the end of each run, in s (default: %(default)s)",
-    )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
-    p.set_defaults(func=_cli)
-    return p
-
-
-def _print_now(line: str) -> None:
-    print(line, flush=True)
-
-
-def _cli(args: argparse.Namespace) -> int:
-    settings = CampaignSettings(
-        scenario=args.scenario,
-        case=args.case,
-        runs=args.runs,
-        seed=args.seed,
-        chunk_size=args.chunk_size,
-        t_final=args.t_final,
-        dt=args.dt,
-        output_interval=args.output_interval,
-        torque_limit=args.torque_limit,
-        tolerance_deg=args.tolerance_deg,
-        steady_window=args.steady_window,
-        **{name: getattr(args, name) for name, _ in SAMPLING_RANGES},
-    )
-    try:
-        result = run_campaign(
-            settings,
-            args.out,
-            workers=args.workers,
-            dask=args.dask,
-            resume=args.resume,
-            progress=False if args.no_progress else None,
-            log=_print_now,
-            dask_timeout=args.dask_timeout,
-        )
-    except CampaignInterrupted as exc:  # the workers are stopped; one line, exit 130 (SIGINT) or 143 (SIGTERM)
-        print(f"fsmctl montecarlo: {exc}", file=sys.stderr, flush=True)
-        return exc.exit_code
-    for line in _report_lines(result):
-        print(line)
-    return 0 if not result.failed_runs else 1
-
-
-def _report_lines(result: CampaignResult) -> Iterable[str]:
-    s = result.summary
-    st = s["statistics"]
-
-    def med(k: str) -> str:
-        e = st[k]
-        return f"median {e['median']:.4g} [p5 {e['p5']:.4g}, p95 {e['p95']:.4g}]" if e["finite"] else "no finite value"
-
-    yield f"montecarlo: {s['runs']} runs in {result.wall_time_s:.1f} s ({result.resumed_chunks} chunks resumed): {s['ok']} ok, {s['failed']} failed, {s['worker_died']} worker died"
-    yield f"  converged (AAEM and RAEM < {s['tolerance_deg']:g} deg): {s['converged_fraction']:.1%}; Theorem 1 held: {s['theorem1_holds_fraction']:.1%}; Theorem 2 at the reference held: {s['theorem2_at_reference_holds_fraction']:.1%}"
-    yield f"  AAEM settling: {med('aaem_settling_s')} s ({st['aaem_settling_s']['nan']} never settled)"
-    yield f"  AAEM steady max: {med('aaem_steady_max_deg')} deg; max |u_unsat|: {med('u_unsaturated_max_N_m')} N m; saturation time: {med('saturated_time_max_s')} s"
-    for f in s["failures"][:10]:
-        yield f"  run {f['run']}: {f['status']}: {f['message']}"
-    if len(s["failures"]) > 10:
-        yield f"  ... {len(s['failures']) - 10} more in summary.json"
-    yield f"  wrote {result.out_dir}/montecarlo.nc, summary.json, histograms.png/.svg, {COMPLETE_MARKER}"

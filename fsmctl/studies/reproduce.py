@@ -22,7 +22,6 @@ Verdicts are results: the exit code is 0 whenever the report was written.
 
 from __future__ import annotations
 
-import argparse
 import concurrent.futures as cf
 import contextlib
 import csv
@@ -61,8 +60,6 @@ __all__ = [
     "reproduce",
     "overlay_figures",
     "write_outputs",
-    "add_parser",
-    "run",
 ]
 
 REPRODUCED = "reproduced"
@@ -1340,91 +1337,7 @@ def to_markdown(rep: Reproduction) -> str:
     return "\n".join(L) + "\n"
 
 
-# ----------------------------------------------------------------------------- CLI
-
-
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``fsmctl reproduce`` (Liang et al. 2012, Section 4 and Figs 1-9).
-
-    Parameters
-    ----------
-    subparsers : argparse subparsers action
-        From :func:`fsmctl.cli.main.build_parser`.
-
-    Returns
-    -------
-    argparse.ArgumentParser
-        The ``reproduce`` parser, with ``func = run``.
-    """
-    p = subparsers.add_parser(
-        "reproduce",
-        help="run every Section 4 case plus diagnostics and grade the paper's claims",
-        description="Reproduction of Liang, Sun & Wang (2012), Section 4: Cases 1, 2, 3a-3c, diagnostic runs, the "
-        "angular-momentum bound, and a report grading every claim as reproduced / differs / impossible (bound).",
-        epilog="exit codes: 0 the report was written (verdicts are results), 2 usage or input error.",
-    )
-    p.add_argument(
-        "--scenario",
-        default="paper",
-        metavar="FILE",
-        help="'paper' (built in) or a TOML file with cases 1, 2, 3a, 3b, 3c (default: paper)",
-    )
-    p.add_argument(
-        "--out", default=Path("reproduction"), type=Path, metavar="DIR", help="output folder (default: ./reproduction)"
-    )
-    p.add_argument(
-        "--fast", action="store_true", help=f"short horizon ({FAST_T_FINAL_S:g} s) for tests and quick looks"
-    )
-    p.add_argument("--jobs", type=int, default=2, metavar="N", help="worker processes (default: %(default)s)")
-    p.add_argument("--no-figures", action="store_true", help="skip the PNG/SVG figures")
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar over the runs (default: on a terminal)",
-    )
-    p.set_defaults(func=run)
-    return p
-
-
-def run(args: argparse.Namespace) -> int:
-    """Run ``fsmctl reproduce``; print the choices, the claims table and where the report is.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        Parsed options.
-
-    Returns
-    -------
-    int
-        0 when the report was written; bad input raises :class:`fsmctl.cli.main.UsageError` (exit 2).
-    """
-    from fsmctl.cli.main import UsageError
-
-    if args.jobs < 1:
-        raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
-    from fsmctl.outputs import output_folder
-
-    with output_folder(args.out):  # a run that fails before writing anything leaves no empty folder
-        rep = _reproduce_for_cli(args)
-    print()
-    print(format_claims(rep))
-    print()
-    print(f"report: {rep.out_dir / 'report.md'} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s)")
-    return 0
-
-
-def _reproduce_for_cli(args: argparse.Namespace) -> Reproduction:
-    return reproduce(
-        args.scenario,
-        args.out,
-        fast=args.fast,
-        jobs=args.jobs,
-        progress=args.progress,
-        figures=not args.no_figures,
-        log=print,
-    )
+# ----------------------------------------------------------------------------- text
 
 
 def format_claims(rep: Reproduction, width: int = 110) -> str:

@@ -17,7 +17,11 @@ The surface is selected by :attr:`fsmctl.model.scenario.ControllerSettings.surfa
   :mod:`fsmctl.studies.theorem3`), exact if ``s_i`` stayed 0 after reaching;
 * the control effort ``int sum_k |u_ik| dt`` (N m s);
 
-and per run the settling of AAEM and RAEM (eqs 42-43) to a tolerance and their steady state.
+and per run the settling of AAEM and RAEM (eqs 42-43) to a tolerance, their steady state, the control effort,
+the peak commanded torque and the saturated time.  The full-loop runs are a law comparison
+(:func:`fsmctl.studies.compare.compare_laws`): per variant, three runs of the law ``fsm`` with
+``surface = fsm``/``tsm``/``lsm``, whose run-level metrics are :func:`fsmctl.studies.compare.run_metrics`; the
+per-agent quantities above are measured on each run's result by the comparison's ``on_result`` hook.
 
 Remark 6 (the ``alpha |sigma_e|^(alpha-1)`` singularity) is handled for TSM exactly as for FSM:
 the generated code applies the scenario's ``singularity_fix`` (default ``switch``) to the term
@@ -27,7 +31,6 @@ of the surface at ``sigma_e = 0`` from the generated ``closed_loop`` function.
 
 from __future__ import annotations
 
-import argparse
 import csv
 import dataclasses
 import math
@@ -40,9 +43,9 @@ from pathlib import Path
 
 import numpy as np
 
-from fsmctl.outputs import atomic_path, environment_problem, write_json
 from fsmctl.model.scenario import Scenario, Sinusoid
 from fsmctl.model.topology import Topology
+from fsmctl.outputs import atomic_path, write_json
 
 __all__ = [
     "SURFACES",
@@ -54,8 +57,6 @@ __all__ = [
     "compare_surfaces",
     "plot_error_metrics",
     "plot_agent_times",
-    "add_parser",
-    "run",
 ]
 
 SURFACES = ("fsm", "tsm", "lsm")
@@ -178,7 +179,10 @@ def _predicted_sliding_time(surface: str, sigma_e: np.ndarray, tol: float, c) ->
     return max(times, default=0.0)
 
 
-def _measure(result, surface: str, variant: Variant, opts: dict) -> tuple[dict, list[dict], dict]:
+def _agent_rows(result, surface: str, variant: Variant, opts: dict) -> list[dict]:
+    """Per agent: reaching, settling and sliding-phase times, Theorem 3's prediction, effort, saturated time.
+
+    Called by :func:`fsmctl.studies.compare.compare_laws` with each finished run (its ``on_result`` hook)."""
     t = result.time
     c = result.scenario.controller
     s_norm = np.linalg.norm(result.s, axis=2)
@@ -207,20 +211,24 @@ def _measure(result, surface: str, variant: Variant, opts: dict) -> tuple[dict, 
                 "saturated_time_s": float(result.saturated_time[i]),
             }
         )
-    window = min(40.0, 0.4 * float(t[-1] - t[0]))
-    summary = result.summary(tolerances_deg=(opts["metric_tolerance_deg"],), steady_window=window)
+    return agents
+
+
+def _run_row(row: dict, agents: list[dict], surface: str, variant: Variant, t_final: float, opts: dict) -> dict:
+    """One run of the comparison: the metrics of :func:`fsmctl.studies.compare.run_metrics` (``row``) under this
+    module's names, and the means over the agents."""
     tol = f"{opts['metric_tolerance_deg']:g}"
-    run = {
+    return {
         "variant": variant.name,
         "surface": surface,
         "torque_limit": variant.torque_limit,
         "uncertainty": variant.uncertainty,
         "coupling": variant.coupling,
-        "t_final_s": float(t[-1]),
-        "aaem_settling_s": summary["aaem_settling_s"][tol],
-        "raem_settling_s": summary["raem_settling_s"][tol],
-        "aaem_steady_max_deg": summary["aaem_steady_max_deg"],
-        "raem_steady_max_deg": summary["raem_steady_max_deg"],
+        "t_final_s": float(t_final),
+        "aaem_settling_s": row[f"aaem_settling_{tol}deg_s"],
+        "raem_settling_s": row[f"raem_settling_{tol}deg_s"],
+        "aaem_steady_max_deg": row["aaem_steady_max_deg"],
+        "raem_steady_max_deg": row["raem_steady_max_deg"],
         # the means are NaN (= not reached: infinitely slow for the verdicts) unless every agent gets there
         "n_agents": len(agents),
         "agents_reached": int(sum(math.isfinite(a["reaching_time_s"]) for a in agents)),
@@ -228,14 +236,11 @@ def _measure(result, surface: str, variant: Variant, opts: dict) -> tuple[dict, 
         "mean_reaching_time_s": float(np.mean([a["reaching_time_s"] for a in agents])),
         "mean_sliding_phase_time_s": float(np.mean([a["sliding_phase_time_s"] for a in agents])),
         "mean_sliding_phase_theorem3_s": float(np.mean([a["sliding_phase_theorem3_s"] for a in agents])),
-        "control_effort_N_m_s": float(effort.sum()),
-        "u_unsaturated_max_N_m": summary["u_unsaturated_max_N_m"],
-        "max_saturated_time_s": float(np.max(result.saturated_time)),
-        "wall_time_s": result.wall_time,
+        "control_effort_N_m_s": row["control_effort_N_m_s"],
+        "u_unsaturated_max_N_m": row["peak_commanded_torque_N_m"],
+        "max_saturated_time_s": row["saturated_time_max_s"],
+        "wall_time_s": row["wall_time_s"],
     }
-    step = max(1, len(t) // 2000)
-    series = {"time_s": t[::step], "aaem_deg": result.aaem_deg[::step], "raem_deg": result.raem_deg[::step]}
-    return run, agents, series
 
 
 def _faster(a: float, b: float) -> str:
@@ -264,6 +269,8 @@ class SurfaceComparison:
     wall_time_s: float = 0.0
     scalar_study: object = field(default=None, repr=False)
     """the :class:`fsmctl.studies.theorem3.ScalarStudy` behind ``scalar`` (None without the scalar check)"""
+    law_comparisons: dict = field(default_factory=dict, repr=False)
+    """variant name -> the :class:`fsmctl.studies.compare.Comparison` of its three surfaces (table, series)"""
 
     def run_row(self, variant: str, surface: str) -> dict:
         return next(r for r in self.runs if r["variant"] == variant and r["surface"] == surface)
@@ -433,7 +440,8 @@ def compare_surfaces(
     from tqdm import tqdm
 
     from fsmctl.errors import InputError as UsageError
-    from fsmctl.simulation.simulator import simulate
+    from fsmctl.simulation.simulator import SimulationError
+    from fsmctl.studies.compare import LawRun, compare_laws, default_steady_window
 
     for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),
                     ("metric_tolerance_deg", metric_tolerance_deg)):  # fmt: skip
@@ -455,7 +463,6 @@ def compare_surfaces(
         sim["t_final"] = float(t_final)
     base = scenario.replace(simulation=sim) if sim else scenario
     variants = list(default_variants() if variants is None else variants)
-    jobs_list = [(v, s) for v in variants for s in SURFACES]
     opts = {
         "reach_threshold": reach_threshold,
         "sigma_tolerance": sigma_tolerance,
@@ -465,19 +472,30 @@ def compare_surfaces(
         progress = sys.stderr.isatty()
     start = time.perf_counter()
 
-    def one(job):
-        v, s = job
-        return _measure(simulate(variant_scenario(base, v, s), progress=False), s, v, opts)
+    def one(v: Variant):
+        """The three surfaces of one variant: a law comparison of the law ``fsm`` with surface = fsm/tsm/lsm."""
+        runs = [LawRun(s, "fsm", {"surface": s}) for s in SURFACES]
+        return compare_laws(
+            variant_scenario(base, v, "fsm"),
+            runs,
+            tolerances_deg=(metric_tolerance_deg,),
+            steady_window_s=default_steady_window(base.simulation.t_final),
+            on_result=lambda run, result: _agent_rows(result, run.label, v, opts),
+        )
 
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        results = list(
-            tqdm(pool.map(one, jobs_list), total=len(jobs_list), desc="compare-surfaces", disable=not progress)
+        comparisons = list(
+            tqdm(pool.map(one, variants), total=len(variants), desc="compare-surfaces", disable=not progress)
         )
     runs, agents, series = [], [], {}
-    for (v, s), (run_row, agent_rows, ser) in zip(jobs_list, results, strict=True):
-        runs.append(run_row)
-        agents += agent_rows
-        series[(v.name, s)] = ser
+    for v, comp in zip(variants, comparisons, strict=True):
+        if comp.failures:
+            label, reason = comp.failures[0]
+            raise SimulationError(f"compare-surfaces, {v.name}, {label}: {reason}")
+        for s in SURFACES:
+            runs.append(_run_row(comp.row(s), comp.extras[s], s, v, base.simulation.t_final, opts))
+            agents += comp.extras[s]
+            series[(v.name, s)] = comp.series[s]
     scalar = {}
     if scalar_check:
         from fsmctl.studies.theorem3 import default_extreme_grid, fast_grid, scalar_settling_study
@@ -503,6 +521,7 @@ def compare_surfaces(
         scalar={k: v for k, v in scalar.items() if k != "study"},
         wall_time_s=time.perf_counter() - start,
         scalar_study=scalar.get("study"),
+        law_comparisons={v.name: c for v, c in zip(variants, comparisons, strict=True)},
     )
     return comp
 
@@ -580,85 +599,3 @@ def plot_agent_times(comparison: SurfaceComparison, variant: str | None = None):
     axes[0].legend(fontsize=8)
     fig.suptitle(f"{comparison.scenario_label}, {variant}", fontsize=10)
     return fig
-
-
-# ----------------------------------------------------------------------------- CLI
-
-
-def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
-    """Register ``fsmctl compare-surfaces`` (FSM vs TSM vs LSM, Liang et al. 2012, Theorem 3, eqs 34-41).
-
-    Parameters
-    ----------
-    subparsers : argparse subparsers action
-        From :func:`fsmctl.cli.main.build_parser`.
-
-    Returns
-    -------
-    argparse.ArgumentParser
-        The parser, with ``func = run``.
-    """
-    p = subparsers.add_parser(
-        "compare-surfaces",
-        help="FSM vs TSM vs LSM: Theorem 3 in the scalar case and in the full loop",
-        description="Compare the fast, terminal and linear sliding surfaces (Liang et al. 2012, Theorem 3) in the scalar "
-        "sliding mode (simulation vs eqs 34-36) and in the formation loop, with and without the torque limit, the "
-        "inertia uncertainty/disturbance and the coupling.",
-    )
-    p.add_argument("--scenario", default="paper", metavar="paper|FILE", help="'paper' (built in) or a TOML file")
-    p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
-    p.add_argument("--out", type=Path, default=Path("compare-surfaces"), metavar="DIR",
-                   help="output directory for CSV, JSON and figures (default: %(default)s)")  # fmt: skip
-    p.add_argument("--fast", action="store_true", help="10 s horizon at dt = 2 ms and a small scalar grid")
-    p.add_argument("--t-final", type=float, default=None, metavar="S", help="horizon in s (default: the scenario's)")
-    p.add_argument("--reach-threshold", type=float, default=1e-3, metavar="S",
-                   help="||s_i|| below which the surface counts as reached (default: %(default)s)")  # fmt: skip
-    p.add_argument("--sigma-tolerance", type=float, default=1e-3, metavar="TAU",
-                   help="Theorem 3 target for every |sigma_e,k| (MRP, default: %(default)s)")  # fmt: skip
-    p.add_argument("--metric-tolerance", type=float, default=0.03, metavar="DEG",
-                   help="AAEM/RAEM settling tolerance in deg (default: %(default)s)")  # fmt: skip
-    p.add_argument("--jobs", type=int, default=2, metavar="N", help="concurrent simulations (default: %(default)s)")
-    p.add_argument("--no-figures", action="store_true", help="write CSV/JSON only")
-    p.set_defaults(func=run)
-    return p
-
-
-def run(args: argparse.Namespace) -> int:
-    """Run ``fsmctl compare-surfaces``: print the table, write CSV/JSON/figures; 0 on success."""
-    from fsmctl.outputs import output_folder
-    from fsmctl.model.scenario import load_scenario
-
-    scenario = load_scenario(args.scenario, case=args.case)
-    with output_folder(args.out):  # checked before the runs; removed again if nothing gets written
-        return _compare_for_cli(args, scenario)
-
-
-def _compare_for_cli(args: argparse.Namespace, scenario: Scenario) -> int:
-    from fsmctl.studies.theorem3 import plot_settling_time_against_initial_error, write_scalar_study_csv
-
-    comp = compare_surfaces(
-        scenario,
-        fast=args.fast,
-        t_final=args.t_final,
-        reach_threshold=args.reach_threshold,
-        sigma_tolerance=args.sigma_tolerance,
-        metric_tolerance_deg=args.metric_tolerance,
-        jobs=args.jobs,
-    )
-    try:
-        paths = comp.write(args.out, figures=not args.no_figures)
-        if comp.scalar_study is not None:
-            paths.append(write_scalar_study_csv(comp.scalar_study, args.out / "theorem3_scalar.csv"))
-        if not args.no_figures:
-            c = scenario.controller
-            fig = plot_settling_time_against_initial_error(c.c1, c.c2, c.alpha, args.sigma_tolerance,
-                                                           np.geomspace(2 * args.sigma_tolerance, 1.0, 6 if args.fast else 12))  # fmt: skip
-            for ext in ("png", "svg"):
-                with atomic_path(args.out / f"theorem3_scalar.{ext}") as tmp:
-                    fig.savefig(tmp, dpi=120, format=ext)
-                paths.append(args.out / f"theorem3_scalar.{ext}")
-    except OSError as exc:
-        raise environment_problem("write to", args.out, exc) from None
-    print(comp.table())
-    print(f"wrote {len(paths)} files to {args.out}", file=sys.stderr)
-    return 0

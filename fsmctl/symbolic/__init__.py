@@ -1,15 +1,16 @@
-"""The symbolic model, re-exported from :mod:`derive` (the single SymPy source) for users and notebooks.
+"""The symbolic layer: the model, the paper's law and the law API, in pure SymPy (no NumPy, no I/O).
 
-``from fsmctl.symbolic import lagrange_model, mrp_G, errata`` gives the same objects as the
-``derive`` package that writes ``generated/``; nothing is re-derived here.  Importing this module
-imports SymPy (the simulator and the CLI do not need it).
+This is what derivation scripts import (``from fsmctl.symbolic.law import LawBuilder``) and what
+``derive/`` builds ``generated/`` from.  The most used names are re-exported here; the errata and the
+proved identities are in :mod:`fsmctl.proofs`.  Importing this package imports SymPy (the simulator and the
+command line do not need it).
 """
 
 from __future__ import annotations
 
 from fsmctl.symbolic.controller import SingularityFix, closed_loop_acceleration, control_law_pieces, sliding_variable
-from fsmctl.proofs.errata import errata
-from fsmctl.symbolic.model import lagrange_model
+from fsmctl.symbolic.law import LawBuilder
+from fsmctl.symbolic.model import ErrorModel, lagrange_model
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_inverse
 from fsmctl.symbolic.symbols import vector_symbols
 from fsmctl.symbolic.theorem3 import settling_time_closed_forms
@@ -18,7 +19,8 @@ __all__ = [
     "SingularityFix",
     "closed_loop_acceleration",
     "control_law_pieces",
-    "errata",
+    "LawBuilder",
+    "ErrorModel",
     "lagrange_model",
     "mrp_G",
     "mrp_G_inverse",

@@ -214,6 +214,7 @@ class Law:
     state_derivative: sp.ImmutableMatrix
     lyapunov: Lyapunov | None = None
     batched: bool = True
+    broadcast_unit: str = "1"
 
     # -- sizes -------------------------------------------------------------------------------------
     @property
@@ -326,7 +327,7 @@ class Law:
             "reference": self.reference,
             "parameters": [p.to_dict() for p in self.parameters],
             "states": [s.to_dict() for s in self.states],
-            "broadcast": {"name": self.broadcast_name, "size": self.n_broadcast},
+            "broadcast": {"name": self.broadcast_name, "size": self.n_broadcast, "unit": self.broadcast_unit},
             "constants": [{"name": n, "size": m.rows} for n, m, _ in self.constants],
             "cache": [{"name": n, "size": len(m)} for n, m in self.cache],
             "lyapunov": None if self.lyapunov is None else {"doc": self.lyapunov.doc},
@@ -409,6 +410,7 @@ class LawBuilder:
         self._stages: list[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix]] = []
         self._names: set[str] = set()
         self._broadcast: tuple[str, sp.ImmutableMatrix] | None = None
+        self._broadcast_unit = "1"
         self._neighbour: dict[str, sp.ImmutableMatrix] = {}
         self._torque: sp.ImmutableMatrix | None = None
         self._error: ErrorState | None = None
@@ -532,8 +534,8 @@ class LawBuilder:
             self._error = ErrorState(se, we, wr, wrd)
         return self._error
 
-    def broadcast(self, name: str, expr) -> None:
-        """Declare what the agent sends to its neighbours (a vector; e.g. the sliding variable ``s``).
+    def broadcast(self, name: str, expr, *, unit: str = "1") -> None:
+        """Declare what the agent sends to its neighbours (a vector; e.g. the sliding variable ``s``, unit 1/s).
 
         Afterwards :attr:`received`, :attr:`k_sum` and :attr:`k_received_sum` are available.
         """
@@ -543,6 +545,7 @@ class LawBuilder:
             raise LawDefinitionError(f"{self.name}: broadcast name must be letters, digits and _, got {name!r}")
         value = _matrix(expr, f"{self.name}: broadcast {name}")
         self._broadcast = (name, value)
+        self._broadcast_unit = str(unit)
         self._neighbour = {
             "k_sum": sp.ImmutableMatrix([sp.Symbol("k_sum", real=True)]),
             "received": vector_symbols("received", value.rows),
@@ -700,6 +703,7 @@ class LawBuilder:
             state_derivative=derivative,
             lyapunov=self._lyapunov,
             batched=self.batched,
+            broadcast_unit=self._broadcast_unit,
         )
 
 

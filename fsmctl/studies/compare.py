@@ -1,0 +1,875 @@
+"""Compare control laws, or settings of one law, on the same scenario (``fsmctl compare``).
+
+Each compared *run* is a :class:`LawRun`: a label, a law (a built-in name, a derivation script ``FILE.py``
+or a derived folder, as for ``[controller] law``), values of the law's parameters and overrides of the
+scenario's ``[controller]`` (``torque_limit``, ``surface``, ``error_model``, ...).  The same law may be
+compared with itself under different settings: the paper's FSM against TSM and LSM (Liang, Sun & Wang 2012,
+Sec. 3.3, Theorem 3) are three runs of the law ``fsm`` with ``surface`` = ``fsm``/``tsm``/``lsm``
+(:mod:`fsmctl.studies.surfaces` does exactly that), and "with and without the torque limit" are two runs
+differing in ``torque_limit`` (:func:`with_and_without_limit`).  Every run is one
+:func:`fsmctl.simulation.simulator.simulate` of ``scenario.replace(controller=...)``.
+
+The metrics of a run are computed once, by :func:`run_metrics`, from its
+:class:`~fsmctl.simulation.simulator.SimulationResult`; what the engine already computes is taken from it
+(:meth:`~fsmctl.simulation.simulator.SimulationResult.summary`: settling times and steady maxima of AAEM
+eq 42 / RAEM eq 43, the peak applied and commanded torque, the saturated time, the total variation of the
+torque accumulated at every integration step, the wall time).  The column names carry their units:
+
+=================================  ========================================================================
+column                             meaning
+=================================  ========================================================================
+``aaem_settling_<tol>deg_s``       first output time after which AAEM (eq 42) stays <= tol deg (the sample
+                                   after the last one above it); NaN = not settled within the horizon
+``raem_settling_<tol>deg_s``       the same for RAEM (eq 43)
+``aaem_steady_mean_deg``, ``_max``  mean and max of AAEM over the last ``steady_window_s`` (RAEM likewise)
+``peak_torque_N_m``                ``max |u_ik(t)|`` over agents i, axes k and output samples (applied)
+``peak_commanded_torque_N_m``      the same for the commanded (unsaturated) torque, over every step
+``rms_torque_N_m``                 ``sqrt(1/(n T) int sum_i |u_i|^2 dt)``: RMS of the torque vector's norm
+``control_effort_N_m_s``           ``sum_i int sum_k |u_ik| dt`` (trapezoid rule on the output samples)
+``chattering_N_m``                 total variation of u: ``sum_i sum_steps |u_i(t_k) - u_i(t_k-1)|_1``
+``chattering_N_m_per_s``           the same per second of simulated time
+``saturated_time_max_s``, ``_mean``  time with a torque component at the limit: max and mean over agents
+``wall_time_s``                    wall time of the simulation (the compiled loop)
+=================================  ========================================================================
+
+A run that fails (:class:`~fsmctl.simulation.simulator.SimulationError`: non-finite state, ...) keeps its row,
+with ``status = "failed: <reason>"`` and NaN metrics, so the other runs are still reported.
+"""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import math
+import sys
+import time
+import tomllib
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from fsmctl.errors import InputError
+from fsmctl.model.scenario import Scenario
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from fsmctl.simulation.simulator import SimulationResult
+
+__all__ = [
+    "DEFAULT_TOLERANCES_DEG",
+    "LawRun",
+    "Comparison",
+    "compare_laws",
+    "run_metrics",
+    "run_scenario",
+    "with_and_without_limit",
+    "read_runs_file",
+    "metric_columns",
+    "default_steady_window",
+]
+
+DEFAULT_TOLERANCES_DEG = (1.0, 0.1, 0.01)
+"""Settling tolerances of AAEM/RAEM (deg) unless told otherwise."""
+
+SERIES_POINTS = 2000
+"""At most about this many samples of AAEM/RAEM per run are kept for the figure."""
+
+_TYPED = ("c1", "c2", "alpha", "boundary_layer", "singularity_fix", "epsilon")
+"""Law parameters that are typed ``[controller]`` keys of their own (not in ``controller.parameters``)."""
+
+_trapezoid = getattr(np, "trapezoid", None) or np.trapz  # noqa: NPY201 (NumPy < 2 has only trapz)
+
+
+# ----------------------------------------------------------------------------- runs
+
+
+@dataclass(frozen=True)
+class LawRun:
+    """One compared run: a label, a law, its parameters and overrides of the scenario's controller.
+
+    Parameters
+    ----------
+    label : str
+        Name of the run in the tables and figures (unique within a comparison).
+    law : str or Path
+        A built-in law name (``fsmctl laws``), a derivation script ``FILE.py`` or a derived law folder.
+    parameters : mapping
+        Values of the law's declared parameters by name (e.g. ``{"c1": 0.6}`` for ``fsm``, ``{"K": 2.0}``); the
+        paper's typed keys (c1, c2, alpha, boundary_layer, singularity_fix, epsilon) go to their ``[controller]``
+        fields, a 3-vector ``delta`` to every agent, ``surface`` (``fsm``/``tsm``/``lsm``) to the controller.
+        Unset parameters keep the scenario's values (those the law declares), else the law's defaults.
+    controller : mapping
+        Overrides of ``[controller]`` fields other than ``law`` and ``parameters``: ``torque_limit`` (N m,
+        ``math.inf`` or ``"inf"`` for none), ``surface``, ``error_model``, ``enabled``, ...
+
+    Examples
+    --------
+    >>> LawRun("TSM", "fsm", {"surface": "tsm"}).describe()
+    'fsm: surface=tsm'
+    >>> LawRun.from_spec("derive/laws/pd.py").label
+    'pd'
+    """
+
+    label: str
+    law: str | Path = "fsm"
+    parameters: Mapping[str, Any] = field(default_factory=dict)
+    controller: Mapping[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self):
+        if not isinstance(self.label, str) or not self.label.strip():
+            raise InputError(f"run label must be a non-empty string, got {self.label!r}")
+        if not isinstance(self.law, (str, Path)) or not str(self.law).strip():
+            raise InputError(f"run {self.label!r}: law must be a name, a FILE.py or a folder, got {self.law!r}")
+        for name in ("parameters", "controller"):
+            value = getattr(self, name)
+            if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
+                raise InputError(f"run {self.label!r}: {name} must be a table of named values, got {value!r}")
+            object.__setattr__(self, name, dict(value))
+
+    @classmethod
+    def from_spec(cls, spec: str | Path) -> LawRun:
+        """A run of a law with the scenario's settings, labelled by the law (a script's or folder's name).
+
+        Examples
+        --------
+        >>> LawRun.from_spec("fsm")
+        LawRun(label='fsm', law='fsm', parameters={}, controller={})
+        """
+        text = str(spec).strip()
+        path = Path(text)
+        label = path.stem if path.suffix == ".py" else (path.name or text)
+        return cls(label, text)
+
+    def settings_text(self) -> str:
+        """``key=value, ...``: the parameters, then the controller overrides (empty: the scenario's settings)."""
+        items = [*self.parameters.items(), *self.controller.items()]
+        return ", ".join(f"{k}={_value_text(v)}" for k, v in items)
+
+    def describe(self) -> str:
+        """``law: key=value, ...`` (see :meth:`settings_text`)."""
+        text = self.settings_text()
+        return f"{self.law}" + (f": {text}" if text else "")
+
+    def to_dict(self) -> dict:
+        return {
+            "label": self.label,
+            "law": str(self.law),
+            "parameters": dict(self.parameters),
+            "controller": dict(self.controller),
+        }
+
+
+def _value_text(v: Any) -> str:
+    if isinstance(v, float):
+        return "inf" if math.isinf(v) and v > 0 else f"{v:g}"
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value_text(x) for x in v) + "]"
+    return str(v)
+
+
+def _as_runs(laws: Sequence[LawRun | str | Path]) -> list[LawRun]:
+    if isinstance(laws, (str, Path, LawRun)):
+        laws = [laws]
+    runs = [x if isinstance(x, LawRun) else LawRun.from_spec(x) for x in laws]
+    if not runs:
+        raise InputError("no law to compare: give at least one law or run")
+    seen: set[str] = set()
+    for r in runs:
+        if r.label in seen:
+            raise InputError(f"two runs are labelled {r.label!r}: give each run its own label (a runs file)")
+        seen.add(r.label)
+    return runs
+
+
+def with_and_without_limit(laws: Sequence[LawRun | str | Path], torque_limit: float) -> list[LawRun]:
+    """Each run twice: with ``torque_limit`` (N m) and without a limit (the ``controller`` override set).
+
+    Parameters
+    ----------
+    laws : sequence of LawRun or str
+        The runs (or law specs).
+    torque_limit : float
+        The finite per-axis limit of the limited runs.
+
+    Returns
+    -------
+    list of LawRun
+        ``label (limit X N m)`` and ``label (no limit)`` for every run, in order.
+
+    Examples
+    --------
+    >>> [r.label for r in with_and_without_limit(["fsm"], 2.0)]
+    ['fsm (limit 2 N m)', 'fsm (no limit)']
+    """
+    if not (isinstance(torque_limit, (int, float)) and math.isfinite(torque_limit) and torque_limit > 0):
+        raise InputError(
+            f"with and without the torque limit: the limit must be a finite number > 0, got {torque_limit!r} "
+            "(the scenario has none: give one)"
+        )
+    out = []
+    for r in _as_runs(laws):
+        for label, limit in (
+            (f"{r.label} (limit {torque_limit:g} N m)", float(torque_limit)),
+            (f"{r.label} (no limit)", math.inf),
+        ):
+            out.append(dataclasses.replace(r, label=label, controller={**r.controller, "torque_limit": limit}))
+    return out
+
+
+def read_runs_file(path: str | Path) -> list[LawRun]:
+    """The runs of a TOML file: a list of ``[[run]]`` tables with ``label``, ``law``, ``parameters``, ``controller``.
+
+    Only ``law`` is required (the label defaults to the law's name).  A relative law path is taken relative to
+    the file's folder when it exists there, else to the current directory::
+
+        [[run]]
+        label = "FSM"
+        law = "fsm"
+
+        [[run]]
+        label = "FSM, no limit"
+        law = "fsm"
+        controller = { torque_limit = "inf" }
+
+        [[run]]
+        label = "PD"
+        law = "pd.py"
+        parameters = { K = 2.0, P = 10.0 }
+
+    Raises
+    ------
+    InputError
+        Unreadable file, not TOML, or a run that is not as above (one line naming the run and key).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "runs.toml"
+    >>> _ = p.write_text('[[run]]\\nlaw = "fsm"\\n[[run]]\\nlabel = "TSM"\\nlaw = "fsm"\\nparameters = {surface = "tsm"}\\n')
+    >>> [(r.label, r.parameters) for r in read_runs_file(p)]
+    [('fsm', {}), ('TSM', {'surface': 'tsm'})]
+    """
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text("utf-8"))
+    except FileNotFoundError:
+        raise InputError(f"cannot read runs file {path}: no such file") from None
+    except (OSError, UnicodeError) as exc:
+        raise InputError(f"cannot read runs file {path}: {getattr(exc, 'strerror', None) or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(f"runs file {path}: not valid TOML ({exc})") from None
+    unknown = sorted(set(data) - {"run"})
+    if unknown:
+        raise InputError(f"runs file {path}: unknown key {unknown[0]!r} (expected [[run]] tables)")
+    items = data.get("run")
+    if not isinstance(items, list) or not items or not all(isinstance(d, dict) for d in items):
+        raise InputError(f"runs file {path}: expected one or more [[run]] tables")
+    runs = []
+    for k, d in enumerate(items, start=1):
+        where = f"runs file {path}, run {k}"
+        bad = sorted(set(d) - {"label", "law", "parameters", "controller"})
+        if bad:
+            raise InputError(f"{where}: unknown key {bad[0]!r} (known: label, law, parameters, controller)")
+        law = d.get("law")
+        if not isinstance(law, str) or not law.strip():
+            raise InputError(f"{where}: 'law' must be a law name, FILE.py or folder")
+        local = path.parent / law
+        if not Path(law).is_absolute() and (local.is_file() or local.is_dir()):
+            law = str(local)
+        label = d.get("label", LawRun.from_spec(law).label)
+        try:
+            runs.append(LawRun(label, law, d.get("parameters", {}), d.get("controller", {})))
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    return runs
+
+
+def run_scenario(scenario: Scenario, run: LawRun) -> Scenario:
+    """The scenario a run flies: ``scenario.replace(controller={"law": ..., ...})``, validated.
+
+    The scenario's ``[controller]`` parameters that the run's law does not declare are dropped (they belong to
+    the scenario's own law); the run's ``parameters`` and ``controller`` overrides are applied on top.
+
+    Raises
+    ------
+    InputError
+        Unknown law (:class:`fsmctl.model.laws.LawError`), a parameter the law does not declare, or a value out
+        of range (the message starts with the run's label).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> s = run_scenario(fsmctl.paper_scenario("1"), LawRun("TSM", "fsm", {"surface": "tsm"}, {"torque_limit": "inf"}))
+    >>> s.controller.surface, s.controller.torque_limit
+    ('tsm', inf)
+    """
+    from fsmctl.model.laws import resolve_law
+
+    where = f"run {run.label!r}"
+    try:
+        law = resolve_law(run.law)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+    declared = {p.name: p for p in law.parameters}
+    fixed = {"law", "parameters"}
+    known_controller = sorted(f.name for f in dataclasses.fields(type(scenario.controller)) if f.name not in fixed)
+    for key in run.controller:
+        if key not in known_controller:
+            raise InputError(f"{where}: controller has no setting {key!r} (known: {', '.join(known_controller)})")
+    controller: dict[str, Any] = {"law": str(run.law)}
+    parameters = {k: v for k, v in scenario.controller.parameters.items() if k in declared}
+    agents = None
+    for key, value in run.parameters.items():
+        if key == "surface":
+            if not {"c1", "c2"} <= set(declared):
+                raise InputError(f"{where}: 'surface' needs a law with c1 and c2 (the law {law.name!r} has neither)")
+            controller["surface"] = value
+        elif key not in declared:
+            names = ", ".join(declared) or "none"
+            raise InputError(f"{where}: the law {law.name!r} has no parameter {key!r} (its parameters: {names})")
+        elif key in _TYPED:
+            controller[key] = value
+        elif key == "delta" and declared[key].size == 3:  # per agent in a scenario: set every agent's
+            vec = [value] * 3 if isinstance(value, (int, float)) else value
+            try:
+                agents = [dataclasses.replace(a, delta=tuple(vec)) for a in scenario.agents]
+            except (InputError, TypeError, ValueError) as exc:
+                raise InputError(f"{where}: delta: {exc}") from None
+        else:
+            parameters[key] = value
+    controller["parameters"] = parameters
+    controller.update(run.controller)
+    sections: dict[str, Any] = {"controller": controller}
+    if agents is not None:
+        sections["agents"] = agents
+    try:
+        return scenario.replace(**sections)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+
+
+# ----------------------------------------------------------------------------- metrics
+
+
+def default_steady_window(horizon_s: float) -> float:
+    """The steady-state window: the last 40 % of the horizon, at most 40 s (the paper's last 40 of 100 s)."""
+    return min(40.0, 0.4 * float(horizon_s))
+
+
+def metric_columns(tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG) -> list[tuple[str, str, str]]:
+    """``(column, description, unit)`` of every metric :func:`run_metrics` returns, in table order.
+
+    Examples
+    --------
+    >>> [c for c, _, _ in metric_columns((1.0,))][:3]
+    ['aaem_settling_1deg_s', 'raem_settling_1deg_s', 'aaem_steady_mean_deg']
+    """
+    cols = []
+    for tol in tolerances_deg:
+        cols.append((f"aaem_settling_{tol:g}deg_s", f"AAEM settling to {tol:g} deg", "s"))
+    for tol in tolerances_deg:
+        cols.append((f"raem_settling_{tol:g}deg_s", f"RAEM settling to {tol:g} deg", "s"))
+    cols += [
+        ("aaem_steady_mean_deg", "AAEM steady mean", "deg"),
+        ("aaem_steady_max_deg", "AAEM steady max", "deg"),
+        ("raem_steady_mean_deg", "RAEM steady mean", "deg"),
+        ("raem_steady_max_deg", "RAEM steady max", "deg"),
+        ("peak_torque_N_m", "peak |u_k| applied", "N m"),
+        ("peak_commanded_torque_N_m", "peak |u_k| commanded", "N m"),
+        ("rms_torque_N_m", "RMS torque", "N m"),
+        ("control_effort_N_m_s", "effort int sum|u| dt", "N m s"),
+        ("chattering_N_m", "chattering (total variation)", "N m"),
+        ("chattering_N_m_per_s", "chattering per second", "N m/s"),
+        ("saturated_time_max_s", "saturated time, max agent", "s"),
+        ("saturated_time_mean_s", "saturated time, mean", "s"),
+        ("wall_time_s", "wall time", "s"),
+    ]
+    return cols
+
+
+def run_metrics(
+    result: SimulationResult,
+    *,
+    tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG,
+    steady_window_s: float | None = None,
+) -> dict[str, float]:
+    """Every metric of one run (the columns of :func:`metric_columns`), from its simulation result.
+
+    Settling times, steady maxima, peak torques, saturated times, the total variation and the wall time come
+    from :meth:`SimulationResult.summary <fsmctl.simulation.simulator.SimulationResult.summary>` (the engine's
+    statistics); computed here are the steady means (over the same window), the RMS torque and the control
+    effort (trapezoid rule on the output samples).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        One simulated run.
+    tolerances_deg : sequence of float
+        AAEM/RAEM settling tolerances (deg).
+    steady_window_s : float, optional
+        Length of the final window of the steady-state statistics (default :func:`default_steady_window`);
+        clipped to the horizon.
+
+    Returns
+    -------
+    dict
+        Column name (with its unit) -> float; NaN for a settling time that is not reached within the horizon.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "output_interval": 0.1}))
+    >>> m = run_metrics(r, tolerances_deg=(1.0,))
+    >>> m["peak_torque_N_m"] <= 2.0, math.isnan(m["aaem_settling_1deg_s"])
+    (True, True)
+    """
+    t = np.asarray(result.time, dtype=float)
+    span = float(t[-1] - t[0])
+    window = default_steady_window(span) if steady_window_s is None else float(steady_window_s)
+    summary = result.summary(tolerances_deg=tuple(tolerances_deg), steady_window=window)
+    window = summary["steady_window_s"]  # clipped to the horizon by the engine's summary
+    steady = t >= t[-1] - window - 1e-12  # the window of fsmctl.simulation.metrics.steady_state_max
+    u = np.asarray(result.u, dtype=float)
+    n = u.shape[1]
+    sq = np.sum(np.square(u), axis=(1, 2))  # sum_i |u_i|^2, (T,)
+    abs_sum = np.sum(np.abs(u), axis=2)  # sum_k |u_ik|, (T, n)
+    out: dict[str, float] = {}
+    for tol in tolerances_deg:
+        out[f"aaem_settling_{tol:g}deg_s"] = summary["aaem_settling_s"][f"{tol:g}"]
+    for tol in tolerances_deg:
+        out[f"raem_settling_{tol:g}deg_s"] = summary["raem_settling_s"][f"{tol:g}"]
+    sat = np.asarray(summary["saturated_time_s"], dtype=float)
+    out.update(
+        {
+            "aaem_steady_mean_deg": float(np.mean(result.aaem_deg[steady])),
+            "aaem_steady_max_deg": summary["aaem_steady_max_deg"],
+            "raem_steady_mean_deg": float(np.mean(result.raem_deg[steady])),
+            "raem_steady_max_deg": summary["raem_steady_max_deg"],
+            "peak_torque_N_m": summary["u_max_abs_N_m"],
+            "peak_commanded_torque_N_m": summary["u_unsaturated_max_N_m"],
+            "rms_torque_N_m": math.sqrt(float(_trapezoid(sq, t)) / (n * span)) if span > 0 else math.nan,
+            "control_effort_N_m_s": float(np.sum(_trapezoid(abs_sum, t, axis=0))),
+            "chattering_N_m": float(np.sum(result.u_total_variation)),
+            "chattering_N_m_per_s": float(np.sum(summary["chattering_index_N_m_per_s"])),
+            "saturated_time_max_s": float(sat.max()),
+            "saturated_time_mean_s": float(sat.mean()),
+            "wall_time_s": float(summary["wall_time_s"]),
+        }
+    )
+    return {k: float(v) for k, v in out.items()}
+
+
+# ----------------------------------------------------------------------------- the comparison
+
+
+def _fmt(v: Any, spec: str = ".4g") -> str:
+    if isinstance(v, str):
+        return v
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return "nan"
+    if isinstance(v, float) and math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return format(v, spec)
+
+
+@dataclass
+class Comparison:
+    """The result of :func:`compare_laws`: one row per run, the AAEM/RAEM series, what the hook returned.
+
+    Attributes
+    ----------
+    scenario_label : str
+        The compared scenario (and case).
+    settings : dict
+        Tolerances, steady window, horizon and step, the scenario's controller.
+    runs : list of LawRun
+        The runs, in order.
+    table : list of dict
+        One JSON-able row per run: ``label``, ``law`` (its name), ``spec`` (as given), ``settings`` (the run's
+        parameters and overrides), ``torque_limit_N_m`` (the run's limit; ``inf`` for none), ``status``
+        (``ok`` or ``failed: <reason>``), then the metric columns (:func:`metric_columns`).
+    series : dict
+        Label -> ``{"time_s", "aaem_deg", "raem_deg"}`` arrays (every sample up to ~2000 per run).
+    extras : dict
+        Label -> what ``on_result`` returned for the run (empty without a hook).
+    wall_time_s : float
+        Wall time of the whole comparison.
+    """
+
+    scenario_label: str
+    settings: dict
+    runs: list[LawRun]
+    table: list[dict]
+    series: dict = field(default_factory=dict, repr=False)
+    extras: dict = field(default_factory=dict, repr=False)
+    wall_time_s: float = 0.0
+
+    @property
+    def tolerances_deg(self) -> tuple[float, ...]:
+        return tuple(self.settings["tolerances_deg"])
+
+    def row(self, label: str) -> dict:
+        """The row of the run ``label``."""
+        for r in self.table:
+            if r["label"] == label:
+                return r
+        raise KeyError(label)
+
+    @property
+    def failures(self) -> list[tuple[str, str]]:
+        """``(label, reason)`` of the runs whose simulation failed."""
+        return [(r["label"], r["status"].removeprefix("failed: ")) for r in self.table if r["status"] != "ok"]
+
+    def columns(self) -> list[tuple[str, str, str]]:
+        """``(column, description, unit)`` of every column of :attr:`table`."""
+        head = [
+            ("label", "run", ""),
+            ("law", "law", ""),
+            ("spec", "law as given", ""),
+            ("settings", "settings", ""),
+            ("torque_limit_N_m", "torque limit", "N m"),
+            ("status", "status", ""),
+        ]
+        return head + metric_columns(self.tolerances_deg)
+
+    def to_json(self) -> dict:
+        """Scenario, settings, runs and rows (strict JSON through :func:`fsmctl.outputs.jsonable`)."""
+        from fsmctl.outputs import jsonable
+
+        return jsonable(
+            {
+                "scenario": self.scenario_label,
+                "settings": self.settings,
+                "runs": [r.to_dict() for r in self.runs],
+                "columns": [{"name": c, "description": d, "unit": u} for c, d, u in self.columns()],
+                "table": self.table,
+                "wall_time_s": self.wall_time_s,
+            }
+        )
+
+    def to_csv(self, path: str | Path) -> Path:
+        """Write :attr:`table` as CSV (atomically); units are in the column names, NaN is ``nan``, no limit ``inf``."""
+        from fsmctl.outputs import atomic_path
+
+        path = Path(path)
+        names = [c for c, _, _ in self.columns()]
+        with atomic_path(path) as tmp, tmp.open("w", newline="", encoding="utf-8") as fh:
+            w = csv.writer(fh)
+            w.writerow(names)
+            for r in self.table:
+                w.writerow([r[c] for c in names])  # str(float): shortest round trip, 'nan', 'inf'
+        return path
+
+    def _cells(self, settled_text: str) -> tuple[list[str], list[list[str]]]:
+        """Header and rows of the transposed table: one row per quantity, one column per run."""
+        header = ["quantity", "unit", *[r["label"] for r in self.table]]
+        rows = [
+            ["law", "", *[r["law"] for r in self.table]],
+            ["settings", "", *[r["settings"] or "scenario's" for r in self.table]],
+            ["torque limit", "N m", *[_fmt(r["torque_limit_N_m"], "g") for r in self.table]],
+            ["status", "", *[r["status"] for r in self.table]],
+        ]
+        for col, desc, unit in metric_columns(self.tolerances_deg):
+            cells = []
+            for r in self.table:
+                v = r[col]
+                if "_settling_" in col and r["status"] == "ok" and math.isnan(v):
+                    cells.append(settled_text)
+                else:
+                    cells.append(_fmt(v, ".2f" if "_settling_" in col else ".4g"))
+            rows.append([desc, unit, *cells])
+        return header, rows
+
+    def to_markdown(self) -> str:
+        """A Markdown table: one row per quantity (with its unit), one column per run.
+
+        A settling time that is not reached within the horizon reads "not settled".
+        """
+        header, rows = self._cells("not settled")
+
+        def esc(s: str) -> str:
+            return s.replace("|", "\\|")
+
+        lines = [
+            f"# Law comparison: {self.scenario_label}",
+            "",
+            f"Horizon {self.settings['t_final_s']:g} s (dt {self.settings['dt_s']:g} s); steady statistics over the "
+            f"last {self.settings['steady_window_s']:g} s; settling = first time after which the metric stays "
+            "within the tolerance.",
+            "",
+            "| " + " | ".join(esc(h) for h in header) + " |",
+            "|" + "|".join(["---", "---"] + ["---:"] * len(self.table)) + "|",
+        ]
+        lines += ["| " + " | ".join(esc(c) for c in row) + " |" for row in rows]
+        return "\n".join(lines) + "\n"
+
+    def to_text(self) -> str:
+        """The table as aligned plain text (what ``fsmctl compare`` prints)."""
+        header, rows = self._cells("not settled")
+        widths = [max(len(x[k]) for x in [header, *rows]) for k in range(len(header))]
+        lines = [f"compare: {self.scenario_label}"]
+        for k, row in enumerate([header, *rows]):
+            cells = [row[0].ljust(widths[0]), row[1].ljust(widths[1])]
+            cells += [c.rjust(w) for c, w in zip(row[2:], widths[2:], strict=True)]
+            lines.append("  ".join(cells).rstrip())
+            if k == 0:
+                lines.append("  ".join("-" * w for w in widths))
+        lines.append(f"steady window: last {self.settings['steady_window_s']:g} s; wall time {self.wall_time_s:.1f} s")
+        return "\n".join(lines)
+
+    def figure(self) -> Figure:
+        """AAEM (eq 42) and RAEM (eq 43) against time on log-y for every run, and bars of settling time (AAEM, per
+        tolerance; hatched at the horizon = not settled), peak applied torque (commanded: black tick) and chattering.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Built without pyplot; save it with :func:`fsmctl.studies.figures.save_figure`.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "output_interval": 0.1})
+        >>> len(compare_laws(s, ["fsm"]).figure().axes)
+        5
+        """
+        from matplotlib.figure import Figure
+
+        fig = Figure(figsize=(13, 7.5), layout="constrained")
+        gs = fig.add_gridspec(2, 6)
+        ax_a = fig.add_subplot(gs[0, :3])
+        ax_r = fig.add_subplot(gs[0, 3:], sharex=ax_a)
+        ax_s, ax_p, ax_c = (fig.add_subplot(gs[1, 2 * k : 2 * k + 2]) for k in range(3))
+        colors = [f"C{k % 10}" for k in range(len(self.table))]
+        for row, color in zip(self.table, colors, strict=True):
+            ser = self.series.get(row["label"])
+            if ser is None:
+                continue
+            for ax, key in ((ax_a, "aaem_deg"), (ax_r, "raem_deg")):
+                v = np.asarray(ser[key], dtype=float)
+                ax.semilogy(ser["time_s"], np.where(v > 0, v, np.nan), color=color, lw=1.1, label=row["label"])
+        for ax, name, eq in ((ax_a, "AAEM", "42"), (ax_r, "RAEM", "43")):
+            for tol in self.tolerances_deg:
+                ax.axhline(tol, color="k", lw=0.6, ls=":")
+            ax.set_xlabel("t (s)")
+            ax.set_ylabel(f"{name} (deg)")
+            ax.set_title(f"{name} (eq {eq})", fontsize=10)
+            ax.grid(True, which="both", alpha=0.3)
+        ax_a.legend(fontsize=8)
+        n = len(self.table)
+        x = np.arange(len(self.tolerances_deg))
+        width = 0.8 / max(n, 1)
+        horizon = float(self.settings["t_final_s"])
+        for k, (row, color) in enumerate(zip(self.table, colors, strict=True)):
+            values = np.array([row[f"aaem_settling_{tol:g}deg_s"] for tol in self.tolerances_deg])
+            pos = x - 0.4 + width * (k + 0.5)
+            done = np.isfinite(values)
+            ax_s.bar(pos[done], values[done], width, color=color, label=row["label"])
+            if row["status"] == "ok" and np.any(~done):
+                ax_s.bar(pos[~done], horizon, width, color=color, alpha=0.25, hatch="//", edgecolor=color)
+        ax_s.axhline(horizon, color="k", lw=0.6, ls="--")
+        ax_s.set_xticks(x, [f"{tol:g} deg" for tol in self.tolerances_deg])
+        ax_s.set_ylabel("AAEM settling time (s)")
+        ax_s.set_title("settling (hatched at the horizon: not settled)", fontsize=9)
+        pos = np.arange(n)
+        labels = [r["label"] for r in self.table]
+        peak = np.array([r["peak_torque_N_m"] for r in self.table], dtype=float)
+        commanded = np.array([r["peak_commanded_torque_N_m"] for r in self.table], dtype=float)
+        ax_p.bar(pos, peak, color=colors)
+        ax_p.plot(pos, commanded, "k_", ms=14, mew=2)
+        _log_if_wide(ax_p, np.concatenate([peak, commanded]))
+        ax_p.set_ylabel(r"peak $|u_k|$ (N m); $-$ commanded")
+        ax_p.set_title("peak torque", fontsize=9)
+        chat = np.array([r["chattering_N_m_per_s"] for r in self.table], dtype=float)
+        ax_c.bar(pos, chat, color=colors)
+        _log_if_wide(ax_c, chat)
+        ax_c.set_ylabel("total variation of u per second (N m/s)")
+        ax_c.set_title("chattering", fontsize=9)
+        for ax in (ax_p, ax_c):
+            ax.set_xticks(pos, labels, rotation=20 if n > 2 else 0, ha="right" if n > 2 else "center", fontsize=8)
+        for ax in (ax_s, ax_p, ax_c):
+            ax.grid(True, axis="y", alpha=0.3)
+        fig.suptitle(f"{self.scenario_label}: law comparison", fontsize=11)
+        return fig
+
+    def save(self, out_dir: str | Path, *, figures: bool = True) -> list[Path]:
+        """Write ``comparison.csv``, ``comparison.json``, ``comparison.md`` and ``comparison.png``/``.svg``.
+
+        Every file is written atomically (:mod:`fsmctl.outputs`); the folder is created if needed.
+
+        Returns
+        -------
+        list of Path
+            The files written.
+        """
+        from fsmctl.outputs import environment_problem, write_json, write_text
+        from fsmctl.studies.figures import save_figure
+
+        out = Path(out_dir)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise environment_problem("write to output folder", out, exc) from None
+        paths = [
+            self.to_csv(out / "comparison.csv"),
+            write_json(out / "comparison.json", self.to_json(), indent=1),
+            write_text(out / "comparison.md", self.to_markdown()),
+        ]
+        if figures:
+            paths += save_figure(self.figure(), out / "comparison")
+        return paths
+
+
+def _log_if_wide(ax, values: np.ndarray) -> None:
+    """Log scale when the positive values span more than two decades (e.g. with and without a torque limit)."""
+    finite = values[np.isfinite(values) & (values > 0)]
+    if finite.size and finite.max() / finite.min() > 100:
+        ax.set_yscale("log")
+
+
+def _series(result: SimulationResult) -> dict[str, np.ndarray]:
+    step = max(1, len(result.time) // SERIES_POINTS)
+    return {"time_s": result.time[::step], "aaem_deg": result.aaem_deg[::step], "raem_deg": result.raem_deg[::step]}
+
+
+def compare_laws(
+    scenario: Scenario,
+    laws: Sequence[LawRun | str | Path],
+    *,
+    tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG,
+    steady_window_s: float | None = None,
+    workers: int = 1,
+    progress: bool = False,
+    on_result: Callable[[LawRun, SimulationResult], Any] | None = None,
+) -> Comparison:
+    """Simulate the scenario once per run and compare the runs' metrics (:func:`run_metrics`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The common scenario (horizon, agents, topology, controller defaults).
+    laws : sequence of LawRun or str
+        The runs; a string is a law spec (name, ``FILE.py``, folder) flown with the scenario's settings
+        (:meth:`LawRun.from_spec`).  Labels must be unique.
+    tolerances_deg : sequence of float
+        AAEM/RAEM settling tolerances (deg), each > 0.
+    steady_window_s : float, optional
+        Final window of the steady-state statistics (default: the last 40 % of the horizon, at most 40 s).
+    workers : int
+        Runs simulated at the same time, in threads (the compiled loop releases the GIL); 1 runs them in turn.
+    progress : bool
+        Show a progress bar over the runs.
+    on_result : callable, optional
+        ``on_result(run, result)`` is called with each finished run's
+        :class:`~fsmctl.simulation.simulator.SimulationResult` (in a worker thread when ``workers > 1``); what it
+        returns is kept in :attr:`Comparison.extras` under the run's label (the results themselves are not kept).
+
+    Returns
+    -------
+    Comparison
+
+    Raises
+    ------
+    InputError
+        A bad run (unknown law, parameter, value; duplicate label) or option, before anything is simulated.
+        A run whose simulation fails is reported in its row (``status``), not raised.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 2.0, "output_interval": 0.1})
+    >>> runs = [LawRun("FSM", "fsm"), LawRun("TSM", "fsm", {"surface": "tsm"})]
+    >>> c = compare_laws(s, with_and_without_limit(runs, 2.0), tolerances_deg=(1.0,))
+    >>> [r["label"] for r in c.table]
+    ['FSM (limit 2 N m)', 'FSM (no limit)', 'TSM (limit 2 N m)', 'TSM (no limit)']
+    >>> c.row("FSM (limit 2 N m)")["peak_torque_N_m"] <= 2.0 < c.row("FSM (no limit)")["peak_torque_N_m"]
+    True
+    """
+    from tqdm import tqdm
+
+    from fsmctl.simulation.simulator import SimulationError, simulate
+
+    tolerances = tuple(tolerances_deg)
+    if not tolerances or not all(
+        isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x) and x > 0 for x in tolerances
+    ):
+        raise InputError(f"settling tolerances must be finite numbers > 0 (deg), got {list(tolerances)}")
+    if len({f"{x:g}" for x in tolerances}) != len(tolerances):
+        raise InputError(f"settling tolerances must differ, got {list(tolerances)}")
+    if steady_window_s is not None and not (
+        isinstance(steady_window_s, (int, float)) and math.isfinite(steady_window_s) and steady_window_s > 0
+    ):
+        raise InputError(f"steady window must be a finite number of seconds > 0, got {steady_window_s!r}")
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"workers must be an integer >= 1, got {workers!r}")
+    runs = _as_runs(laws)
+    scenarios = [run_scenario(scenario, r) for r in runs]  # every input checked (and laws derived) first
+    horizon = scenario.simulation.t_final
+    window = default_steady_window(horizon) if steady_window_s is None else min(float(steady_window_s), horizon)
+    start = time.perf_counter()
+
+    def one(job: tuple[LawRun, Scenario]) -> tuple[dict, dict | None, Any]:
+        run, scn = job
+        row = {
+            "label": run.label,
+            "law": scn.law.name,
+            "spec": str(run.law),
+            "settings": run.settings_text(),
+            "torque_limit_N_m": float(scn.controller.torque_limit),
+        }
+        try:
+            result = simulate(scn, progress=False)
+        except SimulationError as exc:
+            nan = dict.fromkeys((c for c, _, _ in metric_columns(tolerances)), math.nan)
+            return {**row, "status": f"failed: {' '.join(str(exc).split())}", **nan}, None, None
+        metrics = run_metrics(result, tolerances_deg=tolerances, steady_window_s=window)
+        extra = on_result(run, result) if on_result is not None else None
+        return {**row, "status": "ok", **metrics}, _series(result), extra
+
+    jobs = list(zip(runs, scenarios, strict=True))
+    bar = tqdm(total=len(jobs), desc="compare", disable=not progress, file=sys.stderr)
+    try:
+        if workers == 1 or len(jobs) == 1:
+            outcomes = []
+            for job in jobs:
+                outcomes.append(one(job))
+                bar.update()
+        else:
+            with ThreadPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
+                outcomes = []
+                for out in pool.map(one, jobs):
+                    outcomes.append(out)
+                    bar.update()
+    finally:
+        bar.close()
+    table, series, extras = [], {}, {}
+    for run, (row, ser, extra) in zip(runs, outcomes, strict=True):
+        table.append(row)
+        if ser is not None:
+            series[run.label] = ser
+        if on_result is not None and ser is not None:
+            extras[run.label] = extra
+    sim = scenario.simulation
+    settings = {
+        "tolerances_deg": list(tolerances),
+        "steady_window_s": window,
+        "t_final_s": sim.t_final,
+        "dt_s": sim.dt,
+        "output_interval_s": sim.output_interval,
+        "integrator": sim.integrator,
+        "controller": dataclasses.asdict(scenario.controller),
+    }
+    return Comparison(
+        scenario_label=scenario.label,
+        settings=settings,
+        runs=runs,
+        table=table,
+        series=series,
+        extras=extras,
+        wall_time_s=time.perf_counter() - start,
+    )
