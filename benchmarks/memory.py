@@ -51,8 +51,8 @@ def _child(n: int, t_final: float, figures: bool, out_dir: str) -> dict:
     times = {}
     warnings.filterwarnings("ignore", message=".*triangle inequality.*")
     import fsmctl
-    from fsmctl.simulation.simulator import simulate
     from fsmctl.model.topology import ring
+    from fsmctl.simulation.simulator import simulate
 
     base = fsmctl.paper_scenario("1")
     agents = tuple(base.agents[i % base.n_agents] for i in range(n))

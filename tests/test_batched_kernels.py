@@ -24,8 +24,8 @@ from fsmctl.codegen.batched import LANES, UnsupportedInstructionError, batched_h
 from fsmctl.model.generated_code import compiled_library, manifest
 from fsmctl.model.laws import builtin_laws
 from fsmctl.model.problem import pack
-from fsmctl.simulation.simulator import batched_kernels_preferred, simulate_packed
 from fsmctl.model.topology import ring
+from fsmctl.simulation.simulator import batched_kernels_preferred, simulate_packed
 
 LAWS = builtin_laws()
 BATCHED = [("fsm", f["name"]) for f in manifest()["functions"] if "batched_kernel" in f] + [
@@ -51,9 +51,10 @@ def library():
 
 
 def _sizes(law: str, name: str) -> tuple[list[int], list[int]]:
-    functions = manifest()["functions"] + __import__("json").loads((LAWS[law].folder / "manifest.json").read_text())[
-        "functions"
-    ]
+    functions = (
+        manifest()["functions"]
+        + __import__("json").loads((LAWS[law].folder / "manifest.json").read_text())["functions"]
+    )
     entry = next(f for f in functions if f["name"] == name)
     return [int(np.prod(io["shape"])) for io in entry["inputs"]], [int(np.prod(io["shape"])) for io in entry["outputs"]]
 

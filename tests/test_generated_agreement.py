@@ -198,3 +198,42 @@ def test_closed_loop_eq20_three_ways(x, sigma_e_dot, lambdified):
     np.testing.assert_allclose(out[0], ref, rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(out[0], sym["sigma_e_ddot"].ravel(), rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(out[1], s, rtol=1e-10, atol=1e-12)
+
+
+@pytest.mark.parametrize("model", ["paper", "exact"])
+@pytest.mark.parametrize("fix", [0, 1, 2])
+@settings(max_examples=60, derandomize=True, deadline=None, database=None)
+@given(x=states(), k_sum=st.floats(0.0, 20.0), u_max=st.sampled_from([np.inf, 2.0, 0.05]))
+def test_the_fsm_law_script_flies_the_paper_law_bit_for_bit(model, fix, x, k_sum, u_max):
+    """The built-in law ``fsm`` (derive/laws/fsm.py, written with the public LawBuilder API) gives the same
+    sliding variable and torque, bit for bit, as the catalogue's ``sliding_<model>`` + ``control_core`` pair
+    (the paper's law of eqs 13-19 as the whole-loop engine evaluated it before laws were open; the oracle tests
+    above check that pair's ``control_law_<model>`` against an independent transcription), for every Remark 6
+    fix, coupling and torque limit: the refactoring into a law-agnostic engine changed no arithmetic (equal as numbers: the sign of an exact zero,
+    e.g. s at sigma = sigma_d, may differ, which no later operation can tell apart)."""
+    from fsmctl.model.laws import resolve_law
+
+    law = resolve_law("fsm")
+    inputs = _law_inputs(x, fix=fix, boundary_layer=0.01, u_max=u_max)
+    inputs["k_sum"] = k_sum
+    sliding = casadi_function(f"sliding_{model}").call(
+        {k: inputs[k] for k in ("sigma", "omega", "sigma_d", "omega_d", "omega_d_dot", "gains", "gain_constants")}
+    )
+    core = casadi_function("control_core").call(
+        {
+            **{k: sliding[k] for k in ("sigma_e", "omega_e", "omega_r", "omega_r_dot", "s", "slope")},
+            **{k: inputs[k] for k in ("J0", "gains", "delta", "k_sum", "received", "u_max")},
+        }
+    )
+    reference = {"s": sliding["s"], "u": core["u"], "u_unsaturated": core["u_unsaturated"]}
+    params = np.r_[inputs["gains"], x["delta"]]
+    constants = law.casadi("law_constants")(params)
+    agent = (0.0, x["sigma"], x["omega"], np.zeros(0), x["sigma_d"], x["omega_d"], x["omega_d_dot"], x["J0"], params)
+    s, cache = law.casadi(f"law_local_{model}")(*agent, constants)
+    u, u_commanded, z_dot = law.casadi(f"law_control_{model}")(
+        *agent, constants, cache, k_sum, inputs["received"], 0.0, u_max
+    )
+    for got, want in ((s, reference["s"]), (u, reference["u"]), (u_commanded, reference["u_unsaturated"])):
+        got, want = np.asarray(got).ravel(), np.asarray(want).ravel()
+        assert ((got == want) | (np.isnan(got) & np.isnan(want))).all(), (got, want)
+    assert np.asarray(z_dot).size == 0  # the paper's law has no state of its own

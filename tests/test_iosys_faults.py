@@ -327,8 +327,8 @@ def test_spacecraft_rejects_bad_inertias_in_one_line():
 
 def test_factories_reject_bad_numbers_in_one_line():
     """Every numeric argument of the factories is checked: finite, the right shape and sign, not a bool/str."""
-    from fsmctl.plugin.iosys import Neighbour
     from fsmctl.model.topology import Schedule
+    from fsmctl.plugin.iosys import Neighbour
 
     paper = fsmctl.paper_scenario("1")
     c = paper.controller

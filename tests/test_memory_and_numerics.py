@@ -26,10 +26,9 @@ from formations import with_agents
 from scipy.spatial.transform import Rotation
 
 import fsmctl
-from fsmctl.simulation import metrics
-from fsmctl.simulation import simulator
 from fsmctl.errors import InputError, ResourceLimitError
 from fsmctl.model.problem import output_buffer_bytes, pack
+from fsmctl.simulation import metrics, simulator
 from fsmctl.simulation.simulator import SimulationError, StepSizeWarning, simulate, simulate_packed, step_size_report
 
 ROOT = Path(__file__).resolve().parent.parent

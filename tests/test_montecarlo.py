@@ -13,8 +13,8 @@ import pytest
 import xarray as xr
 from scipy import stats
 
-from fsmctl.studies import montecarlo as mc
 from fsmctl.errors import InputError
+from fsmctl.studies import montecarlo as mc
 
 SHORT = {"t_final": 0.3, "chunk_size": 2, "output_interval": 0.05}
 

@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fsmctl.studies import montecarlo as mc
 from fsmctl.errors import EnvironmentProblem
+from fsmctl.studies import montecarlo as mc
 
 psutil = pytest.importorskip("psutil")
 
@@ -303,7 +303,7 @@ def test_full_device_is_one_line_and_leaves_no_folder(tmp_path, max_file_bytes):
 
 
 def test_scenario_without_cases_runs_and_settings_are_printed_and_stored(tmp_path):
-    text = (Path(mc.__file__).parent / "scenarios" / "paper.toml").read_text()
+    text = (Path(mc.__file__).parents[1] / "scenarios" / "paper.toml").read_text()
     no_cases = tmp_path / "single.toml"
     no_cases.write_text(text[: text.index("[cases.")])
     out = tmp_path / "out"

@@ -9,9 +9,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+from fsmctl.model.generated_code import casadi_function
 from fsmctl.symbolic.mrp import mrp_compose, mrp_G, mrp_G_inverse
 from fsmctl.symbolic.symbols import vector_symbols
-from fsmctl.model.generated_code import casadi_function
 
 component = st.floats(-3, 3, allow_nan=False)
 mrp = st.tuples(component, component, component).map(np.array)

@@ -20,6 +20,12 @@ What is checked in the executed notebook, each against an independent reason:
   Remark 6 slopes are the hand values ``c1 + c2 (2 - alpha) eps^(alpha-1)`` (at 0) and
   ``c1 + c2 alpha eps^(alpha-1)`` (band edge) of the C^1 extension ``r1 x + r2 x|x|`` of ``sig(x)^alpha``;
 
+* 06: the user's law (``rate_free``, written by the notebook) is split as its formula says (every stage local, the
+  15 numbers sigma_e, omega_r, omega_e, omega_r_dot, y cached, one 3-vector state), ``check_law`` finds the generated
+  code equal to the symbolic law and V_dot equal to the hand result ``-|y|^2 / D``, the printed commanded torque at
+  t = 0 of every agent is the law's formula evaluated here with the NumPy oracle (Table 1, the Table 2 weights at
+  t = 0, the law's gains), and the comparison covers the built-in laws with the 2 N m limit respected;
+
 and a library fault injected into a run of notebook 02 (a wrong ``lambda_min``, which the notebook's own
 asserts do not see) is reported by these checks.
 """
@@ -52,6 +58,7 @@ MIN_FIGURES = {
     "03_reproduction": 9,  # analogues of the paper's Figs 1-9
     "04_theorem3": 3,  # settling time vs x0, full-loop error metrics, per-agent times
     "05_robustness": 3,  # three pairs of parameters
+    "06_your_own_law": 3,  # the law flown on Case 1 (error angles, its state); the comparison with and without the limit
 }
 
 
@@ -236,12 +243,68 @@ def _check_theorem3(nb) -> list[str]:
     return problems
 
 
+def _check_own_law(nb) -> list[str]:
+    problems = []
+    out = _stdout(nb)
+    # the torque reads sigma_e, omega_r, omega_e, omega_r_dot and y = a D sigma_e + xi, none of which depends on
+    # what the agent receives: every stage is local and all of them (4 x 3 + 3 numbers) are cached
+    for line in ("broadcast: sigma_e (3)", "states (3): ['xi (3)']", "control stages: []",
+                 "cache (15): ['sigma_e', 'omega_r', 'omega_e', 'omega_r_dot', 'y']", "constants (1): ['beta']"):  # fmt: skip
+        if line not in out:
+            problems.append(f"06: the contract split does not print {line!r}")
+    if not re.search(r"^generated-equals-symbolic\s+checked\s+ok\s", out, re.MULTILINE):
+        problems.append("06: check_law does not find the generated code equal to the symbolic law")
+    if "[ok] V_dot - claimed = 0" not in out:
+        problems.append("06: check_law does not show V_dot equal to the declared derivative")
+    # V_dot = K s.s' - s'.(K s + y) + y.s' - |y|^2/D = -|y|^2/D (hand derivation, omega^T G^T = sigma_dot^T)
+    if "claimed V_dot with xi = y - a D sigma: (-y0**2 - y1**2 - y2**2)/D" not in out:
+        problems.append("06: the declared V_dot is not -|y|^2/D in terms of the filter output y")
+    if "V_dot <= 0 along the isolated agent's closed loop, proved: True" not in out:
+        problems.append("06: the Lyapunov step is not reported proved")
+    # u(0) = -G(se)^T (K se + a D se + k_c sum_j k^j_ij(0) (se_i - se_j)) + omega_d x J0 omega0 + J0 omega_d_dot(0)
+    # (paper error model: omega_r = omega_d; xi(0) = 0), with the law's defaults and the notebook's k_c = 1
+    sc = oracle.paper_scenario()
+    K, D, a, kc = 80.0, 640.0, 1.0, 1.0
+    se = [oracle.mrp_error(s, sc["sigma_d0"]) for s in sc["sigma0"]]
+    wd, wdd = sc["omega_d"](0.0), sc["omega_d_dot"](0.0)
+    for i in range(6):
+        cons = sum(sc["k_j"](i + 1, j + 1, 0.0) * (se[i] - se[j]) for j in range(6) if j != i)
+        fb = K * se[i] + a * D * se[i] + kc * cons
+        want = -oracle.mrp_G(se[i]).T @ fb + np.cross(wd, sc["J0"][i] @ sc["omega0"][i]) + sc["J0"][i] @ wdd
+        m = re.search(rf"agent {i + 1}: u_commanded\(0\) = \[([^\]]*)\] N m", out)
+        got = np.array([float(x) for x in m.group(1).split(",")]) if m else None
+        if got is None or not np.allclose(got, want, rtol=1e-7, atol=1e-9):
+            problems.append(f"06: agent {i + 1}: u_commanded(0) should print as {want}, got {got}")
+    # the comparison: every built-in law and the user's, each with the paper's 2 N m limit (respected) and without
+    md = "\n".join(_markdown(nb))
+    header = next((r for r in md.splitlines() if r.startswith("| quantity | unit |")), "")
+    labels = [c.strip() for c in header.strip("|").split("|")][2:]
+    peak = next((r for r in md.splitlines() if r.startswith("| peak \\|u_k\\| applied |")), "")
+    values = [float(c) for c in re.split(r"(?<!\\)\|", peak.strip().strip("|"))[2:]] if peak else []
+    for law in ("rate_free", "rate_free + consensus", "fsm", "pid", "super_twisting", "adaptive_fsm"):
+        for tag in (" (limit 2 N m)", " (no limit)"):
+            if law + tag not in labels:
+                problems.append(f"06: the comparison has no run {law + tag!r}")
+    if len(values) != len(labels) or not labels:
+        problems.append("06: the comparison table's peak applied torque row is missing")
+    else:
+        for label, v in zip(labels, values, strict=True):
+            if label.endswith("(limit 2 N m)") and not v <= 2.0 + 1e-12:
+                problems.append(f"06: {label}: peak applied torque {v} N m exceeds the 2 N m limit")
+            if label == "rate_free (no limit)" and not v > 2.0:  # |u(0)| is ~10^2 N m (the check above)
+                problems.append(f"06: {label}: peak applied torque {v} N m, as if the limit were still on")
+    if "**Not proved**" not in md:
+        problems.append("06: the conclusion does not say what is not proved")
+    return problems
+
+
 CHECKS = {
     "01_derivation": _check_derivation,
     "02_proof_check": _check_proof_check,
     "03_reproduction": _check_reproduction,
     "04_theorem3": _check_theorem3,
     "05_robustness": lambda nb: [],
+    "06_your_own_law": _check_own_law,
 }
 
 

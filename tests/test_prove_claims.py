@@ -6,10 +6,10 @@ import json
 
 import pytest
 
-from fsmctl.proofs.errata import ERRATA_CHECKS, Erratum
 from fsmctl import paper_scenario
 from fsmctl.proofs import claims as C
 from fsmctl.proofs.claims import CLAIMS, ProofContext, claim_ids, run_claims
+from fsmctl.proofs.errata import ERRATA_CHECKS, Erratum
 from fsmctl.proofs.report import to_json, to_markdown
 from fsmctl.proofs.theorem2 import Region
 

@@ -155,9 +155,17 @@ BAD_FILES = [
     # unknown keys
     ("unknown-top", "speed_of_light = 3e8\n" + PAPER_TOML, r"unknown key\(s\) \['speed_of_light'\]"),
     # a further [controller] key is a law parameter: one the law does not declare is named with the law's list
-    ("unknown-controller", edited("c1 = 0.6 ", "c3 = 1.0\nc1 = 0.6 "), r"controller: the law 'fsm' has no parameter 'c3'"),
+    (
+        "unknown-controller",
+        edited("c1 = 0.6 ", "c3 = 1.0\nc1 = 0.6 "),
+        r"controller: the law 'fsm' has no parameter 'c3'",
+    ),
     ("unknown-law", edited("c1 = 0.6 ", 'law = "no-such-law"\nc1 = 0.6 '), r"law 'no-such-law': not a built-in law"),
-    ("law-parameter-range", edited("c1 = 0.6 ", 'law = "pid"\nK = -1.0\nc1 = 0.6 '), r"controller\.K: must be >= 0"),
+    (
+        "law-parameter-range",
+        edited("c1 = 0.6 ", 'law = "pid"\nK = -1.0\nc1 = 0.6 '),
+        r"controller\.K: must be > 0, got -1",
+    ),
     (
         "unknown-simulation",
         edited("dt = 0.001 ", "steps = 10\ndt = 0.001 "),
@@ -285,4 +293,8 @@ def test_unset_fsm_keys_take_the_laws_declared_defaults():
     declared = {p["name"]: p["default"] for p in json.loads((law.folder / "law.json").read_text())["parameters"]}
     row = parameter_matrix(law, bare)[0]
     assert list(row[:3]) == [declared["c1"], declared["c2"], declared["alpha"]]
-    assert list(parameter_matrix(law, paper)[0][:3]) == [paper.controller.c1, paper.controller.c2, paper.controller.alpha]
+    assert list(parameter_matrix(law, paper)[0][:3]) == [
+        paper.controller.c1,
+        paper.controller.c2,
+        paper.controller.alpha,
+    ]

@@ -65,6 +65,6 @@ def test_reference_page_documents_every_key_with_unit_and_default():
             assert f"`{prefix}{f.name}`" in page, f"{prefix}{f.name} missing from {REFERENCE_PATH}"
     assert "| `simulation.dt` | number (> 0) | s | `0.001` |" in page
     assert "| `controller.alpha` | number (> 0.5, < 1) | 1 | the law's |" in page
-    assert "| `controller.law` | string |  | `\"fsm\"` |" in page
+    assert '| `controller.law` | string |  | `"fsm"` |' in page
     # defaults in the page are the dataclasses' defaults
     assert sc.SimulationSettings().dt == 0.001 and math.isinf(sc.ControllerSettings(c1=1, c2=1, alpha=0.7).torque_limit)

@@ -437,5 +437,11 @@ def test_montecarlo_flies_a_derived_law(pd_law, tmp_path):
     assert head[0].startswith("montecarlo: paper case 1: 6 agents")
     assert any(line.startswith(f"  law: pd ({folder}), parameters K=2.0") for line in head[:12]), head[:12]
     assert "2 ok, 0 failed" in proc.stdout
+    meta = json.loads((tmp_path / "mc" / "campaign.json").read_text())
+    assert json.loads(meta["controller"]) == {"law": str(folder), "parameters": {"K": 2.0}}  # the law is recorded
     resume = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=120)
-    assert resume.returncode == 2 and "--resume cannot be combined with --law/--set" in resume.stderr
+    assert resume.returncode == 0, resume.stderr  # same law and parameters: nothing left to run
+    other = [*cmd[:-2], "--set", "K=3.0", "--out", str(tmp_path / "mc"), "--resume"]
+    other = [c for i, c in enumerate(other) if not (c == "K=2.0" or (c == "--set" and other[i + 1] == "K=2.0"))]
+    mixed = subprocess.run(other, capture_output=True, text=True, timeout=120)
+    assert mixed.returncode == 2 and "different settings (controller)" in mixed.stderr, mixed.stderr

@@ -11,8 +11,8 @@ import oracle_numpy as oracle
 import pytest
 
 from fsmctl import paper_scenario
-from fsmctl.proofs.theorem1 import analyze_topology, configurations, eta_interval
 from fsmctl.model.topology import Link, Schedule, Topology, all_to_all
+from fsmctl.proofs.theorem1 import analyze_topology, configurations, eta_interval
 
 
 def _exact_k_j(topology: Topology, t: float) -> np.ndarray:

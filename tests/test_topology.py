@@ -185,8 +185,8 @@ def test_left_closed_instants_are_exact_and_isolated(cases):
 
 def test_packed_problem_and_compiled_driver_use_table2(cases):
     """The weights the simulator uses: ``PackedProblem.link_weights`` (scalar and array) and the C driver."""
-    from fsmctl.simulation import simulator
     from fsmctl.model.problem import pack
+    from fsmctl.simulation import simulator
 
     for case in ("1", "3b"):
         sc = cases[case]

@@ -136,7 +136,7 @@ def run(args: argparse.Namespace) -> int:
             print(line)
         if controller.keys() & {"law", "parameters"}:
             law = scenario.law
-            given = ", ".join(f"{k}={v}" for k, v in scenario.controller.parameters.items())
+            given = ", ".join(f"{k}={v}" for k, v in dict(scenario.controller.parameters).items())
             print(f"  law: {law.name} ({law.folder})" + (f", parameters {given}" if given else ""))
         try:
             result = simulate(scenario, progress=args.progress)

@@ -127,5 +127,5 @@ def controller_changes(args: argparse.Namespace, scenario) -> dict[str, Any]:
         else:
             parameters[key] = value
     if parameters:
-        changes["parameters"] = {**scenario.controller.parameters, **parameters}
+        changes["parameters"] = {**dict(scenario.controller.parameters), **parameters}
     return changes

@@ -137,7 +137,13 @@ def _one_line(exc: BaseException) -> str:
     return text
 
 
+_handler_pid: int | None = None
+"""the process that installed :func:`_raise_terminated` (a forked worker inherits the handler, not the role)"""
+
+
 def _raise_terminated(signum, frame):
+    if os.getpid() != _handler_pid:  # a forked child (a worker) inherited the handler: die as SIGTERM would
+        os._exit(128 + signum)
     raise Terminated
 
 
@@ -152,6 +158,8 @@ def main(argv: list[str] | None = None) -> int:
     name = f"fsmctl {args.command}"
     previous = None
     with contextlib.suppress(ValueError):  # not the main thread: leave SIGTERM alone
+        global _handler_pid
+        _handler_pid = os.getpid()
         previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
         with warnings.catch_warnings():

@@ -11,8 +11,10 @@ Exit codes: 0 every run finished, 1 some run failed (they are listed), 2 usage o
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from collections.abc import Iterable
+from dataclasses import replace
 
 from fsmctl.cli.law_options import add_law_options, controller_changes
 from fsmctl.cli.types import finite_or_inf_float, nonnegative_int, positive_float, positive_int
@@ -132,7 +134,6 @@ def run(args: argparse.Namespace) -> int:
         0 when every run finished, 1 when some failed, ``CampaignInterrupted.exit_code`` (130 or 143) when
         interrupted; bad input raises :class:`fsmctl.errors.InputError` (exit 2).
     """
-    from fsmctl.cli.main import UsageError
     from fsmctl.studies.montecarlo import campaign_base, describe_campaign, run_campaign
 
     settings = CampaignSettings(
@@ -151,19 +152,19 @@ def run(args: argparse.Namespace) -> int:
     )
     base, log = None, _print_now
     if args.law is not None or args.law_set:
-        if args.resume:
-            # campaign.json (CampaignSettings.identity) does not record the law: a resumed campaign could mix laws
-            raise UsageError("--resume cannot be combined with --law/--set (campaign.json does not record the law)")
+        # the law and its parameters are part of the campaign's settings (campaign.json): --resume checks them
         settings.validate()
-        settings, base = campaign_base(settings)
-        changes = controller_changes(args, base)
+        _, scenario = campaign_base(settings)
+        changes = controller_changes(args, scenario)
         if "law" in changes:
             changes["law"] = _portable_law(changes["law"])
-        base = base.replace(controller=changes)
+        changes = {k: (dict(v) if k == "parameters" else v) for k, v in changes.items()}
+        settings = replace(settings, controller=json.dumps(changes, sort_keys=True))
+        settings, base = campaign_base(settings)
         for line in describe_campaign(settings, base):
             _print_now(line)
         law = base.law
-        given = ", ".join(f"{k}={v}" for k, v in base.controller.parameters.items())
+        given = ", ".join(f"{k}={v}" for k, v in dict(base.controller.parameters).items())
         _print_now(f"  law: {law.name} ({law.folder})" + (f", parameters {given}" if given else "") + " (--law, --set)")
         log = None
     try:

@@ -34,9 +34,7 @@ import sympy as sp
 
 from fsmctl.codegen.batched import batched_header, batched_source, kernel_name
 from fsmctl.codegen.casadi_bridge import to_casadi_function
-from fsmctl.proofs.errata import Erratum
-from derive.catalogue import GAIN_CONSTANTS_LAYOUT, GAINS_LAYOUT, SINUSOID_LAYOUT, FunctionSpec, function_catalogue
-from fsmctl.proofs.identities import IdentityResult
+from fsmctl.symbolic.functions import FunctionSpec
 
 __all__ = ["GeneratedFunction", "build_functions", "write_generated", "check_generated"]
 

@@ -540,7 +540,14 @@ def _build(cc: str, flags: tuple[str, ...], sources: list[Path], target: Path) -
             return _BuildResult(False, f"the C compiler {cc} could not run ({exc})", compiler_ran=False)
         if proc.returncode != 0:
             how = f"killed by signal {-proc.returncode}" if proc.returncode < 0 else f"exit status {proc.returncode}"
-            shown = [cc, *flags, f"<{len(sources)} sources of generated/c, the law and fsmctl/csrc>", "-o", str(tmp), "-lm"]
+            shown = [
+                cc,
+                *flags,
+                f"<{len(sources)} sources of generated/c, the law and fsmctl/csrc>",
+                "-o",
+                str(tmp),
+                "-lm",
+            ]
             detail = proc.stderr[-4000:].strip() or "(no message from the compiler)"
             return _BuildResult(False, f"compiling the generated code failed ({how}): {' '.join(shown)}\n{detail}")
         tmp.chmod(0o755)  # loadable by everyone who shares the cache (mkstemp made the file private)

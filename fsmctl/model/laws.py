@@ -162,7 +162,9 @@ def _read_law(folder: Path) -> LawCode:
     try:
         meta = json.loads((folder / LAW_FILE).read_text("utf-8"))
     except FileNotFoundError:
-        raise LawError(f"{folder}: not a law folder (no {LAW_FILE}; write one with `fsmctl derive FILE.py --out DIR`)")
+        raise LawError(
+            f"{folder}: not a law folder (no {LAW_FILE}; write one with `fsmctl derive FILE.py --out DIR`)"
+        ) from None
     except (OSError, ValueError) as exc:
         raise LawError(f"{folder}/{LAW_FILE}: cannot be read ({exc})") from exc
     for f in ("manifest.json",):
@@ -335,5 +337,3 @@ def parameter_matrix(law: LawCode, scenario) -> np.ndarray:
 def initial_law_states(law: LawCode) -> np.ndarray:
     """The law states' declared initial values, ``(n_states,)``."""
     return np.array([v for s in law.states for v in s["initial"]], dtype=float)
-
-

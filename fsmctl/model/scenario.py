@@ -162,6 +162,62 @@ def _inf_words(v: Any) -> Any:
     return _real(v)
 
 
+class LawParameters(Mapping):
+    """A law's named parameters as given in a scenario: a read-only, hashable mapping (vectors are tuples).
+
+    The values are checked against the law's declared ranges by :func:`fsmctl.model.laws.parameter_matrix`.
+    """
+
+    __slots__ = ("_items",)
+
+    def __init__(self, items: Mapping[str, Any] | None = None):
+        self._items = tuple(sorted((items or {}).items()))
+
+    def __getitem__(self, key: str) -> Any:
+        for k, v in self._items:
+            if k == key:
+                return v
+        raise KeyError(key)
+
+    def __iter__(self):
+        return (k for k, _ in self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+    def __hash__(self) -> int:
+        return hash(self._items)
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Mapping) and dict(self._items) == dict(other)
+
+    def __repr__(self) -> str:
+        return f"LawParameters({dict(self._items)!r})"
+
+    def __deepcopy__(self, memo: dict) -> LawParameters:
+        return self
+
+
+def _law_parameters(value: Any) -> LawParameters:
+    """A mapping of law parameters -> :class:`LawParameters` (lists become tuples)."""
+    if isinstance(value, LawParameters):
+        return value
+    if not isinstance(value, Mapping):
+        raise ValueError(f"expected a table of the law's parameters by name, got {value!r}")
+    out = []
+    for key, v in value.items():
+        if not isinstance(key, str):
+            raise ValueError(f"parameter names are strings, got {key!r}")
+        if isinstance(v, bool) or not isinstance(v, (int, float, str, list, tuple, np.ndarray)):
+            raise ValueError(f"{key}: expected a number, a vector or an option string, got {v!r}")
+        if isinstance(v, (list, tuple, np.ndarray)):
+            v = tuple(v)
+            if any(isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)) for x in v):
+                raise ValueError(f"{key}: a vector parameter holds numbers, got {list(v)!r}")
+        out.append((key, v))
+    return LawParameters(dict(out))
+
+
 def _doc(description: str, unit: str | None = None, **kw) -> Any:
     extra = {"unit": unit} if unit else None
     return Field(description=description, json_schema_extra=extra, **kw)
@@ -450,9 +506,12 @@ class ControllerSettings:
     against the ranges the law declares; unset ones take the law's defaults.
     """
 
-    law: Text = _doc("control law: a built-in name (fsmctl laws), a derivation script FILE.py or a derived folder", default="fsm")
-    parameters: dict[str, Any] = _doc(
-        "the law's named parameters (in a TOML file: further [controller] keys, e.g. K = 2.0)", default_factory=dict
+    law: Text = _doc(
+        "control law: a built-in name (fsmctl laws), a derivation script FILE.py or a derived folder", default="fsm"
+    )
+    parameters: Annotated[Any, BeforeValidator(_law_parameters)] = _doc(
+        "the law's named parameters (in a TOML file: further [controller] keys, e.g. K = 2.0)",
+        default_factory=lambda: LawParameters(),
     )
     c1: Real | None = _doc(
         "FSM: linear gain of the fast sliding surface s = omega_e + c1 sigma_e + c2 sig(sigma_e)^alpha (eq 13); "
@@ -461,7 +520,9 @@ class ControllerSettings:
         ge=0,
         default=None,
     )
-    c2: Real | None = _doc("FSM: terminal gain of the surface (eq 13); unset: the law's default", "1/s", ge=0, default=None)
+    c2: Real | None = _doc(
+        "FSM: terminal gain of the surface (eq 13); unset: the law's default", "1/s", ge=0, default=None
+    )
     alpha: Real | None = _doc(
         "FSM: exponent of sig(sigma_e)^alpha, 0.5 < alpha < 1 (eq 13); unset: the law's default",
         "1",

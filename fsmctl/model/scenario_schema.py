@@ -430,7 +430,9 @@ def shipped_schema() -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     """Write (or ``--check``) the scenario reference page and JSON Schema; returns an exit code."""
-    parser = argparse.ArgumentParser(prog="python -m fsmctl.model.scenario_schema", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(
+        prog="python -m fsmctl.model.scenario_schema", description=__doc__.split("\n\n")[0]
+    )
     parser.add_argument("--check", action="store_true", help="exit 1 with a diff when the files are stale")
     parser.add_argument("--root", type=Path, default=ROOT, help="repository root (default: this checkout)")
     args = parser.parse_args(argv)

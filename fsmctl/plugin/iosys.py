@@ -40,7 +40,6 @@ shadow set, exactly like the compiled simulator, whose MRPs are shadow-switched.
 from __future__ import annotations
 
 import copy
-import functools
 import math
 import uuid
 from collections.abc import Callable, Mapping, Sequence
@@ -222,100 +221,12 @@ def _system_name(name: Any, kind: str) -> str | None:
 
 # ----------------------------------------------------------------------------- attitude kinematics
 # Euler parameters q = (q0, q1, q2, q3), scalar first, of the rotation N -> B; sigma = (q1, q2, q3) / (1 + q0).
-# The three formulas below are the only place they are written; tests check them against
-# scipy.spatial.transform.Rotation and against the MRP kinematics of eq 3.
-
-
-def _quaternion_rate(q, omega, gain: float):
-    """``q_dot = 1/2 B(q) omega + gain (1 - q.q) q`` (Schaub & Junkins eq 3.104 plus drift control).
-
-    ``B(q) omega = (-q_v . omega, q0 omega + q_v x omega)`` with the body rate ``omega`` in B.  The drift term
-    is radial: it leaves ``q / |q|`` (the attitude) unchanged and drives ``|q|`` to 1 at the rate ``2 gain``.
-    """
-    q0, qv = q[0], q[1:4]
-    rate = 0.5 * ca.vertcat(-ca.dot(qv, omega), q0 * omega + ca.cross(qv, omega))
-    return rate + gain * (1 - ca.dot(q, q)) * q
-
-
-def _mrp_of_quaternion(q):
-    """The MRP of ``q / |q|`` in the shadow set: ``sign(q0) q_v / (|q| + |q0|)`` (``|sigma| <= 1``, no cancellation).
-
-    ``q0 >= 0`` gives ``q_v / (1 + q0)`` (the principal rotation, ``phi <= 180 deg``); ``q0 < 0`` gives the shadow
-    MRP ``-q_v / (1 - q0)`` of the same attitude.
-    """
-    q0, qv = q[0], q[1:4]
-    sign = ca.if_else(q0 < 0, -1, 1)
-    return sign * qv / (ca.norm_2(q) + ca.fabs(q0))
-
-
-def _quaternion_of_mrp(sigma):
-    """Euler parameters of an MRP: ``((1 - s^2), 2 sigma) / (1 + s^2)`` with ``s^2 = sigma.sigma`` (``q0 >= 0`` iff ``|sigma| <= 1``)."""
-    s2 = ca.dot(sigma, sigma)
-    return ca.vertcat(1 - s2, 2 * sigma) / (1 + s2)
-
-
-@functools.cache
-def _conversion(kind: str) -> ca.Function:
-    if kind == "mrp":
-        q = ca.SX.sym("q", 4)
-        return ca.Function("mrp_of_quaternion", [q], [_mrp_of_quaternion(q)])
-    sigma = ca.SX.sym("sigma", 3)
-    return ca.Function("quaternion_of_mrp", [sigma], [_quaternion_of_mrp(sigma)])
-
-
-def _map_rows(fn: ca.Function, x: Any, n_in: int, n_out: int, what: str) -> np.ndarray:
-    a = np.asarray(x, dtype=float)
-    if a.ndim == 0 or a.shape[-1] != n_in:
-        raise ValueError(f"expected {what} with a last axis of length {n_in}, got shape {a.shape}")
-    flat = a.reshape(-1, n_in)
-    if flat.shape[0] == 0:
-        return np.zeros((*a.shape[:-1], n_out))
-    out = np.asarray(fn.map(flat.shape[0])(flat.T)).reshape(n_out, -1)
-    return out.T.reshape(*a.shape[:-1], n_out)
-
-
-def quaternion_from_mrp(sigma) -> np.ndarray:
-    """Euler parameters (scalar first) of MRPs.
-
-    Parameters
-    ----------
-    sigma : array_like, shape (..., 3)
-        MRPs of the rotation from N to B (any magnitude; ``|sigma| <= 1`` gives ``q0 >= 0``).
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 4)
-        Unit quaternions ``(q0, q1, q2, q3)``.
-
-    Examples
-    --------
-    >>> from fsmctl.plugin.iosys import quaternion_from_mrp
-    >>> quaternion_from_mrp([0.0, 0.0, 1.0]).round(12).tolist()  # 180 deg about z
-    [0.0, 0.0, 0.0, 1.0]
-    """
-    return _map_rows(_conversion("quaternion"), sigma, 3, 4, "MRPs")
-
-
-def mrp_from_quaternion(q) -> np.ndarray:
-    """MRPs in the shadow set (``|sigma| <= 1``) of quaternions of any non-zero norm.
-
-    Parameters
-    ----------
-    q : array_like, shape (..., 4)
-        Euler parameters ``(q0, q1, q2, q3)``, scalar first; ``q`` and ``c q`` (``c != 0``) are one attitude.
-
-    Returns
-    -------
-    numpy.ndarray, shape (..., 3)
-
-    Examples
-    --------
-    >>> from fsmctl.plugin.iosys import mrp_from_quaternion
-    >>> (mrp_from_quaternion([-0.6, 0.0, 0.0, 0.8]).round(12) + 0.0).tolist()  # 254 deg about z = -106 deg
-    [0.0, 0.0, -0.5]
-    """
-    return _map_rows(_conversion("mrp"), q, 4, 3, "quaternions")
-
+from fsmctl.model.attitude import (  # noqa: E402  (the conversions live in the model layer)
+    _mrp_of_quaternion,
+    _quaternion_rate,
+    mrp_from_quaternion,
+    quaternion_from_mrp,
+)
 
 # ----------------------------------------------------------------------------- CasADi calls
 

@@ -32,9 +32,9 @@ from dataclasses import asdict, dataclass, field
 import numpy as np
 import sympy as sp
 
-from fsmctl.model.scenario import Scenario
 import fsmctl.proofs.theorem1 as t1
 import fsmctl.proofs.theorem2 as t2
+from fsmctl.model.scenario import Scenario
 
 __all__ = [
     "CLAIMS",
@@ -294,8 +294,8 @@ def _lagrange_C(ctx: ProofContext) -> _Outcome:
 
 def _closed_loop(ctx: ProofContext) -> _Outcome:
     """Eq 20 from eq 9 and eqs 16-19, for free ``M`` (invertible), ``C``, ``E`` (reuses fsmctl.proofs.identities)."""
-    from fsmctl.symbolic.controller import SingularityFix
     from fsmctl.proofs.identities import verify_closed_loop
+    from fsmctl.symbolic.controller import SingularityFix
 
     r = verify_closed_loop(SingularityFix.NONE)
     steps = [
@@ -323,9 +323,9 @@ def _fractional_power(ctx: ProofContext) -> _Outcome:
 
 def _vdot_i(ctx: ProofContext) -> _Outcome:
     """Eqs 23-24, step by step; the ``||delta|| ||s||`` step is the erratum ``eq24-norm-bound``."""
-    from fsmctl.symbolic.controller import SingularityFix, closed_loop_acceleration, switching_function
     from fsmctl.proofs.errata import erratum_norm_inequality
     from fsmctl.proofs.identities import model_symbols, verify_sigpow_derivative
+    from fsmctl.symbolic.controller import SingularityFix, closed_loop_acceleration, switching_function
 
     sym = model_symbols()
     sd = closed_loop_acceleration(
@@ -648,6 +648,7 @@ def t2_symbolic_steps() -> list[tuple[bool, str]]:
         condition is circular; ``s_dot = -P v + P w0 + (P - I) a_eq``; ``P = I/(1+kappa)`` for
         ``Delta_J = kappa J0``; the resulting condition; ``a_eq`` unbounded without the Remark 6 fix.
     """
+    from fsmctl.proofs.identities import model_symbols
     from fsmctl.symbolic.controller import (
         SingularityFix,
         closed_loop_acceleration,
@@ -658,7 +659,6 @@ def t2_symbolic_steps() -> list[tuple[bool, str]]:
     from fsmctl.symbolic.model import lagrange_uncertainty
     from fsmctl.symbolic.mrp import mrp_G, mrp_G_dot, mrp_G_inverse, skew
     from fsmctl.symbolic.symbols import symmetric_matrix_symbols, vector_symbols
-    from fsmctl.proofs.identities import model_symbols
 
     sym = model_symbols()
     J0 = sym.J

@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass
 
 import sympy as sp
 
+from fsmctl.proofs.identities import lagrange_residual_of_printed_C, model_symbols
 from fsmctl.symbolic.model import (
     ErrorModel,
     lagrange_C_as_printed,
@@ -23,7 +24,6 @@ from fsmctl.symbolic.model import (
 )
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_inverse, mrp_to_dcm, skew
 from fsmctl.symbolic.symbols import symmetric_matrix_symbols, vector_symbols
-from fsmctl.proofs.identities import lagrange_residual_of_printed_C, model_symbols
 
 __all__ = ["Erratum", "errata", "ERRATA_CHECKS"]
 
@@ -212,7 +212,7 @@ def erratum_norm_inequality() -> Erratum:
     correct_holds = lhs >= min(delta) * s.norm()
     return Erratum(
         id="eq24-norm-bound",
-        equation="24, 25, 27",
+        equation="24, 25, 27, 32",
         as_printed="-sum_k (delta_i)_k |(s_i)_k| <= -||delta_i|| ||s_i||",
         correct="-sum_k (delta_i)_k |(s_i)_k| <= -min_k (delta_i)_k ||s_i||",
         residual=f"delta = (1, 2, 3), s = (1, 0, 0): sum delta_k|s_k| = {lhs} < ||delta|| ||s|| = {sp.nsimplify(rhs)}",
@@ -232,7 +232,7 @@ def erratum_reaching_rate() -> Erratum:
         id="eq28-mu",
         equation="28, 33",
         as_printed="V_dot <= -mu V^(1/2), mu = min_i sqrt(2) ||delta_i|| (eq 33: ||delta_i - Delta_d_i||)",
-        correct="V_dot <= -mu V^(1/2), mu = sqrt(2) min_i min_k (delta_i)_k (eq 33: min_k (delta_i - |Delta_d_i|)_k)",
+        correct="V_dot <= -mu V^(1/2), mu = sqrt(2) min_i min_k (delta_i)_k (eq 33: min_k (delta_i - |M0^-1 G^-T Delta_d_i|)_k)",
         residual=f"for delta_i = (1, 2, 3) the printed mu is {sp.nsimplify(printed)} = {sp.N(printed, 4)}, the valid one {correct}",
         consequence="the printed reaching-time bound 2 V(0)^(1/2) / mu is too small by up to a factor sqrt(3) max/min",
         as_printed_latex=r"\mu = \min_i \sqrt2\,\|\delta_i\|",

@@ -45,6 +45,8 @@ import numpy as np
 
 from fsmctl.errors import ResourceLimitError
 from fsmctl.model.generated_code import compiled_library, default_law_dir, manifest
+from fsmctl.model.problem import PackedProblem, output_buffer_bytes, pack
+from fsmctl.model.scenario import Scenario
 from fsmctl.simulation.metrics import (
     RAEM_WORKING_BYTES,
     aaem_deg,
@@ -57,8 +59,6 @@ from fsmctl.simulation.metrics import (
     steady_state_max,
     streamed_raem_deg,
 )
-from fsmctl.model.problem import PackedProblem, output_buffer_bytes, pack
-from fsmctl.model.scenario import Scenario
 
 __all__ = [
     "SimulationError",
@@ -686,7 +686,7 @@ class SimulationResult:
 
         n = self.n_agents
         T = self.time.size
-        from fsmctl.plugin.iosys import quaternion_from_mrp
+        from fsmctl.model.attitude import quaternion_from_mrp
 
         x = np.concatenate(
             [quaternion_from_mrp(self.sigma_d).T]

@@ -75,10 +75,10 @@ from typing import Any
 import numpy as np
 
 from fsmctl.errors import EnvironmentProblem, InputError
-from fsmctl.outputs import atomic_path, jsonable, temporary_files, write_json
-from fsmctl.studies.parallel import CampaignInterrupted, interrupt_guard, single_threaded_workers, worker_pool
 from fsmctl.model.scenario import Agent, Scenario, Sinusoid, load_scenario
 from fsmctl.model.topology import Link, Topology
+from fsmctl.outputs import atomic_path, jsonable, temporary_files, write_json
+from fsmctl.studies.parallel import CampaignInterrupted, interrupt_guard, single_threaded_workers, worker_pool
 
 __all__ = [
     "CampaignSettings",
@@ -145,6 +145,9 @@ class CampaignSettings:
     chunk_size: int = 10
     attitude_bound_deg: float = 180.0
     """principal angle bound of sigma_i(0); 180 = uniform over all of SO(3)"""
+    controller: str = ""
+    """JSON of ``[controller]`` changes applied to the scenario (the law, its parameters, ...; ``--law``/``--set``):
+    part of the campaign's identity, so a resumed campaign flies the same law"""
 
     def validate(self) -> None:
         """Raise :class:`~fsmctl.errors.InputError` on a bad setting (one line, names the option)."""
@@ -362,7 +365,11 @@ def campaign_base(settings: CampaignSettings) -> tuple[CampaignSettings, Scenari
         sim["t_final"] = settings.t_final
     if settings.dt is not None:
         sim["dt"] = settings.dt
-    ctrl = {} if settings.torque_limit is None else {"torque_limit": settings.torque_limit}
+    ctrl = json.loads(settings.controller) if settings.controller else {}
+    if not isinstance(ctrl, dict):
+        raise InputError(f"controller: expected a JSON object of [controller] changes, got {settings.controller!r}")
+    if settings.torque_limit is not None:
+        ctrl["torque_limit"] = settings.torque_limit
     dt = sim.get("dt", base.simulation.dt)
     t_final = sim.get("t_final", base.simulation.t_final)
     sim["output_interval"] = _fitting_output_interval(settings.output_interval, dt, t_final)
@@ -456,9 +463,9 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
     The "final" values (``aaem_final_deg``, ``theta_e_final_deg``, ``converged``) are taken at
     ``t_final``; a result whose last sample is elsewhere raises, so the run is ``failed``.
     """
-    from fsmctl.simulation.metrics import principal_angles
     from fsmctl.proofs.theorem1 import analyze_topology
     from fsmctl.proofs.theorem2 import Region, delta_requirements
+    from fsmctl.simulation.metrics import principal_angles
     from fsmctl.simulation.simulator import simulate
 
     wall, cpu = time.perf_counter(), time.process_time()

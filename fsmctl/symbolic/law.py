@@ -50,8 +50,8 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from fsmctl.symbolic.functions import FunctionSpec
 from fsmctl.symbolic.controller import saturate
+from fsmctl.symbolic.functions import FunctionSpec
 from fsmctl.symbolic.model import ErrorModel, reference_acceleration_in_body, reference_rate_in_body
 from fsmctl.symbolic.mrp import mrp_error
 from fsmctl.symbolic.symbols import DerivationInputError, symmetric_matrix_symbols, vector_symbols
@@ -68,7 +68,18 @@ __all__ = [
     "contract_names",
 ]
 
-AGENT_INPUTS: tuple[str, ...] = ("t", "sigma", "omega", "z", "sigma_d", "omega_d", "omega_d_dot", "J0", "params", "constants")
+AGENT_INPUTS: tuple[str, ...] = (
+    "t",
+    "sigma",
+    "omega",
+    "z",
+    "sigma_d",
+    "omega_d",
+    "omega_d_dot",
+    "J0",
+    "params",
+    "constants",
+)
 """Inputs of ``law_local_*`` (and the first inputs of ``law_control_*``), in order."""
 NEIGHBOUR_INPUTS: tuple[str, ...] = ("cache", "k_sum", "received", "k_received_sum", "u_max")
 """The further inputs of ``law_control_*``, in order."""
@@ -729,7 +740,9 @@ def law_variants(build, extra: Sequence[FunctionSpec] = ()) -> LawVariants:
     for model in (ErrorModel.PAPER, ErrorModel.EXACT):
         law = build(model)
         if not isinstance(law, Law):
-            raise LawDefinitionError(f"law({model.value!r}) must return LawBuilder(...).build(), got {type(law).__name__}")
+            raise LawDefinitionError(
+                f"law({model.value!r}) must return LawBuilder(...).build(), got {type(law).__name__}"
+            )
         if law.error_model is not model:
             raise LawDefinitionError(f"law({model.value!r}) built a law for the {law.error_model.value} error model")
         laws.append(law)
