@@ -453,8 +453,11 @@ def test_law_builder_rejects_broken_variants():
         b.parameter("integral_limit", math.inf, unit="N m s", minimum=0.0)  # why pid has no integral limit
     with pytest.raises(LawDefinitionError, match=">= 0"):
         b.parameter("K", -1.0, minimum=0.0)
-    with pytest.raises(LawDefinitionError, match="already used"):
+    with pytest.raises(LawDefinitionError, match="'z' is reserved"):
         b.parameter("z", 1.0)  # a contract input
+    b.parameter("K2", 1.0)
+    with pytest.raises(LawDefinitionError, match="already used"):
+        b.parameter("K2", 2.0)  # declared twice
     e = b.error_state()
     w = b.state("w", 3)
     with pytest.raises(LawDefinitionError, match="declare the broadcast"):

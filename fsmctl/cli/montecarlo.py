@@ -220,7 +220,13 @@ def report_lines(result: CampaignResult) -> Iterable[str]:
         return f"median {e['median']:.4g} [p5 {e['p5']:.4g}, p95 {e['p95']:.4g}]" if e["finite"] else "no finite value"
 
     yield f"montecarlo: {s['runs']} runs in {result.wall_time_s:.1f} s ({result.resumed_chunks} chunks resumed): {s['ok']} ok, {s['failed']} failed, {s['worker_died']} worker died"
-    yield f"  converged (AAEM and RAEM < {s['tolerance_deg']:g} deg): {s['converged_fraction']:.1%}; Theorem 1 held: {s['theorem1_holds_fraction']:.1%}; Theorem 2 at the reference held: {s['theorem2_at_reference_holds_fraction']:.1%}"
+    theorems = (
+        f"Theorem 1 held: {s['theorem1_holds_fraction']:.1%}; "
+        f"Theorem 2 at the reference held: {s['theorem2_at_reference_holds_fraction']:.1%}"
+        if s.get("law", "fsm") == "fsm"
+        else f"Theorems 1-2: not applicable (they are the paper's law's conditions; the law is {s['law']})"
+    )
+    yield f"  converged (AAEM and RAEM < {s['tolerance_deg']:g} deg): {s['converged_fraction']:.1%}; {theorems}"
     yield f"  AAEM settling: {med('aaem_settling_s')} s ({st['aaem_settling_s']['nan']} never settled)"
     yield f"  AAEM steady max: {med('aaem_steady_max_deg')} deg; max |u_unsat|: {med('u_unsaturated_max_N_m')} N m; saturation time: {med('saturated_time_max_s')} s"
     for f in s["failures"][:10]:

@@ -72,6 +72,7 @@ _BINARY = {
     ca.OP_FMAX: "fsm_fmax({a}, {b})",
     ca.OP_POW: "fsm_pow({a}, {b}, lanes)",
     ca.OP_CONSTPOW: "fsm_pow({a}, {b}, lanes)",
+    ca.OP_ATAN2: "fsm_atan2({a}, {b}, lanes)",
 }
 _UNARY = {
     ca.OP_NEG: "-{a}",
@@ -86,6 +87,15 @@ _UNARY = {
     ca.OP_COS: "fsm_cos({a}, lanes)",
     ca.OP_EXP: "fsm_exp({a}, lanes)",
     ca.OP_LOG: "fsm_log({a}, lanes)",
+    ca.OP_TAN: "fsm_tan({a}, lanes)",
+    ca.OP_ASIN: "fsm_asin({a}, lanes)",
+    ca.OP_ACOS: "fsm_acos({a}, lanes)",
+    ca.OP_ATAN: "fsm_atan({a}, lanes)",
+    ca.OP_SINH: "fsm_sinh({a}, lanes)",
+    ca.OP_COSH: "fsm_cosh({a}, lanes)",
+    ca.OP_TANH: "fsm_tanh({a}, lanes)",
+    ca.OP_FLOOR: "fsm_floor({a}, lanes)",
+    ca.OP_CEIL: "fsm_ceil({a}, lanes)",
 }
 
 _PRELUDE = """\
@@ -137,6 +147,20 @@ FSM_LANEWISE(fsm_sin, sin)
 FSM_LANEWISE(fsm_cos, cos)
 FSM_LANEWISE(fsm_exp, exp)
 FSM_LANEWISE(fsm_log, log)
+FSM_LANEWISE(fsm_tan, tan)
+FSM_LANEWISE(fsm_asin, asin)
+FSM_LANEWISE(fsm_acos, acos)
+FSM_LANEWISE(fsm_atan, atan)
+FSM_LANEWISE(fsm_sinh, sinh)
+FSM_LANEWISE(fsm_cosh, cosh)
+FSM_LANEWISE(fsm_tanh, tanh)
+FSM_LANEWISE(fsm_floor, floor)
+FSM_LANEWISE(fsm_ceil, ceil)
+static inline fsm_v fsm_atan2(fsm_v y, fsm_v x, int lanes) {{
+  fsm_v r = y;
+  for (int l = 0; l < lanes; ++l) r[l] = atan2(y[l], x[l]);
+  return r;
+}}
 """
 
 _EPILOGUE = "#endif /* FSM_HAVE_BATCHED */\n"

@@ -21,6 +21,8 @@ import importlib.util
 import sys
 from pathlib import Path
 
+from fsmctl.codegen.batched import UnsupportedInstructionError
+from fsmctl.codegen.casadi_bridge import UnsupportedExpressionError
 from fsmctl.codegen.writer import GeneratedFunction, build_functions, check_generated, write_generated
 from fsmctl.symbolic.law import Law, LawDefinitionError, LawVariants, law_variants
 
@@ -37,12 +39,23 @@ LAW_FORMAT = 1
 
 
 def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
-    """The CasADi functions of a law: constants, then local and control for each error model."""
+    """The CasADi functions of a law: constants, then local and control for each error model.
+
+    Raises
+    ------
+    LawDefinitionError
+        An expression has no exact CasADi translation (e.g. an unsupported SymPy function).
+    """
     specs = [variants.paper.constants_spec()]
     for law in variants:
         specs += [law.local_spec(), law.control_spec()]
     specs += list(variants.extra)
-    return build_functions(specs)
+    try:
+        return build_functions(specs)
+    except UnsupportedExpressionError as exc:
+        raise LawDefinitionError(
+            f"{variants.name}: {exc} (see fsmctl.codegen.casadi_bridge for what translates)"
+        ) from exc
 
 
 def _metadata(law: Law, source: str) -> dict:
@@ -55,14 +68,20 @@ def write_law(
     """Write a law's folder (see the module docstring) and return its manifest."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    return write_generated(
-        out,
-        functions=law_functions(variants) if functions is None else functions,
-        documents={LAW_FILE: _metadata(variants.paper, source)},
-        generator=generator,
-        source=source,
-        batched_name="law_batched",
-    )
+    try:
+        return write_generated(
+            out,
+            functions=law_functions(variants) if functions is None else functions,
+            documents={LAW_FILE: _metadata(variants.paper, source)},
+            generator=generator,
+            source=source,
+            batched_name="law_batched",
+        )
+    except UnsupportedInstructionError as exc:
+        raise LawDefinitionError(
+            f"{variants.name}: {exc}; the SIMD kernels know + - * / pow sqrt exp log sin cos tan asin acos atan "
+            "atan2 sinh cosh tanh floor ceil abs sign min max, comparisons and Piecewise"
+        ) from exc
 
 
 def check_law(reference: Path | str, variants: LawVariants, *, source: str, generator: str = "python -m derive"):

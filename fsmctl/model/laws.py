@@ -265,7 +265,7 @@ def _resolve(text: str, cwd: str) -> LawCode:
         return _read_law(path)
     if path.suffix == ".py":
         if not path.is_file():
-            raise LawError(f"law {text!r}: no such derivation script")
+            raise LawError(f"law {text!r}: no such derivation script ({path})")
         return _read_law(derive_script(path))
     raise LawError(
         f"law {text!r}: not a built-in law ({', '.join(laws)}), a derivation script (.py) or a derived law folder"

@@ -464,7 +464,12 @@ class Agent:
     delta_J: Mat3 = _doc("inertia perturbation: the plant has J = J0 + delta_J (eq 29)", "kg m^2")
     sigma0: Vec3 = _doc("initial attitude (MRP, inertial to body)", "1")
     omega0: Vec3 = _doc("initial body angular velocity", "rad/s")
-    delta: Vec3 = _doc("switching gain delta_i of eq 18, every component > 0", "1/s^2")
+    delta: Vec3 | None = _doc(
+        "this agent's value of the law's `delta` parameter (the switching gain delta_i of eq 18 for the paper's "
+        "law), every component > 0; unset: the [controller] value or the law's default; ignored by a law without it",
+        "1/s^2",
+        default=None,
+    )
     disturbance: Sinusoid = _doc("disturbance torque d_i(t)", "N m", default_factory=Sinusoid)
 
     @model_validator(mode="after")
@@ -473,7 +478,7 @@ class Agent:
             problem = _inertia_problem(J, where)
             if problem:
                 raise ValueError(problem)
-        if not all(d > 0 for d in self.delta):
+        if self.delta is not None and not all(d > 0 for d in self.delta):
             raise ValueError(f"delta: every component must be > 0 (eq 18), got {list(self.delta)}")
         if np.linalg.norm(self.sigma0) > 1e6:
             raise ValueError(f"sigma0: |sigma0| = {np.linalg.norm(self.sigma0):.3g} is beyond any attitude")
@@ -500,7 +505,8 @@ class Reference:
 class ControllerSettings:
     """The control law and its parameters, the actuator limit and the error kinematics.
 
-    ``law`` names a built-in law (``fsmctl laws``), a derivation script (``.py``) or a derived law folder.
+    ``law`` names a built-in law (``fsmctl laws``), a derivation script (``.py``) or a derived law folder; a
+    relative path in a scenario file is relative to the file's folder (elsewhere: to the current folder).
     The paper's FSM law (Liang et al. 2012, eqs 13-19, Remarks 6-7) has typed keys below; any law's
     parameters are set by name as further ``[controller]`` keys (gathered in ``parameters``), checked
     against the ranges the law declares; unset ones take the law's defaults.
@@ -769,15 +775,42 @@ class Scenario:
         """A validated copy with another communication topology."""
         return self.replace(topology=topology)
 
+    def law_parameters(self) -> list[dict[str, Any]]:
+        """The law's parameters by name for every agent, as flown (:func:`fsmctl.model.laws.parameter_matrix`)."""
+        from fsmctl.model.laws import parameter_matrix
+
+        law = self.law
+        rows, out = parameter_matrix(law, self), []
+        for row in rows:
+            values, k = {}, 0
+            for p in law.parameters:
+                v = row[k : k + p.size]
+                values[p.name] = (
+                    p.choices[int(v[0])] if p.choices else (float(v[0]) if p.size == 1 else tuple(map(float, v)))
+                )
+                k += p.size
+            out.append(values)
+        return out
+
     def describe(self) -> list[str]:
-        """Human-readable lines: settings and the documented choices."""
+        """Human-readable lines: the law flown with its parameters as resolved, settings and the documented choices."""
         c, s = self.controller, self.simulation
+        law = self.law
+        per_agent = self.law_parameters()
+        common = {k: v for k, v in per_agent[0].items() if all(a[k] == v for a in per_agent)}
+        differing = sorted(set(per_agent[0]) - set(common))
         lines = [
             f"scenario {self.label}: {self.n_agents} agents, {len(self.topology.links)} links",
-            f"  controller: surface={c.surface} c1={c.c1} c2={c.c2} alpha={c.alpha} boundary_layer={c.boundary_layer} "
-            f"singularity_fix={c.singularity_fix} epsilon={c.epsilon} torque_limit={c.torque_limit} "
-            f"error_model={c.error_model}" + ("" if c.enabled else " enabled=False (open loop, u = 0)"),
-            f"  delta_i: {sorted({a.delta for a in self.agents})}",
+            f"  law: {law.name} ({law.source or law.folder})"
+            + (f", surface={c.surface}" if c.surface != "fsm" and "c1" in common else ""),
+            "  law parameters: " + " ".join(f"{k}={v}" for k, v in common.items()),
+            *(
+                ["  per agent: " + "; ".join(f"{k}: {sorted({a[k] for a in per_agent})}" for k in differing)]
+                if differing
+                else []
+            ),
+            f"  controller: torque_limit={c.torque_limit} error_model={c.error_model}"
+            + ("" if c.enabled else " enabled=False (open loop, u = 0)"),
             f"  simulation: t_final={s.t_final} s, dt={s.dt} s, integrator={s.integrator}, "
             f"output_interval={s.output_interval} s, control_period={s.control_period} s",
         ]
@@ -839,8 +872,6 @@ def _agent_from_table(d: Mapping, i: int, defaults: Mapping) -> Agent:
             )
         dJ = tuple(tuple(scale * x for x in row) for row in J0)
     delta = d.get("delta", defaults.get("delta"))
-    if delta is None:
-        raise ScenarioError(f"{where}.delta: missing (set controller.delta for all agents or delta per agent)")
     if _is_real(delta):
         delta = [delta] * 3
     dist = d.get("disturbance", defaults.get("disturbance"))
@@ -855,6 +886,18 @@ def _mat3_or_error(v: Any, key: str) -> tuple[tuple[float, ...], ...]:
         return _mat3(v)
     except ValueError as exc:
         raise ScenarioError(f"{key}: {exc}") from None
+
+
+def _laws_relative_to(data: dict, folder: Path) -> None:
+    """A law named by a relative path in a scenario file is relative to the file's folder (in place)."""
+    sections = [data.get("controller")] + [
+        c.get("controller") for c in (data.get("cases") or {}).values() if isinstance(c, Mapping)
+    ]
+    for section in sections:
+        if isinstance(section, dict) and isinstance(section.get("law"), str):
+            law = Path(section["law"]).expanduser()
+            if not law.is_absolute() and (law.suffix == ".py" or len(law.parts) > 1) and (folder / law).exists():
+                section["law"] = str((folder / law).resolve())
 
 
 def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "scenario") -> Scenario:
@@ -983,6 +1026,7 @@ def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scen
         path = Path(source)
         data = _read_toml(path)
         where = str(path)
+        _laws_relative_to(data, path.parent)
     if case is None and isinstance(data.get("cases"), Mapping) and data["cases"]:
         case = next(iter(data["cases"]))
     try:

@@ -492,7 +492,7 @@ def _vdot_mu(ctx: ProofContext) -> _Outcome:
     extra = []
     sc = ctx.scenario
     try:
-        deltas = np.array([a.delta for a in sc.agents])
+        deltas = t2.fsm_deltas(sc)
         mu_ok = math.sqrt(2) * float(deltas.min())
         mu_printed = math.sqrt(2) * float(np.linalg.norm(deltas, axis=1).min())
         V0 = _initial_V(sc)

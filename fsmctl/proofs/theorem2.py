@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import casadi as ca
 import numpy as np
 
+from fsmctl.errors import InputError
 from fsmctl.model.casadi_eval import evaluate_mapped
 from fsmctl.model.generated_code import casadi_function, generated_dir
 from fsmctl.model.scenario import SINGULARITY_FIXES, Scenario
@@ -332,6 +333,7 @@ def delta_requirements(
     agents = []
     kappas = []
     s_bound = None
+    deltas = fsm_deltas(scenario)
     for i, agent in enumerate(scenario.agents):
         J0, J = np.array(agent.J0), agent.J_true
         kappa = proportional_kappa(J0, np.array(agent.delta_J))
@@ -357,7 +359,7 @@ def delta_requirements(
         req = _requirement(kappa, d, P, A, B, u_bound, wdd_bound, coord_bound)
         req = np.where(np.isfinite(req), req, np.inf)
         region_req = np.max(req, axis=1)
-        worst = int(np.argmax(np.max(req / np.maximum(np.asarray(agent.delta), 1e-300)[:, None], axis=0)))
+        worst = int(np.argmax(np.max(req / np.maximum(deltas[i], 1e-300)[:, None], axis=0)))
         ref_bound = np.max(req[:, at_ref], axis=1) if np.any(at_ref) else np.full(3, np.nan)
         # trajectory scan
         m = times.size
@@ -380,7 +382,7 @@ def delta_requirements(
         agents.append(
             AgentDelta(
                 agent=i + 1,
-                configured=tuple(float(x) for x in agent.delta),
+                configured=tuple(float(x) for x in deltas[i]),
                 region=tuple(float(x) for x in region_req),
                 reference_trajectory=tuple(float(x) for x in np.max(traj, axis=1)),
                 reference_bound=tuple(float(x) for x in ref_bound),
@@ -424,11 +426,12 @@ def _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_b
         sub = Region(region.sigma * f, region.omega * f)
         sig, om, wd = _state_samples(sub, wd_bound, 0, None, omega_vertices_only=True)
         zeros = np.zeros_like(sig)
+        deltas = fsm_deltas(scenario)
         for i, agent in enumerate(scenario.agents):
             d, P, A, B, _ = _evaluate(fn, sig, om, wd, zeros, np.array(agent.J0), agent.J_true, gains, zeros)
             cb = (Ki[i].sum() + kj_max[i].sum()) * s_bound * f
             req = np.max(_requirement(kappas[i], d, P, A, B, agent.disturbance.bound(), wdd_bound, cb), axis=1)
-            if not np.all(np.asarray(agent.delta) > req):
+            if not np.all(deltas[i] > req):
                 return False
         return True
 
@@ -461,6 +464,21 @@ def _coupling_text(scenario: Scenario, kappas: list) -> str:
     return (
         "non-proportional Delta_J: the coordination term's (I - P) part is bounded by |P - I| (sum_j k^i + k^j) max|s|"
     )
+
+
+def fsm_deltas(scenario: Scenario) -> np.ndarray:
+    """``(n, 3)``: each agent's switching gain delta_i (eq 18) as the paper's law flies it (agent, [controller] or
+    the law's default).
+
+    Raises
+    ------
+    InputError
+        The scenario's law has no ``delta`` (Theorem 2 is about the paper's law).
+    """
+    rows = scenario.law_parameters()
+    if "delta" not in rows[0]:
+        raise InputError(f"Theorem 2 concerns the paper's law and its delta; the scenario flies {scenario.law.name!r}")
+    return np.array([row["delta"] for row in rows], dtype=float)
 
 
 def format_vector(v: tuple[float, ...] | list[float] | np.ndarray) -> str:

@@ -432,8 +432,13 @@ class LawBuilder:
     def _claim(self, name: str, what: str) -> None:
         if not isinstance(name, str) or not _NAME.match(name):
             raise LawDefinitionError(f"{self.name}: {what} name must be letters, digits and _, got {name!r}")
-        if name in self._names or name in _RESERVED:
-            raise LawDefinitionError(f"{self.name}: the name {name!r} is already used (or reserved)")
+        if name in _RESERVED:
+            raise LawDefinitionError(
+                f"{self.name}: the name {name!r} is reserved: the contract's inputs and outputs are "
+                f"{', '.join(sorted(_RESERVED))}"
+            )
+        if name in self._names:
+            raise LawDefinitionError(f"{self.name}: the name {name!r} is already used by another declaration")
         self._names.add(name)
 
     def parameter(
@@ -481,6 +486,10 @@ class LawBuilder:
     def state(self, name: str, size: int = 3, *, initial=0.0, unit: str = "", doc: str = "") -> sp.ImmutableMatrix:
         """Declare a law state of ``size`` components (integrated with the plant); returns its symbols.
 
+        Names must be unique within the law and not one of the contract's reserved names (``t``, ``sigma``,
+        ``omega``, ``z``, ``sigma_d``, ``omega_d``, ``omega_d_dot``, ``J0``, ``params``, ``constants``, ``cache``,
+        ``k_sum``, ``received``, ``k_received_sum``, ``u_max``, ``u``, ``u_commanded``, ``z_dot``, ``broadcast``).
+
         Give its derivative with :meth:`derivative`.  ``initial`` is a number or ``size`` numbers.
         """
         self._claim(name, "state")
@@ -511,7 +520,8 @@ class LawBuilder:
         return symbols[0] if value.rows == 1 and not isinstance(expr, sp.MatrixBase) else symbols
 
     def stage(self, name: str, expr):
-        """An intermediate result, computed once per evaluation; returns symbols standing for it.
+        """An intermediate result (a scalar or a column vector), computed once per evaluation; returns symbols
+        standing for it (write a matrix as its columns, or keep it inline in the expressions that use it).
 
         Stages that do not depend on what the agent receives are evaluated with the broadcast (and the
         ones the torque reads are passed on in ``cache``); the others with the torque.

@@ -57,6 +57,20 @@ FSM_LANEWISE(fsm_sin, sin)
 FSM_LANEWISE(fsm_cos, cos)
 FSM_LANEWISE(fsm_exp, exp)
 FSM_LANEWISE(fsm_log, log)
+FSM_LANEWISE(fsm_tan, tan)
+FSM_LANEWISE(fsm_asin, asin)
+FSM_LANEWISE(fsm_acos, acos)
+FSM_LANEWISE(fsm_atan, atan)
+FSM_LANEWISE(fsm_sinh, sinh)
+FSM_LANEWISE(fsm_cosh, cosh)
+FSM_LANEWISE(fsm_tanh, tanh)
+FSM_LANEWISE(fsm_floor, floor)
+FSM_LANEWISE(fsm_ceil, ceil)
+static inline fsm_v fsm_atan2(fsm_v y, fsm_v x, int lanes) {
+  fsm_v r = y;
+  for (int l = 0; l < lanes; ++l) r[l] = atan2(y[l], x[l]);
+  return r;
+}
 
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes) {
   if (lanes > 4) lanes = 4; /* never index past the vector */
