@@ -54,7 +54,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "--scenario", default=None, metavar="FILE", help="'paper' (built in) or a TOML file (default: paper)"
     )
     p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
-    p.add_argument("--json", action="store_true", help="print JSON: an array with one object per claim (with --law: one object, the law report, its checks in \"checks\")")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help='print JSON: an array with one object per claim (with --law: one object, the law report, its checks in "checks")',
+    )
     p.add_argument("--report", metavar="FILE.md", type=Path, help="also write a Markdown report with LaTeX")
     p.add_argument(
         "--region-sigma",
