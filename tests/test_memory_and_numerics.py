@@ -282,7 +282,12 @@ def test_sigint_during_simulate_exits_130_without_a_traceback(tmp_path, progress
     cmd = [sys.executable, "-m", "fsmctl.cli.main", "simulate", "--scenario", "paper", "--t-final", "3000",
            "--output-interval", "1", "--no-figures", progress, "--out", str(tmp_path / "out")]  # fmt: skip
     t0 = time.monotonic()
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path)
+    # a shell's background job starts with SIGINT ignored, and POSIX programs keep that: give the child the
+    # default disposition, as an interactive terminal would
+    proc = subprocess.Popen(
+        cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=tmp_path,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )  # fmt: skip
     assert proc.stdout.readline().startswith("scenario paper")  # describe(): the run starts next
     time.sleep(2.0)
     proc.send_signal(signal.SIGINT)
