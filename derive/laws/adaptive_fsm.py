@@ -44,12 +44,9 @@ import sympy as sp
 from fsmctl.symbolic.controller import (
     computed_torque_pieces,
     coordination_term,
-    share_fractional_powers,
-    sliding_variable,
-    surface_term_slope,
 )
 from fsmctl.symbolic.law import Law, LawBuilder
-from fsmctl.symbolic.mrp import mrp_G
+from fsmctl.symbolic.surfaces import fast_sliding_surface
 
 REFERENCE = (
     "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455, eqs 13, 16-19, Remarks 6-7; gain adaptation: "
@@ -108,17 +105,8 @@ def law(error_model) -> Law:
             "16..48 N m, far beyond the 2 N m actuator, so it only stops wind-up during saturation"
         ),
     )  # fmt: skip
-    q = b.constant("epsilon_pow_alpha_minus_1", epsilon ** (alpha - 1))
-
-    e = b.error_state()
-    p = b.stage("abs_sigma_e_pow_alpha", e.sigma_e.applyfunc(lambda x: sp.Abs(x) ** alpha))
-
-    def share(m):
-        return share_fractional_powers(m, e.sigma_e, alpha, epsilon, p, q)
-
-    slopes = sp.ImmutableMatrix([surface_term_slope(x, alpha, fix, epsilon) for x in e.sigma_e])
-    slope = b.stage("slope", share(slopes))
-    s = b.stage("s", share(sliding_variable(e.sigma_e, mrp_G(e.sigma_e) * e.omega_e, c1, c2, alpha, fix, epsilon)))
+    surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
+    e, s = surface.error, surface.s
     b.broadcast("s", s)
 
     delta_hat = b.state(
@@ -141,8 +129,5 @@ def law(error_model) -> Law:
         b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta_hat,
         coordination_term(s, b.k_sum, b.received), boundary_layer=phi, fix=fix, epsilon=epsilon,
     )  # fmt: skip
-    u = pieces.u.xreplace(dict(zip(slopes, slope, strict=True)))
-    if alpha in u.free_symbols:
-        raise AssertionError("the adaptive FSM torque still depends on alpha after the slope substitution")
-    b.torque(u)
+    b.torque(surface.with_shared_slope(pieces.u, "adaptive FSM torque"))
     return b.build()

@@ -12,17 +12,12 @@ Pure SymPy: no NumPy, no I/O.
 
 from __future__ import annotations
 
-import sympy as sp
-
 from fsmctl.symbolic.controller import (
     computed_torque_pieces,
     coordination_term,
-    share_fractional_powers,
-    sliding_variable,
-    surface_term_slope,
 )
 from fsmctl.symbolic.law import Law, LawBuilder
-from fsmctl.symbolic.mrp import mrp_G
+from fsmctl.symbolic.surfaces import fast_sliding_surface
 
 REFERENCE = "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455, eqs 13, 16-19, Remarks 6-7"
 
@@ -52,26 +47,14 @@ def law(error_model) -> Law:
         "delta", [0.005, 0.005, 0.005], unit="1/s^2", minimum=0.0, exclusive_minimum=True,
         doc="switching gain of u^D (eq 18), per axis; a scenario's agents may set their own",
     )  # fmt: skip
-    q = b.constant("epsilon_pow_alpha_minus_1", epsilon ** (alpha - 1))
-
-    e = b.error_state()
-    p = b.stage("abs_sigma_e_pow_alpha", e.sigma_e.applyfunc(lambda x: sp.Abs(x) ** alpha))
-
-    def share(m):
-        return share_fractional_powers(m, e.sigma_e, alpha, epsilon, p, q)
-
-    slope = b.stage("slope", share(sp.ImmutableMatrix([surface_term_slope(x, alpha, fix, epsilon) for x in e.sigma_e])))
-    s = b.stage("s", share(sliding_variable(e.sigma_e, mrp_G(e.sigma_e) * e.omega_e, c1, c2, alpha, fix, epsilon)))
+    surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
+    e, s = surface.error, surface.s
     b.broadcast("s", s, unit="1/s")
 
     pieces = computed_torque_pieces(
         b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta,
         coordination_term(s, b.k_sum, b.received), boundary_layer=phi, fix=fix, epsilon=epsilon,
     )  # fmt: skip
-    # every fractional power comes from the shared slope stage
-    slopes = sp.ImmutableMatrix([surface_term_slope(x, alpha, fix, epsilon) for x in e.sigma_e])
-    u = pieces.u.xreplace(dict(zip(slopes, slope, strict=True)))
-    if alpha in u.free_symbols:
-        raise AssertionError("the FSM torque still depends on alpha after the slope substitution")
+    u = surface.with_shared_slope(pieces.u, "FSM torque")  # every fractional power comes from the shared slope
     b.torque(u)
     return b.build()

@@ -53,12 +53,11 @@ import sympy as sp
 from fsmctl.symbolic.controller import (
     computed_torque_pieces,
     coordination_term,
-    share_fractional_powers,
     sliding_variable,
-    surface_term_slope,
 )
 from fsmctl.symbolic.law import Law, LawBuilder
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_inverse
+from fsmctl.symbolic.surfaces import fast_sliding_surface
 
 REFERENCE = (
     "Levant, Int. J. Control 58 (1993) 1247-1263; Moreno & Osorio, IEEE TAC 57 (2012) 1035-1040; "
@@ -110,16 +109,8 @@ def law(error_model) -> Law:
         ),
     )  # fmt: skip
 
-    q = b.constant("epsilon_pow_alpha_minus_1", epsilon ** (alpha - 1))
-    e = b.error_state()
-    p = b.stage("abs_sigma_e_pow_alpha", e.sigma_e.applyfunc(lambda x: sp.Abs(x) ** alpha))
-
-    def share(m):
-        return share_fractional_powers(m, e.sigma_e, alpha, epsilon, p, q)
-
-    slopes = sp.ImmutableMatrix([surface_term_slope(x, alpha, fix, epsilon) for x in e.sigma_e])
-    slope = b.stage("slope", share(slopes))
-    s = b.stage("s", share(sliding_variable(e.sigma_e, mrp_G(e.sigma_e) * e.omega_e, c1, c2, alpha, fix, epsilon)))
+    surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
+    e, s = surface.error, surface.s
     b.broadcast("s", s)
 
     w = b.state("w", 3, initial=0.0, unit="1/s^2", doc="integral term of the super-twisting algorithm")
@@ -131,9 +122,7 @@ def law(error_model) -> Law:
         b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, [1, 1, 1],
         coordination_term(s, b.k_sum, b.received), fix=fix, epsilon=epsilon,
     )  # fmt: skip
-    u_F = pieces.u_F.xreplace(dict(zip(slopes, slope, strict=True)))
-    if alpha in u_F.free_symbols:
-        raise AssertionError("the super-twisting torque still depends on alpha after the slope substitution")
+    u_F = surface.with_shared_slope(pieces.u_F, "super-twisting torque")
     u = -u_F + b.J0 * mrp_G_inverse(e.sigma_e) * (v - coordination_term(s, b.k_sum, b.received))
     b.torque(u)
 

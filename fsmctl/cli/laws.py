@@ -110,14 +110,14 @@ def law_to_dict(law) -> dict:
         "parameters": [
             {
                 "name": p.name,
-                "default": _default_text(p) if p.choices else (list(p.default) if p.size > 1 else p.default[0]),
+                "default": p.default_text() if p.choices else (list(p.default) if p.size > 1 else p.default[0]),
                 "size": p.size,
                 "unit": p.unit,
                 "minimum": p.minimum,
                 "maximum": p.maximum,
                 "exclusive_minimum": p.exclusive_minimum,
                 "exclusive_maximum": p.exclusive_maximum,
-                "range": _range_text(p),
+                "range": p.range_text(),
                 "choices": list(p.choices),
                 "tunable": p.tunable,
                 "doc": p.doc,
@@ -172,20 +172,6 @@ def format_law(law) -> str:
     return "\n".join(lines)
 
 
-def _default_text(p) -> str:
-    if p.choices:
-        return p.choices[int(p.default[0])]
-    return f"{p.default[0]:g}" if len(p.default) == 1 else "[" + ", ".join(f"{v:g}" for v in p.default) + "]"
-
-
-def _range_text(p) -> str:
-    if p.choices:
-        return " | ".join(p.choices)
-    lo = "" if p.minimum is None else f"{p.minimum:g} {'<' if p.exclusive_minimum else '<='} "
-    hi = "" if p.maximum is None else f" {'<' if p.exclusive_maximum else '<='} {p.maximum:g}"
-    return f"{lo}x{hi}" if (lo or hi) else "any"
-
-
 def parameter_table(parameters, indent: str = "    ") -> list[str]:
     """The lines of a parameter table: name, default, unit, range, doc.
 
@@ -201,5 +187,5 @@ def parameter_table(parameters, indent: str = "    ") -> list[str]:
     list of str
         A header line, then one line per parameter.
     """
-    rows = [(p.name, _default_text(p), p.unit or "-", _range_text(p), p.doc) for p in parameters]
+    rows = [(p.name, p.default_text(), p.unit or "-", p.range_text(), p.doc) for p in parameters]
     return _table(("name", "default", "unit", "range", "doc"), rows, indent)

@@ -17,7 +17,6 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import math
 import os
 import shutil
 import tempfile
@@ -29,6 +28,7 @@ import numpy as np
 from fsmctl import __version__
 from fsmctl.errors import InputError
 from fsmctl.model.generated_code import GeneratedCodeError, _cache_root, generated_dir
+from fsmctl.ranges import ParameterRange
 
 __all__ = [
     "LawCode",
@@ -48,7 +48,7 @@ class LawError(InputError):
 
 
 @dataclass(frozen=True)
-class LawParameterInfo:
+class LawParameterInfo(ParameterRange):
     """A law parameter as declared by its derivation script (from ``law.json``)."""
 
     name: str
@@ -61,31 +61,6 @@ class LawParameterInfo:
     choices: tuple[str, ...]
     tunable: bool
     doc: str
-
-    @property
-    def size(self) -> int:
-        return len(self.default)
-
-    def default_text(self) -> str:
-        if self.choices:
-            return self.choices[int(self.default[0])]
-        return f"{self.default[0]:g}" if self.size == 1 else "[" + ", ".join(f"{v:g}" for v in self.default) + "]"
-
-    def range_text(self) -> str:
-        if self.choices:
-            return " | ".join(self.choices)
-        lo = "" if self.minimum is None else f"{self.minimum:g} {'<' if self.exclusive_minimum else '<='} "
-        hi = "" if self.maximum is None else f" {'<' if self.exclusive_maximum else '<='} {self.maximum:g}"
-        return f"{lo}x{hi}" if (lo or hi) else "any"
-
-    def problem(self, value: float) -> str | None:
-        if not math.isfinite(value):
-            return f"must be finite, got {value!r}"
-        if self.minimum is not None and (value <= self.minimum if self.exclusive_minimum else value < self.minimum):
-            return f"must be {'>' if self.exclusive_minimum else '>='} {self.minimum:g}, got {value:g}"
-        if self.maximum is not None and (value >= self.maximum if self.exclusive_maximum else value > self.maximum):
-            return f"must be {'<' if self.exclusive_maximum else '<='} {self.maximum:g}, got {value:g}"
-        return None
 
     def values(self, value, where: str) -> tuple[float, ...]:
         """A scenario value for this parameter, checked and packed (an option becomes its index)."""

@@ -43,13 +43,13 @@ Pure SymPy: no NumPy, no I/O.
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import sympy as sp
 
+from fsmctl.ranges import ParameterRange
 from fsmctl.symbolic.controller import saturate
 from fsmctl.symbolic.functions import FunctionSpec
 from fsmctl.symbolic.model import ErrorModel, reference_acceleration_in_body, reference_rate_in_body
@@ -99,7 +99,7 @@ def contract_names(error_model: ErrorModel | str) -> tuple[str, str]:
 
 
 @dataclass(frozen=True)
-class LawParameter:
+class LawParameter(ParameterRange):
     """A named parameter of a law: its default, unit, admissible range and meaning.
 
     ``choices`` makes it an option: the scenario gives one of the strings, the generated code receives
@@ -116,27 +116,6 @@ class LawParameter:
     doc: str = ""
     choices: tuple[str, ...] = ()
     tunable: bool = True
-
-    @property
-    def size(self) -> int:
-        return len(self.default)
-
-    def range_text(self) -> str:
-        if self.choices:
-            return " | ".join(self.choices)
-        lo = "" if self.minimum is None else f"{self.minimum:g} {'<' if self.exclusive_minimum else '<='} "
-        hi = "" if self.maximum is None else f" {'<' if self.exclusive_maximum else '<='} {self.maximum:g}"
-        return f"{lo}{self.name}{hi}" if (lo or hi) else "any real"
-
-    def problem(self, value: float) -> str | None:
-        """Why ``value`` (one component) is outside the range, or None."""
-        if not math.isfinite(value):
-            return f"must be finite, got {value!r}"
-        if self.minimum is not None and (value <= self.minimum if self.exclusive_minimum else value < self.minimum):
-            return f"must be {'>' if self.exclusive_minimum else '>='} {self.minimum:g}, got {value:g}"
-        if self.maximum is not None and (value >= self.maximum if self.exclusive_maximum else value > self.maximum):
-            return f"must be {'<' if self.exclusive_maximum else '<='} {self.maximum:g}, got {value:g}"
-        return None
 
     def to_dict(self) -> dict:
         return {
