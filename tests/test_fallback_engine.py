@@ -17,29 +17,13 @@ import textwrap
 
 import numpy as np
 import pytest
+from formations import PI_LAW
 
 import fsmctl
 from fsmctl.model.laws import derive_script, resolve_law
 from fsmctl.model.problem import pack
 from fsmctl.simulation.casadi_formation import RunStatistics, rk4_update, simulate_casadi, step_times
 from fsmctl.simulation.simulator import SimulationError, simulate_packed
-
-PI_LAW = """
-from fsmctl.symbolic.law import LawBuilder
-
-
-def law(error_model):
-    b = LawBuilder("pi", error_model, doc="PI on the attitude error, consensus on it (test law)")
-    K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
-    P = b.parameter("P", 20.0, unit="N m s", minimum=0.0, doc="rate gain")
-    Ki = b.parameter("Ki", 0.2, unit="N m / s", minimum=0.0, doc="integral gain")
-    z = b.state("integral", 3, initial=0.01, doc="integral of sigma_e (with consensus)")
-    e = b.error_state()
-    b.broadcast("sigma_e", e.sigma_e)
-    b.derivative(z, e.sigma_e + 0.1 * (b.k_received_sum * e.sigma_e - b.received))
-    b.torque(-K * e.sigma_e - P * e.omega_e - Ki * z - K * (b.k_sum * e.sigma_e - b.received))
-    return b.build()
-"""
 
 ARRAYS = (
     "t", "sigma_d", "sigma", "omega", "sigma_e", "omega_e", "broadcast", "z", "u", "u_unsat",

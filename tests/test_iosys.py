@@ -14,6 +14,7 @@ import math
 import control as ct
 import numpy as np
 import pytest
+from formations import PI_LAW
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -22,23 +23,6 @@ from fsmctl.model.generated_code import casadi_function
 from fsmctl.model.laws import derive_script, initial_law_states, parameter_matrix, resolve_law
 from fsmctl.model.topology import Schedule
 from fsmctl.plugin.iosys import Neighbour, initial_state, law_controller, law_parameter_values, mrp_state
-
-PI_LAW = """
-from fsmctl.symbolic.law import LawBuilder
-
-
-def law(error_model):
-    b = LawBuilder("pi", error_model, doc="PI on the attitude error, consensus on it (test law)")
-    K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
-    P = b.parameter("P", 20.0, unit="N m s", minimum=0.0, doc="rate gain")
-    Ki = b.parameter("Ki", 0.2, unit="N m / s", minimum=0.0, doc="integral gain")
-    z = b.state("integral", 3, initial=0.01, doc="integral of sigma_e (with consensus)")
-    e = b.error_state()
-    b.broadcast("sigma_e", e.sigma_e)
-    b.derivative(z, e.sigma_e + 0.1 * (b.k_received_sum * e.sigma_e - b.received))
-    b.torque(-K * e.sigma_e - P * e.omega_e - Ki * z - K * (b.k_sum * e.sigma_e - b.received))
-    return b.build()
-"""
 
 
 def skew(v):

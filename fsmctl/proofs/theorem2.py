@@ -422,11 +422,12 @@ def _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_b
     Ki = scenario.topology.k_i_matrix()
     kj_max = scenario.topology.k_j_max_matrix()
 
+    deltas = fsm_deltas(scenario)
+
     def ok(f: float) -> bool:
         sub = Region(region.sigma * f, region.omega * f)
         sig, om, wd = _state_samples(sub, wd_bound, 0, None, omega_vertices_only=True)
         zeros = np.zeros_like(sig)
-        deltas = fsm_deltas(scenario)
         for i, agent in enumerate(scenario.agents):
             d, P, A, B, _ = _evaluate(fn, sig, om, wd, zeros, np.array(agent.J0), agent.J_true, gains, zeros)
             cb = (Ki[i].sum() + kj_max[i].sum()) * s_bound * f
