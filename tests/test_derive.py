@@ -144,3 +144,12 @@ def test_printed_C_fails_and_corrected_C_satisfies_euler():
 @pytest.mark.parametrize("fix", ["none", "switch", "clamp"])
 def test_closed_loop_eq20_for_every_singularity_fix(fix):
     assert verify_closed_loop(fix).holds
+
+
+def test_a_sliding_variable_broadcast_carries_its_unit():
+    """Every built-in law that broadcasts the sliding variable s (eq 13: sigma_e_dot + ...) declares 1/s, which the
+    results file writes as the variable's unit."""
+    for folder in (DEFAULT_OUTPUT / "laws").iterdir():
+        broadcast = json.loads((folder / "law.json").read_text())["broadcast"]
+        if broadcast["name"] == "s":
+            assert broadcast["unit"] == "1/s", folder.name

@@ -107,7 +107,7 @@ def law(error_model) -> Law:
     )  # fmt: skip
     surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
     e, s = surface.error, surface.s
-    b.broadcast("s", s)
+    b.broadcast("s", s, unit="1/s")
 
     delta_hat = b.state(
         "delta_hat", 3, initial=DELTA_FLOOR, unit="1/s^2",

@@ -111,7 +111,7 @@ def law(error_model) -> Law:
 
     surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
     e, s = surface.error, surface.s
-    b.broadcast("s", s)
+    b.broadcast("s", s, unit="1/s")
 
     w = b.state("w", 3, initial=0.0, unit="1/s^2", doc="integral term of the super-twisting algorithm")
     b.derivative(w, -k2 * s.applyfunc(sp.sign))
