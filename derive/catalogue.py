@@ -35,6 +35,13 @@ from fsmctl.symbolic.controller import (
     surface_term_slope,
 )
 from fsmctl.symbolic.functions import FunctionSpec
+from fsmctl.symbolic.hardware import (
+    gyrostat_rhs,
+    rate_gyro_measurement,
+    star_tracker_measurement,
+    wheel_acceleration,
+    wheel_motor_torque,
+)
 from fsmctl.symbolic.model import ErrorModel, plant_rhs, reference_acceleration_in_body, reference_rate_in_body
 from fsmctl.symbolic.mrp import mrp_error, mrp_G, mrp_kinematics, mrp_principal_angle, mrp_shadow, mrp_to_dcm
 from fsmctl.symbolic.symbols import symmetric_matrix_symbols, vector_symbols
@@ -44,6 +51,7 @@ __all__ = [
     "GAINS_LAYOUT",
     "GAIN_CONSTANTS_LAYOUT",
     "SINUSOID_LAYOUT",
+    "WHEEL_LAYOUT",
     "FunctionSpec",
     "function_catalogue",
 ]
@@ -116,6 +124,70 @@ def plant_spec() -> FunctionSpec:
         inputs=(("sigma", sigma), ("omega", omega), ("tau", tau), ("J", J)),
         outputs=(("sigma_dot", sigma_dot), ("omega_dot", omega_dot)),
         batched=True,
+    )
+
+
+def gyrostat_spec() -> FunctionSpec:
+    sigma, omega = vector_symbols("sigma"), vector_symbols("omega")
+    h, tau_w, tau = vector_symbols("h_wheels"), vector_symbols("tau_wheels"), vector_symbols("tau")
+    J, J_spin = symmetric_matrix_symbols("J"), symmetric_matrix_symbols("J_spin")
+    sigma_dot, omega_dot = gyrostat_rhs(J, J_spin, sigma, omega, h, tau_w, tau)
+    return FunctionSpec(
+        name="gyrostat_rhs",
+        doc="rigid hub with balanced reaction wheels (Schaub & Junkins eq 4.146): (J - J_spin) omega_dot = "
+        "-omega x (J omega + h_wheels) - tau_wheels + tau; J: whole spacecraft, J_spin = sum Js g g^T",
+        inputs=(
+            ("sigma", sigma),
+            ("omega", omega),
+            ("h_wheels", h),
+            ("tau_wheels", tau_w),
+            ("tau", tau),
+            ("J", J),
+            ("J_spin", J_spin),
+        ),
+        outputs=(("sigma_dot", sigma_dot), ("omega_dot", omega_dot)),
+        batched=True,
+    )
+
+
+WHEEL_LAYOUT: tuple[str, ...] = ("speed_max", "viscous", "coulomb", "coulomb_band")
+
+
+def wheel_specs() -> list[FunctionSpec]:
+    u, Omega = _scalar("u_command"), _scalar("Omega")
+    w = vector_symbols("wheel", len(WHEEL_LAYOUT))
+    u_motor, u_net = wheel_motor_torque(u[0], Omega[0], *w)
+    g, omega_dot = vector_symbols("g"), vector_symbols("omega_dot")
+    J_s, net = _scalar("J_s"), _scalar("u_net")
+    return [
+        FunctionSpec(
+            name="wheel_torque",
+            doc="one reaction wheel: motor torque after the speed limit, and net torque on the wheel (friction "
+            "included); wheel = [speed_max, viscous, coulomb, coulomb_band]",
+            inputs=(("u_command", u), ("Omega", Omega), ("wheel", w)),
+            outputs=(("u_motor", sp.ImmutableMatrix([u_motor])), ("u_net", sp.ImmutableMatrix([u_net]))),
+        ),
+        FunctionSpec(
+            name="wheel_acceleration",
+            doc="spin acceleration of a wheel relative to the hub: Omega_dot = u_net / J_s - g^T omega_dot",
+            inputs=(("g", g), ("J_s", J_s), ("u_net", net), ("omega_dot", omega_dot)),
+            outputs=(("Omega_dot", sp.ImmutableMatrix([wheel_acceleration(g, J_s[0], net[0], omega_dot)])),),
+        ),
+    ]
+
+
+def sensor_spec() -> FunctionSpec:
+    sigma, omega = vector_symbols("sigma"), vector_symbols("omega")
+    dtheta, error = vector_symbols("dtheta"), vector_symbols("gyro_error")
+    return FunctionSpec(
+        name="sensor_measurement",
+        doc="what the law sees: star-tracker attitude (true attitude rotated by the small body-frame rotation "
+        "dtheta) and rate-gyro rate (true rate plus the gyro error)",
+        inputs=(("sigma", sigma), ("omega", omega), ("dtheta", dtheta), ("gyro_error", error)),
+        outputs=(
+            ("sigma_measured", star_tracker_measurement(sigma, dtheta)),
+            ("omega_measured", rate_gyro_measurement(omega, error)),
+        ),
     )
 
 
@@ -392,6 +464,9 @@ def function_catalogue() -> list[FunctionSpec]:
         reference_spec(),
         sliding_constants_spec(),
         plant_spec(),
+        gyrostat_spec(),
+        *wheel_specs(),
+        sensor_spec(),
         error_state_spec(ErrorModel.PAPER),
         error_state_spec(ErrorModel.EXACT),
         sliding_spec(ErrorModel.PAPER),

@@ -137,6 +137,68 @@ def _mat3(v: Any) -> tuple[tuple[float, ...], ...]:
     return tuple(tuple(float(x) for x in row) for row in _real_array(v, (3, 3), "a 3x3 matrix"))
 
 
+def _numbers(v: Any) -> tuple[float, ...]:
+    """One finite number or a flat array of them (a per-wheel value): a tuple, scalars as a 1-tuple."""
+    if _is_real(v):
+        v = [v]
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, Sequence) or not len(v):
+        raise ValueError(f"expected a number or an array of numbers, got {v!r}")
+    return tuple(float(x) for x in _real_array(list(v), (len(v),), "numbers"))
+
+
+def _limits(v: Any) -> tuple[float, ...]:
+    """Like :func:`_numbers`, where ``inf`` (or ``"inf"``, ``"none"``) means no limit."""
+    items = v.tolist() if isinstance(v, np.ndarray) else v
+    if _is_real(items) or isinstance(items, str):
+        items = [items]
+    if isinstance(items, (bytes, Mapping)) or not isinstance(items, Sequence) or not len(items):
+        raise ValueError(f"expected a number or an array of numbers, got {v!r}")
+    out = []
+    for x in items:
+        x = _inf_words(x)
+        if not (math.isfinite(x) or x == math.inf):
+            raise ValueError(f"expected finite numbers or inf, got {v!r}")
+        out.append(float(x))
+    return tuple(out)
+
+
+def _matrix(v: Any) -> tuple[tuple[float, ...], ...]:
+    """A 3 x N matrix of finite numbers (rows: body axes x, y, z; columns: wheels)."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, Sequence) or len(v) != 3:
+        raise ValueError(f"expected a 3 x N matrix (three rows: body x, y, z; a column per wheel), got {v!r}")
+    width = len(v[0]) if isinstance(v[0], Sequence) else 0
+    return tuple(tuple(float(x) for x in row) for row in _real_array(v, (3, width), "a 3 x N matrix"))
+
+
+def _table(v: Any) -> tuple[tuple[float, ...], ...]:
+    """A square table of numbers where NaN marks "no link" (checked against the topology by the scenario)."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, Sequence):
+        raise ValueError(f"expected an n x n table, got {v!r}")
+    rows = []
+    for row in v:
+        if isinstance(row, (str, bytes, Mapping)) or not isinstance(row, Sequence) or len(row) != len(v):
+            raise ValueError(f"expected an n x n table, got {v!r}")
+        if any(not _is_real(x) for x in row):
+            raise ValueError(f"expected numbers (nan: no link), got {list(row)!r}")
+        rows.append(tuple(float(x) for x in row))
+    return tuple(rows)
+
+
+def _count(v: Any) -> int:
+    """A non-negative integer (never a bool or a float)."""
+    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
+        raise ValueError(f"expected a whole number, got {v!r}")
+    if v < 0:
+        raise ValueError(f"must be >= 0, got {v!r}")
+    return int(v)
+
+
 def _lower(v: Any) -> Any:
     return v.lower() if isinstance(v, str) else v
 
@@ -235,6 +297,11 @@ ErrorModel = Annotated[Literal["paper", "exact"], BeforeValidator(_lower)]
 Surface = Annotated[Literal["fsm", "tsm", "lsm"], BeforeValidator(_lower)]
 Integrator = Annotated[Literal["rk4", "dopri45"], BeforeValidator(_lower)]
 TorqueLimit = Annotated[float, Field(gt=0, allow_inf_nan=True), BeforeValidator(_inf_words)]
+Numbers = Annotated[tuple[float, ...], BeforeValidator(_numbers)]
+Limits = Annotated[tuple[Annotated[float, Field(allow_inf_nan=True)], ...], BeforeValidator(_limits)]
+Matrix3N = Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_matrix)]
+ActuatorKind = Annotated[Literal["ideal", "reaction_wheels"], BeforeValidator(_lower)]
+WheelLayout = Annotated[Literal["pyramid", "orthogonal", "custom"], BeforeValidator(_lower)]
 
 _CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, arbitrary_types_allowed=True)
 ZERO3 = (0.0, 0.0, 0.0)
@@ -613,7 +680,17 @@ class SimulationSettings:
     output_interval: Real = _doc(
         "spacing of the output samples (a multiple of dt dividing t_final)", "s", gt=0, default=0.01
     )
-    control_period: Real = _doc("0: continuous control; > 0: zero-order hold with this period", "s", ge=0, default=0.0)
+    control_period: Real = _doc(
+        "0: continuous control; > 0: the law runs at the instants k control_period (a multiple of dt: the "
+        "integrator steps on them) and its torque is held in between (zero-order hold); sensors and imperfect "
+        "links need it",
+        "s",
+        ge=0,
+        default=0.0,
+    )
+    seed: Annotated[int, BeforeValidator(_count)] = _doc(
+        "seed of the run's random processes (sensor noise, packet loss); the same seed gives the same run", default=0
+    )
     rtol: Real = _doc("relative tolerance (dopri45)", "1", gt=0, default=1e-8)
     atol: Real = _doc("absolute tolerance (dopri45)", "1", gt=0, default=1e-10)
 
@@ -647,6 +724,209 @@ class SimulationSettings:
     @property
     def hold_steps(self) -> int:
         return round(self.control_period / self.dt) if self.control_period > 0 else 0
+
+
+@_validated
+class ActuatorSettings:
+    """How the law's torque reaches the body: an ideal torque source with a per-axis clip, or reaction wheels.
+
+    ``kind = "ideal"`` (default, the paper's actuator): the body receives the law's torque, clipped per axis by
+    ``controller.torque_limit``.  ``kind = "reaction_wheels"``: every spacecraft carries the same array of
+    balanced wheels (:mod:`fsmctl.symbolic.hardware`; the spacecraft inertia ``J0 + delta_J`` includes them).
+    At each control instant the law's torque command (clipped per axis by ``controller.torque_limit``) is
+    distributed to the wheels by the minimum-norm rule ``u_w = -pinv(G_s) u``; when a wheel's share exceeds
+    ``max_torque`` every wheel torque is scaled by the same factor, so the body torque keeps its direction
+    and one wheel sits at its limit.  Between instants the wheel torques are held; a wheel at ``max_speed``
+    is not driven further (its torque is 0 while the command would speed it up), and friction acts
+    continuously.
+
+    Examples
+    --------
+    >>> from fsmctl.model.scenario import ActuatorSettings
+    >>> ActuatorSettings(kind="reaction_wheels", layout="pyramid").spin_axes().shape
+    (3, 4)
+    """
+
+    kind: ActuatorKind = _doc("'ideal' (torque source, per-axis clip) or 'reaction_wheels'", default="ideal")
+    layout: WheelLayout = _doc(
+        "wheel spin axes: 'pyramid' (4 wheels at pyramid_angle from body z, azimuths 45, 135, 225, 315 deg), "
+        "'orthogonal' (3 wheels along body x, y, z) or 'custom' (axes)",
+        default="pyramid",
+    )
+    pyramid_angle: Real = _doc(
+        "angle between each spin axis and body z (pyramid); 54.7356 deg gives axes (+-1, +-1, 1)/sqrt(3)",
+        "deg",
+        gt=0,
+        lt=90,
+        default=54.735610317245346,
+    )
+    axes: Matrix3N | None = _doc(
+        "spin axes of layout = 'custom': a 3 x N matrix, one column per wheel (normalised), spanning 3-D",
+        "1",
+        default=None,
+    )
+    spin_inertia: Numbers = _doc("wheel spin-axis inertia J_s: one value, or one per wheel", "kg m^2", default=(0.01,))
+    max_torque: Limits = _doc("motor torque limit per wheel (inf: none)", "N m", default=(math.inf,))
+    max_speed: Limits = _doc(
+        "wheel speed limit relative to the hub (momentum limit J_s max_speed; inf: none)", "rad/s", default=(math.inf,)
+    )
+    viscous_friction: Numbers = _doc("viscous friction coefficient per wheel", "N m s", default=(0.0,))
+    coulomb_friction: Numbers = _doc("Coulomb friction torque per wheel", "N m", default=(0.0,))
+    coulomb_band: Real = _doc(
+        "speed below which the Coulomb torque is linear in the speed (stiction band; 0: sgn)",
+        "rad/s",
+        ge=0,
+        default=0.1,
+    )
+    initial_speed: Numbers = _doc("wheel speeds at t = 0: one value, or one per wheel", "rad/s", default=(0.0,))
+
+    @model_validator(mode="after")
+    def _wheels(self) -> ActuatorSettings:
+        if self.layout == "custom" and self.axes is None:
+            raise ValueError("axes: layout = 'custom' needs axes (a 3 x N matrix, one column per wheel)")
+        if self.layout != "custom" and self.axes is not None:
+            raise ValueError(f"axes: given with layout = {self.layout!r}; set layout = 'custom' to use them")
+        G = self._raw_axes()
+        norms = np.linalg.norm(G, axis=0)
+        if np.any(norms == 0):
+            raise ValueError(f"axes: wheel {int(np.argmin(norms)) + 1} has a zero spin axis")
+        if np.linalg.matrix_rank(G / norms, tol=1e-9) < 3:
+            raise ValueError(
+                "axes: the spin axes do not span 3-D, so some body torques cannot be produced (give at least "
+                "three axes that are not coplanar)"
+            )
+        n = G.shape[1]
+        for name in ("spin_inertia", "max_torque", "max_speed", "viscous_friction", "coulomb_friction", "initial_speed"):
+            v = getattr(self, name)
+            if len(v) not in (1, n):
+                raise ValueError(f"{name}: give one value or one per wheel ({n}), got {len(v)}")
+        for name in ("spin_inertia", "max_torque", "max_speed"):
+            if not all(x > 0 for x in getattr(self, name)):
+                raise ValueError(f"{name}: every value must be > 0, got {list(getattr(self, name))}")
+        for name in ("viscous_friction", "coulomb_friction"):
+            if not all(x >= 0 for x in getattr(self, name)):
+                raise ValueError(f"{name}: every value must be >= 0, got {list(getattr(self, name))}")
+        return self
+
+    def _raw_axes(self) -> np.ndarray:
+        if self.layout == "orthogonal":
+            return np.eye(3)
+        if self.layout == "pyramid":
+            b = math.radians(self.pyramid_angle)
+            az = np.radians([45.0, 135.0, 225.0, 315.0])
+            return np.array([math.sin(b) * np.cos(az), math.sin(b) * np.sin(az), np.full(4, math.cos(b))])
+        return np.array(self.axes, dtype=float)
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the spacecraft fly reaction wheels (else the ideal torque source)."""
+        return self.kind == "reaction_wheels"
+
+    @property
+    def n_wheels(self) -> int:
+        """Wheels per spacecraft (0 for the ideal actuator)."""
+        return self._raw_axes().shape[1] if self.enabled else 0
+
+    def spin_axes(self) -> np.ndarray:
+        """``(3, N)`` unit spin axes ``G_s`` in the body frame, one column per wheel."""
+        G = self._raw_axes()
+        return G / np.linalg.norm(G, axis=0)
+
+    def per_wheel(self, name: str) -> np.ndarray:
+        """``(N,)`` values of a per-wheel setting (one value broadcast to every wheel)."""
+        v = np.array(getattr(self, name), dtype=float)
+        return np.broadcast_to(v, (self._raw_axes().shape[1],)).copy()
+
+
+@_validated
+class StarTrackerSettings:
+    """Attitude sensor: the measured attitude is the true one rotated by a small body-frame rotation
+    ``dtheta`` drawn at each control instant, independent, zero-mean Gaussian with per-axis standard
+    deviation ``noise_std`` (white noise in small-angle form; :func:`fsmctl.symbolic.hardware.star_tracker_measurement`)."""
+
+    noise_std: Vec3 = _doc("1-sigma of the measurement error about body x, y, z (5 arcsec = 2.424e-5 rad)", "rad")
+
+    @model_validator(mode="after")
+    def _positive(self) -> StarTrackerSettings:
+        if not all(x >= 0 for x in self.noise_std):
+            raise ValueError(f"noise_std: must be >= 0, got {list(self.noise_std)}")
+        return self
+
+
+@_validated
+class GyroSettings:
+    """Rate gyro: ``omega_measured = omega + b + eta_v`` with ``b_dot = eta_u`` (Farrenkopf's model, sampled at
+    the control instants; :mod:`fsmctl.model.noise`): angle random walk ``N`` (the density of eta_v), rate
+    random walk ``K`` (the density of eta_u: the bias drift) and a constant bias ``b_0``."""
+
+    angle_random_walk: Real = _doc(
+        "angle random walk N (0.1 deg/sqrt(h) = 2.909e-5 rad/sqrt(s))", "rad/s^0.5", ge=0, default=0.0
+    )
+    rate_random_walk: Real = _doc(
+        "rate random walk K: the bias's random walk (1 deg/h/sqrt(h) = 8.08e-8 rad/s^1.5)", "rad/s^1.5", ge=0, default=0.0
+    )
+    bias: Vec3 = _doc("constant bias b_0 about body x, y, z (1 deg/h = 4.848e-6 rad/s)", "rad/s", default=ZERO3)
+
+
+@_validated
+class SensorSettings:
+    """What the law sees.  Unset sensors are perfect; a configured sensor is sampled at the control instants
+    (``simulation.control_period > 0``), its noise drawn from ``simulation.seed``.  The metrics always see
+    the true state."""
+
+    star_tracker: StarTrackerSettings | None = _doc("attitude sensor (unset: the true attitude)", default=None)
+    gyro: GyroSettings | None = _doc("rate gyro (unset: the true rate)", default=None)
+
+    @property
+    def enabled(self) -> bool:
+        return self.star_tracker is not None or self.gyro is not None
+
+
+@_validated
+class LinkSettings:
+    """Imperfect communication links, applied at the control instants (``simulation.control_period > 0``).
+
+    * Delay: the receiver gets the neighbour's broadcast as it was ``delay`` seconds earlier (its value at the
+      latest control instant at or before ``t - delay``; before ``t = 0`` the broadcast's initial value,
+      the constant initial history of delay equations).
+    * Loss: at each control instant each link independently loses its packet with ``loss_probability``; the
+      receiver then holds the last value it received on that link.
+
+    ``delay_table`` / ``loss_table`` (n x n, row = receiver, column = sender, like ``topology.phase_table``)
+    set a value per link and override the scalars.
+    """
+
+    delay: Real = _doc("transport delay of every link", "s", ge=0, default=0.0)
+    loss_probability: Real = _doc("probability that a link loses its packet at a control instant", "1", ge=0, le=1, default=0.0)
+    delay_table: Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_table)] | None = _doc(
+        "per-link delay, n x n (row receiver, column sender; entries without a link are ignored)", "s", default=None
+    )
+    loss_table: Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_table)] | None = _doc(
+        "per-link loss probability, n x n (row receiver, column sender)", "1", default=None
+    )
+
+    @property
+    def enabled(self) -> bool:
+        def any_table(tab, floor):
+            return tab is not None and any(
+                math.isfinite(x) and x > floor for row in tab for x in row
+            )
+
+        return (
+            self.delay > 0
+            or self.loss_probability > 0
+            or any_table(self.delay_table, 0.0)
+            or any_table(self.loss_table, 0.0)
+        )
+
+    def per_link(self, receivers, senders, which: str) -> np.ndarray:
+        """Values of ``"delay"`` or ``"loss_probability"`` for the links ``receivers[e] <- senders[e]`` (0-based)."""
+        table = self.delay_table if which == "delay" else self.loss_table
+        scalar = self.delay if which == "delay" else self.loss_probability
+        if table is None:
+            return np.full(len(receivers), scalar, dtype=float)
+        tab = np.array(table, dtype=float)
+        return np.array([tab[i, j] for i, j in zip(receivers, senders, strict=True)], dtype=float)
 
 
 def _is_topology(v: Any) -> Topology:
@@ -684,6 +964,9 @@ class Scenario:
     topology: Annotated[Topology, BeforeValidator(_is_topology)]
     controller: ControllerSettings
     simulation: SimulationSettings = field(default_factory=SimulationSettings)
+    actuator: ActuatorSettings = field(default_factory=ActuatorSettings)
+    sensors: SensorSettings = field(default_factory=SensorSettings)
+    links: LinkSettings = field(default_factory=LinkSettings)
     case: Annotated[str | None, BeforeValidator(lambda v: v if v is None else _strict_str(v))] = None
     description: Text = ""
     choices: Annotated[tuple[tuple[str, str], ...], BeforeValidator(_choices)] = ()
@@ -701,6 +984,28 @@ class Scenario:
             raise ValueError(
                 f"topology: describes {self.topology.n_agents} agents but the scenario has {len(self.agents)}"
             )
+        period = self.simulation.control_period
+        for section, what in ((self.sensors, "sensors"), (self.links, "links")):
+            if section.enabled and not period > 0:
+                raise ValueError(
+                    f"{what}: sensors and imperfect links act at the control instants; set "
+                    "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
+                )
+        n = len(self.agents)
+        linked = {(lk.receiver, lk.sender) for lk in self.topology.links}
+        for name, upper in (("delay_table", math.inf), ("loss_table", 1.0)):
+            tab = getattr(self.links, name)
+            if tab is None:
+                continue
+            if len(tab) != n:
+                raise ValueError(f"links.{name}: expected an {n} x {n} table (one row per agent), got {len(tab)} rows")
+            for i, j in sorted(linked):
+                v = tab[i][j]
+                if not (math.isfinite(v) and 0 <= v <= upper):
+                    raise ValueError(
+                        f"links.{name}[{i + 1}][{j + 1}]: the link {i + 1} <- {j + 1} needs a value in [0, {upper:g}], "
+                        f"got {v!r}"
+                    )
         from fsmctl.model.laws import parameter_matrix, resolve_law  # the law's declared parameters and ranges
 
         parameter_matrix(resolve_law(self.controller.law), self)
@@ -728,12 +1033,13 @@ class Scenario:
         return scenario_from_dict(self.source, case=case)
 
     def replace(self, **sections: Any) -> Scenario:
-        """A validated copy with fields of ``controller``, ``simulation`` or ``reference`` replaced.
+        """A validated copy with fields of a section replaced.
 
-        Keyword arguments: ``controller``, ``simulation``, ``reference`` (mappings of field names to new
-        values), ``agents`` (a sequence of :class:`Agent`) and ``topology`` (a
-        :class:`~fsmctl.model.topology.Topology`; give both when the agent count changes).  The copy goes through
-        the same validators as a file: a bad value raises :class:`ScenarioError` naming ``section.key``.
+        Keyword arguments: ``controller``, ``simulation``, ``reference``, ``actuator``, ``sensors``, ``links``
+        (mappings of field names to new values, or a whole section object), ``agents`` (a sequence of
+        :class:`Agent`) and ``topology`` (a :class:`~fsmctl.model.topology.Topology`; give both when the agent
+        count changes).  The copy goes through the same validators as a file: a bad value raises
+        :class:`ScenarioError` naming ``section.key``.
 
         Examples
         --------
@@ -741,23 +1047,26 @@ class Scenario:
         >>> s = fsmctl.paper_scenario("1")
         >>> s.replace(controller={"boundary_layer": 0.0}, simulation={"t_final": 10}).simulation.t_final
         10.0
+        >>> s.replace(actuator={"kind": "reaction_wheels", "layout": "pyramid"}).actuator.n_wheels
+        4
         """
-        unknown = sorted(set(sections) - {"controller", "simulation", "reference", "agents", "topology"})
+        known = ("controller", "simulation", "reference", "actuator", "sensors", "links", "agents", "topology")
+        unknown = sorted(set(sections) - set(known))
         if unknown:
-            raise ScenarioError(
-                f"replace: cannot replace {unknown} (known: controller, simulation, reference, agents, topology)"
-            )
-        controller, simulation, reference = (sections.get(k) for k in ("controller", "simulation", "reference"))
+            raise ScenarioError(f"replace: cannot replace {unknown} (known: {', '.join(known)})")
         agents, topology = sections.get("agents"), sections.get("topology")
         changes: dict[str, Any] = {}
-        for section, values in (("controller", controller), ("simulation", simulation), ("reference", reference)):
+        for section in known[:6]:
+            values = sections.get(section)
             if values is None:
+                continue
+            current_section = getattr(self, section)
+            if isinstance(values, type(current_section)):
+                changes[section] = values
                 continue
             if not isinstance(values, Mapping):
                 raise ScenarioError(f"replace({section}=...): expected a mapping of field names to values")
-            current = {
-                f.name: getattr(getattr(self, section), f.name) for f in dataclasses.fields(getattr(self, section))
-            }
+            current = {f.name: getattr(current_section, f.name) for f in dataclasses.fields(current_section)}
             changes[section] = {**current, **dict(values)}
         if agents is not None:
             if isinstance(agents, (str, bytes, Mapping)) or not isinstance(agents, Sequence):
@@ -831,7 +1140,20 @@ def _deep_merge(base: dict, over: Mapping) -> dict:
     return out
 
 
-TOP_KEYS = ("name", "description", "simulation", "controller", "reference", "agents", "topology", "cases", "choices")
+TOP_KEYS = (
+    "name",
+    "description",
+    "simulation",
+    "controller",
+    "actuator",
+    "sensors",
+    "links",
+    "reference",
+    "agents",
+    "topology",
+    "cases",
+    "choices",
+)
 AGENT_DEFAULT_KEYS = ("delta", "delta_J", "disturbance")
 """keys of ``[controller]`` that are defaults for every agent (the file's shorthand)"""
 AGENT_KEYS = ("J0", "delta_J", "sigma0", "omega0", "delta", "disturbance")
@@ -960,6 +1282,17 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
         topology = Topology.from_mapping(merged["topology"], len(agents), where="topology")
     except TopologyError as exc:
         raise ScenarioError(str(exc)) from None
+    hardware = {}
+    for key, cls in (("actuator", ActuatorSettings), ("sensors", SensorSettings), ("links", LinkSettings)):
+        table = merged.get(key, {})
+        _unknown(table, [f.name for f in dataclasses.fields(cls)], key)
+        if key == "sensors":
+            table = dict(table)
+            for sensor, sensor_cls in (("star_tracker", StarTrackerSettings), ("gyro", GyroSettings)):
+                if sensor in table:
+                    _unknown(table[sensor], [f.name for f in dataclasses.fields(sensor_cls)], f"sensors.{sensor}")
+                    table[sensor] = _within(f"sensors.{sensor}", sensor_cls, **table[sensor])
+        hardware[key] = _within(key, cls, **table)
     choices = merged.get("choices", {})
     if not isinstance(choices, Mapping):
         raise ScenarioError("choices: expected a table of strings")
@@ -978,6 +1311,7 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
         topology=topology,
         controller=controller,
         simulation=simulation,
+        **hardware,
         case=case,
         description=description,
         choices=choices,

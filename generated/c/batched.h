@@ -23,6 +23,7 @@
 extern "C" {
 #endif
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes);
+int gyrostat_rhs_x4(const double *const *arg, double *const *res, int lanes);
 #ifdef __cplusplus
 }
 #endif

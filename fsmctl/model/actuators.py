@@ -1,0 +1,72 @@
+"""Reaction-wheel torque distribution: from the law's body torque to wheel motor torques.
+
+The rule (applied at every control instant by the compiled loop, ``fsmctl/csrc/formation.c``,
+``wheel_commands``; this NumPy transcription is held equal to it by ``tests/test_wheels.py``):
+
+1. minimum-norm distribution ``u_w* = -P u`` with ``P = pinv(G_s)`` (``G_s``: the ``3 x N`` spin axes),
+   so that the wheels' reaction on the hub, ``-G_s u_w*``, is the commanded body torque ``u``;
+2. direction-preserving saturation: with ``r = max_i |u_w*_i| / max_torque_i``, every wheel torque is
+   divided by ``max(1, r)``: the body torque keeps its direction and the most loaded wheel sits at its
+   limit (clipping wheels one by one would turn the torque away from the command).
+
+Between control instants the wheel commands are held; the speed limit and friction act continuously
+(:func:`fsmctl.symbolic.hardware.wheel_motor_torque`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["distribution_matrix", "distribute", "body_torque_capacity"]
+
+
+def distribution_matrix(axes: np.ndarray) -> np.ndarray:
+    """``(N, 3)`` minimum-norm distribution matrix ``pinv(G_s)`` of the ``(3, N)`` unit spin axes."""
+    G = np.asarray(axes, dtype=float)
+    if G.ndim != 2 or G.shape[0] != 3 or np.linalg.matrix_rank(G) < 3:
+        raise ValueError(f"axes: expected a 3 x N matrix of rank 3, got shape {G.shape}")
+    return np.linalg.pinv(G)
+
+
+def distribute(u_body: np.ndarray, pinv: np.ndarray, max_torque: np.ndarray) -> tuple[np.ndarray, float]:
+    """Wheel motor torques ``(N,)`` for the body torque ``u_body`` (3,), and the scale factor ``max(1, r)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> u_w, scale = distribute(np.array([0.3, 0.0, 0.0]), distribution_matrix(np.eye(3)), np.full(3, 0.2))
+    >>> u_w.tolist(), scale
+    ([-0.2, -0.0, -0.0], 1.5)
+    """
+    pinv = np.asarray(pinv, dtype=float)
+    u_w = np.empty(pinv.shape[0])
+    u = np.asarray(u_body, dtype=float)
+    for i in range(pinv.shape[0]):  # the C loop's order of operations, so that the results are bit-identical
+        u_w[i] = -(pinv[i, 0] * u[0] + pinv[i, 1] * u[1] + pinv[i, 2] * u[2])
+    r = 0.0
+    for i in range(u_w.size):
+        r = max(r, abs(u_w[i]) / max_torque[i])
+    scale = max(1.0, r)
+    return (u_w / scale if scale > 1.0 else u_w), scale
+
+
+def body_torque_capacity(axes: np.ndarray, max_torque: np.ndarray, directions: int = 2000, seed: int = 0) -> dict:
+    """The body torque the distribution rule delivers at saturation, over random unit directions.
+
+    Returns ``{"min": ..., "max": ..., "per_axis": [x, y, z]}`` in N m: the smallest and largest magnitude
+    over ``directions`` random directions and along the body axes (an input to the choice of a
+    ``controller.torque_limit`` that the wheels can honour).
+    """
+    G = np.asarray(axes, dtype=float)
+    P = distribution_matrix(G)
+    lim = np.asarray(max_torque, dtype=float)
+
+    def reach(d):
+        w = -P @ d
+        return 1.0 / np.max(np.abs(w) / lim)
+
+    rng = np.random.default_rng(seed)
+    dirs = rng.normal(size=(directions, 3))
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    mags = np.array([reach(d) for d in dirs])
+    return {"min": float(mags.min()), "max": float(mags.max()), "per_axis": [reach(e) for e in np.eye(3)]}
