@@ -28,3 +28,46 @@ def law(error_model):
     b.torque(-K * e.sigma_e - P * e.omega_e - Ki * z - K * (b.k_sum * e.sigma_e - b.received))
     return b.build()
 """
+
+
+OPEN_LOOP_LAW = str(__import__("pathlib").Path(__file__).parent / "data" / "laws" / "open_loop_torque.py")
+"""A test law flying the open-loop torque ``bias + amplitude sin(frequency t)`` (per axis)."""
+
+
+def single_spacecraft(
+    *,
+    J=((100.0, 1.0, 2.0), (1.0, 150.0, 1.0), (2.0, 1.0, 200.0)),
+    sigma0=(0.1, -0.2, 0.3),
+    omega0=(0.01, -0.02, 0.03),
+    t_final=10.0,
+    dt=1e-3,
+    control_period=0.1,
+    law=OPEN_LOOP_LAW,
+    law_parameters=None,
+    torque_limit=float("inf"),
+    actuator=None,
+    sensors=None,
+    links=None,
+    seed=0,
+):
+    """One spacecraft, no disturbance, no uncertainty, no links: a scenario for actuator and sensor tests."""
+    from fsmctl.model.scenario import scenario_from_dict
+
+    data = {
+        "name": "single",
+        "simulation": {
+            "t_final": t_final,
+            "dt": dt,
+            "output_interval": control_period or dt,
+            "control_period": control_period,
+            "seed": seed,
+        },
+        "controller": {"law": law, "torque_limit": torque_limit, **(law_parameters or {})},
+        "reference": {"sigma0": [0.0, 0.0, 0.0], "omega": {"amplitude": [0.0, 0.0, 0.0]}},
+        "topology": {"links": []},
+        "agents": [{"J0": [list(r) for r in J], "sigma0": list(sigma0), "omega0": list(omega0)}],
+    }
+    for key, value in (("actuator", actuator), ("sensors", sensors), ("links", links)):
+        if value is not None:
+            data[key] = value
+    return scenario_from_dict(data)

@@ -14,6 +14,7 @@
 #include "disturbance_torque.h"
 #include "error_state_exact.h"
 #include "error_state_paper.h"
+#include "gyrostat_rhs.h"
 #include "law_batched.h"
 #include "law_constants.h"
 #include "law_control_exact.h"
@@ -23,6 +24,9 @@
 #include "mrp_shadow.h"
 #include "plant_rhs.h"
 #include "reference_rhs.h"
+#include "sensor_measurement.h"
+#include "wheel_acceleration.h"
+#include "wheel_torque.h"
 
 typedef int (*casadi_fn)(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 typedef int (*casadi_work_fn)(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
@@ -45,10 +49,17 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_problem, link_sender), FSM_FIELD(fsm_problem, link_k_i), FSM_FIELD(fsm_problem, sched_period),
       FSM_FIELD(fsm_problem, sched_phase), FSM_FIELD(fsm_problem, sched_start), FSM_FIELD(fsm_problem, sched_count),
       FSM_FIELD(fsm_problem, sched_times), FSM_FIELD(fsm_problem, sched_values),
+      FSM_FIELD(fsm_problem, n_wheels), FSM_FIELD(fsm_problem, sensors), FSM_FIELD(fsm_problem, links_imperfect),
+      FSM_FIELD(fsm_problem, n_samples), FSM_FIELD(fsm_problem, wheel_axes), FSM_FIELD(fsm_problem, wheel_pinv),
+      FSM_FIELD(fsm_problem, wheel_Js), FSM_FIELD(fsm_problem, wheel_torque_max), FSM_FIELD(fsm_problem, wheel_params),
+      FSM_FIELD(fsm_problem, J_spin), FSM_FIELD(fsm_problem, sensor_dtheta), FSM_FIELD(fsm_problem, sensor_gyro),
+      FSM_FIELD(fsm_problem, link_delay), FSM_FIELD(fsm_problem, link_lost),
       FSM_FIELD(fsm_output, capacity), FSM_FIELD(fsm_output, written), FSM_FIELD(fsm_output, t),
       FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
       FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
       FSM_FIELD(fsm_output, u_unsat), FSM_FIELD(fsm_output, broadcast), FSM_FIELD(fsm_output, z),
+      FSM_FIELD(fsm_output, wheel_speed), FSM_FIELD(fsm_output, wheel_torque), FSM_FIELD(fsm_output, sigma_measured),
+      FSM_FIELD(fsm_output, omega_measured),
       FSM_FIELD(fsm_output, saturated_time), FSM_FIELD(fsm_output, u_total_variation),
       FSM_FIELD(fsm_output, u_unsat_max), FSM_FIELD(fsm_output, steps_taken), FSM_FIELD(fsm_output, steps_rejected),
       FSM_FIELD(fsm_output, fail_time), FSM_FIELD(fsm_output, fail_agent)};
@@ -111,6 +122,7 @@ enum {
   RW_CACHE, RW_KSUM, RW_RECV, RW_KRS, RW_UMAX,                                /* control inputs, as CI_* */
   RW_B, RW_U, RW_UU, RW_ZDOT,                                                 /* law outputs */
   RW_TAU, RW_JTRUE, RW_SIGMA_DOT, RW_OMEGA_DOT,                               /* plant */
+  RW_HW, RW_TAUW, RW_JSPIN,                                                   /* gyrostat (wheels) */
   RW_END
 };
 #define LANE(g, row) ((g) + FSM_LANES * (row))
@@ -147,6 +159,20 @@ typedef struct {
   double k_time;
   int k_valid;
   double *tau;                           /* n x 3 */
+  /* flight hardware */
+  int nw;                                /* wheels per agent */
+  double *hw;                            /* one block for the hardware doubles below */
+  double *uw, *uw_hold;                  /* wheel commands (n x nw): computed, held */
+  const double *uw_apply;
+  double *wscale, *wscale_hold;          /* n: distribution scale factor (> 1: a wheel at its torque limit) */
+  const double *wscale_apply;
+  double *u_motor, *u_net;               /* n x nw: motor torque after the speed limit, net torque (last evaluation) */
+  double *h_w, *tau_w, *u_body;          /* n x 3: wheel momentum, torque on the wheels, -tau_w (last evaluation) */
+  int *gated;                            /* n: a wheel held at its speed limit (last evaluation) */
+  double *sig_meas, *om_meas;            /* n x 3: what the law sees (sensors) */
+  long long q;                           /* the current control instant */
+  int hist_len;                          /* slots of the broadcast history (max delay + 1) */
+  double *b_hist, *b_first, *link_val;   /* hist_len x n x nb; n x nb (instant 0); n_links x nb (delivered) */
   int bad_agent;                         /* first agent whose commanded torque was non-finite (-2: none) */
   double bad_time;                       /* ... and when */
   casadi_int *iw;
@@ -155,6 +181,8 @@ typedef struct {
 
 static void free_workspace(workspace *W) {
   free(W->b);
+  free(W->hw);
+  free(W->gated);
   free(W->lanes);
   free(W->iw);
   free(W->w);
@@ -193,11 +221,12 @@ static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes
 #define law_control_paper_x4 fsm_no_kernel
 #define law_control_exact_x4 fsm_no_kernel
 #define plant_rhs_x4 fsm_no_kernel
+#define gyrostat_rhs_x4 fsm_no_kernel
 #endif
 
 static void lane_rows(workspace *W) {
   const int size[RW_END] = {1, 3, 3, W->nz, 3, 3, 3, 9, W->np, W->nk, W->nc, 1, W->nb, 1, 1,
-                            W->nb, 3, 3, W->nz, 3, 9, 3, 3};
+                            W->nb, 3, 3, W->nz, 3, 9, 3, 3, 3, 3, 9};
   W->row[0] = 0;
   for (int r = 0; r < RW_END; ++r) W->row[r + 1] = W->row[r] + size[r];
 }
@@ -216,6 +245,7 @@ static void pack_lane_constants(workspace *W, const fsm_problem *P) {
       to_lane(ROW(G, RW_J0), P->J0 + 9 * i, 9, l);
       to_lane(ROW(G, RW_UMAX), P->u_max + i, 1, l);
       to_lane(ROW(G, RW_JTRUE), P->J_true + 9 * i, 9, l);
+      if (W->nw > 0) to_lane(ROW(G, RW_JSPIN), P->J_spin + 9 * i, 9, l);
     }
   }
 }
@@ -230,7 +260,8 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->np = P->n_params;
   W->nk = nk;
   W->nc = nc;
-  W->stride = 6 + P->n_states;
+  W->nw = P->n_wheels;
+  W->stride = 6 + P->n_states + P->n_wheels;
   W->local = P->error_model == 1 ? law_local_exact : law_local_paper;
   W->control = P->error_model == 1 ? law_control_exact : law_control_paper;
   W->error_state = P->error_model == 1 ? error_state_exact : error_state_paper;
@@ -260,11 +291,45 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->k_hi = p; p += L;
   W->k_now = p; p += L;
   for (size_t e = 0; e < L; ++e) { W->k_lo[e] = INFINITY; W->k_hi[e] = -INFINITY; } /* empty: forces evaluation */
+  { /* flight hardware */
+    size_t nw = (size_t)W->nw;
+    int max_delay = 0;
+    if (P->links_imperfect)
+      for (size_t e = 0; e < L; ++e) max_delay = P->link_delay[e] > max_delay ? P->link_delay[e] : max_delay;
+    W->hist_len = max_delay + 1;
+    size_t hist = P->links_imperfect ? (size_t)W->hist_len * N * nb + N * nb + L * nb : 0;
+    size_t hw_total = N * (nw * 4 + 2 + 3 * 3) + (P->sensors ? 6 * N : 0) + hist;
+    W->hw = calloc(hw_total > 0 ? hw_total : 1, sizeof(double));
+    W->gated = calloc(N > 0 ? N : 1, sizeof(int));
+    if (!W->hw || !W->gated) { free_workspace(W); return FSM_NOMEM; }
+    double *h = W->hw;
+    W->uw = h; h += N * nw;
+    W->uw_hold = h; h += N * nw;
+    W->u_motor = h; h += N * nw;
+    W->u_net = h; h += N * nw;
+    W->wscale = h; h += N;
+    W->wscale_hold = h; h += N;
+    W->h_w = h; h += 3 * N;
+    W->tau_w = h; h += 3 * N;
+    W->u_body = h; h += 3 * N;
+    if (P->sensors) {
+      W->sig_meas = h; h += 3 * N;
+      W->om_meas = h; h += 3 * N;
+    }
+    if (P->links_imperfect) {
+      W->b_hist = h; h += (size_t)W->hist_len * N * nb;
+      W->b_first = h; h += N * nb;
+      W->link_val = h; h += L * nb;
+    }
+    W->uw_apply = W->uw;
+    W->wscale_apply = W->wscale;
+  }
   /* CasADi work arrays: the largest need of the functions used */
   casadi_work_fn works[] = {plant_rhs_work,         law_local_paper_work,   law_local_exact_work,
                             law_control_paper_work, law_control_exact_work, law_constants_work,
                             reference_rhs_work,     disturbance_torque_work, mrp_shadow_work,
-                            error_state_paper_work, error_state_exact_work};
+                            error_state_paper_work, error_state_exact_work, gyrostat_rhs_work,
+                            wheel_torque_work,      wheel_acceleration_work, sensor_measurement_work};
   casadi_int max_iw = 1, max_w = 1;
   for (size_t k = 0; k < sizeof(works) / sizeof(works[0]); ++k) {
     casadi_int a, r, iw, w;
@@ -348,7 +413,7 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
   for (int e = 0; e < P->n_links; ++e) {
     const double kj = W->k_now[e];
     if (kj != 0.0) {
-      const double *bj = W->b + (size_t)nb * P->link_sender[e];
+      const double *bj = P->links_imperfect ? W->link_val + (size_t)nb * e : W->b + (size_t)nb * P->link_sender[e];
       double *ri = W->recv + (size_t)nb * P->link_receiver[e];
       for (int k = 0; k < nb; ++k) ri[k] += kj * bj[k];
     }
@@ -369,12 +434,111 @@ static void check_commands(workspace *W, double t) {
   }
 }
 
+/* What the law sees at control instant W->q: the generated sensor_measurement of the true state with that
+ * instant's noise (the truth when sensors are off). */
+static void measure(workspace *W, const fsm_problem *P, const double *x) {
+  const int n = W->n, S = W->stride;
+  for (int i = 0; i < n; ++i) {
+    const double *xi = x + 3 + (size_t)S * i;
+    const size_t o = ((size_t)W->q * n + i) * 3;
+    const double *arg[4] = {xi, xi + 3, P->sensor_dtheta + o, P->sensor_gyro + o};
+    double *res[2] = {W->sig_meas + 3 * i, W->om_meas + 3 * i};
+    sensor_measurement(arg, res, W->iw, W->w, 0);
+  }
+}
+
+/* The links at control instant W->q (after every agent computed its broadcast W->b): record the broadcasts,
+ * then each link delivers the sender's broadcast of instant q - delay (before instant 0: of instant 0), unless
+ * its packet of instant q is lost; the receiver keeps the value it last received. */
+static void deliver_links(workspace *W, const fsm_problem *P) {
+  const int n = W->n, nb = W->nb, H = W->hist_len;
+  const long long q = W->q;
+  const size_t row = (size_t)n * nb;
+  memcpy(W->b_hist + (size_t)(q % H) * row, W->b, sizeof(double) * row);
+  if (q == 0) {
+    memcpy(W->b_first, W->b, sizeof(double) * row);
+    for (int e = 0; e < P->n_links; ++e)
+      memcpy(W->link_val + (size_t)nb * e, W->b_first + (size_t)nb * P->link_sender[e], sizeof(double) * nb);
+  }
+  for (int e = 0; e < P->n_links; ++e) {
+    if (P->link_lost[(size_t)q * P->n_links + e]) continue;
+    const long long from = q - P->link_delay[e];
+    const double *src = from >= 0 ? W->b_hist + (size_t)(from % H) * row : W->b_first;
+    memcpy(W->link_val + (size_t)nb * e, src + (size_t)nb * P->link_sender[e], sizeof(double) * nb);
+  }
+}
+
+/* The torque distribution of the reaction wheels, the one place it is written (fsmctl.model.actuators is its
+ * NumPy transcription): minimum-norm wheel torques u_w = -pinv(G_s) u for the law's body torque u, all divided by
+ * one factor max(1, max_k |u_w,k| / u_max,k), so that the body torque keeps its direction and the most loaded
+ * wheel sits at its limit. */
+static void wheel_commands(workspace *W, const fsm_problem *P) {
+  const int n = W->n, nw = W->nw;
+  for (int i = 0; i < n; ++i) {
+    const double *u = W->u + 3 * i;
+    double *uw = W->uw + (size_t)nw * i;
+    double r = 0.0;
+    for (int k = 0; k < nw; ++k) {
+      const double *pk = P->wheel_pinv + ((size_t)nw * i + k) * 3;
+      uw[k] = -(pk[0] * u[0] + pk[1] * u[1] + pk[2] * u[2]);
+      r = fmax(r, fabs(uw[k]) / P->wheel_torque_max[(size_t)nw * i + k]);
+    }
+    const double scale = fmax(1.0, r);
+    if (scale > 1.0)
+      for (int k = 0; k < nw; ++k) uw[k] /= scale;
+    W->wscale[i] = scale;
+  }
+}
+
+/* The wheels' torques at state x (motor torque after the speed limit, net torque with friction: the generated
+ * wheel_torque), their momentum and reaction: h_w = sum Js Omega g, tau_w = sum u_net g, u_body = -tau_w. */
+static void wheel_torques(workspace *W, const fsm_problem *P, const double *x, const double *uwa) {
+  const int n = W->n, nw = W->nw, S = W->stride, nz = W->nz;
+  for (int i = 0; i < n; ++i) {
+    const double *Om = x + 3 + (size_t)S * i + 6 + nz;
+    double *hw = W->h_w + 3 * i, *tw = W->tau_w + 3 * i;
+    hw[0] = hw[1] = hw[2] = tw[0] = tw[1] = tw[2] = 0.0;
+    W->gated[i] = 0;
+    for (int k = 0; k < nw; ++k) {
+      const size_t ik = (size_t)nw * i + k;
+      const double *g = P->wheel_axes + 3 * ik;
+      const double *arg[3] = {uwa + ik, Om + k, P->wheel_params + 4 * ik};
+      double *res[2] = {W->u_motor + ik, W->u_net + ik};
+      wheel_torque(arg, res, W->iw, W->w, 0);
+      if (W->u_motor[ik] != uwa[ik]) W->gated[i] = 1;
+      const double hk = P->wheel_Js[ik] * Om[k], tk = W->u_net[ik];
+      for (int c = 0; c < 3; ++c) {
+        hw[c] += hk * g[c];
+        tw[c] += tk * g[c];
+      }
+    }
+    for (int c = 0; c < 3; ++c) W->u_body[3 * i + c] = -tw[c];
+  }
+}
+
+/* Spin accelerations of the wheels (the generated wheel_acceleration) once omega_dot is known. */
+static void wheel_rates(workspace *W, const fsm_problem *P, double *dx) {
+  const int n = W->n, nw = W->nw, S = W->stride, nz = W->nz;
+  for (int i = 0; i < n; ++i) {
+    const double *omega_dot = dx + 6 + (size_t)S * i;
+    double *Om_dot = dx + 9 + (size_t)S * i + nz;
+    for (int k = 0; k < nw; ++k) {
+      const size_t ik = (size_t)nw * i + k;
+      const double *arg[4] = {P->wheel_axes + 3 * ik, P->wheel_Js + ik, W->u_net + ik, omega_dot};
+      double *res[1] = {Om_dot + k};
+      wheel_acceleration(arg, res, W->iw, W->w, 0);
+    }
+  }
+}
+
 /* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque and law-state rates.  The
  * piecewise-constant link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop: see simulate_rk4). */
 static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
                      int compute_control) {
   const int n = W->n, S = W->stride, nz = W->nz, nb = W->nb, nc = W->nc;
   const double *sd = x;
+  const int sensed = P->sensors && compute_control; /* the law sees measurements at this evaluation */
+  if (sensed) measure(W, P, x);
   {
     const double *arg[3] = {&t, sd, P->ref_params};
     double *res[3] = {dx, W->wd, W->wdd};
@@ -387,8 +551,8 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         const int i = lane_agent(g, l, n);
         const double *xi = x + 3 + (size_t)S * i;
         to_lane(ROW(G, RW_T), &t, 1, l);
-        to_lane(ROW(G, RW_SIGMA), xi, 3, l);
-        to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
+        to_lane(ROW(G, RW_SIGMA), sensed ? W->sig_meas + 3 * i : xi, 3, l);
+        to_lane(ROW(G, RW_OMEGA), sensed ? W->om_meas + 3 * i : xi + 3, 3, l);
         to_lane(ROW(G, RW_Z), xi + 6, nz, l);
         to_lane(ROW(G, RW_SD), sd, 3, l);
         to_lane(ROW(G, RW_WD), W->wd, 3, l);
@@ -406,13 +570,15 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   } else if (compute_control) {
     for (int i = 0; i < n; ++i) {
       const double *xi = x + 3 + (size_t)S * i;
-      const double *arg[N_LOCAL_IN] = {&t, xi, xi + 3, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
+      const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
+      const double *arg[N_LOCAL_IN] = {&t, si, wi, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
                                        P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i};
       double *res[2] = {W->b + (size_t)nb * i, W->cache + (size_t)nc * i};
       W->local(arg, res, W->iw, W->w, 0);
     }
   }
   if (compute_control) {
+    if (P->links_imperfect) deliver_links(W, P);
     aggregate(W, P, t_link);
     if (W->batched) {
       for (int g = 0; g < W->n_groups; ++g) {
@@ -437,7 +603,8 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     } else {
       for (int i = 0; i < n; ++i) {
         const double *xi = x + 3 + (size_t)S * i;
-        const double *arg[N_CONTROL_IN] = {&t, xi, xi + 3, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
+        const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
+        const double *arg[N_CONTROL_IN] = {&t, si, wi, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
                                            P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i,
                                            W->cache + (size_t)nc * i, W->ksum + i, W->recv + (size_t)nb * i,
                                            W->krs + i, P->u_max + i};
@@ -446,6 +613,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       }
     }
     check_commands(W, t);
+    if (W->nw > 0) wheel_commands(W, P);
   }
   /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3 */
   if (!W->d_valid || W->d_time != t) {
@@ -459,17 +627,38 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   }
   const double *ua = compute_control ? W->u : W->u_apply;
   const double *za = compute_control ? W->zdot : W->zdot_apply;
-  for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
+  if (W->nw > 0) {
+    wheel_torques(W, P, x, compute_control ? W->uw : W->uw_apply);
+    for (int m = 0; m < 3 * n; ++m) W->tau[m] = W->d[m]; /* the control acts through the wheels */
+  } else {
+    for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
+  }
   if (W->batched) {
+    const int wheels = W->nw > 0;
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
       for (int l = 0; l < FSM_LANES; ++l) {
         const int i = lane_agent(g, l, n);
-        to_lane(ROW(G, RW_TAU), W->tau + 3 * i, 3, l); /* rows RW_SIGMA, RW_OMEGA still hold this x */
+        to_lane(ROW(G, RW_TAU), W->tau + 3 * i, 3, l); /* rows RW_SIGMA, RW_OMEGA hold this x (unless sensed) */
+        if (sensed) {
+          const double *xi = x + 3 + (size_t)S * i;
+          to_lane(ROW(G, RW_SIGMA), xi, 3, l);
+          to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
+        }
+        if (wheels) {
+          to_lane(ROW(G, RW_HW), W->h_w + 3 * i, 3, l);
+          to_lane(ROW(G, RW_TAUW), W->tau_w + 3 * i, 3, l);
+        }
       }
-      const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
       double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
-      plant_rhs_x4(arg, res, active_lanes(g, n));
+      if (wheels) {
+        const double *arg[7] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_HW), ROW(G, RW_TAUW),
+                                ROW(G, RW_TAU),   ROW(G, RW_JTRUE), ROW(G, RW_JSPIN)};
+        gyrostat_rhs_x4(arg, res, active_lanes(g, n));
+      } else {
+        const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
+        plant_rhs_x4(arg, res, active_lanes(g, n));
+      }
       for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
         const int i = g * FSM_LANES + l;
         from_lane(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), 3, l);
@@ -479,12 +668,19 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   } else {
     for (int i = 0; i < n; ++i) {
       const double *xi = x + 3 + (size_t)S * i;
-      const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
       double *res[2] = {dx + 3 + (size_t)S * i, dx + 6 + (size_t)S * i};
-      plant_rhs(arg, res, W->iw, W->w, 0);
+      if (W->nw > 0) {
+        const double *arg[7] = {xi, xi + 3, W->h_w + 3 * i, W->tau_w + 3 * i, W->tau + 3 * i, P->J_true + 9 * i,
+                                P->J_spin + 9 * i};
+        gyrostat_rhs(arg, res, W->iw, W->w, 0);
+      } else {
+        const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
+        plant_rhs(arg, res, W->iw, W->w, 0);
+      }
     }
   }
   for (int i = 0; i < n; ++i) memcpy(dx + 9 + (size_t)S * i, za + (size_t)nz * i, sizeof(double) * nz);
+  if (W->nw > 0) wheel_rates(W, P, dx);
 }
 
 static void shadow_all(workspace *W, double *x) {
@@ -525,16 +721,26 @@ static void record(fsm_output *O, workspace *W, double t, const double *x) {
     W->error_state(arg, res, W->iw, W->w, 0);
     memcpy(O->broadcast + (size_t)(r * n + i) * nb, W->b + (size_t)nb * i, sizeof(double) * nb);
     memcpy(O->z + (size_t)(r * n + i) * nz, xi + 6, sizeof(double) * nz);
-    memcpy(O->u + o, W->u_apply + 3 * i, 3 * sizeof(double));
+    memcpy(O->u + o, (W->nw > 0 ? W->u_body : W->u_apply) + 3 * i, 3 * sizeof(double));
     memcpy(O->u_unsat + o, W->uu_apply + 3 * i, 3 * sizeof(double));
+    if (W->nw > 0) {
+      const size_t ow = (size_t)(r * n + i) * W->nw;
+      if (O->wheel_speed) memcpy(O->wheel_speed + ow, xi + 6 + nz, sizeof(double) * W->nw);
+      if (O->wheel_torque) memcpy(O->wheel_torque + ow, W->u_motor + (size_t)W->nw * i, sizeof(double) * W->nw);
+    }
+    if (W->sig_meas && O->sigma_measured) memcpy(O->sigma_measured + o, W->sig_meas + 3 * i, 3 * sizeof(double));
+    if (W->om_meas && O->omega_measured) memcpy(O->omega_measured + o, W->om_meas + 3 * i, 3 * sizeof(double));
   }
 }
 
-/* Run statistics of the applied torque u (unsaturated uu) held over an interval of length h. */
-static void accumulate(fsm_output *O, int n, const fsm_problem *P, const double *u, const double *uu, double h,
-                       double *u_prev, int first) {
+/* Run statistics of the applied torque u (unsaturated uu) held over an interval of length h; with wheels, u is
+ * their reaction on the body and a wheel at its torque limit (scale > 1) or speed limit counts as saturated. */
+static void accumulate(fsm_output *O, const workspace *W, const fsm_problem *P, const double *u, const double *uu,
+                       double h, double *u_prev, int first) {
+  const int n = W->n;
+  if (W->nw > 0) u = W->u_body;
   for (int i = 0; i < n; ++i) {
-    int sat = 0;
+    int sat = W->nw > 0 && (W->wscale_apply[i] > 1.0 || W->gated[i]);
     double tv = 0.0;
     for (int k = 0; k < 3; ++k) {
       double au = fabs(uu[3 * i + k]);
@@ -557,6 +763,8 @@ static void stage_one(workspace *W, const fsm_problem *P, double t, double t_lin
     W->u_apply = W->u;
     W->uu_apply = W->uu;
     W->zdot_apply = W->zdot;
+    W->uw_apply = W->uw;
+    W->wscale_apply = W->wscale;
     return;
   }
   if (sample) {
@@ -564,12 +772,16 @@ static void stage_one(workspace *W, const fsm_problem *P, double t, double t_lin
     memcpy(W->u_hold, W->u, sizeof(double) * 3 * W->n);
     memcpy(W->uu_hold, W->uu, sizeof(double) * 3 * W->n);
     memcpy(W->zdot_hold, W->zdot, sizeof(double) * (size_t)W->nz * W->n);
+    memcpy(W->uw_hold, W->uw, sizeof(double) * (size_t)W->nw * W->n);
+    memcpy(W->wscale_hold, W->wscale, sizeof(double) * W->n);
   } else {
     eval_rhs(W, P, t, t_link, x, k1, 0);
   }
   W->u_apply = W->u_hold;
   W->uu_apply = W->uu_hold;
   W->zdot_apply = W->zdot_hold;
+  W->uw_apply = W->uw_hold;
+  W->wscale_apply = W->wscale_hold;
 }
 
 static int validate(const fsm_problem *P) {
@@ -582,6 +794,19 @@ static int validate(const fsm_problem *P) {
     if (P->sched_count[e] < 1) return 0;
   }
   if (P->integrator == 1 && !(P->rtol > 0 && P->atol > 0 && P->h_min > 0 && P->max_steps > 0)) return 0;
+  if (P->n_wheels < 0) return 0;
+  if (P->n_wheels > 0 && !(P->wheel_axes && P->wheel_pinv && P->wheel_Js && P->wheel_torque_max && P->wheel_params &&
+                           P->J_spin))
+    return 0;
+  if (P->sensors || P->links_imperfect) { /* they act at the control instants */
+    if (P->hold_steps <= 0 || P->n_samples < P->n_steps / P->hold_steps + 1) return 0;
+    if (P->sensors && !(P->sensor_dtheta && P->sensor_gyro)) return 0;
+    if (P->links_imperfect) {
+      if (!P->link_lost || !P->link_delay) return 0;
+      for (int e = 0; e < P->n_links; ++e)
+        if (P->link_delay[e] < 0) return 0;
+    }
+  }
   return 1;
 }
 
@@ -601,11 +826,12 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
   for (long long k = 0; k <= P->n_steps; ++k) {
     const double t = t0 + (double)k * dt, t_link = t0 + ((double)k + 0.5) * dt;
     int sample = continuous || (k % P->hold_steps == 0);
+    if (!continuous && sample) W->q = k / P->hold_steps;
     stage_one(W, P, t, t_link, x, k1, sample);
     if (W->bad_agent != -2) break;
     if (k % P->output_every == 0) record(O, W, t, x);
     if (k == P->n_steps) break;
-    accumulate(O, n, P, W->u_apply, W->uu_apply, dt, u_prev, k == 0);
+    accumulate(O, W, P, W->u_apply, W->uu_apply, dt, u_prev, k == 0);
     const double th = t0 + ((double)k + 0.5) * dt, t1 = t0 + (double)(k + 1) * dt;
     for (size_t m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
     eval_rhs(W, P, th, t_link, xt, k2, continuous);
@@ -662,7 +888,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
   for (;;) {
     const double eps_t = 1e-12 * fmax(1.0, fabs(t));
     int sample = 0;
-    if (!continuous && fabs(t - (t0 + (double)q_hold * hold_dt)) <= eps_t) { sample = 1; q_hold++; }
+    if (!continuous && fabs(t - (t0 + (double)q_hold * hold_dt)) <= eps_t) { sample = 1; W->q = q_hold++; }
     stage_one(W, P, t, t, x, k1, continuous || sample || first);
     if (W->bad_agent != -2) break;
     memcpy(u_snap, W->u_apply, sizeof(double) * 3 * n);
@@ -705,7 +931,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       factor = fmin(5.0, fmax(0.2, factor));
       if (err <= 1.0 && W->bad_agent != -2) break; /* cannot happen with a finite err; kept for safety */
       if (err <= 1.0) {
-        accumulate(O, n, P, u_snap, uu_snap, hs, u_prev, first);
+        accumulate(O, W, P, u_snap, uu_snap, hs, u_prev, first);
         first = 0;
         memcpy(x, xn, sizeof(double) * N);
         t = lands ? t_next : t + hs;

@@ -11,7 +11,20 @@
  * (received_i = sum_j k^j_ij(t) b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij(t), Liang et al.
  * 2012 eq 19 for any broadcast b), the switching schedules, zero-order-hold sampling, MRP shadow switching after each step, output decimation and run statistics.
  *
- * State layout: x = [sigma_d (3), then for each agent i: sigma_i (3), omega_i (3), z_i (n_states)].
+ * Flight hardware (each off by default; off, the loop is the ideal-torque loop, bit for bit):
+ *   - reaction wheels (n_wheels > 0): at each control evaluation the law's torque is distributed to the wheels
+ *     (minimum-norm, one scale factor keeping every wheel within its torque limit: wheel_commands, the one place
+ *     this rule is written; fsmctl.model.actuators is its NumPy transcription), held with the control, and the
+ *     plant is the generated gyrostat_rhs with the generated per-wheel wheel_torque (speed limit, friction) and
+ *     wheel_acceleration;
+ *   - sensors (sensors = 1): at control instant q the law sees the generated sensor_measurement of the true state
+ *     with the noise sensor_dtheta[q], sensor_gyro[q] (drawn in Python, fsmctl.model.noise); the metrics and
+ *     records of sigma/omega see the truth;
+ *   - imperfect links (links_imperfect = 1): at instant q link e delivers the sender's broadcast of instant
+ *     q - link_delay[e] (before instant 0: its value at instant 0), unless link_lost[q][e], when the receiver
+ *     keeps the last value it received on that link.
+ *
+ * State layout: x = [sigma_d (3), then for each agent i: sigma_i (3), omega_i (3), z_i (n_states), Omega_i (n_wheels)].
  * The ABI (struct sizes and field offsets, FSM_ABI_VERSION) is exported by fsm_abi() and checked by Python at load.
  */
 #ifndef FSMCTL_FORMATION_H
@@ -21,7 +34,7 @@
 extern "C" {
 #endif
 
-#define FSM_ABI_VERSION 2
+#define FSM_ABI_VERSION 3
 
 typedef struct {
   int n_agents;
@@ -54,6 +67,21 @@ typedef struct {
   const int *sched_count;      /* per link: number of segments */
   const double *sched_times;   /* segment m holds on [times[m], times[m+1]) (last: up to the period / +inf) */
   const double *sched_values;
+  /* flight hardware (ABI 3) */
+  int n_wheels;                  /* reaction wheels per agent; 0: the ideal torque source (per-axis clip u_max) */
+  int sensors;                   /* 1: the law sees sensor_measurement(x, sensor_dtheta[q], sensor_gyro[q]) */
+  int links_imperfect;           /* 1: delayed and lossy links (link_delay, link_lost) */
+  long long n_samples;           /* control instants covered by sensor_* and link_lost */
+  const double *wheel_axes;      /* n x n_wheels x 3: spin axis g of each wheel (unit, body frame) */
+  const double *wheel_pinv;      /* n x n_wheels x 3: rows of pinv(G_s), the minimum-norm distribution */
+  const double *wheel_Js;        /* n x n_wheels: spin inertia */
+  const double *wheel_torque_max;/* n x n_wheels: motor torque limit (may be +inf) */
+  const double *wheel_params;    /* n x n_wheels x 4: [speed_max, viscous, coulomb, coulomb_band] */
+  const double *J_spin;          /* n x 9: sum_k Js_k g_k g_k^T */
+  const double *sensor_dtheta;   /* n_samples x n x 3: star-tracker error rotation (rad) */
+  const double *sensor_gyro;     /* n_samples x n x 3: gyro error (rad/s) */
+  const int *link_delay;         /* n_links: delay in control instants */
+  const unsigned char *link_lost;/* n_samples x n_links: 1 = the packet of that instant is lost */
 } fsm_problem;
 
 enum {
@@ -67,10 +95,14 @@ typedef struct {
   long long written;        /* rows written */
   double *t;                /* capacity */
   double *sigma_d;          /* capacity x 3 */
-  double *sigma, *omega, *sigma_e, *omega_e, *u, *u_unsat; /* capacity x n x 3 */
+  double *sigma, *omega, *sigma_e, *omega_e, *u, *u_unsat; /* capacity x n x 3; u: the control torque on the body
+                            (ideal: the clipped command; wheels: their reaction -sum_k g_k u_net,k), u_unsat: the law's command */
   double *broadcast;        /* capacity x n x n_broadcast */
   double *z;                /* capacity x n x n_states */
-  double *saturated_time;   /* n: time with at least one saturated component */
+  double *wheel_speed;      /* capacity x n x n_wheels: Omega (rad/s); NULL when n_wheels = 0 */
+  double *wheel_torque;     /* capacity x n x n_wheels: motor torque after the speed limit (N m) */
+  double *sigma_measured, *omega_measured; /* capacity x n x 3: what the law saw last; NULL: not recorded */
+  double *saturated_time;   /* n: time with a saturated component (wheels: or a wheel at its torque or speed limit) */
   double *u_total_variation;/* n: sum over steps of |u(t_k) - u(t_k-1)|_1 */
   double *u_unsat_max;      /* n: max |u_unsat| component */
   long long steps_taken;    /* accepted steps */

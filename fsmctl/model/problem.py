@@ -3,34 +3,153 @@
 :func:`pack` is the single place where a :class:`~fsmctl.model.scenario.Scenario`
 becomes numbers: the law it flies, per-agent inertias, the law's packed parameters
 (:func:`fsmctl.model.laws.parameter_matrix`), torque limits, sinusoid parameters, the link list with its
-schedules, and the initial state ``x0 = [sigma_d, (sigma_i, omega_i, z_i) for each agent]``.
+schedules, the flight hardware (:class:`HardwarePack`: wheels, the run's sensor noise and packet losses drawn
+from ``simulation.seed`` by :mod:`fsmctl.model.noise`), and the initial state
+``x0 = [sigma_d, (sigma_i, omega_i, z_i, Omega_i) for each agent]`` (``Omega_i``: wheel speeds, when the
+spacecraft fly reaction wheels).
 Both the compiled driver (:mod:`fsmctl.simulation.simulator`) and the CasADi fallback
 (:mod:`fsmctl.simulation.casadi_formation`) read this object.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
+from fsmctl.model.actuators import distribution_matrix
 from fsmctl.model.laws import LawCode, initial_law_states, parameter_matrix, resolve_law
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import schedule_weight
 
-__all__ = ["PackedProblem", "pack", "output_buffer_bytes"]
+__all__ = ["PackedProblem", "HardwarePack", "pack", "output_buffer_bytes", "pack_hardware"]
 
 
-def output_buffer_bytes(n_agents: int, n_rows: int, n_broadcast: int = 3, n_states: int = 0) -> int:
+def output_buffer_bytes(
+    n_agents: int, n_rows: int, n_broadcast: int = 3, n_states: int = 0, n_wheels: int = 0, measured: bool = False
+) -> int:
     """Bytes of a run's output buffers for ``n_rows`` output samples of ``n_agents`` agents (float64).
 
     Six ``(rows, n, 3)`` arrays (sigma, omega, sigma_e, omega_e, u, u_unsaturated), the broadcast
-    ``(rows, n, n_broadcast)`` and law states ``(rows, n, n_states)``, time ``(rows,)``, sigma_d ``(rows, 3)``
-    and three ``(n,)`` statistics: what :func:`fsmctl.simulation.simulator.simulate_packed` allocates (with
-    ``rows = n_outputs + 1``) before the loop starts.
+    ``(rows, n, n_broadcast)`` and law states ``(rows, n, n_states)``, wheel speeds and torques
+    ``(rows, n, n_wheels)`` each, the measured attitude and rate ``(rows, n, 3)`` each when ``measured``, time
+    ``(rows,)``, sigma_d ``(rows, 3)`` and three ``(n,)`` statistics: what
+    :func:`fsmctl.simulation.simulator.simulate_packed` allocates (with ``rows = n_outputs + 1``) before the loop
+    starts.
     """
     n, rows = int(n_agents), int(n_rows)
-    return 8 * (rows * ((6 * 3 + int(n_broadcast) + int(n_states)) * n + 1 + 3) + 3 * n)
+    per_agent = 6 * 3 + int(n_broadcast) + int(n_states) + 2 * int(n_wheels) + (6 if measured else 0)
+    return 8 * (rows * (per_agent * n + 1 + 3) + 3 * n)
+
+
+@dataclass(frozen=True)
+class HardwarePack:
+    """The flight hardware of a run as the compiled loop reads it (all empty: the ideal loop).
+
+    Shapes (``n`` agents, ``N`` wheels per agent, ``Q`` control instants, ``L`` links): ``wheel_axes``,
+    ``wheel_pinv`` (n, N, 3); ``wheel_Js``, ``wheel_torque_max`` (n, N); ``wheel_params`` (n, N, 4) in the
+    generated layout ``[speed_max, viscous, coulomb, coulomb_band]``; ``J_spin`` (n, 3, 3); ``wheel_speed0``
+    (n, N); ``sensor_dtheta``, ``sensor_gyro`` (Q, n, 3); ``link_delay`` (L,) in control instants;
+    ``link_lost`` (Q, L) uint8.
+    """
+
+    n_wheels: int = 0
+    sensors: bool = False
+    links_imperfect: bool = False
+    n_samples: int = 0
+    wheel_axes: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    wheel_pinv: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    wheel_Js: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    wheel_torque_max: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    wheel_params: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 4)))
+    J_spin: np.ndarray = field(default_factory=lambda: np.zeros((0, 3, 3)))
+    wheel_speed0: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    sensor_dtheta: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    sensor_gyro: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
+    link_delay: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
+    link_lost: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.uint8))
+
+    @property
+    def nbytes(self) -> int:
+        """Memory of the arrays (the noise and loss tables grow with the number of control instants)."""
+        return sum(
+            getattr(self, f).nbytes for f in self.__dataclass_fields__ if isinstance(getattr(self, f), np.ndarray)
+        )
+
+
+def delay_instants(delay: np.ndarray, period: float) -> np.ndarray:
+    """Link delays in control instants: the value delivered at ``t_q`` is the sender's broadcast of the latest
+    instant at or before ``t_q - delay``, i.e. of instant ``q - ceil(delay / period)`` (float rounding of an exact
+    multiple forgiven)."""
+    d = np.asarray(delay, dtype=float) / period
+    return np.maximum(0, np.ceil(d - 1e-9 * np.maximum(1.0, d))).astype(np.int32)
+
+
+def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> HardwarePack:
+    """The scenario's actuator, sensors and links as arrays (:class:`HardwarePack`); the noise of the run is
+    drawn here, from ``simulation.seed`` (:func:`fsmctl.model.noise.hardware_noise`)."""
+    act, sensors, links = scenario.actuator, scenario.sensors, scenario.links
+    n = scenario.n_agents
+    out: dict = {}
+    if act.enabled:
+        G = act.spin_axes()
+        N = G.shape[1]
+        Js = act.per_wheel("spin_inertia")
+        params = np.stack(
+            [
+                act.per_wheel("max_speed"),
+                act.per_wheel("viscous_friction"),
+                act.per_wheel("coulomb_friction"),
+                np.full(N, act.coulomb_band),
+            ],
+            axis=1,
+        )
+        J_spin = (G * Js) @ G.T
+        out.update(
+            n_wheels=N,
+            wheel_axes=np.broadcast_to(G.T, (n, N, 3)).copy(),
+            wheel_pinv=np.broadcast_to(distribution_matrix(G), (n, N, 3)).copy(),
+            wheel_Js=np.broadcast_to(Js, (n, N)).copy(),
+            wheel_torque_max=np.broadcast_to(act.per_wheel("max_torque"), (n, N)).copy(),
+            wheel_params=np.broadcast_to(params, (n, N, 4)).copy(),
+            J_spin=np.broadcast_to(J_spin, (n, 3, 3)).copy(),
+            wheel_speed0=np.broadcast_to(act.per_wheel("initial_speed"), (n, N)).copy(),
+        )
+    if sensors.enabled or links.enabled:
+        from fsmctl.model.noise import hardware_noise
+
+        period = scenario.simulation.control_period
+        Q = n_steps // hold_steps + 1
+        topo = scenario.topology.links
+        receivers = [lk.receiver for lk in topo]
+        senders = [lk.sender for lk in topo]
+        gyro = sensors.gyro
+        noise = hardware_noise(
+            scenario.simulation.seed,
+            n,
+            Q,
+            period,
+            star_tracker_std=None if sensors.star_tracker is None else np.array(sensors.star_tracker.noise_std),
+            gyro=None
+            if gyro is None
+            else {
+                "angle_random_walk": gyro.angle_random_walk,
+                "rate_random_walk": gyro.rate_random_walk,
+                "bias": np.array(gyro.bias),
+            },
+            loss_probability=links.per_link(receivers, senders, "loss_probability") if links.enabled else None,
+        )
+        out.update(n_samples=Q)
+        if sensors.enabled:
+            out.update(sensors=True, sensor_dtheta=noise["dtheta"], sensor_gyro=noise["gyro_error"])
+        if links.enabled:
+            lost = noise["lost"] if noise["lost"].shape[1] == len(topo) else np.zeros((Q, len(topo)), np.uint8)
+            out.update(
+                links_imperfect=True,
+                link_delay=delay_instants(links.per_link(receivers, senders, "delay"), period),
+                link_lost=np.ascontiguousarray(lost, dtype=np.uint8),
+            )
+    return HardwarePack(**out)
 
 
 @dataclass(frozen=True)
@@ -61,7 +180,8 @@ class PackedProblem:
     sched_count: np.ndarray  # (L,) int32
     sched_times: np.ndarray  # (sum counts,)
     sched_values: np.ndarray  # (sum counts,)
-    x0: np.ndarray  # (3 + (6 + n_states) n,)
+    x0: np.ndarray  # (3 + (6 + n_states + n_wheels) n,)
+    hardware: HardwarePack = field(default_factory=HardwarePack)
 
     @property
     def n_states(self) -> int:
@@ -73,12 +193,17 @@ class PackedProblem:
         return self.law.n_broadcast
 
     @property
+    def n_wheels(self) -> int:
+        """Reaction wheels per agent (0: the ideal torque source)."""
+        return self.hardware.n_wheels
+
+    @property
     def stride(self) -> int:
-        """State components per agent: sigma (3), omega (3), the law's states."""
-        return 6 + self.law.n_states
+        """State components per agent: sigma (3), omega (3), the law's states, the wheel speeds."""
+        return 6 + self.law.n_states + self.hardware.n_wheels
 
     def agent_slice(self, i: int) -> slice:
-        """Where agent ``i``'s ``[sigma, omega, z]`` sits in the state vector."""
+        """Where agent ``i``'s ``[sigma, omega, z, Omega]`` sits in the state vector."""
         return slice(3 + self.stride * i, 3 + self.stride * (i + 1))
 
     @property
@@ -92,7 +217,9 @@ class PackedProblem:
     @property
     def output_bytes(self) -> int:
         """Bytes of the output buffers the simulator allocates (:func:`output_buffer_bytes`, ``n_outputs + 1`` rows)."""
-        return output_buffer_bytes(self.n_agents, self.n_outputs + 1, self.n_broadcast, self.n_states)
+        return output_buffer_bytes(
+            self.n_agents, self.n_outputs + 1, self.n_broadcast, self.n_states, self.n_wheels, self.hardware.sensors
+        )
 
     def link_weights(self, t: float | np.ndarray) -> np.ndarray:
         """``k^j_ij(t)`` of every link (same rule as the C driver): shape ``(n_links,)`` for a float ``t``, or
@@ -124,14 +251,18 @@ def pack(scenario: Scenario, law: LawCode | str | None = None) -> PackedProblem:
         counts.append(len(link.k_j.breakpoints))
         times.extend(link.k_j.breakpoints)
         values.extend(link.k_j.values)
-    stride = 6 + law.n_states
+    hardware = pack_hardware(scenario, sim.n_steps, sim.hold_steps)
+    nz, nw = law.n_states, hardware.n_wheels
+    stride = 6 + nz + nw
     z0 = initial_law_states(law)
     x0 = np.empty(3 + stride * n)
     x0[:3] = scenario.reference.sigma0
     for i, a in enumerate(agents):
         x0[3 + stride * i : 6 + stride * i] = a.sigma0
         x0[6 + stride * i : 9 + stride * i] = a.omega0
-        x0[9 + stride * i : 3 + stride * (i + 1)] = z0
+        x0[9 + stride * i : 9 + nz + stride * i] = z0
+        if nw:
+            x0[9 + nz + stride * i : 3 + stride * (i + 1)] = hardware.wheel_speed0[i]
     return PackedProblem(
         n_agents=n,
         error_model=1 if c.error_model == "exact" else 0,
@@ -160,4 +291,5 @@ def pack(scenario: Scenario, law: LawCode | str | None = None) -> PackedProblem:
         sched_times=np.array(times, dtype=float),
         sched_values=np.array(values, dtype=float),
         x0=x0,
+        hardware=hardware,
     )

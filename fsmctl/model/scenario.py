@@ -796,7 +796,14 @@ class ActuatorSettings:
                 "three axes that are not coplanar)"
             )
         n = G.shape[1]
-        for name in ("spin_inertia", "max_torque", "max_speed", "viscous_friction", "coulomb_friction", "initial_speed"):
+        for name in (
+            "spin_inertia",
+            "max_torque",
+            "max_speed",
+            "viscous_friction",
+            "coulomb_friction",
+            "initial_speed",
+        ):
             v = getattr(self, name)
             if len(v) not in (1, n):
                 raise ValueError(f"{name}: give one value or one per wheel ({n}), got {len(v)}")
@@ -863,7 +870,10 @@ class GyroSettings:
         "angle random walk N (0.1 deg/sqrt(h) = 2.909e-5 rad/sqrt(s))", "rad/s^0.5", ge=0, default=0.0
     )
     rate_random_walk: Real = _doc(
-        "rate random walk K: the bias's random walk (1 deg/h/sqrt(h) = 8.08e-8 rad/s^1.5)", "rad/s^1.5", ge=0, default=0.0
+        "rate random walk K: the bias's random walk (1 deg/h/sqrt(h) = 8.08e-8 rad/s^1.5)",
+        "rad/s^1.5",
+        ge=0,
+        default=0.0,
     )
     bias: Vec3 = _doc("constant bias b_0 about body x, y, z (1 deg/h = 4.848e-6 rad/s)", "rad/s", default=ZERO3)
 
@@ -897,7 +907,9 @@ class LinkSettings:
     """
 
     delay: Real = _doc("transport delay of every link", "s", ge=0, default=0.0)
-    loss_probability: Real = _doc("probability that a link loses its packet at a control instant", "1", ge=0, le=1, default=0.0)
+    loss_probability: Real = _doc(
+        "probability that a link loses its packet at a control instant", "1", ge=0, le=1, default=0.0
+    )
     delay_table: Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_table)] | None = _doc(
         "per-link delay, n x n (row receiver, column sender; entries without a link are ignored)", "s", default=None
     )
@@ -908,9 +920,7 @@ class LinkSettings:
     @property
     def enabled(self) -> bool:
         def any_table(tab, floor):
-            return tab is not None and any(
-                math.isfinite(x) and x > floor for row in tab for x in row
-            )
+            return tab is not None and any(math.isfinite(x) and x > floor for row in tab for x in row)
 
         return (
             self.delay > 0

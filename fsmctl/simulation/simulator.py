@@ -43,7 +43,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fsmctl.errors import ResourceLimitError
+from fsmctl.errors import EnvironmentProblem, ResourceLimitError
 from fsmctl.model.generated_code import compiled_library, default_law_dir, manifest
 from fsmctl.model.problem import PackedProblem, output_buffer_bytes, pack
 from fsmctl.model.scenario import Scenario
@@ -131,6 +131,20 @@ class _Problem(ctypes.Structure):
         ("sched_count", _ip),
         ("sched_times", _dp),
         ("sched_values", _dp),
+        ("n_wheels", ctypes.c_int),
+        ("sensors", ctypes.c_int),
+        ("links_imperfect", ctypes.c_int),
+        ("n_samples", ctypes.c_longlong),
+        ("wheel_axes", _dp),
+        ("wheel_pinv", _dp),
+        ("wheel_Js", _dp),
+        ("wheel_torque_max", _dp),
+        ("wheel_params", _dp),
+        ("J_spin", _dp),
+        ("sensor_dtheta", _dp),
+        ("sensor_gyro", _dp),
+        ("link_delay", _ip),
+        ("link_lost", ctypes.POINTER(ctypes.c_ubyte)),
     ]
 
 
@@ -150,6 +164,10 @@ class _Output(ctypes.Structure):
         ("u_unsat", _dp),
         ("broadcast", _dp),
         ("z", _dp),
+        ("wheel_speed", _dp),
+        ("wheel_torque", _dp),
+        ("sigma_measured", _dp),
+        ("omega_measured", _dp),
         ("saturated_time", _dp),
         ("u_total_variation", _dp),
         ("u_unsat_max", _dp),
@@ -160,7 +178,7 @@ class _Output(ctypes.Structure):
     ]
 
 
-ABI_VERSION = 2
+ABI_VERSION = 3
 """``FSM_ABI_VERSION`` of fsmctl/csrc/formation.h that these mirrors describe."""
 
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong)
@@ -250,12 +268,16 @@ class _CProblem:
     def __init__(self, p: PackedProblem, max_steps: int = 0, kernels: str = "auto"):
         self._keep = {}
 
+        ctypes_of = {np.float64: ctypes.c_double, np.int32: ctypes.c_int, np.uint8: ctypes.c_ubyte}
+
         def f(name, arr, dtype=np.float64):
             a = np.ascontiguousarray(arr, dtype=dtype)
             if a.size == 0:
                 a = np.zeros(1, dtype=dtype)
             self._keep[name] = a
-            return _ptr(a, ctypes.c_double if dtype == np.float64 else ctypes.c_int)
+            return _ptr(a, ctypes_of[dtype])
+
+        hw = p.hardware
 
         self.struct = _Problem(
             n_agents=p.n_agents,
@@ -290,6 +312,20 @@ class _CProblem:
             sched_times=f("st", p.sched_times),
             sched_values=f("sv", p.sched_values),
             kernels=_KERNELS[kernels],
+            n_wheels=hw.n_wheels,
+            sensors=int(hw.sensors),
+            links_imperfect=int(hw.links_imperfect),
+            n_samples=hw.n_samples,
+            wheel_axes=f("wa", hw.wheel_axes),
+            wheel_pinv=f("wp", hw.wheel_pinv),
+            wheel_Js=f("wj", hw.wheel_Js),
+            wheel_torque_max=f("wt", hw.wheel_torque_max),
+            wheel_params=f("wpar", hw.wheel_params),
+            J_spin=f("jspin", hw.J_spin),
+            sensor_dtheta=f("sdt", hw.sensor_dtheta),
+            sensor_gyro=f("sgy", hw.sensor_gyro),
+            link_delay=f("ld", hw.link_delay, np.int32),
+            link_lost=f("ll", hw.link_lost, np.uint8),
         )
 
 
@@ -440,7 +476,9 @@ def check_output_memory(p: PackedProblem, *, available: int | None = None) -> in
     simulate`` needs to run, summarise and save the results.  It is compared with ``available`` (default:
     :func:`available_memory`; None: no check) before anything is allocated.  Returns the estimate in bytes.
     """
-    buffers = output_buffer_bytes(p.n_agents, p.n_outputs + 1)
+    buffers = output_buffer_bytes(
+        p.n_agents, p.n_outputs + 1, p.n_broadcast, p.n_states, p.n_wheels, p.hardware.sensors
+    )
     needed = int(RESULT_MEMORY_FACTOR * buffers) + RAEM_WORKING_BYTES
     if available is None:
         available = available_memory()
@@ -470,7 +508,11 @@ class SimulationResult:
     ``sigma_e`` (T, n, 3) MRP; ``omega``, ``omega_e`` (T, n, 3) rad/s (the true error state, whatever the
     law computes); ``broadcast`` (T, n, n_b): what each agent sends (for the paper's law the sliding
     variable, also available as ``s``); ``z`` (T, n, n_z): the law's own states;
-    ``u``, ``u_unsaturated`` (T, n, 3) N m (applied and commanded); ``sigma_d`` (T, 3).
+    ``u``, ``u_unsaturated`` (T, n, 3) N m (applied and commanded; with reaction wheels ``u`` is their reaction
+    torque on the body); ``sigma_d`` (T, 3).  With reaction wheels: ``wheel_speed`` (T, n, N) rad/s relative to the
+    hub and ``wheel_torque`` (T, n, N) N m (motor torque after the speed limit); with sensors:
+    ``sigma_measured``, ``omega_measured`` (T, n, 3), what the law saw at the last control instant (the other
+    arrays are the truth).  Absent hardware gives ``None``.
     """
 
     scenario: Scenario
@@ -493,7 +535,26 @@ class SimulationResult:
     wall_time: float
     steps_taken: int = 0
     steps_rejected: int = 0
+    wheel_speed: np.ndarray | None = None
+    wheel_torque: np.ndarray | None = None
+    sigma_measured: np.ndarray | None = None
+    omega_measured: np.ndarray | None = None
     _cache: dict = field(default_factory=dict, repr=False)
+
+    @property
+    def wheel_momentum(self) -> np.ndarray | None:
+        """(T, n, N) N m s: each wheel's spin momentum relative to the hub, ``J_s Omega`` (None without wheels)."""
+        if self.wheel_speed is None:
+            return None
+        return self.wheel_speed * self.scenario.actuator.per_wheel("spin_inertia")
+
+    @property
+    def wheel_momentum_norm(self) -> np.ndarray | None:
+        """(T, n) N m s: magnitude of the wheel array's momentum vector ``|sum_k J_s,k Omega_k g_k|`` (body frame)."""
+        h = self.wheel_momentum
+        if h is None:
+            return None
+        return np.linalg.norm(h @ self.scenario.actuator.spin_axes().T, axis=-1)
 
     @property
     def n_agents(self) -> int:
@@ -594,6 +655,15 @@ class SimulationResult:
             "saturated_time_s": self.saturated_time.tolist(),
             "last_saturation_s": self.last_saturation_time(),
             "chattering_index_N_m_per_s": self.chattering_index.tolist(),
+            **(
+                {
+                    "wheel_speed_peak_rad_per_s": float(np.abs(self.wheel_speed).max()),
+                    "wheel_momentum_peak_N_m_s": float(self.wheel_momentum_norm.max()),
+                    "wheel_momentum_final_N_m_s": self.wheel_momentum_norm[-1].tolist(),
+                }
+                if self.wheel_speed is not None
+                else {}
+            ),
         }
 
     def last_saturation_time(self) -> float:
@@ -648,6 +718,7 @@ class SimulationResult:
                 "saturated_time_s": var(self.saturated_time, ("agent",), "s", "time with a saturated component"),
                 "u_total_variation_N_m": var(self.u_total_variation, ("agent",), "N m", "total variation of u"),
                 "u_unsaturated_max_N_m": var(self.u_unsaturated_max, ("agent",), "N m", "max |commanded torque|"),
+                **self._hardware_variables(var),
             },
             coords=coords,
         )
@@ -665,6 +736,21 @@ class SimulationResult:
             }
         )
         return ds
+
+    def _hardware_variables(self, var) -> dict:
+        out = {}
+        if self.wheel_speed is not None:
+            tnw = ("time_s", "agent", "wheel")
+            out["wheel_speed_rad_per_s"] = var(self.wheel_speed, tnw, "rad/s", "wheel speed relative to the hub")
+            out["wheel_torque_N_m"] = var(self.wheel_torque, tnw, "N m", "wheel motor torque (after the speed limit)")
+            out["wheel_momentum_norm_N_m_s"] = var(
+                self.wheel_momentum_norm, ("time_s", "agent"), "N m s", "|wheel array momentum| (body frame)"
+            )
+        if self.sigma_measured is not None:
+            tna = ("time_s", "agent", "axis")
+            out["sigma_measured"] = var(self.sigma_measured, tna, "1", "attitude the law saw (star tracker)")
+            out["omega_measured_rad_per_s"] = var(self.omega_measured, tna, "rad/s", "rate the law saw (gyro)")
+        return out
 
     def save(self, path: str | Path) -> Path:
         """Write NetCDF (``.nc``) or NumPy (``.npz``), chosen by the suffix, atomically (:mod:`fsmctl.outputs`)."""
@@ -779,7 +865,13 @@ def simulate_packed(
     check_output_memory(p)
     t_end = p.t0 + p.n_steps * p.dt
     dll = _driver(p.law)
+    hw = p.hardware
     if dll is None:
+        if hw.n_wheels or hw.sensors or hw.links_imperfect:
+            raise EnvironmentProblem(
+                "reaction wheels, sensors and imperfect links run in the compiled simulator only, and no C compiler "
+                "was found (install gcc or clang, or set CC)"
+            )
         from fsmctl.simulation.casadi_formation import simulate_casadi
 
         raw = simulate_casadi(p, progress=progress, label=label)
@@ -794,6 +886,12 @@ def simulate_packed(
     bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat")}
     bufs["broadcast"] = np.zeros((cap, n, p.n_broadcast))
     bufs["z"] = np.zeros((cap, n, p.n_states))
+    if hw.n_wheels:
+        bufs["wheel_speed"] = np.zeros((cap, n, hw.n_wheels))
+        bufs["wheel_torque"] = np.zeros((cap, n, hw.n_wheels))
+    if hw.sensors:
+        bufs["sigma_measured"] = np.zeros((cap, n, 3))
+        bufs["omega_measured"] = np.zeros((cap, n, 3))
     bufs["t"] = np.zeros(cap)
     bufs["sigma_d"] = np.zeros((cap, 3))
     stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
@@ -988,7 +1086,7 @@ def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:
         k = np.asarray(constants(p.params[i]), dtype=float).ravel()
 
         def torque(x, i=i, k=k):
-            args = [0.0, x[0:3], x[3:6], x[6:], p.x0[:3], wd, wdd, p.J0[i], p.params[i], k]
+            args = [0.0, x[0:3], x[3:6], x[6 : 6 + p.n_states], p.x0[:3], wd, wdd, p.J0[i], p.params[i], k]
             _, cache = local(*args)
             return np.asarray(control(*args, cache, 0.0, np.zeros(p.n_broadcast), 0.0, np.inf)[1], dtype=float).ravel()
 
@@ -1083,4 +1181,5 @@ def simulate(scenario: Scenario, *, progress: bool | None = None) -> SimulationR
         wall_time=raw["wall_time"],
         steps_taken=int(raw["steps_taken"]),
         steps_rejected=int(raw["steps_rejected"]),
+        **{k: raw.get(k) for k in ("wheel_speed", "wheel_torque", "sigma_measured", "omega_measured")},
     )

@@ -40,7 +40,9 @@ __all__ = [
 ]
 
 
-def gyrostat_rhs(J, J_spin, sigma, omega, h_wheels, tau_wheels, torque) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
+def gyrostat_rhs(
+    J, J_spin, sigma, omega, h_wheels, tau_wheels, torque
+) -> tuple[sp.ImmutableMatrix, sp.ImmutableMatrix]:
     """``(sigma_dot, omega_dot)`` of a rigid hub with balanced reaction wheels (Schaub & Junkins eq 4.146).
 
     ``(J - J_spin) omega_dot = -omega^x (J omega + h_wheels) - tau_wheels + torque``, ``sigma_dot = G(sigma) omega``
