@@ -49,8 +49,11 @@ def single_spacecraft(
     sensors=None,
     links=None,
     seed=0,
+    n_agents=1,
+    topology=None,
 ):
-    """One spacecraft, no disturbance, no uncertainty, no links: a scenario for actuator and sensor tests."""
+    """Identical spacecraft (default one), no disturbance, no uncertainty, no links unless ``topology`` (a file
+    table) is given: a scenario for actuator, sensor and link tests."""
     from fsmctl.model.scenario import scenario_from_dict
 
     data = {
@@ -64,8 +67,8 @@ def single_spacecraft(
         },
         "controller": {"law": law, "torque_limit": torque_limit, **(law_parameters or {})},
         "reference": {"sigma0": [0.0, 0.0, 0.0], "omega": {"amplitude": [0.0, 0.0, 0.0]}},
-        "topology": {"links": []},
-        "agents": [{"J0": [list(r) for r in J], "sigma0": list(sigma0), "omega0": list(omega0)}],
+        "topology": topology or {"links": []},
+        "agents": [{"J0": [list(r) for r in J], "sigma0": list(sigma0), "omega0": list(omega0)}] * n_agents,
     }
     for key, value in (("actuator", actuator), ("sensors", sensors), ("links", links)):
         if value is not None:

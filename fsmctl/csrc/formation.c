@@ -58,11 +58,10 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
       FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
       FSM_FIELD(fsm_output, u_unsat), FSM_FIELD(fsm_output, broadcast), FSM_FIELD(fsm_output, z),
-      FSM_FIELD(fsm_output, wheel_speed), FSM_FIELD(fsm_output, wheel_torque), FSM_FIELD(fsm_output, sigma_measured),
-      FSM_FIELD(fsm_output, omega_measured),
       FSM_FIELD(fsm_output, saturated_time), FSM_FIELD(fsm_output, u_total_variation),
       FSM_FIELD(fsm_output, u_unsat_max), FSM_FIELD(fsm_output, steps_taken), FSM_FIELD(fsm_output, steps_rejected),
-      FSM_FIELD(fsm_output, fail_time), FSM_FIELD(fsm_output, fail_agent)};
+      FSM_FIELD(fsm_output, fail_time), FSM_FIELD(fsm_output, fail_agent), FSM_FIELD(fsm_output, wheel_speed),
+      FSM_FIELD(fsm_output, wheel_torque), FSM_FIELD(fsm_output, sigma_measured), FSM_FIELD(fsm_output, omega_measured)};
   const int n = (int)(sizeof v / sizeof v[0]);
   for (int k = 0; k < n && k < capacity; ++k) out[k] = v[k];
   return n;

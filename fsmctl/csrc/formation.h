@@ -99,9 +99,6 @@ typedef struct {
                             (ideal: the clipped command; wheels: their reaction -sum_k g_k u_net,k), u_unsat: the law's command */
   double *broadcast;        /* capacity x n x n_broadcast */
   double *z;                /* capacity x n x n_states */
-  double *wheel_speed;      /* capacity x n x n_wheels: Omega (rad/s); NULL when n_wheels = 0 */
-  double *wheel_torque;     /* capacity x n x n_wheels: motor torque after the speed limit (N m) */
-  double *sigma_measured, *omega_measured; /* capacity x n x 3: what the law saw last; NULL: not recorded */
   double *saturated_time;   /* n: time with a saturated component (wheels: or a wheel at its torque or speed limit) */
   double *u_total_variation;/* n: sum over steps of |u(t_k) - u(t_k-1)|_1 */
   double *u_unsat_max;      /* n: max |u_unsat| component */
@@ -109,6 +106,10 @@ typedef struct {
   long long steps_rejected; /* adaptive only */
   double fail_time;         /* time of the first non-finite state */
   int fail_agent;           /* agent with the first non-finite state (-1: reference) */
+  /* flight hardware (ABI 3; appended, so that the structs of ABI 2 are prefixes of these) */
+  double *wheel_speed;      /* capacity x n x n_wheels: Omega (rad/s); NULL when n_wheels = 0 */
+  double *wheel_torque;     /* capacity x n x n_wheels: motor torque after the speed limit (N m) */
+  double *sigma_measured, *omega_measured; /* capacity x n x 3: what the law saw last; NULL: not recorded */
 } fsm_output;
 
 /* Progress callback: called every `every` steps with (steps done, steps planned); a nonzero return aborts. */

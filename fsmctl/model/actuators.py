@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["distribution_matrix", "distribute", "body_torque_capacity"]
+__all__ = ["distribution_matrix", "distribute", "body_torque_capacity", "max_body_torque"]
 
 
 def distribution_matrix(axes: np.ndarray) -> np.ndarray:
@@ -54,7 +54,7 @@ def body_torque_capacity(axes: np.ndarray, max_torque: np.ndarray, directions: i
     """The body torque the distribution rule delivers at saturation, over random unit directions.
 
     Returns ``{"min": ..., "max": ..., "per_axis": [x, y, z]}`` in N m: the smallest and largest magnitude
-    over ``directions`` random directions and along the body axes (an input to the choice of a
+    over ``directions`` random directions and the body axes, and the magnitude along each body axis (an input to the choice of a
     ``controller.torque_limit`` that the wheels can honour).
     """
     G = np.asarray(axes, dtype=float)
@@ -68,5 +68,28 @@ def body_torque_capacity(axes: np.ndarray, max_torque: np.ndarray, directions: i
     rng = np.random.default_rng(seed)
     dirs = rng.normal(size=(directions, 3))
     dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    mags = np.array([reach(d) for d in dirs])
-    return {"min": float(mags.min()), "max": float(mags.max()), "per_axis": [reach(e) for e in np.eye(3)]}
+    per_axis = [float(reach(e)) for e in np.eye(3)]
+    mags = np.array([reach(d) for d in dirs] + per_axis)
+    return {"min": float(mags.min()), "max": float(mags.max()), "per_axis": per_axis}
+
+
+def max_body_torque(axes: np.ndarray, limits: np.ndarray) -> float:
+    """The largest body torque (or momentum) magnitude ``max |G_s x|`` over ``|x_k| <= limits_k`` (N m, or N m s
+    for momentum limits), whatever the distribution: the maximum of a convex function over the box is at a vertex,
+    so the ``2^N`` sign patterns are enumerated (N <= 16; beyond, the bound ``sum_k limits_k``).  An upper bound
+    for momentum-budget arguments (a lower bound on any manoeuvre time).
+
+    Examples
+    --------
+    >>> round(max_body_torque(np.eye(3), np.full(3, 1.0)), 6)  # sqrt(3)
+    1.732051
+    """
+    G = np.asarray(axes, dtype=float)
+    lim = np.asarray(limits, dtype=float)
+    n = lim.size
+    if not np.all(np.isfinite(lim)):
+        return float("inf")
+    if n > 16:
+        return float(lim.sum())
+    signs = ((np.arange(2**n)[:, None] >> np.arange(n)) & 1) * 2.0 - 1.0
+    return float(np.max(np.linalg.norm((signs * lim) @ G.T, axis=1)))

@@ -64,7 +64,7 @@ __all__ = [
     "BUILTIN_SCENARIOS",
 ]
 
-BUILTIN_SCENARIOS = ("paper",)
+BUILTIN_SCENARIOS = ("paper", "paper-hardware")
 SINGULARITY_FIXES = {"none": 0, "switch": 1, "clamp": 2}
 ERROR_MODELS = ("paper", "exact")
 SURFACES = ("fsm", "tsm", "lsm")
@@ -1151,6 +1151,7 @@ def _deep_merge(base: dict, over: Mapping) -> dict:
 
 
 TOP_KEYS = (
+    "extends",
     "name",
     "description",
     "simulation",
@@ -1239,6 +1240,8 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
     ``delta_J = {scale = ...}``, a scalar ``delta``, ``kind = ["cos"|"sin", ...]`` of sinusoids, the
     topology tables) are expanded here; every value is then checked by the dataclasses' validators.
     """
+    if isinstance(data, Mapping) and "extends" in data:
+        data = _resolve_extends(dict(data), where, None)
     _unknown(data, TOP_KEYS, where)
     cases = data.get("cases", {})
     if not isinstance(cases, Mapping):
@@ -1349,21 +1352,53 @@ def _read_toml(path: Path) -> dict:
         raise ScenarioError(f"{path}: not valid TOML ({exc})") from None
 
 
+def _builtin_data(name: str) -> dict:
+    return tomllib.loads(resources.files("fsmctl").joinpath("scenarios", f"{name}.toml").read_text("utf-8"))
+
+
+def _resolve_extends(data: dict, where: str, folder: Path | None, seen: tuple[str, ...] = ()) -> dict:
+    """A file with ``extends = "paper"`` (a built-in name, or a TOML path relative to the file) is its base file
+    with this file's tables merged over it (key by key; arrays such as ``[[agents]]`` replace the base's)."""
+    base_name = data.get("extends")
+    if base_name is None:
+        return data
+    if not isinstance(base_name, str):
+        raise ScenarioError(f"{where}.extends: expected a built-in scenario name or a path, got {base_name!r}")
+    if base_name in seen or len(seen) > 8:
+        raise ScenarioError(f"{where}.extends: circular or too deep ({' -> '.join((*seen, base_name))})")
+    if base_name in BUILTIN_SCENARIOS:
+        base, base_folder = _builtin_data(base_name), None
+    else:
+        path = Path(base_name).expanduser()
+        if not path.is_absolute() and folder is not None:
+            path = folder / path
+        base = _read_toml(path)
+        base_folder = path.parent
+        _laws_relative_to(base, base_folder)
+    base = _resolve_extends(base, f"{where}.extends", base_folder, (*seen, base_name))
+    merged = _deep_merge(base, {k: v for k, v in data.items() if k != "extends"})
+    return merged
+
+
 def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scenario:
-    """Load a built-in scenario by name (``"paper"``) or a TOML file, optionally selecting a case.
+    """Load a built-in scenario by name (``"paper"``, ``"paper-hardware"``) or a TOML file, optionally selecting a case.
 
     Without ``case`` a file that defines cases gets its first one (for the paper: Case 1); a file
-    without ``[cases]`` is its own single scenario.
+    without ``[cases]`` is its own single scenario.  A file may start from another with ``extends = "paper"`` (a
+    built-in name or a path relative to the file) and change only what differs.
 
     Examples
     --------
     >>> from fsmctl import load_scenario
     >>> load_scenario("paper", case="2").label
     'paper case 2'
+    >>> load_scenario("paper-hardware").actuator.kind
+    'reaction_wheels'
     """
     if isinstance(source, str) and source in BUILTIN_SCENARIOS:
-        data = tomllib.loads(resources.files("fsmctl").joinpath("scenarios", f"{source}.toml").read_text("utf-8"))
+        data = _builtin_data(source)
         where = f"built-in scenario {source!r}"
+        data = _resolve_extends(data, where, None)
     else:
         if not isinstance(source, (str, Path)):
             raise ScenarioError(f"scenario: expected 'paper' or a path to a TOML file, got {source!r}")
@@ -1371,6 +1406,7 @@ def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scen
         data = _read_toml(path)
         where = str(path)
         _laws_relative_to(data, path.parent)
+        data = _resolve_extends(data, where, path.parent)
     if case is None and isinstance(data.get("cases"), Mapping) and data["cases"]:
         case = next(iter(data["cases"]))
     try:

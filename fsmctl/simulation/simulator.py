@@ -164,10 +164,6 @@ class _Output(ctypes.Structure):
         ("u_unsat", _dp),
         ("broadcast", _dp),
         ("z", _dp),
-        ("wheel_speed", _dp),
-        ("wheel_torque", _dp),
-        ("sigma_measured", _dp),
-        ("omega_measured", _dp),
         ("saturated_time", _dp),
         ("u_total_variation", _dp),
         ("u_unsat_max", _dp),
@@ -175,6 +171,10 @@ class _Output(ctypes.Structure):
         ("steps_rejected", ctypes.c_longlong),
         ("fail_time", ctypes.c_double),
         ("fail_agent", ctypes.c_int),
+        ("wheel_speed", _dp),
+        ("wheel_torque", _dp),
+        ("sigma_measured", _dp),
+        ("omega_measured", _dp),
     ]
 
 

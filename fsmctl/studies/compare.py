@@ -387,6 +387,8 @@ def metric_columns(tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG) -> 
         ("chattering_N_m_per_s", "chattering per second", "N m/s"),
         ("saturated_time_max_s", "saturated time, max agent", "s"),
         ("saturated_time_mean_s", "saturated time, mean", "s"),
+        ("peak_wheel_momentum_N_m_s", "peak |wheel momentum| (nan: no wheels)", "N m s"),
+        ("peak_wheel_speed_rad_per_s", "peak |wheel speed| (nan: no wheels)", "rad/s"),
         ("wall_time_s", "wall time", "s"),
     ]
     return cols
@@ -458,6 +460,8 @@ def run_metrics(
             "chattering_N_m_per_s": float(np.sum(summary["chattering_index_N_m_per_s"])),
             "saturated_time_max_s": float(sat.max()),
             "saturated_time_mean_s": float(sat.mean()),
+            "peak_wheel_momentum_N_m_s": summary.get("wheel_momentum_peak_N_m_s", math.nan),
+            "peak_wheel_speed_rad_per_s": summary.get("wheel_speed_peak_rad_per_s", math.nan),
             "wall_time_s": float(summary["wall_time_s"]),
         }
     )

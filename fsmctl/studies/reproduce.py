@@ -448,7 +448,12 @@ class MomentumBound:
 
     Physics: in the inertial frame N, ``dH/dt = C^T (u + d)`` with ``H = C^T J omega``
     (``C = [BN]``, J = J0 + ΔJ the true inertia, eq 29), so ``|dH/dt| <= sqrt(3) u_max + |d(t)|``
-    when ``|u_k| <= u_max`` per body axis.  Tracking the reference at time T requires
+    when ``|u_k| <= u_max`` per body axis.  With reaction wheels (Schaub & Junkins eq 4.146) the total momentum
+    ``H = C^T (J omega + G_s J_s Omega)`` changes only by the disturbance, and the body components of the wheels'
+    absolute momentum ``h = J_spin omega + G_s J_s Omega`` only by ``G_s u_net`` (motor torque and friction), at
+    most ``max |G_s x|`` over the wheels' torque box (:func:`fsmctl.model.actuators.max_body_torque`); tracking
+    needs ``h(T) = C_d H(T) - (J - J_spin) omega_d``, which gives the same inequality with
+    ``H_d = C_d^T ((J - J_spin) omega_d + h(0))`` and that rate.  Tracking the reference at time T requires
     ``H(T) = H_d(T) = C_d(T)^T J omega_d(T)`` (body frame = desired frame, omega = omega_d),
     hence ``|H_d(T) - H(0)| <= sqrt(3) u_max T + int_0^T |d| dt``.  ``min_time_s`` is the last
     grid time before that inequality first holds (a lower bound on any settling time).
@@ -457,6 +462,7 @@ class MomentumBound:
     agent: int
     """1-based"""
     torque_limit_N_m: float
+    """the per-axis command limit (``controller.torque_limit``)"""
     H0_N_m_s: float
     """|H(0)| = |J omega(0)|"""
     H0_minus_Hd0_N_m_s: float
@@ -494,12 +500,22 @@ def angular_momentum_bound(scenario, *, step: float = 0.01) -> list[MomentumBoun
     dcm = casadi_function("mrp_to_dcm")
     omega_d_max = float(np.linalg.norm(scenario.reference.omega.bound()))
     out = []
-    if not math.isfinite(u_max):
+    rate = math.sqrt(3.0) * u_max
+    act = scenario.actuator
+    G = act.spin_axes() if act.enabled else np.zeros((3, 0))
+    Js = act.per_wheel("spin_inertia") if act.enabled else np.zeros(0)
+    Om0 = act.per_wheel("initial_speed") if act.enabled else np.zeros(0)
+    if act.enabled:
+        from fsmctl.model.actuators import max_body_torque
+
+        with np.errstate(invalid="ignore"):  # inf * 0 when there is no speed limit and no viscous friction
+            friction = np.nan_to_num(act.per_wheel("viscous_friction") * act.per_wheel("max_speed"), nan=0.0)
+        rate = max_body_torque(G, act.per_wheel("max_torque") + friction + act.per_wheel("coulomb_friction"))
+    if not math.isfinite(rate):
         for i, a in enumerate(scenario.agents):
             h0 = float(np.linalg.norm(a.J_true @ np.asarray(a.omega0)))
             out.append(MomentumBound(i + 1, u_max, h0, math.nan, 0.0, 0.0, 0.0, step))
         return out
-    rate = math.sqrt(3.0) * u_max
     # The inequality surely holds once sqrt(3) u_max T >= |H(0)| + max |H_d|.
     reach = max(
         float(np.linalg.norm(a.J_true @ np.asarray(a.omega0))) + float(np.linalg.eigvalsh(a.J_true)[-1]) * omega_d_max
@@ -508,11 +524,15 @@ def angular_momentum_bound(scenario, *, step: float = 0.01) -> list[MomentumBoun
     times, sigma_d, omega_d = reference_trajectory(scenario, reach / rate + 2 * step, step)
     n = times.size
     C_d = np.asarray(dcm.map(n)(sigma_d.T)).reshape(3, n, 3).transpose(1, 0, 2)  # [DN](t_k)
+    J_spin = (G * Js) @ G.T
     for i, a in enumerate(scenario.agents):
         J = a.J_true
         C0 = np.asarray(dcm(np.asarray(a.sigma0, float)))
-        H0 = C0.T @ J @ np.asarray(a.omega0, float)
-        H_d = np.einsum("kji,jl,kl->ki", C_d, J, omega_d)  # C_d^T J omega_d
+        w0 = np.asarray(a.omega0, float)
+        h_rel0 = G @ (Js * Om0)  # wheels: their momentum relative to the hub
+        H0 = C0.T @ (J @ w0 + h_rel0)  # the spacecraft's total momentum (inertial)
+        h_abs0 = J_spin @ w0 + h_rel0  # body components of the wheels' absolute momentum: they change at G u
+        H_d = np.einsum("kji,jl,kl->ki", C_d, J - J_spin, omega_d) + np.einsum("kji,j->ki", C_d, h_abs0)
         gap = np.linalg.norm(H_d - H0, axis=1)
         d_norm = np.linalg.norm(a.disturbance(times), axis=1)
         d_integral = np.concatenate([[0.0], np.cumsum(np.maximum(d_norm[1:], d_norm[:-1]) * step)])  # over-estimate
