@@ -735,6 +735,127 @@ def laws_section(quick: bool, log) -> dict:
     return out
 
 
+PRE_HARDWARE_COMMIT = "a691069"
+"""The last commit before the flight hardware (issue 13): its whole-loop driver is the baseline of "the wheel
+model adds nothing measurable when it is disabled"."""
+
+
+def _pre_hardware_driver(log):
+    """The pre-hardware driver (``git show PRE_HARDWARE_COMMIT:fsmctl/csrc/formation.[ch]``) compiled with today's
+    generated code and flags into a temporary library, or None (no git checkout, no compiler).  Its structs are a
+    prefix of today's (ABI 2 vs 3: fields were only appended), so today's ctypes structures drive it."""
+    import ctypes
+    import shutil
+    import subprocess
+    import tempfile
+
+    from fsmctl.model.generated_code import _compiler, _sources, compile_flags, default_law_dir
+    from fsmctl.simulation.simulator import _PROGRESS, _dp, _Output, _Problem
+
+    cc = _compiler()
+    root = Path(__file__).resolve().parents[1]
+    if cc is None or shutil.which("git") is None:
+        return None
+    tmp = Path(tempfile.mkdtemp(prefix="fsmctl-bench-"))
+    try:
+        for name in ("formation.c", "formation.h"):
+            text = subprocess.run(
+                ["git", "show", f"{PRE_HARDWARE_COMMIT}:fsmctl/csrc/{name}"],
+                cwd=root, capture_output=True, text=True, check=True,
+            ).stdout  # fmt: skip
+            (tmp / name).write_text(text)
+    except (subprocess.CalledProcessError, OSError) as exc:
+        log(f"hardware: no pre-hardware baseline ({exc})")
+        return None
+    sources = [p for p in _sources(default_law_dir()) if p.parent.name != "csrc"] + [tmp / "formation.c"]
+    flags, _ = compile_flags(cc)
+    includes = [f"-I{d}" for d in dict.fromkeys(p.parent for p in sources)]
+    lib = tmp / "libfsm_pre_hardware.so"
+    subprocess.run([cc, *flags, *includes, *map(str, sources), "-o", str(lib), "-lm"], check=True)
+    dll = ctypes.CDLL(str(lib))
+    dll.fsm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.POINTER(_Output), _PROGRESS, ctypes.c_longlong]
+    dll.fsm_simulate.restype = ctypes.c_int
+    return dll
+
+
+def hardware_section(quick: bool, log) -> dict:
+    """Issue 13's budget: Case 1 (100 s, RK4 at 1 ms, the paper's law) on the ideal-torque loop, on the
+    pre-hardware engine (the same loop before the hardware code existed), with reaction wheels, sensors and links
+    enabled at 10 Hz (``paper-hardware``'s hardware on a 100 s horizon), and with each one alone; alternated in
+    one run, C-loop times compared by their minima."""
+    import ctypes
+
+    import fsmctl
+    from fsmctl.model.problem import pack
+    from fsmctl.simulation.simulator import _PROGRESS, _CProblem, _Output, _ptr, simulate_packed
+
+    hw = fsmctl.load_scenario("paper-hardware").replace(simulation={"t_final": 100.0})
+    base = fsmctl.paper_scenario("1")
+    off = {"star_tracker": None, "gyro": None}
+    no_links = {"delay": 0.0, "loss_probability": 0.0}
+    ideal_actuator = {"kind": "ideal"}
+    variants = {
+        "ideal": base,
+        "ideal_10Hz": base.replace(simulation={"control_period": 0.1}),
+        "wheels_10Hz": hw.replace(sensors=off, links=no_links),
+        "sensors_10Hz": hw.replace(actuator=ideal_actuator, links=no_links),
+        "links_10Hz": hw.replace(actuator=ideal_actuator, sensors=off),
+        "all_10Hz": hw,
+    }
+    packed = {k: pack(v) for k, v in variants.items()}
+    old = _pre_hardware_driver(log)
+
+    def run_old(p):
+        n, cap = p.n_agents, p.n_outputs + 1
+        bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat")}
+        bufs.update(broadcast=np.zeros((cap, n, p.n_broadcast)), z=np.zeros((cap, n, p.n_states)))
+        bufs.update(t=np.zeros(cap), sigma_d=np.zeros((cap, 3)))
+        stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
+        out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()})
+        cp = _CProblem(p)
+        x0 = np.ascontiguousarray(p.x0)
+        t = time.perf_counter()
+        rc = old.fsm_simulate(ctypes.byref(cp.struct), _ptr(x0), ctypes.byref(out), _PROGRESS(0), 0)
+        wall = time.perf_counter() - t
+        assert rc == 0, rc
+        return wall, bufs
+
+    reps = 2 if quick else 5
+    loops: dict[str, list[float]] = {k: [] for k in [*variants, *(["ideal_pre_hardware"] if old else [])]}
+    same = None
+    for r in range(reps):
+        order = list(loops) if r % 2 == 0 else list(loops)[::-1]
+        for k in order:
+            if k == "ideal_pre_hardware":
+                wall, bufs = run_old(packed["ideal"])
+                if same is None:
+                    now = simulate_packed(packed["ideal"])
+                    same = all(np.array_equal(bufs[q], now[q]) for q in ("sigma", "omega", "u", "broadcast"))
+                loops[k].append(wall)
+            else:
+                loops[k].append(float(simulate_packed(packed[k])["wall_time"]))
+    best = {k: min(v) for k, v in loops.items()}
+    out = {
+        "horizon_s": 100.0,
+        "dt_s": 1e-3,
+        "repeats": reps,
+        "c_loop_min_s": best,
+        "c_loop_median_s": {k: statistics.median(v) for k, v in loops.items()},
+        "all_over_ideal": best["all_10Hz"] / best["ideal"],
+        "wheels_over_ideal": best["wheels_10Hz"] / best["ideal"],
+    }
+    if old:
+        out["ideal_over_pre_hardware"] = best["ideal"] / best["ideal_pre_hardware"]
+        out["pre_hardware_trajectory_identical"] = bool(same)
+    log(
+        "hardware: "
+        + ", ".join(f"{k} {v:.3f} s" for k, v in best.items())
+        + f"; all/ideal = {out['all_over_ideal']:.2f}"
+        + (f", ideal/pre-hardware = {out['ideal_over_pre_hardware']:.3f}" if old else "")
+    )
+    return out
+
+
 def smooth_ring_section(quick: bool, log) -> dict:
     """A smooth large formation: the case where adaptive steps grow long (python-control's best case).
 
@@ -1006,6 +1127,12 @@ def markdown(res: dict) -> str:
         f"at end {res['load_average_end']}). Total {res['total_wall_s']:.0f} s. Shared machine: min of repeats.",
         f"Compile flags: `{' '.join(m.get('compile_flags') or [])}`.",
     ]
+    if res.get("measured"):
+        lines.append(
+            "Sections kept from earlier runs (`--only` re-measured the others): "
+            + ", ".join(f"{k} ({when})" for k, when in res["measured"].items())
+            + "."
+        )
     c = res.get("compare")
     if c:
         lines += ["", "## Case 1, dt = 1 ms: compiled vs python-control vs Python RK4 loops", ""]
@@ -1180,6 +1307,33 @@ def markdown(res: dict) -> str:
                 f"{_f(sc_.get('c_loop_min_s'))} | {_f(e.get('scalar_over_batched_c_loop'))} | "
                 f"{'n/a' if eq is None else ('yes' if eq else 'NO')} |"
             )
+    hw = res.get("hardware")
+    if hw:
+        lines += [
+            "",
+            "## Flight hardware in the compiled loop (issue 13)",
+            "",
+            f"Case 1 with the paper's law, {hw['horizon_s']:g} s at dt = {hw['dt_s']:g} s (RK4), min of "
+            f"{hw['repeats']} alternated runs, C-loop times. `*_10Hz`: control at 10 Hz; wheels: 4-wheel pyramid; "
+            "sensors: star tracker and gyro; links: 0.1 s delay and 5 % loss (the `paper-hardware` hardware). "
+            "`ideal_pre_hardware`: the same ideal loop on the engine before the hardware existed (commit "
+            f"{PRE_HARDWARE_COMMIT}, built with the same generated code and flags).",
+            "",
+            "| variant | C loop min (s) | median (s) | / ideal |",
+            "|---|---|---|---|",
+        ]
+        for k, v in hw["c_loop_min_s"].items():
+            lines.append(f"| {k} | {_f(v)} | {_f(hw['c_loop_median_s'][k])} | {_f(v / hw['c_loop_min_s']['ideal'])} |")
+        lines += [
+            "",
+            f"Everything on / ideal = {_f(hw['all_over_ideal'])} (budget: <= 2).",
+        ]
+        if "ideal_over_pre_hardware" in hw:
+            lines.append(
+                f"Ideal loop today / before the hardware code = {_f(hw['ideal_over_pre_hardware'])} (the hardware "
+                "code adds nothing measurable when it is off); identical trajectories: "
+                f"{'yes' if hw['pre_hardware_trajectory_identical'] else 'NO'}."
+            )
     s = res.get("scale")
     if s:
         lines += [
@@ -1271,7 +1425,7 @@ def markdown(res: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-SECTIONS = ("compare", "kernels", "laws", "scale", "smooth_ring", "flops", "subprocess", "montecarlo")
+SECTIONS = ("compare", "kernels", "laws", "hardware", "scale", "smooth_ring", "flops", "subprocess", "montecarlo")
 """The sections of a run, in order (``--only`` selects some)."""
 
 
@@ -1298,14 +1452,29 @@ def main(argv=None) -> int:
     if unknown:
         ap.error(f"--only: unknown section(s) {', '.join(unknown)}; choose from {', '.join(SECTIONS)}")
     res = {"quick": args.quick, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "machine": machine_info()}
-    res["sections"] = [k for k in SECTIONS if k in only]
+    previous = Path(args.out) / "results.json"
+    if args.only is not None and previous.exists():
+        # re-measure some sections: the others keep their numbers (and say when they were measured)
+        old = json.loads(previous.read_text())
+        if old.get("quick") == args.quick:
+            res = {**old, "date": res["date"], "machine": res["machine"]}
+            res.setdefault("measured", {})
+            for k in SECTIONS:
+                if k in old and k not in only and k not in res["measured"]:
+                    res["measured"][k] = old.get("date")
+    res["sections"] = sorted(set(res.get("sections", [])) | {k for k in SECTIONS if k in only}, key=SECTIONS.index)
 
     def section(key, run):
-        res[key] = run() if key in only else None
+        if key in only:
+            res[key] = run()
+            res.get("measured", {}).pop(key, None)
+        else:
+            res.setdefault(key, None)
 
     section("compare", lambda: compare_section(args.quick, log))
     section("kernels", lambda: kernels_section(args.quick, log))
     section("laws", lambda: laws_section(args.quick, log))
+    section("hardware", lambda: hardware_section(args.quick, log))
     section("scale", lambda: scale_section(args.quick, log))
     section("smooth_ring", lambda: smooth_ring_section(args.quick, log))
     section("flops", lambda: flops_section(res["compare"], log, res["kernels"]))
