@@ -1111,6 +1111,36 @@ class Scenario:
             out.append(values)
         return out
 
+    def _hardware_lines(self) -> list[str]:
+        a, se, lk = self.actuator, self.sensors, self.links
+        lines = []
+        if a.enabled:
+            per = {k: list(getattr(a, k)) if len(getattr(a, k)) > 1 else getattr(a, k)[0] for k in (
+                "spin_inertia", "max_torque", "max_speed", "viscous_friction", "coulomb_friction", "initial_speed")}  # fmt: skip
+            lines.append(
+                f"  actuator: {a.n_wheels} reaction wheels ({a.layout}"
+                + (f" {a.pyramid_angle:g} deg" if a.layout == "pyramid" else "")
+                + "), "
+                + " ".join(f"{k}={v}" for k, v in per.items())
+                + f" coulomb_band={a.coulomb_band}"
+            )
+        else:
+            lines.append("  actuator: ideal torque source (per-axis clip at torque_limit)")
+        if se.star_tracker is not None:
+            lines.append(f"  star tracker: noise_std={list(se.star_tracker.noise_std)} rad")
+        if se.gyro is not None:
+            g = se.gyro
+            lines.append(
+                f"  gyro: angle_random_walk={g.angle_random_walk} rad/s^0.5 rate_random_walk={g.rate_random_walk} "
+                f"rad/s^1.5 bias={list(g.bias)} rad/s"
+            )
+        if lk.enabled:
+            lines.append(
+                f"  links: delay={'per link' if lk.delay_table is not None else f'{lk.delay} s'} loss_probability="
+                + ("per link" if lk.loss_table is not None else f"{lk.loss_probability}")
+            )
+        return lines
+
     def describe(self) -> list[str]:
         """Human-readable lines: the law flown with its parameters as resolved, settings and the documented choices."""
         c, s = self.controller, self.simulation
@@ -1131,7 +1161,8 @@ class Scenario:
             f"  controller: torque_limit={c.torque_limit} error_model={c.error_model}"
             + ("" if c.enabled else " enabled=False (open loop, u = 0)"),
             f"  simulation: t_final={s.t_final} s, dt={s.dt} s, integrator={s.integrator}, "
-            f"output_interval={s.output_interval} s, control_period={s.control_period} s",
+            f"output_interval={s.output_interval} s, control_period={s.control_period} s, seed={s.seed}",
+            *self._hardware_lines(),
         ]
         lines += [f"  choice {k}: {v}" for k, v in self.choices]
         return lines

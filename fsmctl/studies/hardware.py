@@ -19,7 +19,14 @@ import numpy as np
 from fsmctl.model.scenario import Scenario
 from fsmctl.studies.reproduce import angular_momentum_bound, reference_trajectory
 
-__all__ = ["WheelBudget", "momentum_budget", "momentum_envelope"]
+__all__ = [
+    "WheelBudget",
+    "momentum_budget",
+    "momentum_envelope",
+    "TorqueDemand",
+    "torque_demand",
+    "budget_table",
+]
 
 
 def momentum_envelope(axes: np.ndarray, limits: np.ndarray, direction: np.ndarray) -> float:
@@ -125,3 +132,66 @@ def momentum_budget(scenario: Scenario, *, step: float = 0.05) -> list[WheelBudg
 def budget_table(budget: Sequence[WheelBudget]) -> list[dict]:
     """Rows (dicts) of a budget, for a DataFrame or a CSV writer."""
     return [asdict(b) for b in budget]
+
+
+@dataclass(frozen=True)
+class TorqueDemand:
+    """The torque one spacecraft needs just to follow the reference and to reject its disturbance, next to what
+    its actuator delivers (law-independent)."""
+
+    agent: int
+    """1-based"""
+    reference_peak_N_m: float
+    """max over the horizon of |J omega_d_dot + omega_d x J omega_d| (eq 4 on the reference, J = J0 + dJ)"""
+    reference_mean_N_m: float
+    disturbance_peak_N_m: float
+    """max |d(t)|"""
+    capacity_max_N_m: float
+    """the largest body torque the actuator can deliver (any direction; ideal: sqrt(3) torque_limit)"""
+    capacity_min_N_m: float
+    """the torque the actuator delivers in its weakest direction (wheels: with the minimum-norm split; ideal:
+    torque_limit)"""
+
+
+def torque_demand(scenario: Scenario, *, step: float = 0.1) -> list[TorqueDemand]:
+    """Per spacecraft: the torque the reference and the disturbance demand over the horizon, and the actuator's.
+
+    Following the reference exactly needs ``tau = J omega_d_dot + omega_d x (J omega_d)`` (Liang et al. 2012, eq 4
+    with ``omega = omega_d``; with wheels at zero momentum): where this exceeds what the actuator delivers, no law
+    can track the reference there.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> demand = torque_demand(fsmctl.load_scenario("paper-hardware"))
+    >>> max(d.reference_peak_N_m for d in demand) > demand[0].capacity_max_N_m  # the wheels cannot follow it
+    True
+    """
+    from fsmctl.model.actuators import body_torque_capacity, max_body_torque
+
+    t = np.arange(0.0, scenario.simulation.t_final + step / 2, step)
+    w = scenario.reference.omega(t)
+    w_dot = np.gradient(w, t, axis=0, edge_order=2)
+    act, limit = scenario.actuator, scenario.controller.torque_limit
+    if act.enabled:
+        lim = act.per_wheel("max_torque")
+        cap_max = min(max_body_torque(act.spin_axes(), lim), math.sqrt(3) * limit)
+        cap_min = min(body_torque_capacity(act.spin_axes(), lim)["min"], limit)
+    else:
+        cap_max, cap_min = math.sqrt(3) * limit, limit
+    out = []
+    for i, a in enumerate(scenario.agents):
+        J = a.J_true
+        tau = np.linalg.norm(w_dot @ J.T + np.cross(w, w @ J.T), axis=1)
+        d = np.linalg.norm(a.disturbance(t), axis=1)
+        out.append(
+            TorqueDemand(
+                agent=i + 1,
+                reference_peak_N_m=float(tau.max()),
+                reference_mean_N_m=float(tau.mean()),
+                disturbance_peak_N_m=float(d.max()),
+                capacity_max_N_m=float(cap_max),
+                capacity_min_N_m=float(cap_min),
+            )
+        )
+    return out
