@@ -136,8 +136,9 @@ def test_the_law_sees_the_star_tracker_and_the_metrics_the_truth():
     r = fsmctl.simulate(s)
     drawn = pack(s).hardware.sensor_dtheta[:, 0]
     err = np.array([error_rotation(m, t) for m, t in zip(r.sigma_measured[:, 0], r.sigma[:, 0], strict=True)])
-    # small-angle form: dtheta/4 as an MRP is a rotation by 4 atan(|dtheta|/4) = |dtheta| (1 - |dtheta|^2/48)
-    np.testing.assert_allclose(err, drawn, rtol=0, atol=1e-12)
+    # small-angle form: dtheta/4 as an MRP is a rotation by 4 atan(|dtheta|/4) = |dtheta| (1 - |dtheta|^2/48), and
+    # the DCM's antisymmetric part is sin(angle) ~ angle (1 - angle^2/6): relative differences ~|dtheta|^2 ~ 1e-7
+    np.testing.assert_allclose(err, drawn, rtol=0, atol=1e-6 * std.max())
     var = err.var(axis=0)
     assert np.all(np.abs(var / std**2 - 1) < 5 * math.sqrt(2 / err.shape[0])), var / std**2
     # the metrics see the truth: the error state is computed from the true attitude
@@ -147,22 +148,24 @@ def test_the_law_sees_the_star_tracker_and_the_metrics_the_truth():
 
 
 def test_gyro_error_on_the_flown_path_has_the_configured_allan_deviation():
-    """omega_measured - omega is exactly the drawn gyro error; its Allan deviation recovers the angle random walk
-    N and the rate random walk K (sigma_A^2 = N^2/tau + K^2 tau/3) within 20 %: 20001 samples leave ~20 %
-    scatter on the longest cluster times, which carry K."""
+    """omega_measured - omega is exactly the drawn gyro error; its Allan deviation is the configured
+    sigma_A^2 = N^2/tau + K^2 tau/3 (angle random walk N, rate random walk K).  With 40001 samples (4000 s) the
+    overlapping estimate's relative scatter is ~1.5 % at tau = 1-2 s and ~10 % at tau = 20-40 s (about
+    T_total / tau independent clusters); the bands are 3-4 of those.  Below the crossover sqrt(3) N / K = 17 s
+    N dominates, above it K."""
     N, K = 1e-4, 1e-5
     bias = [1e-4, 0.0, -2e-4]
-    s = sensed(t_final=2000.0, gyro={"angle_random_walk": N, "rate_random_walk": K, "bias": bias})
+    s = sensed(t_final=4000.0, gyro={"angle_random_walk": N, "rate_random_walk": K, "bias": bias})
     r = fsmctl.simulate(s)
     err = r.omega_measured[:, 0] - r.omega[:, 0]
     np.testing.assert_array_equal(err, (r.omega[:, 0] + pack(s).hardware.sensor_gyro[:, 0]) - r.omega[:, 0])
     allantools = pytest.importorskip("allantools")
     for axis in range(3):
-        taus, adev, _, _ = allantools.oadev(err[:, axis], rate=10.0, data_type="freq", taus=[1.0, 2.0, 300.0, 600.0])
-        np.testing.assert_allclose(adev[:2], np.sqrt(N**2 / taus[:2] + K**2 * taus[:2] / 3), rtol=0.1)
-        np.testing.assert_allclose(adev[2:], np.sqrt(N**2 / taus[2:] + K**2 * taus[2:] / 3), rtol=0.3)
-    np.testing.assert_allclose(err[:, 1].mean(), 0.0, atol=5 * K * math.sqrt(2000.0))  # bias walk spread
-    assert abs(err[:, 2].mean() - bias[2]) < 5 * K * math.sqrt(2000.0)
+        taus, adev, _, _ = allantools.oadev(err[:, axis], rate=10.0, data_type="freq", taus=[1.0, 2.0, 20.0, 40.0])
+        np.testing.assert_allclose(adev[:2], np.sqrt(N**2 / taus[:2] + K**2 * taus[:2] / 3), rtol=0.06)
+        np.testing.assert_allclose(adev[2:], np.sqrt(N**2 / taus[2:] + K**2 * taus[2:] / 3), rtol=0.4)
+    np.testing.assert_allclose(err[:, 1].mean(), 0.0, atol=5 * K * math.sqrt(4000.0))  # bias walk spread
+    assert abs(err[:, 2].mean() - bias[2]) < 5 * K * math.sqrt(4000.0)
 
 
 def test_sensor_noise_is_reproducible_and_independent_of_the_links():

@@ -298,6 +298,9 @@ Surface = Annotated[Literal["fsm", "tsm", "lsm"], BeforeValidator(_lower)]
 Integrator = Annotated[Literal["rk4", "dopri45"], BeforeValidator(_lower)]
 TorqueLimit = Annotated[float, Field(gt=0, allow_inf_nan=True), BeforeValidator(_inf_words)]
 Numbers = Annotated[tuple[float, ...], BeforeValidator(_numbers)]
+LinkTable = Annotated[
+    tuple[tuple[Annotated[float, Field(allow_inf_nan=True)], ...], ...], BeforeValidator(_table)
+]  # nan: no link
 Limits = Annotated[tuple[Annotated[float, Field(allow_inf_nan=True)], ...], BeforeValidator(_limits)]
 Matrix3N = Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_matrix)]
 ActuatorKind = Annotated[Literal["ideal", "reaction_wheels"], BeforeValidator(_lower)]
@@ -910,10 +913,10 @@ class LinkSettings:
     loss_probability: Real = _doc(
         "probability that a link loses its packet at a control instant", "1", ge=0, le=1, default=0.0
     )
-    delay_table: Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_table)] | None = _doc(
+    delay_table: LinkTable | None = _doc(
         "per-link delay, n x n (row receiver, column sender; entries without a link are ignored)", "s", default=None
     )
-    loss_table: Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_table)] | None = _doc(
+    loss_table: LinkTable | None = _doc(
         "per-link loss probability, n x n (row receiver, column sender)", "1", default=None
     )
 
