@@ -166,12 +166,14 @@ def wheel_specs() -> list[FunctionSpec]:
             "included); wheel = [speed_max, viscous, coulomb, coulomb_band]",
             inputs=(("u_command", u), ("Omega", Omega), ("wheel", w)),
             outputs=(("u_motor", sp.ImmutableMatrix([u_motor])), ("u_net", sp.ImmutableMatrix([u_net]))),
+            batched=True,
         ),
         FunctionSpec(
             name="wheel_acceleration",
             doc="spin acceleration of a wheel relative to the hub: Omega_dot = u_net / J_s - g^T omega_dot",
             inputs=(("g", g), ("J_s", J_s), ("u_net", net), ("omega_dot", omega_dot)),
             outputs=(("Omega_dot", sp.ImmutableMatrix([wheel_acceleration(g, J_s[0], net[0], omega_dot)])),),
+            batched=True,
         ),
     ]
 

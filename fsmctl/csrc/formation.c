@@ -125,6 +125,9 @@ enum {
   RW_END
 };
 #define LANE(g, row) ((g) + FSM_LANES * (row))
+/* Lane rows of the wheel kernels (wheels of all agents, flattened, FSM_LANES at a time). */
+enum { WL_U, WL_OM, WL_PAR, WL_UM = WL_PAR + 4, WL_UN, WL_G, WL_JS = WL_G + 3, WL_UNET, WL_WD, WL_OD = WL_WD + 3, WL_END };
+
 
 /* The agent in lane l of group g: lanes past the last agent repeat it (their results are never read). */
 static inline int lane_agent(int g, int l, int n) { return g * FSM_LANES + l < n ? g * FSM_LANES + l : n - 1; }
@@ -169,6 +172,10 @@ typedef struct {
   double *h_w, *tau_w, *u_body;          /* n x 3: wheel momentum, torque on the wheels, -tau_w (last evaluation) */
   int *gated;                            /* n: a wheel held at its speed limit (last evaluation) */
   double *sig_meas, *om_meas;            /* n x 3: what the law sees (sensors) */
+  double *wl;                            /* lanes of the wheel kernels: ceil(n nw / FSM_LANES) blocks of WL_END rows */
+  int n_wgroups;
+  int *wheel_lane;                       /* per lane of the wheel groups: the flattened wheel index m */
+  size_t *wheel_x, *wheel_wd;            /* per lane: offset of its Omega in x, of its agent's omega_dot in dx */
   long long q;                           /* the current control instant */
   int hist_len;                          /* slots of the broadcast history (max delay + 1) */
   double *b_hist, *b_first, *link_val;   /* hist_len x n x nb; n x nb (instant 0); n_links x nb (delivered) */
@@ -180,6 +187,10 @@ typedef struct {
 
 static void free_workspace(workspace *W) {
   free(W->b);
+  free(W->wl);
+  free(W->wheel_lane);
+  free(W->wheel_x);
+  free(W->wheel_wd);
   free(W->hw);
   free(W->gated);
   free(W->lanes);
@@ -221,7 +232,10 @@ static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes
 #define law_control_exact_x4 fsm_no_kernel
 #define plant_rhs_x4 fsm_no_kernel
 #define gyrostat_rhs_x4 fsm_no_kernel
+#define wheel_torque_x4 fsm_no_kernel
+#define wheel_acceleration_x4 fsm_no_kernel
 #endif
+
 
 static void lane_rows(workspace *W) {
   const int size[RW_END] = {1, 3, 3, W->nz, 3, 3, 3, 9, W->np, W->nk, W->nc, 1, W->nb, 1, 1,
@@ -355,6 +369,29 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     law_constants(arg, res, W->iw, W->w, 0);
   }
   if (W->batched) pack_lane_constants(W, P);
+  if (W->batched && W->nw > 0) { /* wheel lanes: the constant rows are packed once */
+    const int total = n * W->nw;
+    W->n_wgroups = (total + FSM_LANES - 1) / FSM_LANES;
+    const size_t slots = (size_t)W->n_wgroups * FSM_LANES;
+    W->wl = calloc(slots * WL_END, sizeof(double));
+    W->wheel_lane = calloc(slots, sizeof(int));
+    W->wheel_x = calloc(slots, sizeof(size_t));
+    W->wheel_wd = calloc(slots, sizeof(size_t));
+    if (!W->wl || !W->wheel_lane || !W->wheel_x || !W->wheel_wd) { free_workspace(W); return FSM_NOMEM; }
+    for (int g = 0; g < W->n_wgroups; ++g) {
+      double *L = W->wl + (size_t)g * WL_END * FSM_LANES;
+      for (int l = 0; l < FSM_LANES; ++l) {
+        const int m = g * FSM_LANES + l < total ? g * FSM_LANES + l : total - 1;
+        const int i = m / W->nw, k = m % W->nw;
+        W->wheel_lane[g * FSM_LANES + l] = m;
+        W->wheel_x[g * FSM_LANES + l] = 3 + (size_t)W->stride * i + 6 + W->nz + k;
+        W->wheel_wd[g * FSM_LANES + l] = 6 + (size_t)W->stride * i;
+        to_lane(L + FSM_LANES * WL_PAR, P->wheel_params + 4 * (size_t)m, 4, l);
+        to_lane(L + FSM_LANES * WL_G, P->wheel_axes + 3 * (size_t)m, 3, l);
+        to_lane(L + FSM_LANES * WL_JS, P->wheel_Js + m, 1, l);
+      }
+    }
+  }
   W->u_apply = W->u;
   W->uu_apply = W->uu;
   W->zdot_apply = W->zdot;
@@ -493,6 +530,24 @@ static void wheel_commands(workspace *W, const fsm_problem *P) {
  * wheel_torque), their momentum and reaction: h_w = sum Js Omega g, tau_w = sum u_net g, u_body = -tau_w. */
 static void wheel_torques(workspace *W, const fsm_problem *P, const double *x, const double *uwa) {
   const int n = W->n, nw = W->nw, S = W->stride, nz = W->nz;
+  if (W->batched) { /* the generated kernel, FSM_LANES wheels per call (lanes past the last repeat it) */
+    const int total = n * nw;
+    for (int g = 0; g < W->n_wgroups; ++g) {
+      double *L = W->wl + (size_t)g * WL_END * FSM_LANES;
+      const int m0 = g * FSM_LANES, lanes = total - m0 < FSM_LANES ? total - m0 : FSM_LANES;
+      for (int l = 0; l < FSM_LANES; ++l) {
+        L[FSM_LANES * WL_U + l] = uwa[W->wheel_lane[m0 + l]];
+        L[FSM_LANES * WL_OM + l] = x[W->wheel_x[m0 + l]];
+      }
+      const double *arg[3] = {L + FSM_LANES * WL_U, L + FSM_LANES * WL_OM, L + FSM_LANES * WL_PAR};
+      double *res[2] = {L + FSM_LANES * WL_UM, L + FSM_LANES * WL_UNET};
+      wheel_torque_x4(arg, res, lanes);
+      for (int l = 0; l < lanes; ++l) {
+        W->u_motor[m0 + l] = L[FSM_LANES * WL_UM + l];
+        W->u_net[m0 + l] = L[FSM_LANES * WL_UNET + l];
+      }
+    }
+  }
   for (int i = 0; i < n; ++i) {
     const double *Om = x + 3 + (size_t)S * i + 6 + nz;
     double *hw = W->h_w + 3 * i, *tw = W->tau_w + 3 * i;
@@ -501,9 +556,11 @@ static void wheel_torques(workspace *W, const fsm_problem *P, const double *x, c
     for (int k = 0; k < nw; ++k) {
       const size_t ik = (size_t)nw * i + k;
       const double *g = P->wheel_axes + 3 * ik;
-      const double *arg[3] = {uwa + ik, Om + k, P->wheel_params + 4 * ik};
-      double *res[2] = {W->u_motor + ik, W->u_net + ik};
-      wheel_torque(arg, res, W->iw, W->w, 0);
+      if (!W->batched) {
+        const double *arg[3] = {uwa + ik, Om + k, P->wheel_params + 4 * ik};
+        double *res[2] = {W->u_motor + ik, W->u_net + ik};
+        wheel_torque(arg, res, W->iw, W->w, 0);
+      }
       if (W->u_motor[ik] != uwa[ik]) W->gated[i] = 1;
       const double hk = P->wheel_Js[ik] * Om[k], tk = W->u_net[ik];
       for (int c = 0; c < 3; ++c) {
@@ -518,6 +575,20 @@ static void wheel_torques(workspace *W, const fsm_problem *P, const double *x, c
 /* Spin accelerations of the wheels (the generated wheel_acceleration) once omega_dot is known. */
 static void wheel_rates(workspace *W, const fsm_problem *P, double *dx) {
   const int n = W->n, nw = W->nw, S = W->stride, nz = W->nz;
+  if (W->batched) { /* rows WL_G, WL_JS (constant) and WL_UNET (wheel_torques) are in place */
+    const int total = n * nw;
+    for (int g = 0; g < W->n_wgroups; ++g) {
+      double *L = W->wl + (size_t)g * WL_END * FSM_LANES;
+      const int m0 = g * FSM_LANES, lanes = total - m0 < FSM_LANES ? total - m0 : FSM_LANES;
+      for (int l = 0; l < FSM_LANES; ++l) to_lane(L + FSM_LANES * WL_WD, dx + W->wheel_wd[m0 + l], 3, l);
+      const double *arg[4] = {L + FSM_LANES * WL_G, L + FSM_LANES * WL_JS, L + FSM_LANES * WL_UNET,
+                              L + FSM_LANES * WL_WD};
+      double *res[1] = {L + FSM_LANES * WL_OD};
+      wheel_acceleration_x4(arg, res, lanes);
+      for (int l = 0; l < lanes; ++l) dx[W->wheel_x[m0 + l]] = L[FSM_LANES * WL_OD + l];
+    }
+    return;
+  }
   for (int i = 0; i < n; ++i) {
     const double *omega_dot = dx + 6 + (size_t)S * i;
     double *Om_dot = dx + 9 + (size_t)S * i + nz;

@@ -869,8 +869,9 @@ def simulate_packed(
     if dll is None:
         if hw.n_wheels or hw.sensors or hw.links_imperfect:
             raise EnvironmentProblem(
-                "reaction wheels, sensors and imperfect links run in the compiled simulator only, and no C compiler "
-                "was found (install gcc or clang, or set CC)"
+                "reaction wheels, sensors and imperfect links run in the compiled simulator only, which is not "
+                "available (no C compiler was found, or compiling failed: see the warning; install gcc or clang, or "
+                "set CC)"
             )
         from fsmctl.simulation.casadi_formation import simulate_casadi
 

@@ -24,6 +24,8 @@ extern "C" {
 #endif
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes);
 int gyrostat_rhs_x4(const double *const *arg, double *const *res, int lanes);
+int wheel_torque_x4(const double *const *arg, double *const *res, int lanes);
+int wheel_acceleration_x4(const double *const *arg, double *const *res, int lanes);
 #ifdef __cplusplus
 }
 #endif
