@@ -20,8 +20,13 @@ from __future__ import annotations
 __version__ = "0.1.0"
 
 from fsmctl.model.scenario import (
+    ActuatorSettings,
     Agent,
     ControllerSettings,
+    GyroSettings,
+    LinkSettings,
+    SensorSettings,
+    StarTrackerSettings,
     Reference,
     Scenario,
     ScenarioError,
@@ -34,7 +39,13 @@ from fsmctl.model.topology import Link, Schedule, Topology
 
 __all__ = [
     "__version__",
+    "ActuatorSettings",
     "Agent",
+    "GyroSettings",
+    "LinkSettings",
+    "SensorSettings",
+    "StarTrackerSettings",
+    "SimulationError",
     "ControllerSettings",
     "Link",
     "Reference",
@@ -61,6 +72,7 @@ __all__ = [
 _LAZY = {
     "simulate": "fsmctl.simulation.simulator",
     "SimulationResult": "fsmctl.simulation.simulator",
+    "SimulationError": "fsmctl.simulation.simulator",
     "StepSizeWarning": "fsmctl.simulation.simulator",
     "spacecraft": "fsmctl.plugin.iosys",
     "fsm_controller": "fsmctl.plugin.iosys",
