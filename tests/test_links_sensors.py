@@ -175,3 +175,15 @@ def test_sensor_noise_is_reproducible_and_independent_of_the_links():
     np.testing.assert_array_equal(a, b)
     c = pack(sensed(t_final=10.0, star=star, seed=3)).hardware.sensor_dtheta
     assert not np.array_equal(a, c)
+
+
+def test_noise_tables_are_checked_against_the_memory_before_they_are_drawn():
+    from fsmctl.errors import ResourceLimitError
+    from fsmctl.simulation.simulator import check_noise_memory
+
+    s = sensed(t_final=10.0, star={"noise_std": [1e-4, 1e-4, 1e-4]})
+    needed = check_noise_memory(s, available=10**12)
+    assert needed > 101 * 2 * 8 * 3  # 101 instants of dtheta and gyro_error for one agent
+    with pytest.raises(ResourceLimitError, match="control_period"):
+        check_noise_memory(s, available=needed - 1)
+    assert check_noise_memory(single_spacecraft(), available=0) == 0  # nothing drawn without sensors or links

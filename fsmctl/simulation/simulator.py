@@ -70,6 +70,7 @@ __all__ = [
     "batched_kernels_preferred",
     "available_memory",
     "check_output_memory",
+    "check_noise_memory",
     "RESULT_MEMORY_FACTOR",
     "step_size_report",
     "MAX_ROTATION_PER_STEP",
@@ -493,6 +494,28 @@ def check_output_memory(p: PackedProblem, *, available: int | None = None) -> in
             f"{p.n_outputs:,} output samples) but only {_fmt_bytes(available)} is available: raise "
             f"output_interval (now {dt_out:g} s; >= {every_fit * p.dt:.3g} s dividing t_final would fit) or shorten t_final "
             f"(now {t_final:g} s)"
+        )
+    return needed
+
+
+def check_noise_memory(scenario: Scenario, *, available: int | None = None) -> int:
+    """Refuse (:class:`ResourceLimitError`) a run whose sensor noise and packet-loss tables (drawn before the run,
+    one row per control instant: :func:`fsmctl.model.noise.noise_bytes`) would not fit in memory; returns the bytes.
+    """
+    sim = scenario.simulation
+    if not (scenario.sensors.enabled or scenario.links.enabled):
+        return 0
+    from fsmctl.model.noise import noise_bytes
+
+    instants = sim.n_steps // sim.hold_steps + 1
+    needed = noise_bytes(scenario.n_agents, instants, len(scenario.topology.links))
+    if available is None:
+        available = available_memory()
+    if available is not None and needed > available:
+        raise ResourceLimitError(
+            f"the sensor noise and packet losses of this run ({instants:,} control instants) would need "
+            f"~{_fmt_bytes(needed)} of memory but only {_fmt_bytes(available)} is available: raise "
+            f"simulation.control_period (now {sim.control_period:g} s) or shorten t_final"
         )
     return needed
 
@@ -1155,6 +1178,7 @@ def simulate(scenario: Scenario, *, progress: bool | None = None) -> SimulationR
     not fit in memory, :class:`SimulationError` when the run fails or its last sample is not at ``t_final``,
     and :class:`KeyboardInterrupt` on Ctrl-C.
     """
+    check_noise_memory(scenario)
     p = pack(scenario)
     _check_integrator(p, scenario)
     _warn_step_size(scenario, p)
