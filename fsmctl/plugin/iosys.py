@@ -1049,8 +1049,12 @@ def formation(
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"formation: expected a Scenario, got {type(scenario).__name__}")
+    _continuous_time_only(scenario)
     n = scenario.n_agents
     law = scenario.law
+    wheels = scenario.actuator.enabled
+    if wheels:
+        from fsmctl.plugin.hardware import reaction_wheel_spacecraft  # it builds on this module
     c = scenario.controller
     try:
         rows = parameter_matrix(law, scenario)
@@ -1059,11 +1063,22 @@ def formation(
     bname = law.broadcast_name
     plants, controllers, connections = [], [], []
     for i, agent in enumerate(scenario.agents, start=1):
-        plants.append(
-            spacecraft(
-                agent.J_true, disturbance=agent.disturbance, normalization_gain=normalization_gain, name=f"sc{i}"
+        if wheels:
+            plants.append(
+                reaction_wheel_spacecraft(
+                    agent.J_true,
+                    scenario.actuator,
+                    disturbance=agent.disturbance,
+                    normalization_gain=normalization_gain,
+                    name=f"sc{i}",
+                )
             )
-        )
+        else:
+            plants.append(
+                spacecraft(
+                    agent.J_true, disturbance=agent.disturbance, normalization_gain=normalization_gain, name=f"sc{i}"
+                )
+            )
         nbrs = [
             Neighbour(f"sc{link.sender + 1}", link.k_i, link.k_j, link.phase)
             for link in scenario.topology.links
@@ -1086,16 +1101,27 @@ def formation(
             [f"ctrl{i}.sigma_d", "reference.sigma_d"],
             [f"ctrl{i}.omega_d", "reference.omega_d"],
             [f"ctrl{i}.omega_d_dot", "reference.omega_d_dot"],
-            [f"sc{i}.tau", f"ctrl{i}.tau"],
+            [f"sc{i}.u_command" if wheels else f"sc{i}.tau", f"ctrl{i}.tau"],
         ]
         if law.n_broadcast:
             connections += [[f"ctrl{i}.{bname}_{nb.name}", f"ctrl{nb.name[2:]}.{bname}"] for nb in nbrs]
+    torque_from = "sc" if wheels else "ctrl"  # with wheels: their reaction on the body (SimulationResult.u)
     outlist = [
-        f"{sys}{i}.{sig}" for i in range(1, n + 1) for sys, sig in (("sc", "sigma"), ("sc", "omega"), ("ctrl", "tau"))
+        f"{sys}{i}.{sig}"
+        for i in range(1, n + 1)
+        for sys, sig in (("sc", "sigma"), ("sc", "omega"), (torque_from, "tau"))
     ]
     outputs = [f"sc{i}_{sig}[{k}]" for i in range(1, n + 1) for sig in ("sigma", "omega", "tau") for k in range(3)]
     # plants before controllers: the attitude states come first, in the layout of SimulationResult.to_time_response
     systems = [reference_generator(scenario.reference.omega, normalization_gain=normalization_gain, name="reference")]
+    ignored = {}
+    if wheels:  # the wheel plants' extra signals (d: no external torque input; wheel speeds, momentum, torques)
+        ignored = {
+            "ignore_inputs": [f"sc{i}.d" for i in range(1, n + 1)],
+            "ignore_outputs": [
+                f"sc{i}.{sig}" for i in range(1, n + 1) for sig in ("Omega", "h_wheels", "wheel_torque")
+            ],
+        }
     return ct.interconnect(
         systems + plants + controllers,
         connections=connections,
@@ -1103,7 +1129,28 @@ def formation(
         outputs=outputs,
         name=name,
         inputs=[],
+        **ignored,
     )
+
+
+def _continuous_time_only(scenario: Scenario) -> None:
+    """A continuous-time interconnection cannot hold sampled control, sensors sampled at control instants or
+    delayed/lossy links: refuse them (one line) rather than fly a different loop."""
+    parts = [
+        name
+        for name, on in (
+            ("simulation.control_period > 0", scenario.simulation.control_period > 0),
+            ("sensors", scenario.sensors.enabled),
+            ("imperfect links", scenario.links.enabled),
+        )
+        if on
+    ]
+    if parts:
+        raise ScenarioError(
+            f"formation: {', '.join(parts)} act at control instants, which a continuous-time interconnection cannot "
+            "hold; fly the scenario with fsmctl.simulate, or wire fsmctl.plugin.hardware's star_tracker, rate_gyro "
+            "and link blocks yourself"
+        )
 
 
 def initial_state(scenario: Scenario) -> np.ndarray:
@@ -1120,14 +1167,15 @@ def initial_state(scenario: Scenario) -> np.ndarray:
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"initial_state: expected a Scenario, got {type(scenario).__name__}")
     x = [quaternion_from_mrp(scenario.reference.sigma0)]
+    wheels = scenario.actuator.per_wheel("initial_speed") if scenario.actuator.enabled else np.zeros(0)
     for a in scenario.agents:
-        x += [quaternion_from_mrp(a.sigma0), np.asarray(a.omega0, dtype=float)]
+        x += [quaternion_from_mrp(a.sigma0), np.asarray(a.omega0, dtype=float), wheels]
     z0 = initial_law_states(scenario.law)
     x += [z0] * scenario.n_agents
     return np.concatenate(x)
 
 
-def mrp_state(x, n_agents: int | None = None) -> np.ndarray:
+def mrp_state(x, n_agents: int | None = None, n_wheels: int = 0) -> np.ndarray:
     """Formation states (of :func:`formation`) in the compiled simulator's MRP layout.
 
     Parameters
@@ -1136,7 +1184,9 @@ def mrp_state(x, n_agents: int | None = None) -> np.ndarray:
         ``[q_d, q_1, omega_1, ..., q_n, omega_n]`` along the first axis (e.g. ``response.states``), optionally
         followed by the controllers' law states (then give ``n_agents``).
     n_agents : int, optional
-        The number of agents ``n``; by default ``(len(x) - 4) / 7`` (a law without states).
+        The number of agents ``n``; by default ``(len(x) - 4) / (7 + n_wheels)`` (a law without states).
+    n_wheels : int
+        Reaction wheels per agent (their speeds follow each agent's rate; they are dropped here).
 
     Returns
     -------
@@ -1153,16 +1203,19 @@ def mrp_state(x, n_agents: int | None = None) -> np.ndarray:
     True
     """
     a = np.asarray(x, dtype=float)
+    w = 7 + int(n_wheels)
     if n_agents is None:
-        if a.ndim == 0 or (a.shape[0] - 4) % 7 or a.shape[0] < 4:
-            raise ValueError(f"expected formation states of length 4 + 7 n along the first axis, got shape {a.shape}")
-        n = (a.shape[0] - 4) // 7
+        if a.ndim == 0 or (a.shape[0] - 4) % w or a.shape[0] < 4:
+            raise ValueError(f"expected formation states of length 4 + {w} n along the first axis, got shape {a.shape}")
+        n = (a.shape[0] - 4) // w
     else:
         n = int(n_agents)
-        if a.ndim == 0 or n < 0 or a.shape[0] < 4 + 7 * n:
-            raise ValueError(f"expected formation states of length >= 4 + 7 * {n} along the first axis, got {a.shape}")
+        if a.ndim == 0 or n < 0 or a.shape[0] < 4 + w * n:
+            raise ValueError(
+                f"expected formation states of length >= 4 + {w} * {n} along the first axis, got {a.shape}"
+            )
     rows = [mrp_from_quaternion(np.moveaxis(a[:4], 0, -1))]
     for i in range(n):
-        o = 4 + 7 * i
+        o = 4 + w * i
         rows += [mrp_from_quaternion(np.moveaxis(a[o : o + 4], 0, -1)), np.moveaxis(a[o + 4 : o + 7], 0, -1)]
     return np.moveaxis(np.concatenate(rows, axis=-1), -1, 0)
