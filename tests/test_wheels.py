@@ -231,7 +231,10 @@ def test_batched_and_scalar_wheel_kernels_fly_the_same_run():
     partial last group with 5 wheels per agent); the scalar CasADi functions give the same numbers."""
     from fsmctl.simulation.simulator import simulate_packed
 
-    for layout in ({"layout": "pyramid"}, {"layout": "custom", "axes": [[1, 0, 0, 1, 0], [0, 1, 0, 1, 1], [0, 0, 1, 0, 1]]}):
+    for layout in (
+        {"layout": "pyramid"},
+        {"layout": "custom", "axes": [[1, 0, 0, 1, 0], [0, 1, 0, 1, 1], [0, 0, 1, 0, 1]]},
+    ):
         s = fsmctl.load_scenario("paper-hardware").replace(simulation={"t_final": 5.0}, actuator=layout)
         p = pack(s)
         if not simulator._driver(p.law).fsm_batched_available():
