@@ -33,6 +33,7 @@ import copy
 import dataclasses
 import functools
 import math
+import re
 import tomllib
 import warnings
 from collections.abc import Mapping, Sequence
@@ -367,6 +368,10 @@ def _message(err: Mapping[str, Any]) -> str:
     return f"{err['msg']} (got {value!r})"
 
 
+_KEY_FIRST = re.compile(r"^\w+(\[\d+\])*(: | = )")
+"""a message that starts with the key it is about"""
+
+
 def _scenario_error(exc: ValidationError, where: str = "") -> ScenarioError:
     errors = exc.errors(include_url=False)
     first = errors[0]
@@ -377,7 +382,11 @@ def _scenario_error(exc: ValidationError, where: str = "") -> ScenarioError:
         parent = _loc(first["loc"][:-1])
         msg = f"{parent + ': ' if parent else ''}unknown keys {keys}"
     else:
-        msg = f"{path}: {_message(first)}" if path else _message(first)
+        text = _message(first)
+        # a section's own check names its key ("max_torque: ...", "t_final = ..."): report it as a file does
+        # ("actuator.max_torque: ...")
+        joined = first["type"] in ("value_error", "assertion_error") and _KEY_FIRST.match(text)
+        msg = (f"{path}.{text}" if joined else f"{path}: {text}") if path else text
     if len(errors) > 1 and not (unknown and first in unknown):
         msg += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
     return ScenarioError(f"{where}: {msg}" if where else msg)
