@@ -59,6 +59,7 @@ MIN_FIGURES = {
     "04_theorem3": 3,  # settling time vs x0, full-loop error metrics, per-agent times
     "05_robustness": 3,  # three pairs of parameters
     "06_your_own_law": 3,  # the law flown on Case 1 (error angles, its state); the comparison with and without the limit
+    "07_paper_on_hardware": 3,  # the paper's law on the hardware, the laws compared, the noise-seed campaign
 }
 
 
@@ -298,6 +299,40 @@ def _check_own_law(nb) -> list[str]:
     return problems
 
 
+def _check_hardware(nb) -> list[str]:
+    problems = []
+    out = _stdout(nb)
+    # The reference's torque demand, recomputed from the paper's data (oracle): tau = J omega_d_dot + omega_d x J omega_d
+    # with J = 1.3 J0 (Case 1's dJ = 0.3 J0) over the FSMCTL_FAST horizon of 100 s; the pyramid of four 0.2 N m wheels
+    # at 54.74 deg delivers at most 4 cos(54.74 deg) 0.2 = 0.4619 N m (all wheels pushing along one body axis).
+    sc = oracle.paper_scenario()
+    t = np.arange(0.0, 100.05, 0.1)
+    capacity = 0.8 / math.sqrt(3.0)
+    ratios = []
+    for J0 in sc["J0"]:
+        J = 1.3 * np.asarray(J0)
+        tau = [np.linalg.norm(J @ sc["omega_d_dot"](x) + np.cross(sc["omega_d"](x), J @ sc["omega_d"](x))) for x in t]
+        ratios.append(max(tau) / capacity)
+    got = _number_after("reference torque peak / wheel capacity (max): >=", out)
+    if not abs(got - min(ratios)) <= 0.01 * min(ratios) + 0.005:
+        problems.append(f"07: reference torque peak / capacity should print as {min(ratios):.2f}, got {got}")
+    if not got > 1:
+        problems.append("07: the reference should need more torque than the wheels deliver")
+    md = "\n".join(_markdown(nb))
+    row = next((r for r in md.splitlines() if r.startswith("| ideal, no limit, continuous |")), "")
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    if len(cells) < 3 or not cells[2].replace(".", "").isdigit() or not float(cells[2]) < 5:
+        problems.append(f"07: without a torque limit the paper's law should settle in a few seconds, got {row!r}")
+    if "| wheels, 10 Hz, sensors, links (paper-hardware) |" not in md:
+        problems.append("07: the one-change-at-a-time table has no full-hardware row")
+    m = re.search(r"converged runs: (\d+) of (\d+)", out)
+    if not m or int(m.group(2)) != 4:
+        problems.append("07: the noise-seed campaign does not report its 4 runs")
+    if "**Converge? No.**" not in md or "**Impossible (bound).**" not in md:
+        problems.append("07: the conclusions are missing")
+    return problems
+
+
 CHECKS = {
     "01_derivation": _check_derivation,
     "02_proof_check": _check_proof_check,
@@ -305,6 +340,7 @@ CHECKS = {
     "04_theorem3": _check_theorem3,
     "05_robustness": lambda nb: [],
     "06_your_own_law": _check_own_law,
+    "07_paper_on_hardware": _check_hardware,
 }
 
 

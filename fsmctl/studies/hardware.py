@@ -169,9 +169,14 @@ def torque_demand(scenario: Scenario, *, step: float = 0.1) -> list[TorqueDemand
     """
     from fsmctl.model.actuators import body_torque_capacity, max_body_torque
 
+    from fsmctl.model.generated_code import casadi_function
+
     t = np.arange(0.0, scenario.simulation.t_final + step / 2, step)
-    w = scenario.reference.omega(t)
-    w_dot = np.gradient(w, t, axis=0, edge_order=2)
+    ref = casadi_function("reference_rhs").map(t.size)  # omega_d(t), omega_d_dot(t): the generated reference
+    _, w, w_dot = (
+        np.asarray(v, dtype=float).T
+        for v in ref(t[None, :], np.zeros((3, t.size)), np.repeat(scenario.reference.omega.params()[:, None], t.size, 1))
+    )
     act, limit = scenario.actuator, scenario.controller.torque_limit
     if act.enabled:
         lim = act.per_wheel("max_torque")
