@@ -168,7 +168,6 @@ def torque_demand(scenario: Scenario, *, step: float = 0.1) -> list[TorqueDemand
     True
     """
     from fsmctl.model.actuators import body_torque_capacity, max_body_torque
-
     from fsmctl.model.generated_code import casadi_function
 
     t = np.arange(0.0, scenario.simulation.t_final + step / 2, step)
