@@ -5,14 +5,18 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import subprocess
 import sys
+import zlib
+from dataclasses import replace
 
 import numpy as np
 import pytest
 import xarray as xr
 from scipy import stats
 
+import fsmctl
 from fsmctl.errors import InputError
 from fsmctl.studies import montecarlo as mc
 
@@ -259,3 +263,294 @@ def test_cli_unusable_out_or_scheduler_is_one_line(tmp_path, capsys, extra, mess
     code = main(["montecarlo", "--runs", "1", "--t-final", "0.1", "--workers", "1", "--no-progress", *argv])
     _, err = capsys.readouterr()
     assert code == 2 and message in err and len(err.strip().splitlines()) == 1
+
+
+# ----------------------------------------------------------------------------- flight hardware (issue 13)
+
+HARDWARE = {"scenario": "paper-hardware", "t_final": 0.2, "output_interval": 0.1, "chunk_size": 2}
+needs_hardware_engine = pytest.mark.skipif(
+    not hasattr(fsmctl.SimulationResult, "wheel_speed"),
+    reason="the compiled engine does not fly wheels, sensors and links yet",
+)
+
+
+def _hw(**kw) -> mc.CampaignSettings:
+    return mc.CampaignSettings(**{**HARDWARE, **kw})
+
+
+@pytest.fixture(scope="module")
+def hardware_base():
+    return mc.campaign_base(_hw())
+
+
+def _scenarios(settings, runs, campaign_seed=None):
+    settings, base = mc.campaign_base(settings)
+    seeds = np.random.SeedSequence(settings.seed if campaign_seed is None else campaign_seed).spawn(runs)
+    return base, [mc.sample_run_scenario(base, settings, q) for q in seeds]
+
+
+def test_every_run_has_its_own_reproducible_noise_seed():
+    s = _settings(runs=6)
+    base, runs = _scenarios(s, 6)
+    seeds = [r.simulation.seed for r in runs]
+    assert len(set(seeds)) == 6 and all(isinstance(x, int) and 0 <= x < 2**53 for x in seeds)
+    assert base.simulation.seed not in seeds
+    _, again = _scenarios(s, 6)
+    assert [r.simulation.seed for r in again] == seeds and again == runs  # a fixed campaign seed: the same runs
+    # a run's seed depends on the campaign seed and its index only, not on the number of runs
+    _, more = _scenarios(replace(s, runs=10), 10)
+    assert [r.simulation.seed for r in more[:6]] == seeds and more[:6] == runs
+    assert [mc.run_noise_seed(q) for q in np.random.SeedSequence(7).spawn(6)] == seeds
+    _, other = _scenarios(s, 6, campaign_seed=8)
+    assert not set(seeds) & {r.simulation.seed for r in other}
+
+
+def report_sampled_scenario(base, settings, index, seed):
+    """Fails on purpose, naming what the worker sampled: its noise seed and a fingerprint of the scenario."""
+    s = mc.sample_run_scenario(base, settings, seed)
+    links = ";".join(f"{lk.receiver}<-{lk.sender}" for lk in s.topology.links)
+    delays = s.links.delay_table and np.nansum(s.links.delay_table)
+    raise RuntimeError(
+        f"seed={s.simulation.seed} sigma0={s.agents[0].sigma0} links={zlib.crc32(links.encode())} delays={delays}"
+    )
+
+
+def test_noise_seeds_are_the_same_whatever_the_workers_and_chunks(tmp_path):
+    """The sampled scenarios (noise seed included) are drawn in the workers from the run's seed only."""
+    out = {}
+    for name, workers, chunk in (("w1", 1, 2), ("w2", 2, 2), ("c3", 2, 3)):
+        settings = _hw(runs=5, chunk_size=chunk, link_delay=(0.0, 0.2))
+        out[name] = mc.run_campaign(settings, tmp_path / name, workers=workers, progress=False, figures=False,
+                                    run_fn=report_sampled_scenario).dataset  # fmt: skip
+    messages = [str(m) for m in out["w1"].message.values]
+    assert all(m.startswith("RuntimeError: seed=") for m in messages)
+    for name in ("w2", "c3"):
+        assert [str(m) for m in out[name].message.values] == messages
+        np.testing.assert_array_equal(out[name].noise_seed.values, out["w1"].noise_seed.values)
+    # the dataset's noise_seed is the seed the run flew (float64 holds it exactly)
+    flown = [int(m.split("seed=")[1].split()[0]) for m in messages]
+    assert [int(x) for x in out["w1"].noise_seed.values] == flown and len(set(flown)) == 5
+
+
+def test_vary_noise_keeps_everything_but_the_seed(hardware_base):
+    settings, base = mc.campaign_base(_hw(vary="noise"))
+    assert settings.vary == "noise"
+    runs = [mc.sample_run_scenario(base, settings, q) for q in np.random.SeedSequence(3).spawn(4)]
+    seeds = [r.simulation.seed for r in runs]
+    assert len(set(seeds)) == 4
+    for run, seed in zip(runs, seeds, strict=True):
+        assert run == base.replace(simulation={"seed": seed})
+        assert run.agents == base.agents and run.topology == base.topology and run.reference == base.reference
+        assert (run.actuator, run.sensors, run.links, run.controller) == (
+            base.actuator,
+            base.sensors,
+            base.links,
+            base.controller,
+        )
+    # vary all draws the rest too, with the same noise seed per run
+    all_runs = [mc.sample_run_scenario(*hardware_base[::-1], q) for q in np.random.SeedSequence(3).spawn(4)]
+    assert [r.simulation.seed for r in all_runs] == seeds
+    assert all(r.agents != base.agents for r in all_runs)
+    lines = mc.describe_campaign(settings, base)
+    assert any("vary noise" in line for line in lines) and not any("attitude:" in line for line in lines)
+    assert any("random processes: star tracker noise, gyro noise, packet loss" in line for line in lines)
+
+
+def test_default_settings_change_nothing_but_the_seed_of_a_scenario_without_hardware():
+    s = mc.CampaignSettings(rate_bound=0.2)
+    base = mc._base_scenario(s)
+    q = np.random.SeedSequence(5)
+    run = mc.sample_run_scenario(base, s, q)
+    assert (run.actuator, run.sensors, run.links) == (base.actuator, base.sensors, base.links)
+    assert mc._sample_hardware(base, s, run.topology, q) == {}
+    assert mc.random_processes(run) == []
+    assert run.simulation == replace(base.simulation, seed=mc.run_noise_seed(q))
+
+
+def test_hardware_ranges_are_applied(hardware_base):
+    settings, base = hardware_base
+    ranged = replace(settings, link_delay=(0.05, 0.2), loss_probability=(0.1, 0.3), sensor_noise_scale=(0.5, 2.0))
+    seeds = np.random.SeedSequence(11).spawn(6)
+    plain = [mc.sample_run_scenario(base, settings, q) for q in seeds]
+    runs = [mc.sample_run_scenario(base, ranged, q) for q in seeds]
+    star, gyro = base.sensors.star_tracker, base.sensors.gyro
+    scales, delays = [], []
+    for run, same, q in zip(runs, plain, seeds, strict=True):
+        # the other draws are those of the campaign without the ranges
+        assert run.agents == same.agents and run.topology == same.topology
+        assert run.simulation.seed == same.simulation.seed
+        delay, loss = np.array(run.links.delay_table), np.array(run.links.loss_table)
+        on = np.zeros(delay.shape, bool)
+        for lk in run.topology.links:
+            on[lk.receiver, lk.sender] = True
+        assert np.all((delay[on] >= 0.05) & (delay[on] <= 0.2)) and np.all(np.isnan(delay[~on]))
+        assert np.all((loss[on] >= 0.1) & (loss[on] <= 0.3)) and np.all(np.isnan(loss[~on]))
+        factor = run.sensors.star_tracker.noise_std[0] / star.noise_std[0]
+        assert 0.5 <= factor <= 2.0 and factor == pytest.approx(mc.sampled_noise_scale(ranged, q), rel=1e-12)
+        np.testing.assert_allclose(run.sensors.star_tracker.noise_std, factor * np.array(star.noise_std), rtol=1e-12)
+        assert run.sensors.gyro.angle_random_walk == pytest.approx(factor * gyro.angle_random_walk, rel=1e-12)
+        assert run.sensors.gyro.rate_random_walk == pytest.approx(factor * gyro.rate_random_walk, rel=1e-12)
+        assert run.sensors.gyro.bias == gyro.bias and run.actuator == base.actuator
+        rec = mc._hardware_record(run, factor)
+        assert rec["link_delay_max_s"] == pytest.approx(delay[on].max()) and rec["sensor_noise_scale"] == factor
+        scales.append(factor)
+        delays.append(delay[on].tolist())
+    assert len(set(scales)) == 6 and len({tuple(d) for d in delays}) == 6
+    # a link's draw does not depend on which other links the run kept
+    tables = [np.array(r.links.delay_table) for r in runs]
+    assert tables[0][0, 1] != tables[1][0, 1]
+    # a fixed value: LOW = HIGH (the CLI's --link-delay 0.1)
+    fixed = replace(settings, link_delay=0.1)
+    assert fixed.link_delay == (0.1, 0.1)
+    run = mc.sample_run_scenario(base, fixed, seeds[0])
+    assert np.nanmax(run.links.delay_table) == np.nanmin(run.links.delay_table) == 0.1
+
+
+@pytest.mark.parametrize(
+    ("kw", "message"),
+    [
+        ({"link_delay": (0.2, 0.1)}, "link_delay must be a range (low, high) with finite, 0 <= low <= high"),
+        ({"link_delay": (-0.1, 0.1)}, "link_delay must be a range"),
+        ({"link_delay": (0.0, math.inf)}, "link_delay must be a range"),
+        ({"loss_probability": (0.5, 1.5)}, "loss_probability must be a range (low, high) with 0 <= low <= high <= 1"),
+        ({"loss_probability": "0.1"}, "loss_probability must be a range"),
+        ({"sensor_noise_scale": (math.nan, 1.0)}, "sensor_noise_scale must be a range"),
+        ({"vary": "seeds"}, "vary must be one of all, noise, got 'seeds'"),
+        ({"vary": "noise", "rate_bound": 0.1}, "--vary noise keeps the base scenario, so rate_bound would not be used"),
+        ({"vary": "noise", "link_delay": (0, 0.1)}, "so link_delay would not be used"),
+        ({"control_period": 0.0015}, "control_period = 0.0015 must be a multiple of dt"),
+        ({"control_period": -1.0}, "simulation.control_period: must be >= 0"),
+        ({"control_period": 0.0}, "sensors: sensors and imperfect links act at the control instants"),
+    ],
+)
+def test_bad_hardware_settings_are_one_line(kw, message):
+    with pytest.raises(InputError) as info:
+        settings = _hw(**kw)
+        settings.validate()
+        mc.campaign_base(settings)
+    assert message in str(info.value) and len(str(info.value).splitlines()) == 1
+
+
+@pytest.mark.parametrize(
+    ("kw", "message"),
+    [
+        ({"link_delay": (0.0, 0.1)}, "link_delay needs a scenario with a control period"),
+        ({"loss_probability": (0.0, 0.1)}, "loss_probability needs a scenario with a control period"),
+        ({"control_period": 0.1, "sensor_noise_scale": (1, 2)}, "sensor_noise_scale needs a scenario with [sensors]"),
+        ({"vary": "noise"}, "has no random process"),
+        ({"vary": "noise", "control_period": 0.1}, "has no random process"),
+    ],
+)
+def test_hardware_ranges_need_the_scenario_section(kw, message):
+    """The paper's scenario has no control period and no sensors: the ranges that need them are refused."""
+    with pytest.raises(InputError, match=re.escape(message)):
+        mc.campaign_base(_settings(**kw))
+    with pytest.raises(InputError, match=re.escape(message)):  # also when the base is given (fsmctl montecarlo --law)
+        base = mc._base_scenario(_settings(control_period=kw.get("control_period")))
+        mc.sample_run_scenario(base, _settings(**kw), np.random.SeedSequence(0))
+    # with a control period the link ranges are fine on the paper's scenario
+    mc.campaign_base(_settings(control_period=0.05, link_delay=(0.0, 0.1), loss_probability=(0.0, 0.1)))
+
+
+def quick_record(base, settings, index, seed):
+    """A record without simulating (status ok): for the campaign bookkeeping."""
+    mc.sample_run_scenario(base, settings, seed)
+    return mc._nan_record(base.n_agents)
+
+
+def test_campaign_json_and_dataset_record_the_hardware_settings(tmp_path):
+    settings = _hw(runs=3, link_delay=(0.0, 0.2), sensor_noise_scale=(0.5, 1.5), control_period=0.1)
+    res = mc.run_campaign(settings, tmp_path / "hw", workers=1, progress=False, figures=False, run_fn=quick_record)
+    meta = json.loads((tmp_path / "hw" / "campaign.json").read_text())
+    assert meta["vary"] == "all" and meta["control_period"] == 0.1
+    assert meta["link_delay"] == [0.0, 0.2] and meta["sensor_noise_scale"] == [0.5, 1.5]
+    assert meta["loss_probability"] is None
+    with xr.open_dataset(tmp_path / "hw" / "montecarlo.nc", engine="scipy") as ds:
+        attrs = dict(ds.attrs)
+        seeds = ds.noise_seed.values.copy()
+    assert json.loads(attrs["settings"]) == meta
+    assert attrs["vary"] == "all" and "star tracker noise" in attrs["random_processes"]
+    assert "hardware: link delay per link U(0, 0.2) s (--link-delay)" in attrs["campaign"]
+    expected = [mc.run_noise_seed(q) for q in np.random.SeedSequence(settings.seed).spawn(3)]
+    assert seeds.tolist() == [float(x) for x in expected] and [int(x) for x in seeds] == expected
+    assert res.summary["settings"]["link_delay"] == [0.0, 0.2]
+    # --resume checks them
+    for change in ({"vary": "noise", "link_delay": None, "sensor_noise_scale": None}, {"link_delay": (0.0, 0.3)}):
+        with pytest.raises(InputError, match="different settings"):
+            mc.run_campaign(replace(settings, **change), tmp_path / "hw", workers=1, resume=True, progress=False,
+                            figures=False, run_fn=quick_record)  # fmt: skip
+    again = mc.run_campaign(settings, tmp_path / "hw", workers=1, resume=True, progress=False, figures=False,
+                            run_fn=quick_record)  # fmt: skip
+    assert again.resumed_chunks == 2
+
+
+@needs_hardware_engine
+def test_noise_campaign_on_the_hardware_scenario_runs(tmp_path):
+    """``fsmctl montecarlo --scenario paper-hardware --vary noise``: the base scenario over noise seeds, simulated."""
+    from fsmctl.cli.main import main
+
+    out = tmp_path / "noise"
+    code = main(["montecarlo", "--scenario", "paper-hardware", "--vary", "noise", "--runs", "2", "--t-final", "0.2",
+                 "--workers", "1", "--no-progress", "--out", str(out)])  # fmt: skip
+    assert code == 0
+    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+        assert list(ds.status.values) == ["ok", "ok"] and len(set(ds.noise_seed.values.tolist())) == 2
+        assert ds.attrs["vary"] == "noise"
+        # the base scenario's initial state in every run
+        np.testing.assert_array_equal(ds.initial_rate_max_rad_per_s.values[0], ds.initial_rate_max_rad_per_s.values[1])
+        assert np.all(ds.sensor_noise_scale.values == 1.0)
+        np.testing.assert_allclose(ds.link_delay_max_s.values, 0.1)
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--vary", "noise"], "has no random process"),
+        (["--link-delay", "0,0.1"], "link_delay needs a scenario with a control period"),
+        (["--control-period", "0.05", "--link-delay", "0.2,0.1"], "link_delay must be a range"),
+        (["--control-period", "0.05", "--loss-probability", "0,x"], "expected a number, got 'x'"),
+        (["--control-period", "0.05", "--loss-probability", "1,2,3"], "expected LOW,HIGH"),
+        (["--control-period", "0.0015"], "control_period = 0.0015 must be a multiple of dt"),
+        (["--control-period", "-0.1"], "simulation.control_period: must be >= 0"),
+        (["--sensor-noise-scale", "1,2"], "sensor_noise_scale needs a scenario with [sensors]"),
+        (["--vary", "seeds"], "invalid choice"),
+    ],
+)
+def test_cli_hardware_options_bad_input_is_one_line(tmp_path, capsys, argv, message):
+    from fsmctl.cli.main import main
+
+    try:
+        code = main(["montecarlo", "--runs", "1", "--t-final", "0.1", "--workers", "1", "--no-progress",
+                     "--out", str(tmp_path / "o"), *argv])  # fmt: skip
+    except SystemExit as exc:  # argparse
+        code = exc.code
+    _, err = capsys.readouterr()
+    assert code == 2 and message in err and len(err.strip().splitlines()) == 1, err
+    assert not (tmp_path / "o").exists()
+
+
+def test_cli_control_period_reaches_the_campaign(tmp_path, capsys):
+    from fsmctl.cli.main import main
+
+    out = tmp_path / "cp"
+    code = main(["montecarlo", "--runs", "1", "--t-final", "0.1", "--workers", "1", "--no-progress",
+                 "--control-period", "0.05", "--link-delay", "0.05", "--out", str(out)])  # fmt: skip
+    printed, err = capsys.readouterr()
+    assert code == 0, err
+    assert "control period 0.05 s (--control-period)" in printed
+    assert "link delay per link U(0.05, 0.05) s (--link-delay)" in printed
+    meta = json.loads((out / "campaign.json").read_text())
+    assert meta["control_period"] == 0.05 and meta["link_delay"] == [0.05, 0.05] and meta["vary"] == "all"
+    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+        assert "control_period=0.05 s" in ds.attrs["scenario"]
+        assert float(ds.link_delay_max_s[0]) == 0.05 and math.isnan(float(ds.sensor_noise_scale[0]))
+
+
+@needs_hardware_engine
+def test_wheel_runs_record_the_wheels_peaks(tmp_path):
+    res = mc.run_campaign(_hw(runs=1, vary="noise"), tmp_path / "w", workers=1, progress=False, figures=False)
+    ds = res.dataset
+    assert ds.wheel_momentum_peak_N_m_s.attrs["units"] == "N m s" and ds.link_delay_max_s.attrs["units"] == "s"
+    assert float(ds.wheel_momentum_peak_N_m_s[0]) > 0 and float(ds.wheel_speed_peak_rad_per_s[0]) > 0
+    paper = mc.run_campaign(_settings(runs=1), tmp_path / "p", workers=1, progress=False, figures=False).dataset
+    assert math.isnan(float(paper.wheel_momentum_peak_N_m_s[0])) and float(paper.link_delay_max_s[0]) == 0.0

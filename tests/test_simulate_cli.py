@@ -445,3 +445,91 @@ def test_montecarlo_flies_a_derived_law(pd_law, tmp_path):
     other = [c for i, c in enumerate(other) if not (c == "K=2.0" or (c == "--set" and other[i + 1] == "K=2.0"))]
     mixed = subprocess.run(other, capture_output=True, text=True, timeout=120)
     assert mixed.returncode == 2 and "different settings (controller)" in mixed.stderr, mixed.stderr
+
+
+# ----------------------------------------------------------------------------- --control-period, --seed (issue 13)
+
+
+def test_simulate_control_period_and_seed_reach_the_scenario(tmp_path, capsys):
+    out = tmp_path / "zoh"
+    rc, printed, err = _run(
+        ["simulate", "--t-final", "0.2", "--control-period", "0.05", "--seed", "3", "--no-figures", "--no-progress",
+         "--out", str(out)],
+        capsys,
+    )  # fmt: skip
+    assert rc == 0, err
+    assert "control_period=0.05 s, seed=3" in printed
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["overrides"]["simulation"]["control_period"] == 0.05
+    assert summary["overrides"]["simulation"]["seed"] == 3
+    assert any("control_period=0.05 s, seed=3" in line for line in summary["settings"])
+    with xr.open_dataset(out / "paper_case_1.nc") as ds:
+        assert "control_period=0.05 s, seed=3" in ds.attrs["scenario"]
+        u = ds["u_N_m"].values
+    # zero-order hold: the applied torque changes only at the control instants (every 5 output samples of 10 ms)
+    steps = np.flatnonzero(np.any(np.abs(np.diff(u, axis=0)) > 0, axis=(1, 2))) + 1
+    assert steps.size and np.all(steps % 5 == 0)
+
+
+def test_the_options_are_defined_once():
+    """simulate, compare and montecarlo share the definitions of fsmctl.cli.run_options."""
+    from fsmctl.cli import commands, compare, montecarlo, run_options
+    from fsmctl.cli.main import build_parser
+
+    sub = build_parser()._subparsers._group_actions[0].choices
+    for name in ("simulate", "compare", "montecarlo"):
+        actions = {a.dest: a for a in sub[name]._actions}
+        assert actions["control_period"].type is run_options.number
+        assert actions["control_period"].metavar == "SECONDS"
+    assert sub["simulate"]._option_string_actions["--seed"].dest == "noise_seed"
+    assert sub["compare"]._option_string_actions["--seed"].dest == "noise_seed"
+    assert sub["montecarlo"]._option_string_actions["--seed"].dest == "seed"  # the campaign seed
+    for module in (commands, compare, montecarlo):
+        source = module.__loader__.get_source(module.__name__)
+        assert '"--control-period"' not in source  # defined in run_options only
+
+
+@pytest.mark.parametrize("command", ["simulate", "compare", "montecarlo"])
+@pytest.mark.parametrize(
+    ("argv", "needle"),
+    [
+        (["--control-period", "-1"], "simulation.control_period: must be >= 0"),
+        (["--control-period", "0.0015"], "control_period = 0.0015 must be a multiple of dt = 0.001"),
+        (["--control-period", "nan"], "simulation.control_period: must be finite"),
+        (["--control-period", "soon"], "argument --control-period: expected a number, got 'soon'"),
+        (["--seed", "-1"], "simulation.seed: must be >= 0, got -1"),
+        (["--seed", "1.5"], "simulation.seed: expected a whole number, got 1.5"),
+        (["--seed", "x"], "argument --seed: expected a number, got 'x'"),
+    ],
+)
+def test_bad_control_period_or_seed_exits_2_with_one_line(command, argv, needle, tmp_path, capsys):
+    if command == "montecarlo" and argv[0] == "--seed":
+        # montecarlo's --seed is the campaign seed (a whole number >= 0, checked by argparse)
+        needle = "argument --seed: must be >= 0" if argv[1] == "-1" else "argument --seed: expected an integer"
+    extra = {"compare": ["--laws", "fsm"], "montecarlo": ["--runs", "1", "--workers", "1", "--no-progress"]}
+    rc, _, err = _run(
+        [command, *extra.get(command, []), "--t-final", "0.2", *argv, "--out", str(tmp_path / "o")], capsys
+    )
+    assert rc == 2, err
+    assert needle in err, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_hardware_scenario_needs_its_control_period(tmp_path, capsys):
+    rc, _, err = _run(
+        ["simulate", "--scenario", "paper-hardware", "--control-period", "0", "--out", str(tmp_path / "o")], capsys
+    )
+    assert rc == 2 and "sensors: sensors and imperfect links act at the control instants" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def test_compare_flies_every_run_with_the_control_period_and_seed(tmp_path, capsys):
+    rc, printed, err = _run(
+        ["compare", "--laws", "fsm", "--t-final", "0.2", "--control-period", "0.05", "--seed", "4", "--no-figures",
+         "--out", str(tmp_path / "cmp")],
+        capsys,
+    )  # fmt: skip
+    assert rc == 0, err
+    assert "compare: every run with control_period=0.05 s, seed=4 (--control-period, --seed)" in printed
+    assert "compare: paper case 1" in printed

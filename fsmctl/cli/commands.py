@@ -6,7 +6,8 @@ torque statistics, the scenario's settings and documented choices) and, unless
 ``--no-figures``, ``DIR/<label>_{aaem,raem,theta_e,torques}.{png,svg}`` (analogues of Figs 1-4).
 
 ``--law NAME|FILE.py|DIR`` flies another control law and ``--set KEY=VALUE`` sets its parameters
-(:mod:`fsmctl.cli.law_options`); the summary records both.
+(:mod:`fsmctl.cli.law_options`); ``--control-period SECONDS`` (0 = continuous) and ``--seed N`` (the run's noise
+seed) set the sampled control (:mod:`fsmctl.cli.run_options`); the summary records them all.
 
 Exit codes: 0 the run finished, 1 the simulation failed (non-finite state, ...),
 2 usage or input error (one line on stderr).
@@ -21,6 +22,7 @@ import sys
 from pathlib import Path
 
 from fsmctl.cli.law_options import add_law_options, controller_changes
+from fsmctl.cli.run_options import add_run_options, simulation_changes
 from fsmctl.cli.types import nonnegative_float, positive_float, torque_limit
 from fsmctl.outputs import output_folder, write_json
 from fsmctl.studies.reproduce import SETTLING_TOLERANCES_DEG
@@ -70,6 +72,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     g.add_argument("--dt", type=positive_float, metavar="S", help="integration step (s)")
     g.add_argument("--output-interval", type=positive_float, metavar="S", help="output sample spacing (s)")
     g.add_argument("--integrator", choices=("rk4", "dopri45"), help="time integrator")
+    add_run_options(g)
     g.add_argument("--error-model", choices=("paper", "exact"), help="controller error kinematics (eqs 7-8 or exact)")
     g.add_argument("--torque-limit", type=torque_limit, metavar="N_M", help="per-axis torque bound (N m) or 'inf'")
     g.add_argument(
@@ -126,6 +129,7 @@ def run(args: argparse.Namespace) -> int:
         )
         if v is not None
     }
+    simulation |= simulation_changes(args)  # --control-period, --seed
     if simulation.get("t_final") is not None and "output_interval" not in simulation:
         # keep the scenario's output spacing unless it no longer fits the horizon
         interval = min(scenario.simulation.output_interval, simulation["t_final"])

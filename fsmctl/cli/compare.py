@@ -1,7 +1,9 @@
 """``fsmctl compare``: fly several laws (or settings of one law) on one scenario and compare their metrics.
 
 The library is :mod:`fsmctl.studies.compare` (:func:`~fsmctl.studies.compare.compare_laws`); this module only
-reads the options, prints the table and writes ``DIR/comparison.{csv,json,md,png,svg}``.
+reads the options, prints the table and writes ``DIR/comparison.{csv,json,md,png,svg}``.  ``--control-period`` and
+``--seed`` (:mod:`fsmctl.cli.run_options`) set the scenario's sampled control and noise seed for every run, so the
+laws meet the same sensor noise and packet losses.
 
 Exit codes: 0 every run finished, 1 a run's simulation failed (the others are still reported and written),
 2 usage or input error (one line on stderr).
@@ -14,6 +16,7 @@ import math
 import sys
 from pathlib import Path
 
+from fsmctl.cli.run_options import add_run_options, simulation_changes
 from fsmctl.cli.types import positive_float, positive_int, torque_limit
 
 __all__ = ["add_parser", "run"]
@@ -102,6 +105,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     g.add_argument("--t-final", type=positive_float, metavar="S", help="horizon in s (default: the scenario's)")
     g.add_argument("--dt", type=positive_float, metavar="S", help="integration step in s (default: the scenario's)")
     g.add_argument("--output-interval", type=positive_float, metavar="S", help="output sample spacing in s")
+    add_run_options(g)  # every run flies the same control period and the same noise (a fair comparison)
     g.add_argument(
         "--tolerances",
         type=_tolerances,
@@ -168,6 +172,8 @@ def run(args: argparse.Namespace) -> int:
         for k, v in (("t_final", args.t_final), ("dt", args.dt), ("output_interval", args.output_interval))
         if v is not None
     }
+    sampled = simulation_changes(args)  # --control-period, --seed
+    simulation |= sampled
     if "t_final" in simulation and "output_interval" not in simulation:
         simulation["output_interval"] = min(scenario.simulation.output_interval, simulation["t_final"])
     controller = {} if args.torque_limit is None else {"torque_limit": args.torque_limit}
@@ -180,6 +186,11 @@ def run(args: argparse.Namespace) -> int:
             )
         runs = with_and_without_limit(runs, limit)
     progress = sys.stderr.isatty() if args.progress is None else args.progress
+    if sampled:
+        sim = scenario.simulation
+        print(
+            f"compare: every run with control_period={sim.control_period:g} s, seed={sim.seed} (--control-period, --seed)"
+        )
     with output_folder(args.out) as out:
         comparison = compare_laws(
             scenario,

@@ -2,7 +2,10 @@
 
 Every sampling range of :class:`~fsmctl.studies.montecarlo.CampaignSettings` is an option whose ``--help``
 shows the default; ``--law``/``--set`` fly another control law or other law parameters
-(:mod:`fsmctl.cli.law_options`).
+(:mod:`fsmctl.cli.law_options`).  Flight hardware: ``--control-period`` (:mod:`fsmctl.cli.run_options`) sets the
+base scenario's control period, ``--link-delay``, ``--loss-probability`` and ``--sensor-noise-scale LOW,HIGH``
+sample the hardware, and ``--vary noise`` runs the base scenario over noise seeds only (every run has its own
+``simulation.seed``, derived from ``--seed``).
 
 Exit codes: 0 every run finished, 1 some run failed (they are listed), 2 usage or input error,
 130 interrupted (SIGINT), 143 terminated (SIGTERM); finished chunks are kept and ``--resume`` continues.
@@ -17,11 +20,14 @@ from collections.abc import Iterable
 from dataclasses import replace
 
 from fsmctl.cli.law_options import add_law_options, controller_changes
-from fsmctl.cli.types import finite_or_inf_float, nonnegative_int, positive_float, positive_int
+from fsmctl.cli.run_options import add_run_options
+from fsmctl.cli.types import finite_or_inf_float, nonnegative_int, number_range, positive_float, positive_int
 from fsmctl.studies.montecarlo import (
     COMPLETE_MARKER,
     DASK_TIMEOUT_S,
+    HARDWARE_RANGES,
     SAMPLING_RANGES,
+    VARY,
     CampaignInterrupted,
     CampaignResult,
     CampaignSettings,
@@ -65,7 +71,20 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     p.add_argument("--runs", type=positive_int, default=d.runs, help="number of runs (default: %(default)s)")
     p.add_argument("--workers", type=positive_int, default=None, help="local worker processes (default: all CPUs)")
-    p.add_argument("--seed", type=nonnegative_int, default=d.seed, help="campaign seed (default: %(default)s)")
+    p.add_argument(
+        "--seed",
+        type=nonnegative_int,
+        default=d.seed,
+        help="campaign seed: every run's perturbations and its noise seed (simulation.seed) derive from it "
+        "(default: %(default)s)",
+    )
+    p.add_argument(
+        "--vary",
+        choices=VARY,
+        default=d.vary,
+        help="'all': every run draws the sampling ranges below and its own noise seed; 'noise': every run is the "
+        "base scenario with only its noise seed (sensor noise, packet losses) changed (default: %(default)s)",
+    )
     p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on an existing Dask distributed scheduler")
     p.add_argument(
         "--dask-timeout",
@@ -90,7 +109,20 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--torque-limit", type=finite_or_inf_float, default=None, help="N m per component (default: the scenario's)"
     )
+    add_run_options(p, seed=False)  # --control-period; --seed is the campaign's
     add_law_options(p, what="every run")  # before the sampling ranges: their group ends the help
+    hardware = p.add_argument_group(
+        "hardware sampling ranges (default: the scenario's values; links need a control period, the noise scale "
+        "[sensors])"
+    )
+    for name, text in HARDWARE_RANGES:
+        hardware.add_argument(
+            "--" + name.replace("_", "-"),
+            type=number_range,
+            default=None,
+            metavar="LOW,HIGH",
+            help=text.replace("%", "%%"),
+        )
     sampling = p.add_argument_group("sampling ranges (every run draws from these)")
     for name, text in SAMPLING_RANGES:
         sampling.add_argument(
@@ -149,6 +181,9 @@ def run(args: argparse.Namespace) -> int:
         tolerance_deg=args.tolerance_deg,
         steady_window=args.steady_window,
         **{name: getattr(args, name) for name, _ in SAMPLING_RANGES},
+        vary=args.vary,
+        control_period=args.control_period,
+        **{name: getattr(args, name) for name, _ in HARDWARE_RANGES},
     )
     base, log = None, _print_now
     if args.law is not None or args.law_set:

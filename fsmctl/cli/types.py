@@ -9,6 +9,8 @@ __all__ = [
     "finite_or_inf_float",
     "nonnegative_float",
     "nonnegative_int",
+    "number",
+    "number_range",
     "positive_float",
     "positive_int",
     "torque_limit",
@@ -77,3 +79,21 @@ def nonnegative_int(text: str) -> int:
     if v < 0:
         raise argparse.ArgumentTypeError(f"must be >= 0, got {v}")
     return v
+
+
+def number(text: str) -> int | float:
+    """Any number, as written: an integer stays an ``int`` (``3``), anything else is a ``float`` (``0.05``, ``1.5``,
+    ``nan``); its range and kind are checked where it is used (the scenario's validators), so they report it."""
+    try:
+        return int(text)
+    except ValueError:
+        return _number(text)
+
+
+def number_range(text: str) -> tuple[float, float]:
+    """``LOW,HIGH`` (or one number ``X`` for ``X,X``): a sampling range; its bounds are checked by the campaign."""
+    parts = [p.strip() for p in text.split(",")]
+    if len(parts) not in (1, 2) or not all(parts):
+        raise argparse.ArgumentTypeError(f"expected LOW,HIGH (or one number), got {text!r}")
+    values = [_number(p) for p in parts]
+    return (values[0], values[-1])

@@ -3,7 +3,9 @@
 :func:`file_schema` builds a JSON Schema (draft 2020-12) of a scenario TOML file from the pydantic
 dataclasses of :mod:`fsmctl.model.scenario` (their types, ranges, defaults, units and descriptions), adding
 the file's shorthands (``[controller]`` defaults for every agent, ``delta_J = {scale = ...}``, a scalar
-``delta``, ``kind`` of sinusoids, the topology tables, ``[cases]``).  :func:`reference_markdown`
+``delta``, ``kind`` of sinusoids, the topology tables, one value for every wheel, ``"inf"`` limits,
+``extends``, ``[cases]``).  The hardware sections (``[actuator]``, ``[sensors.star_tracker]``,
+``[sensors.gyro]``, ``[links]``) and ``simulation.seed`` come from their dataclasses like the others.  :func:`reference_markdown`
 turns it into the reference page of every key.  Both are written by::
 
     python -m fsmctl.model.scenario_schema            # writes docs/scenario-reference.md and the schema
@@ -12,8 +14,9 @@ turns it into the reference page of every key.  Both are written by::
 The JSON Schema (``fsmctl/scenarios/scenario.schema.json``, shipped in the wheel) can be used by
 editors: with Taplo / "Even Better TOML", put ``#:schema ./scenario.schema.json`` on a scenario
 file's first line.  The schema checks types, shapes, enums and ranges; the physics checks (SPD and
-realizable inertia, grids that are multiples of dt, topology vs agent count) run when fsmctl loads
-the file.
+realizable inertia, grids that are multiples of dt, topology vs agent count, wheel axes spanning 3-D,
+per-wheel lists of one value or one per wheel, link tables n x n with a value on every link, sensors
+and links only with a control period) run when fsmctl loads the file.
 """
 
 from __future__ import annotations
@@ -21,7 +24,9 @@ from __future__ import annotations
 import argparse
 import copy
 import difflib
+import inspect
 import json
+import re
 import sys
 from importlib import resources
 from pathlib import Path
@@ -37,6 +42,8 @@ ROOT = Path(__file__).resolve().parents[2]
 SCHEMA_PATH = Path("fsmctl") / "scenarios" / "scenario.schema.json"
 REFERENCE_PATH = Path("docs") / "scenario-reference.md"
 SCHEMA_ID = "https://fsmctl.invalid/scenario.schema.json"
+REQUIRED_SECTIONS = ("controller", "reference", "agents", "topology")
+"""the tables a file needs unless it ``extends`` another"""
 
 
 def _section(cls) -> dict[str, Any]:
@@ -189,9 +196,115 @@ def _topology_schema() -> dict:
     }
 
 
+def _class_doc(cls) -> str:
+    """A dataclass's docstring as Markdown-friendly text: up to its Examples, ``code`` as `code`, lines re-flowed
+    (paragraphs separated by a blank line, ``* `` bullets on their own lines)."""
+    text = inspect.cleandoc(cls.__doc__ or "").split("\nExamples\n")[0].replace("``", "`")
+    text = re.sub(r":\w+:`", "`", text)  # Sphinx roles (:mod:`x`) as plain code
+    paragraphs = []
+    for block in re.split(r"\n\s*\n", text.strip()):
+        items: list[str] = []
+        for line in block.splitlines():
+            line = line.strip()
+            if line.startswith("* ") or not items:
+                items.append(line)
+            else:
+                items[-1] += " " + line
+        paragraphs.append("\n".join(items))
+    return "\n\n".join(paragraphs)
+
+
+_INF_WORDS = {"enum": ["inf", "infinity", "none"]}
+
+
+def _per_wheel(node: dict, value: dict, default: Any) -> dict:
+    """One value for every wheel, or an array of one value per wheel (the file's shorthand)."""
+    return {
+        "description": node["description"],
+        **({"unit": node["unit"]} if "unit" in node else {}),
+        "default": default,
+        "anyOf": [value, {"type": "array", "minItems": 1, "items": value}],
+    }
+
+
+def _actuator_schema() -> dict:
+    actuator = _section(sc.ActuatorSettings)
+    actuator["description"] = _class_doc(sc.ActuatorSettings)
+    props = actuator["properties"]
+    axes = props["axes"]
+    props["axes"] = {
+        "type": "array",
+        "minItems": 3,
+        "maxItems": 3,
+        "items": {"type": "array", "minItems": 1, "items": {"type": "number"}},
+        "description": axes["description"] + "; rows are body x, y, z, e.g. [[1, 0, 0, 0.577], [0, 1, 0, 0.577], "
+        "[0, 0, 1, 0.577]] for 3 orthogonal wheels and a skewed fourth",
+        "unit": axes["unit"],
+    }
+    limit = {"anyOf": [{"type": "number", "exclusiveMinimum": 0}, _INF_WORDS]}
+    for name, value in (
+        ("spin_inertia", {"type": "number", "exclusiveMinimum": 0}),
+        ("max_torque", limit),
+        ("max_speed", limit),
+        ("viscous_friction", {"type": "number", "minimum": 0}),
+        ("coulomb_friction", {"type": "number", "minimum": 0}),
+        ("initial_speed", {"type": "number"}),
+    ):
+        default = getattr(sc.ActuatorSettings(), name)
+        default = [("inf" if x == float("inf") else x) for x in default]
+        props[name] = _per_wheel(props[name], value, default[0] if len(default) == 1 else default)
+    return actuator
+
+
+def _sensors_schema() -> dict:
+    sensors = _section(sc.SensorSettings)
+    sensors["description"] = _class_doc(sc.SensorSettings)
+    for name, cls in (("star_tracker", sc.StarTrackerSettings), ("gyro", sc.GyroSettings)):
+        table = _section(cls)
+        table["description"] = sensors["properties"][name]["description"] + "\n\n" + _class_doc(cls)
+        sensors["properties"][name] = table
+    noise = sensors["properties"]["star_tracker"]["properties"]["noise_std"]
+    new = _vec3(noise["description"], noise["unit"])
+    new["items"]["minimum"] = 0
+    sensors["properties"]["star_tracker"]["properties"]["noise_std"] = new
+    gyro_bias = sensors["properties"]["gyro"]["properties"]["bias"]
+    sensors["properties"]["gyro"]["properties"]["bias"] = {
+        **_vec3(gyro_bias["description"], gyro_bias["unit"]),
+        "default": gyro_bias["default"],
+    }
+    return sensors
+
+
+def _links_schema() -> dict:
+    links = _section(sc.LinkSettings)
+    links["description"] = _class_doc(sc.LinkSettings)
+    props = links["properties"]
+    for name, value in (
+        ("delay_table", {"type": "number", "minimum": 0}),
+        ("loss_table", {"type": "number", "minimum": 0, "maximum": 1}),
+    ):
+        node = props[name]
+        props[name] = {
+            "type": "array",
+            "items": {"type": "array", "items": value},
+            "description": node["description"] + "; nan where there is no link (every link of the topology needs a "
+            "value: the tables are checked against it when the file is loaded)",
+            "unit": node["unit"],
+        }
+    return links
+
+
 def _partial(schema: dict) -> dict:
+    """A section as a case overrides it: nothing required, in its sub-tables neither (they are merged too)."""
     out = copy.deepcopy(schema)
-    out.pop("required", None)
+
+    def loosen(node: dict) -> None:
+        node.pop("required", None)
+        for sub in (node.get("properties") or {}).values():
+            if sub.get("type") == "object":
+                loosen(sub)
+
+    loosen(out)
     return out
 
 
@@ -232,6 +345,7 @@ def file_schema() -> dict:
     simulation["description"] = sc.SimulationSettings.__doc__.split("\n\n")[0].strip() + (
         " t_final, output_interval and control_period are multiples of dt; t_final is a multiple of output_interval"
     )
+    simulation["properties"]["seed"]["minimum"] = 0
     agent = _section(sc.Agent)
     agent["description"] = "one spacecraft ([[agents]], in order: agent 1, 2, ...)"
     agent["properties"]["delta"] = _delta_schema()
@@ -245,6 +359,9 @@ def file_schema() -> dict:
     sections = {
         "simulation": simulation,
         "controller": controller,
+        "actuator": _actuator_schema(),
+        "sensors": _sensors_schema(),
+        "links": _links_schema(),
         "reference": reference,
         "topology": topology,
     }
@@ -265,6 +382,13 @@ def file_schema() -> dict:
         "angles rad, rates rad/s, torques N m, time s. Generated by `python -m fsmctl.model.scenario_schema`.",
         "type": "object",
         "properties": {
+            "extends": {
+                "type": "string",
+                "description": "start from another scenario file: a built-in name ("
+                + ", ".join(f"'{b}'" for b in sc.BUILTIN_SCENARIOS)
+                + ") or a TOML file (relative to this one); this file's tables are merged over it key by key, an "
+                "array (such as [[agents]]) replaces the base's; the base gives the keys required here",
+            },
             "name": {"type": "string", "default": "scenario", "description": "label of the results"},
             "description": {"type": "string", "default": "", "description": "free text, printed with results"},
             **sections,
@@ -281,7 +405,7 @@ def file_schema() -> dict:
                 "description": "what the source leaves open and why each value was chosen (printed with results)",
             },
         },
-        "required": ["controller", "reference", "agents", "topology"],
+        "anyOf": [{"required": ["extends"]}, {"required": list(REQUIRED_SECTIONS)}],
         "additionalProperties": False,
     }
 
@@ -290,6 +414,9 @@ def file_schema() -> dict:
 
 
 def _type(node: dict) -> str:
+    options = node.get("anyOf", [])
+    if len(options) == 2 and options[1].get("type") == "array" and options[1].get("items") == options[0]:
+        return f"{_type(options[0])}, or an array of them"  # one value for every wheel, or one per wheel
     if "anyOf" in node:  # null (an unset optional key) has no TOML spelling: leave the key out instead
         return " or ".join(_type(n) for n in node["anyOf"] if n.get("type") != "null")
     if "enum" in node:
@@ -305,7 +432,9 @@ def _type(node: dict) -> str:
         items = node.get("items") or {}
         n = node.get("minItems") if node.get("minItems") == node.get("maxItems") else None
         if items.get("type") == "array" and n == 3:
-            return "3x3 matrix"
+            return "3x3 matrix" if items.get("minItems") == items.get("maxItems") == 3 else "3 x N matrix"
+        if items.get("type") == "array" and n is None:
+            return "n x n table of " + _type(items.get("items") or {}) + "s"
         if items.get("enum"):
             return f"array of {_type(items)}" + (f" ({n})" if n else "")
         inner = _type(items) if items else "value"
@@ -324,7 +453,12 @@ def _range(node: dict) -> str:
             parts.append(f"{sym} {node[key]:g}" if isinstance(node[key], (int, float)) else f"{sym} {node[key]}")
     for sub in node.get("anyOf", []):
         r = _range(sub)
-        if r:
+        if r and r not in parts:
+            parts.append(r)
+    items = node.get("items")
+    if isinstance(items, dict):  # the range of every element (of a vector, a per-wheel array, a table's rows)
+        r = _range(items)
+        if r and r not in parts:
             parts.append(r)
     return ", ".join(parts)
 
@@ -339,11 +473,14 @@ def _default(node: dict, required: bool) -> str:
     return f"`{json.dumps(node['default'])}`"
 
 
-def _rows(props: dict, required: set[str], prefix: str) -> list[str]:
+def _rows(props: dict, required: set[str], prefix: str, *, first_paragraph: bool = False) -> list[str]:
     rows = []
     for key, node in props.items():
         rng = _range(node)
-        desc = node.get("description", "").replace("|", "\\|").replace("\n", " ")
+        desc = node.get("description", "")
+        if first_paragraph:  # a sub-table described in a section of its own
+            desc = desc.split("\n\n")[0] + f" (`[{prefix}{key}]` below)"
+        desc = desc.replace("|", "\\|").replace("\n", " ")
         rows.append(
             f"| `{prefix}{key}` | {_type(node)}{' (' + rng + ')' if rng else ''} | {node.get('unit', '')} "
             f"| {_default(node, key in required)} | {desc} |"
@@ -374,19 +511,38 @@ def reference_markdown(schema: dict | None = None) -> str:
         "Rules checked beyond single values: inertias symmetric positive definite (a warning when not physically "
         "realizable, J1 + J2 < J3); `t_final`, `output_interval` and `control_period` multiples of `dt`; `t_final` "
         "a multiple of `output_interval` (the output grid ends at `t_final`); the topology's agent numbers within "
-        "the agent list; `c1 > 0` for `fsm`/`lsm` and `c2 > 0` for `fsm`/`tsm`.",
+        "the agent list; `c1 > 0` for `fsm`/`lsm` and `c2 > 0` for `fsm`/`tsm`; `[sensors]` and imperfect `[links]` "
+        "only with `simulation.control_period > 0` (they act at the control instants); the wheel spin axes span "
+        '3-D (`layout = "custom"` needs `axes`, the other layouts refuse them); a per-wheel array has one value or '
+        "one per wheel; `links.delay_table`/`loss_table` are n x n with a value on every link of the topology.",
+        "",
+        "Hardware (all off by default, so a file without these tables flies the paper's ideal loop): `[actuator]` "
+        "chooses reaction wheels instead of the ideal torque source, `[sensors.star_tracker]` and `[sensors.gyro]` "
+        "make the law see measured instead of true states, `[links]` delays and loses the neighbours' broadcasts; "
+        "`simulation.seed` seeds every random process of a run (the same seed gives the same run). "
+        "`fsmctl/scenarios/paper-hardware.toml` is a complete example.",
         "",
         "## Top level",
         "",
         head,
-        *_rows({k: v for k, v in props.items() if k in ("name", "description")}, set(), ""),
+        *_rows({k: v for k, v in props.items() if k in ("extends", "name", "description")}, set(), ""),
+        "",
+        "Without `extends` a file needs `[controller]`, `[reference]`, `[[agents]]` and `[topology]`.",
         "",
     ]
-    for section in ("simulation", "controller", "reference", "topology"):
+    for section in ("simulation", "controller", "actuator", "sensors", "links", "reference", "topology"):
         node = props[section]
         out += [f"## `[{section}]`", "", node.get("description", ""), "", head]
-        out += _rows(node["properties"], set(node.get("required", [])), f"{section}.")
+        out += _rows(
+            node["properties"], set(node.get("required", [])), f"{section}.", first_paragraph=section == "sensors"
+        )
         out.append("")
+        if section == "sensors":
+            for sensor in ("star_tracker", "gyro"):
+                sub = node["properties"][sensor]
+                out += [f"### `[sensors.{sensor}]`", "", sub.get("description", "").split("\n\n", 1)[-1], "", head]
+                out += _rows(sub["properties"], set(sub.get("required", [])), f"sensors.{sensor}.")
+                out.append("")
     agent = props["agents"]["items"]
     out += ["## `[[agents]]`", "", agent["description"], "", head]
     out += _rows(agent["properties"], set(agent.get("required", [])), "agents[i].")
@@ -401,8 +557,9 @@ def reference_markdown(schema: dict | None = None) -> str:
         "## `[cases.NAME]`",
         "",
         props["cases"]["additionalProperties"]["description"]
-        + ". A case may hold `description` and any keys of `[simulation]`, `[controller]`, `[reference]` and "
-        "`[topology]`; they are merged into the base tables. " + props["cases"]["description"] + ".",
+        + ". A case may hold `description` and any keys of `[simulation]`, `[controller]`, `[actuator]`, "
+        '`[sensors]`, `[links]`, `[reference]` and `[topology]` (e.g. `[cases."wheels".actuator]`); they are merged '
+        "into the base tables key by key. " + props["cases"]["description"] + ".",
         "",
         "## `[choices]`",
         "",

@@ -28,6 +28,35 @@ Every range is a :class:`CampaignSettings` field and a command-line option whose
 default; the settings are printed when a campaign starts and stored in ``campaign.json``,
 ``summary.json`` and the dataset's attributes.
 
+Flight hardware (issue 13: ``[actuator]``, ``[sensors]``, ``[links]``, ``simulation.control_period``,
+``simulation.seed``; :data:`HARDWARE_RANGES`):
+
+* **noise seeds**: every run flies its own ``simulation.seed`` (the seed of its sensor noise and packet
+  losses), :func:`run_noise_seed` of the run's seed sequence: the first 53 bits of
+  ``SeedSequence(seed).spawn(runs)[run].spawn(1)[0].generate_state(1, numpy.uint64)``.  It depends on the
+  campaign seed and the run's index only (not on the workers, the chunking, the backend or the number of
+  runs) and is stored per run in the dataset (``noise_seed``, a float64 holding the integer exactly: NetCDF 3
+  has no 64-bit integers), so ``scenario.replace(simulation={"seed": int(ds.noise_seed[k])})`` flies run
+  ``k``'s noise again.
+* ``vary = "all"`` (default, ``--vary all``): the ranges above and below are drawn and the noise seed is
+  set.  ``vary = "noise"`` (``--vary noise``): every run is the base scenario (initial attitudes and rates,
+  inertia, disturbances, topology, hardware) with only its noise seed changed, the Monte Carlo over the
+  noise of "the paper's law on real hardware"; it refuses a scenario without a random process (every run
+  would be the same) and sampling ranges that differ from their defaults (they would not be used).
+* hardware ranges, drawn only when given (``None``, the default, keeps the scenario's values, so a
+  scenario without hardware is flown exactly as before): ``link_delay = (low, high)`` s and
+  ``loss_probability = (low, high)`` draw an independent ``U(low, high)`` per directed link and run (written
+  as ``links.delay_table`` / ``links.loss_table``; the draws of link ``i <- j`` do not depend on which other
+  links the run keeps); they need ``simulation.control_period > 0`` (links act at the control instants).
+  ``sensor_noise_scale = (low, high)`` multiplies the star tracker's ``noise_std`` and the gyro's angle and
+  rate random walks ``N``, ``K`` (not its constant bias) by one ``U(low, high)`` factor per run; it needs
+  ``[sensors]``.  These draws come from children of the run's seed sequence of their own, after and apart
+  from the draws above, so adding a range changes no other draw.  The per-run values are in the dataset
+  (``link_delay_max_s``, ``loss_probability_max``, ``sensor_noise_scale``), with the wheels' peak speed and
+  momentum (``wheel_speed_peak_rad_per_s``, ``wheel_momentum_peak_N_m_s``; NaN without wheels).
+* ``control_period`` (``--control-period``) sets the base scenario's ``simulation.control_period``
+  through ``scenario.replace`` (``None``: the scenario's).
+
 Per run the dataset holds settling times of AAEM/RAEM (eqs 42-43), steady-state accuracy, peak
 torques, saturation time, whether Theorem 1's topology conditions hold for the run's graph
 (:func:`fsmctl.proofs.theorem1.analyze_topology`), whether the configured ``delta_i`` exceeds
@@ -38,7 +67,8 @@ those at ``t_final``: the campaign's output grid divides the horizon, and a run 
 not at ``t_final`` is ``failed``, never ``ok``.
 
 Per-run seeds come from ``numpy.random.SeedSequence(seed).spawn(runs)``, so a seeded campaign
-gives the same runs whatever the number of workers, chunking or backend (process pool or Dask).
+gives the same runs (perturbations and noise seeds) whatever the number of workers, chunking or backend
+(process pool or Dask).
 Runs are grouped in chunks; every finished chunk is written to ``OUT/chunks/chunk_NNNNN.nc`` at
 once, so an interrupted campaign resumes (``--resume``) with only the missing chunks.
 
@@ -85,9 +115,14 @@ __all__ = [
     "CampaignResult",
     "CampaignInterrupted",
     "SAMPLING_RANGES",
+    "HARDWARE_RANGES",
+    "VARY",
     "sample_inertia_perturbation",
     "sample_attitudes_mrp",
     "sample_run_scenario",
+    "run_noise_seed",
+    "random_processes",
+    "check_campaign",
     "campaign_base",
     "describe_campaign",
     "theorem1_factor_limit",
@@ -148,9 +183,43 @@ class CampaignSettings:
     controller: str = ""
     """JSON of ``[controller]`` changes applied to the scenario (the law, its parameters, ...; ``--law``/``--set``):
     part of the campaign's identity, so a resumed campaign flies the same law"""
+    vary: str = "all"
+    """'all': every run draws the sampling ranges and its own noise seed; 'noise': every run is the base scenario
+    with only its noise seed (``simulation.seed``) changed"""
+    control_period: float | None = None
+    """``simulation.control_period`` of the base scenario in s (0: continuous control); None keeps the scenario's"""
+    link_delay: tuple[float, float] | None = None
+    """(low, high) s: every directed link's delay U(low, high) per run (``links.delay_table``); None: the scenario's"""
+    loss_probability: tuple[float, float] | None = None
+    """(low, high): every directed link's packet-loss probability U(low, high) per run (``links.loss_table``)"""
+    sensor_noise_scale: tuple[float, float] | None = None
+    """(low, high): a factor U(low, high) per run on the star tracker's noise_std and the gyro's N and K"""
+
+    def __post_init__(self) -> None:
+        for name, _ in HARDWARE_RANGES:  # [low, high] (JSON, Python lists) or one number: a tuple of floats
+            value = getattr(self, name)
+            if _is_number(value):
+                value = (value, value)
+            if isinstance(value, (list, tuple)) and len(value) == 2 and all(_is_number(x) for x in value):
+                object.__setattr__(self, name, (float(value[0]), float(value[1])))
 
     def validate(self) -> None:
         """Raise :class:`~fsmctl.errors.InputError` on a bad setting (one line, names the option)."""
+        if self.vary not in VARY:
+            raise InputError(f"montecarlo: vary must be one of {', '.join(VARY)}, got {self.vary!r}")
+        for name, _ in HARDWARE_RANGES:
+            value = getattr(self, name)
+            if value is None:
+                continue
+            upper = 1.0 if name == "loss_probability" else math.inf
+            if not (
+                isinstance(value, tuple)
+                and len(value) == 2
+                and all(math.isfinite(x) for x in value)
+                and 0 <= value[0] <= value[1] <= upper
+            ):
+                need = "0 <= low <= high <= 1" if upper == 1.0 else "finite, 0 <= low <= high"
+                raise InputError(f"montecarlo: {name} must be a range (low, high) with {need}, got {value!r}")
         checks = [
             ("runs", self.runs >= 1, ">= 1"),
             ("chunk_size", self.chunk_size >= 1, ">= 1"),
@@ -206,6 +275,108 @@ SAMPLING_RANGES: tuple[tuple[str, str], ...] = (
 )
 """``(field, description)`` of every sampling range of :class:`CampaignSettings` (its CLI option is
 ``--field-with-dashes``)"""
+
+HARDWARE_RANGES: tuple[tuple[str, str], ...] = (
+    (
+        "link_delay",
+        "transport delay of every directed link, U(LOW, HIGH) s drawn per link and run (links.delay_table); "
+        "needs a control period",
+    ),
+    (
+        "loss_probability",
+        "packet-loss probability of every directed link, U(LOW, HIGH) drawn per link and run (links.loss_table); "
+        "needs a control period",
+    ),
+    (
+        "sensor_noise_scale",
+        "factor U(LOW, HIGH) per run on the star tracker's noise_std and the gyro's angle and rate random walks "
+        "(not its bias); needs [sensors]",
+    ),
+)
+"""``(field, description)`` of the hardware sampling ranges of :class:`CampaignSettings`: ``(low, high)`` or None
+(the scenario's values); CLI ``--field-with-dashes LOW,HIGH``"""
+
+VARY = ("all", "noise")
+"""values of :attr:`CampaignSettings.vary`"""
+
+NOISE_SEED_BITS = 53
+"""a run's noise seed is below 2**53: the dataset stores it exactly as a float64 (NetCDF 3 has no int64)"""
+
+
+def _is_number(value: Any) -> bool:
+    return not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, float, np.integer, np.floating))
+
+
+def _child(seed: np.random.SeedSequence, *key: int) -> np.random.SeedSequence:
+    """The child ``key`` of a seed sequence, without spawning (``seed`` is not changed; the same child every time)."""
+    return np.random.SeedSequence(seed.entropy, spawn_key=(*seed.spawn_key, *key), pool_size=seed.pool_size)
+
+
+def run_noise_seed(seed: np.random.SeedSequence) -> int:
+    """The ``simulation.seed`` of the run whose seed sequence is ``seed`` (``SeedSequence(campaign seed).spawn(runs)
+    [run]``): the first :data:`NOISE_SEED_BITS` bits of its first child's state, an integer in ``[0, 2**53)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> run = np.random.SeedSequence(0).spawn(3)[2]
+    >>> run_noise_seed(run) == run_noise_seed(np.random.SeedSequence(0).spawn(10)[2])  # not the number of runs
+    True
+    """
+    state = int(_child(seed, 0).generate_state(1, np.uint64)[0])
+    return state >> (64 - NOISE_SEED_BITS)
+
+
+def random_processes(scenario: Scenario) -> list[str]:
+    """The random processes a run of ``scenario`` flies (what its ``simulation.seed`` draws); empty: none."""
+    out = []
+    star, gyro, links = scenario.sensors.star_tracker, scenario.sensors.gyro, scenario.links
+    if star is not None and any(x > 0 for x in star.noise_std):
+        out.append("star tracker noise")
+    if gyro is not None and (gyro.angle_random_walk > 0 or gyro.rate_random_walk > 0):
+        out.append("gyro noise")
+    if scenario.simulation.control_period > 0 and scenario.topology.links:
+        receivers = [link.receiver for link in scenario.topology.links]
+        senders = [link.sender for link in scenario.topology.links]
+        if np.any(links.per_link(receivers, senders, "loss_probability") > 0):
+            out.append("packet loss")
+    return out
+
+
+def check_campaign(settings: CampaignSettings, base: Scenario) -> None:
+    """Raise :class:`~fsmctl.errors.InputError` when the settings ask for what ``base`` cannot fly.
+
+    A link range without a control period, a sensor-noise range without ``[sensors]``, and ``vary = "noise"``
+    with a sampling range changed from its default (it would not be used) or a scenario without a random
+    process (every run would be the same).
+    """
+    period = base.simulation.control_period
+    for name in ("link_delay", "loss_probability"):
+        if getattr(settings, name) is not None and not period > 0:
+            raise InputError(
+                f"montecarlo: {name} needs a scenario with a control period (links act at the control instants); "
+                f"{base.label} has simulation.control_period = 0: give --control-period SECONDS"
+            )
+    if settings.sensor_noise_scale is not None and not base.sensors.enabled:
+        raise InputError(
+            f"montecarlo: sensor_noise_scale needs a scenario with [sensors] (a star tracker or a gyro); "
+            f"{base.label} has none"
+        )
+    if settings.vary == "noise":
+        defaults = CampaignSettings()
+        names = [n for n, _ in SAMPLING_RANGES] + [n for n, _ in HARDWARE_RANGES]
+        changed = [n for n in names if getattr(settings, n) != getattr(defaults, n)]
+        if changed:
+            raise InputError(
+                f"montecarlo: --vary noise keeps the base scenario, so {', '.join(changed)} would not be used; "
+                f"drop {'it' if len(changed) == 1 else 'them'} or use --vary all"
+            )
+        if not random_processes(base):
+            raise InputError(
+                f"montecarlo: --vary noise: {base.label} has no random process (no sensor noise, no packet loss), "
+                "so every run would be the same; give the scenario [sensors] or links.loss_probability > 0 "
+                "(with a control period)"
+            )
 
 
 # ----------------------------------------------------------------------------- sampling
@@ -304,7 +475,17 @@ def theorem1_factor_limit(topology: Topology) -> float | None:
 
 
 def sample_run_scenario(base: Scenario, settings: CampaignSettings, seed: np.random.SeedSequence) -> Scenario:
-    """The perturbed scenario of one run (everything drawn from ``seed``, in a fixed order)."""
+    """The perturbed scenario of one run (everything drawn from ``seed``, in a fixed order).
+
+    Its ``simulation.seed`` is :func:`run_noise_seed` of ``seed``; with ``settings.vary = "noise"`` that is the only
+    change to ``base``.  Otherwise the attitudes, rates, inertia, disturbances and topology are drawn from
+    ``seed`` (as before the hardware existed, draw for draw), then the hardware ranges that are given from
+    children of ``seed`` of their own (:func:`_sample_hardware`).
+    """
+    check_campaign(settings, base)
+    noise = {"seed": run_noise_seed(seed)}
+    if settings.vary == "noise":
+        return base.replace(simulation=noise)
     rng = np.random.default_rng(seed)
     agents = []
     for agent in base.agents:
@@ -326,7 +507,54 @@ def sample_run_scenario(base: Scenario, settings: CampaignSettings, seed: np.ran
             )
         )
     topology = _random_topology(rng, base.topology, settings)
-    return replace(base, agents=tuple(agents), topology=topology)  # validated once
+    hardware = _sample_hardware(base, settings, topology, seed)
+    return base.replace(agents=tuple(agents), topology=topology, simulation=noise, **hardware)  # validated once
+
+
+def sampled_noise_scale(settings: CampaignSettings, seed: np.random.SeedSequence) -> float:
+    """The run's factor on the sensor noise: ``U(low, high)`` of ``settings.sensor_noise_scale`` (1 when unset)."""
+    if settings.sensor_noise_scale is None or settings.vary == "noise":
+        return 1.0
+    low, high = settings.sensor_noise_scale
+    return float(np.random.default_rng(_child(seed, 1, 2)).uniform(low, high))
+
+
+def _sample_hardware(
+    base: Scenario, settings: CampaignSettings, topology: Topology, seed: np.random.SeedSequence
+) -> dict[str, Any]:
+    """The ``links``/``sensors`` changes of one run's hardware ranges (children ``(1, 0..2)`` of the run's seed).
+
+    Link values are drawn for the whole n x n table, so the value of link ``i <- j`` does not depend on the other
+    links the run keeps; the table holds them on the run's links and NaN elsewhere.
+    """
+    out: dict[str, Any] = {}
+    n = base.n_agents
+    links = {}
+    for k, (name, key) in enumerate((("link_delay", "delay_table"), ("loss_probability", "loss_table"))):
+        bounds = getattr(settings, name)
+        if bounds is None:
+            continue
+        draws = np.random.default_rng(_child(seed, 1, k)).uniform(bounds[0], bounds[1], (n, n))
+        table = np.full((n, n), np.nan)
+        for link in topology.links:
+            table[link.receiver, link.sender] = draws[link.receiver, link.sender]
+        links[key] = table.tolist()
+    if links:
+        out["links"] = links
+    if settings.sensor_noise_scale is not None:
+        factor = sampled_noise_scale(settings, seed)
+        star, gyro = base.sensors.star_tracker, base.sensors.gyro
+        sensors: dict[str, Any] = {}
+        if star is not None:
+            sensors["star_tracker"] = replace(star, noise_std=tuple(factor * x for x in star.noise_std))
+        if gyro is not None:
+            sensors["gyro"] = replace(
+                gyro,
+                angle_random_walk=factor * gyro.angle_random_walk,
+                rate_random_walk=factor * gyro.rate_random_walk,
+            )
+        out["sensors"] = sensors
+    return out
 
 
 def _fitting_output_interval(requested: float, dt: float, t_final: float) -> float:
@@ -365,6 +593,8 @@ def campaign_base(settings: CampaignSettings) -> tuple[CampaignSettings, Scenari
         sim["t_final"] = settings.t_final
     if settings.dt is not None:
         sim["dt"] = settings.dt
+    if settings.control_period is not None:
+        sim["control_period"] = settings.control_period  # checked by the scenario (>= 0, a multiple of dt)
     ctrl = json.loads(settings.controller) if settings.controller else {}
     if not isinstance(ctrl, dict):
         raise InputError(f"controller: expected a JSON object of [controller] changes, got {settings.controller!r}")
@@ -374,7 +604,9 @@ def campaign_base(settings: CampaignSettings) -> tuple[CampaignSettings, Scenari
     t_final = sim.get("t_final", base.simulation.t_final)
     sim["output_interval"] = _fitting_output_interval(settings.output_interval, dt, t_final)
     base = base.replace(simulation=sim, controller=ctrl)
-    return replace(settings, case=base.case), base
+    settings = replace(settings, case=base.case)
+    check_campaign(settings, base)
+    return settings, base
 
 
 def _base_scenario(settings: CampaignSettings) -> Scenario:
@@ -392,9 +624,59 @@ def describe_campaign(settings: CampaignSettings, base: Scenario) -> list[str]:
         if s.coupling_high > limit:
             t1 += f"; runs drawing a factor above it fail it (--coupling-high {s.coupling_high:g})"
     torque = base.controller.torque_limit
-    return [
+    head = (
         f"montecarlo: {base.label}: {base.n_agents} agents, {len(base.topology.links)} links; "
-        f"{s.runs} runs, seed {s.seed}, chunks of {s.chunk_size}",
+        f"{s.runs} runs, seed {s.seed}, chunks of {s.chunk_size}"
+    )
+    processes = random_processes(base)
+    if s.loss_probability is not None and "packet loss" not in processes:
+        processes.append("packet loss")
+    noise = (
+        f"  noise: every run its own simulation.seed (from --seed {s.seed}; the scenario's {sim.seed} is not used); "
+        + (f"random processes: {', '.join(processes)}" if processes else "no random process in this scenario")
+    )
+    period = f"control period {sim.control_period:g} s" if sim.control_period > 0 else "continuous control"
+    simulation = (
+        f"  simulation: t_final {sim.t_final:g} s, dt {sim.dt:g} s, output every {sim.output_interval:g} s"
+        + (
+            f" (not the requested {s.output_interval:g} s: the grid must divide t_final)"
+            if not math.isclose(sim.output_interval, s.output_interval)
+            else ""
+        )
+        + f", {period} (--control-period), torque limit {torque:g} N m"
+    )
+    converged = (
+        f"  converged: AAEM and RAEM < {s.tolerance_deg:g} deg at t_final and settled; "
+        f"steady window {s.steady_window:g} s"
+    )
+    if s.vary == "noise":
+        return [
+            head,
+            "  vary noise: every run is the base scenario (initial attitudes and rates, inertia, disturbances, "
+            "topology, hardware) with only its noise seed changed (--vary noise)",
+            noise,
+            simulation,
+            converged,
+        ]
+    hardware = [
+        f"{what} U({getattr(s, name)[0]:g}, {getattr(s, name)[1]:g}){unit} (--{name.replace('_', '-')})"
+        for name, what, unit in (
+            ("link_delay", "link delay per link", " s"),
+            ("loss_probability", "packet loss per link", ""),
+            ("sensor_noise_scale", "sensor noise times", ""),
+        )
+        if getattr(s, name) is not None
+    ]
+    if hardware:
+        hardware_line = ["  hardware: " + "; ".join(hardware)]
+    elif base.actuator.enabled or base.sensors.enabled or base.links.enabled:
+        hardware_line = [
+            "  hardware: the scenario's (sample it: --link-delay, --loss-probability, --sensor-noise-scale)"
+        ]
+    else:
+        hardware_line = []
+    return [
+        head,
         f"  attitude: sigma_i(0) uniform over SO(3), principal angle <= {s.attitude_bound_deg:g} deg "
         "(--attitude-bound-deg)",
         f"  rate: omega_i(0) components U(-{s.rate_bound:g}, {s.rate_bound:g}) rad/s (--rate-bound)",
@@ -403,12 +685,11 @@ def describe_campaign(settings: CampaignSettings, base: Scenario) -> list[str]:
         f"  links: each removed with probability {s.link_dropout:g} (--link-dropout); k^j_ij(t) times "
         f"U({s.coupling_low:g}, {s.coupling_high:g}) (--coupling-low, --coupling-high), random phase",
         f"  {t1}",
-        f"  simulation: t_final {sim.t_final:g} s, dt {sim.dt:g} s, output every {sim.output_interval:g} s"
-        + (f" (not the requested {s.output_interval:g} s: the grid must divide t_final)" if not math.isclose(sim.output_interval, s.output_interval) else "")
-        + f", torque limit {torque:g} N m",
-        f"  converged: AAEM and RAEM < {s.tolerance_deg:g} deg at t_final and settled; "
-        f"steady window {s.steady_window:g} s",
-    ]  # fmt: skip
+        *hardware_line,
+        noise,
+        simulation,
+        converged,
+    ]
 
 
 # ----------------------------------------------------------------------------- one run
@@ -433,6 +714,11 @@ _SCALARS = (
     "initial_rate_max_rad_per_s",
     "disturbance_amplitude_max_N_m",
     "n_links",
+    "link_delay_max_s",
+    "loss_probability_max",
+    "sensor_noise_scale",
+    "wheel_speed_peak_rad_per_s",
+    "wheel_momentum_peak_N_m_s",
     "wall_time_s",
     "cpu_time_s",
 )
@@ -508,6 +794,8 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
         initial_rate_max_rad_per_s=float(np.abs([a.omega0 for a in scenario.agents]).max()),
         disturbance_amplitude_max_N_m=float(np.abs([a.disturbance.amplitude for a in scenario.agents]).max()),
         n_links=float(len(scenario.topology.links)),
+        **_hardware_record(scenario, sampled_noise_scale(settings, seed)),
+        **{k: summary[k] for k in ("wheel_speed_peak_rad_per_s", "wheel_momentum_peak_N_m_s") if k in summary},
         converged=bool(
             aaem[-1] < tol
             and raem[-1] < tol
@@ -522,6 +810,19 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
     rec["wall_time_s"] = time.perf_counter() - wall
     rec["cpu_time_s"] = time.process_time() - cpu
     return rec
+
+
+def _hardware_record(scenario: Scenario, noise_scale: float) -> dict[str, float]:
+    """The run's link delay and loss (largest over its links; 0 without links or a control period) and the factor
+    on its sensor noise (NaN without sensors)."""
+    links = scenario.topology.links
+    out = {"link_delay_max_s": 0.0, "loss_probability_max": 0.0}
+    if links and scenario.simulation.control_period > 0:
+        receivers, senders = [lk.receiver for lk in links], [lk.sender for lk in links]
+        out["link_delay_max_s"] = float(np.max(scenario.links.per_link(receivers, senders, "delay")))
+        out["loss_probability_max"] = float(np.max(scenario.links.per_link(receivers, senders, "loss_probability")))
+    out["sensor_noise_scale"] = noise_scale if scenario.sensors.enabled else math.nan
+    return out
 
 
 def _relative_perturbation(agent: Agent) -> float:
@@ -572,13 +873,14 @@ def _chunk_path(out: Path, c: int) -> Path:
     return out / "chunks" / f"chunk_{c:05d}.nc"
 
 
-def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int):
+def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int, noise_seeds: Sequence[int] | None = None):
+    """One chunk's runs as a dataset; ``noise_seeds[run]`` (every run's :func:`run_noise_seed`) gives ``noise_seed``."""
     import xarray as xr
 
     rows = sorted(rows, key=lambda r: r[0])
     run = np.array([r[0] for r in rows], dtype=np.int64)
     data: dict[str, Any] = {}
-    units = {"_s": "s", "_deg": "deg", "_N_m": "N m", "_rad_per_s": "rad/s"}
+    units = {"_N_m_s": "N m s", "_s": "s", "_deg": "deg", "_N_m": "N m", "_rad_per_s": "rad/s"}
 
     def unit(name: str) -> str:
         return next((u for suffix, u in units.items() if name.endswith(suffix)), "1")
@@ -590,6 +892,15 @@ def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int):
     for k in _PER_AGENT:
         arr = np.array([np.asarray(r[3][k], dtype=float) for r in rows]).reshape(len(rows), n_agents)
         data[k] = xr.Variable(("run", "agent"), arr, {"units": unit(k)})
+    if noise_seeds is not None:
+        data["noise_seed"] = xr.Variable(
+            ("run",),
+            np.array([float(noise_seeds[r[0]]) for r in rows], dtype=float),
+            {
+                "units": "1",
+                "long_name": "the run's simulation.seed (an integer below 2**53, exact in float64: NetCDF 3 has no int64)",
+            },
+        )
     data["status"] = xr.Variable(("run",), np.array([r[1] for r in rows], dtype=object))
     data["message"] = xr.Variable(("run",), np.array([r[2] for r in rows], dtype=object))
     return xr.Dataset(data, coords={"run": run, "agent": np.arange(1, n_agents + 1, dtype=np.int32)})
@@ -995,6 +1306,8 @@ def run_campaign(
     with interrupt_guard() as guard:
         if base is None:
             settings, base = campaign_base(settings)
+        check_campaign(settings, base)
+        noise_seeds = [run_noise_seed(q) for q in np.random.SeedSequence(settings.seed).spawn(settings.runs)]
         if log is not None:
             for line in describe_campaign(settings, base):
                 log(line)
@@ -1012,7 +1325,7 @@ def run_campaign(
             bar = _progress(settings.runs, settings.runs - sum(len(i) for _, i in todo), progress)
 
             def on_chunk(c: int, idx: Sequence[int], rows) -> None:
-                ds = _chunk_dataset(rows, base.n_agents)
+                ds = _chunk_dataset(rows, base.n_agents, noise_seeds)
                 with guard.deferred():  # an interrupt waits until the chunk file is complete
                     _write_netcdf(ds, _chunk_path(out, c))
                 bar.update(len(idx))
@@ -1065,7 +1378,10 @@ def finish_campaign(
             "scenario": "\n".join(base.describe()),
             "campaign": "\n".join(describe_campaign(settings, base)),
             "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
-            "seeds": "numpy.random.SeedSequence(seed).spawn(runs)[run]",
+            "seeds": "numpy.random.SeedSequence(seed).spawn(runs)[run]; noise_seed (the run's simulation.seed): its "
+            "first child's generate_state(1, uint64) >> 11",
+            "vary": settings.vary,
+            "random_processes": ", ".join(random_processes(base)) or "none",
             "law": base.law.name,
         }
     )
