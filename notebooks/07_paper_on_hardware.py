@@ -81,7 +81,9 @@ t_bound = max(b.min_time_s for b in budget)
 print(f"reference torque peak / wheel capacity (max): >= {ref_peak_over:.2f} for every agent")
 print(f"reference torque mean / wheel capacity (max): >= {ref_mean_over:.2f} for every agent")
 print(f"disturbance peak / wheel capacity (weakest direction): >= {dist_over:.2f} for every agent")
-print(f"acquisition time bound: {t_bound:.0f} s (slowest agent); momentum feasible: {all(b.momentum_feasible for b in budget)}")
+print(
+    f"acquisition time bound: {t_bound:.0f} s (slowest agent); momentum feasible: {all(b.momentum_feasible for b in budget)}"
+)
 
 # %% [markdown]
 # ## 2. The paper's law on the hardware
@@ -110,10 +112,14 @@ axes[1, 1].set(xlabel="t (s)", ylabel="N m", title="torque about x, spacecraft 1
 axes[1, 1].legend(fontsize=8)
 plt.show()
 settled = summary["aaem_settling_s"]["1"]
-print(f"paper's law, {HORIZON:g} s: AAEM(end) = {result.aaem_deg[-1]:.3g} deg, RAEM(end) = {result.raem_deg[-1]:.3g} deg")
+print(
+    f"paper's law, {HORIZON:g} s: AAEM(end) = {result.aaem_deg[-1]:.3g} deg, RAEM(end) = {result.raem_deg[-1]:.3g} deg"
+)
 print(f"AAEM settled to 1 deg: {'no' if math.isnan(settled) else f'{settled:.1f} s'}")
-print(f"peak wheel momentum = {summary['wheel_momentum_peak_N_m_s']:.1f} N m s, time with a saturated wheel "
-      f"(max over agents) = {max(summary['saturated_time_s']):.0f} s of {HORIZON:g} s")
+print(
+    f"peak wheel momentum = {summary['wheel_momentum_peak_N_m_s']:.1f} N m s, time with a saturated wheel "
+    f"(max over agents) = {max(summary['saturated_time_s']):.0f} s of {HORIZON:g} s"
+)
 
 # %% [markdown]
 # ## 3. Every built-in law on the same hardware
@@ -149,7 +155,10 @@ steps = [
     ("wheels, 10 Hz, sensors", hw.replace(links=perfect_links)),
     ("wheels, 10 Hz, sensors, links (paper-hardware)", hw),
 ]  # fmt: skip
-rows = ["| setting | AAEM at 100 s (deg) | AAEM settles to 1 deg (s) | peak delivered torque (N m) |", "|---|---|---|---|"]
+rows = [
+    "| setting | AAEM at 100 s (deg) | AAEM settles to 1 deg (s) | peak delivered torque (N m) |",
+    "|---|---|---|---|",
+]
 ablation = {}
 for label, s in steps:
     try:
@@ -187,7 +196,9 @@ fig, ax = plt.subplots(figsize=(7, 3.5), layout="constrained")
 ax.hist(final, bins=max(4, runs // 2))
 ax.set(xlabel=f"AAEM at {HORIZON:g} s (deg)", ylabel="runs", title=f"{runs} noise seeds")
 plt.show()
-print(f"noise seeds: AAEM at {HORIZON:g} s: min {final.min():.3g}, median {np.median(final):.3g}, max {final.max():.3g} deg")
+print(
+    f"noise seeds: AAEM at {HORIZON:g} s: min {final.min():.3g}, median {np.median(final):.3g}, max {final.max():.3g} deg"
+)
 print(f"converged runs: {int(np.sum(ds['converged'].values))} of {runs}")
 
 # %% [markdown]

@@ -187,3 +187,10 @@ def test_noise_tables_are_checked_against_the_memory_before_they_are_drawn():
     with pytest.raises(ResourceLimitError, match="control_period"):
         check_noise_memory(s, available=needed - 1)
     assert check_noise_memory(single_spacecraft(), available=0) == 0  # nothing drawn without sensors or links
+
+
+def test_table_entries_without_a_link_do_not_switch_the_links_on():
+    """A delay on the diagonal (no link there) is ignored: no control period needed, the ideal links fly."""
+    s = probe(t_final=1.0).replace(simulation={"control_period": 0.0}, links={"delay_table": [[0.5, 0.0], [0.0, 0.5]]})
+    assert s.links.enabled and not s.links_active
+    assert not pack(s).hardware.links_imperfect

@@ -115,7 +115,8 @@ def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> Hardware
             J_spin=np.broadcast_to(J_spin, (n, 3, 3)).copy(),
             wheel_speed0=np.broadcast_to(act.per_wheel("initial_speed"), (n, N)).copy(),
         )
-    if sensors.enabled or links.enabled:
+    links_on = scenario.links_active
+    if sensors.enabled or links_on:
         from fsmctl.model.noise import hardware_noise
 
         period = scenario.simulation.control_period
@@ -137,12 +138,12 @@ def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> Hardware
                 "rate_random_walk": gyro.rate_random_walk,
                 "bias": np.array(gyro.bias),
             },
-            loss_probability=links.per_link(receivers, senders, "loss_probability") if links.enabled else None,
+            loss_probability=links.per_link(receivers, senders, "loss_probability") if links_on else None,
         )
         out.update(n_samples=Q)
         if sensors.enabled:
             out.update(sensors=True, sensor_dtheta=noise["dtheta"], sensor_gyro=noise["gyro_error"])
-        if links.enabled:
+        if links_on:
             lost = noise["lost"] if noise["lost"].shape[1] == len(topo) else np.zeros((Q, len(topo)), np.uint8)
             out.update(
                 links_imperfect=True,

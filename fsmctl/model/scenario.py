@@ -1012,12 +1012,11 @@ class Scenario:
                 f"topology: describes {self.topology.n_agents} agents but the scenario has {len(self.agents)}"
             )
         period = self.simulation.control_period
-        for section, what in ((self.sensors, "sensors"), (self.links, "links")):
-            if section.enabled and not period > 0:
-                raise ValueError(
-                    f"{what}: sensors and imperfect links act at the control instants; set "
-                    "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
-                )
+        if self.sensors.enabled and not period > 0:
+            raise ValueError(
+                "sensors: sensors and imperfect links act at the control instants; set "
+                "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
+            )
         n = len(self.agents)
         linked = {(lk.receiver, lk.sender) for lk in self.topology.links}
         for name, upper in (("delay_table", math.inf), ("loss_table", 1.0)):
@@ -1025,7 +1024,7 @@ class Scenario:
             if tab is None:
                 continue
             if len(tab) != n:
-                raise ValueError(f"links.{name}: expected an {n} x {n} table (one row per agent), got {len(tab)} rows")
+                raise ValueError(f"links.{name}: expected a {n} x {n} table (one row per agent), got {len(tab)} rows")
             for i, j in sorted(linked):
                 v = tab[i][j]
                 if not (math.isfinite(v) and 0 <= v <= upper):
@@ -1033,6 +1032,11 @@ class Scenario:
                         f"links.{name}[{i + 1}][{j + 1}]: the link {i + 1} <- {j + 1} needs a value in [0, {upper:g}], "
                         f"got {v!r}"
                     )
+        if self.links_active and not period > 0:
+            raise ValueError(
+                "links: sensors and imperfect links act at the control instants; set "
+                "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
+            )
         from fsmctl.model.laws import parameter_matrix, resolve_law  # the law's declared parameters and ranges
 
         parameter_matrix(resolve_law(self.controller.law), self)
@@ -1128,7 +1132,21 @@ class Scenario:
             out.append(values)
         return out
 
-    def _hardware_lines(self) -> list[str]:
+    @property
+    def links_active(self) -> bool:
+        """Whether an existing link of the topology is delayed or lossy (table entries without a link do not count)."""
+        lk = self.links
+        if not lk.enabled:
+            return False
+        receivers = [link.receiver for link in self.topology.links]
+        senders = [link.sender for link in self.topology.links]
+        return bool(
+            np.any(lk.per_link(receivers, senders, "delay") > 0)
+            or np.any(lk.per_link(receivers, senders, "loss_probability") > 0)
+        )
+
+    def hardware_lines(self) -> list[str]:
+        """The actuator, sensors and links, one line each (part of :meth:`describe`)."""
         a, se, lk = self.actuator, self.sensors, self.links
         lines = []
         if a.enabled:
@@ -1151,7 +1169,7 @@ class Scenario:
                 f"  gyro: angle_random_walk={g.angle_random_walk} rad/s^0.5 rate_random_walk={g.rate_random_walk} "
                 f"rad/s^1.5 bias={list(g.bias)} rad/s"
             )
-        if lk.enabled:
+        if self.links_active:
             lines.append(
                 f"  links: delay={'per link' if lk.delay_table is not None else f'{lk.delay} s'} loss_probability="
                 + ("per link" if lk.loss_table is not None else f"{lk.loss_probability}")
@@ -1179,7 +1197,7 @@ class Scenario:
             + ("" if c.enabled else " enabled=False (open loop, u = 0)"),
             f"  simulation: t_final={s.t_final} s, dt={s.dt} s, integrator={s.integrator}, "
             f"output_interval={s.output_interval} s, control_period={s.control_period} s, seed={s.seed}",
-            *self._hardware_lines(),
+            *self.hardware_lines(),
         ]
         lines += [f"  choice {k}: {v}" for k, v in self.choices]
         return lines

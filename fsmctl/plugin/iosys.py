@@ -1141,7 +1141,7 @@ def _continuous_time_only(scenario: Scenario) -> None:
         for name, on in (
             ("simulation.control_period > 0", scenario.simulation.control_period > 0),
             ("sensors", scenario.sensors.enabled),
-            ("imperfect links", scenario.links.enabled),
+            ("imperfect links", scenario.links_active),
         )
         if on
     ]

@@ -503,7 +503,7 @@ def check_noise_memory(scenario: Scenario, *, available: int | None = None) -> i
     one row per control instant: :func:`fsmctl.model.noise.noise_bytes`) would not fit in memory; returns the bytes.
     """
     sim = scenario.simulation
-    if not (scenario.sensors.enabled or scenario.links.enabled):
+    if not (scenario.sensors.enabled or scenario.links_active):
         return 0
     from fsmctl.model.noise import noise_bytes
 

@@ -866,7 +866,10 @@ def compare_laws(
         "dt_s": sim.dt,
         "output_interval_s": sim.output_interval,
         "integrator": sim.integrator,
+        "control_period_s": sim.control_period,
+        "seed": sim.seed,
         "controller": dataclasses.asdict(scenario.controller),
+        "hardware": scenario.hardware_lines(),
     }
     return Comparison(
         scenario_label=scenario.label,

@@ -174,7 +174,9 @@ def torque_demand(scenario: Scenario, *, step: float = 0.1) -> list[TorqueDemand
     ref = casadi_function("reference_rhs").map(t.size)  # omega_d(t), omega_d_dot(t): the generated reference
     _, w, w_dot = (
         np.asarray(v, dtype=float).T
-        for v in ref(t[None, :], np.zeros((3, t.size)), np.repeat(scenario.reference.omega.params()[:, None], t.size, 1))
+        for v in ref(
+            t[None, :], np.zeros((3, t.size)), np.repeat(scenario.reference.omega.params()[:, None], t.size, 1)
+        )
     )
     act, limit = scenario.actuator, scenario.controller.torque_limit
     if act.enabled:

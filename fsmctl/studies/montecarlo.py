@@ -669,7 +669,7 @@ def describe_campaign(settings: CampaignSettings, base: Scenario) -> list[str]:
     ]
     if hardware:
         hardware_line = ["  hardware: " + "; ".join(hardware)]
-    elif base.actuator.enabled or base.sensors.enabled or base.links.enabled:
+    elif base.actuator.enabled or base.sensors.enabled or base.links_active:
         hardware_line = [
             "  hardware: the scenario's (sample it: --link-delay, --loss-probability, --sensor-noise-scale)"
         ]
