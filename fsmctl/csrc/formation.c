@@ -601,6 +601,53 @@ static void wheel_rates(workspace *W, const fsm_problem *P, double *dx) {
   }
 }
 
+/* The true state into the lane rows RW_SIGMA, RW_OMEGA of group g (after the law saw measurements there). */
+static void reload_state_lanes(workspace *W, double *G, int g, const double *x) {
+  for (int l = 0; l < FSM_LANES; ++l) {
+    const double *xi = x + 3 + (size_t)W->stride * lane_agent(g, l, W->n);
+    to_lane(ROW(G, RW_SIGMA), xi, 3, l);
+    to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
+  }
+}
+
+/* The plant with reaction wheels: wheel torques at x (commands uwa), then the generated gyrostat_rhs with the
+ * disturbance as the external torque (the control acts through the wheels). */
+static void plant_with_wheels(workspace *W, const fsm_problem *P, const double *x, double *dx, const double *uwa,
+                              int sensed) {
+  const int n = W->n, S = W->stride;
+  wheel_torques(W, P, x, uwa);
+  for (int m = 0; m < 3 * n; ++m) W->tau[m] = W->d[m];
+  if (W->batched) {
+    for (int g = 0; g < W->n_groups; ++g) {
+      double *G = group_block(W, g);
+      for (int l = 0; l < FSM_LANES; ++l) {
+        const int i = lane_agent(g, l, n);
+        to_lane(ROW(G, RW_TAU), W->tau + 3 * i, 3, l);
+        to_lane(ROW(G, RW_HW), W->h_w + 3 * i, 3, l);
+        to_lane(ROW(G, RW_TAUW), W->tau_w + 3 * i, 3, l);
+      }
+      if (sensed) reload_state_lanes(W, G, g, x);
+      const double *arg[7] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_HW), ROW(G, RW_TAUW),
+                              ROW(G, RW_TAU),   ROW(G, RW_JTRUE), ROW(G, RW_JSPIN)};
+      double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
+      gyrostat_rhs_x4(arg, res, active_lanes(g, n));
+      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
+        const int i = g * FSM_LANES + l;
+        from_lane(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), 3, l);
+        from_lane(dx + 6 + (size_t)S * i, ROW(G, RW_OMEGA_DOT), 3, l);
+      }
+    }
+    return;
+  }
+  for (int i = 0; i < n; ++i) {
+    const double *xi = x + 3 + (size_t)S * i;
+    const double *arg[7] = {xi, xi + 3, W->h_w + 3 * i, W->tau_w + 3 * i, W->tau + 3 * i, P->J_true + 9 * i,
+                            P->J_spin + 9 * i};
+    double *res[2] = {dx + 3 + (size_t)S * i, dx + 6 + (size_t)S * i};
+    gyrostat_rhs(arg, res, W->iw, W->w, 0);
+  }
+}
+
 /* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque and law-state rates.  The
  * piecewise-constant link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop: see simulate_rk4). */
 static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
@@ -621,13 +668,19 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         const int i = lane_agent(g, l, n);
         const double *xi = x + 3 + (size_t)S * i;
         to_lane(ROW(G, RW_T), &t, 1, l);
-        to_lane(ROW(G, RW_SIGMA), sensed ? W->sig_meas + 3 * i : xi, 3, l);
-        to_lane(ROW(G, RW_OMEGA), sensed ? W->om_meas + 3 * i : xi + 3, 3, l);
+        to_lane(ROW(G, RW_SIGMA), xi, 3, l);
+        to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
         to_lane(ROW(G, RW_Z), xi + 6, nz, l);
         to_lane(ROW(G, RW_SD), sd, 3, l);
         to_lane(ROW(G, RW_WD), W->wd, 3, l);
         to_lane(ROW(G, RW_WDD), W->wdd, 3, l);
       }
+      if (sensed) /* the law sees the measurements */
+        for (int l = 0; l < FSM_LANES; ++l) {
+          const int i = lane_agent(g, l, n);
+          to_lane(ROW(G, RW_SIGMA), W->sig_meas + 3 * i, 3, l);
+          to_lane(ROW(G, RW_OMEGA), W->om_meas + 3 * i, 3, l);
+        }
       if (compute_control) {
         const double *arg[N_LOCAL_IN];
         for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = ROW(G, RW_T + a);
@@ -698,37 +751,19 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   const double *ua = compute_control ? W->u : W->u_apply;
   const double *za = compute_control ? W->zdot : W->zdot_apply;
   if (W->nw > 0) {
-    wheel_torques(W, P, x, compute_control ? W->uw : W->uw_apply);
-    for (int m = 0; m < 3 * n; ++m) W->tau[m] = W->d[m]; /* the control acts through the wheels */
-  } else {
+    plant_with_wheels(W, P, x, dx, compute_control ? W->uw : W->uw_apply, sensed);
+  } else if (W->batched) {
     for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
-  }
-  if (W->batched) {
-    const int wheels = W->nw > 0;
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
       for (int l = 0; l < FSM_LANES; ++l) {
         const int i = lane_agent(g, l, n);
-        to_lane(ROW(G, RW_TAU), W->tau + 3 * i, 3, l); /* rows RW_SIGMA, RW_OMEGA hold this x (unless sensed) */
-        if (sensed) {
-          const double *xi = x + 3 + (size_t)S * i;
-          to_lane(ROW(G, RW_SIGMA), xi, 3, l);
-          to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
-        }
-        if (wheels) {
-          to_lane(ROW(G, RW_HW), W->h_w + 3 * i, 3, l);
-          to_lane(ROW(G, RW_TAUW), W->tau_w + 3 * i, 3, l);
-        }
+        to_lane(ROW(G, RW_TAU), W->tau + 3 * i, 3, l); /* rows RW_SIGMA, RW_OMEGA still hold this x (unless sensed) */
       }
+      if (sensed) reload_state_lanes(W, G, g, x);
+      const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
       double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
-      if (wheels) {
-        const double *arg[7] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_HW), ROW(G, RW_TAUW),
-                                ROW(G, RW_TAU),   ROW(G, RW_JTRUE), ROW(G, RW_JSPIN)};
-        gyrostat_rhs_x4(arg, res, active_lanes(g, n));
-      } else {
-        const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
-        plant_rhs_x4(arg, res, active_lanes(g, n));
-      }
+      plant_rhs_x4(arg, res, active_lanes(g, n));
       for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
         const int i = g * FSM_LANES + l;
         from_lane(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), 3, l);
@@ -736,17 +771,12 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       }
     }
   } else {
+    for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
     for (int i = 0; i < n; ++i) {
       const double *xi = x + 3 + (size_t)S * i;
+      const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
       double *res[2] = {dx + 3 + (size_t)S * i, dx + 6 + (size_t)S * i};
-      if (W->nw > 0) {
-        const double *arg[7] = {xi, xi + 3, W->h_w + 3 * i, W->tau_w + 3 * i, W->tau + 3 * i, P->J_true + 9 * i,
-                                P->J_spin + 9 * i};
-        gyrostat_rhs(arg, res, W->iw, W->w, 0);
-      } else {
-        const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
-        plant_rhs(arg, res, W->iw, W->w, 0);
-      }
+      plant_rhs(arg, res, W->iw, W->w, 0);
     }
   }
   for (int i = 0; i < n; ++i) memcpy(dx + 9 + (size_t)S * i, za + (size_t)nz * i, sizeof(double) * nz);
