@@ -834,11 +834,11 @@ static void record(fsm_output *O, workspace *W, double t, const double *x) {
 }
 
 /* Run statistics of the applied torque u (unsaturated uu) held over an interval of length h; with wheels, u is
- * their reaction on the body and a wheel at its torque limit (scale > 1) or speed limit counts as saturated. */
+ * their reaction on the body at the interval's start and a wheel at its torque limit (scale > 1) or speed limit
+ * counts as saturated. */
 static void accumulate(fsm_output *O, const workspace *W, const fsm_problem *P, const double *u, const double *uu,
                        double h, double *u_prev, int first) {
   const int n = W->n;
-  if (W->nw > 0) u = W->u_body;
   for (int i = 0; i < n; ++i) {
     int sat = W->nw > 0 && (W->wscale_apply[i] > 1.0 || W->gated[i]);
     double tv = 0.0;
@@ -931,7 +931,7 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
     if (W->bad_agent != -2) break;
     if (k % P->output_every == 0) record(O, W, t, x);
     if (k == P->n_steps) break;
-    accumulate(O, W, P, W->u_apply, W->uu_apply, dt, u_prev, k == 0);
+    accumulate(O, W, P, W->nw > 0 ? W->u_body : W->u_apply, W->uu_apply, dt, u_prev, k == 0);
     const double th = t0 + ((double)k + 0.5) * dt, t1 = t0 + (double)(k + 1) * dt;
     for (size_t m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
     eval_rhs(W, P, th, t_link, xt, k2, continuous);
@@ -991,7 +991,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
     if (!continuous && fabs(t - (t0 + (double)q_hold * hold_dt)) <= eps_t) { sample = 1; W->q = q_hold++; }
     stage_one(W, P, t, t, x, k1, continuous || sample || first);
     if (W->bad_agent != -2) break;
-    memcpy(u_snap, W->u_apply, sizeof(double) * 3 * n);
+    memcpy(u_snap, W->nw > 0 ? W->u_body : W->u_apply, sizeof(double) * 3 * n); /* the torque on the body */
     memcpy(uu_snap, W->uu_apply, sizeof(double) * 3 * n);
     if (fabs(t - (t0 + (double)m_out * out_dt)) <= eps_t) { record(O, W, t, x); m_out++; }
     if (t >= t_end - eps_t) break;
