@@ -194,3 +194,10 @@ def test_table_entries_without_a_link_do_not_switch_the_links_on():
     s = probe(t_final=1.0).replace(simulation={"control_period": 0.0}, links={"delay_table": [[0.5, 0.0], [0.0, 0.5]]})
     assert s.links.enabled and not s.links_active
     assert not pack(s).hardware.links_imperfect
+
+
+def test_a_delay_longer_than_the_run_holds_the_initial_value():
+    """Delays beyond the horizon (even ones whose instant count overflows int32) deliver the instant-0 broadcast."""
+    for delay in (50.0, 3e8):
+        r = fsmctl.simulate(probe(t_final=2.0, delay=delay))
+        np.testing.assert_array_equal(delivered(r), 0.0)

@@ -242,3 +242,23 @@ def test_batched_and_scalar_wheel_kernels_fly_the_same_run():
         a, b = simulate_packed(p, kernels="batched"), simulate_packed(p, kernels="scalar")
         for k in ("sigma", "omega", "wheel_speed", "wheel_torque", "u", "sigma_measured", "omega_measured"):
             np.testing.assert_array_equal(a[k], b[k])
+
+
+def test_wheels_heavier_than_the_spacecraft_are_refused():
+    """J0 + delta_J is the whole spacecraft: the hub J - sum J_s g g^T must stay positive definite, else the
+    gyrostat is no rigid body (a units slip in spin_inertia would otherwise fly silently)."""
+    with pytest.raises(ScenarioError, match=r"^actuator\.spin_inertia: the wheels' spin inertia exceeds agent 1's"):
+        single_spacecraft(J=DIAG, actuator={"kind": "reaction_wheels", "layout": "orthogonal", "spin_inertia": 150.0})
+    with pytest.raises(ScenarioError, match="spin inertia exceeds"):
+        single_spacecraft(J=((0.01, 0, 0), (0, 0.012, 0), (0, 0, 0.008)), actuator={"kind": "reaction_wheels"})
+    single_spacecraft(J=DIAG, actuator={"kind": "reaction_wheels", "layout": "orthogonal", "spin_inertia": 99.0})
+
+
+def test_adaptive_steps_with_a_wheel_speed_limit_are_warned_about():
+    from fsmctl.simulation.simulator import DiscontinuousControlWarning
+
+    s = _spin(0.5, torque_z=0.2, max_speed=20.0).replace(
+        simulation={"integrator": "dopri45"}, controller={"boundary_layer": 0.01}
+    )
+    with pytest.warns(DiscontinuousControlWarning, match="wheel speed limit"):
+        fsmctl.simulate(s)

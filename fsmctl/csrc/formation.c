@@ -837,10 +837,10 @@ static void record(fsm_output *O, workspace *W, double t, const double *x) {
  * their reaction on the body at the interval's start and a wheel at its torque limit (scale > 1) or speed limit
  * counts as saturated. */
 static void accumulate(fsm_output *O, const workspace *W, const fsm_problem *P, const double *u, const double *uu,
-                       double h, double *u_prev, int first) {
+                       const double *wheel_sat, double h, double *u_prev, int first) {
   const int n = W->n;
   for (int i = 0; i < n; ++i) {
-    int sat = W->nw > 0 && (W->wscale_apply[i] > 1.0 || W->gated[i]);
+    int sat = W->nw > 0 && wheel_sat[i] != 0.0;
     double tv = 0.0;
     for (int k = 0; k < 3; ++k) {
       double au = fabs(uu[3 * i + k]);
@@ -853,6 +853,11 @@ static void accumulate(fsm_output *O, const workspace *W, const fsm_problem *P, 
     if (sat) O->saturated_time[i] += h;
     O->u_total_variation[i] += tv;
   }
+}
+
+/* Per agent: 1 if a wheel is at its torque limit (scale > 1) or speed limit at the last evaluation, else 0. */
+static void wheel_saturation(const workspace *W, double *flags) {
+  for (int i = 0; i < W->n; ++i) flags[i] = W->nw > 0 && (W->wscale_apply[i] > 1.0 || W->gated[i]);
 }
 
 /* Evaluate stage 1 at (t, x): control if due, hold bookkeeping. */
@@ -914,7 +919,7 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
                         fsm_progress_fn progress, long long every) {
   const int n = W->n;
   const size_t N = 3 + (size_t)W->stride * n;
-  double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *xt = k4 + N, *u_prev = xt + N;
+  double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *xt = k4 + N, *u_prev = xt + N, *sat0 = u_prev + 3 * n;
   const double dt = P->dt, t0 = P->t0;
   const int continuous = P->hold_steps <= 0;
   /* The link weights k^j_ij(t) are piecewise constant in t.  All four stages of the step over [t_k, t_k+1]
@@ -931,7 +936,8 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
     if (W->bad_agent != -2) break;
     if (k % P->output_every == 0) record(O, W, t, x);
     if (k == P->n_steps) break;
-    accumulate(O, W, P, W->nw > 0 ? W->u_body : W->u_apply, W->uu_apply, dt, u_prev, k == 0);
+    wheel_saturation(W, sat0);
+    accumulate(O, W, P, W->nw > 0 ? W->u_body : W->u_apply, W->uu_apply, sat0, dt, u_prev, k == 0);
     const double th = t0 + ((double)k + 0.5) * dt, t1 = t0 + (double)(k + 1) * dt;
     for (size_t m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
     eval_rhs(W, P, th, t_link, xt, k2, continuous);
@@ -976,7 +982,8 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
   const int n = W->n;
   const size_t N = 3 + (size_t)W->stride * n;
   double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *k5 = k4 + N, *k6 = k5 + N, *k7 = k6 + N,
-         *xt = k7 + N, *xn = xt + N, *u_prev = xn + N, *u_snap = u_prev + 3 * n, *uu_snap = u_snap + 3 * n;
+         *xt = k7 + N, *xn = xt + N, *u_prev = xn + N, *u_snap = u_prev + 3 * n, *uu_snap = u_snap + 3 * n,
+         *sat0 = uu_snap + 3 * n;
   const double t0 = P->t0, t_end = t0 + (double)P->n_steps * P->dt;
   const double out_dt = (double)P->output_every * P->dt;
   const double hold_dt = P->hold_steps > 0 ? (double)P->hold_steps * P->dt : 0.0;
@@ -992,6 +999,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
     stage_one(W, P, t, t, x, k1, continuous || sample || first);
     if (W->bad_agent != -2) break;
     memcpy(u_snap, W->nw > 0 ? W->u_body : W->u_apply, sizeof(double) * 3 * n); /* the torque on the body */
+    wheel_saturation(W, sat0); /* at the step's start, as the torque */
     memcpy(uu_snap, W->uu_apply, sizeof(double) * 3 * n);
     if (fabs(t - (t0 + (double)m_out * out_dt)) <= eps_t) { record(O, W, t, x); m_out++; }
     if (t >= t_end - eps_t) break;
@@ -1031,7 +1039,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       factor = fmin(5.0, fmax(0.2, factor));
       if (err <= 1.0 && W->bad_agent != -2) break; /* cannot happen with a finite err; kept for safety */
       if (err <= 1.0) {
-        accumulate(O, W, P, u_snap, uu_snap, hs, u_prev, first);
+        accumulate(O, W, P, u_snap, uu_snap, sat0, hs, u_prev, first);
         first = 0;
         memcpy(x, xn, sizeof(double) * N);
         t = lands ? t_next : t + hs;
@@ -1078,7 +1086,7 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
   if (rc != FSM_OK) return rc;
   const int n = P->n_agents;
   const size_t N = 3 + (size_t)W.stride * n;
-  double *buf = calloc(N * 11 + 9 * (size_t)n, sizeof(double));
+  double *buf = calloc(N * 11 + 10 * (size_t)n, sizeof(double));
   if (!buf) { free_workspace(&W); return FSM_NOMEM; }
   double *x = buf;
   memcpy(x, x0, sizeof(double) * N);
@@ -1108,7 +1116,7 @@ int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double 
   int rc = alloc_workspace(&W, P);
   if (rc != FSM_OK) return rc;
   eval_rhs(&W, P, t, t, x, dx, 1);
-  if (u_out) memcpy(u_out, W.u, sizeof(double) * 3 * P->n_agents);
+  if (u_out) memcpy(u_out, W.nw > 0 ? W.u_body : W.u, sizeof(double) * 3 * P->n_agents); /* on the body */
   rc = W.bad_agent == -2 ? FSM_OK : FSM_NONFINITE_CONTROL;
   free_workspace(&W);
   return rc;

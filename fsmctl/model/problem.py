@@ -82,7 +82,8 @@ def delay_instants(delay: np.ndarray, period: float) -> np.ndarray:
     instant at or before ``t_q - delay``, i.e. of instant ``q - ceil(delay / period)`` (float rounding of an exact
     multiple forgiven)."""
     d = np.asarray(delay, dtype=float) / period
-    return np.maximum(0, np.ceil(d - 1e-9 * np.maximum(1.0, d))).astype(np.int32)
+    q = np.maximum(0, np.ceil(d - 1e-9 * np.maximum(1.0, d)))
+    return np.minimum(q, np.iinfo(np.int32).max).astype(np.int32)
 
 
 def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> HardwarePack:
@@ -147,7 +148,8 @@ def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> Hardware
             lost = noise["lost"] if noise["lost"].shape[1] == len(topo) else np.zeros((Q, len(topo)), np.uint8)
             out.update(
                 links_imperfect=True,
-                link_delay=delay_instants(links.per_link(receivers, senders, "delay"), period),
+                # a delay beyond the run delivers the instant-0 value throughout: Q instants are as good as more
+                link_delay=np.minimum(delay_instants(links.per_link(receivers, senders, "delay"), period), Q),
                 link_lost=np.ascontiguousarray(lost, dtype=np.uint8),
             )
     return HardwarePack(**out)

@@ -1018,6 +1018,17 @@ class Scenario:
                 "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
             )
         n = len(self.agents)
+        if self.actuator.enabled:  # the hub inertia J - J_spin must be a rigid body's
+            G = self.actuator.spin_axes()
+            J_spin = (G * self.actuator.per_wheel("spin_inertia")) @ G.T
+            for i, agent in enumerate(self.agents, start=1):
+                hub = np.linalg.eigvalsh(agent.J_true - J_spin)
+                if not hub[0] > 1e-9 * abs(hub[-1]):
+                    raise ValueError(
+                        f"actuator.spin_inertia: the wheels' spin inertia exceeds agent {i}'s: J0 + delta_J - "
+                        f"sum J_s g g^T has eigenvalues {np.round(hub, 6).tolist()} kg m^2 (J0 + delta_J is the whole "
+                        "spacecraft, wheels included; the hub must keep a positive definite inertia)"
+                    )
         linked = {(lk.receiver, lk.sender) for lk in self.topology.links}
         for name, upper in (("delay_table", math.inf), ("loss_table", 1.0)):
             tab = getattr(self.links, name)

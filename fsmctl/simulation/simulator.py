@@ -825,6 +825,14 @@ class SimulationResult:
 
 
 def _check_integrator(p: PackedProblem, scenario: Scenario) -> None:
+    act = scenario.actuator
+    if p.integrator == 1 and act.enabled and (np.isfinite(act.per_wheel("max_speed")).any() or act.coulomb_band == 0):
+        warnings.warn(
+            "adaptive integration with a wheel speed limit or sgn Coulomb friction (coulomb_band = 0): a wheel at "
+            "its limit switches its torque on and off, which collapses the step size; use integrator='rk4'",
+            DiscontinuousControlWarning,
+            stacklevel=3,
+        )
     if p.integrator == 1 and scenario.controller.boundary_layer == 0:
         warnings.warn(
             "adaptive integration of the discontinuous sgn(s) control (boundary_layer = 0): the step size will "
