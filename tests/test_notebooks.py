@@ -367,8 +367,76 @@ def test_there_are_notebooks():
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs_and_shows_its_results(path, notebook_environment, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    nb = _execute(path, tmp_path)
-    assert problems(path.stem, nb) == []
+    before = _temp_entries()
+    nb = _execute(path, tmp_path, prepend=FIGURE_PROBE)
+    assert problems(path.stem, nb) + _undisplayed_figures(path.stem, nb) == []
+    left = sorted(_temp_entries() - before)
+    assert not left, (
+        f"{path.stem} left {left} in the system temp folder (notebooks write only under their working folder)"
+    )
+
+
+FIGURE_PROBE = """
+import matplotlib.figure as _fsmctl_mf
+from IPython import get_ipython as _fsmctl_ip
+
+_fsmctl_made = []
+_fsmctl_init = _fsmctl_mf.Figure.__init__
+
+
+def _fsmctl_count(self, *args, **kwargs):
+    _fsmctl_init(self, *args, **kwargs)
+    _fsmctl_made.append(1)
+
+
+def _fsmctl_report(result):
+    if _fsmctl_made:
+        print(f"__figures_made__ {len(_fsmctl_made)}")
+        _fsmctl_made.clear()
+
+
+_fsmctl_mf.Figure.__init__ = _fsmctl_count
+_fsmctl_ip().events.register("post_run_cell", _fsmctl_report)
+"""
+"""A first cell that counts the matplotlib figures each cell makes (printed at the cell's end)."""
+
+
+def _undisplayed_figures(name: str, nb) -> list[str]:
+    """Every cell that makes a figure shows it as an image (not ``<Figure size ...>`` text, not nothing)."""
+    out = []
+    for k, cell in enumerate(c for c in nb.cells[1:] if c.cell_type == "code"):
+        outputs = cell.get("outputs", [])
+        text = "".join(o.get("text", "") for o in outputs if o["output_type"] == "stream")
+        made = re.search(r"__figures_made__ (\d+)", text)
+        images = sum("image/png" in o.get("data", {}) for o in outputs)
+        if made and images == 0:
+            out.append(f"{name}: code cell {k + 1} makes {made.group(1)} figure(s) and shows none as an image")
+    return out
+
+
+def _temp_entries() -> set[str]:
+    import tempfile
+
+    # fsmctl-build-* are process-private build folders, removed when their process exits
+    return {
+        e for e in os.listdir(tempfile.gettempdir()) if e.startswith("fsmctl-") and not e.startswith("fsmctl-build-")
+    }
+
+
+def test_a_figure_made_and_not_shown_is_reported(notebook_environment, tmp_path, monkeypatch):
+    """The probe of test_notebook_runs_and_shows_its_results can fail: a cell that makes a Figure without pyplot and
+    does not display it is reported, so is one that displays it without `%matplotlib inline` (it shows as the text
+    `<Figure size ...>`), and the cell that displays it with the inline backend is not."""
+    monkeypatch.chdir(tmp_path)
+    src = "# %%\nfrom matplotlib.figure import Figure\nfig = Figure()\nfig.add_subplot().plot([0, 1])\n"
+    show = "from IPython.display import display\ndisplay(fig)\n"
+    cases = {"hidden": src, "as-text": src + show, "shown": "# %matplotlib inline\n" + src + show}
+    (tmp_path / "run").mkdir()
+    for name, text in cases.items():
+        (tmp_path / f"{name}.py").write_text(text)
+        found = _undisplayed_figures(name, _execute(tmp_path / f"{name}.py", tmp_path / "run", prepend=FIGURE_PROBE))
+        expected = [] if name == "shown" else [f"{name}: code cell 1 makes 1 figure(s) and shows none as an image"]
+        assert found == expected, name
 
 
 FAULT = """
