@@ -10,6 +10,7 @@ Subcommands live in their own modules, each exposing ``add_parser(subparsers)``
 ``fsmctl compare-surfaces``   FSM vs TSM vs LSM, Theorem 3 (:mod:`fsmctl.cli.surfaces`)
 ``fsmctl compare``            laws compared on one scenario (:mod:`fsmctl.cli.compare`)
 ``fsmctl montecarlo``         robustness campaigns (:mod:`fsmctl.cli.montecarlo`)
+``fsmctl tune``               search a law's parameters under the actuator limits (:mod:`fsmctl.cli.tune`)
 ``fsmctl laws``               the built-in laws and their parameters (:mod:`fsmctl.cli.laws`)
 ``fsmctl derive``             check and generate a law from a derivation script (:mod:`fsmctl.cli.derive`)
 ============================  ======================================================================
@@ -62,6 +63,7 @@ SUBCOMMAND_MODULES = (
     "fsmctl.cli.surfaces",
     "fsmctl.cli.compare",
     "fsmctl.cli.montecarlo",
+    "fsmctl.cli.tune",
     "fsmctl.cli.laws",
     "fsmctl.cli.derive",
 )
