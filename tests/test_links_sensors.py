@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from formations import single_spacecraft
+from oracle_numpy import mrp_to_dcm as dcm  # [BN] through Euler parameters (an independent route)
 
 import fsmctl
 from fsmctl.model.problem import delay_instants, pack
@@ -102,12 +103,6 @@ def test_links_and_sensors_need_a_control_period():
 
 
 # ----------------------------------------------------------------------------- sensors
-
-
-def dcm(sigma: np.ndarray) -> np.ndarray:
-    s2 = float(sigma @ sigma)
-    sx = np.array([[0, -sigma[2], sigma[1]], [sigma[2], 0, -sigma[0]], [-sigma[1], sigma[0], 0]])
-    return np.eye(3) + (8 * sx @ sx - 4 * (1 - s2) * sx) / (1 + s2) ** 2
 
 
 def error_rotation(measured: np.ndarray, true: np.ndarray) -> np.ndarray:

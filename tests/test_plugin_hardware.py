@@ -15,6 +15,7 @@ import control as ct
 import numpy as np
 import pytest
 from formations import single_spacecraft, with_agents
+from oracle_numpy import mrp_to_dcm as dcm  # [BN] through Euler parameters (an independent route)
 
 import fsmctl
 from fsmctl.errors import InputError
@@ -26,13 +27,6 @@ from fsmctl.plugin.iosys import law_controller, quaternion_from_mrp, reference_g
 ECHO = str(Path(__file__).parent / "data" / "laws" / "echo_time.py")
 J_FULL = np.array([[100.0, 1.0, 2.0], [1.0, 150.0, 1.0], [2.0, 1.0, 200.0]])
 TIGHT = {"solve_ivp_method": "RK45", "solve_ivp_kwargs": {"rtol": 1e-11, "atol": 1e-13}}
-
-
-def dcm(sigma: np.ndarray) -> np.ndarray:
-    """[BN] of an MRP (Schaub & Junkins eq 3.152), written out here as an independent route."""
-    s2 = float(sigma @ sigma)
-    sx = np.array([[0, -sigma[2], sigma[1]], [sigma[2], 0, -sigma[0]], [-sigma[1], sigma[0], 0]])
-    return np.eye(3) + (8 * sx @ sx - 4 * (1 - s2) * sx) / (1 + s2) ** 2
 
 
 def rows(sys: ct.InputOutputSystem, signal: str) -> list[int]:

@@ -2,8 +2,8 @@
 
 Independent routes: the closed-form spin-up and spin-down of a hub about a principal axis (derived in the
 docstrings below from the gyrostat equations of Schaub & Junkins eq 4.146), the inertial angular momentum
-``[NB] (J omega + sum_k J_s Omega_k g_k)`` with the DCM written here from the textbook formula (not the generated
-one), and :func:`fsmctl.model.actuators.distribute` (a NumPy transcription held bit-identical to the C rule).
+``[NB] (J omega + sum_k J_s Omega_k g_k)`` with the DCM of the NumPy oracle (``tests/oracle_numpy.py``, through Euler
+parameters, not the generated code), and :func:`fsmctl.model.actuators.distribute` (a NumPy transcription held bit-identical to the C rule).
 The Basilisk cross-check is in ``tests/test_wheels_basilisk.py``.
 """
 
@@ -15,6 +15,7 @@ import math
 import numpy as np
 import pytest
 from formations import single_spacecraft
+from oracle_numpy import mrp_to_dcm as dcm  # [BN] through Euler parameters (an independent route)
 
 import fsmctl
 from fsmctl.errors import EnvironmentProblem
@@ -24,13 +25,6 @@ from fsmctl.model.scenario import ActuatorSettings, ScenarioError
 from fsmctl.simulation import simulator
 
 DIAG = ((100.0, 0.0, 0.0), (0.0, 150.0, 0.0), (0.0, 0.0, 200.0))
-
-
-def dcm(sigma: np.ndarray) -> np.ndarray:
-    """[BN] of an MRP (Schaub & Junkins eq 3.152), written out here as an independent route."""
-    s2 = float(sigma @ sigma)
-    sx = np.array([[0, -sigma[2], sigma[1]], [sigma[2], 0, -sigma[0]], [-sigma[1], sigma[0], 0]])
-    return np.eye(3) + (8 * sx @ sx - 4 * (1 - s2) * sx) / (1 + s2) ** 2
 
 
 def inertial_momentum(result, agent: int) -> np.ndarray:
@@ -262,3 +256,43 @@ def test_adaptive_steps_with_a_wheel_speed_limit_are_warned_about():
     )
     with pytest.warns(DiscontinuousControlWarning, match="wheel speed limit"):
         fsmctl.simulate(s)
+
+
+def test_fsm_rhs_reports_the_wheels_torque_on_the_body():
+    """The exported one-evaluation RHS returns the torque the body receives (the wheels' reaction, after the scale
+    factor), the same as a run records at t = 0, not the law's command."""
+    import ctypes
+
+    from fsmctl.simulation.simulator import _CProblem, _ptr
+
+    s = fsmctl.paper_scenario("1").replace(
+        simulation={"t_final": 0.01}, actuator={"kind": "reaction_wheels", "spin_inertia": 0.159, "max_torque": 0.2}
+    )
+    p = pack(s)
+    dll = simulator._driver(p.law)
+    if dll is None:
+        pytest.skip("no C compiler")
+    cp = _CProblem(p)
+    x = np.ascontiguousarray(p.x0)
+    dx, u = np.zeros_like(x), np.zeros(3 * p.n_agents)
+    assert dll.fsm_rhs(ctypes.byref(cp.struct), 0.0, _ptr(x), _ptr(dx), _ptr(u)) == 0
+    r = fsmctl.simulate(s)
+    np.testing.assert_array_equal(u.reshape(-1, 3), r.u[0])
+    assert not np.allclose(r.u[0], np.clip(r.u_unsaturated[0], -2.0, 2.0))  # the wheels deliver less
+
+
+def test_dopri45_counts_wheel_saturation_at_each_step_start_like_rk4():
+    """Saturation time is counted from the state at each step's start with both integrators.  A wheel chattering at
+    its speed limit: RK4 at 1 ms gives 4.416 s; dopri45 (its own steps) 4.423 s.  Taking the flags at the step's end
+    (the last stage) instead gave 4.433 s (hold) and 4.440 s (continuous): more than 0.01 s off."""
+    s = single_spacecraft(
+        law_parameters={"bias": [0.05, 0.0, 0.0]},
+        actuator={
+            "kind": "reaction_wheels", "layout": "orthogonal", "spin_inertia": 0.1, "max_speed": 2.0,
+            "viscous_friction": 0.01,
+        },
+    )  # fmt: skip
+    rk4 = fsmctl.simulate(s)
+    with pytest.warns(simulator.DiscontinuousControlWarning):
+        dopri = fsmctl.simulate(s.replace(simulation={"integrator": "dopri45"}, controller={"boundary_layer": 0.01}))
+    assert abs(dopri.saturated_time[0] - rk4.saturated_time[0]) < 0.01

@@ -857,7 +857,8 @@ static void accumulate(fsm_output *O, const workspace *W, const fsm_problem *P, 
 
 /* Per agent: 1 if a wheel is at its torque limit (scale > 1) or speed limit at the last evaluation, else 0. */
 static void wheel_saturation(const workspace *W, double *flags) {
-  for (int i = 0; i < W->n; ++i) flags[i] = W->nw > 0 && (W->wscale_apply[i] > 1.0 || W->gated[i]);
+  if (W->nw == 0) return; /* accumulate reads the flags only with wheels */
+  for (int i = 0; i < W->n; ++i) flags[i] = W->wscale_apply[i] > 1.0 || W->gated[i];
 }
 
 /* Evaluate stage 1 at (t, x): control if due, hold bookkeeping. */

@@ -17,7 +17,43 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["distribution_matrix", "distribute", "body_torque_capacity", "max_body_torque"]
+__all__ = [
+    "distribution_matrix",
+    "distribute",
+    "body_torque_capacity",
+    "max_body_torque",
+    "spin_inertia_matrix",
+    "hub_inertia_problem",
+]
+
+
+def spin_inertia_matrix(axes: np.ndarray, spin_inertia: np.ndarray) -> np.ndarray:
+    """``J_spin = sum_k J_s,k g_k g_k^T`` (3, 3): the wheels' spin part of the spacecraft inertia.
+
+    Examples
+    --------
+    >>> spin_inertia_matrix(np.eye(3), np.array([1.0, 2.0, 3.0])).diagonal().tolist()
+    [1.0, 2.0, 3.0]
+    """
+    G = np.asarray(axes, dtype=float)
+    return (G * np.asarray(spin_inertia, dtype=float)) @ G.T
+
+
+def hub_inertia_problem(J: np.ndarray, J_spin: np.ndarray) -> str | None:
+    """Why ``J - J_spin`` is not a rigid hub's inertia (not positive definite; the wheels' spin inertia exceeds the
+    spacecraft's), or None.
+
+    ``J`` is the whole spacecraft's inertia, wheels included; the gyrostat (:mod:`fsmctl.symbolic.hardware`) solves
+    ``(J - J_spin) omega_dot = ...``, which describes no body when the wheels' spin inertia exceeds the spacecraft's.
+    """
+    hub = np.asarray(J, dtype=float) - np.asarray(J_spin, dtype=float)
+    eig = np.linalg.eigvalsh(0.5 * (hub + hub.T))
+    if eig[0] > 1e-9 * abs(eig[-1]):
+        return None
+    return (
+        f"the hub inertia J - J_spin (J_spin = sum J_s g g^T) is not positive definite, eigenvalues "
+        f"{np.round(eig, 6).tolist()} kg m^2 (J is the whole spacecraft, wheels included)"
+    )
 
 
 def distribution_matrix(axes: np.ndarray) -> np.ndarray:

@@ -105,7 +105,7 @@ def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> Hardware
             ],
             axis=1,
         )
-        J_spin = (G * Js) @ G.T
+        J_spin = act.spin_inertia_matrix()
         out.update(
             n_wheels=N,
             wheel_axes=np.broadcast_to(G.T, (n, N, 3)).copy(),

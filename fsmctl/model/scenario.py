@@ -856,6 +856,14 @@ class ActuatorSettings:
         G = self._raw_axes()
         return G / np.linalg.norm(G, axis=0)
 
+    def spin_inertia_matrix(self) -> np.ndarray:
+        """``J_spin = sum_k J_s,k g_k g_k^T`` (3, 3) of the wheels (zero for the ideal actuator)."""
+        from fsmctl.model.actuators import spin_inertia_matrix
+
+        if not self.enabled:
+            return np.zeros((3, 3))
+        return spin_inertia_matrix(self.spin_axes(), self.per_wheel("spin_inertia"))
+
     def per_wheel(self, name: str) -> np.ndarray:
         """``(N,)`` values of a per-wheel setting (one value broadcast to every wheel)."""
         v = np.array(getattr(self, name), dtype=float)
@@ -1019,16 +1027,13 @@ class Scenario:
             )
         n = len(self.agents)
         if self.actuator.enabled:  # the hub inertia J - J_spin must be a rigid body's
-            G = self.actuator.spin_axes()
-            J_spin = (G * self.actuator.per_wheel("spin_inertia")) @ G.T
+            from fsmctl.model.actuators import hub_inertia_problem
+
+            J_spin = self.actuator.spin_inertia_matrix()
             for i, agent in enumerate(self.agents, start=1):
-                hub = np.linalg.eigvalsh(agent.J_true - J_spin)
-                if not hub[0] > 1e-9 * abs(hub[-1]):
-                    raise ValueError(
-                        f"actuator.spin_inertia: the wheels' spin inertia exceeds agent {i}'s: J0 + delta_J - "
-                        f"sum J_s g g^T has eigenvalues {np.round(hub, 6).tolist()} kg m^2 (J0 + delta_J is the whole "
-                        "spacecraft, wheels included; the hub must keep a positive definite inertia)"
-                    )
+                problem = hub_inertia_problem(agent.J_true, J_spin)
+                if problem:
+                    raise ValueError(f"actuator.spin_inertia: the wheels' spin inertia exceeds agent {i}'s: {problem}")
         linked = {(lk.receiver, lk.sender) for lk in self.topology.links}
         for name, upper in (("delay_table", math.inf), ("loss_table", 1.0)):
             tab = getattr(self.links, name)

@@ -28,7 +28,7 @@ import control as ct
 import numpy as np
 
 from fsmctl.errors import InputError
-from fsmctl.model.actuators import distribute, distribution_matrix
+from fsmctl.model.actuators import distribute, distribution_matrix, hub_inertia_problem, spin_inertia_matrix
 from fsmctl.model.attitude import _mrp_of_quaternion, _quaternion_rate, quaternion_from_mrp
 from fsmctl.model.generated_code import casadi_function
 from fsmctl.model.scenario import ActuatorSettings, ScenarioError, Sinusoid
@@ -124,12 +124,9 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 
 def _check_hub_inertia(J: np.ndarray, J_spin: np.ndarray, where: str) -> None:
     """``J - J_spin`` (the hub's inertia without the wheels' spin) must be positive definite."""
-    eig = np.linalg.eigvalsh(0.5 * ((J - J_spin) + (J - J_spin).T))
-    if eig[0] <= 0:
-        raise ScenarioError(
-            f"{where}: the hub inertia J - J_spin is not positive definite (eigenvalues {np.round(eig, 9).tolist()}): "
-            "the wheels' spin inertia exceeds the spacecraft's"
-        )
+    problem = hub_inertia_problem(J, J_spin)
+    if problem:
+        raise ScenarioError(f"{where}: the wheels' spin inertia exceeds the spacecraft's: {problem}")
 
 
 class _WheelArray:
@@ -144,7 +141,7 @@ class _WheelArray:
         if len(key) == len(self._key) and all(a is b for a, b in zip(key, self._key, strict=True)):
             return self
         G, Js = p["axes"], p["spin_inertia"]
-        J_spin = (G * Js) @ G.T  # sum_k J_s,k g_k g_k^T, as fsmctl.model.problem.pack_hardware forms it
+        J_spin = spin_inertia_matrix(G, Js)
         _check_hub_inertia(p["J"], J_spin, self._where)
         self.J_spin = J_spin
         self.pinv = distribution_matrix(G)

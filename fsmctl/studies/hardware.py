@@ -101,7 +101,7 @@ def momentum_budget(scenario: Scenario, *, step: float = 0.05) -> list[WheelBudg
         raise ValueError("momentum_budget: the scenario has no reaction wheels (actuator.kind = 'ideal')")
     G = act.spin_axes()
     Js = act.per_wheel("spin_inertia")
-    J_spin = (G * Js) @ G.T
+    J_spin = act.spin_inertia_matrix()
     h_max = Js * act.per_wheel("max_speed")
     bounds = angular_momentum_bound(scenario, step=step)
     horizon = max(b.min_time_s for b in bounds) + step

@@ -524,7 +524,7 @@ def angular_momentum_bound(scenario, *, step: float = 0.01) -> list[MomentumBoun
     times, sigma_d, omega_d = reference_trajectory(scenario, reach / rate + 2 * step, step)
     n = times.size
     C_d = np.asarray(dcm.map(n)(sigma_d.T)).reshape(3, n, 3).transpose(1, 0, 2)  # [DN](t_k)
-    J_spin = (G * Js) @ G.T
+    J_spin = act.spin_inertia_matrix()
     for i, a in enumerate(scenario.agents):
         J = a.J_true
         C0 = np.asarray(dcm(np.asarray(a.sigma0, float)))
