@@ -69,13 +69,6 @@ class HardwarePack:
     link_delay: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
     link_lost: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.uint8))
 
-    @property
-    def nbytes(self) -> int:
-        """Memory of the arrays (the noise and loss tables grow with the number of control instants)."""
-        return sum(
-            getattr(self, f).nbytes for f in self.__dataclass_fields__ if isinstance(getattr(self, f), np.ndarray)
-        )
-
 
 def delay_instants(delay: np.ndarray, period: float) -> np.ndarray:
     """Link delays in control instants: the value delivered at ``t_q`` is the sender's broadcast of the latest

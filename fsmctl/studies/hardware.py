@@ -11,8 +11,7 @@ including the wheels' peak momentum.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -25,7 +24,6 @@ __all__ = [
     "momentum_envelope",
     "TorqueDemand",
     "torque_demand",
-    "budget_table",
 ]
 
 
@@ -127,11 +125,6 @@ def momentum_budget(scenario: Scenario, *, step: float = 0.05) -> list[WheelBudg
             )
         )
     return out
-
-
-def budget_table(budget: Sequence[WheelBudget]) -> list[dict]:
-    """Rows (dicts) of a budget, for a DataFrame or a CSV writer."""
-    return [asdict(b) for b in budget]
 
 
 @dataclass(frozen=True)
