@@ -58,6 +58,7 @@ __all__ = [
     "load_scenario",
     "paper_scenario",
     "simulate",
+    "simulate_many",
     "SimulationResult",
     "StepSizeWarning",
     "spacecraft",
@@ -75,6 +76,7 @@ __all__ = [
 
 _LAZY = {
     "simulate": "fsmctl.simulation.simulator",
+    "simulate_many": "fsmctl.simulation.simulator",
     "SimulationResult": "fsmctl.simulation.simulator",
     "SimulationError": "fsmctl.simulation.simulator",
     "StepSizeWarning": "fsmctl.simulation.simulator",

@@ -398,7 +398,17 @@ def test_result_not_ending_at_t_final_is_failed_not_ok(tmp_path, monkeypatch):
         r = real(scenario, **kw)
         return dataclasses.replace(r, time=r.time - scenario.simulation.output_interval)
 
+    real_many = simulator.simulate_many
+
+    def early_many(scenarios, **kw):  # the same, for the runs of a chunk flown together
+        scenarios = list(scenarios)
+        return [
+            early(s) if not isinstance(r, Exception) else r
+            for s, r in zip(scenarios, real_many(scenarios, **kw), strict=True)
+        ]
+
     monkeypatch.setattr(simulator, "simulate", early)
+    monkeypatch.setattr(simulator, "simulate_many", early_many)
     res = mc.run_campaign(
         mc.CampaignSettings(runs=1, t_final=0.2), tmp_path / "o", workers=1, progress=False, figures=False
     )

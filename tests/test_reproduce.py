@@ -255,6 +255,44 @@ def test_claims_table_holds_every_claim_with_a_known_verdict(fast_reproduction):
     assert {c["id"]: c["verdict"] for c in data["claims"]}["settling_27s"] == IMPOSSIBLE
 
 
+def test_fast_reproduce_explains_the_claims_not_reproduced(fast_reproduction):
+    # fsmctl reproduce explains by default, --fast at its short horizon (fsmctl/studies/explain.py, tests/test_explain.py)
+    from fsmctl.model.scenario import load_scenario
+    from fsmctl.studies.explain import ALREADY_REPRODUCED, EXPLAINED, FIGURE_CHECKS, NOT_EXPLAINED
+
+    _, out = fast_reproduction
+    report = (out / "report.md").read_text()
+    assert "## What would reproduce each claim" in report and "### Figure-level evidence" in report
+    data = json.loads((out / "claims.json").read_text())
+    explanations = {e["id"]: e for e in data["explanations"]}
+    assert list(explanations) == CLAIM_IDS + list(FIGURE_CHECKS)
+    verdicts = {c["id"]: c["verdict"] for c in data["claims"]}
+    for cid in CLAIM_IDS:
+        e = explanations[cid]
+        assert e["verdict"] == verdicts[cid]
+        assert e["status"] == (ALREADY_REPRODUCED if verdicts[cid] == REPRODUCED else e["status"])
+        assert e["status"] in (EXPLAINED, NOT_EXPLAINED, ALREADY_REPRODUCED)
+        section = report.split("## What would reproduce each claim")[1]
+        row = next(line for line in section.splitlines() if line.startswith(f"| **{cid}**"))
+        if e["status"] == EXPLAINED:
+            ev = e["evidence"]
+            assert ev["rerun_identical"] and (out / ev["scenario_file"]).is_file()
+            assert load_scenario(out / ev["scenario_file"], case="1").name == "paper"  # extends the paper's scenario
+            assert e["reproduced_if"] in row.replace("\\|", "|") and ev["scenario_file"] in row
+        elif e["status"] == NOT_EXPLAINED:
+            assert e["searched"] and NOT_EXPLAINED in row and "torque limit 2-100000 N m" in row
+    # the 27 s claim is impossible at 2 N m, and a larger torque limit is the smallest change that reproduces it
+    assert explanations["settling_27s"]["reproduced_if"].startswith("torque limit >= ")
+
+
+def test_reproduce_no_explain(tmp_path):
+    rc = main(["reproduce", "--fast", "--no-figures", "--no-explain", "--out", str(tmp_path), "--no-progress"])
+    assert rc == 0
+    assert "What would reproduce" not in (tmp_path / "report.md").read_text()
+    assert "explanations" not in json.loads((tmp_path / "claims.json").read_text())
+    assert not (tmp_path / "explain").exists()
+
+
 @pytest.mark.parametrize(
     ("argv", "needle"),
     [

@@ -1,5 +1,6 @@
-"""``fsmctl tune`` (:mod:`fsmctl.studies.tune`): determinism, resumption, the written design, ranges, constraints,
-bad settings and the command line.  Short horizons and small budgets keep the file fast; the ``pid`` law where the
+"""``fsmctl tune`` (:mod:`fsmctl.studies.tune`): determinism (whatever the workers or Dask), resumption (also after a
+Ctrl-C), pruning, the written design, ranges, bad settings and the command line.  The constraints are in
+``tests/test_tune_constraints.py``.  Short horizons and small budgets keep the file fast; the ``pid`` law where the
 test does not depend on the law."""
 
 from __future__ import annotations
@@ -7,13 +8,24 @@ from __future__ import annotations
 import csv
 import json
 import math
+import signal
+import subprocess
+import sys
+import time
 
+import numpy as np
+import optuna
 import pytest
+from optuna.storages import JournalStorage
+from optuna.storages.journal import JournalFileBackend
+from optuna.trial import TrialState
 
+import fsmctl.studies.tune as tune_module
 from fsmctl.cli.main import main
 from fsmctl.errors import InputError
 from fsmctl.model.laws import resolve_law
 from fsmctl.model.scenario import load_scenario
+from fsmctl.simulation.metrics import aaem_deg, principal_angles, settling_time, steady_state_max
 from fsmctl.simulation.simulator import simulate
 from fsmctl.studies.compare import run_metrics
 from fsmctl.studies.tune import TuneSettings, search_space, tune
@@ -23,9 +35,11 @@ PID_RANGES = (("K", 5.0, 200.0), ("P", 10.0, 400.0))
 
 @pytest.fixture(scope="module")
 def unlimited(tmp_path_factory):
-    """The paper's Case 1 without the torque limit: the PD law settles to 5 deg within 40 s for most gains."""
+    """The paper's Case 1 without the torque limit: the PD law settles to 5 deg within 40 s for most gains (outputs
+    every 0.1 s, which the metrics resolve)."""
     path = tmp_path_factory.mktemp("scenario") / "unlimited.toml"
-    path.write_text('extends = "paper"\n[controller]\ntorque_limit = "inf"\n', encoding="utf-8")
+    text = 'extends = "paper"\n[controller]\ntorque_limit = "inf"\n[simulation]\noutput_interval = 0.1\n'
+    path.write_text(text, encoding="utf-8")
     return str(path)
 
 
@@ -44,9 +58,20 @@ def _pid(scenario: str, **kw) -> TuneSettings:
     return TuneSettings(**{**base, **kw})
 
 
+def _pruned_pid(scenario: str, **kw) -> TuneSettings:
+    """One objective (median pruner) and gains down to K = 0.5, which never settle: pruned from the third batch."""
+    kw = {"objectives": ("aaem_settling",), "budget": 16, "batch": 4, "ranges": (("K", 0.5, 200.0), PID_RANGES[1])} | kw
+    return _pid(scenario, **kw)
+
+
 def _rows(path) -> list[dict]:
     with open(path, newline="", encoding="utf-8") as f:
         return list(csv.DictReader(f))
+
+
+def _journal(folder):
+    storage = JournalStorage(JournalFileBackend(str(folder / "study.log")))
+    return optuna.load_study(study_name="fsmctl-tune", storage=storage)
 
 
 def test_same_seed_and_budget_give_identical_trials(unlimited, tmp_path):
@@ -54,25 +79,229 @@ def test_same_seed_and_budget_give_identical_trials(unlimited, tmp_path):
     b = tune(_pid(unlimited), tmp_path / "b")
     assert (tmp_path / "a" / "trials.csv").read_text() == (tmp_path / "b" / "trials.csv").read_text()
     assert a.pareto == b.pareto and a.best == b.best
-    c = tune(_pid(unlimited, seed=4), tmp_path / "c")
-    assert [t["params"] for t in c.trials] != [t["params"] for t in a.trials]
+    c = tune(_pid(unlimited, seed=4, budget=2), tmp_path / "c")
+    assert [t["params"] for t in c.trials] != [t["params"] for t in a.trials[:2]]
     for name in ("trials.csv", "pareto.csv", "pareto.png", "best.toml", "tune.json"):
         assert (tmp_path / "a" / name).is_file()
     assert (tmp_path / "a" / "pareto.png").read_bytes()[:4] == b"\x89PNG"
+    assert a.settings.pruner == "none" and a.settings.batch == 8  # two objectives: no pruner
+
+
+def test_workers_and_dask_give_the_same_trials_as_one_process(unlimited, tmp_path):
+    # pruning on, so the pruner's decisions must not depend on where the candidates were flown either
+    settings = _pruned_pid(unlimited)
+    one = tune(settings, tmp_path / "one")
+    two = tune(settings, tmp_path / "two", workers=2)
+    assert (tmp_path / "one" / "trials.csv").read_text() == (tmp_path / "two" / "trials.csv").read_text()
+    assert any(t["state"] == "pruned" for t in one.trials) and one.best == two.best
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(
+        n_workers=2, processes=False, threads_per_worker=1, dashboard_address=None, protocol="tcp"
+    ) as cluster:
+        tune(settings, tmp_path / "dask", dask=cluster.scheduler_address)
+    assert (tmp_path / "one" / "trials.csv").read_text() == (tmp_path / "dask" / "trials.csv").read_text()
 
 
 def test_resumed_study_equals_one_run(unlimited, tmp_path):
-    # one objective: TPE, whose model takes over after its 10 random start-up trials
-    settings = _pid(unlimited, objectives=("aaem_settling",), budget=12)
+    # one objective: TPE, whose model takes over after its 10 random start-up trials; the first study stops at a
+    # batch boundary (4 = one batch), the documented condition for raising the budget to continue exactly
+    settings = _pid(unlimited, objectives=("aaem_settling",), budget=12, batch=4)
     tune(settings, tmp_path / "once")
-    tune(TuneSettings(**{**settings.__dict__, "budget": 5}), tmp_path / "twice")
+    tune(TuneSettings(**{**settings.__dict__, "budget": 4}), tmp_path / "twice")
     with pytest.raises(InputError, match="--resume"):
         tune(settings, tmp_path / "twice")
     tune(settings, tmp_path / "twice", resume=True)
     once, twice = _rows(tmp_path / "once" / "trials.csv"), _rows(tmp_path / "twice" / "trials.csv")
     assert len(once) == 12 and once == twice
-    with pytest.raises(InputError, match="other settings"):
-        tune(TuneSettings(**{**settings.__dict__, "seed": 9}), tmp_path / "twice", resume=True)
+    for change in ({"seed": 9}, {"batch": 3}, {"pruner": "halving"}, {"quantile": 0.5}):
+        with pytest.raises(InputError, match="other settings"):
+            tune(TuneSettings(**{**settings.__dict__, **change}), tmp_path / "twice", resume=True)
+
+
+def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypatch):
+    settings = _pid(unlimited, budget=5, t_final=10.0)
+    tune(settings, tmp_path / "once")
+    real, calls = tune_module._fly, []
+
+    def interrupted(scenarios, judge):
+        calls.append(1)
+        if len(calls) == 3:
+            raise KeyboardInterrupt
+        return real(scenarios, judge)
+
+    monkeypatch.setattr(tune_module, "_fly", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        tune(settings, tmp_path / "cut")
+    assert not (tmp_path / "cut" / "trials.csv").exists()
+    # the batch was proposed before it was flown: its five trials wait in the journal with their parameters
+    assert [t.state for t in _journal(tmp_path / "cut").trials] == [TrialState.RUNNING] * 5
+    monkeypatch.setattr(tune_module, "_fly", real)
+    tune(settings, tmp_path / "cut", resume=True)
+    assert _rows(tmp_path / "cut" / "trials.csv") == _rows(tmp_path / "once" / "trials.csv")
+    assert len(_journal(tmp_path / "cut").trials) == 5  # resumed as proposed, not proposed again
+
+
+def test_interrupted_workers_resume_as_one_uninterrupted_run(unlimited, tmp_path, monkeypatch):
+    settings = _pruned_pid(unlimited, budget=12)
+    tune(settings, tmp_path / "once")
+    real, calls = tune_module._Evaluator.run, []
+
+    def interrupted(self, tasks, snapshot, done):
+        calls.append(1)
+        if len(calls) == 2:  # the second batch: proposed, not flown
+            raise KeyboardInterrupt
+        return real(self, tasks, snapshot, done)
+
+    monkeypatch.setattr(tune_module._Evaluator, "run", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        tune(settings, tmp_path / "cut", workers=2)
+    states = [t.state for t in _journal(tmp_path / "cut").trials]
+    assert states.count(TrialState.RUNNING) == 4 and len(states) == 8
+    monkeypatch.setattr(tune_module._Evaluator, "run", real)
+    tune(settings, tmp_path / "cut", resume=True, workers=2)
+    assert (tmp_path / "cut" / "trials.csv").read_text() == (tmp_path / "once" / "trials.csv").read_text()
+
+
+def _told(out) -> int:
+    """Trials told so far in a study another process is writing (0 while its journal cannot be read yet)."""
+    try:
+        return sum(t.state in (TrialState.COMPLETE, TrialState.PRUNED) for t in _journal(out).trials)
+    except Exception:
+        return 0
+
+
+def test_ctrl_c_exits_130_and_resume_matches(unlimited, tmp_path):
+    out = tmp_path / "cli"
+    args = ["tune", "--scenario", unlimited, "--law", "pid", "--objectives", "aaem_settling", "--t-final", "40"]
+    args += ["--tolerance-deg", "5", "--parameters", "K,P", "--range", "K=0.5,200", "--range", "P=10,400"]
+    args += ["--batch", "4", "--seed", "3", "--no-progress"]
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "fsmctl.cli.main", *args, "--budget", "400", "--workers", "2", "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and _told(out) < 8:  # two batches told: the pool is up and running
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130, err
+    lines = err.strip().splitlines()
+    assert "interrupted by SIGINT" in lines[-1] and "--resume" in lines[-1] and "Traceback" not in err
+    told = _told(out)
+    assert 8 <= told < 400
+    budget = (told // 4 + 1) * 4  # a whole number of batches past what was told
+    assert main([*args, "--budget", str(budget), "--workers", "1", "--out", str(out), "--resume"]) == 0
+    assert main([*args, "--budget", str(budget), "--workers", "1", "--out", str(tmp_path / "ref")]) == 0
+    assert (out / "trials.csv").read_text() == (tmp_path / "ref" / "trials.csv").read_text()
+
+
+def test_pruning_stops_hopeless_candidates_by_the_median_rule(unlimited, tmp_path, monkeypatch):
+    settings = _pruned_pid(unlimited)
+    real, flights = tune_module._fly, []
+
+    def watched(scenarios, judge):
+        results = real(scenarios, judge)
+        flights.append((judge.pruned_at, [r.stopped_at for r in results]))
+        return results
+
+    monkeypatch.setattr(tune_module, "_fly", watched)
+    result = tune(settings, tmp_path)
+    # a pruned candidate's run was stopped by the simulator's monitor where the pruner decided, the others ran out
+    assert len(flights) == 16 and all(stopped == [pruned_at] for pruned_at, stopped in flights)
+    study = _journal(tmp_path)
+    trials = sorted(study.trials, key=lambda t: t.user_attrs["index"])
+    pruned = [t for t in trials if t.state == TrialState.PRUNED]
+    assert pruned and len(pruned) < len(trials)
+    horizon, steps = 40.0, tune_module.CHECKPOINTS
+    for t in trials:
+        row = result.trials[t.user_attrs["index"]]
+        assert row["state"] == ("pruned" if t.state == TrialState.PRUNED else "complete")
+        start = (t.user_attrs["index"] // settings.batch) * settings.batch
+        earlier = [u for u in trials if u.state == TrialState.COMPLETE and u.user_attrs["index"] < start]
+        values = tune_module.intermediate_values(t)
+        # the median rule, computed here: from step 2 on (warm-up), once 5 trials of earlier batches completed, a
+        # trial is pruned at the first step where its best value so far exceeds their median at that step
+        verdicts = [
+            len(earlier) >= 5
+            and k >= 2
+            and min(values[j] for j in range(1, k + 1))
+            > np.median([tune_module.intermediate_values(u)[k] for u in earlier])
+            for k in sorted(values)
+        ]
+        if t.state == TrialState.PRUNED:
+            k = max(values)
+            assert verdicts[-1] and not any(verdicts[:-1]) and t.intermediate_values == values  # reported to Optuna
+            assert row["pruned_at"] == pytest.approx(k * horizon / steps) and not row["feasible"]
+            assert row["objectives"] == {} and "converged" not in row["constraints"]
+        else:
+            assert sorted(values) == list(range(1, steps)) and not any(verdicts)
+    # pruned trials count in the budget and show in trials.csv
+    rows = _rows(tmp_path / "trials.csv")
+    assert len(rows) == 16 and {r["state"] for r in rows} == {"complete", "pruned"}
+    assert all(r["pruned_at [s]"] for r in rows if r["state"] == "pruned")
+    # an intermediate value, computed independently: settling within [0, t_k], else T (2 + decades above the tolerance)
+    t = next(u for u in trials if u.state == TrialState.COMPLETE and u.user_attrs["index"] == 1)
+    scenario = tune_module._trial_scenario(
+        load_scenario(unlimited).replace(simulation={"t_final": 40.0}), "pid", search_space(settings), t.params
+    )
+    run = simulate(scenario, progress=False)
+    for k in (2, 5):
+        n = round(k * horizon / steps / run.scenario.simulation.output_interval) + 1
+        time_k, a = run.time[:n], aaem_deg(principal_angles(run.sigma_e[:n]))
+        settled = settling_time(time_k, a, 5.0)
+        steady = steady_state_max(time_k, a, 0.4 * time_k[-1])
+        expected = settled if math.isfinite(settled) else horizon * (2 + max(0.0, math.log10(steady / 5.0)))
+        assert tune_module.intermediate_values(t)[k] == pytest.approx(expected, rel=1e-12)
+
+
+@pytest.mark.parametrize("name", ["median", "halving"])
+def test_frozen_snapshot_judges_as_a_study_holding_those_trials(name):
+    # the pruner sees, through the snapshot, what an Optuna study holding the told trials and the candidate shows it
+    rng = np.random.default_rng(1)
+    told = []  # losses that fall over the steps, at random levels; every fourth trial was pruned after step 3
+    for n in range(12):
+        level = rng.uniform(0.5, 2.0)
+        values = {k: level * (1 + 2 / k) for k in range(1, 10)}
+        state = TrialState.PRUNED if n % 4 == 3 else TrialState.COMPLETE
+        if state == TrialState.PRUNED:
+            values = {k: v for k, v in values.items() if k <= 3}
+        told.append((n, state, values))
+    candidate = [1.6 * (1 + 2 / k) for k in range(1, 10)]  # a level above the median
+    pruner = tune_module._make_pruner
+    # reference: a real study through which the told trials ran one after the other, then the candidate
+    study = optuna.create_study(pruner=pruner(name))
+    attrs = {}
+    for n, state, values in told:
+        trial = study.ask()
+        for k, v in values.items():
+            trial.report(v, k)
+            trial.should_prune()  # the pruner's bookkeeping (successive halving's rungs), as during the trial's run
+        attrs[n] = dict(study._storage.get_trial(trial._trial_id).system_attrs)
+        if state == TrialState.COMPLETE:
+            study.tell(trial, values[max(values)])
+        else:
+            study.tell(trial, state=TrialState.PRUNED)
+    trial = study.ask()
+    expected = []
+    for k, v in enumerate(candidate, 1):
+        trial.report(v, k)
+        expected.append(trial.should_prune())
+    snapshot = tuple((n, s.name, values, attrs[n]) for n, s, values in told)
+    view_pruner, frozen = pruner(name), tune_module._frozen_trials(snapshot)
+    got, own_attrs, reported = [], {}, {}
+    for k, v in enumerate(candidate, 1):
+        reported[k] = v
+        probe = optuna.trial.FrozenTrial(
+            number=-1, state=TrialState.RUNNING, value=None, datetime_start=None, datetime_complete=None, params={},
+            distributions={}, user_attrs={}, system_attrs=dict(own_attrs), intermediate_values=dict(reported),
+            trial_id=-1,
+        )  # fmt: skip
+        got.append(view_pruner.prune(tune_module._FrozenStudy(frozen, probe), probe))
+        own_attrs = dict(probe.system_attrs)
+    assert got == expected and True in expected and False in expected
 
 
 def test_best_scenario_file_reproduces_the_trial(unlimited, tmp_path):
@@ -120,7 +349,34 @@ def test_parameters_stay_within_declared_ranges(tmp_path):
         for name, value in t["params"].items():
             assert space[name].low <= value <= space[name].high
             assert law.parameter(name).problem(value) is None
-    assert set(result.constraints) == {"converged", "theorem1"} and result.theorem1 is True
+    # every constraint that applies to the paper's law under the paper's 2 N m limit (no wheels)
+    assert result.constraints == ("converged", "theorem1", "theorem2", "torque") and result.theorem1 is True
+
+
+def test_coupling_factors_are_searched_for_fsm_and_written_to_best_toml(tmp_path):
+    ranges = tuple((name, 0.001, 1.0) for name in ("c1", "c2", "boundary_layer", "epsilon", "delta"))
+    default = {p.name: p for p in search_space(TuneSettings(law="fsm", ranges=ranges))}
+    assert {"k_i_scale", "k_j_scale"} <= set(default) and default["k_i_scale"].log
+    case2 = load_scenario("paper", "2")  # no coupling: nothing to scale
+    assert "k_i_scale" not in {p.name for p in search_space(TuneSettings(law="fsm", ranges=ranges), case2)}
+    settings = TuneSettings(
+        scenario="paper",
+        law="fsm",
+        case="3a",
+        budget=3,
+        objectives=("peak_torque",),
+        t_final=2.0,
+        parameters=("c1", "k_i_scale", "k_j_scale"),
+        ranges=(("c1", 0.1, 2.0), ("k_i_scale", 0.5, 2.0), ("k_j_scale", 0.5, 2.0)),
+        constraints=("theorem1",),
+    )
+    result = tune(settings, tmp_path)
+    assert result.best is not None
+    best = result.trials[result.best]["params"]
+    written = load_scenario(tmp_path / "best.toml")  # case 3a: k^i = 2, k^j = 0.6 when on, scaled
+    link = written.topology.links[0]
+    assert link.k_i == 2.0 * best["k_i_scale"] and link.k_j.max == best["k_j_scale"] * 0.6
+    assert json.loads((tmp_path / "tune.json").read_text())["best"]["scenario_file_verified"] is True
 
 
 def test_a_design_that_cannot_settle_is_infeasible(tmp_path):
@@ -157,6 +413,11 @@ def test_ensemble_quantile(unlimited, tmp_path):
         ({"parameters": ("K",), "ranges": ()}, "no declared upper bound"),
         ({"ranges": (("K", -1.0, 5.0), ("P", 10.0, 400.0))}, "range of K: must be > 0"),
         ({"tolerance_deg": 0.0}, "tolerance_deg must be"),
+        ({"batch": 0}, "batch must be"),
+        ({"pruner": "sometimes"}, "unknown pruner 'sometimes'"),
+        ({"pruner": "median"}, "pruner median judges one objective"),
+        ({"constraints": ("speed",)}, "unknown constraint 'speed'"),
+        ({"parameters": ("k_i_scale",), "ranges": (("k_i_scale", -1.0, 2.0),)}, "range of k_i_scale: must be >= 0"),
     ],
 )
 def test_bad_settings_are_one_line_errors(change, message):
@@ -179,6 +440,16 @@ def test_cli(unlimited, tmp_path, capsys):
         (["--quantile", "1.5"], "--quantile: must be in [0, 1]"),
         (["--range", "K=5"], "expected NAME=LOW,HIGH"),
         (["--parameters", "K"], "no declared upper bound"),
+        (["--parameters", "K,P", "--range", "K=1,2", "--range", "P=1,2", "--workers", "0"], "--workers: must be >= 1"),
+        (["--parameters", "K,P", "--batch", "0"], "--batch: must be >= 1"),
+        (["--parameters", "K,P", "--pruner", "often"], "--pruner: invalid choice"),
+        (["--parameters", "K,P", "--range", "K=1,2", "--range", "P=1,2", "--pruner", "median"], "judges one objective"),
+        (
+            ["--parameters", "K,P", "--range", "K=1,2", "--range", "P=1,2", "--constraints", "wheels"],
+            "no reaction wheels",
+        ),
+        (["--parameters", "K,P", "--range", "K=1,2", "--range", "P=1,2", "--constraints", "theorem1"], "paper's law"),
+        (["--parameters", "K,P", "--range", "K=1,2", "--range", "P=1,2", "--dask", "tcp://127.0.0.1:9"], "Dask"),
     ]:
         assert _exit_code(["tune", "--law", "pid", "--out", str(tmp_path / "bad"), *argv]) == 2
         err = capsys.readouterr().err
@@ -187,34 +458,32 @@ def test_cli(unlimited, tmp_path, capsys):
     out = tmp_path / "cli"
     args = ["tune", "--scenario", unlimited, "--law", "pid", "--budget", "3", "--t-final", "40", "--tolerance-deg", "5"]
     args += ["--parameters", "K,P", "--range", "K=5,200", "--range", "P=10,400", "--out", str(out), "--no-progress"]
-    assert main(args) == 0
+    assert main([*args, "--workers", "1"]) == 0
     assert "3 trials" in capsys.readouterr().out
     assert len(_rows(out / "trials.csv")) == 3
-    assert main([*args, "--budget", "4", "--resume"]) == 0
+    assert main([*args, "--budget", "4", "--resume", "--workers", "1"]) == 0
     assert len(_rows(out / "trials.csv")) == 4
     assert not math.isnan(float(_rows(out / "trials.csv")[3]["K [N m]"]))
 
 
-def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypatch):
-    import fsmctl.simulation.simulator as simulator
-
-    settings = _pid(unlimited, budget=5, t_final=10.0)
-    tune(settings, tmp_path / "once")
-    real, calls = simulator.simulate, []
-
-    def interrupted(scenario, **kw):
-        calls.append(1)
-        if len(calls) == 3:
-            raise KeyboardInterrupt
-        return real(scenario, **kw)
-
-    monkeypatch.setattr(simulator, "simulate", interrupted)
-    with pytest.raises(KeyboardInterrupt):
-        tune(settings, tmp_path / "cut")
-    assert not (tmp_path / "cut" / "trials.csv").exists()
-    monkeypatch.setattr(simulator, "simulate", real)
-    tune(settings, tmp_path / "cut", resume=True)
-    assert _rows(tmp_path / "cut" / "trials.csv") == _rows(tmp_path / "once" / "trials.csv")
+def test_help_documents_every_option_objective_and_constraint(capsys):
+    with pytest.raises(SystemExit):
+        main(["tune", "--help"])
+    text = capsys.readouterr().out
+    for word in (
+        *tune_module.OBJECTIVES,
+        *tune_module.CONSTRAINTS,
+        *tune_module.COUPLING,
+        "--workers",
+        "--dask",
+        "--batch",
+        "--pruner",
+        "--constraints",
+        "--resume",
+        "MedianPruner",
+        "130",
+    ):
+        assert word in text, word
 
 
 def test_theorem1_failing_for_the_topology_makes_every_fsm_trial_infeasible(tmp_path):
@@ -235,5 +504,28 @@ def test_theorem1_failing_for_the_topology_makes_every_fsm_trial_infeasible(tmp_
     )
     result = tune(settings, tmp_path / "out")
     assert result.theorem1 is False and result.best is None
-    assert all(t["constraints"]["theorem1"] == 1.0 and not t["feasible"] for t in result.trials)
+    # 1 + the excess of k^j over k^i (5 - 1)
+    assert all(t["constraints"]["theorem1"] == 5.0 and not t["feasible"] for t in result.trials)
     assert len(result.notes) == 1 and "Theorem 1" in result.notes[0]
+
+
+def test_the_journal_gains_a_batch_in_one_write(tmp_path):
+    from optuna.storages import JournalStorage
+
+    path = tmp_path / "study.log"
+    journal = tune_module._BufferedJournal(str(path))
+    study = optuna.create_study(storage=JournalStorage(journal), study_name="s")
+    size = path.stat().st_size
+    with journal.buffered():
+        trials = [study.ask() for _ in range(3)]
+        for t in trials:
+            t.suggest_float("x", 0.0, 1.0)
+        assert path.stat().st_size == size and len(study.trials) == 3  # read back from memory, not yet written
+    assert path.stat().st_size > size
+    with journal.buffered():
+        for t in trials:
+            study.tell(t, t.params["x"])
+    # the file is Optuna's own journal format
+    again = optuna.load_study(study_name="s", storage=JournalStorage(JournalFileBackend(str(path))))
+    assert [t.params["x"] for t in again.trials] == [t.value for t in again.trials]
+    assert [t.state for t in again.trials] == [TrialState.COMPLETE] * 3

@@ -96,7 +96,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument("--out", default="montecarlo_out", help="output folder (default: %(default)s)")
     p.add_argument("--resume", action="store_true", help="continue the campaign already in --out")
     p.add_argument(
-        "--chunk-size", type=positive_int, default=d.chunk_size, help="runs per chunk file (default: %(default)s)"
+        "--chunk-size",
+        type=positive_int,
+        default=d.chunk_size,
+        help="runs per chunk file (default: %(default)s); a chunk's runs fly together in one compiled loop "
+        "(fsmctl.simulate_many), each with the results of its run alone",
     )
     p.add_argument("--t-final", type=finite_or_inf_float, default=None, help="horizon in s (default: the scenario's)")
     p.add_argument("--dt", type=finite_or_inf_float, default=None, help="step in s (default: the scenario's)")

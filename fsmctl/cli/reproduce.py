@@ -30,7 +30,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "reproduce",
         help="run every Section 4 case plus diagnostics and grade the paper's claims",
         description="Reproduction of Liang, Sun & Wang (2012), Section 4: Cases 1, 2, 3a-3c, diagnostic runs, the "
-        "angular-momentum bound, and a report grading every claim as reproduced / differs / impossible (bound). "
+        "angular-momentum bound, and a report grading every claim as reproduced / differs / impossible (bound), "
+        "with, for each claim not reproduced, the smallest change of an open setting that would reproduce it. "
         "It flies the paper's law (fsm); fsmctl simulate --law flies others.",
         epilog="exit codes: 0 the report was written (verdicts are results), 2 usage or input error.",
     )
@@ -48,6 +49,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     )
     p.add_argument("--jobs", type=int, default=2, metavar="N", help="worker processes (default: %(default)s)")
     p.add_argument("--no-figures", action="store_true", help="skip the PNG/SVG figures")
+    p.add_argument(
+        "--explain",
+        action=argparse.BooleanOptionalAction,
+        default=True,
+        help="search, for each claim not reproduced, the smallest change of a setting the paper leaves open that "
+        "reproduces it (separate runs written as scenario files in DIR/explain/; --fast: at the short horizon) "
+        "(default: on)",
+    )
     p.add_argument(
         "--progress",
         action=argparse.BooleanOptionalAction,
@@ -87,9 +96,11 @@ def run(args: argparse.Namespace) -> int:
             progress=args.progress,
             figures=not args.no_figures,
             log=print,
+            explain=args.explain,
         )
     print()
     print(format_claims(rep))
     print()
-    print(f"report: {rep.out_dir / 'report.md'} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s)")
+    explained = f"; explanations {rep.explain_wall_time_s:.1f} s" if rep.explanations is not None else ""
+    print(f"report: {rep.out_dir / 'report.md'} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s{explained})")
     return 0

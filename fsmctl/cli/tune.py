@@ -2,41 +2,68 @@
 
 The library is :mod:`fsmctl.studies.tune` (:func:`~fsmctl.studies.tune.tune`); this module only reads the options,
 prints the outcome and names the files written to ``DIR`` (``study.log``, ``trials.csv``, ``pareto.csv``,
-``pareto.png``, ``best.toml``, ``tune.json``).
+``pareto.png``, ``best.toml``, ``tune.json``).  ``--workers`` and ``--dask`` choose where a batch's candidates are
+flown (the results do not depend on them); ``--batch``, ``--pruner`` and ``--constraints`` are part of the study.
 
 Exit codes: 0 the search finished and the files were written (also when no design is feasible: the files say so),
-2 usage or input error (one line on stderr), 130 interrupted (``--resume`` continues).
+2 usage or input error (one line on stderr), 130 interrupted by SIGINT (Ctrl-C), 143 terminated by SIGTERM; the
+journal keeps every told trial and ``--resume`` continues.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from pathlib import Path
 
 from fsmctl.cli.types import nonnegative_int, positive_float, positive_int
+from fsmctl.studies.montecarlo import DASK_TIMEOUT_S
+from fsmctl.studies.tune import BATCH
 
 __all__ = ["add_parser", "run"]
 
-EPILOG = """objectives (all minimised; --objectives a,b,...):
+EPILOG = """objectives (all minimised; --objectives a,b,...; aggregated over the ensemble by --quantile):
   aaem_settling, raem_settling  settling time of AAEM (eq 42) / RAEM (eq 43) to --tolerance-deg, s; a run that never
                                 settles within the horizon T scores T * (2 + min(1, decades of its steady error
                                 above the tolerance))
-  aaem_steady, raem_steady      max over the steady window, deg
+  aaem_steady, raem_steady      max over the steady window (last 40 % of T, at most 40 s), deg
   peak_torque, rms_torque       N m
   chattering                    total variation of u per second, N m/s
   wheel_momentum                peak wheel momentum, N m s (scenarios with reaction wheels)
 
-constraints (a trial is feasible when all hold): both metrics settle within the horizon (for the --quantile member
-of the ensemble); for the fsm law, Theorem 1's topology conditions on the scenario's topology.
+constraints (--constraints a,b,...; default: every one that applies; a trial is feasible when all are <= 0):
+  converged  s      max(AAEM, RAEM settling time) - T: both settle within the horizon (--quantile member)
+  theorem1   1      fsm law: 0 when Theorem 1 (eqs 25-27, balanced time-varying eta) holds for the scenario's
+                    topology with the candidate's coupling weights over T, else 1 + max over links of (k^j - k^i)
+  theorem2   1/s^2  fsm law: max over agents, axes and members of (required delta - delta), the requirement of
+                    Theorem 2 at the reference (fsmctl prove theorem2-delta: along the reference trajectory and under
+                    the disturbance/reference bounds); feasible when delta covers it
+  torque     N m    scenarios with a torque limit: max |commanded (unsaturated) torque| after the transient (from the
+                    later AAEM/RAEM settling time; the steady window if unsettled) minus the limit: saturating during
+                    the transient is allowed, needing more than the limit once converged is not
+  wheels     1      scenarios with reaction wheels and a max_speed: peak wheel momentum / (J_s max_speed) - 0.99
 
 search space: every tunable numeric parameter of the law (fsmctl laws lists them; --parameters chooses) within its
-declared range; a side the law leaves unbounded needs --range NAME=LOW,HIGH.  Ranges with LOW > 0 and HIGH/LOW >= 100
-are searched log-uniformly; a vector parameter (delta) is one value for every axis and agent.
+declared range, and for the fsm law the coupling weights as two factors k_i_scale (on every k^i_ij) and k_j_scale
+(on every k^j_ij(t) value), default range 0.1..10; a side the law leaves unbounded needs --range NAME=LOW,HIGH.
+Ranges with LOW > 0 and HIGH/LOW >= 100 are searched log-uniformly; a vector parameter (delta) is one value for every
+axis and agent.  best.toml holds the scaled [topology] weights.
 
-the same options give the same trials; an interrupted search continues with --resume to --budget trials in total.
+pruning (--pruner; one objective only): each candidate is judged at 9 checkpoints (every T/10 of simulated time) by
+an estimate of its first objective from the run so far (a settling time once settled, else T (2 + decades of the
+current error above the tolerance); the other objectives' values so far); median = Optuna's
+MedianPruner(n_startup_trials=5, n_warmup_steps=2), halving = SuccessiveHalvingPruner(min_resource=1,
+reduction_factor=3); a pruned run is stopped there and its trial is PRUNED (counted in --budget, never feasible).
+The pruner sees only the trials told before the candidate's batch.
 
-exit codes: 0 the search finished and the files were written, 2 usage or input error, 130 interrupted."""
+determinism: trials are proposed, flown and told in batches of --batch (part of the study; trial i is proposed by a
+sampler seeded from (--seed, i)), so the same options give the same trials whatever --workers or --dask; an
+interrupted search continues with --resume exactly as if it had not been interrupted (raising --budget continues
+exactly when the former budget was a multiple of --batch).
+
+exit codes: 0 the search finished and the files were written, 2 usage or input error, 130 interrupted (SIGINT),
+143 terminated (SIGTERM)."""
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -98,7 +125,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="the law to tune: a built-in name (fsmctl laws), a derivation script or a derived folder",
     )
     p.add_argument("--budget", type=positive_int, default=50, metavar="N", help="trials in total (default: 50)")
-    p.add_argument("--seed", type=nonnegative_int, default=0, metavar="S", help="seed of the search and the ensemble")
+    p.add_argument(
+        "--seed", type=nonnegative_int, default=0, metavar="S", help="seed of the search and the ensemble (default: 0)"
+    )
     p.add_argument(
         "--ensemble",
         type=positive_int,
@@ -125,7 +154,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         type=_names,
         default=(),
         metavar="P1,P2,...",
-        help="parameters to search (default: every tunable numeric parameter of the law)",
+        help="parameters to search (default: every tunable numeric parameter of the law, and for fsm the coupling "
+        "factors k_i_scale,k_j_scale)",
     )
     p.add_argument(
         "--range",
@@ -142,6 +172,43 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--t-final", type=positive_float, default=None, metavar="S", help="horizon in s (default: the scenario's)"
     )
+    p.add_argument(
+        "--constraints",
+        type=_names,
+        default=(),
+        metavar="A,B,...",
+        help="constraints to apply: converged, theorem1, theorem2, torque, wheels (default: every one that applies to "
+        "the law and scenario; see below)",
+    )
+    p.add_argument(
+        "--pruner",
+        choices=("auto", "none", "median", "halving"),
+        default="auto",
+        help="stop hopeless candidates early: auto = median with one objective, none with several (default: auto)",
+    )
+    p.add_argument(
+        "--batch",
+        type=positive_int,
+        default=BATCH,
+        metavar="B",
+        help=f"trials proposed, flown in parallel and told together; part of the study (default: {BATCH})",
+    )
+    p.add_argument(
+        "--workers",
+        type=positive_int,
+        default=None,
+        metavar="K",
+        help="local worker processes flying a batch (default: all CPUs, at most --batch; 1 = in this process); "
+        "the results do not depend on it",
+    )
+    p.add_argument("--dask", metavar="ADDRESS", default=None, help="fly the batches on this Dask distributed scheduler")
+    p.add_argument(
+        "--dask-timeout",
+        type=positive_float,
+        default=DASK_TIMEOUT_S,
+        metavar="S",
+        help="seconds the scheduler gets to accept the connection and answer (default: %(default)s)",
+    )
     p.add_argument("--out", type=Path, default=Path("tune"), metavar="DIR", help="output folder (default: ./tune)")
     p.add_argument("--resume", action="store_true", help="continue the study in DIR to --budget trials in total")
     p.add_argument(
@@ -155,7 +222,19 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``fsmctl tune``; bad input raises :class:`fsmctl.errors.InputError` (one line, exit 2)."""
+    """Run ``fsmctl tune``; bad input raises :class:`fsmctl.errors.InputError` (one line, exit 2).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed options of :func:`add_parser`.
+
+    Returns
+    -------
+    int
+        0, or ``CampaignInterrupted.exit_code`` (130 for SIGINT, 143 for SIGTERM) after one line on stderr.
+    """
+    from fsmctl.studies.parallel import CampaignInterrupted
     from fsmctl.studies.tune import TuneSettings, tune
 
     settings = TuneSettings(
@@ -171,8 +250,23 @@ def run(args: argparse.Namespace) -> int:
         t_final=args.t_final,
         parameters=args.parameters,
         ranges=tuple(args.ranges),
+        batch=args.batch,
+        pruner=args.pruner,
+        constraints=args.constraints,
     )
-    result = tune(settings, args.out, resume=args.resume, progress=args.progress)
+    try:
+        result = tune(
+            settings,
+            args.out,
+            resume=args.resume,
+            progress=args.progress,
+            workers=args.workers or os.cpu_count() or 1,
+            dask=args.dask,
+            dask_timeout=args.dask_timeout,
+        )
+    except CampaignInterrupted as exc:  # the workers are stopped; one line, exit 130 (SIGINT) or 143 (SIGTERM)
+        print(f"fsmctl tune: {exc}", file=sys.stderr, flush=True)
+        return exc.exit_code
     print(result.to_text())
     print(f"wrote {len(result.paths)} files to {args.out}", file=sys.stderr)
     return 0

@@ -53,7 +53,7 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_problem, n_samples), FSM_FIELD(fsm_problem, wheel_axes), FSM_FIELD(fsm_problem, wheel_pinv),
       FSM_FIELD(fsm_problem, wheel_Js), FSM_FIELD(fsm_problem, wheel_torque_max), FSM_FIELD(fsm_problem, wheel_params),
       FSM_FIELD(fsm_problem, J_spin), FSM_FIELD(fsm_problem, sensor_dtheta), FSM_FIELD(fsm_problem, sensor_gyro),
-      FSM_FIELD(fsm_problem, link_delay), FSM_FIELD(fsm_problem, link_lost),
+      FSM_FIELD(fsm_problem, link_delay), FSM_FIELD(fsm_problem, link_lost), FSM_FIELD(fsm_problem, n_members),
       FSM_FIELD(fsm_output, capacity), FSM_FIELD(fsm_output, written), FSM_FIELD(fsm_output, t),
       FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
       FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
@@ -138,9 +138,25 @@ static inline void to_lane(double *row, const double *src, int nnz, int l) {
 static inline void from_lane(double *dst, const double *row, int nnz, int l) {
   for (int k = 0; k < nnz; ++k) dst[k] = row[FSM_LANES * k + l];
 }
+static inline void to_lane3(double *row, const double *src, int l) {
+  row[l] = src[0];
+  row[FSM_LANES + l] = src[1];
+  row[2 * FSM_LANES + l] = src[2];
+}
+static inline void from_lane3(double *dst, const double *row, int l) {
+  dst[0] = row[l];
+  dst[1] = row[FSM_LANES + l];
+  dst[2] = row[2 * FSM_LANES + l];
+}
+/* The same values in every lane of a row (time, reference). */
+static inline void broadcast_row(double *row, const double *src, int nnz) {
+  for (int k = 0; k < nnz; ++k)
+    for (int l = 0; l < FSM_LANES; ++l) row[FSM_LANES * k + l] = src[k];
+}
 
 typedef struct {
   int n, nz, nb, np, nk, nc, stride;     /* agents, law states, broadcast, params, constants, cache; state stride */
+  int members;                           /* runs flown together (>= 1): the output layout, see fsm_problem */
   int batched;                           /* 1: lane-batched kernels for the per-agent functions */
   int n_groups;                          /* ceil(n / FSM_LANES) */
   int row[RW_END + 1];                   /* row offsets of the lane blocks */
@@ -153,11 +169,16 @@ typedef struct {
   double *u_hold, *uu_hold, *zdot_hold;  /* held control (zero-order hold) */
   const double *u_apply, *uu_apply, *zdot_apply; /* what the plant and the law states see */
   double *d;                             /* disturbance torques, n x 3 */
+  int *d_src;                            /* agent whose disturbance parameters agent i's equal, bit for bit (<= i) */
   double d_time;
   int d_valid;
   double wd[3], wdd[3];
   double *k_val, *k_base, *k_lo, *k_hi;  /* per-link schedule cache */
+  double *k_flo, *k_fhi;                 /* per link: where the cache needs no period check (see link_weight) */
   double *k_now;                         /* k^j of every link at k_time (all RK4 stages of a step share it) */
+  int *in_start, *in_links;              /* links by receiver: in_links[in_start[i] .. in_start[i+1]) in link order */
+  int *act_start, *act_src;              /* the links with k^j != 0 at k_time, by receiver in link order: where their */
+  double *act_k;                         /* broadcast sits (in b, or link_val when imperfect) and their k^j */
   double k_time;
   int k_valid;
   double *tau;                           /* n x 3 */
@@ -187,6 +208,12 @@ typedef struct {
 
 static void free_workspace(workspace *W) {
   free(W->b);
+  free(W->in_start);
+  free(W->in_links);
+  free(W->act_start);
+  free(W->act_src);
+  free(W->act_k);
+  free(W->d_src);
   free(W->wl);
   free(W->wheel_lane);
   free(W->wheel_x);
@@ -246,6 +273,11 @@ static void lane_rows(workspace *W) {
 
 static double *group_block(workspace *W, int g) { return W->lanes + (size_t)g * W->row[RW_END] * FSM_LANES; }
 #define ROW(G, r) LANE(G, W->row[r])
+/* Where agent i's value of a lane row sits (batched kernels): lane i % FSM_LANES of row r of group i / FSM_LANES. */
+static inline double *lane_slot(workspace *W, int r, int i) {
+  double *G = group_block(W, i / FSM_LANES);
+  return ROW(G, r) + i % FSM_LANES;
+}
 
 /* Pack the run constants (parameters, law constants, inertias) into the lane rows. */
 static void pack_lane_constants(workspace *W, const fsm_problem *P) {
@@ -268,6 +300,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   int n = P->n_agents, nk = 0, nc = 0;
   if (!law_contract_ok(P, &nk, &nc)) return FSM_BAD_PROBLEM;
   W->n = n;
+  W->members = P->n_members > 1 ? P->n_members : 1;
   W->nz = P->n_states;
   W->nb = P->n_broadcast;
   W->np = P->n_params;
@@ -280,7 +313,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->error_state = P->error_model == 1 ? error_state_exact : error_state_paper;
   /* one block for all per-agent doubles */
   size_t N = (size_t)n, L = (size_t)P->n_links, nb = (size_t)W->nb, nz = (size_t)W->nz;
-  size_t total = N * (nb * 2 + (size_t)nc + (size_t)nk + 2 + 3 * 6 + nz * 2) + L * 5;
+  size_t total = N * (nb * 2 + (size_t)nc + (size_t)nk + 2 + 3 * 6 + nz * 2) + L * 7;
   double *block = calloc(total > 0 ? total : 1, sizeof(double));
   if (!block) return FSM_NOMEM;
   double *p = block;
@@ -302,8 +335,46 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->k_base = p; p += L;
   W->k_lo = p; p += L;
   W->k_hi = p; p += L;
+  W->k_flo = p; p += L;
+  W->k_fhi = p; p += L;
   W->k_now = p; p += L;
-  for (size_t e = 0; e < L; ++e) { W->k_lo[e] = INFINITY; W->k_hi[e] = -INFINITY; } /* empty: forces evaluation */
+  for (size_t e = 0; e < L; ++e) { /* empty: forces evaluation */
+    W->k_lo[e] = W->k_flo[e] = INFINITY;
+    W->k_hi[e] = W->k_fhi[e] = -INFINITY;
+  }
+  W->in_start = calloc(N + 1, sizeof(int));
+  W->in_links = calloc(L > 0 ? L : 1, sizeof(int));
+  W->act_start = calloc(N + 1, sizeof(int));
+  W->act_src = calloc(L > 0 ? L : 1, sizeof(int));
+  W->act_k = calloc(L > 0 ? L : 1, sizeof(double));
+  W->d_src = calloc(N > 0 ? N : 1, sizeof(int));
+  if (!W->in_start || !W->in_links || !W->act_start || !W->act_src || !W->act_k || !W->d_src) {
+    free_workspace(W);
+    return FSM_NOMEM;
+  }
+  { /* agents with the same disturbance (e.g. runs of one formation flown together) share its evaluation */
+    int distinct[256], n_distinct = 0;
+    for (size_t i = 0; i < N; ++i) {
+      W->d_src[i] = (int)i;
+      for (int m = 0; m < n_distinct; ++m)
+        if (memcmp(P->dist_params + 12 * i, P->dist_params + 12 * (size_t)distinct[m], 12 * sizeof(double)) == 0) {
+          W->d_src[i] = distinct[m];
+          break;
+        }
+      if (W->d_src[i] == (int)i && n_distinct < 256) distinct[n_distinct++] = (int)i;
+    }
+  }
+  for (size_t e = 0; e < L; ++e) W->in_start[P->link_receiver[e] + 1]++;
+  for (size_t i = 0; i < N; ++i) W->in_start[i + 1] += W->in_start[i];
+  {
+    int *fill = calloc(N > 0 ? N : 1, sizeof(int));
+    if (!fill) { free_workspace(W); return FSM_NOMEM; }
+    for (size_t e = 0; e < L; ++e) {
+      const int i = P->link_receiver[e];
+      W->in_links[W->in_start[i] + fill[i]++] = (int)e;
+    }
+    free(fill);
+  }
   { /* flight hardware */
     size_t nw = (size_t)W->nw;
     int max_delay = 0;
@@ -409,6 +480,7 @@ static double link_weight(workspace *W, const fsm_problem *P, int e, double t) {
   const double tau = t + P->sched_phase[e];
   if (W) {
     double r = tau - W->k_base[e];
+    if (r >= W->k_flo[e] && r < W->k_fhi[e]) return W->k_val[e]; /* inside the segment, away from its period's ends */
     if (r >= W->k_lo[e] && r < W->k_hi[e] && (period <= 0 || floor(tau / period) * period == W->k_base[e]))
       return W->k_val[e];
   }
@@ -423,6 +495,12 @@ static double link_weight(workspace *W, const fsm_problem *P, int e, double t) {
     W->k_base[e] = base;
     W->k_lo[e] = m == 0 ? -INFINITY : b[m];
     W->k_hi[e] = m + 1 < count ? b[m + 1] : INFINITY;
+    /* Where the period check cannot fail: base = fl(k period) with k = floor(tau / period), and for r at least mg
+     * away from both ends of the period, tau / period = k + r / period to within |tau| / period * 3e-16, so the
+     * floor is k again and floor(tau / period) * period == base.  mg leaves a factor 3000 on that rounding. */
+    const double mg = period > 0 ? 1e-12 * (fabs(tau) + period) : 0.0;
+    W->k_flo[e] = period > 0 ? fmax(W->k_lo[e], mg) : W->k_lo[e];
+    W->k_fhi[e] = period > 0 ? fmin(W->k_hi[e], period - mg) : W->k_hi[e];
   }
   return v[m];
 }
@@ -431,28 +509,79 @@ double fsm_link_weight(const fsm_problem *P, int e, double t) { return link_weig
 
 /* The neighbour aggregation (eq 19 for any broadcast b), the one place it is written: with the link weights
  * k^j_ij(t_link) (cached per t_link: the four RK4 stages of a step share them),
- * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij. */
+ * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij.  With the batched kernels
+ * the sums go straight into the lane rows RW_RECV, RW_KSUM, RW_KRS (lanes past the last agent repeat it), else into
+ * recv, ksum, krs. */
 static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
   const int n = W->n, nb = W->nb;
   if (!W->k_valid || W->k_time != t_link) {
-    memset(W->ksum, 0, sizeof(double) * n);
-    memset(W->krs, 0, sizeof(double) * n);
+    int changed = !W->k_valid;
     for (int e = 0; e < P->n_links; ++e) {
-      W->k_now[e] = link_weight(W, P, e, t_link);
-      W->ksum[P->link_receiver[e]] += P->link_k_i[e];
-      W->krs[P->link_receiver[e]] += W->k_now[e];
+      const double k = link_weight(W, P, e, t_link);
+      if (memcmp(&k, W->k_now + e, sizeof k) != 0) changed = 1;
+      W->k_now[e] = k;
     }
     W->k_time = t_link;
     W->k_valid = 1;
+    if (changed) { /* the sums over each receiver's links, in link order (the weights rarely change) */
+      int c = 0;
+      for (int i = 0; i < n; ++i) {
+        double ks = 0.0, kr = 0.0;
+        W->act_start[i] = c;
+        for (int m = W->in_start[i]; m < W->in_start[i + 1]; ++m) {
+          const int e = W->in_links[m];
+          ks += P->link_k_i[e];
+          kr += W->k_now[e];
+          if (W->k_now[e] != 0.0) { /* the active links: a link switched off adds nothing, not even 0 * b */
+            W->act_k[c] = W->k_now[e];
+            W->act_src[c++] = nb * (P->links_imperfect ? e : P->link_sender[e]);
+          }
+        }
+        W->ksum[i] = ks;
+        W->krs[i] = kr;
+      }
+      W->act_start[n] = c;
+      if (W->batched)
+        for (int i = 0; i < W->n_groups * FSM_LANES; ++i) {
+          const int a = i < n ? i : n - 1; /* lanes past the last agent repeat it */
+          *lane_slot(W, RW_KSUM, i) = W->ksum[a];
+          *lane_slot(W, RW_KRS, i) = W->krs[a];
+        }
+    }
   }
-  memset(W->recv, 0, sizeof(double) * (size_t)nb * n);
-  for (int e = 0; e < P->n_links; ++e) {
-    const double kj = W->k_now[e];
-    if (kj != 0.0) {
-      const double *bj = P->links_imperfect ? W->link_val + (size_t)nb * e : W->b + (size_t)nb * P->link_sender[e];
-      double *ri = W->recv + (size_t)nb * P->link_receiver[e];
+  /* Receiver by receiver, its active links in link order: the same sums 0 + k b_1 + k b_2 + ... as adding link by
+   * link into recv, with the partial sums in registers (no store-to-load chain through memory). */
+  const double *src = P->links_imperfect ? W->link_val : W->b;
+  const int padded = W->batched ? W->n_groups * FSM_LANES : n;
+  for (int i = 0; i < n; ++i) {
+    if (nb == 3) {
+      double a0 = 0.0, a1 = 0.0, a2 = 0.0;
+      for (int m = W->act_start[i]; m < W->act_start[i + 1]; ++m) {
+        const double kj = W->act_k[m], *bj = src + W->act_src[m];
+        a0 += kj * bj[0];
+        a1 += kj * bj[1];
+        a2 += kj * bj[2];
+      }
+      for (int q = i; q < (i == n - 1 ? padded : i + 1); ++q) { /* lanes past the last agent repeat it */
+        double *ri = W->batched ? lane_slot(W, RW_RECV, q) : W->recv + 3 * (size_t)q;
+        const int st = W->batched ? FSM_LANES : 1;
+        ri[0] = a0;
+        ri[st] = a1;
+        ri[2 * st] = a2;
+      }
+      continue;
+    }
+    double *ri = W->recv + (size_t)nb * i;
+    for (int k = 0; k < nb; ++k) ri[k] = 0.0;
+    for (int m = W->act_start[i]; m < W->act_start[i + 1]; ++m) {
+      const double kj = W->act_k[m], *bj = src + W->act_src[m];
       for (int k = 0; k < nb; ++k) ri[k] += kj * bj[k];
     }
+    if (W->batched)
+      for (int q = i; q < (i == n - 1 ? padded : i + 1); ++q) {
+        double *slot = lane_slot(W, RW_RECV, q);
+        for (int k = 0; k < nb; ++k) slot[FSM_LANES * k] = ri[k];
+      }
   }
 }
 
@@ -648,13 +777,29 @@ static void plant_with_wheels(workspace *W, const fsm_problem *P, const double *
   }
 }
 
-/* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque and law-state rates.  The
- * piecewise-constant link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop: see simulate_rk4). */
+/* The commanded torques of the lane rows RW_UU (batched kernels), agent by agent: as check_commands. */
+static void check_commands_lanes(workspace *W, double t) {
+  for (int i = 0; i < W->n && W->bad_agent == -2; ++i) {
+    const double *uu = lane_slot(W, RW_UU, i);
+    if (!(isfinite(uu[0]) && isfinite(uu[FSM_LANES]) && isfinite(uu[2 * FSM_LANES]))) {
+      W->bad_agent = i;
+      W->bad_time = t;
+    }
+  }
+}
+
+/* Formation right-hand side at (t, x).  compute_control = 0 keeps the held torque and law-state rates; 1 computes
+ * the control and keeps it in u, uu, zdot (what stage_one, the records and statistics read); 2 computes it for
+ * this evaluation only (the inner stages of a step: with the batched kernels and no wheels it then stays in the
+ * lane rows).  The piecewise-constant link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop:
+ * see simulate_rk4). */
 static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
                      int compute_control) {
   const int n = W->n, S = W->stride, nz = W->nz, nb = W->nb, nc = W->nc;
   const double *sd = x;
   const int sensed = P->sensors && compute_control; /* the law sees measurements at this evaluation */
+  /* batched, no wheels, inner stage: u, uu, zdot are read from the lane rows */
+  const int in_lanes = W->batched && W->nw == 0 && compute_control == 2;
   if (sensed) measure(W, P, x);
   {
     const double *arg[3] = {&t, sd, P->ref_params};
@@ -664,23 +809,18 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   if (W->batched) {
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
+      broadcast_row(ROW(G, RW_T), &t, 1);
+      broadcast_row(ROW(G, RW_SD), sd, 3);
+      broadcast_row(ROW(G, RW_WD), W->wd, 3);
+      broadcast_row(ROW(G, RW_WDD), W->wdd, 3);
       for (int l = 0; l < FSM_LANES; ++l) {
         const int i = lane_agent(g, l, n);
         const double *xi = x + 3 + (size_t)S * i;
-        to_lane(ROW(G, RW_T), &t, 1, l);
-        to_lane(ROW(G, RW_SIGMA), xi, 3, l);
-        to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
+        const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
+        to_lane3(ROW(G, RW_SIGMA), si, l); /* the law sees the measurements */
+        to_lane3(ROW(G, RW_OMEGA), wi, l);
         to_lane(ROW(G, RW_Z), xi + 6, nz, l);
-        to_lane(ROW(G, RW_SD), sd, 3, l);
-        to_lane(ROW(G, RW_WD), W->wd, 3, l);
-        to_lane(ROW(G, RW_WDD), W->wdd, 3, l);
       }
-      if (sensed) /* the law sees the measurements */
-        for (int l = 0; l < FSM_LANES; ++l) {
-          const int i = lane_agent(g, l, n);
-          to_lane(ROW(G, RW_SIGMA), W->sig_meas + 3 * i, 3, l);
-          to_lane(ROW(G, RW_OMEGA), W->om_meas + 3 * i, 3, l);
-        }
       if (compute_control) {
         const double *arg[N_LOCAL_IN];
         for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = ROW(G, RW_T + a);
@@ -702,24 +842,19 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   }
   if (compute_control) {
     if (P->links_imperfect) deliver_links(W, P);
-    aggregate(W, P, t_link);
+    aggregate(W, P, t_link); /* batched: into the lane rows */
     if (W->batched) {
       for (int g = 0; g < W->n_groups; ++g) {
         double *G = group_block(W, g);
-        for (int l = 0; l < FSM_LANES; ++l) {
-          const int i = lane_agent(g, l, n);
-          to_lane(ROW(G, RW_KSUM), W->ksum + i, 1, l);
-          to_lane(ROW(G, RW_RECV), W->recv + (size_t)nb * i, nb, l);
-          to_lane(ROW(G, RW_KRS), W->krs + i, 1, l);
-        }
         const double *arg[N_CONTROL_IN];
         for (int a = 0; a < N_CONTROL_IN; ++a) arg[a] = ROW(G, RW_T + a);
         double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), ROW(G, RW_ZDOT)};
         W->control_x(arg, res, active_lanes(g, n));
+        if (in_lanes) continue;
         for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
           const int i = g * FSM_LANES + l;
-          from_lane(W->u + 3 * i, ROW(G, RW_U), 3, l);
-          from_lane(W->uu + 3 * i, ROW(G, RW_UU), 3, l);
+          from_lane3(W->u + 3 * i, ROW(G, RW_U), l);
+          from_lane3(W->uu + 3 * i, ROW(G, RW_UU), l);
           from_lane(W->zdot + (size_t)nz * i, ROW(G, RW_ZDOT), nz, l);
         }
       }
@@ -735,12 +870,19 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         W->control(arg, res, W->iw, W->w, 0);
       }
     }
-    check_commands(W, t);
+    if (in_lanes)
+      check_commands_lanes(W, t);
+    else
+      check_commands(W, t);
     if (W->nw > 0) wheel_commands(W, P);
   }
   /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3 */
   if (!W->d_valid || W->d_time != t) {
     for (int i = 0; i < n; ++i) {
+      if (W->d_src[i] != i) {
+        memcpy(W->d + 3 * i, W->d + 3 * W->d_src[i], 3 * sizeof(double));
+        continue;
+      }
       const double *arg[2] = {&t, P->dist_params + 12 * i};
       double *res[1] = {W->d + 3 * i};
       disturbance_torque(arg, res, W->iw, W->w, 0);
@@ -753,21 +895,27 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   if (W->nw > 0) {
     plant_with_wheels(W, P, x, dx, compute_control ? W->uw : W->uw_apply, sensed);
   } else if (W->batched) {
-    for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
+      double *tau = ROW(G, RW_TAU);
+      const double *urow = ROW(G, RW_U);
       for (int l = 0; l < FSM_LANES; ++l) {
-        const int i = lane_agent(g, l, n);
-        to_lane(ROW(G, RW_TAU), W->tau + 3 * i, 3, l); /* rows RW_SIGMA, RW_OMEGA still hold this x (unless sensed) */
+        const int i = lane_agent(g, l, n), li = i % FSM_LANES; /* lanes past the last agent repeat it */
+        const double *di = W->d + 3 * i;
+        if (in_lanes)
+          for (int k = 0; k < 3; ++k) tau[FSM_LANES * k + l] = urow[FSM_LANES * k + li] + di[k];
+        else
+          for (int k = 0; k < 3; ++k) tau[FSM_LANES * k + l] = ua[3 * i + k] + di[k];
       }
-      if (sensed) reload_state_lanes(W, G, g, x);
+      if (sensed) reload_state_lanes(W, G, g, x); /* rows RW_SIGMA, RW_OMEGA hold this x unless sensed */
       const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
       double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
       plant_rhs_x4(arg, res, active_lanes(g, n));
       for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
         const int i = g * FSM_LANES + l;
-        from_lane(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), 3, l);
-        from_lane(dx + 6 + (size_t)S * i, ROW(G, RW_OMEGA_DOT), 3, l);
+        from_lane3(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), l);
+        from_lane3(dx + 6 + (size_t)S * i, ROW(G, RW_OMEGA_DOT), l);
+        if (in_lanes) from_lane(dx + 9 + (size_t)S * i, ROW(G, RW_ZDOT), nz, l);
       }
     }
   } else {
@@ -779,7 +927,8 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       plant_rhs(arg, res, W->iw, W->w, 0);
     }
   }
-  for (int i = 0; i < n; ++i) memcpy(dx + 9 + (size_t)S * i, za + (size_t)nz * i, sizeof(double) * nz);
+  if (nz > 0 && !in_lanes)
+    for (int i = 0; i < n; ++i) memcpy(dx + 9 + (size_t)S * i, za + (size_t)nz * i, sizeof(double) * nz);
   if (W->nw > 0) wheel_rates(W, P, dx);
 }
 
@@ -807,24 +956,26 @@ static int first_nonfinite(const workspace *W, const double *x) {
  * see, whatever the law computes), what each agent broadcasts, its law states and the applied torque. */
 static void record(fsm_output *O, workspace *W, double t, const double *x) {
   if (O->written >= O->capacity) return;
-  const int n = W->n, S = W->stride, nb = W->nb, nz = W->nz;
+  const int n = W->n, S = W->stride, nb = W->nb, nz = W->nz, per = n / W->members;
   long long r = O->written++;
   O->t[r] = t;
   memcpy(O->sigma_d + 3 * r, x, 3 * sizeof(double));
   for (int i = 0; i < n; ++i) {
-    size_t o = (size_t)(r * n + i) * 3;
+    /* row r of agent i: member-major when runs fly together (one run: m = 0, per = n) */
+    const size_t slot = ((size_t)(i / per) * (size_t)O->capacity + (size_t)r) * (size_t)per + (size_t)(i % per);
+    size_t o = slot * 3;
     const double *xi = x + 3 + (size_t)S * i;
     memcpy(O->sigma + o, xi, 3 * sizeof(double));
     memcpy(O->omega + o, xi + 3, 3 * sizeof(double));
     const double *arg[4] = {xi, xi + 3, x, W->wd};
     double *res[2] = {O->sigma_e + o, O->omega_e + o};
     W->error_state(arg, res, W->iw, W->w, 0);
-    memcpy(O->broadcast + (size_t)(r * n + i) * nb, W->b + (size_t)nb * i, sizeof(double) * nb);
-    memcpy(O->z + (size_t)(r * n + i) * nz, xi + 6, sizeof(double) * nz);
+    memcpy(O->broadcast + slot * nb, W->b + (size_t)nb * i, sizeof(double) * nb);
+    memcpy(O->z + slot * nz, xi + 6, sizeof(double) * nz);
     memcpy(O->u + o, (W->nw > 0 ? W->u_body : W->u_apply) + 3 * i, 3 * sizeof(double));
     memcpy(O->u_unsat + o, W->uu_apply + 3 * i, 3 * sizeof(double));
     if (W->nw > 0) {
-      const size_t ow = (size_t)(r * n + i) * W->nw;
+      const size_t ow = slot * W->nw;
       if (O->wheel_speed) memcpy(O->wheel_speed + ow, xi + 6 + nz, sizeof(double) * W->nw);
       if (O->wheel_torque) memcpy(O->wheel_torque + ow, W->u_motor + (size_t)W->nw * i, sizeof(double) * W->nw);
     }
@@ -894,6 +1045,7 @@ static int validate(const fsm_problem *P) {
   if (P->kernels != FSM_KERNELS_AUTO && P->kernels != FSM_KERNELS_BATCHED && P->kernels != FSM_KERNELS_SCALAR) return 0;
   if (P->n_agents < 1 || !(P->dt > 0) || P->n_steps < 0 || P->output_every < 1 || P->n_links < 0) return 0;
   if (P->n_params < 0 || P->n_states < 0 || P->n_broadcast < 0) return 0;
+  if (P->n_members > 1 && P->n_agents % P->n_members != 0) return 0;
   for (int e = 0; e < P->n_links; ++e) {
     if (P->link_receiver[e] < 0 || P->link_receiver[e] >= P->n_agents) return 0;
     if (P->link_sender[e] < 0 || P->link_sender[e] >= P->n_agents) return 0;
@@ -936,16 +1088,18 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
     stage_one(W, P, t, t_link, x, k1, sample);
     if (W->bad_agent != -2) break;
     if (k % P->output_every == 0) record(O, W, t, x);
+    /* after the record: a caller stopping here gets the outputs and statistics up to t_k exactly */
+    if (progress && every > 0 && k > 0 && k % every == 0 && progress(k, P->n_steps)) return FSM_ABORTED;
     if (k == P->n_steps) break;
     wheel_saturation(W, sat0);
     accumulate(O, W, P, W->nw > 0 ? W->u_body : W->u_apply, W->uu_apply, sat0, dt, u_prev, k == 0);
     const double th = t0 + ((double)k + 0.5) * dt, t1 = t0 + (double)(k + 1) * dt;
     for (size_t m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k1[m];
-    eval_rhs(W, P, th, t_link, xt, k2, continuous);
+    eval_rhs(W, P, th, t_link, xt, k2, continuous ? 2 : 0);
     for (size_t m = 0; m < N; ++m) xt[m] = x[m] + 0.5 * dt * k2[m];
-    eval_rhs(W, P, th, t_link, xt, k3, continuous);
+    eval_rhs(W, P, th, t_link, xt, k3, continuous ? 2 : 0);
     for (size_t m = 0; m < N; ++m) xt[m] = x[m] + dt * k3[m];
-    eval_rhs(W, P, t1, t_link, xt, k4, continuous);
+    eval_rhs(W, P, t1, t_link, xt, k4, continuous ? 2 : 0);
     if (W->bad_agent != -2) break;
     for (size_t m = 0; m < N; ++m) x[m] += dt / 6.0 * (k1[m] + 2.0 * (k2[m] + k3[m]) + k4[m]);
     shadow_all(W, x);
@@ -956,7 +1110,6 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
       return FSM_NONFINITE;
     }
     O->steps_taken++;
-    if (progress && every > 0 && (k + 1) % every == 0 && progress(k + 1, P->n_steps)) return FSM_ABORTED;
   }
   if (W->bad_agent != -2) {
     O->fail_time = W->bad_time;
@@ -1003,6 +1156,11 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
     wheel_saturation(W, sat0); /* at the step's start, as the torque */
     memcpy(uu_snap, W->uu_apply, sizeof(double) * 3 * n);
     if (fabs(t - (t0 + (double)m_out * out_dt)) <= eps_t) { record(O, W, t, x); m_out++; }
+    if (progress && every > 0 && O->steps_taken >= next_report) { /* after the record, as in simulate_rk4 */
+      next_report += every;
+      long long done = (long long)((t - t0) / P->dt);
+      if (progress(done, P->n_steps)) return FSM_ABORTED;
+    }
     if (t >= t_end - eps_t) break;
     /* next event: output time, sample time, end */
     double t_next = fmin(t_end, t0 + (double)m_out * out_dt);
@@ -1015,19 +1173,19 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       int lands = hs >= t_next - t - eps_t;
       if (lands) hs = t_next - t;
       for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * A21 * k1[m];
-      eval_rhs(W, P, t + C2 * hs, t + C2 * hs, xt, k2, continuous);
+      eval_rhs(W, P, t + C2 * hs, t + C2 * hs, xt, k2, continuous ? 2 : 0);
       for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * (A31 * k1[m] + A32 * k2[m]);
-      eval_rhs(W, P, t + C3 * hs, t + C3 * hs, xt, k3, continuous);
+      eval_rhs(W, P, t + C3 * hs, t + C3 * hs, xt, k3, continuous ? 2 : 0);
       for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * (A41 * k1[m] + A42 * k2[m] + A43 * k3[m]);
-      eval_rhs(W, P, t + C4 * hs, t + C4 * hs, xt, k4, continuous);
+      eval_rhs(W, P, t + C4 * hs, t + C4 * hs, xt, k4, continuous ? 2 : 0);
       for (size_t m = 0; m < N; ++m) xt[m] = x[m] + hs * (A51 * k1[m] + A52 * k2[m] + A53 * k3[m] + A54 * k4[m]);
-      eval_rhs(W, P, t + C5 * hs, t + C5 * hs, xt, k5, continuous);
+      eval_rhs(W, P, t + C5 * hs, t + C5 * hs, xt, k5, continuous ? 2 : 0);
       for (size_t m = 0; m < N; ++m)
         xt[m] = x[m] + hs * (A61 * k1[m] + A62 * k2[m] + A63 * k3[m] + A64 * k4[m] + A65 * k5[m]);
-      eval_rhs(W, P, t + hs, t + hs, xt, k6, continuous);
+      eval_rhs(W, P, t + hs, t + hs, xt, k6, continuous ? 2 : 0);
       for (size_t m = 0; m < N; ++m)
         xn[m] = x[m] + hs * (B1 * k1[m] + B3 * k3[m] + B4 * k4[m] + B5 * k5[m] + B6 * k6[m]);
-      eval_rhs(W, P, t + hs, t + hs, xn, k7, continuous);
+      eval_rhs(W, P, t + hs, t + hs, xn, k7, continuous ? 2 : 0);
       double err = 0.0;
       for (size_t m = 0; m < N; ++m) {
         double e = hs * (E1 * k1[m] + E3 * k3[m] + E4 * k4[m] + E5 * k5[m] + E6 * k6[m] + E7 * k7[m]);
@@ -1066,11 +1224,6 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
       return FSM_NONFINITE;
     }
     O->steps_taken++;
-    if (progress && every > 0 && O->steps_taken >= next_report) {
-      next_report += every;
-      long long done = (long long)((t - t0) / P->dt);
-      if (progress(done, P->n_steps)) return FSM_ABORTED;
-    }
   }
   if (W->bad_agent != -2) {
     O->fail_time = W->bad_time;

@@ -34,7 +34,7 @@
 extern "C" {
 #endif
 
-#define FSM_ABI_VERSION 3
+#define FSM_ABI_VERSION 4
 
 typedef struct {
   int n_agents;
@@ -82,6 +82,10 @@ typedef struct {
   const double *sensor_gyro;     /* n_samples x n x 3: gyro error (rad/s) */
   const int *link_delay;         /* n_links: delay in control instants */
   const unsigned char *link_lost;/* n_samples x n_links: 1 = the packet of that instant is lost */
+  /* runs flown together (ABI 4; appended) */
+  int n_members;                 /* <= 1: one run; m > 1: the agents are m runs of n_agents / m agents each (a
+                                    block-diagonal formation) and the per-agent output arrays are member-major:
+                                    m x capacity x (n_agents / m) x ... (each run's outputs contiguous) */
 } fsm_problem;
 
 enum {
@@ -112,7 +116,10 @@ typedef struct {
   double *sigma_measured, *omega_measured; /* capacity x n x 3: what the law saw last; NULL: not recorded */
 } fsm_output;
 
-/* Progress callback: called every `every` steps with (steps done, steps planned); a nonzero return aborts. */
+/* Progress callback: called every `every` steps with (steps done, steps planned), right after the output sample of
+ * that instant (if it is on the output grid) was recorded and before the next step; a nonzero return aborts, and the
+ * outputs and run statistics then cover the run up to that instant exactly (RK4: `every` steps; dopri45: every
+ * `every` accepted steps). */
 typedef int (*fsm_progress_fn)(long long done, long long planned);
 
 enum {

@@ -13,7 +13,7 @@ Both the compiled driver (:mod:`fsmctl.simulation.simulator`) and the CasADi fal
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -22,7 +22,7 @@ from fsmctl.model.laws import LawCode, initial_law_states, parameter_matrix, res
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import schedule_weight
 
-__all__ = ["PackedProblem", "HardwarePack", "pack", "output_buffer_bytes", "pack_hardware"]
+__all__ = ["PackedProblem", "HardwarePack", "pack", "output_buffer_bytes", "pack_hardware", "batch_key", "stack"]
 
 
 def output_buffer_bytes(
@@ -288,4 +288,105 @@ def pack(scenario: Scenario, law: LawCode | str | None = None) -> PackedProblem:
         sched_values=np.array(values, dtype=float),
         x0=x0,
         hardware=hardware,
+    )
+
+
+def batch_key(p: PackedProblem) -> tuple | None:
+    """What runs flown together in one compiled loop must share (:func:`stack`), or None for a run that flies alone.
+
+    Same law (folder), error model, fixed-step RK4 with the same ``t0``, ``dt``, number of steps, output grid and
+    control hold, the same reference (its sinusoid and ``sigma_d(0)``, bit for bit) and agents per run; no flight
+    hardware (wheels, sensors, imperfect links) and the RK4 integrator only (dopri45's steps depend on every state).
+    Gains, inertias, initial states, disturbances, torque limits and topologies may differ.
+
+    Parameters
+    ----------
+    p : PackedProblem
+        A packed run.
+
+    Returns
+    -------
+    tuple or None
+        Equal for runs that can fly together; None for a run that flies alone.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.model.problem import batch_key, pack
+    >>> s = fsmctl.paper_scenario("1")
+    >>> batch_key(pack(s)) == batch_key(pack(s.replace(controller={"c1": 1.0})))
+    True
+    >>> batch_key(pack(s.replace(simulation={"integrator": "dopri45"}))) is None
+    True
+    """
+    hw = p.hardware
+    if p.integrator != 0 or hw.n_wheels or hw.sensors or hw.links_imperfect:
+        return None
+    ref = np.ascontiguousarray(p.ref_params, dtype=float).tobytes() + np.ascontiguousarray(p.x0[:3]).tobytes()
+    return (str(p.law.folder), p.error_model, p.n_agents, p.t0, p.dt, p.n_steps, p.output_every, p.hold_steps, ref)
+
+
+def stack(problems) -> PackedProblem:
+    """Several packed runs (equal :func:`batch_key`) as one problem of ``R n`` agents: a block-diagonal formation.
+
+    Member ``m``'s agents are agents ``m n .. (m + 1) n - 1`` of the stack, its links come in their own order with
+    the agent indices shifted by ``m n`` (so every receiver's neighbour sums add the same terms in the same order),
+    and the reference ``sigma_d`` is shared.  Fixed-step RK4 is componentwise and no member's right-hand side reads
+    another's agents, so each member's trajectory in the stack is its trajectory alone, bit for bit.
+
+    Parameters
+    ----------
+    problems : iterable of PackedProblem
+        Runs with equal :func:`batch_key` (else :class:`ValueError`).
+
+    Returns
+    -------
+    PackedProblem
+        The block-diagonal formation (the problem itself for one run).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.model.problem import pack, stack
+    >>> s = fsmctl.paper_scenario("1")
+    >>> both = stack([pack(s), pack(s.replace(controller={"c1": 1.0}))])
+    >>> both.n_agents, both.n_links
+    (12, 60)
+    """
+    problems = list(problems)
+    if not problems:
+        raise ValueError("stack: no problems")
+    first = problems[0]
+    key = batch_key(first)
+    if key is None or any(batch_key(q) != key for q in problems[1:]):
+        raise ValueError("stack: the problems cannot fly together (see batch_key)")
+    if len(problems) == 1:
+        return first
+    n = first.n_agents
+    starts, offset = [], 0
+    for q in problems:
+        starts.append(q.sched_start + offset)
+        offset += q.sched_times.size
+
+    def cat(name, dtype=float):
+        return np.concatenate([np.asarray(getattr(q, name), dtype=dtype) for q in problems])
+
+    return replace(
+        first,
+        n_agents=n * len(problems),
+        J_true=cat("J_true"),
+        J0=cat("J0"),
+        params=cat("params"),
+        u_max=cat("u_max"),
+        dist_params=cat("dist_params"),
+        link_receiver=np.concatenate([q.link_receiver + m * n for m, q in enumerate(problems)]).astype(np.int32),
+        link_sender=np.concatenate([q.link_sender + m * n for m, q in enumerate(problems)]).astype(np.int32),
+        link_k_i=cat("link_k_i"),
+        sched_period=cat("sched_period"),
+        sched_phase=cat("sched_phase"),
+        sched_start=np.concatenate(starts).astype(np.int32),
+        sched_count=cat("sched_count", np.int32),
+        sched_times=cat("sched_times"),
+        sched_values=cat("sched_values"),
+        x0=np.concatenate([first.x0[:3]] + [q.x0[3:] for q in problems]),
     )

@@ -45,9 +45,11 @@ __all__ = [
     "Region",
     "Theorem2Numeric",
     "delta_requirements",
+    "delta_margin",
     "drift_function",
     "format_vector",
     "proportional_kappa",
+    "reference_delta_requirement",
 ]
 
 
@@ -465,6 +467,70 @@ def _coupling_text(scenario: Scenario, kappas: list) -> str:
     return (
         "non-proportional Delta_J: the coordination term's (I - P) part is bounded by |P - I| (sum_j k^i + k^j) max|s|"
     )
+
+
+def reference_delta_requirement(scenario: Scenario, *, dt_reference: float = 0.05) -> np.ndarray:
+    """The ``delta_i`` Theorem 2 needs at the reference ``sigma_e = 0, omega_e = 0``, per agent and axis (1/s^2).
+
+    The larger, per agent and axis, of the two reference numbers of ``fsmctl prove theorem2-delta``
+    (:func:`delta_requirements` on the zero region): the requirement along the scenario's reference trajectory
+    (its actual ``omega_d(t)``, ``omega_d_dot(t)`` and disturbance, max over ``t`` in ``[0, t_final]`` at steps of
+    ``dt_reference``) and the one at the reference under the bound boxes of the disturbance and the reference
+    rate.  At ``sigma_e = 0, omega_e = 0`` the requirement does not involve ``c1``, ``c2``, ``alpha``, the
+    boundary layer or the coupling weights (``a_eq = 0`` and ``s = 0`` there), only the inertia, its uncertainty,
+    the disturbance and the reference; the torque limit is ignored, as in the paper.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Supplies ``J0_i``, ``Delta_J_i``, the disturbances, the reference and the horizon.
+    dt_reference : float
+        Time step (s) of the scan of the reference trajectory.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_agents, 3)``.
+
+    Examples
+    --------
+    >>> from fsmctl.model.scenario import paper_scenario
+    >>> req = reference_delta_requirement(paper_scenario("1"))
+    >>> req.shape, bool(0.001 < req.max() < 0.005)
+    ((6, 3), True)
+    """
+    res = delta_requirements(scenario, Region(0.0, 0.0), n_random=0, dt_reference=dt_reference, search_scale=False)
+    return np.array([np.maximum(a.reference_trajectory, a.reference_bound) for a in res.agents], dtype=float).reshape(
+        scenario.n_agents, 3
+    )
+
+
+def delta_margin(deltas: np.ndarray, required: np.ndarray) -> float:
+    """Theorem 2's margin at the reference: ``min`` over agents and axes of ``delta_ik - required_ik`` (1/s^2).
+
+    Non-negative when every configured switching gain covers its requirement (Liang et al. 2012, eqs 30-33 as
+    corrected in :mod:`fsmctl.proofs.theorem2`; the theorem asks for ``>``, a margin of exactly 0 is the boundary).
+
+    Parameters
+    ----------
+    deltas : array_like
+        ``(n_agents, 3)`` switching gains as flown (:func:`fsm_deltas`).
+    required : array_like
+        ``(n_agents, 3)`` requirements (:func:`reference_delta_requirement`).
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> delta_margin([[0.005, 0.005, 0.005]], [[0.001, 0.002, 0.0015]])
+    0.003
+    """
+    d, r = np.asarray(deltas, dtype=float), np.asarray(required, dtype=float)
+    if d.shape != r.shape:
+        raise ValueError(f"delta_margin: deltas {d.shape} and requirements {r.shape} differ in shape")
+    return float(np.min(d - r))
 
 
 def fsm_deltas(scenario: Scenario) -> np.ndarray:

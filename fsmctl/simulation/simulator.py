@@ -66,6 +66,7 @@ __all__ = [
     "StepSizeWarning",
     "SimulationResult",
     "simulate",
+    "simulate_many",
     "simulate_packed",
     "batched_kernels_preferred",
     "available_memory",
@@ -146,6 +147,7 @@ class _Problem(ctypes.Structure):
         ("sensor_gyro", _dp),
         ("link_delay", _ip),
         ("link_lost", ctypes.POINTER(ctypes.c_ubyte)),
+        ("n_members", ctypes.c_int),
     ]
 
 
@@ -179,7 +181,7 @@ class _Output(ctypes.Structure):
     ]
 
 
-ABI_VERSION = 3
+ABI_VERSION = 4
 """``FSM_ABI_VERSION`` of fsmctl/csrc/formation.h that these mirrors describe."""
 
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong)
@@ -266,7 +268,7 @@ _KERNELS = {"auto": 0, "batched": 1, "scalar": 2}
 class _CProblem:
     """Keeps the arrays alive while C holds pointers into them."""
 
-    def __init__(self, p: PackedProblem, max_steps: int = 0, kernels: str = "auto"):
+    def __init__(self, p: PackedProblem, max_steps: int = 0, kernels: str = "auto", members: int = 1):
         self._keep = {}
 
         ctypes_of = {np.float64: ctypes.c_double, np.int32: ctypes.c_int, np.uint8: ctypes.c_ubyte}
@@ -327,6 +329,7 @@ class _CProblem:
             sensor_gyro=f("sgy", hw.sensor_gyro),
             link_delay=f("ld", hw.link_delay, np.int32),
             link_lost=f("ll", hw.link_lost, np.uint8),
+            n_members=members,
         )
 
 
@@ -377,11 +380,12 @@ class _DeferredSigint:
             raise KeyboardInterrupt
 
 
-def _progress_callback(total: int, enabled: bool, label: str, guard: _DeferredSigint | None = None):
+def _progress_callback(total: int, enabled: bool, label: str, guard: _DeferredSigint | None = None, watch=None):
     """The ctypes progress callback; a nonzero return stops the loop.
 
     Nothing may escape a ctypes callback (ctypes would print it and carry on), so every exception is caught
-    and kept in ``state["error"]``; a deferred SIGINT (``guard.pending``) stops the loop too.
+    and kept in ``state["error"]``; a deferred SIGINT (``guard.pending``) stops the loop too.  ``watch(done)``
+    (optional) runs after the bar's update; its nonzero return stops the loop (a monitor's early stop).
     """
     state = {"bar": None, "interrupted": False, "error": None}
     if enabled:
@@ -397,7 +401,7 @@ def _progress_callback(total: int, enabled: bool, label: str, guard: _DeferredSi
             bar = state["bar"]
             if bar is not None:
                 bar.update(int(done) - bar.n)
-            return 0
+            return 0 if watch is None else watch(int(done))
         except BaseException as exc:  # re-raised by simulate_packed once C has returned
             state["interrupted"] = isinstance(exc, KeyboardInterrupt)
             state["error"] = exc
@@ -562,6 +566,8 @@ class SimulationResult:
     wheel_torque: np.ndarray | None = None
     sigma_measured: np.ndarray | None = None
     omega_measured: np.ndarray | None = None
+    stopped_at: float | None = None
+    """s: the time of the last sample when a monitor stopped the run early (``time[-1]``); None: the run completed"""
     _cache: dict = field(default_factory=dict, repr=False)
 
     @property
@@ -873,8 +879,153 @@ def _singularity_fix_none(p: PackedProblem) -> bool:
     return bool(np.any(p.params[:, k] == fix.choices.index("none")))
 
 
+def _monitor_grid(p: PackedProblem, interval: float | None) -> tuple[int, int]:
+    """``(outputs between monitor calls, callback period in steps)`` for a monitor every ``interval`` seconds.
+
+    The interval is rounded to a whole number (>= 1) of output intervals (default: a tenth of the run, at least one
+    output interval).  RK4: the callback period is the largest divisor of the monitor period in steps that is at
+    most :func:`_callback_every`, so that every monitor instant is a callback instant right after its record;
+    dopri45: every accepted step (its outputs fall between steps of varying length).
+    """
+    out_dt = p.output_every * p.dt
+    if interval is None:
+        interval = max(out_dt, 0.1 * p.n_steps * p.dt)
+    if not (isinstance(interval, (int, float)) and math.isfinite(interval) and interval > 0):
+        raise ValueError(f"monitor_interval must be a positive number of seconds, got {interval!r}")
+    k_out = max(1, round(interval / out_dt))
+    if p.integrator == 1:
+        return k_out, 1
+    m_steps, base = k_out * p.output_every, _callback_every(p)
+    every = next(d for d in range(min(base, m_steps), 0, -1) if m_steps % d == 0)
+    return k_out, every
+
+
+def _fly(
+    p: PackedProblem,
+    *,
+    progress: bool,
+    label: str,
+    kernels: str,
+    monitor=None,
+    monitor_interval=None,
+    members: int = 1,
+) -> dict:
+    """One call of the compiled loop: the raw arrays, or ``raw["rc"] != 0`` with ``fail_time``/``fail_agent``.
+
+    ``monitor(t, partial)`` (optional) is called from the progress callback at the output samples every
+    ``monitor_interval`` s (:func:`_monitor_grid`) before ``t_final``; ``partial()`` returns the raw arrays so far
+    (the output rows are views, the statistics copies).  When it returns True the loop stops there and
+    ``raw["stopped_at"]`` is that sample's time.  Exceptions (from the monitor or the progress bar) and a deferred
+    SIGINT are raised here once C has returned.  ``members > 1`` (a stack of that many runs,
+    :func:`fsmctl.model.problem.stack`): the per-agent output arrays are member-major, ``(members, rows, n /
+    members, ...)``, so that each run's outputs are contiguous (:func:`_split`).
+    """
+    dll = _driver(p.law)
+    hw = p.hardware
+    n, cap = p.n_agents, p.n_outputs + 1
+    lead = (cap, n) if members <= 1 else (members, cap, n // members)
+    bufs = {k: np.zeros((*lead, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat")}
+    bufs["broadcast"] = np.zeros((*lead, p.n_broadcast))
+    bufs["z"] = np.zeros((*lead, p.n_states))
+    if hw.n_wheels:
+        bufs["wheel_speed"] = np.zeros((*lead, hw.n_wheels))
+        bufs["wheel_torque"] = np.zeros((*lead, hw.n_wheels))
+    if hw.sensors:
+        bufs["sigma_measured"] = np.zeros((*lead, 3))
+        bufs["omega_measured"] = np.zeros((*lead, 3))
+    bufs["t"] = np.zeros(cap)
+    bufs["sigma_d"] = np.zeros((cap, 3))
+    stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
+    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()})
+    cp = _CProblem(p, kernels=kernels, members=members)
+    x0 = np.ascontiguousarray(p.x0, dtype=float)
+    if kernels == "auto":
+        kernels = "batched" if dll.fsm_batched_preferred() else "scalar"
+    t_end = p.t0 + p.n_steps * p.dt
+    started = 0.0  # set when the loop starts
+
+    def raw_now(w: int, stats_copy: bool) -> dict:
+        raw = {k: v[:w] if v.ndim < 3 or members <= 1 else v[:, :w] for k, v in bufs.items()}
+        raw.update({k: v.copy() if stats_copy else v for k, v in stats.items()})
+        raw.update(
+            wall_time=_time.perf_counter() - started,
+            backend="compiled",
+            kernels=kernels,
+            steps_taken=int(out.steps_taken),
+            steps_rejected=int(out.steps_rejected),
+            stopped_at=None,
+            rc=0,
+        )
+        return raw
+
+    every = _callback_every(p)
+    watch = None
+    if monitor is not None:
+        k_out, every = _monitor_grid(p, monitor_interval)
+        watch = {"next": k_out, "seen": 1, "stopped_at": None}
+        eps = 1e-9 * max(1.0, abs(t_end))
+
+        def watch_cb(done: int) -> int:
+            w = int(out.written)
+            current = w > watch["seen"] if p.integrator == 1 else done % p.output_every == 0
+            watch["seen"] = w
+            j = w - 1
+            if not current or j < watch["next"] or not bufs["t"][j] < t_end - eps:
+                return 0
+            watch["next"] = (j // k_out + 1) * k_out
+            t = float(bufs["t"][j])
+            if monitor(t, lambda: raw_now(w, True)):
+                watch["stopped_at"] = t
+                return 1
+            return 0
+
+    guard = _DeferredSigint()
+    started = _time.perf_counter()
+    with guard:
+        cb, state = _progress_callback(p.n_steps, progress, label, guard, watch_cb if watch else None)
+        try:
+            rc = dll.fsm_simulate(ctypes.byref(cp.struct), _ptr(x0), ctypes.byref(out), cb, every)
+        finally:
+            if state["bar"] is not None:
+                state["bar"].close()
+    guard.deliver()  # a SIGINT during the loop: its handler runs now (KeyboardInterrupt by default)
+    if state["error"] is not None:
+        raise state["error"]
+    if rc == 2 and state["interrupted"]:
+        raise KeyboardInterrupt
+    raw = raw_now(int(out.written), False)
+    raw["wall_time"] = _time.perf_counter() - started
+    if rc == 2 and watch is not None and watch["stopped_at"] is not None:
+        raw["stopped_at"] = watch["stopped_at"]
+        return raw
+    raw.update(rc=int(rc), fail_time=float(out.fail_time), fail_agent=int(out.fail_agent))
+    return raw
+
+
+def _failure_message(p: PackedProblem, raw: dict) -> str:
+    rc = raw["rc"]
+    detail = _RC.get(rc, f"error code {rc}")
+    if rc in (1, 7):
+        who = "the reference" if raw["fail_agent"] == -1 else f"agent {raw['fail_agent'] + 1}"
+        detail += f" at t = {raw['fail_time']:.6g} s in {who}"
+        detail += (
+            " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
+            if _singularity_fix_none(p)
+            else " (check inertias, gains and the step size)"
+        )
+    elif rc == 5:
+        detail += f" at t = {raw['fail_time']:.6g} s (discontinuous control? use rk4 or a boundary layer)"
+    return f"simulation failed: {detail}"
+
+
 def simulate_packed(
-    p: PackedProblem, *, progress: bool = False, label: str = "simulate", kernels: str = "auto"
+    p: PackedProblem,
+    *,
+    progress: bool = False,
+    label: str = "simulate",
+    kernels: str = "auto",
+    monitor=None,
+    monitor_interval: float | None = None,
 ) -> dict:
     """Run a packed problem on the compiled driver (or the CasADi fallback); returns raw arrays.
 
@@ -883,6 +1034,12 @@ def simulate_packed(
     the CasADi-generated scalar functions agent by agent; ``"auto"`` (default) is ``"batched"`` when the
     library was built with AVX (see :func:`batched_kernels_preferred`), else ``"scalar"``.  The results are
     bit-identical (up to the sign of a zero from ``fmin``/``fmax`` of ``+0`` and ``-0``).
+
+    ``monitor(t, partial)`` (compiled driver only; ignored with a warning by the CasADi fallback) is called at the
+    output samples every ``monitor_interval`` seconds before ``t_final`` (rounded to whole output intervals;
+    default a tenth of the run) with ``partial()`` returning the raw arrays up to ``t``; a True return stops the
+    run there: the returned arrays and statistics then cover ``[t0, t]`` exactly (a prefix of the complete run,
+    bit for bit) and ``raw["stopped_at"]`` is ``t`` (None for a completed run).
 
     Before anything is allocated: the output grid must end on the final state (else
     :class:`SimulationError`) and the results must fit in memory (:func:`check_output_memory`, else
@@ -906,66 +1063,28 @@ def simulate_packed(
             )
         from fsmctl.simulation.casadi_formation import simulate_casadi
 
+        if monitor is not None:
+            warnings.warn(
+                "the CasADi fallback (no C compiler) cannot monitor a run: it runs to t_final",
+                RuntimeWarning,
+                stacklevel=2,
+            )
         raw = simulate_casadi(p, progress=progress, label=label)
         _check_final_sample(raw["t"], t_end, "casadi-vm")
+        raw["stopped_at"] = None
         return raw
     if kernels == "batched" and not dll.fsm_batched_available():
         raise SimulationError(
             "kernels='batched': this build of the library has no batched kernels (the C compiler lacks the "
             "GCC/Clang vector extension); use kernels='auto' or 'scalar'"
         )
-    n, cap = p.n_agents, p.n_outputs + 1
-    bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat")}
-    bufs["broadcast"] = np.zeros((cap, n, p.n_broadcast))
-    bufs["z"] = np.zeros((cap, n, p.n_states))
-    if hw.n_wheels:
-        bufs["wheel_speed"] = np.zeros((cap, n, hw.n_wheels))
-        bufs["wheel_torque"] = np.zeros((cap, n, hw.n_wheels))
-    if hw.sensors:
-        bufs["sigma_measured"] = np.zeros((cap, n, 3))
-        bufs["omega_measured"] = np.zeros((cap, n, 3))
-    bufs["t"] = np.zeros(cap)
-    bufs["sigma_d"] = np.zeros((cap, 3))
-    stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
-    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()})
-    cp = _CProblem(p, kernels=kernels)
-    x0 = np.ascontiguousarray(p.x0, dtype=float)
-    guard = _DeferredSigint()
-    t0 = _time.perf_counter()
-    with guard:
-        cb, state = _progress_callback(p.n_steps, progress, label, guard)
-        try:
-            rc = dll.fsm_simulate(ctypes.byref(cp.struct), _ptr(x0), ctypes.byref(out), cb, _callback_every(p))
-        finally:
-            if state["bar"] is not None:
-                state["bar"].close()
-    wall = _time.perf_counter() - t0
-    guard.deliver()  # a SIGINT during the loop: its handler runs now (KeyboardInterrupt by default)
-    if state["error"] is not None:
-        raise state["error"]
-    if rc == 2 and state["interrupted"]:
-        raise KeyboardInterrupt
-    if rc != 0:
-        detail = _RC.get(rc, f"error code {rc}")
-        if rc in (1, 7):
-            who = "the reference" if out.fail_agent == -1 else f"agent {out.fail_agent + 1}"
-            detail += f" at t = {out.fail_time:.6g} s in {who}"
-            detail += (
-                " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
-                if _singularity_fix_none(p)
-                else " (check inertias, gains and the step size)"
-            )
-        elif rc == 5:
-            detail += f" at t = {out.fail_time:.6g} s (discontinuous control? use rk4 or a boundary layer)"
-        raise SimulationError(f"simulation failed: {detail}")
-    w = out.written
-    raw = {k: v[:w] for k, v in bufs.items()}
-    _check_final_sample(raw["t"], t_end, "compiled")
-    raw.update(stats)
-    if kernels == "auto":
-        kernels = "batched" if dll.fsm_batched_preferred() else "scalar"
-    raw.update(wall_time=wall, backend="compiled", steps_taken=out.steps_taken, steps_rejected=out.steps_rejected)
-    raw["kernels"] = kernels
+    raw = _fly(p, progress=progress, label=label, kernels=kernels, monitor=monitor, monitor_interval=monitor_interval)
+    if raw["rc"] != 0:
+        raise SimulationError(_failure_message(p, raw))
+    if raw["stopped_at"] is None:
+        _check_final_sample(raw["t"], t_end, "compiled")
+    for k in ("rc", "fail_time", "fail_agent"):
+        raw.pop(k, None)
     return raw
 
 
@@ -1175,26 +1294,8 @@ def _warn_rotation_reached(scenario: Scenario, omega: np.ndarray) -> None:
         )
 
 
-def simulate(scenario: Scenario, *, progress: bool | None = None) -> SimulationResult:
-    """Simulate ``scenario`` with the generated code; see :class:`SimulationResult`.
-
-    ``progress``: show a progress bar (default: for runs of more than 10^6 agent-steps on a terminal).
-
-    Warns (:class:`StepSizeWarning`) before the run when the RK4 step is too coarse
-    (:func:`step_size_report`) and after it when the rotation per step actually reached exceeds
-    :data:`MAX_ROTATION_PER_STEP`.  Raises :class:`~fsmctl.errors.ResourceLimitError` when the results would
-    not fit in memory, :class:`SimulationError` when the run fails or its last sample is not at ``t_final``,
-    and :class:`KeyboardInterrupt` on Ctrl-C.
-    """
-    check_noise_memory(scenario)
-    p = pack(scenario)
-    _check_integrator(p, scenario)
-    _warn_step_size(scenario, p)
-    if progress is None:
-        progress = p.n_steps * p.n_agents > 1_000_000 and sys.stderr.isatty()
-    raw = simulate_packed(p, progress=progress, label=scenario.label)
-    _check_final_sample(raw["t"], scenario.simulation.t_final, raw["backend"])
-    _warn_rotation_reached(scenario, raw["omega"])
+def _result(scenario: Scenario, raw: dict) -> SimulationResult:
+    """A :class:`SimulationResult` of the raw arrays of :func:`simulate_packed` (no copy)."""
     return SimulationResult(
         scenario=scenario,
         time=raw["t"],
@@ -1215,4 +1316,266 @@ def simulate(scenario: Scenario, *, progress: bool | None = None) -> SimulationR
         steps_taken=int(raw["steps_taken"]),
         steps_rejected=int(raw["steps_rejected"]),
         **{k: raw.get(k) for k in ("wheel_speed", "wheel_torque", "sigma_measured", "omega_measured")},
+        stopped_at=raw.get("stopped_at"),
     )
+
+
+def _prepare(scenario: Scenario) -> PackedProblem:
+    """The checks before a run (noise memory, integrator, step size) and the packed problem."""
+    check_noise_memory(scenario)
+    p = pack(scenario)
+    _check_integrator(p, scenario)
+    _warn_step_size(scenario, p)
+    return p
+
+
+def _finish(scenario: Scenario, raw: dict) -> SimulationResult:
+    """The checks after a run (final sample unless stopped, rotation per step) and its result."""
+    if raw.get("stopped_at") is None:
+        _check_final_sample(raw["t"], scenario.simulation.t_final, raw["backend"])
+    _warn_rotation_reached(scenario, raw["omega"])
+    return _result(scenario, raw)
+
+
+def simulate(
+    scenario: Scenario,
+    *,
+    progress: bool | None = None,
+    monitor=None,
+    monitor_interval: float | None = None,
+) -> SimulationResult:
+    """Simulate ``scenario`` with the generated code; see :class:`SimulationResult`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The formation, law and run settings.
+    progress : bool, optional
+        Show a progress bar (default: for runs of more than 10^6 agent-steps on a terminal).
+    monitor : callable, optional
+        ``monitor(t, partial) -> bool``, called every ``monitor_interval`` simulated seconds at an output sample
+        ``t < t_final``, while the compiled loop runs; ``partial()`` returns ``[SimulationResult]`` (a list of one,
+        as :func:`simulate_many` passes one result per scenario of a batch) truncated at ``t``.  Returning True
+        stops the run at ``t``: the result then holds the samples up to ``t`` (the prefix of the complete run,
+        bit for bit, with the run statistics up to ``t``) and ``stopped_at == t``.  Without a C compiler (the
+        CasADi fallback) the monitor is not called and the run completes (a warning says so).
+    monitor_interval : float, optional
+        Seconds of simulated time between monitor calls, rounded to a whole number (>= 1) of output intervals
+        (default: a tenth of ``t_final``).
+
+    Returns
+    -------
+    SimulationResult
+        ``stopped_at`` is None for a completed run.
+
+    Warns (:class:`StepSizeWarning`) before the run when the RK4 step is too coarse
+    (:func:`step_size_report`) and after it when the rotation per step actually reached exceeds
+    :data:`MAX_ROTATION_PER_STEP`.  Raises :class:`~fsmctl.errors.ResourceLimitError` when the results would
+    not fit in memory, :class:`SimulationError` when the run fails or its last sample is not at ``t_final``,
+    and :class:`KeyboardInterrupt` on Ctrl-C.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 2.0})
+    >>> r = fsmctl.simulate(s)
+    >>> float(r.time[-1]), r.stopped_at
+    (2.0, None)
+
+    Stop as soon as the absolute error metric is below 20 degrees, looking every 0.5 s:
+
+    >>> early = fsmctl.simulate(s, monitor=lambda t, partial: partial()[0].aaem_deg[-1] < 20.0, monitor_interval=0.5)
+    >>> early.stopped_at is None or early.stopped_at == float(early.time[-1])
+    True
+    """
+    p = _prepare(scenario)
+    if progress is None:
+        progress = p.n_steps * p.n_agents > 1_000_000 and sys.stderr.isatty()
+    raw_monitor = None
+    if monitor is not None:
+
+        def raw_monitor(t, partial_raw):
+            return bool(monitor(t, lambda: [_result(scenario, partial_raw())]))
+
+    raw = simulate_packed(
+        p, progress=progress, label=scenario.label, monitor=raw_monitor, monitor_interval=monitor_interval
+    )
+    return _finish(scenario, raw)
+
+
+BATCH_AGENTS = 64
+"""Default size of a batch of :func:`simulate_many`: runs are stacked up to this many agents in all (10 runs of the
+paper's 6 agents); the time per run levels off from ~8 runs of Case 1 (``benchmarks/run.py``, throughput section)."""
+
+_PER_AGENT_KEYS = (
+    "sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat", "broadcast", "z",
+    "saturated_time", "u_total_variation", "u_unsat_max",
+)  # fmt: skip
+
+
+def _split(raw: dict, n: int, count: int) -> list[dict]:
+    """The raw arrays of ``count`` runs of ``n`` agents flown together (member-major, :func:`_fly` with ``members =
+    count``) as one raw dict per run: contiguous views of the batch's buffers, as a run alone returns them."""
+    out = []
+    for m in range(count):
+        raw_m = {k: v for k, v in raw.items() if k not in _PER_AGENT_KEYS}
+        raw_m["t"], raw_m["sigma_d"] = raw["t"].copy(), raw["sigma_d"].copy()
+        for k in _PER_AGENT_KEYS:
+            v = raw[k]
+            raw_m[k] = v[m * n : (m + 1) * n] if v.ndim == 1 else v[m]
+        raw_m["wall_time"] = raw["wall_time"] / count
+        out.append(raw_m)
+    return out
+
+
+def _fly_batch(scenarios: list[Scenario], problems: list[PackedProblem], monitor, monitor_interval) -> list:
+    """Fly runs as one stacked problem (one run: alone, on either backend); a run that fails is flown alone (for
+    its own error) and the others again without it; a batch whose results would not fit in memory is halved.
+    Returns one raw dict (or :class:`SimulationError`) per run."""
+    from fsmctl.model.problem import stack
+
+    count = len(problems)
+    if count == 1:
+        raw_monitor = None
+        if monitor is not None:
+
+            def raw_monitor(t, partial_raw):
+                return bool(monitor(t, lambda: [_result(scenarios[0], partial_raw())]))
+
+        try:
+            return [
+                simulate_packed(
+                    problems[0], label=scenarios[0].label, monitor=raw_monitor, monitor_interval=monitor_interval
+                )
+            ]
+        except SimulationError as exc:
+            return [exc]
+    n = problems[0].n_agents
+    st = stack(problems)
+    _check_output_grid(st)
+    try:
+        check_output_memory(st)  # the whole batch's buffers
+    except ResourceLimitError:
+        half = count // 2
+        return _fly_batch(scenarios[:half], problems[:half], monitor, monitor_interval) + _fly_batch(
+            scenarios[half:], problems[half:], monitor, monitor_interval
+        )
+    raw_monitor = None
+    if monitor is not None:
+
+        def raw_monitor(t, partial_raw):
+            def partial():
+                return [_result(sc, r) for sc, r in zip(scenarios, _split(partial_raw(), n, count), strict=True)]
+
+            return bool(monitor(t, partial))
+
+    raw = _fly(
+        st,
+        progress=False,
+        label="simulate_many",
+        kernels="auto",
+        monitor=raw_monitor,
+        monitor_interval=monitor_interval,
+        members=count,
+    )
+    if raw["rc"] == 0:
+        return _split(raw, n, count)
+    # a failed run stopped the batch: fly it alone (its own error message), the others again without it
+    bad = raw["fail_agent"] // n if raw["rc"] in (1, 7) and raw["fail_agent"] >= 0 else None
+    if bad is None:  # not one run's failure (the shared reference, the step budget): every run alone
+        return [
+            out
+            for k in range(count)
+            for out in _fly_batch(scenarios[k : k + 1], problems[k : k + 1], monitor, monitor_interval)
+        ]
+    keep = [k for k in range(count) if k != bad]
+    out = _fly_batch([scenarios[k] for k in keep], [problems[k] for k in keep], monitor, monitor_interval)
+    out.insert(bad, _fly_batch([scenarios[bad]], [problems[bad]], monitor, monitor_interval)[0])
+    return out
+
+
+def simulate_many(
+    scenarios,
+    *,
+    monitor=None,
+    monitor_interval: float | None = None,
+    errors: str = "raise",
+    batch_size: int | None = None,
+) -> list:
+    """Simulate several scenarios, flying compatible ones together; the results in the order given.
+
+    Runs that share the formation's structure (law, error model, agents per run, fixed-step RK4 with the same
+    step, horizon, output grid and control period, and the same reference: :func:`fsmctl.model.problem.batch_key`)
+    are flown in batches, each batch as one block-diagonal formation in one call of the compiled loop
+    (:func:`fsmctl.model.problem.stack`): the SIMD lanes hold agents of several runs, the reference and the per-step
+    bookkeeping are shared, and each run's results are those of :func:`simulate` alone, bit for bit (arrays, run
+    statistics, summaries; ``wall_time`` is the batch's divided among its runs).  Runs with flight hardware
+    (wheels, sensors, imperfect links), with dopri45, or without a C compiler fly one by one.
+
+    Parameters
+    ----------
+    scenarios : iterable of Scenario
+        The runs.
+    monitor : callable, optional
+        ``monitor(t, partial) -> bool`` as for :func:`simulate`, called during each flight with ``partial()``
+        returning one truncated :class:`SimulationResult` per scenario of that flight (a batch, or one scenario
+        flying alone), in the order given; True stops the whole flight (all its scenarios) at ``t``.  A batch in
+        which a run fails is flown again without it (the monitor then sees the smaller batch from the start).
+    monitor_interval : float, optional
+        Seconds of simulated time between monitor calls (see :func:`simulate`).
+    errors : {"raise", "return"}
+        ``"raise"``: a :class:`SimulationError` propagates (after the batch it belongs to has flown);
+        ``"return"``: it takes the failed scenario's place in the list and the others still run.
+    batch_size : int, optional
+        Most runs per batch (default: as many as fit in :data:`BATCH_AGENTS` agents; a group of compatible runs is
+        split into batches of nearly equal sizes); 1 flies every run alone.
+
+    Returns
+    -------
+    list of SimulationResult or SimulationError
+        One entry per scenario, in order.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> base = fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0})
+    >>> runs = [base.replace(controller={"c1": c1}) for c1 in (0.4, 0.6, 0.8)]
+    >>> results = fsmctl.simulate_many(runs)
+    >>> [float(r.time[-1]) for r in results]
+    [1.0, 1.0, 1.0]
+    >>> bool((results[1].sigma == fsmctl.simulate(runs[1]).sigma).all())
+    True
+    """
+    from fsmctl.model.problem import batch_key
+
+    if errors not in ("raise", "return"):
+        raise ValueError(f"errors must be 'raise' or 'return', got {errors!r}")
+    if batch_size is not None and not (isinstance(batch_size, int) and batch_size >= 1):
+        raise ValueError(f"batch_size must be an integer >= 1, got {batch_size!r}")
+    scenarios = list(scenarios)
+    problems = [_prepare(s) for s in scenarios]
+    groups: dict = {}
+    for k, p in enumerate(problems):
+        key = batch_key(p) if _driver(p.law) is not None else None  # the CasADi fallback flies runs one by one
+        if key is None and p.hardware.n_samples:
+            problems[k] = None  # its noise tables are drawn again when it flies (same seed, same draws)
+        groups.setdefault(("alone", k) if key is None else key, []).append(k)
+    results: list = [None] * len(scenarios)
+    for members in groups.values():
+        n = problems[members[0]].n_agents
+        most = batch_size or max(1, BATCH_AGENTS // n)
+        count = -(-len(members) // most)  # batches, of nearly equal sizes
+        for b in range(count):
+            batch = members[b * len(members) // count : (b + 1) * len(members) // count]
+            packed = [pack(scenarios[k]) if problems[k] is None else problems[k] for k in batch]
+            raws = _fly_batch([scenarios[k] for k in batch], packed, monitor, monitor_interval)
+            for k, out in zip(batch, raws, strict=True):
+                try:
+                    if isinstance(out, SimulationError):
+                        raise out
+                    results[k] = _finish(scenarios[k], out)
+                except SimulationError as exc:
+                    if errors == "raise":
+                        raise
+                    results[k] = exc
+    return results

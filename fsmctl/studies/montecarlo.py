@@ -748,15 +748,54 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
 
     The "final" values (``aaem_final_deg``, ``theta_e_final_deg``, ``converged``) are taken at
     ``t_final``; a result whose last sample is elsewhere raises, so the run is ``failed``.
+    (:func:`_run_chunk` flies a chunk's runs together, :func:`fsmctl.simulation.simulator.simulate_many`, with the
+    same records.)
     """
-    from fsmctl.proofs.theorem1 import analyze_topology
-    from fsmctl.proofs.theorem2 import Region, delta_requirements
-    from fsmctl.simulation.metrics import principal_angles
     from fsmctl.simulation.simulator import simulate
 
     wall, cpu = time.perf_counter(), time.process_time()
     scenario = sample_run_scenario(base, settings, seed)
     result = simulate(scenario, progress=False)
+    rec = run_record(scenario, settings, seed, result)
+    rec["wall_time_s"] = time.perf_counter() - wall
+    rec["cpu_time_s"] = time.process_time() - cpu
+    return rec
+
+
+def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.SeedSequence, result) -> dict:
+    """The summary record of a run of ``scenario`` (drawn from ``seed``) from its result (raises on a bad result).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The run's scenario (:func:`sample_run_scenario`).
+    settings : CampaignSettings
+        The campaign (tolerance, steady window, noise ranges).
+    seed : numpy.random.SeedSequence
+        The run's seed.
+    result : SimulationResult
+        Its result (:func:`fsmctl.simulate`, or one entry of :func:`fsmctl.simulate_many`).
+
+    Returns
+    -------
+    dict
+        The record :func:`run_one` returns, with ``wall_time_s`` and ``cpu_time_s`` left NaN for the caller.
+
+    Examples
+    --------
+    >>> import numpy as np, fsmctl
+    >>> from fsmctl.studies.montecarlo import CampaignSettings, campaign_base, run_record, sample_run_scenario
+    >>> settings, base = campaign_base(CampaignSettings(runs=1, t_final=0.5))
+    >>> seed = np.random.SeedSequence(settings.seed).spawn(1)[0]
+    >>> scenario = sample_run_scenario(base, settings, seed)
+    >>> rec = run_record(scenario, settings, seed, fsmctl.simulate(scenario))
+    >>> rec["converged"], bool(np.isnan(rec["wall_time_s"]))
+    (False, True)
+    """
+    from fsmctl.proofs.theorem1 import analyze_topology
+    from fsmctl.proofs.theorem2 import Region, delta_requirements
+    from fsmctl.simulation.metrics import principal_angles
+
     _check_final_sample(np.asarray(result.time), scenario.simulation.t_final)
     tol = settings.tolerance_deg
     summary = result.summary(tolerances_deg=(tol, 0.1 * tol), steady_window=settings.steady_window)
@@ -807,8 +846,6 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
         saturated_time_s=np.asarray(result.saturated_time, dtype=float),
         theta_e_final_deg=np.degrees(result.theta_e[-1]),
     )
-    rec["wall_time_s"] = time.perf_counter() - wall
-    rec["cpu_time_s"] = time.process_time() - cpu
     return rec
 
 
@@ -835,24 +872,70 @@ def _relative_perturbation(agent: Agent) -> float:
 RunFunction = Callable[[Scenario, CampaignSettings, int, np.random.SeedSequence], dict]
 
 
+def _failed(k: int, exc: BaseException, n_agents: int) -> tuple[int, str, str, dict]:
+    return (k, STATUS_FAILED, f"{type(exc).__name__}: {exc}".splitlines()[0][:500], _nan_record(n_agents))
+
+
 def _run_chunk(
     base: Scenario, settings: CampaignSettings, indices: Sequence[int], run_fn: RunFunction | None = None
 ) -> list[tuple[int, str, str, dict]]:
-    """Runs ``indices``; each gives ``(index, status, message, record)``; a failing run does not stop the chunk."""
+    """Runs ``indices``; each gives ``(index, status, message, record)``; a failing run does not stop the chunk.
+
+    Without ``run_fn`` the chunk's runs fly together (:func:`fsmctl.simulation.simulator.simulate_many`: batches in
+    one compiled loop, each run's results those of its run alone, bit for bit) and each gets :func:`run_record`;
+    ``wall_time_s``/``cpu_time_s`` are then its own drawing and summary plus its share of the batch's flight.
+    ``run_fn`` (e.g. :func:`run_one`) runs them one by one.
+    """
     # Reaches only BLAS libraries loaded after this point (e.g. SciPy's, at the first linprog). The local
     # pool's workers get one thread from their environment at start (parallel.single_threaded_workers).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    fn = run_fn or run_one
     seeds = np.random.SeedSequence(settings.seed).spawn(settings.runs)
-    out = []
+    if run_fn is not None:
+        out = []
+        for k in indices:
+            try:
+                out.append((k, STATUS_OK, "", run_fn(base, settings, k, seeds[k])))
+            except Exception as exc:  # a failed run is reported in the dataset, never dropped
+                out.append(_failed(k, exc, base.n_agents))
+        return out
+    return _run_chunk_together(base, settings, indices, seeds)
+
+
+def _run_chunk_together(
+    base: Scenario, settings: CampaignSettings, indices: Sequence[int], seeds: Sequence[np.random.SeedSequence]
+) -> list[tuple[int, str, str, dict]]:
+    from fsmctl.simulation.simulator import SimulationError, simulate_many
+
+    rows: dict[int, tuple[int, str, str, dict]] = {}
+    drawn: dict[int, Scenario] = {}
+    own = {}  # per run: (wall, cpu) of its own work
     for k in indices:
+        wall, cpu = time.perf_counter(), time.process_time()
         try:
-            out.append((k, STATUS_OK, "", fn(base, settings, k, seeds[k])))
+            drawn[k] = sample_run_scenario(base, settings, seeds[k])
+        except Exception as exc:
+            rows[k] = _failed(k, exc, base.n_agents)
+        own[k] = (time.perf_counter() - wall, time.process_time() - cpu)
+    flying = list(drawn)
+    wall, cpu = time.perf_counter(), time.process_time()
+    try:
+        results = simulate_many([drawn[k] for k in flying], errors="return")
+    except Exception:  # not one run's failure (e.g. memory): one by one, so each run gets its own outcome
+        return _run_chunk(base, settings, indices, run_one)
+    share = ((time.perf_counter() - wall) / max(1, len(flying)), (time.process_time() - cpu) / max(1, len(flying)))
+    for k, result in zip(flying, results, strict=True):
+        wall, cpu = time.perf_counter(), time.process_time()
+        try:
+            if isinstance(result, SimulationError):
+                raise result
+            rec = run_record(drawn[k], settings, seeds[k], result)
         except Exception as exc:  # a failed run is reported in the dataset, never dropped
-            out.append(
-                (k, STATUS_FAILED, f"{type(exc).__name__}: {exc}".splitlines()[0][:500], _nan_record(base.n_agents))
-            )
-    return out
+            rows[k] = _failed(k, exc, base.n_agents)
+            continue
+        rec["wall_time_s"] = own[k][0] + share[0] + time.perf_counter() - wall
+        rec["cpu_time_s"] = own[k][1] + share[1] + time.process_time() - cpu
+        rows[k] = (k, STATUS_OK, "", rec)
+    return [rows[k] for k in indices]
 
 
 # ----------------------------------------------------------------------------- files

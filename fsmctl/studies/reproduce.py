@@ -15,6 +15,12 @@ Cases 1 and 2 on a three times longer horizon), then grades every Section 4 clai
     relative to the reference (:func:`angular_momentum_bound`), computed independently of
     the closed-loop simulation, exceeds the paper's number.
 
+With ``explain=True`` (``fsmctl reproduce`` by default) every claim that does not reproduce is explained
+(:mod:`fsmctl.studies.explain`): the smallest change of a setting the paper leaves open or may have misprinted that
+makes the claim's test (:func:`claim_holds`) pass, or "no setting in the searched ranges reproduces it"; the
+evidence runs are written as scenario files (``DIR/explain/*.toml``) and the report gains the section "What would
+reproduce each claim".  The default scenario is never changed.
+
 Writes ``DIR/report.md``, ``DIR/claims.csv``, ``DIR/claims.json``, one NetCDF per run
 (``DIR/runs/<run>.nc``) and the figures (``DIR/figures/*.png|svg``, analogues of Figs 1-9).
 Verdicts are results: the exit code is 0 whenever the report was written.
@@ -47,13 +53,20 @@ __all__ = [
     "PAPER_CASES",
     "SETTLING_TOLERANCES_DEG",
     "PAPER_SETTLING_TIME_S",
+    "CLAIM_IDS",
+    "CLAIM_RUNS",
+    "CLAIM_USES_TOLERANCE",
     "RunSpec",
     "RunRecord",
     "MomentumBound",
     "ClaimVerdict",
     "Reproduction",
     "run_plan",
+    "load_case",
+    "run_scenario",
+    "run_record",
     "execute_run",
+    "claim_holds",
     "reference_trajectory",
     "angular_momentum_bound",
     "evaluate_claims",
@@ -267,10 +280,31 @@ class RunRecord:
         return float(self.summary["u_unsaturated_max_N_m"])
 
 
-def _scenario_for(source: str, spec: RunSpec, fast: bool):
-    from fsmctl.model.scenario import load_scenario
+def load_case(source: str | Mapping[str, Any], case: str):
+    """The scenario of one paper case from a source: ``"paper"``, a TOML file, or the mapping of a TOML file.
 
-    scenario = load_scenario(source, case=spec.case)
+    Parameters
+    ----------
+    source : str or mapping
+        ``"paper"``, a scenario TOML file, or a parsed TOML mapping (e.g. ``{"extends": "paper", "controller":
+        {...}}``: what an explanation's evidence file holds, :mod:`fsmctl.studies.explain`).
+    case : str
+        The case (``"1"``, ``"2"``, ``"3a"``, ...).
+
+    Returns
+    -------
+    Scenario
+        Validated.
+    """
+    from fsmctl.model.scenario import load_scenario, scenario_from_dict
+
+    if isinstance(source, Mapping):
+        return scenario_from_dict(dict(source), case=case, where="scenario")
+    return load_scenario(source, case=case)
+
+
+def _scenario_for(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
+    scenario = load_case(source, spec.case)
     sim = dict(spec.simulation)
     t_final = FAST_T_FINAL_S if fast else scenario.simulation.t_final
     sim.setdefault("t_final", t_final * spec.horizon_factor)
@@ -287,7 +321,7 @@ def _scenario_for(source: str, spec: RunSpec, fast: bool):
 _PAPER_RUNS = tuple(f"case{c}" for c in PAPER_CASES)
 
 
-def _quiet_scenario(source: str, spec: RunSpec, fast: bool):
+def _quiet_scenario(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
     import warnings
 
     from fsmctl.model.scenario import InertiaWarning
@@ -297,13 +331,86 @@ def _quiet_scenario(source: str, spec: RunSpec, fast: bool):
         return _scenario_for(source, spec, fast)
 
 
-def execute_run(source: str, spec: RunSpec, fast: bool, out_dir: str) -> RunRecord:
+def run_scenario(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
+    """The scenario a :class:`RunSpec` flies: the case of ``source`` with the spec's overrides and horizon.
+
+    Parameters
+    ----------
+    source : str or mapping
+        As :func:`load_case`.
+    spec : RunSpec
+        The run.
+    fast : bool
+        Short horizon (``FAST_T_FINAL_S``) and coarser output.
+
+    Returns
+    -------
+    Scenario
+        Validated (the paper's J0_4 inertia warning is silenced: the report's inertia check covers it).
+    """
+    return _quiet_scenario(source, spec, fast)
+
+
+def run_record(spec: RunSpec, scenario, result, *, netcdf: str = "", figures: Sequence[str] = (), wall_time_s=0.0):
+    """The :class:`RunRecord` of one simulated :class:`RunSpec` (summary, AAEM/RAEM series, eqs 42-43).
+
+    Parameters
+    ----------
+    spec : RunSpec
+        The run.
+    scenario : Scenario
+        What was flown (:func:`run_scenario`).
+    result : SimulationResult
+        Its simulation.
+    netcdf : str
+        The saved time series ("" when not saved).
+    figures : sequence of str
+        Written figure files.
+    wall_time_s : float
+        Wall time of the run (s).
+
+    Returns
+    -------
+    RunRecord
+        The steady window is the last ``STEADY_WINDOW_FRACTION`` of the scenario's own horizon (40 s of a
+        long run too).
+    """
+    window = STEADY_WINDOW_FRACTION * scenario.simulation.t_final / spec.horizon_factor
+    summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG, steady_window=window)
+    theta_deg = np.degrees(result.theta_e)
+    return RunRecord(
+        key=spec.key,
+        title=spec.title,
+        purpose=spec.purpose,
+        overrides=spec.overrides,
+        case=spec.case,
+        label=scenario.label,
+        describe=scenario.describe(),
+        t_final=scenario.simulation.t_final,
+        torque_limit=scenario.controller.torque_limit,
+        summary=summary,
+        time=result.time,
+        aaem_deg=result.aaem_deg,
+        raem_deg=result.raem_deg,
+        theta_e0_deg=[float(x) for x in theta_deg[0]],
+        theta_e_peak_deg=float(theta_deg.max()),
+        steady_window_s=window,
+        aaem_steady_max_deg=float(summary["aaem_steady_max_deg"]),
+        raem_steady_max_deg=float(summary["raem_steady_max_deg"]),
+        netcdf=netcdf,
+        figures=list(figures),
+        wall_time_s=wall_time_s,
+    )
+
+
+def execute_run(source: str | Mapping[str, Any], spec: RunSpec, fast: bool, out_dir: str) -> RunRecord:
     """Simulate one :class:`RunSpec`, save its NetCDF and single-run figures, return its :class:`RunRecord`.
 
     Parameters
     ----------
-    source : str
-        ``"paper"`` or a scenario TOML file (Liang et al. 2012, Sec. 4 layout: cases 1, 2, 3a-3c).
+    source : str or mapping
+        ``"paper"``, a scenario TOML file (Liang et al. 2012, Sec. 4 layout: cases 1, 2, 3a-3c) or its
+        parsed mapping (:func:`load_case`).
     spec : RunSpec
         The run.
     fast : bool
@@ -319,13 +426,11 @@ def execute_run(source: str, spec: RunSpec, fast: bool, out_dir: str) -> RunReco
     import fsmctl.studies.figures as figs
     from fsmctl.simulation.simulator import simulate
 
-    scenario = _quiet_scenario(source, spec, fast)
+    scenario = run_scenario(source, spec, fast)
     started = _time.perf_counter()
     result = simulate(scenario, progress=False)
     out = Path(out_dir)
     nc = result.save(out / "runs" / f"{spec.key}.nc")
-    window = STEADY_WINDOW_FRACTION * scenario.simulation.t_final / spec.horizon_factor  # 40 s of a long run too
-    summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG, steady_window=window)
     theta_deg = np.degrees(result.theta_e)
     written = []
     title = f"{spec.title} ({scenario.label})"
@@ -352,28 +457,8 @@ def execute_run(source: str, spec: RunSpec, fast: bool, out_dir: str) -> RunReco
     for name in spec.figures:
         stem = out / "figures" / f"{_FIGURE_PREFIX.get((spec.key, name), 'diag')}_{name}_{spec.key}"
         written += [str(p) for p in figs.save_figure(builders[name](), stem)]
-    return RunRecord(
-        key=spec.key,
-        title=spec.title,
-        purpose=spec.purpose,
-        overrides=spec.overrides,
-        case=spec.case,
-        label=scenario.label,
-        describe=scenario.describe(),
-        t_final=scenario.simulation.t_final,
-        torque_limit=scenario.controller.torque_limit,
-        summary=summary,
-        time=result.time,
-        aaem_deg=result.aaem_deg,
-        raem_deg=result.raem_deg,
-        theta_e0_deg=[float(x) for x in theta_deg[0]],
-        theta_e_peak_deg=float(theta_deg.max()),
-        steady_window_s=window,
-        aaem_steady_max_deg=float(summary["aaem_steady_max_deg"]),
-        raem_steady_max_deg=float(summary["raem_steady_max_deg"]),
-        netcdf=str(nc),
-        figures=written,
-        wall_time_s=_time.perf_counter() - started,
+    return run_record(
+        spec, scenario, result, netcdf=str(nc), figures=written, wall_time_s=_time.perf_counter() - started
     )
 
 
@@ -595,6 +680,92 @@ def _inf_if_nan(x: float) -> float:
     return math.inf if not math.isfinite(x) else x
 
 
+CLAIM_IDS = (
+    "settling_27s",
+    "tracking_accuracy",
+    "relative_accuracy",
+    "saturation_at_start",
+    "case2_slower",
+    "case2_accuracy",
+    "case3_ordering",
+)
+"""The Section 4 claims, in the order of the paper's text (:func:`evaluate_claims`)."""
+
+CLAIM_RUNS: dict[str, tuple[str, ...]] = {
+    "settling_27s": ("case1",),
+    "tracking_accuracy": ("case1",),
+    "relative_accuracy": ("case1",),
+    "saturation_at_start": ("case1",),
+    "case2_slower": ("case1", "case2"),
+    "case2_accuracy": ("case2", "case2_long"),
+    "case3_ordering": ("case3a", "case3b", "case3c"),
+}
+"""The runs of :func:`run_plan` whose results decide each claim (:func:`claim_holds`)."""
+
+CLAIM_USES_TOLERANCE = frozenset({"settling_27s", "case2_slower", "case2_accuracy", "case3_ordering"})
+"""The claims whose test involves a settling tolerance (the others read steady maxima or saturation times)."""
+
+
+def claim_holds(claim_id: str, records: Mapping[str, RunRecord], tolerance_deg: float | None = None) -> bool:
+    """Whether runs show what the paper states for one claim: the ``reproduced`` test of :func:`evaluate_claims`.
+
+    Parameters
+    ----------
+    claim_id : str
+        One of :data:`CLAIM_IDS`.
+    records : mapping run key -> RunRecord
+        At least the runs :data:`CLAIM_RUNS` names for the claim.
+    tolerance_deg : float, optional
+        The tolerance behind "settles" (deg); default ``SETTLING_TOLERANCES_DEG[0]``.
+
+    Returns
+    -------
+    bool
+        ``settling_27s``: AAEM and RAEM of Case 1 settle to the tolerance by 27 s; ``tracking_accuracy`` /
+        ``relative_accuracy``: Case 1's steady maximum of AAEM / RAEM is at most 0.03 / 0.01 deg;
+        ``saturation_at_start``: no saturation, or the last one by 27 s and before the steady window;
+        ``case2_slower``: Case 1 settles and Case 2 takes at least twice as long (AAEM); ``case2_accuracy``:
+        once Case 2 has settled (within its horizon, else on the long horizon) its steady AAEM / RAEM exceed
+        0.05 / 0.03 deg; ``case3_ordering``: Cases 3a-3c all settle and both steady maxima strictly decrease
+        from 3a to 3c.
+    """
+    tol = SETTLING_TOLERANCES_DEG[0] if tolerance_deg is None else float(tolerance_deg)
+    R = records
+    T = PAPER_SETTLING_TIME_S
+    if claim_id == "settling_27s":
+        c1 = R["case1"]
+        return c1.settling("aaem", tol) <= T and c1.settling("raem", tol) <= T
+    if claim_id == "tracking_accuracy":
+        return R["case1"].aaem_steady_max_deg <= PAPER_TRACKING_ACCURACY_DEG
+    if claim_id == "relative_accuracy":
+        return R["case1"].raem_steady_max_deg <= PAPER_RELATIVE_ACCURACY_DEG
+    if claim_id == "saturation_at_start":
+        c1 = R["case1"]
+        last = c1.last_saturation_s
+        return not math.isfinite(last) or (last <= T and last < c1.t_final - c1.steady_window_s)
+    if claim_id == "case2_slower":
+        s1, s2 = (_inf_if_nan(R[k].settling("aaem", tol)) for k in ("case1", "case2"))
+        return math.isfinite(s1) and s2 >= 2 * s1
+    if claim_id == "case2_accuracy":
+        c2 = R["case2"]  # the long run is read only when Case 2 has not settled within its horizon
+        run = c2 if c2.settled(tol) else R["case2_long"] if R["case2_long"].settled(tol) else None
+        return run is not None and _above_case2_levels(run)
+    if claim_id == "case3_ordering":
+        c3 = [R[k] for k in ("case3a", "case3b", "case3c")]
+        return all(r.settled(tol) for r in c3) and _ordered(c3)
+    raise KeyError(f"unknown claim {claim_id!r} (claims: {', '.join(CLAIM_IDS)})")
+
+
+def _above_case2_levels(r: RunRecord) -> bool:
+    return r.aaem_steady_max_deg > PAPER_CASE2_TRACKING_DEG and r.raem_steady_max_deg > PAPER_CASE2_RELATIVE_DEG
+
+
+def _ordered(rs: Sequence[RunRecord]) -> bool:
+    a = [r.aaem_steady_max_deg for r in rs]
+    b = [r.raem_steady_max_deg for r in rs]
+    return a[0] > a[1] > a[2] and b[0] > b[1] > b[2]
+
+
 def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumBound]) -> list[ClaimVerdict]:
     """Grade the Section 4 claims of Liang et al. (2012) against the runs of :func:`run_plan`.
 
@@ -638,7 +809,7 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
         for r, name in diag
         if r.settling("aaem", tol) <= T and r.settling("raem", tol) <= T
     ]
-    if t_a <= T and t_r <= T:
+    if claim_holds("settling_27s", R):
         verdict, reason, runs = REPRODUCED, f"AAEM and RAEM stay below {tol:g}° from {max(t_a, t_r):.2f} s on", ""
     elif over:
         verdict = IMPOSSIBLE
@@ -678,7 +849,7 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
 
         window_start = c1.t_final - c1.steady_window_s
         value = f"max {metric.upper()} over the last {c1.steady_window_s:g} s of Case 1: {_fmt_deg(steady(c1))}"
-        if steady(c1) <= paper:
+        if claim_holds(cid, R):
             verdict, reason, runs = REPRODUCED, f"{_fmt_deg(steady(c1))} <= {paper:g}°", ""
         elif worst.min_time_s > window_start:
             verdict, runs = IMPOSSIBLE, nl1.key
@@ -715,7 +886,7 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
         f"Case 1: torque saturated (any axis) for {min(sat1):.1f}-{max(sat1):.1f} s of {c1.t_final:g} s per agent, "
         f"last at {_fmt_s(last) if math.isfinite(last) else 'never'}; peak commanded |u_k| {c1.commanded_peak_N_m:.4g} N m"
     )
-    if not math.isfinite(last) or (last <= T and last < c1.t_final - c1.steady_window_s):
+    if claim_holds("saturation_at_start", R):
         verdict, reason, runs = REPRODUCED, "no saturation after the transient", ""
     elif over:
         verdict, runs = IMPOSSIBLE, nl1.key
@@ -753,7 +924,7 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
         f"no torque limit: Case 1 {_fmt_s(n1, nl1.t_final)}, Case 2 {_fmt_s(n2, nl2.t_final)}"
     )
     runs = ", ".join(r.key for r in (long1, long2, nl1, nl2))
-    if math.isfinite(s1) and s2 >= 2 * s1:
+    if claim_holds("case2_slower", R):
         verdict, reason, runs = REPRODUCED, "Case 2 takes at least twice as long as Case 1", ""
     else:
         verdict = DIFFERS
@@ -791,17 +962,14 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
         f"RAEM {_fmt_deg(c2.raem_steady_max_deg)}; settled at {tol:g}°: {'yes' if c2.settled() else 'no'}"
     )
 
-    def above(r: RunRecord) -> bool:
-        return r.aaem_steady_max_deg > PAPER_CASE2_TRACKING_DEG and r.raem_steady_max_deg > PAPER_CASE2_RELATIVE_DEG
-
+    above = _above_case2_levels
     runs = long2.key
+    verdict = REPRODUCED if claim_holds("case2_accuracy", R) else DIFFERS
     if c2.settled():
-        verdict = REPRODUCED if above(c2) else DIFFERS
         reason = (
             "residual errors above both levels" if above(c2) else "Case 2 converges to errors below the paper's levels"
         )
     elif long2.settled():
-        verdict = REPRODUCED if above(long2) else DIFFERS
         reason = (
             f"the inequalities hold at {c2.t_final:g} s only because Case 2 has not converged yet; after it converges "
             f"({long2.key}, settles at {_fmt_s(_inf_if_nan(long2.settling('aaem', tol)))}) the residual errors over its last "
@@ -811,7 +979,6 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
             + f" {PAPER_CASE2_TRACKING_DEG:g}° / {PAPER_CASE2_RELATIVE_DEG:g}°"
         )
     else:
-        verdict = DIFFERS
         reason = (
             f"Case 2 does not converge within {long2.t_final:g} s; the inequalities hold only because the errors "
             "are still large"
@@ -833,10 +1000,7 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
     c3 = [R["case3a"], R["case3b"], R["case3c"]]
     n3 = [R["case3a_no_torque_limit"], R["case3b_no_torque_limit"], R["case3c_no_torque_limit"]]
 
-    def ordered(rs: Sequence[RunRecord]) -> bool:
-        a = [r.aaem_steady_max_deg for r in rs]
-        b = [r.raem_steady_max_deg for r in rs]
-        return a[0] > a[1] > a[2] and b[0] > b[1] > b[2]
+    ordered = _ordered
 
     def table(rs: Sequence[RunRecord]) -> str:
         return "; ".join(
@@ -846,7 +1010,7 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
         )
 
     value = f"max over the last {c3[0].steady_window_s:g} s: {table(c3)}"
-    if all(r.settled() for r in c3) and ordered(c3):
+    if claim_holds("case3_ordering", R):
         verdict, reason, runs = REPRODUCED, "all converge; accuracy improves with the weights", ""
     else:
         verdict = DIFFERS
@@ -895,6 +1059,9 @@ class Reproduction:
     inertia_check: list[dict]
     files: list[str]
     wall_time_s: float
+    explanations: list | None = None
+    """:class:`fsmctl.studies.explain.Explanation` per claim and figure check (None: not searched)"""
+    explain_wall_time_s: float = 0.0
 
     def claims_table(self) -> list[dict]:
         """The claims as a list of dicts (one per claim)."""
@@ -1029,6 +1196,7 @@ def reproduce(
     progress: bool | None = None,
     figures: bool = True,
     log: Callable[[str], None] | None = None,
+    explain: bool = False,
 ) -> Reproduction:
     """Run the Section 4 reproduction of Liang et al. (2012) and write its report.
 
@@ -1048,11 +1216,15 @@ def reproduce(
         Write the figures (PNG + SVG).
     log : callable, optional
         Receives progress lines (e.g. ``print``).
+    explain : bool
+        Search, for every claim not reproduced, the smallest change of an open setting that reproduces it
+        (:func:`fsmctl.studies.explain.explain`; separate runs, the scenario is unchanged), at the same horizon
+        (``fast``: the short one).  ``fsmctl reproduce`` does by default.
 
     Returns
     -------
     Reproduction
-        Records, bounds, claims and the list of written files.
+        Records, bounds, claims, explanations and the list of written files.
     """
     from tqdm.auto import tqdm
 
@@ -1135,6 +1307,16 @@ def reproduce(
                 for fut in cf.as_completed([executor.submit(_render_overlay, *task) for task in tasks]):
                     files += fut.result()
                     bar.update(1)
+        bar.close()
+        records = {s.key: records[s.key] for s in plan}
+        claims = evaluate_claims(records, bounds)
+        explanations, explain_s = None, 0.0
+        if explain:
+            from fsmctl.studies.explain import explain as explain_claims
+
+            explain_started = _time.perf_counter()
+            explanations = explain_claims(source, claims, out, fast=fast, executor=executor, progress=progress, log=log)
+            explain_s = _time.perf_counter() - explain_started
     except BaseException:
         if executor is not None:
             stop_pool(executor)  # an error or Ctrl-C: cancel the queue and stop the workers now
@@ -1142,10 +1324,10 @@ def reproduce(
     finally:
         bar.close()
         worker_env.close()
-    records = {s.key: records[s.key] for s in plan}
     for rec in records.values():
         files += [*([] if rec.same_as else [rec.netcdf]), *rec.figures]
-    claims = evaluate_claims(records, bounds)
+    if explanations:
+        files += sorted(str(p) for p in (out / "explain").glob("*") if p.is_file())
     result = Reproduction(
         out_dir=out,
         fast=fast,
@@ -1156,6 +1338,8 @@ def reproduce(
         inertia_check=_inertia_check(case1),
         files=sorted(files),
         wall_time_s=0.0,
+        explanations=explanations,
+        explain_wall_time_s=explain_s,
     )
     result.wall_time_s = _time.perf_counter() - started
     write_outputs(result)
@@ -1221,6 +1405,9 @@ def write_outputs(rep: Reproduction) -> list[Path]:
         "runs": runs,
         "wall_time_s": rep.wall_time_s,
     }
+    if rep.explanations is not None:
+        payload["explanations"] = [e.to_dict() for e in rep.explanations]
+        payload["explain_wall_time_s"] = rep.explain_wall_time_s
     write_json(json_path, payload)
     write_text(md_path, to_markdown(rep))
     return [csv_path, json_path, md_path]
@@ -1246,7 +1433,8 @@ def to_markdown(rep: Reproduction) -> str:
     L += [
         "# Reproduction of Liang, Sun & Wang (2012), Section 4",
         "",
-        f"`fsmctl reproduce`{' --fast' if rep.fast else ''}: {len(R)} runs in {rep.wall_time_s:.1f} s wall time."
+        f"`fsmctl reproduce`{' --fast' if rep.fast else ''}: {len(R)} runs in {rep.wall_time_s:.1f} s wall time"
+        + (f" (the explanations: {rep.explain_wall_time_s:.1f} s)." if rep.explanations is not None else ".")
         + (" **Fast mode: short horizon, the verdicts are not those of the paper's 100 s runs.**" if rep.fast else ""),
         "",
         "Verdicts: `reproduced`; `differs` (the reason, with the diagnostic run that shows it); "
@@ -1274,6 +1462,11 @@ def to_markdown(rep: Reproduction) -> str:
             )
             + " |"
         )
+    if rep.explanations is not None:
+        from fsmctl.studies.explain import markdown_section
+
+        L += ["", *markdown_section(rep.explanations, rep.fast)]
+        L.pop()
     b0 = rep.bounds[0]
     L += [
         "",
@@ -1379,6 +1572,7 @@ def format_claims(rep: Reproduction, width: int = 110) -> str:
 
     w = max(len(c.id) for c in rep.claims)
     lines = [f"{'claim':{w}}  verdict", f"{'-' * w}  {'-' * 20}"]
+    explained = {e.id: e for e in rep.explanations or ()}
     for c in rep.claims:
         lines.append(f"{c.id:{w}}  {c.verdict}")
         for label, text in (("paper", c.paper_value), ("this run", c.this_run_value), ("why", c.reason)):
@@ -1387,6 +1581,20 @@ def format_claims(rep: Reproduction, width: int = 110) -> str:
             lines += textwrap.wrap(
                 f"{label}: {text}", width, initial_indent=" " * (w + 2), subsequent_indent=" " * (w + 4)
             )
+        if c.id in explained:
+            from fsmctl.studies.explain import text_lines
+
+            lines += text_lines(explained[c.id], w + 2, width)
+    figure_checks = [
+        e for e in rep.explanations or () if e.id not in explained or e.id not in {c.id for c in rep.claims}
+    ]
+    if figure_checks:
+        from fsmctl.studies.explain import text_lines
+
+        lines.append("figure-level checks (the printed axes and insets of Figs 1-9):")
+        for e in figure_checks:
+            lines.append(f"  {e.id}: {e.verdict}; {e.claim}")
+            lines += text_lines(e, 4, width)
     bounds = ", ".join(f"{b.agent}: {b.min_time_s:.1f} s" for b in rep.bounds)
     lines.append(f"angular-momentum bound on the settling time per agent: {bounds}")
     return "\n".join(lines)
