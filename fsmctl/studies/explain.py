@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.outputs import write_text
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
 from fsmctl.studies.reproduce import (
@@ -489,21 +490,6 @@ def candidate_source(base: str, candidate: Candidate, settings: Mapping[str, Set
     return data
 
 
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        x = float(v)
-        return repr(x) if math.isfinite(x) else ("inf" if x > 0 else "-inf")
-    if isinstance(v, str):
-        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {v!r} to a scenario file")
-
-
 def scenario_text(data: Mapping[str, Any], comments: Sequence[str] = ()) -> str:
     """A scenario file (TOML) from a :func:`candidate_source` mapping.
 
@@ -520,12 +506,11 @@ def scenario_text(data: Mapping[str, Any], comments: Sequence[str] = ()) -> str:
         ``extends = "paper"`` then one table per changed section.
     """
     lines = [f"# {c}" if c else "#" for c in comments]
-    lines.append(f"extends = {_toml_value(data['extends'])}")
+    lines.append(f"extends = {toml_value(data['extends'])}")
     for section, table in data.items():
         if section == "extends":
             continue
-        lines += ["", f"[{section}]"]
-        lines += [f"{k} = {_toml_value(v)}" for k, v in table.items()]
+        toml_table([section], table, lines)
     return "\n".join(lines) + "\n"
 
 

@@ -127,7 +127,6 @@ import dataclasses
 import json
 import math
 import os
-import re
 import sys
 import time
 import warnings
@@ -140,6 +139,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
+from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.model.topology import Link, Topology
 
 __all__ = [
@@ -1301,42 +1301,6 @@ def _figure(result: TuneResult):
     return fig
 
 
-_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
-
-
-def _toml_key(k: str) -> str:
-    return k if _BARE.match(k) else json.dumps(k)
-
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        x = float(v)
-        if math.isnan(x):
-            return "nan"
-        return repr(x) if math.isfinite(x) else ("inf" if x > 0 else "-inf")
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, Mapping):
-        return "{ " + ", ".join(f"{_toml_key(k)} = {_toml_value(x)}" for k, x in v.items()) + " }"
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise InputError(f"cannot write {v!r} to a scenario file")
-
-
-def _toml_table(path: Sequence[str], table: Mapping, lines: list[str]) -> None:
-    scalars = {k: v for k, v in table.items() if not isinstance(v, Mapping)}
-    tables = {k: v for k, v in table.items() if isinstance(v, Mapping)}
-    if path and (scalars or not tables):
-        lines += ["", "[" + ".".join(_toml_key(k) for k in path) + "]"]
-    lines += [f"{_toml_key(k)} = {_toml_value(v)}" for k, v in scalars.items()]
-    for k, v in tables.items():
-        _toml_table([*path, k], v, lines)
-
-
 def _merge(base: dict, over: Mapping) -> dict:
     out = dict(base)
     for k, v in over.items():
@@ -1426,18 +1390,18 @@ def best_scenario_text(result: TuneResult, base: Scenario) -> str:
         f"# written by fsmctl tune: trial {t['index']} of {len(result.trials)}, law {s.law}, seed {s.seed}",
         f"# {summary}",
         "# run it: fsmctl simulate --scenario best.toml",
-        f"extends = {_toml_value(extends)}",
-        f"name = {_toml_value(f'{base.name}-tuned')}",
+        f"extends = {toml_value(extends)}",
+        f"name = {toml_value(f'{base.name}-tuned')}",
     ]
     if cases and base.case is not None:
         first = next(iter(cases))
         own = {k: v for k, v in dict(cases[base.case]).items() if k != "description"} if base.case != first else {}
         table = _merge(own, overlay)
         table = {"description": f"case {base.case} of {base.name}, tuned by fsmctl tune ({summary})", **table}
-        _toml_table(["cases", first], table, lines)
+        toml_table(["cases", first], table, lines)
     else:
-        lines.insert(4, f"description = {_toml_value(f'{base.name}, tuned by fsmctl tune ({summary})')}")
-        _toml_table([], overlay, lines)
+        lines.insert(4, f"description = {toml_value(f'{base.name}, tuned by fsmctl tune ({summary})')}")
+        toml_table([], overlay, lines)
     return "\n".join(lines) + "\n"
 
 
