@@ -205,7 +205,7 @@ def hardware_noise(
     --------
     >>> noise = hardware_noise(0, 2, 5, 0.1, star_tracker_std=[1e-4, 1e-4, 2e-4], loss_probability=[0.0, 1.0])
     >>> noise["dtheta"].shape, noise["gyro_error"].any(), noise["lost"].tolist()[0]
-    ((5, 2, 3), np.False_, [0, 1])
+    ((5, 2, 3), False, [0, 1])
     """
     seed = _count("seed", seed, 0)
     n = _count("n_agents", n_agents, 1)
