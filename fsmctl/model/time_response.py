@@ -41,6 +41,12 @@ def agent_color(i: int) -> str:
     >>> agent_color(20) == agent_color(0)
     True
     """
-    if isinstance(i, bool) or not isinstance(i, int) and not hasattr(i, "__index__") or int(i) < 0:
+    import operator
+
+    try:
+        index = operator.index(i)
+    except TypeError:
+        index = -1
+    if isinstance(i, bool) or index < 0:
         raise ValueError(f"agent index must be a non-negative integer, got {i!r}")
-    return _PALETTE[int(i) % len(_PALETTE)]
+    return _PALETTE[index % len(_PALETTE)]
