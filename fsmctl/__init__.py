@@ -12,6 +12,12 @@ its layers, and imports flow one way (``tests/test_layers.py`` enforces it):
 * :mod:`fsmctl.symbolic`: the symbolic model and the law API derivation scripts use (pure SymPy);
 * :mod:`fsmctl.errors`, :mod:`fsmctl.outputs`: the error types and atomic output files everyone uses.
 
+The top level holds what a user needs to build and fly a formation and take its results elsewhere: the scenario
+types, :func:`simulate`, the result files (:func:`save_result`, :func:`load_result`, :func:`scenario_from_result`),
+the laws (:func:`resolve_law`), and the python-control systems with their time response (:func:`formation`,
+:func:`law_controller`, :class:`FormationResponse`, ...).  The studies (reproduction, comparisons, Monte Carlo,
+tuning) keep their own namespace, :mod:`fsmctl.studies`, like the ``fsmctl`` subcommands they back.
+
 ``derive/`` (beside the package) holds the project's own derivation scripts: the model and the built-in laws.
 """
 
@@ -78,15 +84,26 @@ __all__ = [
     "simulate_many",
     "SimulationResult",
     "StepSizeWarning",
-    "spacecraft",
-    "fsm_controller",
-    "reference_generator",
+    "save_result",
+    "load_result",
+    "scenario_from_result",
+    # python-control (fsmctl.plugin): the formation, its pieces, and its time response
     "formation",
     "initial_state",
+    "mrp_state",
+    "spacecraft",
+    "reference_generator",
+    "law_controller",
+    "fsm_controller",
+    "Neighbour",
     "reaction_wheel_spacecraft",
+    "reaction_wheel_state",
     "star_tracker",
     "rate_gyro",
     "link",
+    "FormationResponse",
+    "formation_response",
+    "agent_color",
     "resolve_law",
     "builtin_laws",
 ]
@@ -96,8 +113,19 @@ __getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
     __name__,
     submod_attrs={
         "simulation.simulator": ["simulate", "simulate_many", "SimulationResult", "SimulationError", "StepSizeWarning"],
-        "plugin.iosys": ["spacecraft", "fsm_controller", "reference_generator", "formation", "initial_state"],
-        "plugin.hardware": ["reaction_wheel_spacecraft", "star_tracker", "rate_gyro", "link"],
+        "simulation.results_io": ["save_result", "load_result", "scenario_from_result"],
+        "plugin.iosys": [
+            "spacecraft",
+            "fsm_controller",
+            "law_controller",
+            "Neighbour",
+            "reference_generator",
+            "formation",
+            "initial_state",
+            "mrp_state",
+        ],
+        "plugin.hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
+        "model.time_response": ["FormationResponse", "formation_response", "agent_color"],
         "model.laws": ["resolve_law", "builtin_laws"],
     },
 )

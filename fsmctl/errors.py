@@ -22,16 +22,63 @@ __all__ = ["FsmctlError", "InputError", "ResourceLimitError", "EnvironmentProble
 
 
 class FsmctlError(Exception):
-    """Base class of fsmctl's own exceptions."""
+    """Base class of fsmctl's own exceptions.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> try:
+    ...     fsmctl.paper_scenario("9")
+    ... except FsmctlError as exc:
+    ...     print(type(exc).__name__)
+    ScenarioError
+    """
 
 
 class InputError(FsmctlError, ValueError):
-    """Bad input (scenario, option, file contents); the message is one line that names what is wrong."""
+    """Bad input (scenario, option, file contents); the message is one line that names what is wrong.
+
+    Also a :class:`ValueError`; the command line exits 2 on it.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> try:
+    ...     fsmctl.paper_scenario("1").replace(simulation={"dt": -1.0})
+    ... except InputError as exc:
+    ...     print(exc)
+    simulation.dt: must be > 0.0, got -1.0
+    """
 
 
 class ResourceLimitError(InputError):
-    """A run would exceed the available memory or disk; the message gives the estimate and the limit."""
+    """A run would exceed the available memory or disk; the message gives the estimate and the limit.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.model.problem import pack
+    >>> from fsmctl.simulation.simulator import check_output_memory
+    >>> try:
+    ...     check_output_memory(pack(fsmctl.paper_scenario("1")), available=10**6)
+    ... except ResourceLimitError as exc:
+    ...     print(str(exc)[:29], "raise output_interval" in str(exc))
+    this run's results would need True
+    """
 
 
 class EnvironmentProblem(FsmctlError, OSError):
-    """The environment cannot do what was asked (output folder not writable, disk full, scheduler address)."""
+    """The environment cannot do what was asked (output folder not writable, disk full, scheduler address).
+
+    Also an :class:`OSError` (with ``errno`` and ``filename``); the command line exits 2 on it.
+
+    Examples
+    --------
+    >>> from fsmctl.outputs import write_text
+    >>> _ = write_text("a-file", "x")
+    >>> try:
+    ...     write_text("a-file/inside.txt", "y")  # a file where a folder should be
+    ... except EnvironmentProblem as exc:
+    ...     print(exc.strerror)
+    cannot write a-file/inside.txt: File exists
+    """

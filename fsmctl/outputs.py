@@ -46,7 +46,27 @@ _TEMP_MARK = ".tmp"
 
 
 def temporary_files(folder: str | os.PathLike) -> list[Path]:
-    """Temporary files of :func:`atomic_path` in ``folder`` (left behind only by a killed process)."""
+    """Temporary files of :func:`atomic_path` in ``folder`` (left behind only by a killed process).
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        The folder to look in.
+
+    Returns
+    -------
+    list of Path
+        The temporary files, sorted (empty when the folder cannot be read).
+
+    Examples
+    --------
+    >>> with atomic_path("x.txt") as tmp:
+    ...     _ = tmp.write_text("partial")
+    ...     print(len(temporary_files(".")))
+    1
+    >>> temporary_files(".")
+    []
+    """
     try:
         return sorted(p for p in Path(folder).glob(f".*{_TEMP_MARK}*") if p.is_file())
     except OSError:
@@ -54,7 +74,29 @@ def temporary_files(folder: str | os.PathLike) -> list[Path]:
 
 
 def environment_problem(action: str, path: str | os.PathLike, exc: OSError) -> EnvironmentProblem:
-    """``EnvironmentProblem("cannot <action> <path>: <reason>")``, keeping the errno."""
+    """``EnvironmentProblem("cannot <action> <path>: <reason>")``, keeping the errno.
+
+    Parameters
+    ----------
+    action : str
+        What was being done (``"write"``, ``"read"``).
+    path : str or os.PathLike
+        The file or folder.
+    exc : OSError
+        The error the machine gave.
+
+    Returns
+    -------
+    EnvironmentProblem
+        One line naming the path and the reason; ``errno`` and ``filename`` set.
+
+    Examples
+    --------
+    >>> import errno
+    >>> err = environment_problem("write", "out/x.nc", OSError(errno.ENOSPC, "No space left on device"))
+    >>> err.strerror, err.errno == errno.ENOSPC, err.filename
+    ('cannot write out/x.nc: No space left on device', True, 'out/x.nc')
+    """
     reason = exc.strerror or str(exc)
     err = EnvironmentProblem(exc.errno, f"cannot {action} {path}: {reason}")
     err.filename = os.fspath(path)
@@ -76,6 +118,21 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
 
     On any exception the temporary file is removed and ``path`` is untouched.  ``OSError`` becomes
     :class:`~fsmctl.errors.EnvironmentProblem`.  A non-regular existing target is yielded as is.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The target file (missing parent folders are created).
+
+    Yields
+    ------
+    Path
+        The temporary sibling to write (same suffix as ``path``).
+
+    Raises
+    ------
+    EnvironmentProblem
+        The folder or the file cannot be written (read-only, no space, ...).
 
     Examples
     --------
@@ -120,14 +177,49 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
 
 
 def write_text(path: str | os.PathLike, text: str) -> Path:
-    """Write ``text`` (UTF-8) atomically; returns the path."""
+    """Write ``text`` (UTF-8) atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file.
+    text : str
+        Its content.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Examples
+    --------
+    >>> write_text("note.txt", "one line").read_text()
+    'one line'
+    """
     with atomic_path(path) as tmp:
         Path(tmp).write_text(text, encoding="utf-8")
     return Path(path)
 
 
 def jsonable(value: Any) -> Any:
-    """A copy of ``value`` that strict JSON can hold: NaN -> None, +-inf -> "inf"/"-inf", NumPy -> Python, paths -> str."""
+    """A copy of ``value`` that strict JSON can hold: NaN -> None, +-inf -> "inf"/"-inf", NumPy -> Python, paths -> str.
+
+    Parameters
+    ----------
+    value : object
+        Mappings, sequences, NumPy arrays and scalars, paths, and anything JSON holds as is.
+
+    Returns
+    -------
+    object
+        Plain Python values (dicts with string keys, lists, numbers, strings, None).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> jsonable({"x": np.array([1.0, np.nan, np.inf]), 2: np.int64(3)})
+    {'x': [1.0, None, 'inf'], '2': 3}
+    """
     if isinstance(value, Mapping):
         return {str(k): jsonable(v) for k, v in value.items()}
     if isinstance(value, (list, tuple, set, frozenset)):
@@ -149,7 +241,29 @@ def jsonable(value: Any) -> Any:
 
 
 def write_json(path: str | os.PathLike, payload: Any, *, indent: int = 2) -> Path:
-    """Write ``jsonable(payload)`` as strict JSON (never a ``NaN`` token), atomically."""
+    """Write ``jsonable(payload)`` as strict JSON (never a ``NaN`` token), atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Target file.
+    payload : object
+        Anything :func:`jsonable` converts.
+    indent : int
+        JSON indentation.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Examples
+    --------
+    >>> print(write_json("r.json", {"aaem_deg": float("nan")}).read_text())
+    {
+      "aaem_deg": null
+    }
+    """
     return write_text(path, json.dumps(jsonable(payload), indent=indent, allow_nan=False) + "\n")
 
 
@@ -160,6 +274,32 @@ def output_folder(path: str | os.PathLike) -> Iterator[Path]:
     If the block fails and the folder was created here and is still empty, it is removed, so failed runs
     leave no empty folders behind.  ``OSError`` (read-only file system, a file in the way, no space)
     becomes :class:`~fsmctl.errors.EnvironmentProblem` with one line naming the folder.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The output folder.
+
+    Yields
+    ------
+    Path
+        The folder, created and writable.
+
+    Raises
+    ------
+    EnvironmentProblem
+        The folder cannot be created or written to.
+
+    Examples
+    --------
+    >>> import pathlib
+    >>> try:
+    ...     with output_folder("runs/case1") as out:
+    ...         raise RuntimeError("the command failed before writing")
+    ... except RuntimeError:
+    ...     pass
+    >>> pathlib.Path("runs").exists()
+    False
     """
     path = Path(path)
     created: list[Path] = []

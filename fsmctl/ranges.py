@@ -15,12 +15,21 @@ __all__ = ["ParameterRange"]
 class ParameterRange:
     """Mixin for a parameter record with the fields ``default`` (tuple of floats; an option's index),
     ``minimum``, ``maximum`` (float or None), ``exclusive_minimum``, ``exclusive_maximum`` (bool) and
-    ``choices`` (tuple of option strings, empty for a number)."""
+    ``choices`` (tuple of option strings, empty for a number).
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> alpha = resolve_law("fsm").parameter("alpha")  # a LawParameterInfo, a ParameterRange
+    >>> alpha.range_text(), alpha.default_text(), alpha.problem(1.2)
+    ('0.5 < x < 1', '0.7', 'must be < 1, got 1.2')
+    """
 
     __slots__ = ()
 
     @property
     def size(self) -> int:
+        """The number of components (``len(default)``)."""
         return len(self.default)
 
     def range_text(self) -> str:
@@ -38,7 +47,18 @@ class ParameterRange:
         return f"{self.default[0]:g}" if self.size == 1 else "[" + ", ".join(f"{v:g}" for v in self.default) + "]"
 
     def problem(self, value: float) -> str | None:
-        """Why ``value`` (one component) is outside the range, or None."""
+        """Why ``value`` (one component) is outside the range, or None.
+
+        Parameters
+        ----------
+        value : float
+            One component of a value.
+
+        Returns
+        -------
+        str or None
+            The reason (``"must be > 0, got -1"``), or None when it is in the range.
+        """
         if not math.isfinite(value):
             return f"must be finite, got {value!r}"
         if self.minimum is not None and (value <= self.minimum if self.exclusive_minimum else value < self.minimum):

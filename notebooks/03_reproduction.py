@@ -24,7 +24,6 @@
 # %%
 # %matplotlib inline
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -34,9 +33,7 @@ from fsmctl.studies.figures import metric_figure, principal_angles_figure, torqu
 from fsmctl.studies.reproduce import format_claims, overlay_figures, reproduce
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
-OUT = Path(
-    os.environ.get("FSMCTL_OUT") or tempfile.mkdtemp(prefix="fsmctl-reproduction-", dir=".")
-)  # in the working folder
+OUT = Path(os.environ.get("FSMCTL_OUT") or "reproduction")  # in the working folder, as `fsmctl reproduce`
 rep = reproduce("paper", OUT, fast=FAST, jobs=2, progress=False, figures=False)
 print(f"{len(rep.records)} runs in {rep.wall_time_s:.1f} s; files in {OUT}")
 

@@ -77,9 +77,11 @@ os.environ["FSMCTL_CACHE_DIR"] = str(WORK / "cache")  # compiled code too: nothi
 from fsmctl import paper_scenario
 from fsmctl.codegen.laws import load_derivation_script
 from fsmctl.model.laws import builtin_laws, derive_script
+from fsmctl.model.time_response import agent_color
 from fsmctl.proofs.law_check import check_law
 from fsmctl.simulation.simulator import simulate
 from fsmctl.studies.compare import LawRun, compare_laws, with_and_without_limit
+from fsmctl.studies.figures import COMPONENT_STYLES
 
 T_FINAL = 40.0 if FAST else 100.0
 
@@ -262,19 +264,19 @@ D, a = code.parameter("D").default[0], code.parameter("a").default[0]
 fig = Figure(figsize=(13, 3.8), layout="constrained")
 ax_th, ax_xi, ax_y = fig.subplots(1, 3)
 for i in range(result.n_agents):
-    ax_th.semilogy(t, np.degrees(result.theta_e[:, i]), lw=1, label=f"agent {i + 1}")
+    ax_th.semilogy(t, np.degrees(result.theta_e[:, i]), lw=1, color=agent_color(i), label=f"agent {i + 1}")
 ax_th.set(xlabel="t (s)", ylabel=r"$\theta_e$ (deg)", title="principal error angle per agent")
 ax_th.legend(fontsize=7, ncol=2)
-for k in range(3):
-    ax_xi.plot(t, result.z[:, 0, k], lw=1, label=rf"$\xi_{k + 1}$")
+for k in range(3):  # agent 1's colour; the body axes by line style, as in every fsmctl figure
+    ax_xi.plot(t, result.z[:, 0, k], lw=1, color=agent_color(0), ls=COMPONENT_STYLES[k], label=rf"$\xi_{k + 1}$")
 ax_xi.set(xlabel="t (s)", ylabel="N m", title=r"agent 1: filter state $\xi$ (result.z)")
 ax_xi.legend(fontsize=8)
 y_out = a * D * result.sigma_e[:, 0] + result.z[:, 0]
 rate = D * np.gradient(result.sigma_e[:, 0], t, axis=0)
 for k in range(3):
-    ax_y.plot(t, y_out[:, k], color=f"C{k}", lw=1.2, label=rf"$y_{k + 1}$")
-    ax_y.plot(t, rate[:, k], color=f"C{k}", lw=0.8, ls="--")
-ax_y.set(xlabel="t (s)", ylabel="N m", title=r"agent 1: $y$ (solid) vs $D\,\dot\sigma_e$ (dashed)")
+    ax_y.plot(t, y_out[:, k], color=agent_color(0), ls=COMPONENT_STYLES[k], lw=1.2, label=rf"$y_{k + 1}$")
+    ax_y.plot(t, rate[:, k], color="0.55", ls=COMPONENT_STYLES[k], lw=0.8)
+ax_y.set(xlabel="t (s)", ylabel="N m", title=r"agent 1: $y$ (colour) vs $D\,\dot\sigma_e$ (grey)")
 ax_y.legend(fontsize=8)
 fig
 

@@ -38,6 +38,7 @@ import numpy as np
 from IPython.display import Markdown, display
 
 import fsmctl
+from fsmctl.model.time_response import agent_color
 from fsmctl.simulation.simulator import SimulationError
 from fsmctl.studies.compare import compare_laws, run_metrics
 from fsmctl.studies.hardware import momentum_budget, torque_demand
@@ -103,7 +104,7 @@ axes[0, 1].axhline(-scenario.actuator.max_speed[0], color="k", ls=":", lw=0.8)
 axes[0, 1].set(xlabel="t (s)", ylabel="rad/s", title="wheel speeds, spacecraft 1 (dotted: limit)")
 axes[0, 1].legend(fontsize=8)
 for i in range(result.n_agents):
-    axes[1, 0].plot(result.time, result.wheel_momentum_norm[:, i], lw=0.8, label=f"sc{i + 1}")
+    axes[1, 0].plot(result.time, result.wheel_momentum_norm[:, i], lw=0.8, color=agent_color(i), label=f"sc{i + 1}")
 axes[1, 0].set(xlabel="t (s)", ylabel="N m s", title="|wheel momentum|")
 axes[1, 0].legend(fontsize=8, ncol=2)
 axes[1, 1].plot(result.time, result.u_unsaturated[:, 0, 0], lw=0.4, label="commanded (law)")

@@ -389,8 +389,9 @@ def run_cli(argv, capsys):
 CLI = [
     ("simulate-missing-file", ["simulate", "--scenario", "no/such.toml"], 2, r"cannot read scenario file"),
     ("simulate-unknown-case", ["simulate", "--case", "7"], 2, r"no case '7'"),
-    ("simulate-negative-dt", ["simulate", "--dt", "-1"], 2, r"must be a finite number > 0"),
-    ("simulate-nan-tfinal", ["simulate", "--t-final", "nan"], 2, r"must be a finite number > 0"),
+    ("simulate-negative-dt", ["simulate", "--dt", "-1"], 2, r"simulation\.dt: must be > 0"),
+    ("simulate-zero-tfinal", ["simulate", "--t-final", "0"], 2, r"simulation\.t_final: must be > 0"),
+    ("simulate-nan-tfinal", ["simulate", "--t-final", "nan"], 2, r"argument --t-final: expected a finite number"),
     ("simulate-word-integrator", ["simulate", "--integrator", "euler"], 2, r"invalid choice"),
     (
         "simulate-grid-off",
@@ -407,7 +408,15 @@ CLI = [
     ),
     ("prove-unknown-claim", ["prove", "no-such-claim"], 2, r"unknown claim id"),
     ("prove-bad-region", ["prove", "--region-sigma", "2"], 2, r"region-sigma must be <= 1"),
-    ("reproduce-jobs-zero", ["reproduce", "--jobs", "0"], 2, r"jobs must be >= 1"),
+    ("reproduce-jobs-zero", ["reproduce", "--jobs", "0"], 2, r"--jobs must be >= 1"),
+    ("reproduce-workers-zero", ["reproduce", "--workers", "0"], 2, r"argument --workers: must be >= 1"),
+    ("prove-negative-seed", ["prove", "--seed", "-1"], 2, r"argument --seed: must be >= 0"),
+    (
+        "simulate-from-and-case",
+        ["simulate", "--from", "r.nc", "--case", "2"],
+        2,
+        r"--from cannot be combined with --case",
+    ),
     ("surfaces-bad-scenario", ["compare-surfaces", "--scenario", "no/such.toml"], 2, r"cannot read scenario file"),
     (
         "montecarlo-missing-file",
@@ -449,7 +458,7 @@ def test_simulate_ends_at_t_final_and_summary_is_strict_json(tmp_path, capsys):
     assert code == 0, capsys.readouterr().err
     text = (out / "summary.json").read_text()
     json.loads(text, parse_constant=lambda c: pytest.fail(f"non-JSON constant {c} in summary.json"))
-    with xr.open_dataset(next(out.glob("*.nc")), engine="scipy") as ds:
+    with xr.open_dataset(next(out.glob("*.nc"))) as ds:
         assert float(ds["time_s"][-1]) == pytest.approx(0.05, abs=1e-12)
     assert not list(out.glob(".*tmp*")), "temporary files left behind"
 

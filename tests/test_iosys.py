@@ -200,24 +200,36 @@ def test_fsm_controller_is_law_controller_of_the_papers_law(paper):
     old = fsmctl.fsm_controller(agent.J0_array, c, agent.delta, neighbours=nbrs, name="old")
     new = law_controller(law, agent.J0_array, parameters=values, neighbours=nbrs, name="new")
     assert old.input_labels == new.input_labels and old.output_labels == new.output_labels
-    assert sorted(old.params) == ["old_J0", "old_delta", "old_gains", "old_owner", "old_u_max"]
+    assert sorted(old.params) == sorted(f"old_{k}" for k in [*values, "J0", "u_max", "owner"])
     assert sorted(new.params) == sorted(f"new_{k}" for k in [*values, "J0", "u_max", "owner"])
     rng = np.random.default_rng(8)
     for t in (0.0, 1.0, 7.3):
         u = np.concatenate([_own_signals(paper), rng.normal(size=6) * 1e-2])
         assert np.array_equal(old.output(t, [], u), new.output(t, [], u))
-    # a parameter by name, at evaluation time: c1 = 0 is the TSM surface (gains[0] of fsm_controller)
+    # a gain by name, at evaluation time, is the controller built with that gain: c1 = 0 is the TSM surface
+    # (ControllerSettings.surface = "tsm" zeroes c1 in gains_vector), fix "clamp" is singularity_fix = "clamp"
     u = np.concatenate([_own_signals(paper), rng.normal(size=6) * 1e-2])
-    g = c.gains_vector().copy()
-    g[0] = 0.0
-    assert np.array_equal(
-        old.output(1.0, [], u, params={"old_gains": g}), new.output(1.0, [], u, params={"new_c1": 0.0})
+    tsm = fsmctl.fsm_controller(
+        agent.J0_array, c.__class__(**{**c.__dict__, "surface": "tsm"}), agent.delta, neighbours=nbrs
     )
+    assert np.array_equal(tsm.output(1.0, [], u), new.output(1.0, [], u, params={"new_c1": 0.0}))
+    assert np.array_equal(tsm.output(1.0, [], u), old.output(1.0, [], u, params={"old_c1": 0.0}))
     assert not np.array_equal(new.output(1.0, [], u), new.output(1.0, [], u, params={"new_c1": 0.0}))
+    clamp = fsmctl.fsm_controller(
+        agent.J0_array, c.__class__(**{**c.__dict__, "singularity_fix": "clamp"}), agent.delta, neighbours=nbrs
+    )
     fix = new.output(1.0, [], u, params={"new_singularity_fix": "clamp"})
-    g = c.gains_vector().copy()
-    g[5] = 2.0
-    assert np.array_equal(fix, old.output(1.0, [], u, params={"old_gains": g}))
+    assert np.array_equal(fix, clamp.output(1.0, [], u))
+    delta = old.output(1.0, [], u, params={"old_delta": 2 * np.asarray(agent.delta)})
+    assert np.array_equal(
+        delta, fsmctl.fsm_controller(agent.J0_array, c, 2 * np.asarray(agent.delta), neighbours=nbrs).output(1.0, [], u)
+    )
+    assert not np.array_equal(delta, old.output(1.0, [], u))
+    # validated by the scenario files' path (the law's declared range): alpha outside (0.5, 1)
+    with pytest.raises(fsmctl.ScenarioError, match=r"'old_alpha'.*must be < 1"):
+        old.output(1.0, [], u, params={"old_alpha": 1.2})
+    with pytest.raises(fsmctl.ScenarioError, match="alpha: must be < 1"):
+        s.replace(controller={"alpha": 1.2})
 
 
 def test_law_controller_with_a_state_is_the_generated_law(paper, pi_law):
@@ -287,7 +299,7 @@ def test_formation_structure_and_per_agent_params(paper):
     # the compiled simulator's TimeResponseData uses the same output names
     r = fsmctl.simulate(paper.replace(simulation={"t_final": 0.05}))
     tr = r.to_time_response()
-    assert list(tr.output_labels) == list(sys.output_labels)
+    assert list(tr.output_labels)[: sys.noutputs] == list(sys.output_labels)  # then the errors and metrics
     assert sys.state_labels[:5] == [f"reference_q_d[{k}]" for k in range(4)] + ["sc1_q[0]"]
     assert sys.state_labels[8:11] == ["sc1_omega[0]", "sc1_omega[1]", "sc1_omega[2]"]
     assert sys.output_labels[6:9] == ["sc1_tau[0]", "sc1_tau[1]", "sc1_tau[2]"]
@@ -371,7 +383,7 @@ def test_input_output_response_agrees_with_the_compiled_simulator(paper):
     assert np.allclose(fsmctl.plugin.iosys.mrp_state(resp.states), states, rtol=0, atol=1e-15)
     for result, tol in ((dopri, 1e-6), (rk4, 2e-4)):
         assert np.abs(states - _compiled_states(result)).max() < tol
-        tr = result.to_time_response()
+        tr = result.to_time_response(errors=False)
         y_io = resp.outputs.reshape(s.n_agents, 3, 3, -1)
         y_c = tr.outputs.reshape(s.n_agents, 3, 3, -1)
         assert np.abs(y_io[:, 2] - y_c[:, 2]).max() <= 1e-9  # torques
@@ -409,6 +421,8 @@ def test_formation_of_a_law_with_a_state_agrees_with_the_compiled_simulator(pape
 
 @pytest.mark.filterwarnings("ignore:Tight layout not applied")
 def test_time_response_plots(paper, tmp_path):
+    """The compiled run's time response plots grouped (one axes per signal group, agents as colours), and
+    python-control's own plot still shows one axes per signal."""
     import dataclasses
 
     import matplotlib
@@ -416,19 +430,25 @@ def test_time_response_plots(paper, tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    # two agents (18 outputs) keep the full plot fast; the paper's 54-output plot works the same way
+    from fsmctl.model.time_response import FormationResponse, agent_color, formation_response
+
+    # two agents keep the full python-control plot fast; the paper's six agents plot the same way
     two = dataclasses.replace(paper, agents=paper.agents[:2], topology=fsmctl.model.topology.ring(2, 8.0, 5.0))
     r = fsmctl.simulate(two.replace(simulation={"t_final": 1.0, "output_interval": 0.01}))
-    tr = r.to_time_response()
-    assert isinstance(tr, ct.TimeResponseData)
+    tr = formation_response(r.to_time_response(errors=False))
+    assert isinstance(tr, ct.TimeResponseData) and isinstance(tr, FormationResponse)
     assert tr.time.shape == r.time.shape and tr.outputs.shape == (18, r.time.size)
-    cplt = tr.plot()  # every output, as a user would call it
-    assert cplt.axes.size == 18
+    cplt = tr.plot()
+    assert cplt.axes.shape == (3, 1) and [len(lines) for lines in cplt.lines] == [6, 6, 6]
     cplt.figure.savefig(tmp_path / "response.png")
     assert (tmp_path / "response.png").stat().st_size > 1000
+    # axes 2 is the torque: its first line is sc1_tau[0], the applied torque, in agent 0's colour
+    line = cplt.lines[2][0]
+    assert line.get_label() == "sc1_tau[0]" and line.get_color() == agent_color(0)
+    assert np.array_equal(line.get_ydata(), r.u[:, 0, 0])
     plt.close("all")
-    # output 6 is sc1_tau[0]: the plotted line is the applied torque
-    lines = cplt.lines.ravel()[6]
-    assert cplt.axes.ravel()[6].get_ylabel() == "sc1_tau[0]"
-    assert np.array_equal(lines[0].get_ydata(), r.u[:, 0, 0])
+    full = ct.time_response_plot(tr)  # python-control's plot: every output on its own axes
+    assert full.axes.size == 18
+    assert full.axes.ravel()[6].get_ylabel() == "sc1_tau[0]"
+    assert np.array_equal(full.lines.ravel()[6][0].get_ydata(), r.u[:, 0, 0])
     plt.close("all")

@@ -8,7 +8,14 @@ it (no ``MPLBACKEND``: ipykernel's inline backend), so a figure that a reader wo
 
 What is checked in the executed notebook, each against an independent reason:
 
-* no cell raised, and at least the figures the notebook exists to show were displayed as PNG images;
+* no cell has an error output, and at least the figures the notebook exists to show were displayed as PNG images;
+* every code cell that makes a figure shows it as an ``image/png`` output: a cell that constructs a matplotlib
+  Figure (counted at run time by a probe, whoever calls it) or whose own code calls a plotting function
+  (``plt.*``, ``ax.plot``/``semilogy``/``imshow``/..., ``*_figure(s)``, ``plot_*``; read from its syntax tree,
+  function definitions excluded) and has no image output fails;
+* nothing is left in the system temp folder: the kernel runs with a private ``TMPDIR``, which must hold no
+  ``fsmctl-*`` entry afterwards (``fsmctl reproduce``'s default folder, notebook 03 and 07 write under their
+  working folder);
 * 01: every erratum of the paper found in review (the list in the README, typed here) is shown as checked,
   and the single-axis ``E = J omega_d_dot + omega_d x J omega_d`` is the hand result ``(0, 0, J3 omega_d3_dot)``;
 * 02: the claims that are mathematical truths (Lemmas 1-2, eqs 26-27, Theorem 1 for Case 1, eqs 34-41) are
@@ -65,10 +72,15 @@ MIN_FIGURES = {
 
 @pytest.fixture(scope="module")
 def notebook_environment(tmp_path_factory):
-    """A private kernelspec for ``sys.executable`` and the fast-mode environment, restored afterwards."""
+    """A private kernelspec for ``sys.executable``, the fast-mode environment and a private system temp folder.
+
+    Yields the temp folder the kernels see as the system's (``TMPDIR``, ``TEMP``, ``TMP``); the environment is
+    restored afterwards.
+    """
     from ipykernel.kernelspec import install
 
     prefix = tmp_path_factory.mktemp("jupyter")
+    system_temp = tmp_path_factory.mktemp("system-temp")
     install(kernel_name=KERNEL, prefix=str(prefix))
     spec = prefix / "share" / "jupyter" / "kernels" / KERNEL / "kernel.json"
     data = json.loads(spec.read_text())
@@ -81,7 +93,9 @@ def notebook_environment(tmp_path_factory):
         )
         mp.setenv("FSMCTL_FAST", "1")
         mp.delenv("MPLBACKEND", raising=False)  # as in a user's Jupyter (conftest sets Agg for the test process)
-        yield prefix
+        for name in ("TMPDIR", "TEMP", "TMP"):  # what tempfile.gettempdir() reads in the kernel
+            mp.setenv(name, str(system_temp))
+        yield system_temp
 
 
 def _execute(path: Path, tmp_path: Path, prepend: str | None = None):
@@ -367,10 +381,10 @@ def test_there_are_notebooks():
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=[p.stem for p in NOTEBOOKS])
 def test_notebook_runs_and_shows_its_results(path, notebook_environment, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    before = _temp_entries()
+    before = _temp_entries(notebook_environment)
     nb = _execute(path, tmp_path, prepend=FIGURE_PROBE)
     assert problems(path.stem, nb) + _undisplayed_figures(path.stem, nb) == []
-    left = sorted(_temp_entries() - before)
+    left = sorted(_temp_entries(notebook_environment) - before)
     assert not left, (
         f"{path.stem} left {left} in the system temp folder (notebooks write only under their working folder)"
     )
@@ -401,41 +415,81 @@ _fsmctl_ip().events.register("post_run_cell", _fsmctl_report)
 """A first cell that counts the matplotlib figures each cell makes (printed at the cell's end)."""
 
 
+_PLOT_METHODS = frozenset(
+    {"plot", "semilogx", "semilogy", "loglog", "hist", "bar", "barh", "scatter", "pcolormesh", "imshow", "contour",
+     "contourf", "fill_between", "errorbar", "step", "stairs", "subplots", "add_subplot", "Figure"}
+)  # fmt: skip
+
+
+def _plotting_calls(source: str) -> list[str]:
+    """The plotting calls a cell's own code makes: ``plt.*``, axes plotting methods, ``*_figure(s)``, ``plot_*``.
+
+    Read from the syntax tree (IPython magics blanked); calls inside function or class definitions do not count
+    (defining a plotting function shows nothing: the cell that calls it is caught by the run-time probe).
+    """
+    lines = ["" if line.lstrip().startswith(("%", "!")) else line for line in source.splitlines()]
+    found = set()
+    for node in ast.parse("\n".join(lines)).body:
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            continue
+        for call in (n for n in ast.walk(node) if isinstance(n, ast.Call)):
+            func = call.func
+            name = func.attr if isinstance(func, ast.Attribute) else func.id if isinstance(func, ast.Name) else ""
+            root = func
+            while isinstance(root, ast.Attribute):
+                root = root.value
+            pyplot = isinstance(root, ast.Name) and root.id == "plt"
+            if pyplot or name in _PLOT_METHODS or re.fullmatch(r"\w+_figures?|plot_\w+", name):
+                found.add(ast.unparse(func))
+    return sorted(found)
+
+
 def _undisplayed_figures(name: str, nb) -> list[str]:
-    """Every cell that makes a figure shows it as an image (not ``<Figure size ...>`` text, not nothing)."""
+    """Every cell that makes a figure shows it as an image (not ``<Figure size ...>`` text, not nothing).
+
+    A cell makes a figure when the probe counted a Figure constructed while it ran, or when its own code calls a
+    plotting function (:func:`_plotting_calls`).
+    """
     out = []
     for k, cell in enumerate(c for c in nb.cells[1:] if c.cell_type == "code"):
         outputs = cell.get("outputs", [])
         text = "".join(o.get("text", "") for o in outputs if o["output_type"] == "stream")
         made = re.search(r"__figures_made__ (\d+)", text)
         images = sum("image/png" in o.get("data", {}) for o in outputs)
-        if made and images == 0:
+        if images:
+            continue
+        if made:
             out.append(f"{name}: code cell {k + 1} makes {made.group(1)} figure(s) and shows none as an image")
+        elif calls := _plotting_calls(cell.source):
+            out.append(f"{name}: code cell {k + 1} calls {', '.join(calls)} and shows no image")
     return out
 
 
-def _temp_entries() -> set[str]:
-    import tempfile
-
-    # fsmctl-build-* are process-private build folders, removed when their process exits
-    return {
-        e for e in os.listdir(tempfile.gettempdir()) if e.startswith("fsmctl-") and not e.startswith("fsmctl-build-")
-    }
+def _temp_entries(folder) -> set[str]:
+    """The ``fsmctl-*`` entries of ``folder`` (fsmctl-build-* are process-private, removed when their process exits)."""
+    return {e for e in os.listdir(folder) if e.startswith("fsmctl-") and not e.startswith("fsmctl-build-")}
 
 
 def test_a_figure_made_and_not_shown_is_reported(notebook_environment, tmp_path, monkeypatch):
     """The probe of test_notebook_runs_and_shows_its_results can fail: a cell that makes a Figure without pyplot and
     does not display it is reported, so is one that displays it without `%matplotlib inline` (it shows as the text
-    `<Figure size ...>`), and the cell that displays it with the inline backend is not."""
+    `<Figure size ...>`), so is one that draws on an existing figure without showing it; the cell that displays its
+    figure with the inline backend, and one that only defines a plotting function, are not."""
     monkeypatch.chdir(tmp_path)
-    src = "# %%\nfrom matplotlib.figure import Figure\nfig = Figure()\nfig.add_subplot().plot([0, 1])\n"
+    src = "# %%\nfrom matplotlib.figure import Figure\nfig = Figure()\nax = fig.add_subplot()\nax.plot([0, 1])\n"
     show = "from IPython.display import display\ndisplay(fig)\n"
-    cases = {"hidden": src, "as-text": src + show, "shown": "# %matplotlib inline\n" + src + show}
+    again = "# %%\nax.plot([1, 0])\n"  # draws on the figure of the cell before, makes none, shows nothing
+    define = "# %%\ndef draw():\n    return Figure()\n"  # defines a plotting function: shows nothing, rightly
+    inline = "# %matplotlib inline\n" + src + show
+    cases = {"hidden": src, "as-text": src + show, "shown": inline, "replotted": inline + again + define}
     (tmp_path / "run").mkdir()
     for name, text in cases.items():
         (tmp_path / f"{name}.py").write_text(text)
         found = _undisplayed_figures(name, _execute(tmp_path / f"{name}.py", tmp_path / "run", prepend=FIGURE_PROBE))
-        expected = [] if name == "shown" else [f"{name}: code cell 1 makes 1 figure(s) and shows none as an image"]
+        expected = {
+            "shown": [],
+            "replotted": ["replotted: code cell 3 calls ax.plot and shows no image"],
+        }.get(name, [f"{name}: code cell 1 makes 1 figure(s) and shows none as an image"])
         assert found == expected, name
 
 

@@ -33,7 +33,7 @@ def test_list(capsys):
 
 
 def test_selected_claims_exit_0(capsys):
-    code, out, _ = _run(capsys, *CHEAP, "--jobs", "1")
+    code, out, _ = _run(capsys, *CHEAP, "--workers", "1")
     assert code == 0
     assert "scenario paper case 1" in out and "every claim as expected" in out
     assert "remark6" not in out
@@ -91,7 +91,7 @@ def test_case_option_on_a_user_file(capsys):
         (["--case", "7"], "no case '7'"),
         (["--region-omega", "nan"], "--region-omega must be a finite number"),
         (["--region-sigma", "2"], "--region-sigma must be <= 1"),
-        (["--jobs", "0"], "--jobs must be >= 1"),
+        (["--jobs", "0"], "--jobs must be >= 1"),  # the former spelling of --workers
     ],
 )
 def test_input_errors_exit_2_with_one_line(capsys, argv, message):

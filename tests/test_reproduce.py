@@ -239,6 +239,16 @@ def test_fast_reproduce_exit_code_and_files(fast_reproduction):
         assert float(ds["aaem_deg"][-1]) < 0.03  # without the limit the law converges within the fast horizon
 
 
+def test_report_shows_the_figures_in_the_paper_order(fast_reproduction):
+    _, out = fast_reproduction
+    report = (out / "report.md").read_text()
+    shown = [line[2 : line.index("]")] for line in report.splitlines() if line.startswith("![")]
+    paper = [stem for stem in shown if stem.startswith("fig")]
+    assert [int(stem[3:5]) for stem in paper] == list(range(1, 10))  # one of each of Figs 1-9, in order
+    assert shown[:9] == paper and len(shown) > 9  # the diagnostic figures after them
+    assert all((out / "figures" / f"{stem}.png").is_file() for stem in shown)
+
+
 def test_claims_table_holds_every_claim_with_a_known_verdict(fast_reproduction):
     _, out = fast_reproduction
     with (out / "claims.csv").open() as fh:
@@ -322,3 +332,29 @@ def test_reproduce_needs_the_paper_cases(tmp_path, capsys):
     bad = tmp_path / "bad.toml"
     bad.write_text("[[agents]\n")
     assert main(["reproduce", "--scenario", str(bad), "--out", str(tmp_path / "o")]) == 2
+
+
+def test_reproduce_writes_only_under_its_working_folder(tmp_path, monkeypatch):
+    """The route of notebook 03 (reproduce with its default folder, 2 worker processes) leaves nothing in the system
+    temp folder: run with a private TMPDIR, which must gain no ``fsmctl-*`` entry (each run of notebook 03 and of
+    its test used to leave a ``fsmctl-reproduction-*`` folder there)."""
+    import os
+    import tempfile
+
+    from fsmctl.studies.reproduce import reproduce
+
+    system_temp, work = tmp_path / "system-temp", tmp_path / "work"
+    system_temp.mkdir()
+    work.mkdir()
+    for name in ("TMPDIR", "TEMP", "TMP"):  # this process (tempfile caches its choice: reset) and the workers
+        monkeypatch.setenv(name, str(system_temp))
+    monkeypatch.setattr(tempfile, "tempdir", None)
+    monkeypatch.chdir(work)
+    assert tempfile.gettempdir() == str(system_temp)
+    rep = reproduce("paper", fast=True, jobs=2, progress=False, figures=False)
+    assert rep.out_dir == type(rep.out_dir)("reproduction")
+    assert (work / "reproduction" / "report.md").is_file() and (work / "reproduction" / "runs" / "case1.nc").is_file()
+    # fsmctl-build-* are process-private build folders, removed when their process exits
+    left = [e for e in os.listdir(system_temp) if e.startswith("fsmctl-") and not e.startswith("fsmctl-build-")]
+    assert left == []
+    assert sorted(os.listdir(work)) == ["reproduction"]

@@ -533,3 +533,144 @@ def test_compare_flies_every_run_with_the_control_period_and_seed(tmp_path, caps
     assert rc == 0, err
     assert "compare: every run with control_period=0.05 s, seed=4 (--control-period, --seed)" in printed
     assert "compare: paper case 1" in printed
+
+
+# ----------------------------------------------------------------------------- --format, --precision, --from (issue 15)
+
+
+@pytest.fixture(scope="module")
+def format_runs(tmp_path_factory):
+    """Case 1 for 0.1 s (10 ms output spacing) written three ways: NetCDF float64, CSV, NetCDF float32."""
+    base = tmp_path_factory.mktemp("formats")
+    common = ["simulate", "--case", "1", "--t-final", "0.1", "--no-figures", "--no-progress"]
+    variants = {"nc64": [], "csv": ["--format", "csv"], "nc32": ["--precision", "float32"]}
+    codes = {name: main([*common, *extra, "--out", str(base / name)]) for name, extra in variants.items()}
+    return codes, base
+
+
+def _csv_table(path):
+    """Header and data rows of an fsmctl CSV result, read with the csv module (comment lines skipped)."""
+    import csv
+
+    with open(path, newline="") as fh:
+        rows = [r for r in csv.reader(fh) if r and not r[0].startswith("#")]
+    return rows[0], np.array(rows[1:], dtype=float)
+
+
+def test_csv_has_one_row_per_time_and_named_columns_with_units(format_runs):
+    codes, base = format_runs
+    assert codes["csv"] == 0
+    assert [p.name for p in base.glob("csv/paper_case_1.*")] == ["paper_case_1.csv"]  # no NetCDF file
+    header, data = _csv_table(base / "csv" / "paper_case_1.csv")
+    assert header[0] == "time_s" and len(set(header)) == len(header)
+    np.testing.assert_allclose(data[:, 0], np.linspace(0.0, 0.1, 11), rtol=0, atol=1e-12)  # every 10 ms
+    sc = oracle.paper_scenario()
+    n = len(sc["sigma0"])
+    for i in range(1, n + 1):  # <quantity>_<agent>_<axis>_<unit>, the unit's spaces and slashes as _
+        for axis in "xyz":
+            assert {f"sigma_{i}_{axis}", f"omega_{i}_{axis}_rad_s", f"u_{i}_{axis}_N_m"} <= set(header), (i, axis)
+    assert {"aaem_deg", "raem_deg"} <= set(header)
+    col = {name: data[:, k] for k, name in enumerate(header)}
+    sigma0 = np.array([[col[f"sigma_{i}_{a}"][0] for a in "xyz"] for i in range(1, n + 1)])
+    np.testing.assert_allclose(sigma0, np.array(sc["sigma0"]), rtol=0, atol=1e-15)  # Table 1, as flown
+    errors = [oracle.mrp_error(s, np.array([-0.3, -0.4, 0.4])) for s in sc["sigma0"]]
+    theta = np.array([oracle.principal_angle(e) for e in errors])
+    assert col["aaem_deg"][0] == pytest.approx(oracle.aaem_deg(theta), abs=1e-9)  # eq 42, independent transcription
+    assert col["raem_deg"][0] == pytest.approx(oracle.raem_deg(oracle.relative_angle_matrix(errors)), abs=1e-9)
+    applied = [k for k, h in enumerate(header) if re.fullmatch(r"u_\d+_[xyz]_N_m", h)]
+    assert len(applied) == 3 * n and np.abs(data[:, applied]).max() <= 2.0  # the paper's per-axis limit
+    with xr.open_dataset(base / "nc64" / "paper_case_1.nc") as ds:  # the same run, written as NetCDF
+        assert ds["u_N_m"].attrs["units"] == "N m" and ds["omega_rad_per_s"].attrs["units"] == "rad/s"
+        np.testing.assert_array_equal(col["u_2_y_N_m"], ds["u_N_m"].values[:, 1, 1])  # 17 digits: exact
+        np.testing.assert_array_equal(col["omega_3_z_rad_s"], ds["omega_rad_per_s"].values[:, 2, 2])
+    summary = json.loads((base / "csv" / "summary.json").read_text())
+    assert summary["format"] == "csv" and summary["files"] == ["paper_case_1.csv"]
+
+
+def test_float32_precision_is_in_the_file(format_runs):
+    codes, base = format_runs
+    assert codes["nc32"] == 0 and codes["nc64"] == 0
+    with (
+        xr.open_dataset(base / "nc32" / "paper_case_1.nc") as single,
+        xr.open_dataset(base / "nc64" / "paper_case_1.nc") as double,
+    ):
+        assert single["time_s"].dtype == np.float64  # the time stays exact
+        for name in ("sigma", "omega_rad_per_s", "u_N_m", "aaem_deg"):
+            assert single[name].dtype == np.float32, name
+            assert double[name].dtype == np.float64, name
+            np.testing.assert_array_equal(single[name].values, double[name].values.astype(np.float32))
+    assert json.loads((base / "nc32" / "summary.json").read_text())["precision"] == "float32"
+
+
+def _arrays(path):
+    with xr.open_dataset(path) as ds:
+        return {name: ds[name].values for name in ds.variables}, dict(ds.attrs)
+
+
+@pytest.mark.parametrize("source", ["nc64/paper_case_1.nc", "csv/paper_case_1.csv"])
+def test_from_a_result_flies_it_again_identically(source, format_runs, tmp_path, capsys):
+    _, base = format_runs
+    again = tmp_path / "again"
+    rc, printed, err = _run(["simulate", "--from", str(base / source), "--out", str(again), "--no-figures"], capsys)
+    assert rc == 0, err
+    assert f"from {base / source}:" in printed and "paper case 1" in printed
+    first, _ = _arrays(base / "nc64" / "paper_case_1.nc")
+    second, attrs = _arrays(again / "paper_case_1.nc")
+    assert first.keys() == second.keys()
+    for name in first:
+        np.testing.assert_array_equal(second[name], first[name], err_msg=name)  # bit for bit
+    assert attrs["command"] == f"fsmctl simulate --from {base / source} --out {again} --no-figures"
+    summary = json.loads((again / "summary.json").read_text())
+    assert summary["from"] == str(base / source) and summary["overrides"]["simulation"] == {}
+
+
+def test_from_with_overrides_applies_and_records_them(format_runs, tmp_path, capsys):
+    _, base = format_runs
+    out = tmp_path / "longer"
+    argv = ["simulate", "--from", str(base / "nc64" / "paper_case_1.nc"), "--t-final", "0.2", "--format", "csv",
+            "--torque-limit", "inf", "--no-figures", "--out", str(out)]  # fmt: skip
+    rc, _, err = _run(argv, capsys)
+    assert rc == 0, err
+    header, data = _csv_table(out / "paper_case_1.csv")
+    assert data[-1, 0] == pytest.approx(0.2) and data.shape[0] == 21
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["overrides"] == {
+        "controller": {"torque_limit": "inf"},
+        "simulation": {"t_final": 0.2, "output_interval": 0.01},  # the scenario's spacing, kept with the horizon
+    }
+    from fsmctl.simulation.results_io import load_result, scenario_from_result
+
+    assert load_result(out / "paper_case_1.csv").attrs["command"] == "fsmctl " + " ".join(argv)
+    flown = scenario_from_result(out / "paper_case_1.csv")  # the overrides are part of the embedded scenario
+    assert flown.simulation.t_final == 0.2 and math.isinf(flown.controller.torque_limit)
+    first, _ = _arrays(base / "nc64" / "paper_case_1.nc")
+    u = data[:, [header.index(f"u_1_{a}_N_m") for a in "xyz"]]
+    assert np.abs(u).max() > 2.0 >= np.abs(first["u_N_m"]).max()  # the limit was lifted
+
+
+@pytest.mark.parametrize(
+    ("content", "name"),
+    [
+        ("just some text\n", "notes.nc"),
+        ("a,b\n1,2\n", "table.csv"),
+        (None, "missing.nc"),
+    ],
+)
+def test_from_a_file_that_is_not_a_result_exits_2_with_one_line(content, name, tmp_path, capsys):
+    path = tmp_path / name
+    if content is not None:
+        path.write_text(content)
+    rc, out, err = _run(["simulate", "--from", str(path), "--out", str(tmp_path / "o")], capsys)
+    assert rc == 2, err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    assert err.startswith("fsmctl simulate: error: ") and name in err, err
+    assert not (tmp_path / "o").exists() and out == ""
+
+
+def test_from_excludes_scenario_and_case(format_runs, tmp_path, capsys):
+    _, base = format_runs
+    result = str(base / "nc64" / "paper_case_1.nc")
+    for extra in (["--scenario", "paper"], ["--case", "1"]):
+        rc, _, err = _run(["simulate", "--from", result, *extra, "--out", str(tmp_path / "o")], capsys)
+        assert rc == 2 and f"--from cannot be combined with {extra[0]}" in err, err
+        assert len(err.strip().splitlines()) == 1

@@ -1,16 +1,20 @@
 """``fsmctl simulate``: run one scenario case and write its results (Liang, Sun & Wang 2012, Section 4).
 
-Writes ``DIR/<label>.nc`` (NetCDF, units in the variable names and attributes),
-``DIR/summary.json`` (settling times of AAEM eq 42 and RAEM eq 43, steady-state accuracy,
-torque statistics, the scenario's settings and documented choices) and, unless
-``--no-figures``, ``DIR/<label>_{aaem,raem,theta_e,torques}.{png,svg}`` (analogues of Figs 1-4).
+Writes ``DIR/<label>.nc`` (``--format netcdf``, the default: compressed NetCDF-4, units in the variable names and
+attributes) or ``DIR/<label>.csv`` (``--format csv``: one row per output time, one named column per signal with
+its unit), in double or, with ``--precision float32``, single precision; ``DIR/summary.json`` (settling times of
+AAEM eq 42 and RAEM eq 43, steady-state accuracy, torque statistics, the scenario's settings and documented
+choices) and, unless ``--no-figures``, ``DIR/<label>_{aaem,raem,theta_e,torques}.{png,svg}`` (analogues of
+Figs 1-4).  Every result file embeds the full scenario, the law, the versions and the command line
+(:mod:`fsmctl.simulation.results_io`), so ``--from RESULT`` flies it again (instead of ``--scenario``/``--case``;
+the other options still override it, and the summary records them).
 
 ``--law NAME|FILE.py|DIR`` flies another control law and ``--set KEY=VALUE`` sets its parameters
 (:mod:`fsmctl.cli.law_options`); ``--control-period SECONDS`` (0 = continuous) and ``--seed N`` (the run's noise
 seed) set the sampled control (:mod:`fsmctl.cli.run_options`); the summary records them all.
 
-Exit codes: 0 the run finished, 1 the simulation failed (non-finite state, ...),
-2 usage or input error (one line on stderr).
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the run finished, 1 the simulation failed
+(non-finite state, ...), 2 usage or input error (one line on stderr).
 """
 
 from __future__ import annotations
@@ -21,13 +25,34 @@ import re
 import sys
 from pathlib import Path
 
+from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.law_options import add_law_options, controller_changes
+from fsmctl.cli.options import (
+    add_case_option,
+    add_dt_option,
+    add_figures_option,
+    add_out_option,
+    add_output_interval_option,
+    add_progress_option,
+    add_scenario_option,
+    add_t_final_option,
+    add_torque_limit_option,
+)
 from fsmctl.cli.run_options import add_run_options, simulation_changes
-from fsmctl.cli.types import nonnegative_float, positive_float, torque_limit
+from fsmctl.cli.types import nonnegative_float
 from fsmctl.outputs import output_folder, write_json
 from fsmctl.studies.reproduce import SETTLING_TOLERANCES_DEG
 
-__all__ = ["add_parser", "run", "SETTLING_TOLERANCES_DEG"]
+__all__ = ["add_parser", "run", "SETTLING_TOLERANCES_DEG", "EXIT_CODES"]
+
+EXIT_CODES = {
+    0: "the run finished and its files were written",
+    1: "the simulation failed (a non-finite state, ...)",
+}
+"""What ``fsmctl simulate``'s exit codes 0 and 1 mean (the others: :data:`fsmctl.cli.exit_codes.MEANINGS`)."""
+
+FORMATS = {"netcdf": ".nc", "csv": ".csv"}
+"""``--format`` choices and the suffix of the result file each writes."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -45,41 +70,58 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     """
     p = subparsers.add_parser(
         "simulate",
-        help="simulate one scenario case; write NetCDF, summary.json and figures",
+        help="simulate one scenario case; write the result (NetCDF or CSV), summary.json and figures",
         description="Simulate one case of a formation scenario with the compiled generated code "
-        "(Liang, Sun & Wang 2012) and write DIR/<label>.nc, DIR/summary.json and the figures (PNG + SVG).",
-        epilog="exit codes: 0 finished, 1 the simulation failed, 2 usage or input error.",
+        "(Liang, Sun & Wang 2012) and write DIR/<label>.nc (or .csv), DIR/summary.json and the figures (PNG + SVG). "
+        "Every result file embeds the scenario, the law, the versions and the command line: --from RESULT flies "
+        "it again.",
+        epilog=epilog(EXIT_CODES),
     )
-    p.add_argument(
-        "--scenario",
-        default="paper",
-        metavar="paper|FILE.toml",
-        help="built-in 'paper' or a TOML file (default: paper)",
-    )
-    p.add_argument("--case", default=None, help="case name (paper: 1, 2, 3a, 3b, 3c; default: the file's first case)")
-    p.add_argument(
-        "--out", default=Path("simulation"), type=Path, metavar="DIR", help="output folder (default: ./simulation)"
-    )
-    p.add_argument("--no-figures", action="store_true", help="skip the PNG/SVG figures")
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
+    source = p.add_argument_group("what to fly (--from, or --scenario and --case)")
+    add_scenario_option(source, default=None)
+    add_case_option(source)
+    source.add_argument(
+        "--from",
+        dest="from_result",
+        type=Path,
         default=None,
-        help="progress bar of the time loop (default: on a terminal, for long runs)",
+        metavar="RESULT",
+        help="fly again the scenario embedded in a result file written by fsmctl (.nc or .csv); the options below "
+        "still override it",
     )
+    add_out_option(p, "simulation")
+    p.add_argument(
+        "--format",
+        choices=tuple(FORMATS),
+        default="netcdf",
+        help="result file: netcdf = DIR/<label>.nc (compressed NetCDF-4), csv = DIR/<label>.csv (one row per "
+        "output time, one column per signal, units in the column names) (default: netcdf)",
+    )
+    p.add_argument(
+        "--precision",
+        choices=("float64", "float32"),
+        default="float64",
+        help="storage of the time series: float32 halves the file, time stays float64 (default: float64)",
+    )
+    add_figures_option(p)
+    add_progress_option(p, "of the time loop")
     g = p.add_argument_group("overrides of the scenario's settings")
-    g.add_argument("--t-final", type=positive_float, metavar="S", help="horizon (s)")
-    g.add_argument("--dt", type=positive_float, metavar="S", help="integration step (s)")
-    g.add_argument("--output-interval", type=positive_float, metavar="S", help="output sample spacing (s)")
-    g.add_argument("--integrator", choices=("rk4", "dopri45"), help="time integrator")
+    add_t_final_option(g)
+    add_dt_option(g)
+    add_output_interval_option(g)
+    g.add_argument("--integrator", choices=("rk4", "dopri45"), help="time integrator (default: the scenario's)")
     add_run_options(g)
-    g.add_argument("--error-model", choices=("paper", "exact"), help="controller error kinematics (eqs 7-8 or exact)")
-    g.add_argument("--torque-limit", type=torque_limit, metavar="N_M", help="per-axis torque bound (N m) or 'inf'")
+    g.add_argument(
+        "--error-model",
+        choices=("paper", "exact"),
+        help="controller error kinematics: eqs 7-8 (paper) or exact (default: the scenario's)",
+    )
+    add_torque_limit_option(g)
     g.add_argument(
         "--boundary-layer",
         type=nonnegative_float,
         metavar="PHI",
-        help="boundary layer phi of sat(s/phi), 0 = sgn (Remark 7)",
+        help="boundary layer phi of sat(s/phi), 0 = sgn (Remark 7) (default: the scenario's)",
     )
     add_law_options(p, what="the formation")
     p.set_defaults(func=run)
@@ -96,19 +138,20 @@ def run(args: argparse.Namespace) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed options.
+        Parsed options (``args.argv``, set by :func:`fsmctl.cli.main.main`, is the command line the result
+        file records).
 
     Returns
     -------
     int
         0 when the run finished and its files were written, 1 when the simulation failed;
-        bad input raises :class:`fsmctl.model.scenario.ScenarioError`, :class:`fsmctl.model.laws.LawError` or
-        :class:`fsmctl.cli.main.UsageError` (exit 2).
+        bad input raises :class:`fsmctl.model.scenario.ScenarioError`, :class:`fsmctl.model.laws.LawError`,
+        :class:`fsmctl.simulation.results_io.ResultFileError` (``--from``) or :class:`fsmctl.cli.main.UsageError`
+        (exit 2).
     """
-    from fsmctl.model.scenario import load_scenario
     from fsmctl.simulation.simulator import SimulationError, simulate
 
-    scenario = load_scenario(args.scenario, case=args.case)
+    scenario = _base_scenario(args)
     controller = controller_changes(args, scenario)  # --law, --set
     controller |= {
         k: v
@@ -130,12 +173,15 @@ def run(args: argparse.Namespace) -> int:
         if v is not None
     }
     simulation |= simulation_changes(args)  # --control-period, --seed
-    if simulation.get("t_final") is not None and "output_interval" not in simulation:
+    t_final = simulation.get("t_final")
+    if t_final is not None and t_final > 0 and "output_interval" not in simulation:
         # keep the scenario's output spacing unless it no longer fits the horizon
-        interval = min(scenario.simulation.output_interval, simulation["t_final"])
+        interval = min(scenario.simulation.output_interval, t_final)
         simulation["output_interval"] = interval
     scenario = scenario.replace(controller=controller, simulation=simulation)
     with output_folder(args.out) as out:
+        if args.from_result is not None:
+            print(f"from {args.from_result}:")
         for line in scenario.describe():
             print(line)
         if controller.keys() & {"law", "parameters"}:
@@ -148,22 +194,41 @@ def run(args: argparse.Namespace) -> int:
             print(f"fsmctl simulate: {exc}", file=sys.stderr)
             return 1
         label = _file_label(scenario.label)
-        nc_path = out / f"{label}.nc"
-        result.save(nc_path)  # atomic
+        result_path = out / f"{label}{FORMATS[args.format]}"
+        command = getattr(args, "argv", None) or ["fsmctl", *sys.argv[1:]]
+        result.save(result_path, format=args.format, precision=args.precision, command=command)  # atomic
         summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG)
-        files = [str(nc_path)]
+        files = [str(result_path)]
         if not args.no_figures:
             from fsmctl.studies.figures import save_figure, simulation_figures
 
             for name, fig in simulation_figures(result, tolerances_deg=(0.03, 0.01)).items():
                 files += [str(p) for p in save_figure(fig, out / f"{label}_{name}")]
-        return _write_summary(args, scenario, controller, simulation, summary, files, out, nc_path)
+        return _write_summary(args, scenario, controller, simulation, summary, files, out, result_path)
 
 
-def _write_summary(args, scenario, controller, simulation, summary, files, out: Path, nc_path: Path) -> int:
+def _base_scenario(args: argparse.Namespace):
+    """The scenario before the overrides: ``--from RESULT``'s embedded one, or ``--scenario``/``--case``."""
+    from fsmctl.model.scenario import load_scenario
+
+    if args.from_result is None:
+        return load_scenario(args.scenario or "paper", case=args.case)
+    from fsmctl.cli.main import UsageError
+    from fsmctl.simulation.results_io import scenario_from_result
+
+    given = [name for name, value in (("--scenario", args.scenario), ("--case", args.case)) if value is not None]
+    if given:
+        raise UsageError(f"--from cannot be combined with {' or '.join(given)}: the result's own scenario is flown")
+    return scenario_from_result(args.from_result)
+
+
+def _write_summary(args, scenario, controller, simulation, summary, files, out: Path, result_path: Path) -> int:
     payload = {
         "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
         "scenario": scenario.label,
+        "from": None if args.from_result is None else str(args.from_result),
+        "format": args.format,
+        "precision": args.precision,
         "law": scenario.controller.law,
         "description": scenario.description,
         "settings": scenario.describe(),
@@ -175,7 +240,7 @@ def _write_summary(args, scenario, controller, simulation, summary, files, out: 
     }
     summary_path = write_json(out / "summary.json", payload)  # last: its presence marks a complete run
     print(_format_summary(summary))
-    print(f"wrote {nc_path}, {summary_path}" + ("" if args.no_figures else f" and {len(files) - 1} figure files"))
+    print(f"wrote {result_path}, {summary_path}" + ("" if args.no_figures else f" and {len(files) - 1} figure files"))
     return 0
 
 

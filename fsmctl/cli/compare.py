@@ -5,8 +5,8 @@ reads the options, prints the table and writes ``DIR/comparison.{csv,json,md,png
 ``--seed`` (:mod:`fsmctl.cli.run_options`) set the scenario's sampled control and noise seed for every run, so the
 laws meet the same sensor noise and packet losses.
 
-Exit codes: 0 every run finished, 1 a run's simulation failed (the others are still reported and written),
-2 usage or input error (one line on stderr).
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 every run finished, 1 a run's simulation failed
+(the others are still reported and written), 2 usage or input error (one line on stderr).
 """
 
 from __future__ import annotations
@@ -16,12 +16,33 @@ import math
 import sys
 from pathlib import Path
 
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.options import (
+    add_case_option,
+    add_dt_option,
+    add_figures_option,
+    add_out_option,
+    add_output_interval_option,
+    add_progress_option,
+    add_scenario_option,
+    add_steady_window_option,
+    add_t_final_option,
+    add_torque_limit_option,
+)
+from fsmctl.cli.parallel_options import add_workers_option
 from fsmctl.cli.run_options import add_run_options, simulation_changes
-from fsmctl.cli.types import positive_float, positive_int, torque_limit
+from fsmctl.cli.types import positive_float
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "EXIT_CODES"]
 
-EPILOG = """runs file (TOML), for variants of a law:
+EXIT_CODES = {
+    0: "every run finished and the files were written",
+    1: "a run's simulation failed (the other runs are still reported and written)",
+}
+"""What ``fsmctl compare``'s exit codes 0 and 1 mean (the others: :data:`fsmctl.cli.exit_codes.MEANINGS`)."""
+
+EPILOG_TEXT = """runs file (TOML), for variants of a law::
+
   [[run]]
   label = "TSM"
   law = "fsm"
@@ -30,10 +51,8 @@ EPILOG = """runs file (TOML), for variants of a law:
 
 metrics: settling times of AAEM (eq 42) and RAEM (eq 43) to each tolerance (first time after which the metric
 stays within it; "not settled" within the horizon), steady mean/max over the last window, peak applied and
-commanded |u_k|, RMS torque, effort sum_i int sum_k |u_ik| dt, chattering = total variation of u (engine, every
-step), saturated time, wall time.
-
-exit codes: 0 every run finished, 1 a simulation failed (the other runs are still written), 2 usage or input error."""
+commanded torque component, RMS torque, effort sum_i int sum_k abs(u_ik) dt, chattering = total variation of u (engine, every
+step), saturated time, wall time."""
 
 
 def _tolerances(text: str) -> tuple[float, ...]:
@@ -62,16 +81,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="Simulate one scenario case with each law (or law variant) and compare settling times, steady "
         "accuracy, torque, control effort, chattering and saturation; print the table and write "
         "DIR/comparison.csv, .json, .md and a figure (PNG + SVG).",
-        epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=epilog(EXIT_CODES, text=EPILOG_TEXT),
     )
-    p.add_argument(
-        "--scenario",
-        default="paper",
-        metavar="paper|FILE.toml",
-        help="built-in 'paper' or a TOML file (default: paper)",
-    )
-    p.add_argument("--case", default=None, help="case name (paper: 1, 2, 3a, 3b, 3c; default: the file's first case)")
+    add_scenario_option(p)
+    add_case_option(p)
     p.add_argument(
         "--laws",
         default=None,
@@ -85,26 +98,18 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="RUNS.toml",
         help="[[run]] tables (label, law, parameters, controller) for variants of a law; added after --laws",
     )
-    p.add_argument(
-        "--torque-limit",
-        type=torque_limit,
-        default=None,
-        metavar="N_M|inf",
-        help="per-axis torque bound of the scenario (a run's own controller override wins)",
-    )
+    add_torque_limit_option(p, "a run's own controller override wins")
     p.add_argument(
         "--with-and-without-limit",
         action="store_true",
         help="fly each run twice: with the (scenario's or --torque-limit) limit and without a limit",
     )
-    p.add_argument(
-        "--out", type=Path, default=Path("comparison"), metavar="DIR", help="output folder (default: ./comparison)"
-    )
-    p.add_argument("--no-figures", action="store_true", help="skip the PNG/SVG figure")
+    add_out_option(p, "comparison")
+    add_figures_option(p)
     g = p.add_argument_group("simulation and metrics")
-    g.add_argument("--t-final", type=positive_float, metavar="S", help="horizon in s (default: the scenario's)")
-    g.add_argument("--dt", type=positive_float, metavar="S", help="integration step in s (default: the scenario's)")
-    g.add_argument("--output-interval", type=positive_float, metavar="S", help="output sample spacing in s")
+    add_t_final_option(g)
+    add_dt_option(g)
+    add_output_interval_option(g)
     add_run_options(g)  # every run flies the same control period and the same noise (a fair comparison)
     g.add_argument(
         "--tolerances",
@@ -113,20 +118,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="DEG,...",
         help="AAEM/RAEM settling tolerances in deg (default: 1,0.1,0.01)",
     )
-    g.add_argument(
-        "--steady-window",
-        type=positive_float,
-        default=None,
-        metavar="S",
-        help="final window of the steady statistics (default: last 40%% of the horizon, at most 40 s)",
-    )
-    g.add_argument("--workers", type=positive_int, default=1, metavar="N", help="simultaneous runs (default: 1)")
-    g.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar over the runs (default: on a terminal)",
-    )
+    add_steady_window_option(g, None, "the last 40 percent of the horizon, at most 40 s")
+    add_workers_option(g, default=1, what="worker processes flying the runs")
+    add_progress_option(g, "over the runs")
     p.set_defaults(func=run)
     return p
 
@@ -174,7 +168,7 @@ def run(args: argparse.Namespace) -> int:
     }
     sampled = simulation_changes(args)  # --control-period, --seed
     simulation |= sampled
-    if "t_final" in simulation and "output_interval" not in simulation:
+    if simulation.get("t_final", 0) > 0 and "output_interval" not in simulation:
         simulation["output_interval"] = min(scenario.simulation.output_interval, simulation["t_final"])
     controller = {} if args.torque_limit is None else {"torque_limit": args.torque_limit}
     scenario = scenario.replace(controller=controller, simulation=simulation)

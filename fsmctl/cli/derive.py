@@ -11,8 +11,9 @@ temporary sibling folder first, then renamed, so the folder is either the old on
 ``--check`` writes nothing: it regenerates into a temporary folder and compares (:func:`fsmctl.codegen.laws.check_law`).
 The folder then flies with ``fsmctl simulate --law DIR``.
 
-Exit codes: 0 written (or up to date with ``--check``), 1 the folder is stale or missing (``--check``; the diff
-is printed), 2 the script does not derive (one line naming the problem) or ``--out`` is unusable.
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 written (or up to date with ``--check``), 1 the
+folder is stale or missing (``--check``; the diff is printed), 2 the script does not derive (one line naming the
+problem) or ``--out`` is unusable.
 """
 
 from __future__ import annotations
@@ -23,7 +24,18 @@ import sys
 import time
 from pathlib import Path
 
-__all__ = ["add_parser", "run", "verification_lines"]
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.options import add_out_option
+
+__all__ = ["add_parser", "run", "verification_lines", "EXIT_CODES"]
+
+EXIT_CODES = {
+    0: "the law folder was written (with --check: it is up to date)",
+    1: "with --check: the folder is stale or missing (the diff is printed)",
+    2: "the script does not derive (one line naming the problem), --out is unusable, or another usage or input "
+    "error (one line on stderr, never a traceback)",
+}
+"""What ``fsmctl derive``'s exit codes mean where they differ from :data:`fsmctl.cli.exit_codes.MEANINGS`."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -46,16 +58,13 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "fsmctl.symbolic.law.LawBuilder) for both error models, print what was checked (the law contract), the "
         "law's parameters, states and broadcast, and write its folder (law.json, C, CasADi, manifest.json) "
         "atomically. Fly it with: fsmctl simulate --law DIR.",
-        epilog="exit codes: 0 written (or up to date with --check), 1 stale or missing (--check), "
-        "2 the script does not derive or --out is unusable.",
+        epilog=epilog(EXIT_CODES),
     )
     p.add_argument("script", type=Path, metavar="FILE.py", help="the derivation script")
-    p.add_argument(
-        "--out",
-        type=Path,
-        default=None,
-        metavar="DIR",
-        help="law folder to write (default: ./<law name> in the current folder); an existing folder must be a law's",
+    add_out_option(
+        p,
+        None,
+        help="law folder to write; an existing folder must be a law's (default: ./<law name> in the current folder)",
     )
     p.add_argument(
         "--check",

@@ -6,7 +6,8 @@ folder written by ``fsmctl derive`` (:func:`fsmctl.model.laws.resolve_law`).  Fo
 reference, what an agent broadcasts to its neighbours, its own states, and its parameters (name, default,
 unit, admissible range, meaning): the names ``[controller]`` keys and ``--set NAME=VALUE`` use.
 
-Exit codes: 0 listed, 2 an unknown law or a script that does not derive (one line).
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 listed, 2 an unknown law or a script that does
+not derive (one line).
 """
 
 from __future__ import annotations
@@ -14,7 +15,16 @@ from __future__ import annotations
 import argparse
 import json
 
-__all__ = ["add_parser", "run", "law_to_dict", "format_law", "parameter_table"]
+from fsmctl.cli.exit_codes import epilog
+
+__all__ = ["add_parser", "run", "law_to_dict", "format_law", "parameter_table", "EXIT_CODES"]
+
+EXIT_CODES = {
+    0: "listed",
+    2: "an unknown law, a derivation script that does not derive, or another usage or input error (one line on "
+    "stderr, never a traceback)",
+}
+"""What ``fsmctl laws``' exit codes mean where they differ from :data:`fsmctl.cli.exit_codes.MEANINGS`."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -37,9 +47,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "name, default, unit, range, meaning), or show one law: a built-in name, a derivation script FILE.py or a "
         "folder written by fsmctl derive. Parameters are set by name in a scenario's [controller] table or with "
         "fsmctl simulate --set NAME=VALUE.",
-        epilog="exit codes: 0 listed, 2 unknown law or a script that does not derive.",
+        epilog=epilog(EXIT_CODES),
     )
-    p.add_argument("law", nargs="?", default=None, metavar="NAME|FILE.py|DIR", help="show this law only")
+    p.add_argument("law_name", nargs="?", default=None, metavar="NAME|FILE.py|DIR", help="show this law only")
     p.add_argument("--json", action="store_true", help="print JSON (a list of laws, or one law's object)")
     p.set_defaults(func=run)
     return p
@@ -51,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed options (``law``, ``json``).
+        Parsed options (``law_name``, ``json``).
 
     Returns
     -------
@@ -62,8 +72,8 @@ def run(args: argparse.Namespace) -> int:
     from fsmctl.model.laws import builtin_laws, resolve_law
     from fsmctl.outputs import jsonable
 
-    if args.law is not None:
-        law = resolve_law(args.law)
+    if args.law_name is not None:
+        law = resolve_law(args.law_name)
         if args.json:
             print(json.dumps(jsonable(law_to_dict(law)), indent=2, allow_nan=False))
         else:

@@ -19,7 +19,9 @@ The library below (:mod:`fsmctl.studies` and down) never imports this package; i
 :class:`fsmctl.errors.InputError` (and subclasses), which :func:`main` turns into one line and exit code 2.
 :class:`UsageError` is for the command-line modules only (``.importlinter``, ``tests/test_layers.py``).
 
-Exit codes (the one place they are decided, :func:`main`):
+Exit codes: :func:`main` decides them (the one place), :mod:`fsmctl.cli.exit_codes` names them and says what each
+one means (:data:`~fsmctl.cli.exit_codes.MEANINGS`); every subcommand's ``--help`` ends with that list, in the
+command's own words where they differ (:func:`fsmctl.cli.exit_codes.epilog`).
 
 ====  =========================================================================================
 0     success (every claim as expected, the run finished, the files were written, the law
@@ -28,13 +30,17 @@ Exit codes (the one place they are decided, :func:`main`):
       is stale (``fsmctl derive --check``), or an internal error (one line; ``--debug`` shows
       the traceback)
 2     usage, input or environment error: a bad option or scenario file, an unknown law or a
-      derivation script that does not derive, a file that is not UTF-8, an unusable output
-      folder (read-only, full, or an existing folder that is not a law's for ``fsmctl derive``),
-      a run that would exceed the memory, an address that is not a Dask scheduler (one line on
-      stderr, never a traceback)
+      derivation script that does not derive, a file that is not UTF-8 or not an fsmctl result
+      (``--from``), an unusable output folder (read-only, full, or an existing folder that is not
+      a law's for ``fsmctl derive``), a run that would exceed the memory, an address that is not
+      a Dask scheduler (one line on stderr, never a traceback)
 130   interrupted (Ctrl-C / SIGINT); finished outputs are kept, partial files are not written
 143   terminated (SIGTERM); as for 130
 ====  =========================================================================================
+
+Messages: the library reports what it is doing on the ``fsmctl`` logger (e.g. the one-time notice that the
+generated C is being compiled, ~10 s); :func:`main` shows its INFO records as one line each on stderr, prefixed
+``fsmctl: `` (``--debug``: DEBUG records too; ``--quiet``: warnings and errors only).
 
 ``--debug`` (or ``FSMCTL_DEBUG=1``) lets every exception propagate with its traceback.
 """
@@ -45,16 +51,27 @@ import argparse
 import contextlib
 import errno
 import importlib
+import logging
 import os
 import signal
 import sys
 import warnings
 
+from fsmctl.cli.exit_codes import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, epilog
+from fsmctl.cli.options import HelpFormatter, InvalidValue
 from fsmctl.errors import EnvironmentProblem, InputError
 
-__all__ = ["main", "UsageError", "SUBCOMMAND_MODULES", "EXIT_OK", "EXIT_FAILED", "EXIT_INPUT", "EXIT_INTERRUPTED"]
-
-EXIT_OK, EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_TERMINATED = 0, 1, 2, 130, 143
+__all__ = [
+    "main",
+    "build_parser",
+    "UsageError",
+    "SUBCOMMAND_MODULES",
+    "EXIT_OK",
+    "EXIT_FAILED",
+    "EXIT_INPUT",
+    "EXIT_INTERRUPTED",
+    "EXIT_TERMINATED",
+]
 
 SUBCOMMAND_MODULES = (
     "fsmctl.cli.prove",
@@ -83,15 +100,29 @@ class Terminated(BaseException):
 
 
 class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (exit 2) and :class:`fsmctl.cli.options.HelpFormatter` for every ``--help``."""
+
+    def __init__(self, *args, formatter_class=HelpFormatter, **kwargs):
+        super().__init__(*args, formatter_class=formatter_class, **kwargs)
+
     def error(self, message):  # one line, exit 2 (argparse's default prints usage too)
-        self.exit(2, f"{self.prog}: error: {message}\n")
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message}\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
+    """The ``fsmctl`` parser with every subcommand of :data:`SUBCOMMAND_MODULES` (each sets ``func``).
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser; its subcommands are the choices of its subparsers action.  The documentation's command
+        pages are generated from it (sphinx-argparse).
+    """
     parser = _Parser(
         prog="fsmctl",
         description="Spacecraft-formation attitude control laws, from Liang, Sun & Wang (2012)'s fast sliding mode: "
         "prove, simulate, reproduce, compare; list the laws, derive your own.",
+        epilog=epilog({0: "success (what success is: see the command's --help)", 1: "the command reports a failure"}),
     )
     from fsmctl import __version__
 
@@ -100,7 +131,13 @@ def build_parser() -> argparse.ArgumentParser:
         "--debug",
         action="store_true",
         default=os.environ.get("FSMCTL_DEBUG", "") not in ("", "0"),
-        help="show tracebacks instead of one-line errors (also FSMCTL_DEBUG=1)",
+        help="show tracebacks instead of one-line errors, and the library's DEBUG messages (also FSMCTL_DEBUG=1)",
+    )
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="show only warnings and errors on stderr, not the library's notices (such as the first compile of "
+        "the generated C)",
     )
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     for name in SUBCOMMAND_MODULES:
@@ -149,13 +186,83 @@ def _raise_terminated(signum, frame):
     raise Terminated
 
 
+class _StderrHandler(logging.Handler):
+    """Writes each record as one line to the current ``sys.stderr`` (pytest and callers may swap it)."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        try:
+            sys.stderr.write(self.format(record) + "\n")
+            sys.stderr.flush()
+        except Exception:  # a closed stderr must not turn a notice into a failure
+            self.handleError(record)
+
+
+class _OneLineFormatter(logging.Formatter):
+    """``fsmctl: <message>`` on one line (``fsmctl: warning: ...`` at WARNING and above); no timestamps."""
+
+    def __init__(self, *, tracebacks: bool) -> None:
+        super().__init__()
+        self.tracebacks = tracebacks
+
+    def format(self, record: logging.LogRecord) -> str:
+        text = " ".join(record.getMessage().split())
+        if record.levelno >= logging.ERROR:
+            text = f"error: {text}"
+        elif record.levelno >= logging.WARNING:
+            text = f"warning: {text}"
+        line = f"fsmctl: {text}"
+        if self.tracebacks and record.exc_info:
+            line += "\n" + self.formatException(record.exc_info)
+        return line
+
+
+@contextlib.contextmanager
+def _library_messages(*, debug: bool, quiet: bool):
+    """Show the ``fsmctl`` logger's records on stderr for the duration of a command, then restore it.
+
+    INFO and above by default (e.g. "compiling the generated C ... (first use, ~10 s)"), DEBUG with ``--debug``,
+    WARNING and above with ``--quiet``.
+    """
+    logger = logging.getLogger("fsmctl")
+    handler = _StderrHandler()
+    handler.setFormatter(_OneLineFormatter(tracebacks=debug))
+    previous = logger.level
+    logger.setLevel(logging.DEBUG if debug else logging.WARNING if quiet else logging.INFO)
+    logger.addHandler(handler)
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.setLevel(previous)
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the ``fsmctl`` command line; returns the exit code (see the module docstring)."""
+    """Run the ``fsmctl`` command line; returns the exit code (see the module docstring).
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments after ``fsmctl`` (default: ``sys.argv[1:]``); recorded as ``args.argv`` (with ``fsmctl``
+        first) for the files that embed their command line.
+
+    Returns
+    -------
+    int
+        The exit code (:mod:`fsmctl.cli.exit_codes`).
+    """
     parser = build_parser()
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = parser.parse_args(argv)
     if getattr(args, "func", None) is None:
         parser.print_help()
         return EXIT_INPUT
+    args.argv = ["fsmctl", *argv]
+    with _library_messages(debug=args.debug, quiet=args.quiet):
+        return _run(args)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the chosen subcommand and turn what it raises into one line and an exit code."""
     errors = _input_errors()
     name = f"fsmctl {args.command}"
     previous = None
@@ -164,6 +271,9 @@ def main(argv: list[str] | None = None) -> int:
         _handler_pid = os.getpid()
         previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
+        invalid = [v for v in vars(args).values() if isinstance(v, InvalidValue)]
+        if invalid:  # a bad value of a former spelling of an option (fsmctl.cli.options.DeprecatedAlias)
+            raise UsageError(str(invalid[0]))
         with warnings.catch_warnings():
             warnings.filterwarnings("once")
             code = int(args.func(args) or 0)

@@ -7,24 +7,41 @@ base scenario's control period, ``--link-delay``, ``--loss-probability`` and ``-
 sample the hardware, and ``--vary noise`` runs the base scenario over noise seeds only (every run has its own
 ``simulation.seed``, derived from ``--seed``).
 
-Exit codes: 0 every run finished, 1 some run failed (they are listed), 2 usage or input error,
-130 interrupted (SIGINT), 143 terminated (SIGTERM); finished chunks are kept and ``--resume`` continues.
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 every run finished, 1 some run failed (they are
+listed), 2 usage or input error, 130 interrupted (SIGINT), 143 terminated (SIGTERM); finished chunks are kept and
+``--resume`` continues.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 from collections.abc import Iterable
 from dataclasses import replace
 
+from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.law_options import add_law_options, controller_changes
+from fsmctl.cli.options import (
+    add_case_option,
+    add_dt_option,
+    add_figures_option,
+    add_out_option,
+    add_output_interval_option,
+    add_progress_option,
+    add_scenario_option,
+    add_seed_option,
+    add_steady_window_option,
+    add_t_final_option,
+    add_tolerance_deg_option,
+    add_torque_limit_option,
+)
+from fsmctl.cli.parallel_options import add_dask_options, add_workers_option
 from fsmctl.cli.run_options import add_run_options
-from fsmctl.cli.types import finite_or_inf_float, nonnegative_int, number_range, positive_float, positive_int
+from fsmctl.cli.types import finite_or_inf_float, number_range, positive_int
 from fsmctl.studies.montecarlo import (
     COMPLETE_MARKER,
-    DASK_TIMEOUT_S,
     HARDWARE_RANGES,
     SAMPLING_RANGES,
     VARY,
@@ -33,7 +50,15 @@ from fsmctl.studies.montecarlo import (
     CampaignSettings,
 )
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "report_lines", "EXIT_CODES"]
+
+EXIT_CODES = {
+    0: "every run finished and the files were written",
+    1: "some run failed (they are listed; the others are written)",
+    130: "interrupted (SIGINT, Ctrl-C): the workers are stopped, finished chunks are kept, --resume continues",
+    143: "terminated (SIGTERM): as for 130",
+}
+"""What ``fsmctl montecarlo``'s exit codes mean where they differ from :data:`fsmctl.cli.exit_codes.MEANINGS`."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -58,61 +83,42 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             "Writes OUT/montecarlo.nc, OUT/summary.json, OUT/histograms.png/.svg, one file per chunk (resumable) and, "
             "last, OUT/complete.json. The settings are printed first and stored in the outputs. "
             "Ctrl-C (SIGINT) or SIGTERM stops the workers and keeps the finished chunks; exit code 130 (SIGINT) or "
-            "143 (SIGTERM); --resume continues. Exit codes: 0 every run finished, 1 some run failed, 2 usage or input "
-            "error."
+            "143 (SIGTERM); --resume continues."
+        ),
+        epilog=epilog(
+            EXIT_CODES,
+            text="--resume continues a campaign in --out: the finished chunks are kept and the remaining runs flown; "
+            "its settings (campaign.json) must be the same, or it is refused (exit 2).",
         ),
     )
     d = CampaignSettings()
-    p.add_argument("--scenario", default=d.scenario, help="built-in name or TOML file (default: %(default)s)")
-    p.add_argument(
-        "--case",
-        default=None,
-        help="case of the scenario (default: its first case; a file without [cases] is used as it is)",
-    )
-    p.add_argument("--runs", type=positive_int, default=d.runs, help="number of runs (default: %(default)s)")
-    p.add_argument("--workers", type=positive_int, default=None, help="local worker processes (default: all CPUs)")
-    p.add_argument(
-        "--seed",
-        type=nonnegative_int,
-        default=d.seed,
-        help="campaign seed: every run's perturbations and its noise seed (simulation.seed) derive from it "
-        "(default: %(default)s)",
-    )
+    add_scenario_option(p, default=d.scenario)
+    add_case_option(p)
+    p.add_argument("--runs", type=positive_int, default=d.runs, metavar="N", help=f"number of runs (default: {d.runs})")
+    add_workers_option(p, default=None, what="local worker processes flying the chunks", default_text="all CPUs")
+    add_seed_option(p, "the campaign; every run's perturbations and its noise seed (simulation.seed) derive from it")
     p.add_argument(
         "--vary",
         choices=VARY,
         default=d.vary,
         help="'all': every run draws the sampling ranges below and its own noise seed; 'noise': every run is the "
-        "base scenario with only its noise seed (sensor noise, packet losses) changed (default: %(default)s)",
+        f"base scenario with only its noise seed (sensor noise, packet losses) changed (default: {d.vary})",
     )
-    p.add_argument("--dask", metavar="ADDRESS", default=None, help="run on an existing Dask distributed scheduler")
-    p.add_argument(
-        "--dask-timeout",
-        type=positive_float,
-        default=DASK_TIMEOUT_S,
-        metavar="S",
-        help="seconds the scheduler gets to accept the connection and answer (default: %(default)s)",
-    )
-    p.add_argument("--out", default="montecarlo_out", help="output folder (default: %(default)s)")
+    add_dask_options(p, what="the campaign's chunks")
+    add_out_option(p, "montecarlo_out")
     p.add_argument("--resume", action="store_true", help="continue the campaign already in --out")
     p.add_argument(
         "--chunk-size",
         type=positive_int,
         default=d.chunk_size,
-        help="runs per chunk file (default: %(default)s); a chunk's runs fly together in one compiled loop "
+        metavar="N",
+        help=f"runs per chunk file (default: {d.chunk_size}); a chunk's runs fly together in one compiled loop "
         "(fsmctl.simulate_many), each with the results of its run alone",
     )
-    p.add_argument("--t-final", type=finite_or_inf_float, default=None, help="horizon in s (default: the scenario's)")
-    p.add_argument("--dt", type=finite_or_inf_float, default=None, help="step in s (default: the scenario's)")
-    p.add_argument(
-        "--output-interval",
-        type=finite_or_inf_float,
-        default=d.output_interval,
-        help="output grid in s, lowered to the largest multiple of dt dividing t_final (default: %(default)s)",
-    )
-    p.add_argument(
-        "--torque-limit", type=finite_or_inf_float, default=None, help="N m per component (default: the scenario's)"
-    )
+    add_t_final_option(p)
+    add_dt_option(p)
+    add_output_interval_option(p, d.output_interval, "lowered to the largest multiple of dt dividing t_final")
+    add_torque_limit_option(p)
     add_run_options(p, seed=False)  # --control-period; --seed is the campaign's
     add_law_options(p, what="every run")  # before the sampling ranges: their group ends the help
     hardware = p.add_argument_group(
@@ -125,7 +131,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             type=number_range,
             default=None,
             metavar="LOW,HIGH",
-            help=text.replace("%", "%%"),
+            help=_help_text(text),
         )
     sampling = p.add_argument_group("sampling ranges (every run draws from these)")
     for name, text in SAMPLING_RANGES:
@@ -133,23 +139,20 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             "--" + name.replace("_", "-"),
             type=finite_or_inf_float,
             default=getattr(d, name),
-            help=text.replace("%", "%%") + " (default: %(default)s)",
+            help=_help_text(text) + f" (default: {getattr(d, name)})",
         )
-    p.add_argument(
-        "--tolerance-deg",
-        type=finite_or_inf_float,
-        default=d.tolerance_deg,
-        help="convergence tolerance of AAEM and RAEM at t_final, in deg (default: %(default)s)",
-    )
-    p.add_argument(
-        "--steady-window",
-        type=finite_or_inf_float,
-        default=d.steady_window,
-        help="steady-state window at the end of each run, in s (default: %(default)s)",
-    )
-    p.add_argument("--no-progress", action="store_true", help="no progress bar")
+    add_tolerance_deg_option(p, "convergence tolerance of AAEM and RAEM at t_final", d.tolerance_deg)
+    add_steady_window_option(p, d.steady_window)
+    add_figures_option(p)
+    add_progress_option(p, "over the runs")
     p.set_defaults(func=run)
     return p
+
+
+def _help_text(text: str) -> str:
+    """A sampling range's description (:mod:`fsmctl.studies.montecarlo`) as option help: ``%`` escaped for argparse,
+    ``|x|`` written ``abs(x)`` (the documentation renders help as reStructuredText, where ``|x|`` is markup)."""
+    return re.sub(r"\|([^|\s][^|]*?)\|", r"abs(\1)", text).replace("%", "%%")
 
 
 def _print_now(line: str) -> None:
@@ -213,7 +216,8 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers,
             dask=args.dask,
             resume=args.resume,
-            progress=False if args.no_progress else None,
+            progress=args.progress,
+            figures=not args.no_figures,
             log=log,
             dask_timeout=args.dask_timeout,
             base=base,

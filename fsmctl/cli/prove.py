@@ -4,8 +4,9 @@
 what a law declares instead (:func:`fsmctl.proofs.law_check.check_law`: its contract, and its Lyapunov
 candidate when it declares one).
 
-Exit codes: 0 every claim as expected (known errata included) / the law's checks passed, 1 a claim fails
-for the scenario / a law check failed (or a check did not go through), 2 usage or input error.
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 every claim as expected (known errata
+included) / the law's checks passed, 1 a claim fails for the scenario / a law check failed (or a check did not
+go through), 2 usage or input error.
 """
 
 from __future__ import annotations
@@ -15,14 +16,26 @@ import math
 import sys
 from pathlib import Path
 
-__all__ = ["add_parser", "run"]
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.options import add_case_option, add_scenario_option, add_seed_option
+from fsmctl.cli.parallel_options import add_workers_option
 
-EPILOG = """verdicts: proved (symbolic), numeric (sampling only, not a proof), erratum (the printed statement is
+__all__ = ["add_parser", "run", "EXIT_CODES"]
+
+EXIT_CODES = {
+    0: "every claim as expected, known errata included (with --law: the law's checks passed)",
+    1: "a claim fails for the scenario or a check did not go through (with --law: a law check failed)",
+}
+"""What ``fsmctl prove``'s exit codes 0 and 1 mean (the others: :data:`fsmctl.cli.exit_codes.MEANINGS`)."""
+
+EPILOG = epilog(
+    EXIT_CODES,
+    text="""verdicts: proved (symbolic), numeric (sampling only, not a proof), erratum (the printed statement is
 false; the corrected one is checked), fails for this scenario.
+
 --law NAME|FILE.py|DIR checks a law instead of the paper's claims (--error-model, --samples, --seed,
---json and --report apply).
-exit codes: 0 every claim as expected (or the law's checks passed), 1 a claim (or a law check) fails,
-2 usage or input error."""
+--json and --report apply).""",
+)
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -46,14 +59,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="check every step of Section 3 (symbolically) and Theorems 1-2 for a scenario, or a law (--law)",
         description="Proof check of Liang, Sun & Wang (2012), Section 3, on the model derived in derive/.",
         epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("claims", nargs="*", metavar="CLAIM_ID", help="claims to check (default: all; see --list)")
     p.add_argument("--list", action="store_true", help="list the claim ids and exit")
-    p.add_argument(
-        "--scenario", default=None, metavar="FILE", help="'paper' (built in) or a TOML file (default: paper)"
-    )
-    p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
+    add_scenario_option(p, default=None)  # None: --law refuses a scenario given explicitly
+    add_case_option(p)
     p.add_argument(
         "--json",
         action="store_true",
@@ -65,23 +75,23 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         type=float,
         default=default.sigma,
         metavar="R",
-        help="Theorem 2 region: |sigma_e,k| <= R (default: %(default)s)",
+        help=f"Theorem 2 region: every component sigma_e,k within [-R, R] (default: {default.sigma:g})",
     )
     p.add_argument(
         "--region-omega",
         type=float,
         default=default.omega,
         metavar="R",
-        help="Theorem 2 region: |omega_e,k| <= R rad/s (default: %(default)s)",
+        help=f"Theorem 2 region: every component omega_e,k within [-R, R] rad/s (default: {default.omega:g})",
     )
     p.add_argument(
         "--samples",
         type=int,
         default=3000,
         metavar="N",
-        help="random state samples per agent for Theorem 2, added to the grid (default: %(default)s)",
+        help="random state samples per agent for Theorem 2, added to the grid (default: 3000)",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default: %(default)s)")
+    add_seed_option(p, "the random state samples")
     g = p.add_argument_group("a law instead of the paper's claims")
     g.add_argument(
         "--law",
@@ -95,13 +105,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         default=None,
         help="with --law: the error kinematics of the checked variant (default: paper)",
     )
-    p.add_argument(
-        "--jobs",
-        type=int,
-        default=2,
-        metavar="N",
-        help="processes for the symbolic checks: 1 = sequential (default: %(default)s)",
-    )
+    add_workers_option(p, default=2, what="worker processes of the symbolic checks, 1 = sequential", former_jobs=True)
     p.set_defaults(func=run)
     return p
 
@@ -141,14 +145,12 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f"{name} must be a finite number >= 0, got {value}")
     if args.region_sigma > 1:
         raise UsageError(f"--region-sigma must be <= 1 (MRPs of the shadow set), got {args.region_sigma}")
-    if args.jobs < 1:
-        raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
     if args.samples < 0:
         raise UsageError(f"--samples must be >= 0, got {args.samples}")
     scenario = _load(args.scenario or "paper", args.case)
     ctx = ProofContext(scenario, Region(args.region_sigma, args.region_omega), args.samples, args.seed)
     ids = list(dict.fromkeys(args.claims))
-    results = run_claims(ids or None, ctx, jobs=args.jobs)
+    results = run_claims(ids or None, ctx, jobs=args.workers)
     if args.json:
         print(report.to_json(results))
     else:

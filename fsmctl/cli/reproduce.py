@@ -1,16 +1,22 @@
 """``fsmctl reproduce``: the Section 4 reproduction report (:mod:`fsmctl.studies.reproduce`) from the command line.
 
-Exit codes: 0 the report was written (the verdicts are results, not failures), 2 usage or input error.
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the report was written (the verdicts are
+results, not failures), 2 usage or input error.
 """
 
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.options import add_figures_option, add_out_option, add_progress_option, add_scenario_option
+from fsmctl.cli.parallel_options import add_workers_option
 from fsmctl.studies.reproduce import FAST_T_FINAL_S
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "EXIT_CODES"]
+
+EXIT_CODES = {0: "the report was written (its verdicts are results, not failures)"}
+"""What ``fsmctl reproduce``'s exit code 0 means (the others: :data:`fsmctl.cli.exit_codes.MEANINGS`)."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -33,22 +39,15 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "angular-momentum bound, and a report grading every claim as reproduced / differs / impossible (bound), "
         "with, for each claim not reproduced, the smallest change of an open setting that would reproduce it. "
         "It flies the paper's law (fsm); fsmctl simulate --law flies others.",
-        epilog="exit codes: 0 the report was written (verdicts are results), 2 usage or input error.",
+        epilog=epilog(EXIT_CODES),
     )
-    p.add_argument(
-        "--scenario",
-        default="paper",
-        metavar="FILE",
-        help="'paper' (built in) or a TOML file with cases 1, 2, 3a, 3b, 3c (default: paper)",
-    )
-    p.add_argument(
-        "--out", default=Path("reproduction"), type=Path, metavar="DIR", help="output folder (default: ./reproduction)"
-    )
+    add_scenario_option(p, note="with the paper's cases 1, 2, 3a, 3b, 3c")
+    add_out_option(p, "reproduction")
     p.add_argument(
         "--fast", action="store_true", help=f"short horizon ({FAST_T_FINAL_S:g} s) for tests and quick looks"
     )
-    p.add_argument("--jobs", type=int, default=2, metavar="N", help="worker processes (default: %(default)s)")
-    p.add_argument("--no-figures", action="store_true", help="skip the PNG/SVG figures")
+    add_workers_option(p, default=2, what="worker processes flying the runs", former_jobs=True)
+    add_figures_option(p)
     p.add_argument(
         "--explain",
         action=argparse.BooleanOptionalAction,
@@ -57,12 +56,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "reproduces it (separate runs written as scenario files in DIR/explain/; --fast: at the short horizon) "
         "(default: on)",
     )
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar over the runs (default: on a terminal)",
-    )
+    add_progress_option(p, "over the runs")
     p.set_defaults(func=run)
     return p
 
@@ -78,21 +72,17 @@ def run(args: argparse.Namespace) -> int:
     Returns
     -------
     int
-        0 when the report was written; bad input raises :class:`fsmctl.cli.main.UsageError` or
-        :class:`fsmctl.errors.InputError` (exit 2).
+        0 when the report was written; bad input raises :class:`fsmctl.errors.InputError` (exit 2).
     """
-    from fsmctl.cli.main import UsageError
     from fsmctl.outputs import output_folder
     from fsmctl.studies.reproduce import format_claims, reproduce
 
-    if args.jobs < 1:
-        raise UsageError(f"--jobs must be >= 1, got {args.jobs}")
     with output_folder(args.out):  # a run that fails before writing anything leaves no empty folder
         rep = reproduce(
             args.scenario,
             args.out,
             fast=args.fast,
-            jobs=args.jobs,
+            jobs=args.workers,
             progress=args.progress,
             figures=not args.no_figures,
             log=print,

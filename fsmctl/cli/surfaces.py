@@ -3,16 +3,29 @@
 Liang et al. 2012, Theorem 3 (eqs 34-41): the scalar sliding mode against the closed forms, and the
 formation loop with and without the torque limit, the inertia uncertainty/disturbance and the coupling.
 
-Exit codes: 0 the tables and files were written, 2 usage or input error.
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the tables and files were written, 2 usage or
+input error.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 
-__all__ = ["add_parser", "run"]
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.options import (
+    add_case_option,
+    add_figures_option,
+    add_out_option,
+    add_scenario_option,
+    add_t_final_option,
+)
+from fsmctl.cli.parallel_options import add_workers_option
+
+__all__ = ["add_parser", "run", "EXIT_CODES"]
+
+EXIT_CODES = {0: "the table was printed and the files were written"}
+"""What ``fsmctl compare-surfaces``' exit code 0 means (the others: :data:`fsmctl.cli.exit_codes.MEANINGS`)."""
 
 
 def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
@@ -34,22 +47,21 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="Compare the fast, terminal and linear sliding surfaces (Liang et al. 2012, Theorem 3) in the scalar "
         "sliding mode (simulation vs eqs 34-36) and in the formation loop, with and without the torque limit, the "
         "inertia uncertainty/disturbance and the coupling.",
-        epilog="exit codes: 0 the files were written, 2 usage or input error.",
+        epilog=epilog(EXIT_CODES),
     )
-    p.add_argument("--scenario", default="paper", metavar="paper|FILE", help="'paper' (built in) or a TOML file")
-    p.add_argument("--case", default=None, help="case of the scenario (paper: 1, 2, 3a, 3b, 3c; default: the first)")
-    p.add_argument("--out", type=Path, default=Path("compare-surfaces"), metavar="DIR",
-                   help="output directory for CSV, JSON and figures (default: %(default)s)")  # fmt: skip
+    add_scenario_option(p)
+    add_case_option(p)
+    add_out_option(p, "compare-surfaces")
     p.add_argument("--fast", action="store_true", help="10 s horizon at dt = 2 ms and a small scalar grid")
-    p.add_argument("--t-final", type=float, default=None, metavar="S", help="horizon in s (default: the scenario's)")
+    add_t_final_option(p)
     p.add_argument("--reach-threshold", type=float, default=1e-3, metavar="S",
-                   help="||s_i|| below which the surface counts as reached (default: %(default)s)")  # fmt: skip
+                   help="||s_i|| below which the surface counts as reached (default: 0.001)")  # fmt: skip
     p.add_argument("--sigma-tolerance", type=float, default=1e-3, metavar="TAU",
-                   help="Theorem 3 target for every |sigma_e,k| (MRP, default: %(default)s)")  # fmt: skip
+                   help="Theorem 3 target: every MRP component sigma_e,k within [-TAU, TAU] (default: 0.001)")  # fmt: skip
     p.add_argument("--metric-tolerance", type=float, default=0.03, metavar="DEG",
-                   help="AAEM/RAEM settling tolerance in deg (default: %(default)s)")  # fmt: skip
-    p.add_argument("--jobs", type=int, default=2, metavar="N", help="concurrent simulations (default: %(default)s)")
-    p.add_argument("--no-figures", action="store_true", help="write CSV/JSON only")
+                   help="AAEM/RAEM settling tolerance in deg (default: 0.03)")  # fmt: skip
+    add_workers_option(p, default=2, what="worker processes flying the simulations", former_jobs=True)
+    add_figures_option(p)
     p.set_defaults(func=run)
     return p
 
@@ -90,7 +102,7 @@ def _compare(args: argparse.Namespace, scenario) -> int:
         reach_threshold=args.reach_threshold,
         sigma_tolerance=args.sigma_tolerance,
         metric_tolerance_deg=args.metric_tolerance,
-        jobs=args.jobs,
+        jobs=args.workers,
     )
     try:
         paths = comp.write(args.out, figures=not args.no_figures)

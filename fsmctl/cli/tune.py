@@ -5,9 +5,9 @@ prints the outcome and names the files written to ``DIR`` (``study.log``, ``tria
 ``pareto.png``, ``best.toml``, ``tune.json``).  ``--workers`` and ``--dask`` choose where a batch's candidates are
 flown (the results do not depend on them); ``--batch``, ``--pruner`` and ``--constraints`` are part of the study.
 
-Exit codes: 0 the search finished and the files were written (also when no design is feasible: the files say so),
-2 usage or input error (one line on stderr), 130 interrupted by SIGINT (Ctrl-C), 143 terminated by SIGTERM; the
-journal keeps every told trial and ``--resume`` continues.
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the search finished and the files were written
+(also when no design is feasible: the files say so), 2 usage or input error (one line on stderr), 130 interrupted
+by SIGINT (Ctrl-C), 143 terminated by SIGTERM; the journal keeps every told trial and ``--resume`` continues.
 """
 
 from __future__ import annotations
@@ -15,34 +15,45 @@ from __future__ import annotations
 import argparse
 import os
 import sys
-from pathlib import Path
 
-from fsmctl.cli.types import nonnegative_int, positive_float, positive_int
-from fsmctl.studies.montecarlo import DASK_TIMEOUT_S
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.options import (
+    add_case_option,
+    add_out_option,
+    add_progress_option,
+    add_scenario_option,
+    add_seed_option,
+    add_t_final_option,
+    add_tolerance_deg_option,
+)
+from fsmctl.cli.parallel_options import add_dask_options, add_workers_option
+from fsmctl.cli.types import positive_int
 from fsmctl.studies.tune import BATCH
 
-__all__ = ["add_parser", "run"]
+__all__ = ["add_parser", "run", "EXIT_CODES"]
 
-EPILOG = """objectives (all minimised; --objectives a,b,...; aggregated over the ensemble by --quantile):
-  aaem_settling, raem_settling  settling time of AAEM (eq 42) / RAEM (eq 43) to --tolerance-deg, s; a run that never
-                                settles within the horizon T scores T * (2 + min(1, decades of its steady error
-                                above the tolerance))
-  aaem_steady, raem_steady      max over the steady window (last 40 % of T, at most 40 s), deg
-  peak_torque, rms_torque       N m
-  chattering                    total variation of u per second, N m/s
-  wheel_momentum                peak wheel momentum, N m s (scenarios with reaction wheels)
+EXIT_CODES = {
+    0: "the search finished and the files were written (also when no design is feasible: the files say so)",
+    130: "interrupted (SIGINT, Ctrl-C): the journal keeps every told trial, --resume continues",
+    143: "terminated (SIGTERM): as for 130",
+}
+"""What ``fsmctl tune``'s exit codes mean where they differ from :data:`fsmctl.cli.exit_codes.MEANINGS`."""
+
+EPILOG_TEXT = """objectives (all minimised; --objectives a,b,...; aggregated over the ensemble by --quantile):
+
+- aaem_settling, raem_settling (s): settling time of AAEM (eq 42) / RAEM (eq 43) to --tolerance-deg; a run that never settles within the horizon T scores T * (2 + min(1, decades of its steady error above the tolerance))
+- aaem_steady, raem_steady (deg): max over the steady window (last 40 % of T, at most 40 s)
+- peak_torque, rms_torque (N m)
+- chattering (N m/s): total variation of u per second
+- wheel_momentum (N m s): peak wheel momentum (scenarios with reaction wheels)
 
 constraints (--constraints a,b,...; default: every one that applies; a trial is feasible when all are <= 0):
-  converged  s      max(AAEM, RAEM settling time) - T: both settle within the horizon (--quantile member)
-  theorem1   1      fsm law: 0 when Theorem 1 (eqs 25-27, balanced time-varying eta) holds for the scenario's
-                    topology with the candidate's coupling weights over T, else 1 + max over links of (k^j - k^i)
-  theorem2   1/s^2  fsm law: max over agents, axes and members of (required delta - delta), the requirement of
-                    Theorem 2 at the reference (fsmctl prove theorem2-delta: along the reference trajectory and under
-                    the disturbance/reference bounds); feasible when delta covers it
-  torque     N m    scenarios with a torque limit: max |commanded (unsaturated) torque| after the transient (from the
-                    later AAEM/RAEM settling time; the steady window if unsettled) minus the limit: saturating during
-                    the transient is allowed, needing more than the limit once converged is not
-  wheels     1      scenarios with reaction wheels and a max_speed: peak wheel momentum / (J_s max_speed) - 0.99
+
+- converged (s): max(AAEM, RAEM settling time) - T: both settle within the horizon (--quantile member)
+- theorem1 (1): fsm law: 0 when Theorem 1 (eqs 25-27, balanced time-varying eta) holds for the scenario's topology with the candidate's coupling weights over T, else 1 + max over links of (k^j - k^i)
+- theorem2 (1/s^2): fsm law: max over agents, axes and members of (required delta - delta), the requirement of Theorem 2 at the reference (fsmctl prove theorem2-delta: along the reference trajectory and under the disturbance/reference bounds); feasible when delta covers it
+- torque (N m): scenarios with a torque limit: the largest commanded (unsaturated) torque component after the transient (from the later AAEM/RAEM settling time; the steady window if unsettled) minus the limit: saturating during the transient is allowed, needing more than the limit once converged is not
+- wheels (1): scenarios with reaction wheels and a max_speed: peak wheel momentum / (J_s max_speed) - 0.99
 
 search space: every tunable numeric parameter of the law (fsmctl laws lists them; --parameters chooses) within its
 declared range, and for the fsm law the coupling weights as two factors k_i_scale (on every k^i_ij) and k_j_scale
@@ -60,10 +71,7 @@ The pruner sees only the trials told before the candidate's batch.
 determinism: trials are proposed, flown and told in batches of --batch (part of the study; trial i is proposed by a
 sampler seeded from (--seed, i)), so the same options give the same trials whatever --workers or --dask; an
 interrupted search continues with --resume exactly as if it had not been interrupted (raising --budget continues
-exactly when the former budget was a multiple of --batch).
-
-exit codes: 0 the search finished and the files were written, 2 usage or input error, 130 interrupted (SIGINT),
-143 terminated (SIGTERM)."""
+exactly when the former budget was a multiple of --batch)."""
 
 
 def _names(text: str) -> tuple[str, ...]:
@@ -113,11 +121,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="Search the law's declared tunable parameters within their ranges (Optuna: TPE for one "
         "objective, NSGA-II for several), scoring each candidate on the scenario or a seeded ensemble; write "
         "DIR/trials.csv, pareto.csv, pareto.png, best.toml (a scenario file for fsmctl simulate) and tune.json.",
-        epilog=EPILOG,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        epilog=epilog(EXIT_CODES, text=EPILOG_TEXT),
     )
-    p.add_argument("--scenario", default="paper", metavar="paper|FILE.toml", help="built-in name or a TOML file")
-    p.add_argument("--case", default=None, help="case name (paper: 1, 2, 3a, 3b, 3c; default: the file's first case)")
+    add_scenario_option(p)
+    add_case_option(p)
     p.add_argument(
         "--law",
         required=True,
@@ -125,9 +132,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="the law to tune: a built-in name (fsmctl laws), a derivation script or a derived folder",
     )
     p.add_argument("--budget", type=positive_int, default=50, metavar="N", help="trials in total (default: 50)")
-    p.add_argument(
-        "--seed", type=nonnegative_int, default=0, metavar="S", help="seed of the search and the ensemble (default: 0)"
-    )
+    add_seed_option(p, "the search and the ensemble")
     p.add_argument(
         "--ensemble",
         type=positive_int,
@@ -166,12 +171,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="NAME=LOW,HIGH",
         help="search range of a parameter (within its declared range); repeatable",
     )
-    p.add_argument(
-        "--tolerance-deg", type=positive_float, default=1.0, metavar="T", help="settling tolerance (default: 1 deg)"
-    )
-    p.add_argument(
-        "--t-final", type=positive_float, default=None, metavar="S", help="horizon in s (default: the scenario's)"
-    )
+    add_tolerance_deg_option(p, "settling tolerance of AAEM and RAEM", 1.0)
+    add_t_final_option(p)
     p.add_argument(
         "--constraints",
         type=_names,
@@ -193,30 +194,16 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="B",
         help=f"trials proposed, flown in parallel and told together; part of the study (default: {BATCH})",
     )
-    p.add_argument(
-        "--workers",
-        type=positive_int,
+    add_workers_option(
+        p,
         default=None,
-        metavar="K",
-        help="local worker processes flying a batch (default: all CPUs, at most --batch; 1 = in this process); "
-        "the results do not depend on it",
+        what="local worker processes flying a batch, 1 = in this process; the results do not depend on it",
+        default_text="all CPUs, at most --batch",
     )
-    p.add_argument("--dask", metavar="ADDRESS", default=None, help="fly the batches on this Dask distributed scheduler")
-    p.add_argument(
-        "--dask-timeout",
-        type=positive_float,
-        default=DASK_TIMEOUT_S,
-        metavar="S",
-        help="seconds the scheduler gets to accept the connection and answer (default: %(default)s)",
-    )
-    p.add_argument("--out", type=Path, default=Path("tune"), metavar="DIR", help="output folder (default: ./tune)")
+    add_dask_options(p, what="the batches")
+    add_out_option(p, "tune")
     p.add_argument("--resume", action="store_true", help="continue the study in DIR to --budget trials in total")
-    p.add_argument(
-        "--progress",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="progress bar over the trials (default: on a terminal)",
-    )
+    add_progress_option(p, "over the trials")
     p.set_defaults(func=run)
     return p
 

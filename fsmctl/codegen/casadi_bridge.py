@@ -217,16 +217,49 @@ def to_casadi_function(
     *,
     cse: bool = True,
 ) -> ca.Function:
-    """Build a CasADi ``Function`` from SymPy matrices.
+    """Build a CasADi ``Function`` from SymPy matrices (the exact translation of the module docstring).
 
-    ``inputs`` are ``(name, matrix of distinct symbols)`` pairs; a symmetric
-    matrix may repeat a symbol (each occurrence maps to the first entry, in
-    column-major order).  ``stages`` are ``(symbols, expression)`` pairs
-    translated in order, each binding its symbols to the translated expression
-    for the stages and outputs after it (intermediate results computed once).
-    ``outputs`` are ``(name, SymPy matrix)`` pairs.  With ``cse`` (default),
-    SymPy's common-subexpression elimination runs on each stage and on the
-    outputs first, so shared products and quotients are computed once.
+    Parameters
+    ----------
+    name : str
+        The function's name.
+    inputs : sequence of (str, Matrix)
+        ``(name, matrix of distinct symbols)`` pairs; a symmetric matrix may repeat a symbol (each occurrence
+        maps to the first entry, in column-major order).
+    outputs : sequence of (str, Matrix)
+        ``(name, SymPy matrix)`` pairs.
+    stages : sequence of (Matrix, Matrix)
+        ``(symbols, expression)`` pairs translated in order, each binding its symbols to the translated
+        expression for the stages and outputs after it (intermediate results computed once).
+    cse : bool
+        Run SymPy's common-subexpression elimination on each stage and on the outputs first, so shared
+        products and quotients are computed once.
+
+    Returns
+    -------
+    casadi.Function
+        An ``SXFunction`` with the given input and output names.
+
+    Raises
+    ------
+    UnsupportedExpressionError
+        An input entry is not a symbol, a stage's symbols and expression differ in shape, or a node has no
+        exact CasADi counterpart.
+
+    Examples
+    --------
+    The terminal term ``sig(x)^alpha`` of the sliding surface (Liang et al. 2012, eqs 1 and 13), with
+    ``sign(0) = 0`` as in SymPy:
+
+    >>> import sympy as sp
+    >>> from fsmctl.codegen import to_casadi_function
+    >>> x, y = sp.symbols("x y", real=True)
+    >>> f = to_casadi_function("f", [("x", sp.Matrix([x])), ("y", sp.Matrix([y]))],
+    ...                        [("z", sp.Matrix([sp.sign(x) * sp.Abs(x) ** sp.Rational(3, 4) + y**2]))])
+    >>> f
+    Function(f:(x,y)->(z) SXFunction)
+    >>> float(f(16, 3)), float(f(-16, 0)), float(f(0, 0))
+    (17.0, -8.0, 0.0)
     """
     mapping: dict[sp.Symbol, ca.SX] = {}
     sx_inputs = []

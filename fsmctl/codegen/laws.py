@@ -41,10 +41,46 @@ LAW_FORMAT = 1
 def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
     """The CasADi functions of a law: constants, then local and control for each error model.
 
+    The per-agent contract of :mod:`fsmctl.symbolic.law`: ``law_constants``, ``law_local_<model>`` and
+    ``law_control_<model>`` for ``model`` in ``paper``, ``exact``, then the script's ``EXTRA_FUNCTIONS``.
+
+    Parameters
+    ----------
+    variants : LawVariants
+        The law for both error models (:func:`load_derivation_script` or
+        :func:`fsmctl.symbolic.law.law_variants`).
+
+    Returns
+    -------
+    list of GeneratedFunction
+        The translated functions, in that order.
+
     Raises
     ------
     LawDefinitionError
         An expression has no exact CasADi translation (e.g. an unsupported SymPy function).
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic.law import LawBuilder, law_variants
+    >>> def law(error_model):
+    ...     b = LawBuilder("p", error_model, doc="proportional, no coordination")
+    ...     K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
+    ...     e = b.error_state()
+    ...     b.broadcast("sigma_e", e.sigma_e)
+    ...     b.torque(-K * e.sigma_e)
+    ...     return b.build()
+    >>> variants = law_variants(law)
+    >>> functions = law_functions(variants)
+    >>> [f.spec.name for f in functions]
+    ['law_constants', 'law_local_paper', 'law_control_paper', 'law_local_exact', 'law_control_exact']
+
+    The applied torque is ``u = -K sigma_e`` limited to ``u_max`` per axis (here ``K = 2``, ``u_max = 0.5``,
+    the reference at rest, empty cache and constants, no neighbours):
+
+    >>> control = functions[2].function
+    >>> print(control(0, [0.1, 0.2, 0.3], 0, [], 0, 0, 0, 0, [2.0], [], [0.1, 0.2, 0.3], 0, [0, 0, 0], 0, 0.5)[0])
+    [-0.2, -0.4, -0.5]
     """
     specs = [variants.paper.constants_spec()]
     for law in variants:
@@ -65,7 +101,51 @@ def _metadata(law: Law, source: str) -> dict:
 def write_law(
     out_dir: Path | str, variants: LawVariants, *, source: str, generator: str = "python -m derive", functions=None
 ) -> dict:
-    """Write a law's folder (see the module docstring) and return its manifest."""
+    """Write a law's folder (see the module docstring) and return its manifest.
+
+    What ``fsmctl derive FILE.py --out DIR`` writes (through :func:`fsmctl.model.laws.derive_script`).
+
+    Parameters
+    ----------
+    out_dir : path
+        The folder (created if missing; ``c/`` and ``casadi/`` inside it are replaced).
+    variants : LawVariants
+        The law for both error models.
+    source : str
+        What the do-not-edit headers and ``law.json`` name as the law's source (e.g. the script's name).
+    generator : str
+        What the headers name as the generator.
+    functions : list of GeneratedFunction, optional
+        Already translated functions (default :func:`law_functions` of ``variants``).
+
+    Returns
+    -------
+    dict
+        The manifest (also written to ``manifest.json``).
+
+    Raises
+    ------
+    LawDefinitionError
+        The graph holds an operation the SIMD kernels cannot print exactly.
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic.law import LawBuilder, law_variants
+    >>> def law(error_model):
+    ...     b = LawBuilder("p", error_model, doc="proportional, no coordination")
+    ...     K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
+    ...     e = b.error_state()
+    ...     b.broadcast("sigma_e", e.sigma_e)
+    ...     b.torque(-K * e.sigma_e)
+    ...     return b.build()
+    >>> variants = law_variants(law)
+    >>> manifest = write_law("p_law", variants, source="p.py")
+    >>> [f["name"] for f in manifest["functions"]]
+    ['law_constants', 'law_local_paper', 'law_control_paper', 'law_local_exact', 'law_control_exact']
+    >>> import json
+    >>> json.load(open("p_law/law.json"))["parameters"][0]["unit"]
+    'N m'
+    """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     try:
@@ -85,7 +165,44 @@ def write_law(
 
 
 def check_law(reference: Path | str, variants: LawVariants, *, source: str, generator: str = "python -m derive"):
-    """``(identical, report)``: whether ``reference`` is what :func:`write_law` writes now."""
+    """``(identical, report)``: whether ``reference`` is what :func:`write_law` writes now.
+
+    What ``fsmctl derive FILE.py --out DIR --check`` runs; it writes nothing but a temporary folder.
+
+    Parameters
+    ----------
+    reference : path
+        The law folder to compare with.
+    variants : LawVariants
+        The law for both error models.
+    source : str
+        The source name the folder was written with.
+    generator : str
+        The generator name it was written with.
+
+    Returns
+    -------
+    tuple of (bool, str)
+        Whether the folder is current, and a report of the differences (a unified diff; empty when current).
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic.law import LawBuilder, law_variants
+    >>> def law(error_model):
+    ...     b = LawBuilder("p", error_model, doc="proportional, no coordination")
+    ...     K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
+    ...     e = b.error_state()
+    ...     b.broadcast("sigma_e", e.sigma_e)
+    ...     b.torque(-K * e.sigma_e)
+    ...     return b.build()
+    >>> variants = law_variants(law)
+    >>> _ = write_law("p_law", variants, source="p.py")
+    >>> check_law("p_law", variants, source="p.py")
+    (True, '')
+    >>> identical, report = check_law("p_law", variants, source="renamed.py")
+    >>> identical, "differs: law.json" in report.splitlines()  # law.json names the source
+    (False, True)
+    """
     return check_generated(
         reference, write=lambda fresh, **kw: write_law(fresh, variants, source=source, generator=generator)
     )
@@ -97,10 +214,39 @@ def load_derivation_script(path: Path | str) -> LawVariants:
     The script defines ``law(error_model) -> Law`` (see :mod:`fsmctl.symbolic.law`) and may define
     ``EXTRA_FUNCTIONS`` (``FunctionSpec`` objects generated beside the contract, e.g. for plots).
 
+    Parameters
+    ----------
+    path : path
+        The script (a ``.py`` file).
+
+    Returns
+    -------
+    LawVariants
+        ``.paper`` and ``.exact``: the law built for each error model (checked to agree).
+
     Raises
     ------
     LawDefinitionError
         The file is missing, is not Python, fails to import, or defines no ``law``.
+
+    Examples
+    --------
+    >>> _ = open("p.py", "w").write(
+    ...     "from fsmctl.symbolic import LawBuilder\\n"
+    ...     "def law(error_model):\\n"
+    ...     "    b = LawBuilder('p', error_model, doc='proportional')\\n"
+    ...     "    e = b.error_state()\\n"
+    ...     "    b.broadcast('sigma_e', e.sigma_e)\\n"
+    ...     "    b.torque(-b.parameter('K', 2.0) * e.sigma_e)\\n"
+    ...     "    return b.build()\\n"
+    ... )
+    >>> variants = load_derivation_script("p.py")
+    >>> variants.name, variants.exact.error_model.value, [p.name for p in variants.paper.parameters]
+    ('p', 'exact', ['K'])
+    >>> load_derivation_script("missing.py")
+    Traceback (most recent call last):
+    ...
+    fsmctl.symbolic.law.LawDefinitionError: missing.py: no such derivation script
     """
     path = Path(path)
     if not path.is_file():

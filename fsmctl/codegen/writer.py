@@ -52,12 +52,58 @@ HEADER = """/*
 
 @dataclass(frozen=True)
 class GeneratedFunction:
+    """A function spec and its CasADi translation (what :func:`write_generated` writes).
+
+    Parameters
+    ----------
+    spec : FunctionSpec
+        The symbolic function (:class:`fsmctl.symbolic.FunctionSpec`).
+    function : casadi.Function
+        Its exact CasADi ``SX`` translation (:func:`fsmctl.codegen.to_casadi_function`).
+
+    Examples
+    --------
+    >>> from fsmctl.codegen import build_functions
+    >>> from fsmctl.symbolic import FunctionSpec, mrp_kinematics, vector_symbols
+    >>> sigma, omega = vector_symbols("sigma"), vector_symbols("omega")
+    >>> spec = FunctionSpec("sigma_dot", "MRP kinematics (eq 3)", inputs=(("sigma", sigma), ("omega", omega)),
+    ...                     outputs=(("sigma_dot", mrp_kinematics(sigma, omega)),))
+    >>> (fn,) = build_functions([spec])
+    >>> fn.spec.name, fn.function.name_in(), fn.function.name_out()
+    ('sigma_dot', ['sigma', 'omega'], ['sigma_dot'])
+    """
+
     spec: FunctionSpec
     function: ca.Function
 
 
 def build_functions(specs: list[FunctionSpec]) -> list[GeneratedFunction]:
-    """Translate function specs into CasADi functions."""
+    """Translate function specs into CasADi functions (:func:`fsmctl.codegen.to_casadi_function`).
+
+    Parameters
+    ----------
+    specs : list of FunctionSpec
+        The functions to translate (:class:`fsmctl.symbolic.FunctionSpec`).
+
+    Returns
+    -------
+    list of GeneratedFunction
+        One per spec, in order.
+
+    Examples
+    --------
+    The MRP kinematics ``sigma_dot = G(sigma) omega`` (Liang et al. 2012, eq 3) at ``sigma = 0``, where
+    ``G = I/4``:
+
+    >>> from fsmctl.codegen import build_functions
+    >>> from fsmctl.symbolic import FunctionSpec, mrp_kinematics, vector_symbols
+    >>> sigma, omega = vector_symbols("sigma"), vector_symbols("omega")
+    >>> spec = FunctionSpec("sigma_dot", "MRP kinematics (eq 3)", inputs=(("sigma", sigma), ("omega", omega)),
+    ...                     outputs=(("sigma_dot", mrp_kinematics(sigma, omega)),))
+    >>> (fn,) = build_functions([spec])
+    >>> print(fn.function([0, 0, 0], [0.4, 0.8, 1.2]))
+    [0.1, 0.2, 0.3]
+    """
     return [GeneratedFunction(s, to_casadi_function(s.name, s.inputs, s.outputs, s.stages)) for s in specs]
 
 
@@ -116,6 +162,25 @@ def write_generated(
         What the do-not-edit headers name as the generator and its source.
     batched_name : str
         File stem of the batched kernels (distinct per folder compiled into one library).
+
+    Returns
+    -------
+    dict
+        The manifest (also written to ``manifest.json``): versions, layouts, every function's inputs and
+        outputs, and the sha256 of every file.
+
+    Examples
+    --------
+    >>> from fsmctl.codegen import build_functions
+    >>> from fsmctl.symbolic import FunctionSpec, mrp_kinematics, vector_symbols
+    >>> sigma, omega = vector_symbols("sigma"), vector_symbols("omega")
+    >>> spec = FunctionSpec("sigma_dot", "MRP kinematics (eq 3)", inputs=(("sigma", sigma), ("omega", omega)),
+    ...                     outputs=(("sigma_dot", mrp_kinematics(sigma, omega)),))
+    >>> manifest = write_generated("out", functions=build_functions([spec]), source="an example")
+    >>> sorted(manifest["sha256"])
+    ['c/sigma_dot.c', 'c/sigma_dot.h', 'casadi/sigma_dot.casadi']
+    >>> manifest["functions"][0]["inputs"]
+    [{'name': 'sigma', 'shape': [3, 1]}, {'name': 'omega', 'shape': [3, 1]}]
     """
     out = Path(out_dir)
     c_dir, cas_dir = out / "c", out / "casadi"
@@ -170,8 +235,37 @@ def _tree(root: Path) -> dict[str, Path]:
 def check_generated(reference: Path | str, write=None, **kwargs) -> tuple[bool, str]:
     """Regenerate into a temporary folder and compare with ``reference``.
 
-    Returns ``(identical, report)``; the report holds a unified diff of the
-    text files that differ and the names of missing or extra files.
+    What ``python -m derive --check`` runs on ``generated/``.
+
+    Parameters
+    ----------
+    reference : path
+        The folder to compare with.
+    write : callable, optional
+        ``write(folder, **kwargs)`` generating into ``folder``; default :func:`write_generated`.
+    **kwargs
+        Passed on to ``write``.
+
+    Returns
+    -------
+    tuple of (bool, str)
+        ``(identical, report)``; the report holds a unified diff of the text files that differ and the names
+        of missing or extra files (empty when identical).
+
+    Examples
+    --------
+    >>> from fsmctl.codegen import build_functions
+    >>> from fsmctl.symbolic import FunctionSpec, mrp_kinematics, vector_symbols
+    >>> sigma, omega = vector_symbols("sigma"), vector_symbols("omega")
+    >>> spec = FunctionSpec("sigma_dot", "MRP kinematics (eq 3)", inputs=(("sigma", sigma), ("omega", omega)),
+    ...                     outputs=(("sigma_dot", mrp_kinematics(sigma, omega)),))
+    >>> functions = build_functions([spec])
+    >>> manifest = write_generated("out", functions=functions)
+    >>> check_generated("out", functions=functions)
+    (True, '')
+    >>> _ = open("out/stale.txt", "w").write("left over")
+    >>> print(check_generated("out", functions=functions)[1])
+    not produced by the generator (stale file): stale.txt
     """
     reference = Path(reference)
     with tempfile.TemporaryDirectory() as tmp:

@@ -1,1 +1,142 @@
-"""fsmctl/model"""
+"""The runtime model: scenarios, topologies, laws at run time, hardware and noise, and the generated code.
+
+What a user of this layer calls:
+
+* scenarios (TOML files, the paper's cases): :class:`Scenario`, :func:`load_scenario`, :func:`paper_scenario` and
+  their settings classes (:mod:`fsmctl.model.scenario`), the JSON Schema of the file (:func:`file_schema`);
+* communication graphs (Liang et al. 2012, Assumption 1; switching schedules): :class:`Topology`, :class:`Link`,
+  :class:`Schedule`, :func:`ring`, :func:`k_nearest`, :func:`all_to_all`, :func:`from_phase_table`;
+* laws at run time (built-in, derived folders, derivation scripts): :func:`resolve_law`, :func:`builtin_laws`,
+  :class:`LawCode`, :func:`parameter_matrix`; the formation aggregation rule (eq 13): :func:`aggregate`;
+* attitude conversions (MRP <-> quaternion), the wheel torque distribution and the sensor noise of a run;
+* the generated code: :func:`backend`, :func:`compiled_library` (compiled once, then cached; the first compile logs
+  one INFO record on the ``"fsmctl"`` logger);
+* simulated formations as python-control time responses (:class:`FormationResponse`, :func:`formation_response`)
+  and the colour each agent has in every figure (:func:`agent_color`).
+
+Everything loads on first use (SPEC 1 lazy loading), so ``import fsmctl.model`` stays light.
+"""
+
+from __future__ import annotations
+
+import lazy_loader
+
+__all__ = [
+    # scenario.py (scenario files and the paper's cases)
+    "Scenario",
+    "ScenarioError",
+    "InertiaWarning",
+    "Agent",
+    "Sinusoid",
+    "Reference",
+    "ControllerSettings",
+    "SimulationSettings",
+    "ActuatorSettings",
+    "StarTrackerSettings",
+    "GyroSettings",
+    "SensorSettings",
+    "LinkSettings",
+    "load_scenario",
+    "paper_scenario",
+    "scenario_from_dict",
+    "check_inertia",
+    "BUILTIN_SCENARIOS",
+    # scenario_schema.py
+    "file_schema",
+    # topology.py
+    "Topology",
+    "TopologyError",
+    "Link",
+    "Schedule",
+    "ring",
+    "k_nearest",
+    "all_to_all",
+    "from_phase_table",
+    "schedule_weight",
+    # laws.py, coupling.py
+    "LawCode",
+    "LawError",
+    "LawParameterInfo",
+    "builtin_laws",
+    "resolve_law",
+    "parameter_matrix",
+    "aggregate",
+    # attitude.py, actuators.py, noise.py
+    "quaternion_from_mrp",
+    "mrp_from_quaternion",
+    "spin_inertia_matrix",
+    "distribution_matrix",
+    "distribute",
+    "max_body_torque",
+    "hardware_noise",
+    "allan_deviation",
+    "random_walk_coefficients",
+    # generated_code.py
+    "backend",
+    "compiled_library",
+    "generated_dir",
+    "GeneratedCodeError",
+    "CompilerUnavailableWarning",
+    "LibraryCacheWarning",
+    # time_response.py
+    "FormationResponse",
+    "formation_response",
+    "agent_color",
+]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "scenario": [
+            "Scenario",
+            "ScenarioError",
+            "InertiaWarning",
+            "Agent",
+            "Sinusoid",
+            "Reference",
+            "ControllerSettings",
+            "SimulationSettings",
+            "ActuatorSettings",
+            "StarTrackerSettings",
+            "GyroSettings",
+            "SensorSettings",
+            "LinkSettings",
+            "load_scenario",
+            "paper_scenario",
+            "scenario_from_dict",
+            "check_inertia",
+            "BUILTIN_SCENARIOS",
+        ],
+        "scenario_schema": ["file_schema"],
+        "topology": [
+            "Topology",
+            "TopologyError",
+            "Link",
+            "Schedule",
+            "ring",
+            "k_nearest",
+            "all_to_all",
+            "from_phase_table",
+            "schedule_weight",
+        ],
+        "laws": ["LawCode", "LawError", "LawParameterInfo", "builtin_laws", "resolve_law", "parameter_matrix"],
+        "coupling": ["aggregate"],
+        "attitude": ["quaternion_from_mrp", "mrp_from_quaternion"],
+        "actuators": ["spin_inertia_matrix", "distribution_matrix", "distribute", "max_body_torque"],
+        "noise": ["hardware_noise", "allan_deviation", "random_walk_coefficients"],
+        "generated_code": [
+            "backend",
+            "compiled_library",
+            "generated_dir",
+            "GeneratedCodeError",
+            "CompilerUnavailableWarning",
+            "LibraryCacheWarning",
+        ],
+        "time_response": ["FormationResponse", "formation_response", "agent_color"],
+    },
+)
+
+
+def __dir__() -> list[str]:
+    """The public names, eager and lazy (for tab completion and ``dir(fsmctl.model)``)."""
+    return sorted(set(__all__) | set(_lazy_all))

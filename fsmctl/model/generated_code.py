@@ -23,6 +23,17 @@ compiler's resolution of ``-march=native`` (the concrete ``-march``/feature
 list, e.g. ``-march=znver3 -mavx2 ...``): another CPU gets its own build.
 ``FSMCTL_PORTABLE=1`` drops the native and optimisation flags (plain ``CFLAGS``).
 
+The first compile of a library (model + one law + driver) takes about ten seconds.  Right before it
+starts, one INFO record is logged on the ``fsmctl.model.generated_code`` logger (a child of ``"fsmctl"``),
+e.g. ``compiling the generated C for law 'fsm' (first use, about 10 s)``; nothing is logged when the
+library comes from the cache.  The ``fsmctl`` command shows it on stderr; in Python or a notebook the
+standard :mod:`logging` rules apply: unconfigured, Python shows only warnings, so the notice is shown once a
+handler takes ``"fsmctl"``'s INFO records, e.g.::
+
+    import logging
+    logging.basicConfig()                               # a handler on the root logger (stderr)
+    logging.getLogger("fsmctl").setLevel(logging.INFO)  # fsmctl's INFO records; other libraries stay at WARNING
+
 Environment: ``FSMCTL_CACHE_DIR`` (default ``$XDG_CACHE_HOME/fsmctl`` or
 ``~/.cache/fsmctl``), ``CC`` (default: the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``; a
 ``CC`` that is set is used as given, never replaced by another compiler), ``FSMCTL_NO_COMPILE``,
@@ -65,6 +76,7 @@ import ctypes
 import functools
 import hashlib
 import json
+import logging
 import os
 import platform
 import re
@@ -75,7 +87,7 @@ import tempfile
 import threading
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -100,6 +112,9 @@ __all__ = [
     "compile_flags",
 ]
 
+_log = logging.getLogger(__name__)
+"""``fsmctl.model.generated_code``: the one INFO record before a library is compiled (see the module docstring)."""
+
 CFLAGS = ("-O2", "-fPIC", "-shared", "-fno-math-errno", "-std=c99")
 """Portable flags: always used (the fallback when the optional flags below are rejected)."""
 OPTIMIZE_FLAGS = ("-O3", "-ffp-contract=off", "-fno-semantic-interposition", "-fno-plt")
@@ -113,6 +128,20 @@ class CompilerUnavailableWarning(RuntimeWarning):
 
     Issued once per process, with the reason: no C compiler, ``CC`` not found, the compiler failed or
     crashed, or a damaged cached library could not be rebuilt into a working one.
+
+    Examples
+    --------
+    Turn the fallback into an error, e.g. in a benchmark that must run compiled:
+
+    >>> import warnings
+    >>> from fsmctl.model import CompilerUnavailableWarning
+    >>> with warnings.catch_warnings():
+    ...     warnings.simplefilter("error", CompilerUnavailableWarning)
+    ...     try:
+    ...         warnings.warn("no C compiler found", CompilerUnavailableWarning)
+    ...     except CompilerUnavailableWarning as exc:
+    ...         print("refused:", exc)
+    refused: no C compiler found
     """
 
 
@@ -121,15 +150,51 @@ class LibraryCacheWarning(RuntimeWarning):
 
     Either a cached library was damaged (missing or wrong sha256 record, unloadable) and was rebuilt,
     or the cache folder cannot be used and the library was compiled in a private temporary folder.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from fsmctl.model import LibraryCacheWarning
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warnings.warn("the cache folder is read-only", LibraryCacheWarning)
+    >>> caught[0].category.__name__
+    'LibraryCacheWarning'
     """
 
 
 class GeneratedCodeError(RuntimeError):
-    """``generated/`` is missing, inconsistent with its manifest, or failed to compile."""
+    """``generated/`` is missing, inconsistent with its manifest, or failed to compile.
+
+    Regenerate it with ``python -m derive`` (``python -m derive --check`` tells whether it is stale).
+
+    Examples
+    --------
+    >>> from fsmctl.model import GeneratedCodeError
+    >>> issubclass(GeneratedCodeError, RuntimeError)
+    True
+    """
 
 
 def generated_dir() -> Path:
-    """The folder of generated code (``generated/`` of the source tree or the installed package data)."""
+    """The folder of generated code (``generated/`` of the source tree or the installed package data).
+
+    Returns
+    -------
+    pathlib.Path
+        The folder holding ``manifest.json``, ``c/``, ``casadi/`` and ``laws/``.
+
+    Raises
+    ------
+    GeneratedCodeError
+        The package data is not installed or has no ``manifest.json``.
+
+    Examples
+    --------
+    >>> from fsmctl.model import generated_dir
+    >>> (generated_dir() / "manifest.json").is_file(), (generated_dir() / "laws" / "fsm").is_dir()
+    (True, True)
+    """
     try:
         path = Path(str(resources.files("fsmctl._generated")))
     except ModuleNotFoundError as exc:  # pragma: no cover - broken installation
@@ -141,12 +206,41 @@ def generated_dir() -> Path:
 
 @functools.cache
 def manifest() -> dict:
-    """The parsed ``manifest.json`` of the generated code."""
+    """The parsed ``manifest.json`` of the generated code.
+
+    Returns
+    -------
+    dict
+        Versions, parameter layouts, every function's signature and the sha256 of every file.
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import manifest
+    >>> "mrp_error" in [f["name"] for f in manifest()["functions"]]
+    True
+    """
     return json.loads((generated_dir() / "manifest.json").read_text())
 
 
 def layout(name: str) -> tuple[str, ...]:
-    """A packed-parameter layout from the manifest (``gains``, ``gain_constants``, ``sinusoid_params``)."""
+    """A packed-parameter layout from the manifest (``gains``, ``gain_constants``, ``sinusoid_params``).
+
+    Parameters
+    ----------
+    name : str
+        The layout's name.
+
+    Returns
+    -------
+    tuple of str
+        The names of the packed entries, in order.
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import layout
+    >>> layout("gains")
+    ('c1', 'c2', 'alpha', 'boundary_layer', 'epsilon', 'fix_mode')
+    """
     return tuple(manifest()["layouts"][name])
 
 
@@ -155,7 +249,13 @@ def _driver_dir() -> Path:
 
 
 def default_law_dir() -> Path:
-    """The folder of the built-in law the engine flies when none is named (the paper's FSM law)."""
+    """The folder of the built-in law the engine flies when none is named (the paper's FSM law).
+
+    Returns
+    -------
+    pathlib.Path
+        ``generated_dir() / "laws" / "fsm"``.
+    """
     return generated_dir() / "laws" / "fsm"
 
 
@@ -218,7 +318,25 @@ def _native_target(cc: str) -> str | None:
 def compile_flags(cc: str | None = None) -> tuple[tuple[str, ...], str]:
     """The flags the library is (first) compiled with and the CPU target they depend on (for the cache key).
 
-    Returns ``(flags, target)``; ``target`` is ``"portable"`` when no CPU-specific flag is used.
+    Parameters
+    ----------
+    cc : str or None, optional
+        The C compiler; None for the default (``$CC``, else ``cc``, ``gcc`` or ``clang``).
+
+    Returns
+    -------
+    flags : tuple of str
+        :data:`CFLAGS`, plus :data:`OPTIMIZE_FLAGS` and :data:`NATIVE_FLAGS` when available and
+        ``FSMCTL_PORTABLE`` is not set.
+    target : str
+        ``"portable"`` when no CPU-specific flag is used, else the machine and what ``-march=native`` resolves to.
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import CFLAGS, compile_flags
+    >>> flags, target = compile_flags()
+    >>> flags[: len(CFLAGS)] == CFLAGS
+    True
     """
     cc = cc or _compiler()
     if cc is None or os.environ.get("FSMCTL_PORTABLE"):
@@ -231,6 +349,18 @@ def compile_flags(cc: str | None = None) -> tuple[tuple[str, ...], str]:
 
 @dataclass(frozen=True)
 class CompiledLibrary:
+    """A verified compiled library in the cache.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The shared library.
+    key : str
+        Its cache key (the sha256 prefix of everything that went into it).
+    flags : tuple of str, optional
+        The compiler flags it was built with.
+    """
+
     path: Path
     key: str
     flags: tuple[str, ...] = CFLAGS
@@ -593,8 +723,12 @@ def _check_built(library: Path) -> None:
         raise _Unusable(f"the freshly compiled library {library} cannot be used ({problem})")
 
 
-def _library_in(root: Path, cc: str, sources: list[Path], attempts: _Attempts) -> CompiledLibrary:
+def _library_in(
+    root: Path, cc: str, sources: list[Path], attempts: _Attempts, announce: Callable[[], None] = lambda: None
+) -> CompiledLibrary:
     """The verified library in ``root`` for the first of ``attempts`` (``(flags, key)``) that builds.
+
+    ``announce`` is called right before the compiler runs (not when a cached library is used).
 
     A damaged cached library is deleted and rebuilt (once); that is reported in one warning: a
     :class:`LibraryCacheWarning` if the rebuild works, else in the message of :class:`_Unusable`.
@@ -619,6 +753,7 @@ def _library_in(root: Path, cc: str, sources: list[Path], attempts: _Attempts) -
                     return CompiledLibrary(library, key, flags)
                 if problem and not damaged:
                     damaged = f"the cached compiled library {library} was unusable ({problem})"
+                announce()
                 result = _build(cc, flags, sources, library)
                 if result.ok:
                     _check_built(library)
@@ -635,8 +770,12 @@ def _library_in(root: Path, cc: str, sources: list[Path], attempts: _Attempts) -
         raise
 
 
-def _library_anywhere(cc: str, sources: list[Path], attempts: _Attempts) -> CompiledLibrary:
+def _library_anywhere(
+    cc: str, sources: list[Path], attempts: _Attempts, announce: Callable[[], None] = lambda: None
+) -> CompiledLibrary:
     """The library from the cache or, if the cache cannot be used, from a private temporary folder.
+
+    ``announce`` is passed to :func:`_library_in` (called before each compiler run).
 
     Raises
     ------
@@ -650,11 +789,11 @@ def _library_anywhere(cc: str, sources: list[Path], attempts: _Attempts) -> Comp
     else:
         _remove_stale_temp_files(root)
         try:
-            return _library_in(root, cc, sources, attempts)
+            return _library_in(root, cc, sources, attempts, announce)
         except OSError as exc:
             problem = f"the compiled-library cache {root} cannot be used ({exc})"
     try:
-        library = _library_in(_private_dir(), cc, sources, attempts)
+        library = _library_in(_private_dir(), cc, sources, attempts, announce)
     except OSError as exc:
         raise _Unusable(f"{problem}, nor can a temporary folder ({exc})") from None
     except _Unusable as exc:
@@ -683,21 +822,60 @@ def compiled_library(law_dir: Path | None = None) -> CompiledLibrary | None:
     """Compile (once, cached by content hash) and return the verified shared library, or None.
 
     The library holds the model's generated functions, one law's (``law_dir``, default the paper's FSM law)
-    and the whole-loop driver.
+    and the whole-loop driver.  Compiling takes about 10 s; right before the compiler runs, one INFO record is
+    logged on the ``fsmctl.model.generated_code`` logger (nothing when the library comes from the cache).
 
     Tries :func:`compile_flags` first and falls back to the portable :data:`CFLAGS` if the compiler
     rejects the optional flags; the cache key covers sources, flags, CPU target, compiler and CasADi.
     The returned library matches the sha256 recorded when it was built and has been loaded once;
     damage is repaired by one rebuild and an unusable cache by a private build (see the module
-    docstring).  None means the CasADi functions are to be used: no compiler or ``FSMCTL_NO_COMPILE``
-    (silently; :func:`casadi_function` warns), or a failure, with a :class:`CompilerUnavailableWarning`.
+    docstring).
+
+    Parameters
+    ----------
+    law_dir : pathlib.Path or None, optional
+        The law folder (``LawCode.folder``); None for the paper's FSM law.
+
+    Returns
+    -------
+    CompiledLibrary or None
+        The library (``path``, cache ``key``, ``flags``), or None when the CasADi functions are to be used: no
+        compiler or ``FSMCTL_NO_COMPILE`` (silently; :func:`casadi_function` warns), or a failure, with a
+        :class:`CompilerUnavailableWarning`.
 
     Raises
     ------
     GeneratedCodeError
         ``generated/`` does not match its manifest (regenerate it with ``python -m derive``).
+
+    Examples
+    --------
+    >>> from fsmctl.model import compiled_library
+    >>> lib = compiled_library()
+    >>> lib is None or (lib.path.name.startswith("libfsmctl") and lib.flags[:2] == ("-O2", "-fPIC"))
+    True
     """
     return _compiled_library((law_dir or default_law_dir()).resolve())
+
+
+def _compile_notice(law_dir: Path) -> Callable[[], None]:
+    """A callable that logs, on its first call only, that the generated C of ``law_dir``'s law is compiled.
+
+    One record per library, however many compiler runs it takes (optional flags rejected, private folder).
+    """
+    said = threading.Event()
+
+    def announce() -> None:
+        if said.is_set():
+            return
+        said.set()
+        try:  # the name the law declares (a derived script's folder is named by a hash)
+            name = str(json.loads((law_dir / "law.json").read_text("utf-8"))["name"])
+        except (OSError, ValueError, KeyError, TypeError):
+            name = law_dir.name
+        _log.info("compiling the generated C for law %r (first use, about 10 s)", name)
+
+    return announce
 
 
 @functools.cache
@@ -717,7 +895,7 @@ def _compiled_library(law_dir: Path) -> CompiledLibrary | None:
     attempts = [(fl, _library_key(sources, fl, tgt, cc)) for fl, tgt in options]
     with _lock:
         try:
-            return _library_anywhere(cc, sources, attempts)
+            return _library_anywhere(cc, sources, attempts, _compile_notice(law_dir))
         except _Unusable as exc:
             _warn_unavailable(str(exc))
             return None
@@ -736,13 +914,53 @@ def _warn_fallback() -> None:
 
 
 def backend() -> str:
-    """``"compiled"`` (C, shared library) or ``"casadi-vm"`` (serialized functions)."""
+    """How the generated functions are evaluated in this process.
+
+    Returns
+    -------
+    str
+        ``"compiled"`` (C, shared library) or ``"casadi-vm"`` (serialized functions, without a C compiler or with
+        ``FSMCTL_NO_COMPILE=1``).
+
+    Examples
+    --------
+    >>> from fsmctl.model import backend, compiled_library
+    >>> backend() == ("compiled" if compiled_library() is not None else "casadi-vm")
+    True
+    """
     return "compiled" if compiled_library() is not None else "casadi-vm"
 
 
 @functools.cache
 def casadi_function(name: str) -> ca.Function:
-    """A generated per-agent function by name (see ``manifest()['functions']``)."""
+    """A generated per-agent function of the model by name (see ``manifest()['functions']``).
+
+    Parameters
+    ----------
+    name : str
+        The function's name.
+
+    Returns
+    -------
+    casadi.Function
+        The compiled function, or the serialized one (with a :class:`CompilerUnavailableWarning`).
+
+    Raises
+    ------
+    KeyError
+        No generated function has that name.
+
+    Examples
+    --------
+    The MRP attitude error ``sigma_e`` of ``sigma`` relative to ``sigma_d``:
+
+    >>> from fsmctl.model.generated_code import casadi_function
+    >>> f = casadi_function("mrp_error")
+    >>> f.name_in(), f.name_out()
+    (['sigma', 'sigma_d'], ['sigma_e'])
+    >>> float(f([0.1, 0.0, 0.0], [0.1, 0.0, 0.0])[0])
+    0.0
+    """
     names = [f["name"] for f in manifest()["functions"]]
     if name not in names:
         raise KeyError(f"no generated function {name!r}; available: {', '.join(names)}")
@@ -763,7 +981,20 @@ def _law_casadi_function(law_dir: Path, name: str) -> ca.Function:
 
 
 def law_casadi_function(law_dir: Path, name: str) -> ca.Function:
-    """A law's generated function (``law_constants``, ``law_local_paper``, ...) from its folder."""
+    """A law's generated function (``law_constants``, ``law_local_paper``, ...) from its folder.
+
+    Parameters
+    ----------
+    law_dir : pathlib.Path
+        The law folder.
+    name : str
+        The function's name.
+
+    Returns
+    -------
+    casadi.Function
+        The compiled function, or the serialized one (with a :class:`CompilerUnavailableWarning`).
+    """
     return _law_casadi_function(Path(law_dir).resolve(), name)
 
 

@@ -44,12 +44,51 @@ LAW_FILE = "law.json"
 
 
 class LawError(InputError):
-    """A law cannot be found, derived or used (exit 2 on the command line)."""
+    """A law cannot be found, derived or used (an :class:`~fsmctl.errors.InputError`: exit 2 on the command line).
+
+    Examples
+    --------
+    >>> from fsmctl.model import LawError, resolve_law
+    >>> try:
+    ...     resolve_law("no-such-law")
+    ... except LawError as exc:
+    ...     print(str(exc).split(":")[0])
+    law 'no-such-law'
+    """
 
 
 @dataclass(frozen=True)
 class LawParameterInfo(ParameterRange):
-    """A law parameter as declared by its derivation script (from ``law.json``)."""
+    """A law parameter as declared by its derivation script (read from the law folder's ``law.json``).
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, as a scenario's ``[controller]`` sets it.
+    default : tuple of float
+        Its default value (one number per component; an option's index).
+    unit : str
+        Its unit (``"1"`` for none).
+    minimum, maximum : float or None
+        The bounds of its range (None: unbounded).
+    exclusive_minimum, exclusive_maximum : bool
+        Whether the bounds themselves are excluded.
+    choices : tuple of str
+        The options of an option parameter (empty for a number).
+    tunable : bool
+        Whether ``fsmctl tune`` may search it.
+    doc : str
+        One line saying what it is (with the paper's equation).
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> c1 = resolve_law("fsm").parameter("c1")
+    >>> c1.default, c1.unit, c1.range_text()
+    ((0.6,), '1/s', '0 <= x')
+    >>> c1.values(0.9, "controller.c1")
+    (0.9,)
+    """
 
     name: str
     default: tuple[float, ...]
@@ -63,7 +102,25 @@ class LawParameterInfo(ParameterRange):
     doc: str
 
     def values(self, value, where: str) -> tuple[float, ...]:
-        """A scenario value for this parameter, checked and packed (an option becomes its index)."""
+        """A scenario value for this parameter, checked and packed (an option becomes its index).
+
+        Parameters
+        ----------
+        value : float, sequence of float or str
+            The value as the scenario gives it (a number, ``size`` numbers, or an option's name).
+        where : str
+            Where it comes from (e.g. ``"controller.c1"``), for error messages.
+
+        Returns
+        -------
+        tuple of float
+            ``size`` numbers, as packed into the law's parameter vector.
+
+        Raises
+        ------
+        LawError
+            Not a number, the wrong count, outside the declared range, or an unknown option.
+        """
         if self.choices:
             if not isinstance(value, str) or value.lower() not in self.choices:
                 raise LawError(f"{where}: must be one of {', '.join(self.choices)}, got {value!r}")
@@ -86,7 +143,40 @@ class LawParameterInfo(ParameterRange):
 
 @dataclass(frozen=True)
 class LawCode:
-    """A law's generated code and what the runtime needs to know about it."""
+    """A law's generated code and what the runtime needs to know about it (read from a law folder's ``law.json``).
+
+    Parameters
+    ----------
+    name : str
+        The law's name (``fsm`` is Liang et al. 2012's fast-sliding-mode law, eqs 13-20).
+    folder : pathlib.Path
+        The law folder (``law.json``, ``manifest.json``, generated C and CasADi functions).
+    doc : str
+        What the law is.
+    reference : str
+        Where it comes from (a paper), possibly empty.
+    source : str
+        The derivation script it was generated from.
+    parameters : tuple of LawParameterInfo
+        The declared parameters, in packing order.
+    states : tuple of dict
+        The law's own states (``name``, ``size``, ``initial``), e.g. an integrator's.
+    broadcast_name, broadcast_unit : str
+        What each agent sends its neighbours (the sliding variable ``s`` for the paper's law) and its unit.
+    n_broadcast, n_constants, n_cache : int
+        Sizes of the broadcast vector, the law's precomputed constants and its per-step cache.
+    has_lyapunov : bool
+        Whether the law declares a Lyapunov function (checked by ``fsmctl prove --law``).
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> pid = resolve_law("pid")
+    >>> [p.name for p in pid.parameters], pid.n_params, pid.state_labels()
+    (['K', 'P', 'Ki', 'k_coupling'], 4, ['int_sigma[0]', 'int_sigma[1]', 'int_sigma[2]'])
+    >>> pid.builtin
+    True
+    """
 
     name: str
     folder: Path
@@ -104,30 +194,68 @@ class LawCode:
 
     @property
     def n_params(self) -> int:
+        """The length of the packed parameter vector (the sum of the parameters' sizes)."""
         return sum(p.size for p in self.parameters)
 
     @property
     def n_states(self) -> int:
+        """The number of the law's own state components (0 for a static law)."""
         return sum(int(s["size"]) for s in self.states)
 
     @property
     def builtin(self) -> bool:
+        """Whether this is one of the built-in laws of ``generated/laws/``."""
         return self.folder.parent == (generated_dir() / "laws").resolve()
 
     def parameter(self, name: str) -> LawParameterInfo:
+        """A declared parameter by name.
+
+        Parameters
+        ----------
+        name : str
+            The parameter's name.
+
+        Returns
+        -------
+        LawParameterInfo
+            Its declaration.
+
+        Raises
+        ------
+        KeyError
+            The law declares no such parameter.
+        """
         for p in self.parameters:
             if p.name == name:
                 return p
         raise KeyError(name)
 
     def state_labels(self) -> list[str]:
+        """One label per law state component: ``name`` for a scalar, ``name[k]`` for a vector.
+
+        Returns
+        -------
+        list of str
+            ``n_states`` labels.
+        """
         out = []
         for s in self.states:
             out += [f"{s['name']}[{k}]" for k in range(int(s["size"]))] if int(s["size"]) > 1 else [s["name"]]
         return out
 
     def casadi(self, name: str):
-        """One of the law's generated functions (compiled if possible, else CasADi's virtual machine)."""
+        """One of the law's generated functions (compiled if possible, else CasADi's virtual machine).
+
+        Parameters
+        ----------
+        name : str
+            The function's name (``law_constants``, ``law_local_paper``, ...; see the folder's ``manifest.json``).
+
+        Returns
+        -------
+        casadi.Function
+            The function.
+        """
         from fsmctl.model.generated_code import law_casadi_function
 
         return law_casadi_function(self.folder, name)
@@ -178,7 +306,19 @@ def _read_law(folder: Path) -> LawCode:
 
 
 def builtin_laws() -> dict[str, LawCode]:
-    """The built-in laws by name, in a fixed order (the paper's first)."""
+    """The built-in laws by name, in a fixed order (the paper's first).
+
+    Returns
+    -------
+    dict of str to LawCode
+        ``{name: law}`` for every law folder of ``generated/laws/``.
+
+    Examples
+    --------
+    >>> from fsmctl.model import builtin_laws
+    >>> list(builtin_laws())
+    ['fsm', 'adaptive_fsm', 'pid', 'super_twisting']
+    """
     root = generated_dir() / "laws"
     folders = sorted((p for p in root.iterdir() if (p / LAW_FILE).is_file()), key=lambda p: (p.name != "fsm", p.name))
     return {p.name: _read_law(p) for p in folders}
@@ -202,7 +342,25 @@ def _script_key(path: Path) -> str:
 
 
 def derive_script(path: Path, out: Path | None = None) -> Path:
-    """Derive a script into ``out`` (default: the law cache, reused while the script is unchanged)."""
+    """Derive a script into ``out`` (default: the law cache, reused while the script is unchanged).
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The derivation script.
+    out : pathlib.Path or None, optional
+        The law folder to write; None for the cache (``$FSMCTL_CACHE_DIR/laws/<key>``).
+
+    Returns
+    -------
+    pathlib.Path
+        The law folder.
+
+    Raises
+    ------
+    LawError
+        ``out`` exists and is not a law folder.
+    """
     from fsmctl.codegen.laws import load_derivation_script, write_law
 
     path = Path(path)
@@ -250,12 +408,31 @@ def _resolve(text: str, cwd: str) -> LawCode:
 def resolve_law(law: str | Path | LawCode | None) -> LawCode:
     """The :class:`LawCode` of a built-in name, a derived folder or a derivation script (see the module docstring).
 
+    Parameters
+    ----------
+    law : str, pathlib.Path, LawCode or None
+        A built-in name (``fsmctl laws`` lists them), a folder written by ``fsmctl derive FILE.py --out DIR``, a
+        derivation script ``FILE.py`` (derived on first use into the cache), a :class:`LawCode` (returned as is),
+        or None for the paper's law ``fsm``.  Relative paths are relative to the working folder.
+
+    Returns
+    -------
+    LawCode
+        The law.
+
     Raises
     ------
     LawError
         Unknown name or missing path.
     fsmctl.symbolic.law.LawDefinitionError
         A script that does not import or breaks the law contract (both are :class:`~fsmctl.errors.InputError`).
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> law = resolve_law(None)
+    >>> law.name, [p.name for p in law.parameters]
+    ('fsm', ['c1', 'c2', 'alpha', 'boundary_layer', 'epsilon', 'singularity_fix', 'delta'])
     """
     if isinstance(law, LawCode):
         return law
@@ -279,10 +456,33 @@ def parameter_matrix(law: LawCode, scenario) -> np.ndarray:
     ``delta`` for a law with a ``delta`` parameter, else the law's declared defaults; each is checked against
     the declared range.
 
+    Parameters
+    ----------
+    law : LawCode
+        The law.
+    scenario : Scenario
+        The scenario whose ``[controller]`` and agents give the values.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_agents, law.n_params)``, one packed parameter vector per agent.
+
     Raises
     ------
     LawError
         A value outside its range, of the wrong size, or a parameter the law does not declare.
+
+    Examples
+    --------
+    Case 1 of the paper (Liang et al. 2012, Table 1): ``c1, c2, alpha, boundary_layer, epsilon, singularity_fix``
+    then the agent's ``delta`` (3 components):
+
+    >>> from fsmctl import paper_scenario
+    >>> from fsmctl.model import parameter_matrix, resolve_law
+    >>> P = parameter_matrix(resolve_law("fsm"), paper_scenario("1"))
+    >>> P.shape, P[0, :3].tolist()
+    ((6, 9), [0.6, 0.8, 0.7])
     """
     c = scenario.controller
     given = dict(c.parameters)
@@ -310,5 +510,23 @@ def parameter_matrix(law: LawCode, scenario) -> np.ndarray:
 
 
 def initial_law_states(law: LawCode) -> np.ndarray:
-    """The law states' declared initial values, ``(n_states,)``."""
+    """The law states' declared initial values, ``(n_states,)``.
+
+    Parameters
+    ----------
+    law : LawCode
+        The law.
+
+    Returns
+    -------
+    numpy.ndarray
+        The initial values, in the order of :meth:`LawCode.state_labels`.
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> from fsmctl.model.laws import initial_law_states
+    >>> initial_law_states(resolve_law("pid"))
+    array([0., 0., 0.])
+    """
     return np.array([v for s in law.states for v in s["initial"]], dtype=float)

@@ -236,6 +236,20 @@ def noise_bytes(n_agents: int, n_samples: int, n_links: int) -> int:
     generated, at most four ``(Q + 1, 3)`` float64 scratch arrays are alive (the draws, the bias walk and
     NumPy's temporaries), which are added.
 
+    Parameters
+    ----------
+    n_agents : int
+        Number of agents (>= 1).
+    n_samples : int
+        Samples ``Q`` per agent (>= 1).
+    n_links : int
+        Number of directed links (>= 0).
+
+    Returns
+    -------
+    int
+        Bytes.
+
     Examples
     --------
     >>> noise_bytes(2, 1000, 2) == 2 * 8 * 3 * 1000 * 2 + 1000 * 2 + 4 * 8 * 3 * 1001
@@ -267,6 +281,13 @@ def allan_deviation(rate, period: float, taus=None) -> tuple[np.ndarray, np.ndar
     -------
     taus, adev : numpy.ndarray
         The cluster times used and the overlapping Allan deviation at each (units of ``rate``).
+
+    Raises
+    ------
+    ImportError
+        The optional ``allantools`` package is not installed.
+    ValueError
+        Fewer than 3 samples, or a ``tau`` that is not positive.
 
     Examples
     --------
@@ -308,6 +329,11 @@ def random_walk_coefficients(taus, adev) -> tuple[float, float]:
     -------
     N, K : float
         Angle random walk (rate unit * s^0.5) and rate random walk (rate unit / s^0.5).
+
+    Raises
+    ------
+    ValueError
+        ``taus`` and ``adev`` of different lengths, fewer than 2 points, or values that are not positive.
 
     Examples
     --------

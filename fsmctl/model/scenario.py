@@ -32,8 +32,10 @@ from __future__ import annotations
 import copy
 import dataclasses
 import functools
+import inspect
 import math
 import re
+import textwrap
 import tomllib
 import warnings
 from collections.abc import Mapping, Sequence
@@ -80,11 +82,31 @@ GRID_RTOL = 1e-9
 
 
 class ScenarioError(InputError):
-    """A scenario (file or object) is malformed; the message names the key path."""
+    """A scenario (file or object) is malformed; the message names the key path.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> try:
+    ...     fsmctl.paper_scenario("1").replace(controller={"alpha": 1.5})
+    ... except ScenarioError as exc:
+    ...     print(exc)
+    controller.alpha: must be < 1, got 1.5
+    """
 
 
 class InertiaWarning(UserWarning):
-    """An inertia matrix is positive definite but not physically realizable (J1 + J2 < J3)."""
+    """An inertia matrix is positive definite but not physically realizable (J1 + J2 < J3).
+
+    Examples
+    --------
+    >>> import warnings
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     check_inertia([[1.0, 0, 0], [0, 1.0, 0], [0, 0, 5.0]], "J0")
+    >>> caught[0].category.__name__
+    'InertiaWarning'
+    """
 
 
 # ----------------------------------------------------------------------------- value types
@@ -392,12 +414,102 @@ def _scenario_error(exc: ValidationError, where: str = "") -> ScenarioError:
     return ScenarioError(f"{where}: {msg}" if where else msg)
 
 
+def _type_label(annotation: Any) -> str:
+    """A numpydoc type for a field's annotation (``float``, ``tuple of 3 float``, ``{'rk4', 'dopri45'}``, ...)."""
+    import typing
+
+    origin, args = typing.get_origin(annotation), typing.get_args(annotation)
+    if origin is Annotated:
+        return _type_label(args[0])
+    if origin is Literal:
+        return "{" + ", ".join(repr(a) for a in args) + "}"
+    if origin in (typing.Union, __import__("types").UnionType):
+        named = [_type_label(a) for a in args if a is not type(None)]
+        return " or ".join(named) + (" or None" if type(None) in args else "")
+    if origin is tuple:
+        if len(args) == 2 and args[1] is Ellipsis:
+            inner = _type_label(args[0])
+            return f"tuple of ({inner})" if inner.startswith("tuple") else f"tuple of {inner}"
+        inner = {_type_label(a) for a in args}
+        if len(inner) == 1:
+            (one,) = inner
+            return f"{len(args)}x3 tuple of float" if one == "tuple of 3 float" else f"tuple of {len(args)} {one}"
+        return "tuple"
+    if annotation is Any:
+        return "mapping"
+    return getattr(annotation, "__name__", str(annotation))
+
+
+def _default_label(info: Any) -> str | None:
+    """How a field's default reads in its docstring (None: required)."""
+    from pydantic_core import PydanticUndefined
+
+    if info.default_factory is not None:
+        value = info.default_factory()
+        if dataclasses.is_dataclass(value):
+            return f"``{type(value).__name__}()``"
+        if isinstance(value, Mapping) and not value:
+            return "empty"
+    elif info.default is PydanticUndefined:
+        return None
+    else:
+        value = info.default
+    if value is None:
+        return "None (unset)"
+    if isinstance(value, float) and math.isinf(value):
+        return "inf"
+    return f"``{value!r}``"
+
+
+_BOUND_WORDS = {"gt": ">", "ge": ">=", "lt": "<", "le": "<="}
+
+
+def _parameters_section(cls) -> str:
+    """The numpydoc "Parameters" section of a settings class, generated from its fields (the schema).
+
+    Each field's type comes from its annotation, its text from its ``description``, its unit from
+    ``json_schema_extra``, its bounds from its constraints and its default from the field: the fields are
+    written once, where they are declared (the same source :mod:`fsmctl.model.scenario_schema` reads).
+    """
+    lines = ["Parameters", "----------"]
+    for name, info in cls.__pydantic_fields__.items():
+        default = _default_label(info)
+        head = f"{name} : {_type_label(info.annotation)}" + (", optional" if default is not None else "")
+        text = (info.description or "").strip()
+        unit = (info.json_schema_extra or {}).get("unit") if isinstance(info.json_schema_extra, dict) else None
+        extras = [f"unit {unit}"] if unit else []
+        for meta in info.metadata:
+            for key, word in _BOUND_WORDS.items():
+                bound = getattr(meta, key, None)
+                if bound is not None:
+                    extras.append(f"{word} {bound}")
+        if default is not None:
+            extras.append(f"default {default}")
+        body = text[:1].upper() + text[1:] + (" (" + "; ".join(extras) + ")" if extras else "") + "."
+        lines += [head, *("    " + ln for ln in textwrap.wrap(body, 110))]
+    return "\n".join(lines)
+
+
+def _with_parameters(cls) -> None:
+    """Append the generated "Parameters" section to the class docstring.
+
+    It goes after the hand-written text and Examples: numpydoc renders the sections in its own order
+    (Parameters first), and :mod:`fsmctl.model.scenario_schema` takes a class's text up to its Examples for
+    the scenario reference, which therefore stays the hand-written text.
+    """
+    doc = inspect.cleandoc(cls.__doc__ or "")
+    cls.__doc__ = doc.rstrip() + "\n\n" + _parameters_section(cls) + "\n"
+
+
 def _validated(cls):
     """A frozen pydantic dataclass whose construction raises :class:`ScenarioError` (one line, with the key path).
 
-    ``dataclasses.replace`` calls ``__init__``, so copies are validated too.
+    ``dataclasses.replace`` calls ``__init__``, so copies are validated too.  Settings classes (every field
+    declared with :func:`_doc`) get their docstring's "Parameters" section generated from the fields.
     """
     cls = dataclass(frozen=True, config=_CONFIG)(cls)
+    if all(info.description for info in cls.__pydantic_fields__.values()):
+        _with_parameters(cls)
     init = cls.__init__
 
     @functools.wraps(init)
@@ -425,6 +537,20 @@ def check_inertia(J, where: str, *, physical: bool = True) -> None:
         Key path used in the message.
     physical : bool
         Warn (:class:`InertiaWarning`) when the principal moments violate the triangle inequality.
+
+    Raises
+    ------
+    ScenarioError
+        ``J`` is not a symmetric positive definite 3x3 matrix of finite numbers.
+
+    Examples
+    --------
+    >>> check_inertia([[100.0, 1.0, 2.0], [1.0, 150.0, 1.0], [2.0, 1.0, 200.0]], "J0")  # fine: no output
+    >>> try:
+    ...     check_inertia([[1.0, 0, 0], [0, -1.0, 0], [0, 0, 1.0]], "agents[1].J0")
+    ... except ScenarioError as exc:
+    ...     print(exc)
+    agents[1].J0: not positive definite (eigenvalues [-1.0, 1.0, 1.0])
     """
     try:
         a = _real_array(J, (3, 3), "a 3x3 matrix")
@@ -519,6 +645,18 @@ class Sinusoid:
 
         ``kind = ["cos"|"sin", ...]`` per axis: a ``sin`` component ``a sin(w t + p)`` is stored as
         ``a cos(w t + p - pi/2)``.
+
+        Parameters
+        ----------
+        d : Mapping
+            The table.
+        where : str
+            Key path used in error messages.
+
+        Returns
+        -------
+        Sinusoid
+            The validated sinusoid.
         """
         if not isinstance(d, Mapping):
             raise ScenarioError(f"{where}: expected a table, got {d!r}")
@@ -542,7 +680,16 @@ class Sinusoid:
 
 @_validated
 class Agent:
-    """One spacecraft: inertia, initial state, switching gain and disturbance (Liang et al. 2012, eqs 9, 18, 29)."""
+    """One spacecraft: inertia, initial state, switching gain and disturbance (Liang et al. 2012, eqs 9, 18, 29).
+
+    Examples
+    --------
+    >>> from fsmctl import Agent
+    >>> a = Agent(J0=[[100.0, 0, 0], [0, 150.0, 0], [0, 0, 200.0]], delta_J=[[30.0, 0, 0], [0, 45.0, 0], [0, 0, 60.0]],
+    ...           sigma0=[0.3, 0.2, -0.3], omega0=[0.35, -0.13, 0.27])
+    >>> a.J_true.diagonal().tolist(), a.delta
+    ([130.0, 195.0, 260.0], None)
+    """
 
     J0: Mat3 = _doc("nominal inertia, used by the controller (symmetric positive definite)", "kg m^2")
     delta_J: Mat3 = _doc("inertia perturbation: the plant has J = J0 + delta_J (eq 29)", "kg m^2")
@@ -570,16 +717,26 @@ class Agent:
 
     @property
     def J0_array(self) -> np.ndarray:
+        """(3, 3) kg m^2: the nominal inertia ``J0`` as an array (what the controller uses)."""
         return np.array(self.J0)
 
     @property
     def J_true(self) -> np.ndarray:
+        """(3, 3) kg m^2: the plant's inertia ``J = J0 + delta_J`` (eq 29)."""
         return np.array(self.J0) + np.array(self.delta_J)
 
 
 @_validated
 class Reference:
-    """Reference attitude ``sigma_d(0)`` and rate ``omega_d(t)`` (Sec. 4)."""
+    """Reference attitude ``sigma_d(0)`` and rate ``omega_d(t)`` (Sec. 4).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> ref = fsmctl.paper_scenario("1").reference
+    >>> ref.sigma0, ref.omega(0.0).round(6).tolist()
+    ((-0.3, -0.4, 0.4), [0.1, -0.0, -0.1])
+    """
 
     sigma0: Vec3 = _doc("reference attitude at t = 0 (MRP)", "1")
     omega: Sinusoid = _doc("reference body rate omega_d(t)", "rad/s")
@@ -594,6 +751,16 @@ class ControllerSettings:
     The paper's FSM law (Liang et al. 2012, eqs 13-19, Remarks 6-7) has typed keys below; any law's
     parameters are set by name as further ``[controller]`` keys (gathered in ``parameters``), checked
     against the ranges the law declares; unset ones take the law's defaults.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> c = fsmctl.paper_scenario("1").controller
+    >>> c.law, c.c1, c.c2, c.alpha, c.torque_limit
+    ('fsm', 0.6, 0.8, 0.7, 2.0)
+    >>> pid = fsmctl.paper_scenario("1").replace(controller={"law": "pid", "parameters": {"K": 10.0}})
+    >>> dict(pid.controller.parameters)
+    {'K': 10.0}
     """
 
     law: Text = _doc(
@@ -687,6 +854,13 @@ class SimulationSettings:
 
     The grid rule: ``t_final``, ``output_interval`` and ``control_period`` are multiples of ``dt``, and
     ``t_final`` is a multiple of ``output_interval``, so the last output sample is the state at ``t_final``.
+
+    Examples
+    --------
+    >>> from fsmctl import SimulationSettings
+    >>> sim = SimulationSettings(t_final=2.0, dt=0.01, output_interval=0.1, control_period=0.1)
+    >>> sim.n_steps, sim.output_every, sim.n_outputs, sim.hold_steps
+    (200, 10, 21, 10)
     """
 
     t_final: Real = _doc("horizon", "s", gt=0, default=100.0)
@@ -727,10 +901,12 @@ class SimulationSettings:
 
     @property
     def n_steps(self) -> int:
+        """Integration steps of ``dt`` to ``t_final`` (rk4)."""
         return round(self.t_final / self.dt)
 
     @property
     def output_every(self) -> int:
+        """Steps between two output samples."""
         return max(1, round(self.output_interval / self.dt))
 
     @property
@@ -740,6 +916,7 @@ class SimulationSettings:
 
     @property
     def hold_steps(self) -> int:
+        """Steps between two control instants (0: continuous control)."""
         return round(self.control_period / self.dt) if self.control_period > 0 else 0
 
 
@@ -865,7 +1042,18 @@ class ActuatorSettings:
         return spin_inertia_matrix(self.spin_axes(), self.per_wheel("spin_inertia"))
 
     def per_wheel(self, name: str) -> np.ndarray:
-        """``(N,)`` values of a per-wheel setting (one value broadcast to every wheel)."""
+        """``(N,)`` values of a per-wheel setting (one value broadcast to every wheel).
+
+        Parameters
+        ----------
+        name : str
+            A per-wheel field (``"spin_inertia"``, ``"max_torque"``, ``"max_speed"``, ...).
+
+        Returns
+        -------
+        numpy.ndarray
+            One value per wheel.
+        """
         v = np.array(getattr(self, name), dtype=float)
         return np.broadcast_to(v, (self._raw_axes().shape[1],)).copy()
 
@@ -874,7 +1062,14 @@ class ActuatorSettings:
 class StarTrackerSettings:
     """Attitude sensor: the measured attitude is the true one rotated by a small body-frame rotation
     ``dtheta`` drawn at each control instant, independent, zero-mean Gaussian with per-axis standard
-    deviation ``noise_std`` (white noise in small-angle form; :func:`fsmctl.symbolic.hardware.star_tracker_measurement`)."""
+    deviation ``noise_std`` (white noise in small-angle form; :func:`fsmctl.symbolic.hardware.star_tracker_measurement`).
+
+    Examples
+    --------
+    >>> from fsmctl import StarTrackerSettings
+    >>> StarTrackerSettings(noise_std=[2.424e-5, 2.424e-5, 4.848e-5]).noise_std
+    (2.424e-05, 2.424e-05, 4.848e-05)
+    """
 
     noise_std: Vec3 = _doc("1-sigma of the measurement error about body x, y, z (5 arcsec = 2.424e-5 rad)", "rad")
 
@@ -889,7 +1084,15 @@ class StarTrackerSettings:
 class GyroSettings:
     """Rate gyro: ``omega_measured = omega + b + eta_v`` with ``b_dot = eta_u`` (Farrenkopf's model, sampled at
     the control instants; :mod:`fsmctl.model.noise`): angle random walk ``N`` (the density of eta_v), rate
-    random walk ``K`` (the density of eta_u: the bias drift) and a constant bias ``b_0``."""
+    random walk ``K`` (the density of eta_u: the bias drift) and a constant bias ``b_0``.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> gyro = fsmctl.load_scenario("paper-hardware").sensors.gyro
+    >>> gyro.angle_random_walk, gyro.bias
+    (4.363e-05, (4.848e-06, -4.848e-06, 2.424e-06))
+    """
 
     angle_random_walk: Real = _doc(
         "angle random walk N (0.1 deg/sqrt(h) = 2.909e-5 rad/sqrt(s))", "rad/s^0.5", ge=0, default=0.0
@@ -907,13 +1110,21 @@ class GyroSettings:
 class SensorSettings:
     """What the law sees.  Unset sensors are perfect; a configured sensor is sampled at the control instants
     (``simulation.control_period > 0``), its noise drawn from ``simulation.seed``.  The metrics always see
-    the true state."""
+    the true state.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> fsmctl.paper_scenario("1").sensors.enabled, fsmctl.load_scenario("paper-hardware").sensors.enabled
+    (False, True)
+    """
 
     star_tracker: StarTrackerSettings | None = _doc("attitude sensor (unset: the true attitude)", default=None)
     gyro: GyroSettings | None = _doc("rate gyro (unset: the true rate)", default=None)
 
     @property
     def enabled(self) -> bool:
+        """Whether any sensor is configured (else the law sees the true state)."""
         return self.star_tracker is not None or self.gyro is not None
 
 
@@ -929,6 +1140,13 @@ class LinkSettings:
 
     ``delay_table`` / ``loss_table`` (n x n, row = receiver, column = sender, like ``topology.phase_table``)
     set a value per link and override the scalars.
+
+    Examples
+    --------
+    >>> from fsmctl import LinkSettings
+    >>> links = LinkSettings(delay=0.1, loss_table=[[0.0, 0.05], [0.2, 0.0]])
+    >>> links.enabled, links.per_link([0, 1], [1, 0], "loss_probability").tolist()
+    (True, [0.05, 0.2])
     """
 
     delay: Real = _doc("transport delay of every link", "s", ge=0, default=0.0)
@@ -944,6 +1162,8 @@ class LinkSettings:
 
     @property
     def enabled(self) -> bool:
+        """Whether any delay or loss is set (tables count only where a value is > 0)."""
+
         def any_table(tab, floor):
             return tab is not None and any(math.isfinite(x) and x > floor for row in tab for x in row)
 
@@ -955,7 +1175,20 @@ class LinkSettings:
         )
 
     def per_link(self, receivers, senders, which: str) -> np.ndarray:
-        """Values of ``"delay"`` or ``"loss_probability"`` for the links ``receivers[e] <- senders[e]`` (0-based)."""
+        """Values of ``"delay"`` or ``"loss_probability"`` for the links ``receivers[e] <- senders[e]`` (0-based).
+
+        Parameters
+        ----------
+        receivers, senders : sequence of int
+            The links' agents, 0-based.
+        which : {"delay", "loss_probability"}
+            The setting.
+
+        Returns
+        -------
+        numpy.ndarray
+            One value per link (the table's entry, else the scalar).
+        """
         table = self.delay_table if which == "delay" else self.loss_table
         scalar = self.delay if which == "delay" else self.loss_probability
         if table is None:
@@ -985,6 +1218,41 @@ def _choices(v: Any) -> tuple[tuple[str, str], ...]:
 class Scenario:
     """A complete formation scenario (one case).
 
+    Made by :func:`load_scenario` / :func:`paper_scenario` (a TOML file) or :func:`scenario_from_dict`, and
+    changed by :meth:`replace`; every construction runs the same validators.  :meth:`to_toml` writes it back
+    as a self-contained file.
+
+    Parameters
+    ----------
+    name : str
+        Label of the results.
+    agents : tuple of Agent
+        The spacecraft, agent 1 first.
+    reference : Reference
+        ``sigma_d(0)`` and ``omega_d(t)``.
+    topology : Topology
+        The communication graph of eq 19 (:class:`~fsmctl.model.topology.Topology`).
+    controller : ControllerSettings
+        The law and its parameters.
+    simulation : SimulationSettings, optional
+        Horizon, step, integrator, output grid, control period, seed.
+    actuator : ActuatorSettings, optional
+        Ideal torque source (default) or reaction wheels.
+    sensors : SensorSettings, optional
+        Star tracker and gyro (default: perfect).
+    links : LinkSettings, optional
+        Link delay and packet loss (default: perfect).
+    case : str or None, optional
+        The case of the source file applied (``"1"``, ...).
+    description : str, optional
+        Free text, printed with the results.
+    choices : mapping of str to str, optional
+        What the source leaves open and why each value was chosen.
+    cases : tuple of str, optional
+        Names of the cases the source file defines (not compared by ``==``).
+    source : dict, optional
+        The raw mapping the scenario was built from (not compared).
+
     Examples
     --------
     >>> import fsmctl
@@ -1006,8 +1274,9 @@ class Scenario:
     description: Text = ""
     choices: Annotated[tuple[tuple[str, str], ...], BeforeValidator(_choices)] = ()
     """what the source leaves open, and why each value was chosen (printed with every result)"""
-    cases: tuple[Text, ...] = ()
-    """names of the cases defined by the source file"""
+    cases: tuple[Text, ...] = field(default=(), compare=False)
+    """names of the cases defined by the source file (not compared: two scenarios that fly the same run from
+    different files are equal)"""
     source: dict = field(default_factory=dict, compare=False, repr=False)
     """the merged raw mapping this scenario was built from"""
 
@@ -1067,14 +1336,140 @@ class Scenario:
 
     @property
     def n_agents(self) -> int:
+        """Number of agents ``n``."""
         return len(self.agents)
 
     @property
     def label(self) -> str:
+        """``"<name>"`` or ``"<name> case <case>"``: how results name the scenario."""
         return f"{self.name}" + (f" case {self.case}" if self.case else "")
 
+    def to_dict(self) -> dict[str, Any]:
+        """This scenario as the mapping of a self-contained scenario file (the selected case, resolved).
+
+        The mapping is what :func:`scenario_from_dict` reads, with every value spelled out: every section's
+        every field (defaults included, so a later fsmctl with other defaults flies the same run), each agent's
+        full ``delta_J`` matrix and disturbance, the topology as an explicit ``links`` array (1-based agents, each
+        link's ``k_i``, phase and ``k_j`` schedule), the law by the name or path given in ``controller.law`` and
+        its parameters in ``[controller.parameters]``, and the ``[choices]``.  Floats keep their bits (written
+        with ``repr`` by :meth:`to_toml`).
+
+        Only the flown case is written: the other cases of the source file are overrides of *its* base, which
+        this scenario may no longer be (after :meth:`replace`).  A scenario with a case gets a ``[cases]`` table
+        holding that one case with no overrides, so :func:`load_scenario` of the file selects it and keeps the
+        label.  Round trip: ``scenario_from_dict(s.to_dict(), case=s.case) == s`` and ``load_scenario`` of the
+        file written by :meth:`to_toml` equals ``s`` (equality ignores :attr:`cases`, the source file's names).
+
+        Returns
+        -------
+        dict
+            Plain Python values (dicts, lists, floats, ints, strings, bools); ``inf``/``nan`` as floats.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> from fsmctl.model.scenario import scenario_from_dict
+        >>> s = fsmctl.paper_scenario("2")
+        >>> d = s.to_dict()
+        >>> d["topology"]["links"][0]
+        {'receiver': 1, 'sender': 2, 'k_i': 0.0, 'phase': 0.0, 'k_j': {'breakpoints': [0.0, 6.5], 'values': [0.0, 0.0], 'period': 8.0}}
+        >>> scenario_from_dict(d, case="2") == s
+        True
+        """
+
+        def plain(v: Any) -> Any:
+            if isinstance(v, (tuple, list)):
+                return [plain(x) for x in v]
+            if isinstance(v, Mapping):
+                return {str(k): plain(x) for k, x in v.items()}
+            if isinstance(v, (np.floating, np.integer, np.bool_)):
+                return v.item()
+            return v
+
+        def section(obj: Any, skip: tuple[str, ...] = ()) -> dict[str, Any]:
+            out = {}
+            for f in dataclasses.fields(obj):
+                v = getattr(obj, f.name)
+                if f.name in skip or v is None:  # None: an unset optional key (TOML has no null)
+                    continue
+                out[f.name] = section(v) if dataclasses.is_dataclass(v) else plain(v)
+            return out
+
+        def schedule(sch: Any) -> dict[str, Any]:
+            out = {"breakpoints": plain(sch.breakpoints), "values": plain(sch.values)}
+            if sch.period is not None:
+                out["period"] = float(sch.period)
+            return out
+
+        controller = section(self.controller, skip=("parameters",))
+        if self.controller.parameters:
+            controller["parameters"] = plain(dict(self.controller.parameters))
+        links = [
+            {
+                "receiver": lk.receiver + 1,
+                "sender": lk.sender + 1,
+                "k_i": float(lk.k_i),
+                "phase": float(lk.phase),
+                "k_j": schedule(lk.k_j),
+            }
+            for lk in self.topology.links
+        ]
+        out: dict[str, Any] = {
+            "name": self.name,
+            "description": self.description,
+            "simulation": section(self.simulation),
+            "controller": controller,
+            "actuator": section(self.actuator),
+            "sensors": section(self.sensors),
+            "links": section(self.links),
+            "reference": section(self.reference),
+            "topology": {"links": links},
+            "agents": [section(a) for a in self.agents],
+            "choices": dict(self.choices),
+        }
+        if self.case is not None:
+            out["cases"] = {self.case: {}}
+        return out
+
+    def to_toml(self) -> str:
+        """This scenario as a self-contained TOML scenario file (:meth:`to_dict`, written by
+        :mod:`fsmctl.model.toml_writer`).
+
+        Returns
+        -------
+        str
+            TOML text; :func:`load_scenario` of a file holding it gives back this scenario (floats keep their
+            bits; a law given by a relative path is looked up relative to the file's folder first, then to the
+            current folder).
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> s = fsmctl.paper_scenario("3b")
+        >>> text = s.to_toml()
+        >>> print(text.splitlines()[0])
+        # fsmctl scenario (self-contained): paper case 3b
+        >>> _ = open("case3b.toml", "w").write(text)
+        >>> fsmctl.load_scenario("case3b.toml") == s
+        True
+        """
+        from fsmctl.model.toml_writer import scenario_toml
+
+        return scenario_toml(self.to_dict(), title=f"fsmctl scenario (self-contained): {self.label}")
+
     def with_case(self, case: str) -> Scenario:
-        """The scenario with the named case's overrides applied to the base."""
+        """The scenario with the named case's overrides applied to the base (of the source file).
+
+        Parameters
+        ----------
+        case : str
+            One of :attr:`cases`.
+
+        Returns
+        -------
+        Scenario
+            The source file's base with that case applied (changes made by :meth:`replace` are not kept).
+        """
         if case not in self.cases:
             raise ScenarioError(f"scenario {self.name!r} has no case {case!r} (cases: {list(self.cases)})")
         return scenario_from_dict(self.source, case=case)
@@ -1082,11 +1477,20 @@ class Scenario:
     def replace(self, **sections: Any) -> Scenario:
         """A validated copy with fields of a section replaced.
 
-        Keyword arguments: ``controller``, ``simulation``, ``reference``, ``actuator``, ``sensors``, ``links``
-        (mappings of field names to new values, or a whole section object), ``agents`` (a sequence of
-        :class:`Agent`) and ``topology`` (a :class:`~fsmctl.model.topology.Topology`; give both when the agent
-        count changes).  The copy goes through the same validators as a file: a bad value raises
-        :class:`ScenarioError` naming ``section.key``.
+        The copy goes through the same validators as a file: a bad value raises :class:`ScenarioError` naming
+        ``section.key``.
+
+        Parameters
+        ----------
+        **sections
+            ``controller``, ``simulation``, ``reference``, ``actuator``, ``sensors``, ``links`` (mappings of
+            field names to new values, or a whole section object), ``agents`` (a sequence of :class:`Agent`) and
+            ``topology`` (a :class:`~fsmctl.model.topology.Topology`; give both when the agent count changes).
+
+        Returns
+        -------
+        Scenario
+            The validated copy.
 
         Examples
         --------
@@ -1124,11 +1528,33 @@ class Scenario:
         return dataclasses.replace(self, **changes)
 
     def with_agents(self, agents: Sequence[Agent]) -> Scenario:
-        """A validated copy with another agent list (same count as the topology)."""
+        """A validated copy with another agent list (same count as the topology).
+
+        Parameters
+        ----------
+        agents : sequence of Agent
+            The new agents.
+
+        Returns
+        -------
+        Scenario
+            The validated copy.
+        """
         return self.replace(agents=agents)
 
     def with_topology(self, topology: Topology) -> Scenario:
-        """A validated copy with another communication topology."""
+        """A validated copy with another communication topology.
+
+        Parameters
+        ----------
+        topology : Topology
+            The new graph (same number of agents).
+
+        Returns
+        -------
+        Scenario
+            The validated copy.
+        """
         return self.replace(topology=topology)
 
     def law_parameters(self) -> list[dict[str, Any]]:
@@ -1321,6 +1747,38 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
     The file's shorthands (``delta``/``delta_J``/``disturbance`` defaults in ``[controller]``,
     ``delta_J = {scale = ...}``, a scalar ``delta``, ``kind = ["cos"|"sin", ...]`` of sinusoids, the
     topology tables) are expanded here; every value is then checked by the dataclasses' validators.
+
+    Parameters
+    ----------
+    data : Mapping
+        The file's tables (``extends`` is resolved against the built-in scenarios).
+    case : str, optional
+        A case of ``data["cases"]`` to apply; None: the base (unlike :func:`load_scenario`, which picks the
+        first case).
+    where : str
+        Prefix of error messages (the file's name).
+
+    Returns
+    -------
+    Scenario
+        The validated scenario.
+
+    Raises
+    ------
+    ScenarioError
+        A malformed table, an unknown key or case, or a value a validator refuses; one line naming the key path.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> s = fsmctl.paper_scenario("3b")
+    >>> scenario_from_dict(s.to_dict(), case="3b") == s
+    True
+    >>> try:
+    ...     scenario_from_dict({**s.to_dict(), "colour": "red"})
+    ... except ScenarioError as exc:
+    ...     print(str(exc)[:40])
+    scenario: unknown key(s) ['colour'] (kno
     """
     if isinstance(data, Mapping) and "extends" in data:
         data = _resolve_extends(dict(data), where, None)
@@ -1469,6 +1927,23 @@ def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scen
     without ``[cases]`` is its own single scenario.  A file may start from another with ``extends = "paper"`` (a
     built-in name or a path relative to the file) and change only what differs.
 
+    Parameters
+    ----------
+    source : str or Path
+        A built-in name (:data:`BUILTIN_SCENARIOS`) or a TOML file.
+    case : str, optional
+        The case to apply; None: the file's first case (if it has any).
+
+    Returns
+    -------
+    Scenario
+        The validated scenario.
+
+    Raises
+    ------
+    ScenarioError
+        The file cannot be read, is not TOML, or is not a valid scenario; one line naming the file and key path.
+
     Examples
     --------
     >>> from fsmctl import load_scenario
@@ -1500,6 +1975,16 @@ def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scen
 
 def paper_scenario(case: str = "1") -> Scenario:
     """The built-in Section 4 scenario (Liang et al. 2012) for Case ``"1"``, ``"2"``, ``"3a"``, ``"3b"`` or ``"3c"``.
+
+    Parameters
+    ----------
+    case : str
+        The paper's case.
+
+    Returns
+    -------
+    Scenario
+        Six spacecraft, 100 s, the paper's law and the case's topology weights.
 
     Examples
     --------

@@ -309,7 +309,26 @@ def _partial(schema: dict) -> dict:
 
 
 def file_schema() -> dict:
-    """JSON Schema of a scenario TOML file (types, shapes, enums, ranges, defaults, units, meanings)."""
+    """JSON Schema of a scenario TOML file (types, shapes, enums, ranges, defaults, units, meanings).
+
+    The same schema is shipped as ``fsmctl/scenarios/scenario.schema.json`` (for editors and validators) and is
+    the source of the scenario file reference page (:func:`reference_markdown`).
+
+    Returns
+    -------
+    dict
+        A JSON Schema (draft 2020-12) object; every key carries a ``description`` and, where it has one, a
+        ``unit`` and a ``default``.
+
+    Examples
+    --------
+    >>> from fsmctl.model import file_schema
+    >>> schema = file_schema()
+    >>> sorted(schema["properties"])[:5]
+    ['actuator', 'agents', 'cases', 'choices', 'controller']
+    >>> schema["properties"]["controller"]["properties"]["c1"]["unit"]
+    '1/s'
+    """
     controller = _section(sc.ControllerSettings)
     controller["description"] = (
         "the control law, its parameters and the actuator limit; further keys are the law's named parameters "
@@ -489,7 +508,24 @@ def _rows(props: dict, required: set[str], prefix: str, *, first_paragraph: bool
 
 
 def reference_markdown(schema: dict | None = None) -> str:
-    """The scenario file reference page (Markdown), generated from :func:`file_schema`."""
+    """The scenario file reference page (Markdown), generated from :func:`file_schema`.
+
+    Parameters
+    ----------
+    schema : dict or None, optional
+        The schema to describe; None for :func:`file_schema`.
+
+    Returns
+    -------
+    str
+        The page: one table per section (key, type, unit, default, meaning) and examples.
+
+    Examples
+    --------
+    >>> from fsmctl.model.scenario_schema import reference_markdown
+    >>> reference_markdown().splitlines()[1]
+    '# Scenario file reference'
+    """
     schema = schema or file_schema()
     props = schema["properties"]
     head = "| key | type | unit | default | meaning |\n|---|---|---|---|---|"
@@ -581,12 +617,29 @@ def _outputs() -> dict[Path, str]:
 
 
 def shipped_schema() -> dict:
-    """The JSON Schema shipped with the package (``fsmctl/scenarios/scenario.schema.json``)."""
+    """The JSON Schema shipped with the package (``fsmctl/scenarios/scenario.schema.json``).
+
+    Returns
+    -------
+    dict
+        The parsed file (equal to :func:`file_schema` unless the file is stale).
+    """
     return json.loads(resources.files("fsmctl").joinpath("scenarios", "scenario.schema.json").read_text("utf-8"))
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Write (or ``--check``) the scenario reference page and JSON Schema; returns an exit code."""
+    """Write (or ``--check``) the scenario reference page and JSON Schema; returns an exit code.
+
+    Parameters
+    ----------
+    argv : list of str or None, optional
+        Command-line arguments (``--check``, ``--root DIR``); None for ``sys.argv[1:]``.
+
+    Returns
+    -------
+    int
+        0 when written or up to date, 1 when ``--check`` finds a stale file.
+    """
     parser = argparse.ArgumentParser(
         prog="python -m fsmctl.model.scenario_schema", description=__doc__.split("\n\n")[0]
     )

@@ -38,7 +38,17 @@ __all__ = [
 
 
 class TopologyError(InputError):
-    """A malformed topology table; the message names the entry (an :class:`~fsmctl.errors.InputError`)."""
+    """A malformed topology table; the message names the entry (an :class:`~fsmctl.errors.InputError`).
+
+    Examples
+    --------
+    >>> from fsmctl.model import TopologyError, k_nearest
+    >>> try:
+    ...     k_nearest(3, 3, k_i=8.0, k_j=5.0)
+    ... except TopologyError as exc:
+    ...     print(exc)
+    k-nearest: need 1 <= k < n, got k=3, n=3
+    """
 
 
 def _num(x, where: str) -> float:
@@ -80,6 +90,17 @@ def schedule_weight(
     ------
     ValueError
         If a ``tau`` is not finite (there is no weight at t = inf or NaN).
+
+    Examples
+    --------
+    Table 2 of the paper, ``k(t) = 5 if mod(t, 8) <= 6.5 else 0``:
+
+    >>> from fsmctl.model import schedule_weight
+    >>> schedule_weight((0.0, 6.5), (5.0, 0.0), 8.0, 7.0), schedule_weight((0.0, 6.5), (5.0, 0.0), 8.0, 9.0)
+    (0.0, 5.0)
+    >>> import numpy as np
+    >>> schedule_weight((0.0, 6.5), (5.0, 0.0), 8.0, np.array([0.0, 6.5, 8.0]))
+    array([5., 0., 5.])
     """
     periodic = period is not None and period > 0
     if isinstance(tau, np.ndarray):
@@ -98,11 +119,35 @@ def schedule_weight(
 
 @dataclass(frozen=True)
 class Schedule:
-    """Piecewise-constant weight: ``values[m]`` on ``[breakpoints[m], breakpoints[m+1])``.
+    """Piecewise-constant link weight ``k^j_ij(t)`` (Liang et al. 2012, eq 19, Table 2): ``values[m]`` on
+    ``[breakpoints[m], breakpoints[m+1])``.
 
     With a ``period``, the argument is reduced modulo the period, breakpoints
     start at 0 and lie in ``[0, period)``.  Without one, ``values[0]`` also holds
     before ``breakpoints[0]`` and the last value holds forever.
+
+    Parameters
+    ----------
+    breakpoints : tuple of float
+        Strictly increasing segment starts (s).
+    values : tuple of float
+        The weight on each segment (>= 0), as many as ``breakpoints``.
+    period : float or None, optional
+        The period (s) of a periodic schedule; None (default) for an aperiodic one.
+
+    Raises
+    ------
+    TopologyError
+        Mismatched lengths, breakpoints not increasing, negative or non-finite weights, a bad period.
+
+    Examples
+    --------
+    >>> from fsmctl.model import Schedule
+    >>> table2 = Schedule(breakpoints=(0.0, 6.5), values=(5.0, 0.0), period=8.0)
+    >>> table2.value([0.0, 7.0, 8.5])
+    array([5., 0., 5.])
+    >>> table2.switching_times(0.0, 20.0)
+    array([ 6.5,  8. , 14.5, 16. ])
     """
 
     breakpoints: tuple[float, ...]
@@ -131,23 +176,67 @@ class Schedule:
 
     @classmethod
     def constant(cls, value: float) -> Schedule:
+        """A schedule that is ``value`` at all times.
+
+        Parameters
+        ----------
+        value : float
+            The constant weight (>= 0).
+
+        Returns
+        -------
+        Schedule
+            ``Schedule((0.0,), (value,))``.
+
+        Examples
+        --------
+        >>> from fsmctl.model import Schedule
+        >>> Schedule.constant(5.0).value(123.0)
+        5.0
+        """
         return cls((0.0,), (float(value),))
 
     def value(self, t) -> np.ndarray | float:
-        """Weight at time(s) ``t`` (vectorized), by the rule of :func:`schedule_weight`."""
+        """Weight at time(s) ``t`` (vectorized), by the rule of :func:`schedule_weight`.
+
+        Parameters
+        ----------
+        t : float or array_like
+            Argument(s) (s), already shifted by a link's phase if any.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            A float for a scalar ``t``, else an array shaped like ``t``.
+        """
         out = schedule_weight(self.breakpoints, self.values, self.period, np.asarray(t, dtype=float))
         return float(out) if out.ndim == 0 else out
 
     @property
     def max(self) -> float:
+        """The largest weight of the schedule (used by the bounds of Theorem 1)."""
         return max(self.values)
 
     @property
     def min(self) -> float:
+        """The smallest weight of the schedule."""
         return min(self.values)
 
     def switching_times(self, t0: float, t1: float, phase: float = 0.0) -> np.ndarray:
-        """Times in ``(t0, t1)`` where ``value(t + phase)`` may jump."""
+        """Times in ``(t0, t1)`` where ``value(t + phase)`` may jump.
+
+        Parameters
+        ----------
+        t0, t1 : float
+            The open time interval (s).
+        phase : float, optional
+            The link's phase shift (s), default 0.
+
+        Returns
+        -------
+        numpy.ndarray
+            Sorted, unique switching times.
+        """
         b = np.asarray(self.breakpoints)
         if self.period is None:
             times = b - phase
@@ -158,13 +247,56 @@ class Schedule:
         return np.unique(times[(times > t0) & (times < t1)])
 
     def with_values(self, values: Sequence[float]) -> Schedule:
+        """The same breakpoints and period with other weights.
+
+        Parameters
+        ----------
+        values : sequence of float
+            One weight per segment.
+
+        Returns
+        -------
+        Schedule
+            The new schedule.
+        """
         return Schedule(self.breakpoints, tuple(float(v) for v in values), self.period)
 
     def scaled(self, factor: float) -> Schedule:
+        """Every weight multiplied by ``factor``.
+
+        Parameters
+        ----------
+        factor : float
+            The scale (>= 0).
+
+        Returns
+        -------
+        Schedule
+            The scaled schedule.
+        """
         return self.with_values([factor * v for v in self.values])
 
     @classmethod
     def from_mapping(cls, d, where: str) -> Schedule:
+        """A schedule from a scenario file: a number (constant) or a table ``{breakpoints, values, period}``.
+
+        Parameters
+        ----------
+        d : float or Mapping
+            The TOML value.
+        where : str
+            Where it is in the file, for error messages.
+
+        Returns
+        -------
+        Schedule
+            The schedule.
+
+        Raises
+        ------
+        TopologyError
+            Unknown keys, missing ``values``, or an invalid schedule.
+        """
         if isinstance(d, (int, float)) and not isinstance(d, bool):
             return cls.constant(_num(d, where))
         if not isinstance(d, Mapping):
@@ -188,7 +320,28 @@ class Schedule:
 
 @dataclass(frozen=True)
 class Link:
-    """Agent ``receiver`` (i) gets ``s_j`` from ``sender`` (j): weights ``k^i_ij`` and ``k^j_ij(t)`` (0-based indices)."""
+    """Agent ``receiver`` (i) gets ``s_j`` from ``sender`` (j): weights ``k^i_ij`` and ``k^j_ij(t)`` (eq 19; 0-based indices).
+
+    Parameters
+    ----------
+    receiver : int
+        Agent ``i`` (0-based), which uses the link.
+    sender : int
+        Agent ``j`` (0-based), whose sliding variable ``s_j`` is received.
+    k_i : float
+        ``k^i_ij`` (>= 0), the weight of the receiver's own ``s_i``.
+    k_j : Schedule
+        ``k^j_ij(t)``, the weight of the received ``s_j``.
+    phase : float, optional
+        Time shift (s) of the schedule: ``k^j_ij(t) = k_j(t + phase)`` (Table 2's phases), default 0.
+
+    Examples
+    --------
+    >>> from fsmctl.model import Link, Schedule
+    >>> link = Link(receiver=0, sender=1, k_i=8.0, k_j=Schedule((0.0, 6.5), (5.0, 0.0), 8.0), phase=2.0)
+    >>> link.k_j_at([0.0, 5.0])
+    array([5., 0.])
+    """
 
     receiver: int
     sender: int
@@ -197,12 +350,52 @@ class Link:
     phase: float = 0.0
 
     def k_j_at(self, t):
+        """``k^j_ij(t)``: the schedule at ``t + phase``.
+
+        Parameters
+        ----------
+        t : float or array_like
+            Time(s) (s).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            The weight(s), shaped like ``t``.
+        """
         return self.k_j.value(np.asarray(t, dtype=float) + self.phase)
 
 
 @dataclass(frozen=True)
 class Topology:
-    """The directed, possibly time-varying communication graph of eq 19."""
+    """The directed, possibly time-varying communication graph of eq 19 (Liang et al. 2012; Assumption 1).
+
+    Parameters
+    ----------
+    n_agents : int
+        Number of agents (>= 1).
+    links : tuple of Link
+        The directed links; no self-links, no duplicates, agents in ``0..n_agents-1``.
+
+    Raises
+    ------
+    TopologyError
+        An invalid link (see the message).
+
+    See Also
+    --------
+    ring, k_nearest, all_to_all, from_phase_table : the usual graphs.
+
+    Examples
+    --------
+    >>> from fsmctl.model import Link, Schedule, Topology
+    >>> topo = Topology(2, (Link(0, 1, 8.0, Schedule.constant(5.0)), Link(1, 0, 8.0, Schedule.constant(0.0))))
+    >>> topo.k_i_matrix()
+    array([[0., 8.],
+           [8., 0.]])
+    >>> topo.k_j_matrix(0.0)
+    array([[0., 5.],
+           [0., 0.]])
+    """
 
     n_agents: int
     links: tuple[Link, ...]
@@ -245,7 +438,18 @@ class Topology:
         return K
 
     def k_j_matrix(self, t: float) -> np.ndarray:
-        """``K_j[i, j] = k^j_ij(t)`` (Liang et al. 2012, eq 19)."""
+        """``K_j[i, j] = k^j_ij(t)`` (Liang et al. 2012, eq 19).
+
+        Parameters
+        ----------
+        t : float
+            Time (s).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_agents, n_agents)``, zero where there is no link.
+        """
         return self.k_j_matrices(np.array([t], dtype=float))[0]
 
     def k_j_matrices(self, times: npt.ArrayLike) -> np.ndarray:
@@ -269,21 +473,59 @@ class Topology:
         return K
 
     def k_j_max_matrix(self) -> np.ndarray:
+        """``K[i, j] = max_t k^j_ij(t)``: every link's largest weight (zero where there is no link).
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(n_agents, n_agents)``.
+        """
         K = np.zeros((self.n_agents, self.n_agents))
         for link in self.links:
             K[link.receiver, link.sender] = link.k_j.max
         return K
 
     def switching_times(self, t0: float, t1: float) -> np.ndarray:
-        """All times in ``(t0, t1)`` at which some ``k^j_ij`` may change."""
+        """All times in ``(t0, t1)`` at which some ``k^j_ij`` may change.
+
+        Parameters
+        ----------
+        t0, t1 : float
+            The open time interval (s).
+
+        Returns
+        -------
+        numpy.ndarray
+            Sorted, unique times.
+        """
         parts = [link.k_j.switching_times(t0, t1, link.phase) for link in self.links]
         return np.unique(np.concatenate(parts)) if parts else np.zeros(0)
 
     def edge_count(self) -> int:
+        """The number of directed links.
+
+        Returns
+        -------
+        int
+            ``len(links)``.
+        """
         return len(self.links)
 
     def scaled(self, k_i: float | None = None, k_j_on: float | None = None) -> Topology:
-        """Same graph and timing with ``k^i`` replaced and/or every schedule's nonzero values set to ``k_j_on``."""
+        """Same graph and timing with ``k^i`` replaced and/or every schedule's nonzero values set to ``k_j_on``.
+
+        Parameters
+        ----------
+        k_i : float or None, optional
+            New ``k^i_ij`` of every link; None keeps each link's.
+        k_j_on : float or None, optional
+            New value of every nonzero schedule weight; None keeps the schedules.
+
+        Returns
+        -------
+        Topology
+            The rescaled graph.
+        """
         links = []
         for link in self.links:
             sched = link.k_j
@@ -295,10 +537,30 @@ class Topology:
     # --- construction ------------------------------------------------------------
     @classmethod
     def from_mapping(cls, d: Mapping, n_agents: int, where: str = "topology") -> Topology:
-        """From a TOML table: either ``phase_table`` + ``schedule`` + ``k_i``, or an explicit ``links`` array.
+        """From a TOML table: ``phase_table`` + ``schedule`` + ``k_i``, ``kind`` (``ring``, ``all-to-all``,
+        ``k-nearest`` with ``neighbours``), or an explicit ``links`` array.
 
         ``links = [{receiver = 1, sender = 2, k_i = 8, phase = 0.0, k_j = <number or schedule table>}, ...]``
         (1-based agents; ``k_i``, ``k_j``/``schedule`` default to the table-level values).
+
+        Parameters
+        ----------
+        d : Mapping
+            The ``[topology]`` table.
+        n_agents : int
+            Number of agents of the scenario.
+        where : str, optional
+            Where the table is, for error messages (default ``"topology"``).
+
+        Returns
+        -------
+        Topology
+            The graph.
+
+        Raises
+        ------
+        TopologyError
+            Unknown keys, conflicting or missing keys, invalid links or schedules.
         """
         if not isinstance(d, Mapping):
             raise TopologyError(f"{where}: expected a table")
@@ -363,10 +625,45 @@ class Topology:
 
 
 def from_phase_table(table, n_agents: int, k_i: float, schedule: Schedule, where: str = "phase_table") -> Topology:
-    """Table 2 form: ``k^j_ij(t) = schedule(t + table[i][j])``; NaN means no link.
+    """Table 2 form (Liang et al. 2012): ``k^j_ij(t) = schedule(t + table[i][j])``; NaN means no link.
 
     A phase is a time shift and may be any finite number; only NaN removes a link (a negative entry is a
     shift like any other, never a silent way to drop a link).
+
+    Parameters
+    ----------
+    table : array_like
+        ``(n_agents, n_agents)`` phases (s); NaN on the diagonal and where there is no link.
+    n_agents : int
+        Number of agents.
+    k_i : float
+        ``k^i_ij`` of every link.
+    schedule : Schedule
+        The schedule every link shifts by its phase.
+    where : str, optional
+        Where the table is, for error messages.
+
+    Returns
+    -------
+    Topology
+        One link per finite entry.
+
+    Raises
+    ------
+    TopologyError
+        Wrong shape, non-numbers, a non-NaN diagonal or an infinite phase.
+
+    Examples
+    --------
+    >>> import math
+    >>> from fsmctl.model import Schedule, from_phase_table
+    >>> nan = math.nan
+    >>> topo = from_phase_table([[nan, 0.0], [2.0, nan]], 2, k_i=8.0, schedule=Schedule((0.0, 6.5), (5.0, 0.0), 8.0))
+    >>> [(link.receiver, link.sender, link.phase) for link in topo.links]
+    [(0, 1, 0.0), (1, 0, 2.0)]
+    >>> topo.k_j_matrix(5.0)
+    array([[0., 5.],
+           [0., 0.]])
     """
     try:
         a = np.asarray(table, dtype=float)
@@ -395,7 +692,31 @@ def _links(pairs: Iterable[tuple[int, int]], k_i: float, schedule: Schedule) -> 
 
 
 def ring(n: int, k_i: float, k_j: Schedule | float) -> Topology:
-    """Bidirectional ring: ``i`` receives from ``i-1`` and ``i+1``."""
+    """Bidirectional ring: agent ``i`` receives from ``i-1`` and ``i+1`` (modulo ``n``).
+
+    Parameters
+    ----------
+    n : int
+        Number of agents (fewer than 2: no links).
+    k_i : float
+        ``k^i_ij`` of every link.
+    k_j : Schedule or float
+        ``k^j_ij(t)`` of every link (a number is a constant schedule).
+
+    Returns
+    -------
+    Topology
+        The graph.
+
+    Examples
+    --------
+    >>> from fsmctl.model import ring
+    >>> ring(4, k_i=8.0, k_j=5.0).k_i_matrix()
+    array([[0., 8., 0., 8.],
+           [8., 0., 8., 0.],
+           [0., 8., 0., 8.],
+           [8., 0., 8., 0.]])
+    """
     s = k_j if isinstance(k_j, Schedule) else Schedule.constant(k_j)
     if n < 2:
         return Topology(n, ())
@@ -404,7 +725,37 @@ def ring(n: int, k_i: float, k_j: Schedule | float) -> Topology:
 
 
 def k_nearest(n: int, k: int, k_i: float, k_j: Schedule | float) -> Topology:
-    """Each agent receives from its ``k`` nearest neighbours on a circle (``k`` even: ``k/2`` per side)."""
+    """Each agent receives from its ``k`` nearest neighbours on a circle (``k`` even: ``k/2`` per side; ``k`` odd:
+    one more ahead).
+
+    Parameters
+    ----------
+    n : int
+        Number of agents.
+    k : int
+        Neighbours per agent, ``1 <= k < n``.
+    k_i : float
+        ``k^i_ij`` of every link.
+    k_j : Schedule or float
+        ``k^j_ij(t)`` of every link (a number is a constant schedule).
+
+    Returns
+    -------
+    Topology
+        The graph.
+
+    Raises
+    ------
+    TopologyError
+        ``k`` outside ``1..n-1``.
+
+    Examples
+    --------
+    >>> from fsmctl.model import k_nearest
+    >>> topo = k_nearest(5, 2, k_i=1.0, k_j=1.0)
+    >>> topo.edge_count(), sorted(link.sender for link in topo.links if link.receiver == 0)
+    (10, [1, 4])
+    """
     if k < 1 or k >= n:
         raise TopologyError(f"k-nearest: need 1 <= k < n, got k={k}, n={n}")
     s = k_j if isinstance(k_j, Schedule) else Schedule.constant(k_j)
@@ -414,6 +765,27 @@ def k_nearest(n: int, k: int, k_i: float, k_j: Schedule | float) -> Topology:
 
 
 def all_to_all(n: int, k_i: float, k_j: Schedule | float) -> Topology:
-    """Every agent receives from every other."""
+    """Every agent receives from every other (a complete directed graph).
+
+    Parameters
+    ----------
+    n : int
+        Number of agents.
+    k_i : float
+        ``k^i_ij`` of every link.
+    k_j : Schedule or float
+        ``k^j_ij(t)`` of every link (a number is a constant schedule).
+
+    Returns
+    -------
+    Topology
+        The graph.
+
+    Examples
+    --------
+    >>> from fsmctl.model import all_to_all
+    >>> all_to_all(3, k_i=2.0, k_j=1.0).edge_count()
+    6
+    """
     s = k_j if isinstance(k_j, Schedule) else Schedule.constant(k_j)
     return Topology(n, _links(((i, j) for i in range(n) for j in range(n) if i != j), k_i, s))

@@ -1,1 +1,70 @@
-"""fsmctl/plugin"""
+"""The python-control plug-in: spacecraft, control laws, flight hardware and whole formations as I/O systems.
+
+What a user of this layer calls:
+
+* :func:`formation`: the closed loop of a scenario (:class:`FormationSystem`, a :class:`control.InterconnectedSystem`
+  whose law parameters take their bare names in ``params``), with optional actuator and sensor blocks per agent;
+  :func:`initial_state` and :func:`mrp_state` map its states to and from the scenario's MRPs;
+* its pieces, to wire by hand: :func:`spacecraft`, :func:`reference_generator`, :func:`law_controller` (any law;
+  :func:`fsm_controller` is the paper's, Liang et al. 2012, eqs 13-19) with its :class:`Neighbour` links, and
+  :class:`ParameterizedSystem` (their parameter ownership);
+* the flight hardware (:mod:`fsmctl.plugin.hardware`): :func:`reaction_wheel_spacecraft`, :func:`star_tracker`,
+  :func:`rate_gyro`, :func:`link`.
+
+Everything loads on first use (SPEC 1 lazy loading), so ``import fsmctl.plugin`` does not import CasADi or
+python-control.
+"""
+
+from __future__ import annotations
+
+import lazy_loader
+
+__all__ = [
+    # iosys.py
+    "formation",
+    "FormationSystem",
+    "initial_state",
+    "mrp_state",
+    "spacecraft",
+    "reference_generator",
+    "law_controller",
+    "fsm_controller",
+    "law_parameter_values",
+    "Neighbour",
+    "ParameterizedSystem",
+    "quaternion_from_mrp",
+    "mrp_from_quaternion",
+    # hardware.py
+    "reaction_wheel_spacecraft",
+    "reaction_wheel_state",
+    "star_tracker",
+    "rate_gyro",
+    "link",
+]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "iosys": [
+            "formation",
+            "FormationSystem",
+            "initial_state",
+            "mrp_state",
+            "spacecraft",
+            "reference_generator",
+            "law_controller",
+            "fsm_controller",
+            "law_parameter_values",
+            "Neighbour",
+            "ParameterizedSystem",
+            "quaternion_from_mrp",
+            "mrp_from_quaternion",
+        ],
+        "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
+    },
+)
+
+
+def __dir__() -> list[str]:
+    """The public names, eager and lazy (for tab completion and ``dir(fsmctl.plugin)``)."""
+    return sorted(set(__all__) | set(_lazy_all))

@@ -327,6 +327,27 @@ def reaction_wheel_state(plant: ct.NonlinearIOSystem, sigma0=(0.0, 0.0, 0.0), om
     """The state vector ``[q, omega, Omega]`` of a :func:`reaction_wheel_spacecraft` from an MRP, a rate and the
     wheel speeds (default zero).
 
+    Parameters
+    ----------
+    plant : ParameterizedSystem
+        A system made by :func:`reaction_wheel_spacecraft` (its number of wheels ``N`` sizes ``Omega0``).
+    sigma0 : array_like, shape (3,)
+        Initial attitude, MRP of N -> B (any set: converted to Euler parameters).
+    omega0 : array_like, shape (3,)
+        Initial body rate (rad/s).
+    Omega0 : array_like, shape (N,), optional
+        Initial wheel speeds relative to the hub (rad/s); zero by default.
+
+    Returns
+    -------
+    numpy.ndarray, shape (7 + N,)
+        ``[q[0..3], omega[0..2], Omega[0..N-1]]``, the plant's state order.
+
+    Raises
+    ------
+    fsmctl.ScenarioError
+        ``plant`` is not a wheel plant, or a vector has the wrong length or a value that is not a finite number.
+
     Examples
     --------
     >>> import numpy as np

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import copy
 import math
+import re
 import uuid
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -73,6 +74,7 @@ __all__ = [
     "law_controller",
     "law_parameter_values",
     "formation",
+    "FormationSystem",
     "initial_state",
     "mrp_state",
     "quaternion_from_mrp",
@@ -313,6 +315,24 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
     interconnection's merged ``params`` and by any ``params=`` passed explicitly), so explicit values win;
     each value is validated once per object (again when a writeable array's contents change).
 
+    Parameters
+    ----------
+    kind : str
+        The factory's name, for messages (``"spacecraft"``, ...).
+    update : callable or None
+        ``update(t, x, u, p)``: the state derivative, with ``p`` the validated parameters by local name; ``None``
+        for a static system.
+    output : callable
+        ``output(t, x, u, p)``: the outputs.
+    values : mapping of str to object
+        The parameters' initial values by local name (already validated).
+    validators : mapping of str to callable
+        ``validator(value, where) -> checked value`` per local name, applied to values given at evaluation time.
+    name : str, optional
+        System name, and the prefix of the parameter keys; default python-control's unique ``sys[<id>]``.
+    **kwargs
+        Passed to :class:`control.NonlinearIOSystem` (``inputs``, ``outputs``, ``states``, ...).
+
     Raises
     ------
     fsmctl.errors.InputError
@@ -367,6 +387,21 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
 
     def param_key(self, local: str) -> str:
         """The ``params`` key of the parameter ``local`` (``"J"`` -> ``"sc1_J"``).
+
+        Parameters
+        ----------
+        local : str
+            The parameter's local name (``"J"``, ``"J0"``, ``"c1"``, ...).
+
+        Returns
+        -------
+        str
+            ``f"{prefix}_{local}"``, the prefix being the system's name when it was made or copied.
+
+        Raises
+        ------
+        KeyError
+            The system has no parameter ``local``.
 
         Examples
         --------
@@ -727,6 +762,24 @@ def _parameter_value(info: LawParameterInfo, packed: Sequence[float]) -> Any:
 def law_parameter_values(law: LawCode | str, packed: Sequence[float]) -> dict[str, Any]:
     """A law's packed parameter vector (a row of :func:`fsmctl.model.laws.parameter_matrix`) by parameter name.
 
+    Parameters
+    ----------
+    law : LawCode or str
+        The law (or a name :func:`fsmctl.model.laws.resolve_law` accepts).
+    packed : sequence of float
+        Its ``law.n_params`` packed values, in the order of ``law.parameters`` (an option as its index).
+
+    Returns
+    -------
+    dict of str to object
+        Each parameter by name: a float, a read-only array (a vector parameter such as ``delta``) or an option's
+        name; what :func:`law_controller` takes as ``parameters``.
+
+    Raises
+    ------
+    fsmctl.ScenarioError
+        ``packed`` does not have ``law.n_params`` values.
+
     Examples
     --------
     >>> import fsmctl
@@ -960,9 +1013,10 @@ def fsm_controller(
     -------
     ParameterizedSystem
         Static.  Inputs ``sigma``, ``omega`` (own state), ``sigma_d``, ``omega_d``, ``omega_d_dot`` (reference)
-        and ``s_<neighbour>``; outputs ``tau[0..2]`` (saturated torque) and ``s[0..2]``.  Parameters
-        ``f"{name}_J0"``, ``_gains`` (6: c1, c2, alpha, boundary_layer, epsilon, fix_mode), ``_delta``,
-        ``_u_max`` and the owner tag.
+        and ``s_<neighbour>``; outputs ``tau[0..2]`` (saturated torque) and ``s[0..2]``.  Parameters: the law's,
+        by the paper's names, ``f"{name}_c1"``, ``_c2``, ``_alpha`` (eq 13), ``_boundary_layer`` (Remark 7),
+        ``_epsilon``, ``_singularity_fix`` (Remark 6), ``_delta`` (eq 18), then ``_J0``, ``_u_max`` and the
+        owner tag: the system of :func:`law_controller` ``("fsm", ...)`` with these values.
 
     Raises
     ------
@@ -977,8 +1031,8 @@ def fsm_controller(
     >>> ctrl = fsmctl.fsm_controller(a.J0_array, paper.controller, a.delta, name="ctrl1")
     >>> ctrl.output_labels
     ['tau[0]', 'tau[1]', 'tau[2]', 's[0]', 's[1]', 's[2]']
-    >>> float(ctrl.params["ctrl1_u_max"])
-    2.0
+    >>> float(ctrl.params["ctrl1_u_max"]), float(ctrl.params["ctrl1_c1"]), ctrl.params["ctrl1_delta"].tolist()
+    (2.0, 0.6, [0.005, 0.005, 0.005])
     """
     name = _system_name(name, "fsm_controller")
     where = f"fsm_controller {name!r}" if name else "fsm_controller"
@@ -990,47 +1044,280 @@ def fsm_controller(
     u_max = _torque_limit(controller.effective_torque_limit, f"{where}: controller torque limit")
     nbrs = _neighbours(neighbours, where)
     law = resolve_law("fsm")
-    order = []  # where each of the law's packed parameters comes from: (local name, index)
-    for info in law.parameters:
-        if info.name == "delta":
-            order += [("delta", k) for k in range(3)]
-        else:
-            order.append(("gains", _GAINS.index(info.name)))
-
-    def pack(checked: Mapping[str, Any]) -> np.ndarray:
-        return np.array([checked[local][k] for local, k in order])
-
-    scheme = _ParameterScheme({"gains": gains, "delta": delta}, {"gains": _gains, "delta": _positive3}, pack)
+    fix = law.parameter("singularity_fix")
+    parameters: dict[str, Any] = {k: float(v) for k, v in zip(_GAINS[:5], gains[:5], strict=True)}
+    parameters["singularity_fix"] = fix.choices[int(gains[5])]
+    parameters["delta"] = delta
+    scheme = _law_scheme(law, parameters, where)
     return _controller("fsm_controller", law, J0, scheme, u_max, controller.error_model, nbrs, name)
 
 
+class FormationSystem(ct.InterconnectedSystem):
+    """The closed-loop formation :func:`formation` returns: a :class:`control.InterconnectedSystem` whose law
+    parameters can also be given by their bare names.
+
+    ``params={"c1": 0.3}`` (a name of :attr:`law_parameters`, the keys of a scenario's ``[controller]`` table)
+    sets that parameter of every controller ``ctrl1..ctrln``, exactly as ``params={"ctrl1_c1": 0.3,
+    "ctrl2_c1": 0.3, ...}`` would; a prefixed key (``"ctrl2_c1"``) passed with it wins for its agent.  Values are
+    checked by the path scenario files take (:meth:`fsmctl.model.laws.LawParameterInfo.values`, the law's
+    declared ranges).  Bare names are read from the ``params`` given to this system itself
+    (:func:`control.input_output_response`, :meth:`dynamics`, :meth:`output`); inside a larger interconnection,
+    use the prefixed keys.
+
+    Parameters
+    ----------
+    *args
+        The arguments of :class:`control.InterconnectedSystem` (:func:`formation` makes it).
+    **kwargs
+        The keyword arguments of :class:`control.InterconnectedSystem`.
+
+    Attributes
+    ----------
+    law_parameters : tuple of str
+        The law's parameter names (``("c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix",
+        "delta")`` for the paper's law).
+    controllers : tuple of str
+        The controllers' names, ``("ctrl1", ..., "ctrln")``.
+
+    Examples
+    --------
+    >>> import control as ct, numpy as np
+    >>> import fsmctl
+    >>> from fsmctl.plugin.iosys import initial_state
+    >>> s = fsmctl.paper_scenario("1").replace(controller={"torque_limit": float("inf")})  # unsaturated
+    >>> loop = fsmctl.formation(s)
+    >>> loop.law_parameters[:3]
+    ('c1', 'c2', 'alpha')
+    >>> x0 = initial_state(s)
+    >>> a = loop.dynamics(0.0, x0, [], params={"c1": 1.2})
+    >>> b = loop.dynamics(0.0, x0, [], params={f"ctrl{i}_c1": 1.2 for i in range(1, 7)})
+    >>> bool(np.array_equal(a, b)), bool(np.array_equal(a, loop.dynamics(0.0, x0, [])))
+    (True, False)
+    """
+
+    law_parameters: tuple[str, ...] = ()
+    controllers: tuple[str, ...] = ()
+
+    def __init__(self, *args, **kwargs):
+        """Made by :func:`formation` (the arguments are :class:`control.InterconnectedSystem`'s).
+
+        Parameters
+        ----------
+        *args
+            As :class:`control.InterconnectedSystem`.
+        **kwargs
+            As :class:`control.InterconnectedSystem`.
+        """
+        super().__init__(*args, **kwargs)
+
+    def _update_params(self, params):
+        if params:
+            bare = [k for k in params if k in self.law_parameters]
+            if bare:
+                params = dict(params)
+                for key in bare:
+                    for ctrl in self.controllers:
+                        params.setdefault(f"{ctrl}_{key}", params[key])
+        super()._update_params(params)
+
+
+_BlockSpec = Any
+"""``None``, a python-control system, a sequence with one entry per agent, or ``hook(i, agent)``."""
+
+
+def _signal_bases(labels: Sequence[str]) -> dict[str, list[str]]:
+    """Signal labels by base name (``"tau[0]"`` -> ``"tau"``; a label without an index is its own base)."""
+    out: dict[str, list[str]] = {}
+    for label in labels:
+        m = re.fullmatch(r"(.+)\[(\d+)\]", label)
+        out.setdefault(m.group(1) if m else label, []).append(label)
+    return out
+
+
+def _agent_blocks(spec: _BlockSpec, kind: str, scenario: Scenario) -> list[tuple[ct.InputOutputSystem, ...]]:
+    """Each agent's blocks (a tuple, possibly empty) from ``formation``'s ``actuators``/``sensors`` argument."""
+    n = scenario.n_agents
+    where = f"formation: {kind}"
+    if spec is None:
+        return [()] * n
+    if isinstance(spec, ct.InputOutputSystem):
+        entries = [spec] * n
+    elif callable(spec):
+        entries = [spec(i, agent) for i, agent in enumerate(scenario.agents)]
+    elif isinstance(spec, Sequence) and not isinstance(spec, (str, bytes)):
+        if len(spec) != n:
+            raise ScenarioError(f"{where}: expected one entry per agent ({n}), got {len(spec)}")
+        entries = list(spec)
+    else:
+        raise ScenarioError(
+            f"{where}: expected None, a python-control system, a sequence with one entry per agent or a callable "
+            f"(i, agent) -> system, got {_show(spec)}"
+        )
+    out = []
+    for i, entry in enumerate(entries):
+        blocks = () if entry is None else (entry,) if isinstance(entry, ct.InputOutputSystem) else entry
+        if (
+            isinstance(blocks, (str, bytes))
+            or not isinstance(blocks, Sequence)
+            or not all(isinstance(b, ct.InputOutputSystem) for b in blocks)
+        ):
+            raise ScenarioError(
+                f"{where}: agent {i + 1}: expected None, a python-control system or a sequence of them, got "
+                f"{_show(entry)}"
+            )
+        if kind == "actuators" and len(blocks) > 1:
+            raise ScenarioError(
+                f"{where}: agent {i + 1}: one actuator block per agent, got {len(blocks)} (chain them into one "
+                "with control.interconnect)"
+            )
+        for b in blocks:
+            if b.isdtime(strict=True):
+                raise ScenarioError(
+                    f"{where}: agent {i + 1}: block {b.name!r} is discrete time (dt = {b.dt}); the formation is "
+                    "continuous time: make it with dt=0 (e.g. star_tracker(..., dt=0))"
+                )
+        out.append(tuple(blocks))
+    return out
+
+
+def _check_from_plant(block: ct.InputOutputSystem, base: str, labels: list[str], plant, where: str, role: str) -> None:
+    """A block input ``base`` that is not a law signal must be an output of the plant, with the same components."""
+    have = _signal_bases(plant.output_labels)
+    if base not in have:
+        raise ScenarioError(
+            f"{where}: block {block.name!r} has input {base!r}, which is neither {role} nor an output of the plant "
+            f"(its outputs: {', '.join(have)})"
+        )
+    if labels != have[base]:
+        raise ScenarioError(
+            f"{where}: block {block.name!r}: input {base!r} has components {labels}, expected {have[base]}"
+        )
+
+
+def _expect(block: ct.InputOutputSystem, bases: dict[str, list[str]], base: str, side: str, where: str, why: str):
+    want = _labels(base)
+    if bases.get(base) != want:
+        got = bases.get(base)
+        raise ScenarioError(
+            f"{where}: block {block.name!r} needs the {side} {want[0][:-3]}[0..2] ({why}); "
+            + (f"it has {got}" if got else f"its {side}s are {list(bases) or 'none'}")
+        )
+
+
+def _wire_actuator(i: int, block, plant, torque_input: str, where: str):
+    """Connections that put ``block`` between ``ctrl<i>.tau`` and the plant's torque input ``torque_input``."""
+    b = block.copy(name=f"actuator{i}")
+    ins, outs = _signal_bases(b.input_labels), _signal_bases(b.output_labels)
+    _expect(block, ins, "tau_command", "input", where, "the law's torque command")
+    _expect(block, outs, "tau", "output", where, "the torque applied to the spacecraft")
+    connections = [[f"actuator{i}.tau_command", f"ctrl{i}.tau"], [f"sc{i}.{torque_input}", f"actuator{i}.tau"]]
+    for base, labels in ins.items():
+        if base != "tau_command":
+            _check_from_plant(block, base, labels, plant, where, "tau_command (the law's torque)")
+            connections.append([f"actuator{i}.{base}", f"sc{i}.{base}"])
+    ignored = [f"actuator{i}.{base}" for base in outs if base != "tau"]
+    return b, connections, ignored
+
+
+_MEASURED = {"sigma_measured": "sigma", "omega_measured": "omega"}
+"""A sensor block's outputs and the controller inputs they feed."""
+
+
+def _wire_sensors(i: int, blocks, plant, where: str):
+    """Connections that put each sensor block between the plant's outputs and ``ctrl<i>``'s ``sigma``/``omega``."""
+    systems, connections, ignored, fed = [], [], [], {}
+    for k, block in enumerate(blocks, start=1):
+        sname = f"sensor{i}" if len(blocks) == 1 else f"sensor{i}_{k}"
+        b = block.copy(name=sname)
+        ins, outs = _signal_bases(b.input_labels), _signal_bases(b.output_labels)
+        measured = [base for base in _MEASURED if base in outs]
+        if not measured:
+            raise ScenarioError(
+                f"{where}: block {block.name!r} needs the output sigma_measured[0..2] or omega_measured[0..2] (what "
+                f"the law receives); its outputs are {list(outs) or 'none'}"
+            )
+        for base in measured:
+            _expect(block, outs, base, "output", where, "what the law receives")
+            if base in fed:
+                raise ScenarioError(f"{where}: blocks {fed[base]!r} and {block.name!r} both output {base}")
+            fed[base] = block.name
+            connections.append([f"ctrl{i}.{_MEASURED[base]}", f"{sname}.{base}"])
+        for base, labels in ins.items():
+            _check_from_plant(block, base, labels, plant, where, "a plant output")
+            connections.append([f"{sname}.{base}", f"sc{i}.{base}"])
+        ignored += [f"{sname}.{base}" for base in outs if base not in _MEASURED]
+        systems.append(b)
+    for base, signal in _MEASURED.items():
+        if base not in fed:
+            connections.append([f"ctrl{i}.{signal}", f"sc{i}.{signal}"])
+    return systems, connections, ignored
+
+
 def formation(
-    scenario: Scenario, *, normalization_gain: float = DEFAULT_NORMALIZATION_GAIN, name: str = "formation"
-) -> ct.InterconnectedSystem:
+    scenario: Scenario,
+    *,
+    actuators: _BlockSpec = None,
+    sensors: _BlockSpec = None,
+    normalization_gain: float = DEFAULT_NORMALIZATION_GAIN,
+    name: str = "formation",
+) -> FormationSystem:
     """The closed-loop formation of a scenario, flying its law (``scenario.law``), assembled with :func:`control.interconnect`.
 
-    Subsystems: ``reference``, plants ``sc1..scn`` (true inertia ``J0 + delta_J`` and disturbance),
+    Subsystems: ``reference``, plants ``sc1..scn`` (true inertia ``J0 + delta_J`` and disturbance; with
+    ``[actuator] kind = "reaction_wheels"`` the wheel plant of :func:`fsmctl.plugin.hardware.reaction_wheel_spacecraft`),
     controllers ``ctrl1..ctrln`` (:func:`law_controller` with the nominal ``J0`` and the agent's law parameters,
     :func:`fsmctl.model.laws.parameter_matrix`). Controller ``i`` receives the broadcast ``b_j`` of controller
-    ``j`` (``s_j`` for the paper's law) for each link ``i <- j`` of the topology.
+    ``j`` (``s_j`` for the paper's law, eq 19) for each link ``i <- j`` of the topology.  Optional actuator and
+    sensor blocks are inserted per agent and wired by their signal names.
 
     Parameters
     ----------
     scenario : Scenario
+        The formation: agents, topology, reference, law.  Sampled control, the scenario's own sensors and
+        imperfect links act at control instants, which a continuous-time interconnection cannot hold: they are
+        refused (fly them with :func:`fsmctl.simulate`).
+    actuators : None, system, sequence or callable, optional
+        A continuous-time python-control system inserted between controller ``i`` and plant ``i``: its inputs
+        ``tau_command[0..2]`` receive the law's torque ``ctrl<i>.tau``, its outputs ``tau[0..2]`` drive the
+        plant (``sc<i>.tau``; ``sc<i>.u_command`` of a wheel plant).  Further inputs named like a plant output
+        (``sigma``, ``omega``, ...) are wired from that plant; further outputs are ignored.  One system: a copy
+        for every agent; a sequence: one entry (a system or ``None``) per agent; a callable ``hook(i, agent)``
+        (``i`` 0-based, ``agent`` the :class:`fsmctl.Agent`) returns the agent's block or ``None``.  The block
+        of agent ``i`` is named ``actuator<i>``.
+    sensors : None, system, sequence or callable, optional
+        Continuous-time systems inserted between plant ``i`` and controller ``i``: inputs named like plant
+        outputs (``sigma[0..2]``, ``omega[0..2]``) are wired from the plant, outputs ``sigma_measured[0..2]``
+        and/or ``omega_measured[0..2]`` feed the controller's ``sigma``/``omega`` (the signals of
+        :func:`fsmctl.plugin.hardware.star_tracker` and :func:`~fsmctl.plugin.hardware.rate_gyro` with
+        ``dt=0``); what no block measures comes from the plant.  Given like ``actuators``, except that each
+        agent's entry may also be a sequence of blocks (a star tracker and a gyro); named ``sensor<i>`` (or
+        ``sensor<i>_<k>`` for several).
     normalization_gain : float
         Quaternion normalisation-drift gain of the plants and the reference (see :func:`spacecraft`).
     name : str
+        Name of the interconnected system.
 
     Returns
     -------
-    control.InterconnectedSystem
-        No inputs. States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``, then
-        the controllers' law states ``ctrl<i>_<state>[k]`` if the law has any (:func:`initial_state` builds them
-        from the scenario, :func:`mrp_state` maps them back to MRPs); outputs ``sc<i>_sigma[k]``
-        (``|sigma| <= 1``), ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the output labels of
+    FormationSystem
+        No inputs. States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``
+        (and the wheel speeds), then the controllers' law states ``ctrl<i>_<state>[k]`` if the law has any
+        (:func:`initial_state` builds all of these from the scenario, :func:`mrp_state` maps them back to MRPs),
+        then the states of the actuator and sensor blocks (pass ``[initial_state(s), x_blocks]``, or
+        ``[initial_state(s), 0]`` for zeros).  Outputs ``sc<i>_sigma[k]`` (``|sigma| <= 1``),
+        ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the torque applied to the body: the actuator block's ``tau``,
+        the wheels' reaction, else the law's output; the output labels of
         :meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
         ``ctrl<i>_J0``, ``ctrl<i>_<law parameter>``, ... of the subsystems; pass ``params={"sc2_J": ...}`` to
-        change one agent.
+        change one agent, ``params={"c1": ...}`` (a law parameter's bare name) to change every agent's.
+
+    Raises
+    ------
+    fsmctl.ScenarioError
+        ``scenario`` not a :class:`fsmctl.Scenario`, or one that needs control instants; an actuator or sensor
+        block whose signals do not fit (a missing ``tau_command``/``tau``/``*_measured`` signal, an input that
+        is no plant output, the wrong number of components, two sensors measuring the same signal), a
+        discrete-time block, or a sequence whose length is not the number of agents.
 
     Examples
     --------
@@ -1046,6 +1333,17 @@ def formation(
     >>> r = ct.input_output_response(loop, [0.0, 0.01], 0, initial_state(s))
     >>> r.outputs.shape
     (54, 2)
+
+    A torque actuator with a first-order lag (0.1 s) for every agent, wired by its signal names:
+
+    >>> names = lambda base: [f"{base}[{k}]" for k in range(3)]
+    >>> lag = ct.ss(-10 * np.eye(3), 10 * np.eye(3), np.eye(3), 0, inputs=names("tau_command"), outputs=names("tau"))
+    >>> lagged = fsmctl.formation(s, actuators=lag)
+    >>> lagged.nstates, lagged.state_labels[46]
+    (64, 'actuator1_x[0]')
+    >>> r = ct.input_output_response(lagged, [0.0, 0.01], 0, [initial_state(s), 0])
+    >>> r.outputs[6:9, -1].round(4).tolist()  # sc1_tau: 2 N m asked, 2 (1 - exp(-0.1)) applied after 0.01 s
+    [0.1903, 0.1903, -0.1903]
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"formation: expected a Scenario, got {type(scenario).__name__}")
@@ -1055,30 +1353,30 @@ def formation(
     wheels = scenario.actuator.enabled
     if wheels:
         from fsmctl.plugin.hardware import reaction_wheel_spacecraft  # it builds on this module
+    act_blocks = _agent_blocks(actuators, "actuators", scenario)
+    sensor_blocks = _agent_blocks(sensors, "sensors", scenario)
     c = scenario.controller
     try:
         rows = parameter_matrix(law, scenario)
     except LawError as exc:
         raise ScenarioError(str(exc)) from None
     bname = law.broadcast_name
-    plants, controllers, connections = [], [], []
+    plants, controllers, blocks, connections, ignored_outputs = [], [], [], [], []
+    torque_from = []
     for i, agent in enumerate(scenario.agents, start=1):
         if wheels:
-            plants.append(
-                reaction_wheel_spacecraft(
-                    agent.J_true,
-                    scenario.actuator,
-                    disturbance=agent.disturbance,
-                    normalization_gain=normalization_gain,
-                    name=f"sc{i}",
-                )
+            plant = reaction_wheel_spacecraft(
+                agent.J_true,
+                scenario.actuator,
+                disturbance=agent.disturbance,
+                normalization_gain=normalization_gain,
+                name=f"sc{i}",
             )
         else:
-            plants.append(
-                spacecraft(
-                    agent.J_true, disturbance=agent.disturbance, normalization_gain=normalization_gain, name=f"sc{i}"
-                )
+            plant = spacecraft(
+                agent.J_true, disturbance=agent.disturbance, normalization_gain=normalization_gain, name=f"sc{i}"
             )
+        plants.append(plant)
         nbrs = [
             Neighbour(f"sc{link.sender + 1}", link.k_i, link.k_j, link.phase)
             for link in scenario.topology.links
@@ -1095,35 +1393,46 @@ def formation(
                 name=f"ctrl{i}",
             )
         )
+        torque_input = "u_command" if wheels else "tau"
         connections += [
-            [f"ctrl{i}.sigma", f"sc{i}.sigma"],
-            [f"ctrl{i}.omega", f"sc{i}.omega"],
             [f"ctrl{i}.sigma_d", "reference.sigma_d"],
             [f"ctrl{i}.omega_d", "reference.omega_d"],
             [f"ctrl{i}.omega_d_dot", "reference.omega_d_dot"],
-            [f"sc{i}.u_command" if wheels else f"sc{i}.tau", f"ctrl{i}.tau"],
         ]
+        if act_blocks[i - 1]:
+            b, conn, ign = _wire_actuator(
+                i, act_blocks[i - 1][0], plant, torque_input, f"formation: actuators: agent {i}"
+            )
+            blocks.append(b)
+            connections += conn
+            ignored_outputs += ign
+        else:
+            connections.append([f"sc{i}.{torque_input}", f"ctrl{i}.tau"])
+        sys_s, conn, ign = _wire_sensors(i, sensor_blocks[i - 1], plant, f"formation: sensors: agent {i}")
+        blocks += sys_s
+        connections += conn
+        ignored_outputs += ign
         if law.n_broadcast:
             connections += [[f"ctrl{i}.{bname}_{nb.name}", f"ctrl{nb.name[2:]}.{bname}"] for nb in nbrs]
-    torque_from = "sc" if wheels else "ctrl"  # with wheels: their reaction on the body (SimulationResult.u)
+        # with wheels: their reaction on the body (SimulationResult.u); else what the actuator or the law applies
+        torque_from.append("sc" if wheels else "actuator" if act_blocks[i - 1] else "ctrl")
     outlist = [
         f"{sys}{i}.{sig}"
         for i in range(1, n + 1)
-        for sys, sig in (("sc", "sigma"), ("sc", "omega"), (torque_from, "tau"))
+        for sys, sig in (("sc", "sigma"), ("sc", "omega"), (torque_from[i - 1], "tau"))
     ]
     outputs = [f"sc{i}_{sig}[{k}]" for i in range(1, n + 1) for sig in ("sigma", "omega", "tau") for k in range(3)]
-    # plants before controllers: the attitude states come first, in the layout of SimulationResult.to_time_response
+    # plants before controllers: the attitude states come first, in the layout of SimulationResult.to_time_response;
+    # the blocks' states last, so that [initial_state(scenario), x_blocks] is the initial state
     systems = [reference_generator(scenario.reference.omega, normalization_gain=normalization_gain, name="reference")]
-    ignored = {}
+    ignored: dict[str, list[str]] = {}
     if wheels:  # the wheel plants' extra signals (d: no external torque input; wheel speeds, momentum, torques)
-        ignored = {
-            "ignore_inputs": [f"sc{i}.d" for i in range(1, n + 1)],
-            "ignore_outputs": [
-                f"sc{i}.{sig}" for i in range(1, n + 1) for sig in ("Omega", "h_wheels", "wheel_torque")
-            ],
-        }
-    return ct.interconnect(
-        systems + plants + controllers,
+        ignored["ignore_inputs"] = [f"sc{i}.d" for i in range(1, n + 1)]
+        ignored_outputs += [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in ("Omega", "h_wheels", "wheel_torque")]
+    if ignored_outputs:
+        ignored["ignore_outputs"] = ignored_outputs
+    loop = ct.interconnect(
+        systems + plants + controllers + blocks,
         connections=connections,
         outlist=outlist,
         outputs=outputs,
@@ -1131,6 +1440,10 @@ def formation(
         inputs=[],
         **ignored,
     )
+    loop.__class__ = FormationSystem  # the same object, with bare law-parameter names in params
+    loop.law_parameters = tuple(p.name for p in law.parameters)
+    loop.controllers = tuple(f"ctrl{i}" for i in range(1, n + 1))
+    return loop
 
 
 def _continuous_time_only(scenario: Scenario) -> None:
@@ -1148,14 +1461,30 @@ def _continuous_time_only(scenario: Scenario) -> None:
     if parts:
         raise ScenarioError(
             f"formation: {', '.join(parts)} act at control instants, which a continuous-time interconnection cannot "
-            "hold; fly the scenario with fsmctl.simulate, or wire fsmctl.plugin.hardware's star_tracker, rate_gyro "
-            "and link blocks yourself"
+            "hold; fly the scenario with fsmctl.simulate, or pass continuous-time blocks (fsmctl.plugin.hardware's "
+            "star_tracker and rate_gyro with dt=0) as formation(..., sensors=...)"
         )
 
 
 def initial_state(scenario: Scenario) -> np.ndarray:
     """The formation's initial state vector (order of :func:`formation`'s states): quaternions from the MRPs,
     then the law's initial states of every agent (none for the paper's law).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The formation: the reference's and the agents' initial MRPs and rates (and wheel speeds), the law.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[q_d, q_1, omega_1 (, Omega_1), ..., q_n, omega_n (, Omega_n), z_1, ..., z_n]``; with actuator or sensor
+        blocks in :func:`formation`, pass ``[initial_state(s), x_blocks]`` (or ``[initial_state(s), 0]``).
+
+    Raises
+    ------
+    fsmctl.ScenarioError
+        ``scenario`` is not a :class:`fsmctl.Scenario`.
 
     Examples
     --------
@@ -1193,6 +1522,12 @@ def mrp_state(x, n_agents: int | None = None, n_wheels: int = 0) -> np.ndarray:
     numpy.ndarray, shape (3 + 6 n, ...)
         ``[sigma_d, sigma_1, omega_1, ..., sigma_n, omega_n]`` with every MRP in the shadow set ``|sigma| <= 1``
         (the layout of :func:`fsmctl.simulate`'s ``sigma_d``, ``sigma``, ``omega``).
+
+    Raises
+    ------
+    ValueError
+        ``x`` is too short along its first axis for ``n_agents`` (or, without ``n_agents``, its length is not
+        ``4 + (7 + n_wheels) n``).
 
     Examples
     --------

@@ -1,14 +1,55 @@
-"""Proof check of Liang, Sun & Wang (2012), Section 3: the engine behind ``fsmctl prove``.
+"""Proof check of Liang, Sun & Wang (2012), Section 3, and of any law's declared claims: ``fsmctl prove``.
 
-* :mod:`fsmctl.proofs.claims`: the registry of claims and their symbolic checks;
-* :mod:`fsmctl.proofs.theorem1`: Theorem 1's gain/eta conditions for a concrete, time-varying topology;
-* :mod:`fsmctl.proofs.theorem2`: the exact uncertainty of Theorem 2 and the delta a scenario needs;
-* :mod:`fsmctl.proofs.report`: text table, JSON and Markdown/LaTeX report;
-* :mod:`fsmctl.cli.prove`: the ``fsmctl prove`` subcommand.
+* the paper's claims (Lemmas 1-2, eqs 7-41, Theorems 1-3, Remarks 4 and 6): :func:`run_claims` with a
+  :class:`ProofContext`, the ids :func:`claim_ids`, the registry :data:`CLAIMS`, the :data:`VERDICTS`, each
+  outcome a :class:`ClaimResult`; reports :func:`format_table` and :func:`write_report`;
+* the errata of the printed paper, each confirmed symbolically: :func:`errata`, :class:`Erratum`;
+* Theorem 1 on a concrete time-varying topology (eqs 25-27): :func:`analyze_topology`, :func:`eta_interval`;
+* Theorem 2's switching gain (eqs 29-33): :func:`delta_requirements` over a :class:`Region`;
+* any law written with :class:`fsmctl.symbolic.LawBuilder` (``fsmctl prove --law``): :func:`check_law`,
+  which returns a :class:`LawReport`.
+
+The modules :mod:`~fsmctl.proofs.identities` (the model identities ``python -m derive`` proves) and
+:mod:`~fsmctl.proofs.seed_audit` (the re-audit against the printed text) are documented in place.  Names load
+on first use (SPEC 1 lazy loading), so ``import fsmctl.proofs`` stays light.
 """
 
 from __future__ import annotations
 
-from fsmctl.proofs.claims import CLAIMS, VERDICTS, ClaimResult, ProofContext, claim_ids, run_claims
+import lazy_loader
 
-__all__ = ["CLAIMS", "VERDICTS", "ClaimResult", "ProofContext", "claim_ids", "run_claims"]
+__all__ = [
+    "CLAIMS",
+    "VERDICTS",
+    "ClaimResult",
+    "ProofContext",
+    "claim_ids",
+    "run_claims",
+    "format_table",
+    "write_report",
+    "Erratum",
+    "errata",
+    "analyze_topology",
+    "eta_interval",
+    "Region",
+    "delta_requirements",
+    "check_law",
+    "LawReport",
+]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "claims": ["CLAIMS", "VERDICTS", "ClaimResult", "ProofContext", "claim_ids", "run_claims"],
+        "report": ["format_table", "write_report"],
+        "errata": ["Erratum", "errata"],
+        "theorem1": ["analyze_topology", "eta_interval"],
+        "theorem2": ["Region", "delta_requirements"],
+        "law_check": ["check_law", "LawReport"],
+    },
+)
+
+
+def __dir__() -> list[str]:
+    """The public names, loaded or not (for tab completion and ``dir(fsmctl.proofs)``)."""
+    return sorted(set(__all__) | set(_lazy_all))

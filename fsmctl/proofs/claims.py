@@ -62,7 +62,40 @@ VERDICTS = (PROVED, NUMERIC, ERRATUM, FAILS)
 
 @dataclass(frozen=True)
 class ClaimResult:
-    """Outcome of one claim: ``id``, ``equations``, ``verdict``, ``detail``, ``seconds`` (and LaTeX, data)."""
+    """Outcome of one claim: ``id``, ``equations``, ``verdict``, ``detail``, ``seconds`` (and LaTeX, data).
+
+    Parameters
+    ----------
+    id : str
+        The claim's id (:func:`claim_ids`).
+    equations : str
+        The equation numbers of Liang et al. 2012 it concerns.
+    title : str
+        What the claim says.
+    verdict : str
+        One of :data:`VERDICTS` (``proved``, ``numeric``, ``erratum``, ``fails for this scenario``) or
+        ``unproved`` (an unexpected failure of the check).
+    detail : str
+        The steps that were checked, one per line (``[ok]``/``[FAILS]``), the counterexample of an erratum.
+    seconds : float
+        Time the check took.
+    latex : str, optional
+        Display LaTeX of the statement that was checked (corrected where the paper is wrong).
+    expected : bool
+        False when the outcome is a failure for the scenario or an unexpected result of the tool.
+    data : dict
+        Machine-readable numbers (scenario checks).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.proofs import ProofContext, run_claims
+    >>> results = run_claims(["lemma2-sqrt-sum", "theorem1-gains"], ProofContext(fsmctl.paper_scenario()))
+    >>> [(r.id, r.verdict, r.expected) for r in results]
+    [('lemma2-sqrt-sum', 'proved', True), ('theorem1-gains', 'proved', True)]
+    >>> print(results[0].detail.splitlines()[0])
+    [ok] with a_i = V_i^(1/2) >= 0 the claim is (sum a_i)^2 >= sum a_i^2 (both sides >= 0, sqrt is monotone)
+    """
 
     id: str
     equations: str
@@ -78,12 +111,33 @@ class ClaimResult:
     """machine-readable numbers (scenario checks)"""
 
     def to_dict(self) -> dict:
+        """The result as a dict of its fields (what ``fsmctl prove --json`` writes per claim)."""
         return asdict(self)
 
 
 @dataclass(frozen=True)
 class ProofContext:
-    """What scenario-dependent checks need: the scenario and the sampling options of Theorem 2."""
+    """What scenario-dependent checks need: the scenario and the sampling options of Theorem 2.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        Supplies the gains, the topology (Theorem 1), the inertias, uncertainty and disturbance (Theorem 2).
+    region : Region
+        The ``(sigma_e, omega_e)`` box of Theorem 2's sampled requirement (:func:`delta_requirements`).
+    n_random : int
+        Random samples of that box added to its grid.
+    seed : int
+        Seed of those samples.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.proofs import ProofContext, Region
+    >>> ctx = ProofContext(fsmctl.paper_scenario(), Region(sigma=0.02, omega=0.02), n_random=500)
+    >>> ctx.scenario.n_agents, ctx.region.describe()
+    (6, '|sigma_e,k| <= 0.02, |omega_e,k| <= 0.02 rad/s')
+    """
 
     scenario: Scenario
     region: t2.Region = field(default_factory=t2.Region)
@@ -1087,6 +1141,13 @@ def claim_ids() -> list[str]:
     -------
     list of str
         The ids accepted by ``fsmctl prove CLAIM_ID...``.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs import claim_ids
+    >>> ids = claim_ids()
+    >>> len(ids), ids[:3]
+    (20, ['lemma1-settling-time', 'lemma2-sqrt-sum', 'reaching-law'])
     """
     return [c.id for c in CLAIMS]
 
@@ -1152,6 +1213,23 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, jobs: int = 1) -> li
     -------
     list of ClaimResult
         In the order of ``ids`` (or of :data:`CLAIMS`).
+
+    Raises
+    ------
+    KeyError
+        An unknown claim id.
+
+    Examples
+    --------
+    Lemma 2 (eqs 11-12) and Theorem 1's conditions (eqs 25-27) for the paper's six-spacecraft formation:
+
+    >>> import fsmctl
+    >>> from fsmctl.proofs import ProofContext, run_claims
+    >>> results = run_claims(["lemma2-sqrt-sum", "theorem1-gains"], ProofContext(fsmctl.paper_scenario()))
+    >>> [(r.id, r.verdict) for r in results]
+    [('lemma2-sqrt-sum', 'proved'), ('theorem1-gains', 'proved')]
+    >>> print(results[1].detail.splitlines()[2])
+    eta exists: constant symmetric eta (the paper's form, non-strict): yes; time-varying symmetric eta(t): yes; ...
     """
     claims = [get_claim(i) for i in ids] if ids else list(CLAIMS)
     heavy = [c for c in claims if c.heavy]

@@ -25,12 +25,53 @@ from fsmctl.symbolic.model import (
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_inverse, mrp_to_dcm, skew
 from fsmctl.symbolic.symbols import symmetric_matrix_symbols, vector_symbols
 
-__all__ = ["Erratum", "errata", "ERRATA_CHECKS"]
+__all__ = [
+    "Erratum",
+    "errata",
+    "ERRATA_CHECKS",
+    "erratum_error_kinematics",
+    "erratum_lagrange_C",
+    "erratum_fractional_power",
+    "erratum_norm_inequality",
+    "erratum_reaching_rate",
+    "erratum_uncertainty_term",
+    "erratum_theorem1_eta_strict",
+    "erratum_remark4_looser",
+]
 
 
 @dataclass(frozen=True)
 class Erratum:
-    """One printed formula of the paper that is false, with its correction."""
+    """One printed formula of the paper (Liang et al. 2012) that is false, with its correction.
+
+    Parameters
+    ----------
+    id : str
+        Short id (e.g. ``eq9-C``).
+    equation : str
+        The equation numbers concerned.
+    as_printed, correct : str
+        The printed and the corrected statement (plain text).
+    residual : str
+        What the printed form leaves over (or a counterexample), as text.
+    consequence : str
+        What the error changes for a user of the paper.
+    as_printed_latex, correct_latex : str
+        The same statements in LaTeX.
+    checked : bool
+        Whether SymPy confirmed both that the printed form is false and that the correction holds.
+
+    Examples
+    --------
+    The Coriolis-like matrix ``C`` of eq 9 lacks a term:
+
+    >>> from fsmctl.proofs.errata import erratum_lagrange_C
+    >>> e = erratum_lagrange_C()
+    >>> e.id, e.equation, e.checked
+    ('eq9-C', '9, 29', True)
+    >>> print(e.residual)
+    (C_printed - C) sigma_e_dot = G^-T (J omega_d) x omega_e, omega_e = G^-1 sigma_e_dot
+    """
 
     id: str
     equation: str
@@ -44,6 +85,7 @@ class Erratum:
     checked: bool
 
     def to_dict(self) -> dict:
+        """The erratum as a dict of its fields (what ``errata.json`` holds per erratum)."""
         return asdict(self)
 
 
@@ -349,5 +391,27 @@ ERRATA_CHECKS: tuple[Callable[[], Erratum], ...] = (
 
 
 def errata() -> list[Erratum]:
-    """Run every errata check and return the list, in equation order."""
+    """Run every errata check and return the list, in equation order.
+
+    Each check (:data:`ERRATA_CHECKS`) confirms symbolically that a printed formula of Liang et al. 2012 is
+    false and that its correction holds; ``python -m derive`` writes the result to ``generated/errata.json``
+    and ``fsmctl prove`` reports them.  Running all of them takes a few seconds of SymPy.
+
+    Returns
+    -------
+    list of Erratum
+        Eqs 7-8 (error kinematics), 9 (``C``), 17/20/23 (the fractional power), 24 (a norm bound), 28 (``mu``),
+        29-30 (``Delta_d``), Theorem 1 (strict ``eta``) and Remark 4.
+
+    Examples
+    --------
+    ``errata()`` is ``[check() for check in ERRATA_CHECKS]``; one check:
+
+    >>> from fsmctl.proofs.errata import ERRATA_CHECKS
+    >>> len(ERRATA_CHECKS), ERRATA_CHECKS[2].__name__
+    (8, 'erratum_fractional_power')
+    >>> e = ERRATA_CHECKS[2]()
+    >>> e.equation, e.checked
+    ('17, 20, 23', True)
+    """
     return [check() for check in ERRATA_CHECKS]

@@ -128,7 +128,52 @@ class LawCheck:
 
 @dataclass(frozen=True)
 class LawReport:
-    """The checks of one law (``fsmctl prove --law``)."""
+    """The checks of one law (``fsmctl prove --law``), as :func:`check_law` returns them.
+
+    Parameters
+    ----------
+    law : str
+        The law's name.
+    checks : tuple of LawCheck
+        The checks, in the order they ran (:data:`CHECK_IDS`).
+    spec : str
+        What ``--law`` named (a built-in name or a script).
+    error_model : str
+        ``"paper"`` or ``"exact"``: the generated functions compared.
+    source : str
+        Where the generated code came from.
+    notes : tuple of str
+        Further remarks (the seed, where the paper's own claims are checked).
+
+    Examples
+    --------
+    An MRP PD law whose Lyapunov candidate ``V = 2K ln(1 + sigma^T sigma) + omega^T J0 omega / 2`` has
+    ``V_dot = -P |omega|^2`` along the isolated agent's closed loop (Schaub & Junkins), proved by SymPy:
+
+    >>> script = '''
+    ... import sympy as sp
+    ... from fsmctl.symbolic import LawBuilder
+    ...
+    ... def law(error_model):
+    ...     b = LawBuilder("pdl", error_model, doc="MRP PD")
+    ...     K = b.parameter("K", 2.0, minimum=0.0, exclusive_minimum=True)
+    ...     P = b.parameter("P", 8.0, minimum=0.0, exclusive_minimum=True)
+    ...     e = b.error_state()
+    ...     b.broadcast("sigma_e", e.sigma_e)
+    ...     b.torque(-K * e.sigma_e - P * e.omega_e)
+    ...     s2, w = (b.sigma.T * b.sigma)[0], b.omega
+    ...     b.lyapunov(2 * K * sp.log(1 + s2) + (w.T * b.J0 * w)[0] / 2, claimed_derivative=-P * (w.T * w)[0])
+    ...     return b.build()
+    ... '''
+    >>> _ = open("pdl.py", "w").write(script)
+    >>> report = check_law("pdl.py", checks=["closed-loop"])
+    >>> report.name, report.ok, report.check("closed-loop").kind
+    ('pdl', True, 'derived')
+    >>> print(report.to_text().splitlines()[0])
+    fsmctl prove --law pdl.py: law pdl (paper error kinematics)
+    >>> report.to_dict()["checks"][0]["id"]
+    'closed-loop'
+    """
 
     law: str
     checks: tuple[LawCheck, ...]
@@ -139,6 +184,7 @@ class LawReport:
 
     @property
     def name(self) -> str:
+        """The law's name (same as :attr:`law`)."""
         return self.law
 
     @property
@@ -147,12 +193,36 @@ class LawReport:
         return all(c.passed is not False for c in self.checks)
 
     def check(self, check_id: str) -> LawCheck:
+        """The check with this id.
+
+        Parameters
+        ----------
+        check_id : str
+            One of :data:`CHECK_IDS`.
+
+        Returns
+        -------
+        LawCheck
+            The check.
+
+        Raises
+        ------
+        KeyError
+            No check with this id ran.
+        """
         for c in self.checks:
             if c.id == check_id:
                 return c
         raise KeyError(check_id)
 
     def summary(self) -> str:
+        """One line: how many checks of each kind, the time they took, and which failed.
+
+        Returns
+        -------
+        str
+            ``law NAME: N checks: ... (t s); nothing failed`` or ``...; FAILED: ids``.
+        """
         counts: dict[str, int] = {}
         for c in self.checks:
             counts[c.kind] = counts.get(c.kind, 0) + 1
@@ -163,7 +233,18 @@ class LawReport:
         return f"law {self.law}: {len(self.checks)} checks: {parts} ({total:.1f} s){tail}"
 
     def to_text(self, *, width: int = 120) -> str:
-        """Plain text: one line per check (id, kind, pass/fail, seconds, statement), its detail indented below."""
+        """Plain text: one line per check (id, kind, pass/fail, seconds, statement), its detail indented below.
+
+        Parameters
+        ----------
+        width : int
+            Column at which the detail is wrapped.
+
+        Returns
+        -------
+        str
+            The table, the notes and :meth:`summary`.
+        """
         w = max([len(c.id) for c in self.checks] + [5])
         k = max([len(c.kind) for c in self.checks] + [4])
         lines = [f"fsmctl prove --law {self.spec or self.law}: law {self.law} ({self.error_model} error kinematics)"]
@@ -1217,14 +1298,49 @@ def check_law(
         Which generated functions check 1 compares (the closed loop at rest is the same for both).
     samples : int
         Random points of each numeric comparison (seeded by ``seed``).
+    seed : int
+        Seed of the random points.
     checks : iterable of str, optional
         A subset of :data:`CHECK_IDS` (default: all that apply); the generated code is only resolved (and
         derived/compiled) when ``generated-equals-symbolic`` runs.
+
+    Returns
+    -------
+    LawReport
+        The checks that ran, in the order of :data:`CHECK_IDS`.
 
     Raises
     ------
     LawError
         Unknown law, a derived folder, a bad error model or option.
+
+    Examples
+    --------
+    An MRP PD law whose Lyapunov candidate ``V = 2K ln(1 + sigma^T sigma) + omega^T J0 omega / 2`` has
+    ``V_dot = -P |omega|^2`` along the isolated agent's closed loop (Schaub & Junkins), proved by SymPy:
+
+    >>> script = '''
+    ... import sympy as sp
+    ... from fsmctl.symbolic import LawBuilder
+    ...
+    ... def law(error_model):
+    ...     b = LawBuilder("pdl", error_model, doc="MRP PD")
+    ...     K = b.parameter("K", 2.0, minimum=0.0, exclusive_minimum=True)
+    ...     P = b.parameter("P", 8.0, minimum=0.0, exclusive_minimum=True)
+    ...     e = b.error_state()
+    ...     b.broadcast("sigma_e", e.sigma_e)
+    ...     b.torque(-K * e.sigma_e - P * e.omega_e)
+    ...     s2, w = (b.sigma.T * b.sigma)[0], b.omega
+    ...     b.lyapunov(2 * K * sp.log(1 + s2) + (w.T * b.J0 * w)[0] / 2, claimed_derivative=-P * (w.T * w)[0])
+    ...     return b.build()
+    ... '''
+    >>> _ = open("pdl.py", "w").write(script)
+    >>> report = check_law("pdl.py", checks=["lyapunov"], samples=20)
+    >>> c = report.check("lyapunov")
+    >>> report.ok, c.kind, c.passed
+    (True, 'proved', True)
+    >>> print(c.detail.splitlines()[1])
+    [ok] V_dot - claimed = 0 (SymPy: expand, together, cancel; Piecewise/sign/Abs/powers held as opaque symbols)
     """
     if error_model not in ("paper", "exact"):
         raise LawError(f"error model must be 'paper' or 'exact', got {error_model!r}")

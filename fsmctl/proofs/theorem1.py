@@ -61,6 +61,18 @@ def eta_interval(k_i: float, k_j: float) -> tuple[float, float] | None:
     tuple of float or None
         ``(lo, hi)`` with ``lo = (k_i - sqrt(k_i^2 - k_j^2))/2`` and ``hi = (k_i + sqrt(k_i^2 - k_j^2))/2``;
         None when ``k_i < k_j`` (no ``eta`` makes ``gamma_ij >= 0``).
+
+    Examples
+    --------
+    The paper's gains ``k^i = 8``, ``k^j = 5`` (Section 4): ``(8 -+ sqrt(39))/2``; Remark 4's ``eta = k^i/2 = 4``
+    lies inside.  With ``k^i < k^j`` no ``eta`` exists:
+
+    >>> from fsmctl.proofs import eta_interval
+    >>> lo, hi = eta_interval(8.0, 5.0)
+    >>> round(lo, 4), round(hi, 4)
+    (0.8775, 7.1225)
+    >>> print(eta_interval(4.0, 5.0))
+    None
     """
     if k_i < k_j - _TOL * max(1.0, k_i):
         return None
@@ -362,6 +374,24 @@ def analyze_topology(topology: Topology, t_final: float) -> Theorem1Analysis:
         fails, when, and the smallest single-parameter fix), whether symmetric / balanced,
         constant / time-varying ``eta`` exist, whether the printed strict conditions can
         hold, and ``min_t lambda_min(sym(L(t)))``.
+
+    Examples
+    --------
+    A bidirectional ring of three with ``k^i = 8`` and constant ``k^j = 5``: every pair admits
+    ``eta`` in ``[0.8775, 7.1225]`` and ``sym(L) = 16 I - 5 A`` (``A`` the triangle's adjacency, eigenvalues
+    2, -1, -1) has ``lambda_min = 16 - 10 = 6``.  With ``k^j = 9 > k^i`` the conditions fail, and
+    ``lambda_min = 16 - 18 = -2``:
+
+    >>> from fsmctl.model.topology import ring
+    >>> from fsmctl.proofs import analyze_topology
+    >>> a = analyze_topology(ring(3, 8.0, 5.0), t_final=10.0)
+    >>> a.holds, [round(x, 4) for x in a.pairs[0].interval], round(a.lambda_min, 9)
+    (True, [0.8775, 7.1225], 6.0)
+    >>> b = analyze_topology(ring(3, 8.0, 9.0), t_final=10.0)
+    >>> b.holds, round(b.lambda_min, 9)
+    (False, -2.0)
+    >>> print(b.failures[0])
+    pair 1-2: k^i_12 = 8 < max_t k^j_12(t) = 9: no eta_12 gives gamma_12 >= 0 (needs k^i >= k^j); ...
     """
     n = topology.n_agents
     Ki = topology.k_i_matrix()

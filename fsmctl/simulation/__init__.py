@@ -1,1 +1,73 @@
-"""fsmctl/simulation"""
+"""The compiled whole-loop simulator, its metrics and its result files.
+
+* :func:`simulate` / :func:`simulate_many` fly a :class:`~fsmctl.model.scenario.Scenario` (the generated C, the
+  whole time loop compiled; CasADi's virtual machine without a compiler) and return a :class:`SimulationResult`;
+* the metrics of Liang et al. (2012), eqs 42-43: :func:`aaem_deg`, :func:`raem_deg`, from the principal angles
+  :func:`principal_angles` / :func:`relative_principal_angles`, and :func:`settling_time`;
+* result files (:mod:`fsmctl.simulation.results_io`): :meth:`SimulationResult.save` writes NetCDF or CSV with the
+  run's provenance (:func:`provenance`), :func:`load_result` reads them, :func:`scenario_from_result` re-runs one.
+
+The names load on first use (SPEC 1 lazy loading): importing the package does not load CasADi.
+"""
+
+from __future__ import annotations
+
+import lazy_loader
+
+__all__ = [
+    "simulate",
+    "simulate_many",
+    "SimulationResult",
+    "SimulationError",
+    "StepSizeWarning",
+    "DiscontinuousControlWarning",
+    "step_size_report",
+    "principal_angles",
+    "relative_principal_angles",
+    "aaem_deg",
+    "raem_deg",
+    "settling_time",
+    "save_result",
+    "load_result",
+    "scenario_from_result",
+    "provenance",
+    "versions",
+    "csv_column_names",
+    "ResultFileError",
+    "NotAResultError",
+    "MissingScenarioError",
+    "LawChangedWarning",
+]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
+    __name__,
+    submod_attrs={
+        "simulator": [
+            "simulate",
+            "simulate_many",
+            "SimulationResult",
+            "SimulationError",
+            "StepSizeWarning",
+            "DiscontinuousControlWarning",
+            "step_size_report",
+        ],
+        "metrics": ["principal_angles", "relative_principal_angles", "aaem_deg", "raem_deg", "settling_time"],
+        "results_io": [
+            "save_result",
+            "load_result",
+            "scenario_from_result",
+            "provenance",
+            "versions",
+            "csv_column_names",
+            "ResultFileError",
+            "NotAResultError",
+            "MissingScenarioError",
+            "LawChangedWarning",
+        ],
+    },
+)
+
+
+def __dir__() -> list[str]:
+    """The public names, eager and lazy (for tab completion and ``dir(fsmctl.simulation)``)."""
+    return sorted(set(__all__) | set(_lazy_all))

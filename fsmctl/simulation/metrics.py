@@ -69,7 +69,24 @@ def _mapped(name: str, m: int, args: list[np.ndarray]) -> np.ndarray:
 
 
 def principal_angles(sigma: np.ndarray) -> np.ndarray:
-    """``theta = 4 atan|sigma|`` (eq 2) for an array ``(..., 3)`` of MRPs; returns ``(...)`` in rad."""
+    """Principal rotation angles ``theta = 4 atan|sigma|`` (Liang et al. 2012, eq 2) of MRPs.
+
+    Parameters
+    ----------
+    sigma : numpy.ndarray, shape (..., 3)
+        MRPs (any branch: the angle is the rotation's, in [0, pi]).
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+        Angles in rad.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> principal_angles(np.array([[0.0, 0.0, np.tan(np.pi / 8)], [0.0, 0.0, 0.0]])).round(12).tolist()
+    [1.570796326795, 0.0]
+    """
     sigma = np.asarray(sigma, dtype=float)
     flat = sigma.reshape(-1, 3)
     if flat.shape[0] == 0:
@@ -109,7 +126,7 @@ def _relative_block(sigma_e: np.ndarray, iu: np.ndarray, ju: np.ndarray) -> np.n
 
 
 def relative_principal_angles(sigma_e: np.ndarray) -> np.ndarray:
-    """Principal angle between every pair of agents: ``(T, n, 3) -> (T, n, n)`` rad.
+    """Principal angle between every pair of agents: ``(T, n, 3) -> (T, n, n)`` rad (the theta_ij of eq 43).
 
     The relative attitude of i with respect to j is ``sigma_ei (x) sigma_ej^-1``
     (equal to ``sigma_i (x) sigma_j^-1``: the reference cancels).
@@ -117,6 +134,24 @@ def relative_principal_angles(sigma_e: np.ndarray) -> np.ndarray:
     Cost: ``T n^2`` doubles for the result and about as much again while it is computed
     (:func:`relative_angles_bytes`); for the metric use :func:`streamed_raem_deg`, for one sample
     :func:`relative_angles_at`, for one pair :func:`pair_angles`.
+
+    Parameters
+    ----------
+    sigma_e : numpy.ndarray, shape (T, n, 3)
+        Attitude errors (MRPs) of ``n`` agents at ``T`` samples.
+
+    Returns
+    -------
+    numpy.ndarray, shape (T, n, n)
+        ``theta_ij`` in rad, symmetric, zero diagonal.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> quarter = np.tan(np.pi / 8)  # a 90 deg turn about z
+    >>> theta = relative_principal_angles(np.array([[[0, 0, 0], [0, 0, quarter]]]))
+    >>> np.degrees(theta[0]).round(9).tolist()
+    [[0.0, 90.0], [90.0, 0.0]]
     """
     sigma_e = np.asarray(sigma_e, dtype=float)
     n = sigma_e.shape[1]
@@ -171,7 +206,24 @@ def streamed_raem_deg(sigma_e: np.ndarray, *, working_bytes: int = RAEM_WORKING_
 
 
 def aaem_deg(theta_e: np.ndarray) -> np.ndarray:
-    """Absolute attitude error metric (eq 42): ``(180/pi) sqrt(mean_i theta_ei^2)``; ``(T, n) -> (T,)``."""
+    """Absolute attitude error metric AAEM (Liang et al. 2012, eq 42): ``(180/pi) sqrt(mean_i theta_ei^2)``.
+
+    Parameters
+    ----------
+    theta_e : numpy.ndarray, shape (..., n)
+        Principal angles of the agents' attitude errors, rad (:func:`principal_angles` of ``sigma_e``).
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+        AAEM in degrees (the paper's 1/6 is 1/n).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> float(aaem_deg(np.radians([3.0, 4.0, 0.0, 0.0, 0.0, 0.0])) ** 2 * 6)  # (9 + 16) deg^2
+    25.0...
+    """
     return np.degrees(np.sqrt(np.mean(np.square(theta_e), axis=-1)))
 
 
@@ -179,6 +231,22 @@ def raem_deg(theta_ij: np.ndarray) -> np.ndarray:
     """Relative attitude error metric (eq 43): ``(180/pi) sqrt(sum_{i != j} theta_ij^2 / (n (n-1)))``.
 
     For the paper's n = 6 the divisor is 30, as printed.
+
+    Parameters
+    ----------
+    theta_ij : numpy.ndarray, shape (..., n, n)
+        Relative principal angles, rad (:func:`relative_principal_angles`); the diagonal is zero.
+
+    Returns
+    -------
+    numpy.ndarray, shape (...)
+        RAEM in degrees (zero for fewer than two agents).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> float(raem_deg(np.radians([[0.0, 6.0], [6.0, 0.0]])))  # sqrt((36 + 36) / 2)
+    6.0...
     """
     n = theta_ij.shape[-1]
     if n < 2:
@@ -190,6 +258,27 @@ def settling_time(time: np.ndarray, metric: np.ndarray, tolerance: float) -> flo
     """First time after which ``metric`` stays at or below ``tolerance`` (NaN if it never settles).
 
     A NaN sample counts as not settled.
+
+    Parameters
+    ----------
+    time : numpy.ndarray, shape (T,)
+        Sample times, s.
+    metric : numpy.ndarray, shape (T,)
+        A metric such as AAEM or RAEM (eqs 42-43), deg.
+    tolerance : float
+        The settling band, in the metric's unit.
+
+    Returns
+    -------
+    float
+        The time of the first sample of the final run of samples within the band (``time[0]`` if every sample
+        is; NaN if the last one is not).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> settling_time(np.array([0.0, 1.0, 2.0, 3.0]), np.array([5.0, 0.5, 2.0, 0.5]), 1.0)
+    3.0
     """
     above = np.nonzero(~(np.asarray(metric) <= tolerance))[0]
     if above.size == 0:

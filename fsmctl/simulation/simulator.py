@@ -80,15 +80,44 @@ __all__ = [
 
 
 class SimulationError(RuntimeError):
-    """A run failed (non-finite state, step size underflow, ...); the message says where and why."""
+    """A run failed (non-finite state, step size underflow, ...); the message says where and why.
+
+    ``fsmctl simulate`` exits 1 on it (:mod:`fsmctl.errors`): the input was valid, the run itself failed.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> issubclass(fsmctl.SimulationError, RuntimeError)
+    True
+    """
 
 
 class DiscontinuousControlWarning(RuntimeWarning):
-    """An adaptive integrator was asked to integrate the discontinuous sgn(s) law."""
+    """An adaptive integrator was asked to integrate the discontinuous sgn(s) law.
+
+    Examples
+    --------
+    >>> from fsmctl.simulation import DiscontinuousControlWarning
+    >>> issubclass(DiscontinuousControlWarning, RuntimeWarning)
+    True
+    """
 
 
 class StepSizeWarning(RuntimeWarning):
-    """The fixed RK4 step is too coarse for the loop's fastest time constant or rotates too far per step."""
+    """The fixed RK4 step is too coarse for the loop's fastest time constant or rotates too far per step.
+
+    :func:`simulate` warns before the run; :func:`step_size_report` gives the numbers.
+
+    Examples
+    --------
+    >>> import warnings, fsmctl
+    >>> coarse = fsmctl.paper_scenario("1").replace(simulation={"dt": 0.05, "t_final": 0.1, "output_interval": 0.05})
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = fsmctl.simulate(coarse)
+    >>> any(issubclass(w.category, fsmctl.StepSizeWarning) for w in caught)
+    True
+    """
 
 
 # ----------------------------------------------------------------------------- ctypes binding
@@ -540,6 +569,56 @@ class SimulationResult:
     hub and ``wheel_torque`` (T, n, N) N m (motor torque after the speed limit); with sensors:
     ``sigma_measured``, ``omega_measured`` (T, n, 3), what the law saw at the last control instant (the other
     arrays are the truth).  Absent hardware gives ``None``.
+
+    Made by :func:`simulate`; the derived quantities (:attr:`theta_e`, :attr:`aaem_deg`, :attr:`raem_deg`,
+    :meth:`summary`) are computed on access, the conversions write files (:meth:`save`) or build an
+    :class:`xarray.Dataset` (:meth:`to_dataset`) or a python-control response (:meth:`to_time_response`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario that was flown.
+    time : numpy.ndarray, shape (T,)
+        Output times, s (``time[-1]`` is ``t_final``, or the stop time of a run a monitor stopped).
+    sigma, omega : numpy.ndarray, shape (T, n, 3)
+        Attitude (MRP, shadow set) and body rate (rad/s) of each agent.
+    sigma_e, omega_e : numpy.ndarray, shape (T, n, 3)
+        Attitude error (MRP) and rate error (rad/s), eqs 5-8 (the true error state).
+    broadcast : numpy.ndarray, shape (T, n, n_b)
+        What each agent broadcasts (``s`` for the paper's law).
+    z : numpy.ndarray, shape (T, n, n_z)
+        The law's own states.
+    u, u_unsaturated : numpy.ndarray, shape (T, n, 3)
+        Applied and commanded torques, N m.
+    sigma_d : numpy.ndarray, shape (T, 3)
+        Reference attitude (MRP).
+    saturated_time : numpy.ndarray, shape (n,)
+        Time with at least one torque component saturated, s.
+    u_total_variation : numpy.ndarray, shape (n,)
+        Sum over the steps of ``|u(t_k) - u(t_k-1)|_1``, N m.
+    u_unsaturated_max : numpy.ndarray, shape (n,)
+        Largest commanded torque component, N m.
+    backend : str
+        ``"c"`` (compiled) or ``"casadi"`` (the fallback).
+    wall_time : float
+        Seconds the run took.
+    steps_taken, steps_rejected : int
+        Integrator steps (dopri45 rejects some).
+    wheel_speed, wheel_torque : numpy.ndarray or None, shape (T, n, N)
+        Reaction-wheel speeds (rad/s, relative to the hub) and motor torques (N m); None without wheels.
+    sigma_measured, omega_measured : numpy.ndarray or None, shape (T, n, 3)
+        What the law saw through the sensors; None without sensors.
+    stopped_at : float or None
+        The stop time when a monitor stopped the run early; None when it completed.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.2}))
+    >>> r.sigma.shape, float(r.time[-1])
+    ((21, 6, 3), 0.2)
+    >>> round(float(r.aaem_deg[0]), 3), round(float(r.raem_deg[0]), 3)
+    (134.427, 114.1)
     """
 
     scenario: Scenario
@@ -568,7 +647,7 @@ class SimulationResult:
     omega_measured: np.ndarray | None = None
     stopped_at: float | None = None
     """s: the time of the last sample when a monitor stopped the run early (``time[-1]``); None: the run completed"""
-    _cache: dict = field(default_factory=dict, repr=False)
+    _cache: dict = field(default_factory=dict, repr=False, init=False)
 
     @property
     def wheel_momentum(self) -> np.ndarray | None:
@@ -587,6 +666,7 @@ class SimulationResult:
 
     @property
     def n_agents(self) -> int:
+        """Number of agents ``n``."""
         return self.sigma.shape[1]
 
     @property
@@ -637,11 +717,33 @@ class SimulationResult:
         return theta
 
     def relative_angles_at(self, k: int) -> np.ndarray:
-        """(n, n) rad: the relative principal angles of every pair of agents at output sample ``k``."""
+        """(n, n) rad: the relative principal angles of every pair of agents at output sample ``k``.
+
+        Parameters
+        ----------
+        k : int
+            Output sample index.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``theta_ij`` at ``time[k]`` (the theta_ij of eq 43).
+        """
         return relative_angles_at(self.sigma_e[k])
 
     def pair_angles(self, i: int, j: int) -> np.ndarray:
-        """(T,) rad: the relative principal angle of agents ``i`` and ``j`` (0-based) over time."""
+        """(T,) rad: the relative principal angle of agents ``i`` and ``j`` (0-based) over time.
+
+        Parameters
+        ----------
+        i, j : int
+            Agent indices, 0-based.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``theta_ij(t)`` at every output sample.
+        """
         return pair_angles(self.sigma_e, i, j)
 
     @property
@@ -663,7 +765,20 @@ class SimulationResult:
         return self.u_total_variation / span
 
     def summary(self, tolerances_deg=(1.0, 0.1, 0.05, 0.03, 0.01), steady_window: float = 40.0) -> dict:
-        """Settling times of AAEM/RAEM per tolerance, steady-state accuracy, torque statistics."""
+        """Settling times of AAEM/RAEM per tolerance, steady-state accuracy, torque statistics.
+
+        Parameters
+        ----------
+        tolerances_deg : sequence of float
+            Settling bands of AAEM and RAEM (eqs 42-43), deg.
+        steady_window : float
+            Length of the final window of the steady-state maxima, s.
+
+        Returns
+        -------
+        dict
+            JSON-ready values (see the keys), times in s, angles in deg, torques in N m.
+        """
         t, a, r = self.time, self.aaem_deg, self.raem_deg
         window = min(steady_window, float(t[-1] - t[0]))
         return {
@@ -781,24 +896,98 @@ class SimulationResult:
             out["omega_measured_rad_per_s"] = var(self.omega_measured, tna, "rad/s", "rate the law saw (gyro)")
         return out
 
-    def save(self, path: str | Path) -> Path:
-        """Write NetCDF (``.nc``) or NumPy (``.npz``), chosen by the suffix, atomically (:mod:`fsmctl.outputs`)."""
+    def save(
+        self,
+        path: str | Path,
+        *,
+        format: str | None = None,
+        precision: str = "float64",
+        command=None,
+    ) -> Path:
+        """Write the run to a NetCDF (``.nc``) or CSV (``.csv``) file with its provenance, atomically.
+
+        The file embeds the scenario, the law and the versions (:func:`fsmctl.simulation.results_io.provenance`);
+        :func:`fsmctl.simulation.results_io.load_result` reads it back and
+        :func:`fsmctl.simulation.results_io.scenario_from_result` re-runs it.  ``.npz`` writes the dataset's
+        arrays with NumPy (no provenance).
+
+        Parameters
+        ----------
+        path : str or Path
+            Target file.
+        format : {None, "netcdf", "csv"}
+            None: from the suffix.
+        precision : {"float64", "float32"}
+            Storage of the time series (time stays float64).
+        command : sequence of str or str, optional
+            The command line, recorded in the file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
+        >>> r.save("run.csv").name
+        'run.csv'
+        >>> open("run.csv").readline()[:40]
+        'time_s,sigma_1_x,sigma_1_y,sigma_1_z,sig'
+        """
         from fsmctl.outputs import atomic_path
+        from fsmctl.simulation.results_io import save_result
 
         path = Path(path)
-        with atomic_path(path) as tmp:
-            if path.suffix == ".npz":
+        if format is None and path.suffix == ".npz":
+            with atomic_path(path) as tmp:
                 ds = self.to_dataset()
                 with open(tmp, "wb") as fh:  # a file object: np.savez would append ".npz" to the temporary name
                     np.savez_compressed(fh, **{k: v.values for k, v in ds.variables.items()})
-            else:
-                self.to_dataset().to_netcdf(tmp, engine="scipy")
-        return path
+            return path
+        return save_result(self, path, format=format, precision=precision, command=command)
 
-    def to_time_response(self):
-        """A :class:`control.TimeResponseData` with the signal names of :func:`fsmctl.formation`."""
+    def to_time_response(self, *, errors: bool = True):
+        """The run as a python-control time response: the formation's states and outputs, the errors and metrics.
+
+        States and the first ``9 n`` outputs are those of :func:`fsmctl.formation` (the python-control plug-in),
+        named alike: states ``reference_q_d[0..3]``, ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``; outputs
+        ``sc<i>_sigma[k]``, ``sc<i>_omega[k]`` (rad/s), ``sc<i>_tau[k]`` (N m).  With ``errors`` the outputs go on
+        with the error signals and the metrics: ``sc<i>_sigma_e[k]`` (the MRP attitude error sigma_ei, eqs 5-6),
+        ``sc<i>_theta_e_deg`` (its principal angle theta_ei, deg), ``aaem_deg`` and ``raem_deg`` (the absolute and
+        relative attitude error metrics, Liang et al. 2012, eqs 42-43, deg).
+
+        Parameters
+        ----------
+        errors : bool
+            Append the error signals and metrics (``4 n + 2`` outputs) to the plug-in's ``9 n``.
+
+        Returns
+        -------
+        control.TimeResponseData
+            A :class:`fsmctl.model.time_response.FormationResponse` where that class exists (its ``plot()`` groups
+            the signals: one axes per signal, one colour per agent), else a plain
+            :class:`control.TimeResponseData`; no inputs.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
+        >>> tr = r.to_time_response()
+        >>> tr.outputs.shape, tr.output_labels[-3:]
+        ((80, 11), ['sc6_theta_e_deg', 'aaem_deg', 'raem_deg'])
+        >>> round(float(tr.outputs[tr.output_labels.index("aaem_deg"), 0]), 3)
+        134.427
+        >>> r.to_time_response(errors=False).outputs.shape
+        (54, 11)
+        """
         import control as ct
 
+        try:
+            from fsmctl.model.time_response import FormationResponse as response_class
+        except ImportError:
+            response_class = ct.TimeResponseData
         n = self.n_agents
         T = self.time.size
         from fsmctl.model.attitude import quaternion_from_mrp
@@ -812,7 +1001,19 @@ class SimulationResult:
             f"sc{i + 1}_{v}[{k}]" for i in range(n) for v, m in (("q", 4), ("omega", 3)) for k in range(m)
         ]
         output_labels = [f"sc{i + 1}_{v}[{k}]" for i in range(n) for v in ("sigma", "omega", "tau") for k in range(3)]
-        return ct.TimeResponseData(
+        if errors:
+            y = np.concatenate(
+                [
+                    y,
+                    self.sigma_e.transpose(1, 2, 0).reshape(3 * n, T),
+                    np.degrees(self.theta_e).T,
+                    self.aaem_deg[None, :],
+                    self.raem_deg[None, :],
+                ]
+            )
+            output_labels += [f"sc{i + 1}_sigma_e[{k}]" for i in range(n) for k in range(3)]
+            output_labels += [f"sc{i + 1}_theta_e_deg" for i in range(n)] + ["aaem_deg", "raem_deg"]
+        return response_class(
             self.time,
             y,
             x,
@@ -1132,9 +1333,25 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
     through the MRP shadow switch, and a step that turns the body by a sizeable angle loses accuracy however
     slow the loop is.  The paper scenario (dt = 1 ms, Case 1): ``rho ~ 78 1/s``, ``dt rho ~ 0.08``, rotation 7e-4 rad.
 
-    Returns a dict with these rates, ``rho``, ``omega_max`` (rad/s), ``dt`` and the list ``problems``
-    (empty when the step is fine; only the fixed-step RK4 integrator is judged: dopri45 controls its own
-    steps).
+    Parameters
+    ----------
+    scenario : Scenario or PackedProblem
+        The scenario (or its packed form, :func:`fsmctl.model.problem.pack`).
+
+    Returns
+    -------
+    dict
+        These rates (1/s), ``rho``, ``omega_max`` (rad/s), ``rotation_per_step`` (rad), ``dt`` and the list
+        ``problems`` (empty when the step is fine; only the fixed-step RK4 integrator is judged: dopri45
+        controls its own steps).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.simulation import step_size_report
+    >>> report = step_size_report(fsmctl.paper_scenario("1"))
+    >>> round(report["rho"], 1), round(report["dt"] * report["rho"], 3), report["problems"]
+    (77.5, 0.078, [])
     """
     p = pack(scenario) if isinstance(scenario, Scenario) else scenario
     n = p.n_agents
@@ -1534,6 +1751,15 @@ def simulate_many(
     -------
     list of SimulationResult or SimulationError
         One entry per scenario, in order.
+
+    Raises
+    ------
+    ValueError
+        If ``errors`` is not ``"raise"`` or ``"return"``, or ``batch_size`` is not an integer >= 1.
+    SimulationError
+        With ``errors="raise"``, the first failed run's error (after its batch has flown).
+    InputError
+        For a scenario the engine cannot fly (the same checks as :func:`simulate`).
 
     Examples
     --------

@@ -135,8 +135,19 @@ class LawRun:
     def from_spec(cls, spec: str | Path) -> LawRun:
         """A run of a law with the scenario's settings, labelled by the law (a script's or folder's name).
 
+        Parameters
+        ----------
+        spec : str or pathlib.Path
+            A built-in law name, a derivation script ``FILE.py`` or a derived law folder.
+
+        Returns
+        -------
+        LawRun
+            The run, without parameters or overrides.
+
         Examples
         --------
+        >>> from fsmctl.studies import LawRun
         >>> LawRun.from_spec("fsm")
         LawRun(label='fsm', law='fsm', parameters={}, controller={})
         """
@@ -156,6 +167,13 @@ class LawRun:
         return f"{self.law}" + (f": {text}" if text else "")
 
     def to_dict(self) -> dict:
+        """The run as JSON-able data (``label``, ``law``, ``parameters``, ``controller``).
+
+        Returns
+        -------
+        dict
+            The fields, the law as a string.
+        """
         return {
             "label": self.label,
             "law": str(self.law),
@@ -201,6 +219,11 @@ def with_and_without_limit(laws: Sequence[LawRun | str | Path], torque_limit: fl
     list of LawRun
         ``label (limit X N m)`` and ``label (no limit)`` for every run, in order.
 
+    Raises
+    ------
+    InputError
+        ``torque_limit`` is not a finite number > 0.
+
     Examples
     --------
     >>> [r.label for r in with_and_without_limit(["fsm"], 2.0)]
@@ -241,6 +264,16 @@ def read_runs_file(path: str | Path) -> list[LawRun]:
         law = "pd.py"
         parameters = { K = 2.0, P = 10.0 }
 
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The TOML file.
+
+    Returns
+    -------
+    list of LawRun
+        The runs, in the file's order.
+
     Raises
     ------
     InputError
@@ -248,8 +281,8 @@ def read_runs_file(path: str | Path) -> list[LawRun]:
 
     Examples
     --------
-    >>> import tempfile, pathlib
-    >>> p = pathlib.Path(tempfile.mkdtemp()) / "runs.toml"
+    >>> import pathlib
+    >>> p = pathlib.Path("runs.toml")
     >>> _ = p.write_text('[[run]]\\nlaw = "fsm"\\n[[run]]\\nlabel = "TSM"\\nlaw = "fsm"\\nparameters = {surface = "tsm"}\\n')
     >>> [(r.label, r.parameters) for r in read_runs_file(p)]
     [('fsm', {}), ('TSM', {'surface': 'tsm'})]
@@ -294,6 +327,18 @@ def run_scenario(scenario: Scenario, run: LawRun) -> Scenario:
 
     The scenario's ``[controller]`` parameters that the run's law does not declare are dropped (they belong to
     the scenario's own law); the run's ``parameters`` and ``controller`` overrides are applied on top.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The compared scenario.
+    run : LawRun
+        The run.
+
+    Returns
+    -------
+    Scenario
+        The scenario with the run's law, parameters and overrides.
 
     Raises
     ------
@@ -357,15 +402,42 @@ def run_scenario(scenario: Scenario, run: LawRun) -> Scenario:
 
 
 def default_steady_window(horizon_s: float) -> float:
-    """The steady-state window: the last 40 % of the horizon, at most 40 s (the paper's last 40 of 100 s)."""
+    """The steady-state window: the last 40 % of the horizon, at most 40 s (the paper's last 40 of 100 s).
+
+    Parameters
+    ----------
+    horizon_s : float
+        The horizon (s).
+
+    Returns
+    -------
+    float
+        The window's length (s).
+
+    Examples
+    --------
+    >>> default_steady_window(100.0), default_steady_window(10.0)
+    (40.0, 4.0)
+    """
     return min(40.0, 0.4 * float(horizon_s))
 
 
 def metric_columns(tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG) -> list[tuple[str, str, str]]:
     """``(column, description, unit)`` of every metric :func:`run_metrics` returns, in table order.
 
+    Parameters
+    ----------
+    tolerances_deg : sequence of float, optional
+        The settling tolerances (deg): one AAEM and one RAEM settling column each.
+
+    Returns
+    -------
+    list of tuple of str
+        ``(column, description, unit)``; settling columns first, then steady statistics, torques and chattering.
+
     Examples
     --------
+    >>> from fsmctl.studies import metric_columns
     >>> [c for c, _, _ in metric_columns((1.0,))][:3]
     ['aaem_settling_1deg_s', 'raem_settling_1deg_s', 'aaem_steady_mean_deg']
     """
@@ -485,7 +557,7 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
 class Comparison:
     """The result of :func:`compare_laws`: one row per run, the AAEM/RAEM series, what the hook returned.
 
-    Attributes
+    Parameters
     ----------
     scenario_label : str
         The compared scenario (and case).
@@ -503,6 +575,21 @@ class Comparison:
         Label -> what ``on_result`` returned for the run (empty without a hook).
     wall_time_s : float
         Wall time of the whole comparison.
+
+    Examples
+    --------
+    Two laws on a 1 s horizon of Case 1 (Liang et al. 2012, Section 4); read a row, write the files:
+
+    >>> import fsmctl
+    >>> from fsmctl.studies import compare_laws
+    >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "output_interval": 0.1})
+    >>> c = compare_laws(s, ["fsm", "pid"], tolerances_deg=(1.0,))
+    >>> [(r["label"], r["status"]) for r in c.table]
+    [('fsm', 'ok'), ('pid', 'ok')]
+    >>> c.tolerances_deg, c.row("fsm")["peak_torque_N_m"] > 0
+    ((1.0,), True)
+    >>> [p.name for p in c.save("out", figures=False)]
+    ['comparison.csv', 'comparison.json', 'comparison.md']
     """
 
     scenario_label: str
@@ -515,10 +602,27 @@ class Comparison:
 
     @property
     def tolerances_deg(self) -> tuple[float, ...]:
+        """The settling tolerances (deg) of the metric columns, in order."""
         return tuple(self.settings["tolerances_deg"])
 
     def row(self, label: str) -> dict:
-        """The row of the run ``label``."""
+        """The row of the run ``label``.
+
+        Parameters
+        ----------
+        label : str
+            The run's label.
+
+        Returns
+        -------
+        dict
+            The row of :attr:`table`.
+
+        Raises
+        ------
+        KeyError
+            No run has that label.
+        """
         for r in self.table:
             if r["label"] == label:
                 return r
@@ -557,7 +661,18 @@ class Comparison:
         )
 
     def to_csv(self, path: str | Path) -> Path:
-        """Write :attr:`table` as CSV (atomically); units are in the column names, NaN is ``nan``, no limit ``inf``."""
+        """Write :attr:`table` as CSV (atomically); units are in the column names, NaN is ``nan``, no limit ``inf``.
+
+        Parameters
+        ----------
+        path : str or pathlib.Path
+            The CSV file to write.
+
+        Returns
+        -------
+        pathlib.Path
+            ``path``.
+        """
         from fsmctl.outputs import atomic_path
 
         path = Path(path)
@@ -706,9 +821,16 @@ class Comparison:
 
         Every file is written atomically (:mod:`fsmctl.outputs`); the folder is created if needed.
 
+        Parameters
+        ----------
+        out_dir : str or pathlib.Path
+            The output folder.
+        figures : bool, optional
+            Also write the figure (:meth:`figure`), default True.
+
         Returns
         -------
-        list of Path
+        list of pathlib.Path
             The files written.
         """
         from fsmctl.outputs import environment_problem, write_json, write_text

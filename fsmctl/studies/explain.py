@@ -113,7 +113,7 @@ _RUN_SPECS = {s.key: s for s in run_plan()}
 class Setting:
     """One setting the paper leaves open (or may have misprinted), with the range searched.
 
-    Attributes
+    Parameters
     ----------
     name : str
         Identifier (``torque_limit``, ``alpha``, ``delta``, ``boundary_layer``, ``error_model``, ``error_mrp``,
@@ -140,6 +140,18 @@ class Setting:
         What the paper says about it.
     options : tuple of (str, mapping)
         Choice: the TOML tables of each alternative label (``"@law"`` stands for the unswitched law's path).
+
+    Examples
+    --------
+    The paper's torque limit (2 N m, Case 1), searched on a log scale and bisected to 0.1 N m:
+
+    >>> import fsmctl
+    >>> from fsmctl.studies.explain import search_settings
+    >>> limit = search_settings(fsmctl.paper_scenario("1"))[0]
+    >>> limit.name, limit.kind, limit.default, limit.low, limit.high
+    ('torque_limit', 'log', 2.0, 2.0, 100000.0)
+    >>> limit.midpoint(2.0, 200.0), limit.resolved(47.6, 47.7), limit.value_text(47.7)
+    (20.0, True, 'torque limit = 47.7 N m')
     """
 
     name: str
@@ -185,19 +197,52 @@ class Setting:
         return 0.0 if value == x0 else min(1.0, abs(self._f(value) - self._f(x0)) / span) if span > 0 else 1.0
 
     def midpoint(self, a: float, b: float) -> float:
-        """The bisection point of ``[a, b]`` on the setting's scale, rounded to its resolution."""
+        """The bisection point of ``[a, b]`` on the setting's scale (geometric for ``log``), rounded to its resolution.
+
+        Parameters
+        ----------
+        a, b : float
+            The bracket.
+
+        Returns
+        -------
+        float
+            The rounded midpoint.
+        """
         m = math.sqrt(a * b) if self.kind == "log" else 0.5 * (a + b)
         return self.rounded(m)
 
     def rounded(self, x: float) -> float:
-        """``x`` on the resolution grid: a multiple of an absolute resolution, else 3 significant digits."""
+        """``x`` on the resolution grid: a multiple of an absolute resolution, else 3 significant digits.
+
+        Parameters
+        ----------
+        x : float
+            A value of the setting.
+
+        Returns
+        -------
+        float
+            The rounded value.
+        """
         if not self.relative:
             digits = max(0, -math.floor(math.log10(self.resolution) + 1e-12))
             return round(round(x / self.resolution) * self.resolution, digits)
         return float(f"{x:.3g}")
 
     def resolved(self, a: float, b: float) -> bool:
-        """Whether the bracket ``[a, b]`` is within the resolution."""
+        """Whether the bracket ``[a, b]`` is within the resolution.
+
+        Parameters
+        ----------
+        a, b : float
+            The bracket (in either order).
+
+        Returns
+        -------
+        bool
+            True when bisecting further is pointless.
+        """
         lo, hi = min(a, b), max(a, b)
         if not self.relative:
             return hi - lo <= self.resolution * (1 + 1e-9)
@@ -210,7 +255,18 @@ class Setting:
         return f"{self.resolution:g} {self.unit}".strip()
 
     def value_text(self, value: Any) -> str:
-        """``"torque limit = 37.3 N m"``, ``"error MRP: unswitched"``."""
+        """``"torque limit = 37.3 N m"``, ``"error MRP: unswitched"``.
+
+        Parameters
+        ----------
+        value : float or str
+            A value of the setting (a choice's label).
+
+        Returns
+        -------
+        str
+            The setting and value, with its unit.
+        """
         if not self.continuous:
             return f"{self.label}: {value}"
         return f"{self.label} = {_num(value)} {self.unit}".strip()
@@ -286,6 +342,13 @@ def search_settings(scenario) -> tuple[Setting, ...]:
     tuple of Setting
         In the order of preference for equal distances: torque limit, alpha, delta, boundary layer, error model,
         error MRP, integration, tolerance.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.explain import search_settings
+    >>> [s.name for s in search_settings(fsmctl.paper_scenario("1"))]
+    ['torque_limit', 'alpha', 'delta', 'boundary_layer', 'error_model', 'error_mrp', 'integration', 'tolerance']
     """
     c, sim = scenario.controller, scenario.simulation
     params = scenario.law_parameters()[0]  # agent 1, as flown
@@ -440,6 +503,22 @@ class Candidate:
     """A set of changes to the base scenario: ``((setting name, value), ...)`` in the order of the settings.
 
     The empty candidate is the base scenario itself.
+
+    Parameters
+    ----------
+    changes : tuple of (str, object), optional
+        ``(setting name, value)`` pairs (:func:`search_settings` names the settings).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.explain import Candidate, search_settings
+    >>> settings = {s.name: s for s in search_settings(fsmctl.paper_scenario("1"))}
+    >>> c = Candidate((("torque_limit", 47.7), ("tolerance", 0.1)))
+    >>> c.key(), c.tolerance(), c.simulated().changes
+    ('explain_torque_limit_47.7__tolerance_0.1', 0.1, (('torque_limit', 47.7),))
+    >>> c.text(settings)
+    'torque limit = 47.7 N m and settling tolerance = 0.1 deg'
     """
 
     changes: tuple[tuple[str, Any], ...] = ()
@@ -460,7 +539,18 @@ class Candidate:
         return "explain_" + re.sub(r"[^A-Za-z0-9_.+-]+", "_", "__".join(parts)).strip("_")
 
     def text(self, settings: Mapping[str, Setting]) -> str:
-        """``"torque limit = 37.3 N m and alpha = 0.9"``."""
+        """``"torque limit = 37.3 N m and alpha = 0.9"`` (``"no change"`` for the empty candidate).
+
+        Parameters
+        ----------
+        settings : Mapping of str to Setting
+            The settings by name.
+
+        Returns
+        -------
+        str
+            The changes, joined by ``and``.
+        """
         return " and ".join(settings[n].value_text(v) for n, v in self.changes) or "no change"
 
 
@@ -482,6 +572,14 @@ def candidate_source(base: str, candidate: Candidate, settings: Mapping[str, Set
     -------
     dict
         Loadable with :func:`fsmctl.studies.reproduce.load_case` and writable with :func:`scenario_text`.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.explain import Candidate, candidate_source, search_settings
+    >>> settings = {s.name: s for s in search_settings(fsmctl.paper_scenario("1"))}
+    >>> candidate_source("paper", Candidate((("torque_limit", 47.7),)), settings)
+    {'extends': 'paper', 'controller': {'torque_limit': 47.7}}
     """
     data: dict[str, Any] = {"extends": base}
     for name, value in candidate.changes:
@@ -504,6 +602,17 @@ def scenario_text(data: Mapping[str, Any], comments: Sequence[str] = ()) -> str:
     -------
     str
         ``extends = "paper"`` then one table per changed section.
+
+    Examples
+    --------
+    >>> from fsmctl.studies.explain import scenario_text
+    >>> print(scenario_text({"extends": "paper", "controller": {"torque_limit": 47.7}}, ["torque limit 47.7 N m"]))
+    # torque limit 47.7 N m
+    extends = "paper"
+    <BLANKLINE>
+    [controller]
+    torque_limit = 47.7
+    <BLANKLINE>
     """
     lines = [f"# {c}" if c else "#" for c in comments]
     lines.append(f"extends = {toml_value(data['extends'])}")
@@ -519,7 +628,28 @@ def scenario_text(data: Mapping[str, Any], comments: Sequence[str] = ()) -> str:
 
 @dataclass
 class ExplainRun:
-    """One simulated run of a candidate: the :class:`~fsmctl.studies.reproduce.RunRecord` and figure-level numbers."""
+    """One simulated run of a candidate: the :class:`~fsmctl.studies.reproduce.RunRecord` and figure-level numbers.
+
+    Parameters
+    ----------
+    candidate : Candidate
+        The candidate flown.
+    record : RunRecord or None
+        The run's record (None when the simulation failed).
+    figures : dict
+        :func:`figure_numbers` of the run.
+    warnings : list of str, optional
+        Warnings of the run.
+    error : str, optional
+        Why the simulation failed ("" if it did not; then ``record`` is None and every check fails on it).
+
+    Examples
+    --------
+    >>> from fsmctl.studies.explain import Candidate, ExplainRun
+    >>> failed = ExplainRun(Candidate((("alpha", 0.99),)), None, {}, error="the step size is too large")
+    >>> failed.record is None, failed.error
+    (True, 'the step size is too large')
+    """
 
     candidate: Candidate
     record: RunRecord | None
@@ -567,6 +697,15 @@ def figure_numbers(result, unswitched: bool, plotted_agents: int = 4) -> dict:
     dict
         ``aaem_peak_deg``, ``raem_peak_deg``, ``theta_plotted_peak_deg`` (agents 1-4), ``u_peak_N_m`` (applied),
         ``error_mrp`` (``"shadow set"`` / ``"unswitched"``).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.explain import figure_numbers
+    >>> result = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 2.0}))
+    >>> numbers = figure_numbers(result, unswitched=False)
+    >>> numbers["u_peak_N_m"], numbers["error_mrp"]  # saturated at the 2 N m limit (Fig 4)
+    (2.0, 'shadow set')
     """
     if unswitched:
         se = _compose(result.sigma, -result.sigma_d[:, None, :])
@@ -1154,7 +1293,36 @@ _ORDER = {
 
 @dataclass
 class Evidence:
-    """The evidence run of an explanation: its scenario file and numbers."""
+    """The evidence run of an explanation: its scenario file and numbers.
+
+    Parameters
+    ----------
+    key : str
+        The candidate's key (``explain_torque_limit_47.7``).
+    change : str
+        The change, as ``setting = value``.
+    scenario_file : str
+        The scenario file, relative to the report folder (``explain/<key>.toml``).
+    runs : list of str
+        The runs of :func:`~fsmctl.studies.reproduce.run_plan` flown on it.
+    figures : list of str
+        The Figs 1-4 checks of its Case 1 run (:data:`FIGURE_CHECKS`), one line each.
+    figures_fit : list of str
+        The ids of the Figs 1-4 checks its Case 1 run passes.
+    rerun_identical : bool
+        The file, re-loaded and simulated again, gives the same numbers.
+    warnings : list of str, optional
+        Warnings of the evidence runs.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import Evidence
+    >>> ev = Evidence(key="explain_torque_limit_47.7", change="torque limit = 47.7 N m",
+    ...               scenario_file="explain/explain_torque_limit_47.7.toml", runs=["case1"], figures=[],
+    ...               figures_fit=[], rerun_identical=True)
+    >>> ev.scenario_file.startswith("explain/"), ev.rerun_identical
+    (True, True)
+    """
 
     key: str
     """candidate key (``explain_torque_limit_47.7``)"""
@@ -1174,7 +1342,54 @@ class Evidence:
 
 @dataclass
 class Explanation:
-    """What would reproduce one claim (or figure-level check): the smallest change found, or none in the ranges."""
+    """What would reproduce one claim (or figure-level check): the smallest change found, or none in the ranges.
+
+    :func:`explain` returns them (it flies the reproduction's runs again for every candidate change, minutes to hours:
+    ``fsmctl reproduce --explain``); this shows how to read one.
+
+    Parameters
+    ----------
+    id : str
+        The claim's id (:data:`~fsmctl.studies.reproduce.CLAIM_IDS`) or the figure check's.
+    claim : str
+        What the paper claims.
+    verdict : str
+        ``fsmctl reproduce``'s verdict (figure checks: ``fits`` / ``does not fit``).
+    status : str
+        :data:`EXPLAINED`, :data:`NOT_EXPLAINED` or :data:`ALREADY_REPRODUCED`.
+    reproduced_if : str
+        The statement of the smallest change (``torque limit >= 47.7 N m (bisected to 0.1 N m; ...)``).
+    change : str, optional
+        The change, as ``setting = value`` (``and`` for a pair).
+    distance : float, optional
+        Its distance (:meth:`Setting.distance`; NaN: none found).
+    baseline : str, optional
+        The claim's numbers on the base scenario.
+    numbers : str, optional
+        The claim's numbers on the evidence run.
+    outside : str, optional
+        For a bisected threshold: the value just outside it and the numbers there (it fails).
+    evidence : Evidence or None, optional
+        The evidence run.
+    alternatives : list of str, optional
+        Other changes that also reproduce it, by distance.
+    searched : list of str, optional
+        What was searched.
+    pairs : str, optional
+        What was tried in pairs, when no single change reproduces it.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import Evidence, Explanation
+    >>> from fsmctl.studies.explain import EXPLAINED
+    >>> ev = Evidence("explain_torque_limit_47.7", "torque limit = 47.7 N m", "explain/explain_torque_limit_47.7.toml",
+    ...               ["case1"], [], [], True)
+    >>> e = Explanation(id="settling_27s", claim="the formation settles in 27 s", verdict="differs", status=EXPLAINED,
+    ...                 reproduced_if="torque limit >= 47.7 N m", change="torque limit = 47.7 N m", distance=0.29,
+    ...                 evidence=ev)
+    >>> e.status, e.to_dict()["evidence"]["key"]
+    ('reproduced if', 'explain_torque_limit_47.7')
+    """
 
     id: str
     claim: str
@@ -1200,7 +1415,13 @@ class Explanation:
     """what was tried in pairs, when no single change reproduces it"""
 
     def to_dict(self) -> dict:
-        """JSON-ready (non-finite numbers as strings)."""
+        """JSON-ready (non-finite numbers as None).
+
+        Returns
+        -------
+        dict
+            The fields, the evidence as a nested dict.
+        """
         d = asdict(self)
         d["distance"] = self.distance if math.isfinite(self.distance) else None
         return d
@@ -1306,6 +1527,15 @@ def explain(
     list of Explanation
         One per claim in the paper's order (:data:`~fsmctl.studies.reproduce.CLAIM_IDS`), then one per figure-level
         check (:data:`FIGURE_CHECKS`).
+
+    Raises
+    ------
+    ValueError
+        ``settings`` names a setting :func:`search_settings` does not have.
+
+    See Also
+    --------
+    Explanation : how to read the result (with an example).
     """
     from tqdm.auto import tqdm
 
@@ -1615,6 +1845,20 @@ def markdown_section(explanations: Sequence[Explanation], fast: bool = False) ->
     -------
     list of str
         The section: the claims in the paper's order, then the figure-level checks, then the searched ranges.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import Evidence, Explanation, markdown_section
+    >>> ev = Evidence("explain_torque_limit_47.7", "torque limit = 47.7 N m", "explain/explain_torque_limit_47.7.toml",
+    ...               ["case1"], [], [], True)
+    >>> e = Explanation("settling_27s", "the formation settles in 27 s", "differs", "reproduced if",
+    ...                 "torque limit >= 47.7 N m", "torque limit = 47.7 N m", 0.29, evidence=ev)
+    >>> lines = markdown_section([e])
+    >>> lines[0]
+    '## What would reproduce each claim'
+    >>> row = [line for line in lines if line.startswith("| **settling_27s**")][0]
+    >>> [cell.strip() for cell in row.split("|")[2:5]]
+    ['differs', '**reproduced if torque limit >= 47.7 N m**', '0.29']
     """
     claims = [e for e in explanations if e.id in CLAIM_IDS]
     figs = [e for e in explanations if e.id not in CLAIM_IDS]
@@ -1700,6 +1944,17 @@ def text_lines(e: Explanation, indent: int, width: int = 110) -> list[str]:
     -------
     list of str
         ``reproduced if ...`` with the evidence file, or the searched ranges.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import Evidence, Explanation
+    >>> from fsmctl.studies.explain import text_lines
+    >>> ev = Evidence("explain_torque_limit_47.7", "torque limit = 47.7 N m", "explain/explain_torque_limit_47.7.toml",
+    ...               ["case1"], [], [], True)
+    >>> e = Explanation("settling_27s", "the formation settles in 27 s", "differs", "reproduced if",
+    ...                 "torque limit >= 47.7 N m", "torque limit = 47.7 N m", 0.29, evidence=ev)
+    >>> text_lines(e, indent=2)
+    ['  explain: reproduced if torque limit >= 47.7 N m:  [explain/explain_torque_limit_47.7.toml]']
     """
     import textwrap
 

@@ -28,11 +28,32 @@ __all__ = [
 
 
 def momentum_envelope(axes: np.ndarray, limits: np.ndarray, direction: np.ndarray) -> float:
-    """Largest ``|h|`` along ``direction`` with ``h = G_s x``, ``|x_k| <= limits_k`` (N m s for momentum limits):
-    the array's envelope, by linear programming (:func:`scipy.optimize.linprog`).
+    """Largest ``|h|`` along ``direction`` with ``h = G_s x``, ``|x_k| <= limits_k``: the array's envelope, by linear
+    programming (:func:`scipy.optimize.linprog`).
+
+    Parameters
+    ----------
+    axes : numpy.ndarray
+        ``(3, N)`` spin axes ``G_s``.
+    limits : numpy.ndarray
+        ``(N,)`` per-wheel limits (N m s for momentum limits, ``J_s,k`` times the speed limit).
+    direction : numpy.ndarray
+        ``(3,)`` direction (not necessarily unit).
+
+    Returns
+    -------
+    float
+        The largest magnitude along ``direction`` (the unit of ``limits``).
+
+    Raises
+    ------
+    RuntimeError
+        The linear programme fails (it does not for finite limits).
 
     Examples
     --------
+    >>> import numpy as np
+    >>> from fsmctl.studies import momentum_envelope
     >>> round(momentum_envelope(np.eye(3), np.ones(3), np.array([1.0, 1.0, 0.0])), 6)  # sqrt(2)
     1.414214
     """
@@ -55,7 +76,31 @@ def momentum_envelope(axes: np.ndarray, limits: np.ndarray, direction: np.ndarra
 
 @dataclass(frozen=True)
 class WheelBudget:
-    """What the wheels of one spacecraft must do to bring it onto the reference (law-independent)."""
+    """What the wheels of one spacecraft must do to bring it onto the reference (law-independent).
+
+    Parameters
+    ----------
+    agent : int
+        The spacecraft (1-based).
+    H0_N_m_s : float
+        ``|H|``: total angular momentum of the spacecraft (hub and wheels), conserved but for the disturbance.
+    wheel_momentum_needed_N_m_s : float
+        ``|h(T)| = |C_d H - (J - J_spin) omega_d|`` at the bound's time T: the momentum the wheels must then hold.
+    wheel_momentum_envelope_N_m_s : float
+        The array's largest momentum along that direction (speed limits; :func:`momentum_envelope`).
+    momentum_feasible : bool
+        ``needed <= envelope``.
+    min_time_s : float
+        Lower bound on the time to reach the reference, from the wheels' torque (and the disturbance).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies import momentum_budget
+    >>> b = momentum_budget(fsmctl.load_scenario("paper-hardware"))[0]
+    >>> b.agent, b.momentum_feasible, b.wheel_momentum_needed_N_m_s < b.wheel_momentum_envelope_N_m_s
+    (1, True, True)
+    """
 
     agent: int
     """1-based"""
@@ -84,10 +129,17 @@ def momentum_budget(scenario: Scenario, *, step: float = 0.05) -> list[WheelBudg
     Returns
     -------
     list of WheelBudget
+        One per spacecraft, in order.
+
+    Raises
+    ------
+    ValueError
+        The scenario has no reaction wheels.
 
     Examples
     --------
     >>> import fsmctl
+    >>> from fsmctl.studies import momentum_budget
     >>> budget = momentum_budget(fsmctl.load_scenario("paper-hardware"))
     >>> all(b.momentum_feasible for b in budget), min(b.min_time_s for b in budget) > 60
     (True, True)
@@ -130,7 +182,34 @@ def momentum_budget(scenario: Scenario, *, step: float = 0.05) -> list[WheelBudg
 @dataclass(frozen=True)
 class TorqueDemand:
     """The torque one spacecraft needs just to follow the reference and to reject its disturbance, next to what
-    its actuator delivers (law-independent)."""
+    its actuator delivers (law-independent).
+
+    Parameters
+    ----------
+    agent : int
+        The spacecraft (1-based).
+    reference_peak_N_m : float
+        Max over the horizon of ``|J omega_d_dot + omega_d x J omega_d|`` (eq 4 on the reference, ``J = J0 + dJ``).
+    reference_mean_N_m : float
+        Its mean over the horizon.
+    disturbance_peak_N_m : float
+        ``max |d(t)|`` (eq 29).
+    capacity_max_N_m : float
+        The largest body torque the actuator can deliver (any direction; ideal: ``sqrt(3) torque_limit``).
+    capacity_min_N_m : float
+        The torque the actuator delivers in its weakest direction (wheels: with the minimum-norm split; ideal:
+        ``torque_limit``).
+
+    Examples
+    --------
+    Case 1 of the paper (ideal actuator, 2 N m per axis):
+
+    >>> import fsmctl
+    >>> from fsmctl.studies import torque_demand
+    >>> d = torque_demand(fsmctl.paper_scenario("1"))[0]
+    >>> d.capacity_min_N_m, round(d.capacity_max_N_m, 4), d.reference_peak_N_m < d.capacity_min_N_m
+    (2.0, 3.4641, True)
+    """
 
     agent: int
     """1-based"""
@@ -153,9 +232,22 @@ def torque_demand(scenario: Scenario, *, step: float = 0.1) -> list[TorqueDemand
     with ``omega = omega_d``; with wheels at zero momentum): where this exceeds what the actuator delivers, no law
     can track the reference there.
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario (its reference, agents, horizon and actuator).
+    step : float
+        Time grid (s) of the maxima and means.
+
+    Returns
+    -------
+    list of TorqueDemand
+        One per spacecraft, in order.
+
     Examples
     --------
     >>> import fsmctl
+    >>> from fsmctl.studies import torque_demand
     >>> demand = torque_demand(fsmctl.load_scenario("paper-hardware"))
     >>> max(d.reference_peak_N_m for d in demand) > demand[0].capacity_max_N_m  # the wheels cannot follow it
     True

@@ -151,8 +151,68 @@ class CampaignSettings:
     """What a campaign perturbs, how it runs, and what counts as converged.
 
     Units: rad/s for ``rate_bound``, deg for ``attitude_bound_deg`` and ``tolerance_deg``, s for times,
-    N m for ``torque_limit``.  ``None`` keeps the scenario's value.  :data:`SAMPLING_RANGES` describes
-    every sampling range (they are the command line's options).
+    N m for ``torque_limit``.  ``None`` keeps the scenario's value.  :data:`SAMPLING_RANGES` and
+    :data:`HARDWARE_RANGES` describe every sampling range (they are the command line's options).
+
+    Parameters
+    ----------
+    scenario : str, optional
+        A built-in scenario name (default ``"paper"``) or a scenario file.
+    case : str or None, optional
+        The scenario's case; None: its first case, or the file as it is when it defines no ``[cases]``.
+    runs : int, optional
+        Number of runs (default 100).
+    seed : int, optional
+        Seed of every draw (runs are reproducible one by one, whatever the workers).
+    inertia_bound : float, optional
+        ``rho_max``: ``0 < Delta_J <= rho J0`` with ``rho ~ U(0, rho_max]`` (default 0.3, the paper's).
+    disturbance_scale : float, optional
+        Disturbance amplitudes ``U(0, S |a_k|)`` of the scenario's ``a_k``, phases ``U(0, 2 pi)`` (eq 29).
+    rate_bound : float, optional
+        ``omega_i(0)``: every component uniform in ``[-B, B]`` rad/s.
+    link_dropout : float, optional
+        Probability that a directed link of the scenario's graph is removed.
+    coupling_low, coupling_high : float, optional
+        The factor ``U(low, high)`` on each link's ``k^j_ij(t)`` (Table 2); factors <= 1 only lower ``k^j``,
+        which keeps Theorem 1's ``k^i >= k^j`` (eq 27) where the scenario has it.
+    t_final, dt : float or None, optional
+        Horizon and integration step (s); None: the scenario's.
+    output_interval : float, optional
+        Coarse output grid (s): only per-run summaries are kept; settling times are resolved to it.
+    torque_limit : float or None, optional
+        Torque limit (N m); None: the scenario's.
+    tolerance_deg : float, optional
+        Converged: AAEM and RAEM (eqs 42-43) below this at the end, and settled.
+    steady_window : float, optional
+        The final window (s) of the steady-state statistics.
+    chunk_size : int, optional
+        Runs per chunk file (the unit of resumption and of work sent to a worker).
+    attitude_bound_deg : float, optional
+        Principal angle bound of ``sigma_i(0)``; 180 = uniform over all of SO(3).
+    controller : str, optional
+        JSON of ``[controller]`` changes applied to the scenario (the law, its parameters, ...; ``--law``/``--set``).
+    vary : {'all', 'noise'}, optional
+        ``'all'``: every run draws the sampling ranges and its own noise seed; ``'noise'``: only the noise seed.
+    control_period : float or None, optional
+        ``simulation.control_period`` of the base scenario (s; 0: continuous control); None: the scenario's.
+    link_delay : tuple of float or None, optional
+        ``(low, high)`` s: every directed link's delay ``U(low, high)`` per run; None: the scenario's.
+    loss_probability : tuple of float or None, optional
+        ``(low, high)``: every directed link's packet-loss probability per run; None: the scenario's.
+    sensor_noise_scale : tuple of float or None, optional
+        ``(low, high)``: a factor per run on the star tracker's noise and the gyro's random walks.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import CampaignSettings
+    >>> settings = CampaignSettings(runs=500, seed=7, loss_probability=[0.0, 0.1], control_period=0.01)
+    >>> settings.loss_probability, settings.identity()["runs"]
+    ((0.0, 0.1), 500)
+    >>> try:
+    ...     CampaignSettings(runs=0).validate()
+    ... except ValueError as exc:
+    ...     print(exc)
+    montecarlo: runs must be >= 1, got 0
     """
 
     scenario: str = "paper"
@@ -204,7 +264,13 @@ class CampaignSettings:
                 object.__setattr__(self, name, (float(value[0]), float(value[1])))
 
     def validate(self) -> None:
-        """Raise :class:`~fsmctl.errors.InputError` on a bad setting (one line, names the option)."""
+        """Raise :class:`~fsmctl.errors.InputError` on a bad setting (one line, names the option).
+
+        Raises
+        ------
+        fsmctl.errors.InputError
+            A setting out of its range.
+        """
         if self.vary not in VARY:
             raise InputError(f"montecarlo: vary must be one of {', '.join(VARY)}, got {self.vary!r}")
         for name, _ in HARDWARE_RANGES:
@@ -247,7 +313,13 @@ class CampaignSettings:
             raise InputError(f"montecarlo: torque_limit must be > 0 (or inf), got {self.torque_limit!r}")
 
     def identity(self) -> dict:
-        """Everything that determines the runs' results (a resumed campaign must match it)."""
+        """Everything that determines the runs' results (a resumed campaign must match it).
+
+        Returns
+        -------
+        dict
+            The settings as a dict.
+        """
         return asdict(self)
 
 
@@ -316,6 +388,16 @@ def run_noise_seed(seed: np.random.SeedSequence) -> int:
     """The ``simulation.seed`` of the run whose seed sequence is ``seed`` (``SeedSequence(campaign seed).spawn(runs)
     [run]``): the first :data:`NOISE_SEED_BITS` bits of its first child's state, an integer in ``[0, 2**53)``.
 
+    Parameters
+    ----------
+    seed : numpy.random.SeedSequence
+        The run's seed sequence.
+
+    Returns
+    -------
+    int
+        The noise seed.
+
     Examples
     --------
     >>> import numpy as np
@@ -328,7 +410,25 @@ def run_noise_seed(seed: np.random.SeedSequence) -> int:
 
 
 def random_processes(scenario: Scenario) -> list[str]:
-    """The random processes a run of ``scenario`` flies (what its ``simulation.seed`` draws); empty: none."""
+    """The random processes a run of ``scenario`` flies (what its ``simulation.seed`` draws); empty: none.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+
+    Returns
+    -------
+    list of str
+        Among ``"star tracker noise"``, ``"gyro noise"`` and ``"packet loss"``.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.montecarlo import random_processes
+    >>> random_processes(fsmctl.paper_scenario("1")), random_processes(fsmctl.load_scenario("paper-hardware"))
+    ([], ['star tracker noise', 'gyro noise', 'packet loss'])
+    """
     out = []
     star, gyro, links = scenario.sensors.star_tracker, scenario.sensors.gyro, scenario.links
     if star is not None and any(x > 0 for x in star.noise_std):
@@ -349,6 +449,30 @@ def check_campaign(settings: CampaignSettings, base: Scenario) -> None:
     A link range without a control period, a sensor-noise range without ``[sensors]``, and ``vary = "noise"``
     with a sampling range changed from its default (it would not be used) or a scenario without a random
     process (every run would be the same).
+
+    Parameters
+    ----------
+    settings : CampaignSettings
+        The campaign's settings.
+    base : Scenario
+        The base scenario.
+
+    Raises
+    ------
+    fsmctl.errors.InputError
+        The first mismatch, naming the option to change.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.errors import InputError
+    >>> from fsmctl.studies import CampaignSettings
+    >>> from fsmctl.studies.montecarlo import check_campaign
+    >>> try:
+    ...     check_campaign(CampaignSettings(link_delay=(0.0, 0.01)), fsmctl.paper_scenario("1"))
+    ... except InputError as exc:
+    ...     print(str(exc).split(" (")[0])
+    montecarlo: link_delay needs a scenario with a control period
     """
     period = base.simulation.control_period
     for name in ("link_delay", "loss_probability"):
@@ -401,6 +525,29 @@ def sample_attitudes_mrp(rng: np.random.Generator, count: int, max_angle_deg: fl
     With ``max_angle_deg < 180`` the Haar measure is conditioned on ``theta <= max_angle_deg``: the
     angle is drawn by inverting its CDF ``(theta - sin theta) / pi`` on the truncated range and the
     axis uniformly on the sphere (``sigma = axis tan(theta / 4)``).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The random generator.
+    count : int
+        Number of attitudes.
+    max_angle_deg : float, optional
+        Bound on the principal angle (deg); 180 (default): all of SO(3).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(count, 3)`` MRPs with ``|sigma| <= 1``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.studies.montecarlo import sample_attitudes_mrp
+    >>> sigma = sample_attitudes_mrp(np.random.default_rng(0), 1000, max_angle_deg=30.0)
+    >>> theta_deg = np.degrees(4 * np.arctan(np.linalg.norm(sigma, axis=1)))
+    >>> sigma.shape, bool(theta_deg.max() <= 30.0)
+    ((1000, 3), True)
     """
     if max_angle_deg >= 180.0:
         q = rng.standard_normal((count, 4))
@@ -439,6 +586,30 @@ def sample_inertia_perturbation(rng: np.random.Generator, J0: np.ndarray, bound:
     principal second moments ``a, b, c ~ U(0, 1)`` (so it satisfies the triangle inequality of a
     rigid body) about uniformly random axes ``R``; it is scaled so that the largest eigenvalue of
     ``J0^-1/2 Delta_J J0^-1/2`` equals ``rho``.  Liang et al. 2012, eq 29 (``J = J0 + Delta_J``).
+
+    Parameters
+    ----------
+    rng : numpy.random.Generator
+        The random generator.
+    J0 : numpy.ndarray
+        ``(3, 3)`` nominal inertia (kg m^2), symmetric positive definite.
+    bound : float
+        ``rho_max`` (> 0).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(3, 3)`` symmetric positive definite ``Delta_J`` (kg m^2).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.studies.montecarlo import sample_inertia_perturbation
+    >>> J0 = np.diag([20.0, 25.0, 30.0])
+    >>> dJ = sample_inertia_perturbation(np.random.default_rng(1), J0, 0.3)
+    >>> S = np.diag(np.diag(J0) ** -0.5)
+    >>> bool(np.linalg.eigvalsh(dJ).min() > 0), bool(np.linalg.eigvalsh(S @ dJ @ S).max() <= 0.3)
+    (True, True)
     """
     J0 = np.asarray(J0, dtype=float)
     a, b, c = rng.uniform(0.0, 1.0, 3)
@@ -469,6 +640,23 @@ def theorem1_factor_limit(topology: Topology) -> float | None:
 
     ``min`` over links with a non-zero ``k^j`` of ``k^i / max_t k^j`` (1.6 for the paper's Table 2);
     None when no link has a non-zero ``k^j`` (any factor keeps the condition).
+
+    Parameters
+    ----------
+    topology : Topology
+        The communication graph.
+
+    Returns
+    -------
+    float or None
+        The largest factor, or None.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.montecarlo import theorem1_factor_limit
+    >>> theorem1_factor_limit(fsmctl.paper_scenario("1").topology)  # k^i = 8, max k^j = 5 (Table 2)
+    1.6
     """
     ratios = [link.k_i / link.k_j.max for link in topology.links if link.k_j.max > 0]
     return min(ratios) if ratios else None
@@ -481,6 +669,35 @@ def sample_run_scenario(base: Scenario, settings: CampaignSettings, seed: np.ran
     change to ``base``.  Otherwise the attitudes, rates, inertia, disturbances and topology are drawn from
     ``seed`` (as before the hardware existed, draw for draw), then the hardware ranges that are given from
     children of ``seed`` of their own (:func:`_sample_hardware`).
+
+    Parameters
+    ----------
+    base : Scenario
+        The campaign's base scenario.
+    settings : CampaignSettings
+        The sampling ranges.
+    seed : numpy.random.SeedSequence
+        The run's seed (``SeedSequence(settings.seed).spawn(runs)[run]``).
+
+    Returns
+    -------
+    Scenario
+        The run's scenario.
+
+    Raises
+    ------
+    fsmctl.errors.InputError
+        The settings do not fit the scenario (:func:`check_campaign`).
+
+    Examples
+    --------
+    >>> import numpy as np, fsmctl
+    >>> from fsmctl.studies import CampaignSettings
+    >>> from fsmctl.studies.montecarlo import sample_run_scenario
+    >>> base = fsmctl.paper_scenario("1")
+    >>> run = sample_run_scenario(base, CampaignSettings(), np.random.SeedSequence(0))
+    >>> run.n_agents == base.n_agents, run.agents[0].sigma0 != base.agents[0].sigma0
+    (True, True)
     """
     check_campaign(settings, base)
     noise = {"seed": run_noise_seed(seed)}
@@ -586,6 +803,32 @@ def campaign_base(settings: CampaignSettings) -> tuple[CampaignSettings, Scenari
     ``[cases]``; the returned settings name it (so resuming with or without ``--case`` matches).
     The horizon, step and torque limit are the settings' where given, and the output interval is
     :func:`_fitting_output_interval` of the requested one.
+
+    Parameters
+    ----------
+    settings : CampaignSettings
+        The campaign's settings.
+
+    Returns
+    -------
+    settings : CampaignSettings
+        The settings with ``case`` explicit.
+    base : Scenario
+        The base scenario.
+
+    Raises
+    ------
+    fsmctl.errors.InputError
+        ``settings.controller`` is not a JSON object, or the scenario, its case or the changed settings are
+        invalid (:class:`~fsmctl.model.scenario.ScenarioError`).
+
+    Examples
+    --------
+    >>> from fsmctl.studies import CampaignSettings
+    >>> from fsmctl.studies.montecarlo import campaign_base
+    >>> settings, base = campaign_base(CampaignSettings(t_final=0.5))
+    >>> settings.case, base.label, base.simulation.t_final
+    ('1', 'paper case 1', 0.5)
     """
     base = load_scenario(settings.scenario, settings.case)
     sim: dict[str, Any] = {}
@@ -614,7 +857,27 @@ def _base_scenario(settings: CampaignSettings) -> Scenario:
 
 
 def describe_campaign(settings: CampaignSettings, base: Scenario) -> list[str]:
-    """Lines naming every setting of a campaign (printed when it starts; the option that sets each one)."""
+    """Lines naming every setting of a campaign (printed when it starts; the option that sets each one).
+
+    Parameters
+    ----------
+    settings : CampaignSettings
+        The campaign's settings.
+    base : Scenario
+        The base scenario.
+
+    Returns
+    -------
+    list of str
+        One line per group of settings.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import CampaignSettings
+    >>> from fsmctl.studies.montecarlo import campaign_base, describe_campaign
+    >>> describe_campaign(*campaign_base(CampaignSettings()))[0]
+    'montecarlo: paper case 1: 6 agents, 30 links; 100 runs, seed 0, chunks of 10'
+    """
     s, sim = settings, base.simulation
     limit = theorem1_factor_limit(base.topology)
     if limit is None:
@@ -750,6 +1013,32 @@ def run_one(base: Scenario, settings: CampaignSettings, index: int, seed: np.ran
     ``t_final``; a result whose last sample is elsewhere raises, so the run is ``failed``.
     (:func:`_run_chunk` flies a chunk's runs together, :func:`fsmctl.simulation.simulator.simulate_many`, with the
     same records.)
+
+    Parameters
+    ----------
+    base : Scenario
+        The campaign's base scenario.
+    settings : CampaignSettings
+        The campaign's settings.
+    index : int
+        The run's index.
+    seed : numpy.random.SeedSequence
+        The run's seed (:func:`sample_run_scenario`).
+
+    Returns
+    -------
+    dict
+        The run's summary: settling times, final errors, Theorem 1 and 2 checks, torques, what was drawn.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.studies import CampaignSettings
+    >>> from fsmctl.studies.montecarlo import campaign_base, run_one
+    >>> settings, base = campaign_base(CampaignSettings(t_final=0.5))
+    >>> record = run_one(base, settings, 0, np.random.SeedSequence(0).spawn(1)[0])
+    >>> record["converged"], record["u_max_abs_N_m"] <= base.controller.torque_limit
+    (False, True)
     """
     from fsmctl.simulation.simulator import simulate
 
@@ -1099,7 +1388,35 @@ def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
 
 @dataclass
 class CampaignResult:
-    """Outcome of :func:`run_campaign`: the merged dataset and where everything was written."""
+    """Outcome of :func:`run_campaign`: the merged dataset and where everything was written.
+
+    Parameters
+    ----------
+    dataset : xarray.Dataset
+        Per-run results, dimension ``run`` (and ``agent``): status, settling times, final errors, Theorem checks.
+    summary : dict
+        Counts, fractions and statistics (what ``summary.json`` holds).
+    out_dir : pathlib.Path
+        The campaign folder.
+    wall_time_s : float
+        Wall time of the campaign (s).
+    resumed_chunks : int, optional
+        Chunks found done in ``out_dir`` and not run again.
+    files : dict, optional
+        Name -> path of the files written (``dataset``, ``summary``, ``complete``, figures).
+    settings : CampaignSettings or None, optional
+        The settings that ran (the case made explicit).
+
+    Examples
+    --------
+    >>> from fsmctl.studies import CampaignSettings, run_campaign
+    >>> result = run_campaign(CampaignSettings(runs=2, t_final=0.5, steady_window=0.2), "mc", workers=1,
+    ...                       progress=False, figures=False)
+    >>> dict(result.dataset.sizes), sorted(result.files)
+    ({'run': 2, 'agent': 6}, ['complete', 'dataset', 'summary'])
+    >>> result.settings.case
+    '1'
+    """
 
     dataset: Any
     """xarray.Dataset with dimension ``run`` (and ``agent``)"""
@@ -1113,6 +1430,7 @@ class CampaignResult:
 
     @property
     def failed_runs(self) -> list[int]:
+        """The indices of the runs whose status is not ``ok``."""
         return [
             int(r) for r, s in zip(self.dataset.run.values, self.dataset.status.values, strict=True) if s != STATUS_OK
         ]
@@ -1372,6 +1690,7 @@ def run_campaign(
     Returns
     -------
     CampaignResult
+        The merged dataset, the summary and the files written.
 
     Raises
     ------
@@ -1382,6 +1701,19 @@ def run_campaign(
     CampaignInterrupted
         ``SIGINT``/``SIGTERM`` (in the main thread): the workers were stopped and the finished chunks
         kept (``exc.detail`` says how many); ``exc.exit_code`` is 130 or 143.
+
+    Examples
+    --------
+    Two runs of the paper's Case 1 on a 0.5 s horizon, in this process (a real campaign has hundreds of runs
+    on the full horizon, ``fsmctl montecarlo``):
+
+    >>> from fsmctl.studies import CampaignSettings, run_campaign
+    >>> settings = CampaignSettings(runs=2, seed=1, t_final=0.5, steady_window=0.2, chunk_size=2)
+    >>> result = run_campaign(settings, "campaign", workers=1, progress=False, figures=False)
+    >>> result.summary["runs"], result.summary["ok"], result.failed_runs
+    (2, 2, [])
+    >>> sorted(p.name for p in result.out_dir.iterdir())
+    ['campaign.json', 'chunks', 'complete.json', 'montecarlo.nc', 'summary.json']
     """
     settings.validate()
     t_start = time.perf_counter()
@@ -1442,7 +1774,28 @@ def run_campaign(
 def finish_campaign(
     out: Path, settings: CampaignSettings, base: Scenario, t_start: float, resumed: int = 0, *, figures: bool = True
 ) -> CampaignResult:
-    """Merge the chunk files into ``montecarlo.nc``, write ``summary.json``, the histograms and, last, ``complete.json``."""
+    """Merge the chunk files into ``montecarlo.nc``, write ``summary.json``, the histograms and, last, ``complete.json``.
+
+    Parameters
+    ----------
+    out : pathlib.Path
+        The campaign folder (its ``chunks/`` are complete).
+    settings : CampaignSettings
+        The campaign's settings.
+    base : Scenario
+        The base scenario.
+    t_start : float
+        :func:`time.perf_counter` at the start of the campaign (for the wall time).
+    resumed : int, optional
+        Chunks that were resumed.
+    figures : bool, optional
+        Write the histograms.
+
+    Returns
+    -------
+    CampaignResult
+        The merged result.
+    """
     import xarray as xr
 
     out = Path(out)
@@ -1494,7 +1847,21 @@ def finish_campaign(
 
 
 def summarize(ds, settings: CampaignSettings) -> dict:
-    """Counts, fractions and statistics (finite values only) of every per-run variable."""
+    """Counts, fractions and statistics (finite values only) of every per-run variable.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The merged per-run dataset.
+    settings : CampaignSettings
+        The campaign's settings.
+
+    Returns
+    -------
+    dict
+        ``runs``, ``ok``, ``failed``, ``converged_fraction``, the Theorem checks' fractions, ``statistics`` per
+        variable, ... (written as ``summary.json``).
+    """
     status = [str(s) for s in ds.status.values]
     ok = np.array([s == STATUS_OK for s in status])
     out: dict[str, Any] = {
@@ -1532,7 +1899,22 @@ def summarize(ds, settings: CampaignSettings) -> dict:
 
 
 def plot_histograms(ds, stem: str | Path, settings: CampaignSettings) -> dict:
-    """Histograms of the main per-run results (PNG and SVG, each written atomically)."""
+    """Histograms of the main per-run results (PNG and SVG, each written atomically).
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The merged per-run dataset.
+    stem : str or pathlib.Path
+        The files' path without suffix.
+    settings : CampaignSettings
+        The campaign's settings (tolerances in the titles).
+
+    Returns
+    -------
+    dict
+        ``{"png": path, "svg": path}``.
+    """
     import matplotlib
 
     matplotlib.use("Agg", force=False)

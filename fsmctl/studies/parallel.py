@@ -67,6 +67,17 @@ def process_pool_context() -> BaseContext:
     unsafe, so workers are spawned.  A script without an ``if __name__ == "__main__"`` guard (e.g. a
     jupytext notebook run with ``python``) would be executed again by every spawned worker; there
     ``fork`` is used where the platform has it.
+
+    Returns
+    -------
+    multiprocessing.context.BaseContext
+        The ``spawn`` or ``fork`` context.
+
+    Examples
+    --------
+    >>> from fsmctl.studies.parallel import process_pool_context
+    >>> process_pool_context().get_start_method() in ("spawn", "fork")
+    True
     """
     main_module = sys.modules.get("__main__")
     script = getattr(main_module, "__spec__", None) is None and getattr(main_module, "__file__", None)
@@ -99,6 +110,13 @@ def single_threaded_workers() -> Iterator[dict[str, str]]:
     ------
     dict
         The variables that were added (name -> ``"1"``).
+    Examples
+    --------
+    >>> import os
+    >>> from fsmctl.studies.parallel import single_threaded_workers
+    >>> with single_threaded_workers() as added:
+    ...     print(all(os.environ[name] == "1" for name in added))
+    True
     """
     added = {name: "1" for name in WORKER_THREAD_VARIABLES if name not in os.environ}
     os.environ.update(added)
@@ -142,6 +160,15 @@ def worker_lifeline(parent_pid: int, period: float = WATCHDOG_PERIOD_S) -> None:
       the thread that runs the campaign and outlives the pool;
     * everywhere: a daemon thread checks ``os.getppid()`` every ``period`` seconds and ends the
       process with :data:`ORPHAN_EXIT_CODE` once the parent has changed.
+
+    It changes the calling process's signal handling: call it only in a worker (:func:`worker_pool` does).
+
+    Parameters
+    ----------
+    parent_pid : int
+        The process id of the parent that started the worker.
+    period : float, optional
+        Seconds between two checks of the parent.
     """
     if hasattr(signal, "SIGINT"):
         signal.signal(signal.SIGINT, signal.SIG_IGN)
@@ -190,7 +217,25 @@ class _LifelinePool(ProcessPoolExecutor):
 
 
 def stop_pool(executor: ProcessPoolExecutor, grace_s: float = 2.0) -> None:
-    """Cancel the queued tasks and end the workers now: ``SIGTERM``, then ``SIGKILL`` after ``grace_s``."""
+    """Cancel the queued tasks and end the workers now: ``SIGTERM``, then ``SIGKILL`` after ``grace_s``.
+
+    Parameters
+    ----------
+    executor : concurrent.futures.ProcessPoolExecutor
+        The pool.
+    grace_s : float, optional
+        Seconds the workers get to end after ``SIGTERM``.
+
+    Examples
+    --------
+    >>> from fsmctl.studies.parallel import stop_pool, worker_pool
+    >>> with worker_pool(1) as pool:
+    ...     future = pool.submit(pow, 2, 10)
+    ...     value = future.result()
+    ...     stop_pool(pool)
+    >>> value
+    1024
+    """
     processes = list((getattr(executor, "_processes", None) or {}).values())  # before shutdown clears it
     with contextlib.suppress(Exception):
         executor.shutdown(wait=False, cancel_futures=True)
@@ -213,6 +258,10 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = 2.0) -> None:
 def worker_pool(max_workers: int, mp_context: BaseContext | None = None) -> Iterator[ProcessPoolExecutor]:
     """A process pool whose workers die with this process; leaving by an exception stops them at once.
 
+    On a normal exit the pool is shut down as ``with ProcessPoolExecutor(...)`` would (waiting for the
+    tasks); on an exception (:class:`CampaignInterrupted`, an error while handling a result) the queued
+    tasks are cancelled and the workers terminated (:func:`stop_pool`), so nothing outlives the block.
+
     Parameters
     ----------
     max_workers : int
@@ -220,9 +269,17 @@ def worker_pool(max_workers: int, mp_context: BaseContext | None = None) -> Iter
     mp_context : multiprocessing context, optional
         Default :func:`process_pool_context`.
 
-    On a normal exit the pool is shut down as ``with ProcessPoolExecutor(...)`` would (waiting for the
-    tasks); on an exception (:class:`CampaignInterrupted`, an error while handling a result) the queued
-    tasks are cancelled and the workers terminated (:func:`stop_pool`), so nothing outlives the block.
+    Yields
+    ------
+    concurrent.futures.ProcessPoolExecutor
+        The pool (its workers start with :func:`worker_lifeline`).
+
+    Examples
+    --------
+    >>> from fsmctl.studies.parallel import worker_pool
+    >>> with worker_pool(1) as pool:
+    ...     print(pool.submit(pow, 2, 10).result())
+    1024
     """
     executor = _LifelinePool(max_workers, mp_context or process_pool_context())
     try:
@@ -239,6 +296,16 @@ def worker_pool(max_workers: int, mp_context: BaseContext | None = None) -> Iter
 class CampaignInterrupted(KeyboardInterrupt):
     """``SIGINT`` or ``SIGTERM`` arrived during a campaign; raised after the workers were stopped.
 
+    A :class:`KeyboardInterrupt`: :func:`~fsmctl.studies.run_campaign` and ``fsmctl.studies.tune.tune`` raise it
+    after keeping what was finished (a resumed campaign or study continues from there).
+
+    Parameters
+    ----------
+    signum : int
+        The signal.
+    detail : str, optional
+        What was kept (the campaign fills it in before the exception leaves it).
+
     Attributes
     ----------
     signum : int
@@ -246,7 +313,15 @@ class CampaignInterrupted(KeyboardInterrupt):
     exit_code : int
         ``128 + signum``: 130 for ``SIGINT``, 143 for ``SIGTERM``.
     detail : str
-        Filled in by the campaign: what was kept (set before the exception leaves it).
+        What was kept.
+
+    Examples
+    --------
+    >>> import signal
+    >>> from fsmctl.studies import CampaignInterrupted
+    >>> exc = CampaignInterrupted(signal.SIGTERM, "3 of 10 chunks kept")
+    >>> exc.signal_name, exc.exit_code, exc.detail
+    ('SIGTERM', 143, '3 of 10 chunks kept')
     """
 
     def __init__(self, signum: int, detail: str = ""):
@@ -256,6 +331,7 @@ class CampaignInterrupted(KeyboardInterrupt):
 
     @property
     def signal_name(self) -> str:
+        """The signal's name (``SIGINT``), or ``signal N`` for an unnamed one."""
         try:
             return signal.Signals(self.signum).name
         except ValueError:
@@ -263,6 +339,7 @@ class CampaignInterrupted(KeyboardInterrupt):
 
     @property
     def exit_code(self) -> int:
+        """``128 + signum``: the process's exit status (130 for ``SIGINT``, 143 for ``SIGTERM``)."""
         return 128 + self.signum
 
     def __str__(self) -> str:
@@ -270,7 +347,17 @@ class CampaignInterrupted(KeyboardInterrupt):
 
 
 class InterruptGuard:
-    """The state behind :func:`interrupt_guard` (``active`` is False when no handler could be installed)."""
+    """The state behind :func:`interrupt_guard` (``active`` is False when no handler could be installed).
+
+    Examples
+    --------
+    >>> from fsmctl.studies.parallel import interrupt_guard
+    >>> with interrupt_guard() as guard:
+    ...     with guard.deferred():
+    ...         pass  # write a result file here: an interrupt waits until the block ends
+    >>> guard.received is None
+    True
+    """
 
     def __init__(self) -> None:
         self.active = False
@@ -316,6 +403,23 @@ def interrupt_guard() -> Iterator[InterruptGuard]:
     The previous handlers are restored on exit.  Outside the main thread (where Python cannot install
     handlers) the guard is inactive and the process keeps its handlers.  The first signal raises; later
     ones, while the campaign shuts down, are recorded and ignored.
+
+    Yields
+    ------
+    InterruptGuard
+        The guard (``active``, ``received``, :meth:`InterruptGuard.deferred`).
+
+    Examples
+    --------
+    The handlers are installed inside the block and the previous ones are back after it:
+
+    >>> import signal
+    >>> from fsmctl.studies.parallel import interrupt_guard
+    >>> before = signal.getsignal(signal.SIGTERM)
+    >>> with interrupt_guard() as guard:
+    ...     installed = signal.getsignal(signal.SIGTERM) is not before
+    >>> guard.active == installed, signal.getsignal(signal.SIGTERM) is before
+    (True, True)
     """
     guard = InterruptGuard()
     if threading.current_thread() is not threading.main_thread():

@@ -73,6 +73,8 @@ __all__ = [
     "reproduce",
     "overlay_figures",
     "write_outputs",
+    "to_markdown",
+    "format_claims",
 ]
 
 REPRODUCED = "reproduced"
@@ -104,7 +106,7 @@ DIAGNOSTIC_OUTPUT_INTERVAL_S = 0.02
 class RunSpec:
     """One simulation of the reproduction: a paper case plus overrides.
 
-    Attributes
+    Parameters
     ----------
     key : str
         File-safe name (``case1``, ``case1_no_torque_limit``, ...).
@@ -114,13 +116,24 @@ class RunSpec:
         Short human-readable name.
     purpose : str
         What the run shows.
-    controller, simulation : tuple of (name, value)
-        Overrides of :class:`~fsmctl.model.scenario.ControllerSettings` / :class:`~fsmctl.model.scenario.SimulationSettings`.
+    controller : tuple of (name, value)
+        Overrides of :class:`~fsmctl.model.scenario.ControllerSettings`.
+    simulation : tuple of (name, value)
+        Overrides of :class:`~fsmctl.model.scenario.SimulationSettings`.
     horizon_factor : float
         Multiple of the scenario's ``t_final``.
     figures : tuple of str
         Single-run figures rendered by the worker: ``aaem``, ``raem``, ``theta_e``, ``torques``,
         ``torques_commanded``.
+
+    Examples
+    --------
+    >>> spec = RunSpec("case1_no_torque_limit", "1", "Case 1, no torque limit", "the law without saturation",
+    ...                controller=(("torque_limit", float("inf")),))
+    >>> spec.overrides
+    'torque_limit=inf'
+    >>> RunSpec("case1_long", "1", "Case 1, long", "", horizon_factor=3.0).overrides
+    't_final x3'
     """
 
     key: str
@@ -134,7 +147,7 @@ class RunSpec:
 
     @property
     def overrides(self) -> str:
-        """The overrides as ``name=value`` text (``"none"`` for the paper's settings)."""
+        """str: The overrides as ``name=value`` text (``"none"`` for the paper's settings)."""
         items = [f"{k}={v}" for k, v in self.controller + self.simulation]
         if self.horizon_factor != 1.0:
             items.append(f"t_final x{self.horizon_factor:g}")
@@ -148,6 +161,16 @@ def run_plan() -> tuple[RunSpec, ...]:
     -------
     tuple of RunSpec
         Cases 1, 2, 3a-3c (Liang et al. 2012, Sec. 4) as specified, then the diagnostics.
+
+    Examples
+    --------
+    >>> plan = run_plan()
+    >>> [spec.key for spec in plan[:5]]
+    ['case1', 'case2', 'case3a', 'case3b', 'case3c']
+    >>> plan[0].figures  # the single-run analogues of Figs 1-4
+    ('aaem', 'raem', 'theta_e', 'torques')
+    >>> len(plan), plan[-1].overrides
+    (14, 't_final x3')
     """
     inf = math.inf
     return (
@@ -227,9 +250,55 @@ def run_plan() -> tuple[RunSpec, ...]:
 
 @dataclass
 class RunRecord:
-    """What the report needs from one run (the full time series is in the NetCDF file).
+    """What the report needs from one run (the full time series is in the NetCDF file); made by :func:`run_record`.
 
-    ``time`` (s), ``aaem_deg`` (eq 42) and ``raem_deg`` (eq 43) are kept for the overlay figures.
+    Parameters
+    ----------
+    key, title, purpose, overrides, case : str
+        As the run's :class:`RunSpec` (``case`` is the paper case).
+    label : str
+        The scenario's label.
+    describe : list of str
+        The scenario's settings, one per line (``Scenario.describe()``).
+    t_final : float
+        Horizon flown (s).
+    torque_limit : float
+        Per-axis torque limit (N m; ``inf`` when none).
+    summary : dict
+        ``SimulationResult.summary`` at :data:`SETTLING_TOLERANCES_DEG` (saturation times, peaks, settling).
+    time : (T,) array
+        Output times (s), kept with the metrics for the overlay figures.
+    aaem_deg, raem_deg : (T,) array
+        AAEM (Liang et al. 2012, eq 42) and RAEM (eq 43), deg.
+    theta_e0_deg : list of float
+        ``theta_ei(0)`` per agent (eq 2), deg.
+    theta_e_peak_deg : float
+        Largest ``theta_ei`` over the run, deg.
+    steady_window_s : float
+        Length of the final window of the steady-state maxima (s).
+    aaem_steady_max_deg, raem_steady_max_deg : float
+        Maxima of AAEM and RAEM over that window, deg.
+    netcdf : str
+        The run's NetCDF file ("" when not saved).
+    figures : list of str
+        The run's figure files.
+    wall_time_s : float
+        Wall time of the simulation (s).
+    same_as : str
+        Key of an identical run whose results this record reuses ("" when simulated).
+
+    Examples
+    --------
+    A 1 s run of the paper's Case 1 (the reproduction flies 100 s):
+
+    >>> from fsmctl import simulate
+    >>> spec = run_plan()[0]
+    >>> scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    >>> rec = run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> rec.key, rec.t_final, rec.torque_limit
+    ('case1', 1.0, 2.0)
+    >>> rec.settled(1.0), rec.settling("aaem", 1.0)  # AAEM(0) is about 135 deg: far from settled after 1 s
+    (False, nan)
     """
 
     key: str
@@ -257,26 +326,53 @@ class RunRecord:
     """key of an identical run whose results this record reuses ("" if simulated)"""
 
     def settling(self, metric: str, tolerance_deg: float) -> float:
-        """Settling time (s) of ``"aaem"`` or ``"raem"`` to ``tolerance_deg`` (:func:`fsmctl.simulation.metrics.settling_time`)."""
+        """Settling time of AAEM or RAEM to a tolerance (:func:`fsmctl.simulation.metrics.settling_time`).
+
+        Parameters
+        ----------
+        metric : {"aaem", "raem"}
+            The metric (eq 42 or eq 43).
+        tolerance_deg : float
+            The tolerance (deg).
+
+        Returns
+        -------
+        float
+            The first time (s) after which the metric stays at or below the tolerance; NaN if it never does.
+        """
         from fsmctl.simulation.metrics import settling_time
 
         series = self.aaem_deg if metric == "aaem" else self.raem_deg
         return settling_time(self.time, series, tolerance_deg)
 
     def settled(self, tolerance_deg: float = SETTLING_TOLERANCES_DEG[0]) -> bool:
-        """Whether both AAEM and RAEM settle to ``tolerance_deg`` within the horizon."""
+        """Whether both AAEM and RAEM settle to ``tolerance_deg`` within the horizon.
+
+        Parameters
+        ----------
+        tolerance_deg : float
+            The tolerance (deg); default the loosest of :data:`SETTLING_TOLERANCES_DEG`.
+
+        Returns
+        -------
+        bool
+            True when both settling times are finite.
+        """
         return all(math.isfinite(self.settling(m, tolerance_deg)) for m in ("aaem", "raem"))
 
     @property
     def last_saturation_s(self) -> float:
+        """float: The last output time (s) a commanded torque component exceeded the limit (NaN: never)."""
         return float(self.summary["last_saturation_s"])
 
     @property
     def saturated_time_s(self) -> list[float]:
+        """list of float: Time (s) each agent spent with a torque component at the limit."""
         return [float(x) for x in self.summary["saturated_time_s"]]
 
     @property
     def commanded_peak_N_m(self) -> float:
+        """float: Largest commanded (unsaturated) torque component over the run (N m)."""
         return float(self.summary["u_unsaturated_max_N_m"])
 
 
@@ -295,6 +391,13 @@ def load_case(source: str | Mapping[str, Any], case: str):
     -------
     Scenario
         Validated.
+
+    Examples
+    --------
+    >>> load_case("paper", "3a").controller.torque_limit
+    2.0
+    >>> load_case({"extends": "paper", "controller": {"torque_limit": 5.0}}, "1").controller.torque_limit
+    5.0
     """
     from fsmctl.model.scenario import load_scenario, scenario_from_dict
 
@@ -347,6 +450,14 @@ def run_scenario(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
     -------
     Scenario
         Validated (the paper's J0_4 inertia warning is silenced: the report's inertia check covers it).
+
+    Examples
+    --------
+    >>> spec = run_plan()[-2]  # Case 1 on three times the horizon
+    >>> spec.key, run_scenario("paper", spec, fast=False).simulation.t_final
+    ('case1_long', 300.0)
+    >>> run_scenario("paper", spec, fast=True).simulation.t_final  # fast mode: 10 s, x3
+    30.0
     """
     return _quiet_scenario(source, spec, fast)
 
@@ -374,6 +485,15 @@ def run_record(spec: RunSpec, scenario, result, *, netcdf: str = "", figures: Se
     RunRecord
         The steady window is the last ``STEADY_WINDOW_FRACTION`` of the scenario's own horizon (40 s of a
         long run too).
+
+    Examples
+    --------
+    >>> from fsmctl import simulate
+    >>> spec = run_plan()[1]
+    >>> scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 2.0})
+    >>> rec = run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> rec.key, rec.steady_window_s, len(rec.theta_e0_deg)  # 40 % of 2 s; one angle per spacecraft
+    ('case2', 0.8, 6)
     """
     window = STEADY_WINDOW_FRACTION * scenario.simulation.t_final / spec.horizon_factor
     summary = result.summary(tolerances_deg=SETTLING_TOLERANCES_DEG, steady_window=window)
@@ -422,6 +542,16 @@ def execute_run(source: str | Mapping[str, Any], spec: RunSpec, fast: bool, out_
     -------
     RunRecord
         Summary, AAEM/RAEM series (eqs 42-43) and the written files.
+
+    Examples
+    --------
+    A short diagnostic run (Case 1 with pure sgn, no figures), written under ``out/``:
+
+    >>> spec = RunSpec("sgn", "1", "Case 1, pure sgn", "", controller=(("boundary_layer", 0.0),),
+    ...                simulation=(("t_final", 0.5),))
+    >>> rec = execute_run("paper", spec, False, "out")
+    >>> rec.netcdf, rec.figures, rec.t_final
+    ('out/runs/sgn.nc', [], 0.5)
     """
     import fsmctl.studies.figures as figs
     from fsmctl.simulation.simulator import simulate
@@ -493,8 +623,20 @@ def reference_trajectory(scenario, t_end: float, step: float = 0.01) -> tuple[np
     Returns
     -------
     time : (N,) array
+        Grid times (s), ``0, step, ...`` up to at least ``t_end``.
     sigma_d : (N, 3) array
-    omega_d : (N, 3) array, rad/s, desired frame
+        The reference MRP (shadow set, ``|sigma_d| <= 1``).
+    omega_d : (N, 3) array
+        The reference rate, rad/s, desired frame.
+
+    Examples
+    --------
+    >>> from fsmctl import paper_scenario
+    >>> t, sigma_d, omega_d = reference_trajectory(paper_scenario("1"), 1.0, step=0.1)
+    >>> t.shape, sigma_d.shape
+    ((11,), (11, 3))
+    >>> sigma_d[0]  # sigma_d(0) of Sec. 4
+    array([-0.3, -0.4,  0.4])
     """
     import casadi as ca
 
@@ -542,6 +684,34 @@ class MomentumBound:
     ``H(T) = H_d(T) = C_d(T)^T J omega_d(T)`` (body frame = desired frame, omega = omega_d),
     hence ``|H_d(T) - H(0)| <= sqrt(3) u_max T + int_0^T |d| dt``.  ``min_time_s`` is the last
     grid time before that inequality first holds (a lower bound on any settling time).
+
+    Parameters
+    ----------
+    agent : int
+        1-based.
+    torque_limit_N_m : float
+        The per-axis command limit (``controller.torque_limit``).
+    H0_N_m_s : float
+        ``|H(0)| = |J omega(0)|``.
+    H0_minus_Hd0_N_m_s : float
+        ``|H(0) - H_d(0)|``: momentum to remove relative to the reference at t = 0.
+    naive_time_s : float
+        ``|J omega(0)| / (sqrt(3) u_max)``: removing all of H(0), no reference momentum, no disturbance.
+    min_time_no_disturbance_s : float
+        The bound with the reference's momentum, without the disturbance.
+    min_time_s : float
+        The bound with the reference's momentum and the disturbance assisting at full magnitude.
+    grid_step_s : float
+        The search grid (s).
+
+    Examples
+    --------
+    The paper's agent 2 (Table 1, J = 1.3 J0):
+
+    >>> from fsmctl import paper_scenario
+    >>> b = angular_momentum_bound(paper_scenario("1"))[1]
+    >>> b.agent, round(b.H0_N_m_s, 1), round(b.naive_time_s, 1)
+    (2, 126.6, 36.6)
     """
 
     agent: int
@@ -578,6 +748,19 @@ def angular_momentum_bound(scenario, *, step: float = 0.01) -> list[MomentumBoun
     list of MomentumBound
         One per agent; see :class:`MomentumBound` for the inequality.  With no torque limit every
         bound is 0.
+
+    Examples
+    --------
+    The agents of the paper's Case 1 that no controller within 2 N m per axis brings onto the reference in
+    27 s (the paper's settling time):
+
+    >>> from fsmctl import paper_scenario
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> [b.agent for b in bounds if b.min_time_s > 27.0]
+    [1, 2, 5, 6]
+    >>> free = angular_momentum_bound(paper_scenario("1").replace(controller={"torque_limit": float("inf")}))
+    >>> {b.min_time_s for b in free}
+    {0.0}
     """
     from fsmctl.model.generated_code import casadi_function
 
@@ -647,7 +830,34 @@ def angular_momentum_bound(scenario, *, step: float = 0.01) -> list[MomentumBoun
 
 @dataclass
 class ClaimVerdict:
-    """One Section 4 claim: the paper's value, this run's value and the verdict (one of :data:`VERDICTS`)."""
+    """One Section 4 claim: the paper's value, this run's value and the verdict (one of :data:`VERDICTS`).
+
+    Parameters
+    ----------
+    id : str
+        One of :data:`CLAIM_IDS`.
+    claim : str
+        What the paper states.
+    figures : str
+        The paper's figures that show it.
+    paper_value : str
+        The paper's number.
+    this_run_value : str
+        This reproduction's number.
+    verdict : str
+        ``"reproduced"``, ``"differs"`` or ``"impossible (bound)"``.
+    reason : str
+        Why, when not reproduced.
+    diagnostic_runs : str
+        The runs of :func:`run_plan` that show the reason.
+
+    Examples
+    --------
+    >>> c = ClaimVerdict("settling_27s", "settles in 27 s", "Figs 1-2", "27 s", "not settled", IMPOSSIBLE,
+    ...                  "the torque limit", "case1_no_torque_limit")
+    >>> c.verdict in VERDICTS
+    True
+    """
 
     id: str
     claim: str
@@ -728,6 +938,22 @@ def claim_holds(claim_id: str, records: Mapping[str, RunRecord], tolerance_deg: 
         once Case 2 has settled (within its horizon, else on the long horizon) its steady AAEM / RAEM exceed
         0.05 / 0.03 deg; ``case3_ordering``: Cases 3a-3c all settle and both steady maxima strictly decrease
         from 3a to 3c.
+
+    Raises
+    ------
+    KeyError
+        If ``claim_id`` is not a claim, or ``records`` lacks a run the claim reads.
+
+    Examples
+    --------
+    Case 1 flown for 2 s: its steady AAEM is far above the paper's 0.03 deg.
+
+    >>> from fsmctl import simulate
+    >>> spec = run_plan()[0]
+    >>> scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 2.0})
+    >>> records = {"case1": run_record(spec, scenario, simulate(scenario, progress=False))}
+    >>> claim_holds("tracking_accuracy", records), records["case1"].aaem_steady_max_deg > 0.03
+    (False, True)
     """
     tol = SETTLING_TOLERANCES_DEG[0] if tolerance_deg is None else float(tolerance_deg)
     R = records
@@ -780,6 +1006,23 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
     -------
     list of ClaimVerdict
         One per claim, in the order of the paper's text; every verdict is one of :data:`VERDICTS`.
+
+    Examples
+    --------
+    The verdicts on 1 s runs (the reproduction flies 100 s): the 27 s settling is impossible whatever the
+    horizon, by the angular-momentum bound.
+
+    >>> from fsmctl import paper_scenario, simulate
+    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
+    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> claims = evaluate_claims(records, bounds)
+    >>> [c.id for c in claims] == list(CLAIM_IDS)
+    True
+    >>> claims[0].id, claims[0].verdict
+    ('settling_27s', 'impossible (bound)')
     """
     R = records
     c1, c2 = R["case1"], R["case2"]
@@ -1048,7 +1291,51 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
 
 @dataclass
 class Reproduction:
-    """Everything ``fsmctl reproduce`` computed and wrote."""
+    """Everything ``fsmctl reproduce`` computed and wrote (:func:`reproduce`).
+
+    Parameters
+    ----------
+    out_dir : Path
+        The output folder.
+    fast : bool
+        Whether the runs used the short horizon.
+    scenario_lines : list of str
+        Case 1's settings and the choices the paper leaves open, one per line.
+    records : dict of str -> RunRecord
+        Every run of :func:`run_plan`, in its order.
+    bounds : list of MomentumBound
+        :func:`angular_momentum_bound` of Case 1.
+    claims : list of ClaimVerdict
+        :func:`evaluate_claims`.
+    inertia_check : list of dict
+        Principal moments of J0 and J0 + ΔJ per agent, with the triangle inequality.
+    files : list of str
+        Every written run and figure file.
+    wall_time_s : float
+        Wall time of the reproduction (s).
+    explanations : list, optional
+        :class:`fsmctl.studies.explain.Explanation` per claim and figure check (None: not searched).
+    explain_wall_time_s : float
+        Wall time of the explanations (s).
+
+    Examples
+    --------
+    :func:`reproduce` returns one; here one assembled from 1 s runs, to read it:
+
+    >>> from pathlib import Path
+    >>> from fsmctl import paper_scenario, simulate
+    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
+    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
+    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> rep.claims_table()[0]["verdict"]
+    'impossible (bound)'
+    >>> list(rep.records)[:3]
+    ['case1', 'case2', 'case3a']
+    """
 
     out_dir: Path
     fast: bool
@@ -1064,7 +1351,13 @@ class Reproduction:
     explain_wall_time_s: float = 0.0
 
     def claims_table(self) -> list[dict]:
-        """The claims as a list of dicts (one per claim)."""
+        """The claims as a list of dicts (one per claim).
+
+        Returns
+        -------
+        list of dict
+            The fields of each :class:`ClaimVerdict`.
+        """
         return [asdict(c) for c in self.claims]
 
     def dataset(self, key: str):
@@ -1080,6 +1373,11 @@ class Reproduction:
         xarray.Dataset
             Variables with units in their names and attributes (see
             :meth:`fsmctl.simulation.simulator.SimulationResult.to_dataset`).
+
+        Raises
+        ------
+        KeyError
+            If there is no run ``key``.
         """
         import xarray as xr
 
@@ -1160,7 +1458,21 @@ def overlay_figures(records: Mapping[str, RunRecord]) -> dict[str, Any]:
     Returns
     -------
     dict of str -> matplotlib.figure.Figure
-        Keyed by file stem (``fig05_aaem_case2_vs_case1``, ...).
+        Keyed by file stem (``fig05_aaem_case2_vs_case1``, ...), the paper's Figs 5, 6, 8, 9 first.
+
+    Examples
+    --------
+    >>> from fsmctl import paper_scenario, simulate
+    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
+    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> figures = overlay_figures(records)
+    >>> list(figures)[:4]
+    ['fig05_aaem_case2_vs_case1', 'fig06_raem_case2_vs_case1', 'fig08_aaem_case3', 'fig09_raem_case3']
+    >>> [line.get_label() for line in figures["fig08_aaem_case3"].axes[0].lines]
+    ['Case 3a', 'Case 3b', 'Case 3c']
     """
     return {name: _overlay_figure(*_overlay_arguments(records, name)) for name, *_ in _OVERLAYS}
 
@@ -1225,6 +1537,38 @@ def reproduce(
     -------
     Reproduction
         Records, bounds, claims, explanations and the list of written files.
+
+    Raises
+    ------
+    InputError
+        If ``source`` cannot be read or lacks one of the paper's cases.
+    OSError
+        If ``out_dir`` cannot be created (:func:`fsmctl.outputs.environment_problem` names it).
+
+    Examples
+    --------
+    The whole reproduction takes about 1.5 minutes on 2 cores, its fast mode (10 s horizon, no explanations)
+    a few seconds; neither runs here:
+
+    >>> rep = reproduce("paper", "reproduction", fast=True, figures=False)  # doctest: +SKIP
+    >>> print(format_claims(rep))  # doctest: +SKIP
+
+    What it returns is read as follows, here on a :class:`Reproduction` assembled from 1 s runs of its plan
+    (the same :func:`run_plan`, :func:`run_record`, :func:`evaluate_claims` it calls):
+
+    >>> from pathlib import Path
+    >>> from fsmctl import paper_scenario, simulate
+    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
+    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
+    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> [(c.id, c.verdict) for c in rep.claims][:2]
+    [('settling_27s', 'impossible (bound)'), ('tracking_accuracy', 'impossible (bound)')]
+    >>> rep.records["case1"].t_final
+    1.0
     """
     from tqdm.auto import tqdm
 
@@ -1366,6 +1710,22 @@ def write_outputs(rep: Reproduction) -> list[Path]:
     -------
     list of Path
         The three files.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from fsmctl import paper_scenario, simulate
+    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
+    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
+    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> [p.name for p in write_outputs(rep)]
+    ['claims.csv', 'claims.json', 'report.md']
+    >>> Path("out/claims.csv").read_text().splitlines()[1].split(",")[0]
+    'settling_27s'
     """
     out = rep.out_dir
     csv_path, json_path, md_path = out / "claims.csv", out / "claims.json", out / "report.md"
@@ -1424,7 +1784,23 @@ def to_markdown(rep: Reproduction) -> str:
     Returns
     -------
     str
-        Claims table, the angular-momentum bound per agent, the numbers of every run, the choices.
+        Claims table, the angular-momentum bound per agent, the numbers of every run, the choices, and the
+        figures: the paper's Figs 1-9 in their order, then the diagnostic figures.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from fsmctl import paper_scenario, simulate
+    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
+    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
+    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> text = to_markdown(rep)
+    >>> [line for line in text.splitlines() if line.startswith("## ")][:3]
+    ['## Claims', '## Angular-momentum bound (independent of the controller)', '## Initial numbers (Table 1 and the reference, t = 0)']
     """
     R = rep.records
     c1 = R["case1"]
@@ -1540,7 +1916,7 @@ def to_markdown(rep: Reproduction) -> str:
         note = " (violates the rigid-body triangle inequality)" if row["J1_plus_J2_minus_J3_kg_m2"] < 0 else ""
         L.append(f"| {row['agent']} | {row['inertia']} | {m} | {row['J1_plus_J2_minus_J3_kg_m2']:.3g}{note} |")
     L += ["", "## Settings and the choices the paper leaves open", "", "```", *rep.scenario_lines, "```", ""]
-    figs = sorted(f for f in rep.files if f.endswith(".png"))
+    figs = _in_paper_order(f for f in rep.files if f.endswith(".png"))
     if figs:
         L += ["## Figures", ""]
         for f in figs:
@@ -1548,6 +1924,18 @@ def to_markdown(rep: Reproduction) -> str:
             rel = p.relative_to(out) if p.is_relative_to(out) else p
             L += [f"![{p.stem}]({rel})", ""]
     return "\n".join(L) + "\n"
+
+
+def _in_paper_order(paths) -> list[str]:
+    """Figure files in the paper's order: ``figNN_*`` by NN (Figs 1-9), then the others (diagnostics) by name."""
+
+    def key(path: str) -> tuple[int, int, str]:
+        stem = Path(path).stem
+        if stem.startswith("fig") and stem[3:5].isdigit():
+            return (0, int(stem[3:5]), stem)
+        return (1, 0, stem)
+
+    return sorted(paths, key=key)
 
 
 # ----------------------------------------------------------------------------- text
@@ -1567,6 +1955,20 @@ def format_claims(rep: Reproduction, width: int = 110) -> str:
     -------
     str
         One line per claim, the values and reasons indented below.
+
+    Examples
+    --------
+    >>> from pathlib import Path
+    >>> from fsmctl import paper_scenario, simulate
+    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
+    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
+    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> bounds = angular_momentum_bound(paper_scenario("1"))
+    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
+    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> print(format_claims(rep).splitlines()[2])
+    settling_27s         impossible (bound)
     """
     import textwrap
 

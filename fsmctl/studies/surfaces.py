@@ -65,7 +65,23 @@ PAPER_TORQUE_LIMIT_N_M = 2.0
 
 @dataclass(frozen=True)
 class Variant:
-    """Which of saturation, uncertainty (dJ and disturbance, eq 29) and coupling (eq 19) are on."""
+    """Which of saturation, uncertainty (dJ and disturbance, eq 29) and coupling (eq 19) are on.
+
+    Parameters
+    ----------
+    torque_limit : bool
+        Keep the scenario's torque limit (the paper's 2 N m if it has none); False: no limit.
+    uncertainty : bool
+        Keep the inertia uncertainty ``delta_J`` and the disturbance of eq 29; False: nominal plant.
+    coupling : bool
+        Keep the topology's links (eq 19); False: no links.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import Variant
+    >>> Variant(torque_limit=True, uncertainty=False, coupling=True).name
+    'limit/nominal/coupled'
+    """
 
     torque_limit: bool
     uncertainty: bool
@@ -73,6 +89,7 @@ class Variant:
 
     @property
     def name(self) -> str:
+        """``limit|no-limit / uncertain|nominal / coupled|uncoupled``: the variant's label in tables."""
         return "/".join(
             (
                 "limit" if self.torque_limit else "no-limit",
@@ -83,7 +100,19 @@ class Variant:
 
 
 def default_variants() -> list[Variant]:
-    """All eight combinations, the paper's (limit, uncertain, coupled) first."""
+    """All eight combinations, the paper's (limit, uncertain, coupled) first.
+
+    Returns
+    -------
+    list of Variant
+        The eight variants.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import default_variants
+    >>> [v.name for v in default_variants()][:2]
+    ['limit/uncertain/coupled', 'limit/uncertain/uncoupled']
+    """
     return [Variant(a, b, c) for a in (True, False) for b in (True, False) for c in (True, False)]
 
 
@@ -92,6 +121,29 @@ def variant_scenario(scenario: Scenario, variant: Variant, surface: str) -> Scen
 
     ``torque_limit``: the scenario's limit (the paper's 2 N m if the scenario has none) or none;
     ``uncertainty`` off: ``delta_J = 0`` and no disturbance; ``coupling`` off: no links.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The base scenario.
+    variant : Variant
+        Which features stay on.
+    surface : str
+        ``"fsm"``, ``"tsm"`` or ``"lsm"`` (``controller.surface``).
+
+    Returns
+    -------
+    Scenario
+        The modified scenario.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies import Variant
+    >>> from fsmctl.studies.surfaces import variant_scenario
+    >>> s = variant_scenario(fsmctl.paper_scenario("1"), Variant(False, True, False), "tsm")
+    >>> s.controller.surface, s.controller.torque_limit, len(s.topology.links)
+    ('tsm', inf, 0)
     """
     limit = scenario.controller.torque_limit
     if variant.torque_limit and not math.isfinite(limit):
@@ -116,11 +168,27 @@ def remark6_treatment(scenario: Scenario) -> list[dict]:
     infinite at 0 for FSM and TSM.  With ``switch`` the slope at 0 is finite, so inside the band
     ``|x| < epsilon`` the sliding mode is linear with that rate (exponential, not finite-time).
 
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario whose ``[controller]`` (gains, ``epsilon``, ``singularity_fix``) is used for every surface.
+
     Returns
     -------
     list of dict
         Per surface: ``slope_at_zero_per_s``, ``slope_at_band_edge_per_s``, ``band_time_constant_s``,
         the fix and ``epsilon``; computed by CasADi AD of the generated ``closed_loop`` function.
+
+    Examples
+    --------
+    Case 1 (``c1 = 0.6``, ``c2 = 0.8``, ``alpha = 0.7``, ``epsilon = 1e-4``): at the band edge the FSM slope is
+    ``c1 + c2 alpha epsilon^(alpha - 1) = 0.6 + 0.56 * 10^1.2 = 9.475`` 1/s; LSM's is ``c1`` everywhere:
+
+    >>> import fsmctl
+    >>> from fsmctl.studies.surfaces import remark6_treatment
+    >>> rows = remark6_treatment(fsmctl.paper_scenario("1"))
+    >>> [(r["surface"], round(r["slope_at_band_edge_per_s"], 3)) for r in rows]
+    [('fsm', 9.475), ('tsm', 8.875), ('lsm', 0.6)]
     """
     import casadi as ca
 
@@ -257,7 +325,45 @@ def _faster(a: float, b: float) -> str:
 
 @dataclass
 class SurfaceComparison:
-    """Results of :func:`compare_surfaces`: per-run and per-agent rows, ordering verdicts, Remark 6, time series."""
+    """Results of :func:`compare_surfaces`: per-run and per-agent rows, ordering verdicts, Remark 6, time series.
+
+    Parameters
+    ----------
+    scenario_label : str
+        The compared scenario (and case).
+    settings : dict
+        Thresholds, tolerances, horizon and variants of the comparison.
+    runs : list of dict
+        One row per (variant, surface): AAEM/RAEM settling (eqs 42-43), reaching and sliding times (means over
+        agents), Theorem 3's prediction, control effort, saturated time.
+    agents : list of dict
+        One row per (variant, surface, agent): reaching, settling and sliding-phase times, effort.
+    series : dict, optional
+        Time series per run (AAEM, RAEM) for the figures.
+    remark6 : list of dict, optional
+        :func:`remark6_treatment` of the scenario.
+    scalar : dict, optional
+        Summary of the scalar Theorem 3 check (empty without it).
+    wall_time_s : float, optional
+        Wall time of the whole comparison.
+    scalar_study : fsmctl.studies.theorem3.ScalarStudy or None, optional
+        The study behind ``scalar`` (None without the scalar check).
+    law_comparisons : dict, optional
+        Variant name -> the :class:`~fsmctl.studies.compare.Comparison` of its three surfaces (table, series).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies import Variant, compare_surfaces
+    >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
+    ...                      scalar_check=False, jobs=1, progress=False)
+    >>> c.run_row("limit/uncertain/coupled", "fsm")["n_agents"]
+    6
+    >>> [o["metric"] for o in c.ordering()]
+    ['aaem_settling_s', 'raem_settling_s', 'mean_sliding_phase_time_s']
+    >>> sorted(p.name for p in c.write("out", figures=False))
+    ['surfaces.json', 'surfaces_agents.csv', 'surfaces_ordering.csv', 'surfaces_runs.csv']
+    """
 
     scenario_label: str
     settings: dict
@@ -273,6 +379,25 @@ class SurfaceComparison:
     """variant name -> the :class:`fsmctl.studies.compare.Comparison` of its three surfaces (table, series)"""
 
     def run_row(self, variant: str, surface: str) -> dict:
+        """The row of one run.
+
+        Parameters
+        ----------
+        variant : str
+            The variant's name (:attr:`Variant.name`).
+        surface : str
+            ``"fsm"``, ``"tsm"`` or ``"lsm"``.
+
+        Returns
+        -------
+        dict
+            The row of :attr:`runs`.
+
+        Raises
+        ------
+        StopIteration
+            No such run.
+        """
         return next(r for r in self.runs if r["variant"] == variant and r["surface"] == surface)
 
     def ordering(self) -> list[dict]:
@@ -349,6 +474,13 @@ class SurfaceComparison:
         return "\n".join(lines)
 
     def to_json(self) -> dict:
+        """Scenario, settings, runs, agents, ordering, Remark 6 and the scalar check, as JSON-able data.
+
+        Returns
+        -------
+        dict
+            What ``surfaces.json`` holds.
+        """
         return {
             "scenario": self.scenario_label,
             "settings": self.settings,
@@ -361,7 +493,22 @@ class SurfaceComparison:
         }
 
     def write(self, out_dir: str | Path, *, figures: bool = True) -> list[Path]:
-        """Write ``surfaces_runs.csv``, ``surfaces_agents.csv``, ``surfaces_ordering.csv``, ``surfaces.json``, figures."""
+        """Write ``surfaces_runs.csv``, ``surfaces_agents.csv``, ``surfaces_ordering.csv``, ``surfaces.json``, figures.
+
+        Every file is written atomically; the folder is created if needed.
+
+        Parameters
+        ----------
+        out_dir : str or pathlib.Path
+            The output folder.
+        figures : bool, optional
+            Also write the figures (PNG and SVG), default True.
+
+        Returns
+        -------
+        list of pathlib.Path
+            The files written.
+        """
         out = Path(out_dir)
         out.mkdir(parents=True, exist_ok=True)
         paths = [
@@ -436,6 +583,27 @@ def compare_surfaces(
     Returns
     -------
     SurfaceComparison
+        Per-run and per-agent rows, the ordering verdicts (:meth:`SurfaceComparison.ordering`), Remark 6's slopes
+        and the scalar check.
+
+    Raises
+    ------
+    fsmctl.errors.InputError
+        A tolerance or threshold that is not a finite positive number, ``sigma_tolerance`` inside the Remark 6 band
+        ``epsilon``, ``jobs < 1`` or a non-positive ``t_final``.
+
+    Examples
+    --------
+    One variant (the paper's: torque limit, uncertainty, coupling), a 1 s horizon, no scalar grid:
+
+    >>> import fsmctl
+    >>> from fsmctl.studies import Variant, compare_surfaces
+    >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
+    ...                      scalar_check=False, jobs=1, progress=False)
+    >>> [(r["variant"], r["surface"]) for r in c.runs]
+    [('limit/uncertain/coupled', 'fsm'), ('limit/uncertain/coupled', 'tsm'), ('limit/uncertain/coupled', 'lsm')]
+    >>> all(r["control_effort_N_m_s"] > 0 for r in c.runs), len(c.agents)
+    (True, 18)
     """
     from tqdm import tqdm
 
@@ -532,9 +700,28 @@ def compare_surfaces(
 def plot_error_metrics(comparison: SurfaceComparison, metric: str = "aaem_deg"):
     """AAEM (eq 42) or RAEM (eq 43) against time, one panel per variant, one line per surface.
 
+    Parameters
+    ----------
+    comparison : SurfaceComparison
+        The result of :func:`compare_surfaces`.
+    metric : {'aaem_deg', 'raem_deg'}, optional
+        The metric to plot.
+
     Returns
     -------
     matplotlib.figure.Figure
+        Built without pyplot.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies import Variant, compare_surfaces
+    >>> from fsmctl.studies.surfaces import plot_error_metrics
+    >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
+    ...                      scalar_check=False, jobs=1, progress=False)
+    >>> fig = plot_error_metrics(c, "raem_deg")
+    >>> len(fig.axes), len(fig.axes[0].lines) >= 3
+    (1, True)
     """
     from matplotlib.figure import Figure
 
@@ -565,9 +752,28 @@ def plot_agent_times(comparison: SurfaceComparison, variant: str | None = None):
 
     ``variant`` defaults to the first variant in which every surface settles (else the first).
 
+    Parameters
+    ----------
+    comparison : SurfaceComparison
+        The result of :func:`compare_surfaces`.
+    variant : str or None, optional
+        The variant's name (:attr:`Variant.name`).
+
     Returns
     -------
     matplotlib.figure.Figure
+        Built without pyplot: reaching time, sliding-phase time (with Theorem 3's) and control effort per agent,
+        one bar per surface.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies import Variant, compare_surfaces
+    >>> from fsmctl.studies.surfaces import plot_agent_times
+    >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
+    ...                      scalar_check=False, jobs=1, progress=False)
+    >>> [ax.get_ylabel().split()[0] for ax in plot_agent_times(c).axes]
+    ['reaching', 'sliding-phase', 'control']
     """
     from matplotlib.figure import Figure
 

@@ -67,7 +67,18 @@ _MAX_ROUNDS = 2000
 
 
 class SettlingTimeInputError(InputError):
-    """Bad input to the Theorem 3 study (alpha, tau, |x0|, gains): a one-line message."""
+    """Bad input to the Theorem 3 study (alpha, tau, |x0|, gains): a one-line message (an
+    :class:`~fsmctl.errors.InputError`).
+
+    Examples
+    --------
+    >>> from fsmctl.studies import SettlingTimeInputError, closed_form_settling_time
+    >>> try:
+    ...     closed_form_settling_time("fsm", 1.0, 0.1, 0.6, 0.8, 0.4)
+    ... except SettlingTimeInputError as exc:
+    ...     print(exc)
+    alpha must satisfy 0.5 < alpha < 1 (eq 13), got 0.4
+    """
 
 
 # ----------------------------------------------------------------------------- validation
@@ -120,7 +131,29 @@ def _closed_form_functions() -> dict:
 
 
 def closed_form_latex(mode: str) -> str:
-    """LaTeX of the closed form (eq 34, 35 or 36) in terms of ``x0 = |x(0)|`` and ``q = 1 - alpha``."""
+    """LaTeX of the closed form (eq 34, 35 or 36) in terms of ``x0 = |x(0)|`` and ``q = 1 - alpha``.
+
+    Parameters
+    ----------
+    mode : {'fsm', 'tsm', 'lsm'}
+        The sliding mode.
+
+    Returns
+    -------
+    str
+        The LaTeX of ``T``.
+
+    Raises
+    ------
+    SettlingTimeInputError
+        An unknown mode.
+
+    Examples
+    --------
+    >>> from fsmctl.studies.theorem3 import closed_form_latex
+    >>> "log" in closed_form_latex("lsm")
+    True
+    """
     import sympy as sp
 
     if mode not in MODES:
@@ -148,6 +181,22 @@ def closed_form_settling_time(mode: str, x0: float, tau: float, c1: float, c2: f
     -------
     float
         ``T`` in seconds, evaluated in 50-digit arithmetic and rounded to a float.
+
+    Raises
+    ------
+    SettlingTimeInputError
+        An unknown mode, ``alpha`` outside (0.5, 1), ``tau <= 0``, ``|x0| <= tau`` or a non-positive gain the
+        mode uses.
+
+    Examples
+    --------
+    The paper's gains ``c1 = 0.6``, ``c2 = 0.8``, ``alpha = 0.7`` from ``|x0| = 1`` to ``tau = 0.1``; by hand
+    (``q = 1 - alpha``): LSM ``ln(10)/c1 = 3.8376``, TSM ``(1 - 0.1^q)/(c2 q) = 2.0784``, FSM
+    ``ln((c1 + c2)/(c1 0.1^q + c2))/(c1 q) = 1.3362``, so FSM is the fastest (Theorem 3):
+
+    >>> from fsmctl.studies import closed_form_settling_time
+    >>> [round(closed_form_settling_time(m, 1.0, 0.1, 0.6, 0.8, 0.7), 4) for m in ("fsm", "tsm", "lsm")]
+    [1.3362, 2.0784, 3.8376]
     """
     _check_inputs(mode, x0, tau, c1, c2, alpha)
     import mpmath
@@ -190,7 +239,30 @@ def _integrators(rtol: float, atol: float) -> tuple[ca.Function, ca.Function]:
 
 @dataclass(frozen=True)
 class SettlingTimeMeasurement:
-    """One simulated settling time next to its closed form (Liang et al. 2012, eqs 34-36)."""
+    """One simulated settling time next to its closed form (Liang et al. 2012, eqs 34-36).
+
+    Parameters
+    ----------
+    mode : str
+        ``"fsm"``, ``"tsm"`` or ``"lsm"``.
+    x0, tau, c1, c2, alpha : float
+        The inputs, as in :func:`closed_form_settling_time`.
+    time_simulated_s : float
+        The first time ``|x| <= tau`` measured by simulation (s).
+    time_closed_form_s : float
+        The closed form's ``T`` (s).
+    newton_iterations : int
+        Newton steps that refined the crossing.
+    integrator_calls : int
+        CVODES calls in all.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import measure_settling_time
+    >>> m = measure_settling_time("lsm", 1.0, 0.1, 0.6, 0.8, 0.7)
+    >>> round(m.time_closed_form_s, 4), m.to_dict()["relative_error"] < 1e-9
+    (3.8376, True)
+    """
 
     mode: str
     x0: float
@@ -209,6 +281,13 @@ class SettlingTimeMeasurement:
         return abs(self.time_simulated_s - self.time_closed_form_s) / self.time_closed_form_s
 
     def to_dict(self) -> dict:
+        """The fields and the relative error, as a flat dict (a CSV row).
+
+        Returns
+        -------
+        dict
+            Every field plus ``relative_error``.
+        """
         d = asdict(self)
         d["relative_error"] = self.relative_error
         return d
@@ -244,7 +323,15 @@ def measure_settling_time(
     Raises
     ------
     SettlingTimeInputError
-        For ``alpha`` outside (0.5, 1), ``tau <= 0``, ``|x0| <= tau`` or a non-positive gain the mode uses.
+        For ``alpha`` outside (0.5, 1), ``tau <= 0``, ``|x0| <= tau``, a non-positive gain the mode uses, or
+        ``rtol`` outside (0, 1e-3).
+
+    Examples
+    --------
+    >>> from fsmctl.studies import measure_settling_time
+    >>> m = measure_settling_time("fsm", 1.0, 0.1, 0.6, 0.8, 0.7)
+    >>> round(m.time_simulated_s, 6), round(m.time_closed_form_s, 6), m.relative_error < 1e-9
+    (1.336193, 1.336193, True)
     """
     _check_inputs(mode, x0, tau, c1, c2, alpha)
     if not 0 < rtol < 1e-3:
@@ -310,7 +397,25 @@ def measure_settling_time(
 
 @dataclass(frozen=True)
 class ScalarGrid:
-    """Axes of the (c1, c2, alpha, |x0|, tau) grid; combinations with |x0| <= tau are skipped."""
+    """Axes of the (c1, c2, alpha, |x0|, tau) grid; combinations with |x0| <= tau are skipped.
+
+    Parameters
+    ----------
+    c1, c2 : tuple of float
+        Gains of eq 14.
+    alpha : tuple of float
+        Exponents, each in (0.5, 1).
+    x0 : tuple of float
+        Initial values (the sign does not matter: the modes are odd).
+    tau : tuple of float
+        Targets ``tau > 0``.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import ScalarGrid
+    >>> ScalarGrid(c1=(0.6,), c2=(0.8,), alpha=(0.7,), x0=(1.0, 0.05), tau=(0.1,)).points()
+    [(0.6, 0.8, 0.7, 1.0, 0.1)]
+    """
 
     c1: tuple[float, ...]
     c2: tuple[float, ...]
@@ -319,6 +424,13 @@ class ScalarGrid:
     tau: tuple[float, ...]
 
     def points(self) -> list[tuple[float, float, float, float, float]]:
+        """The grid points ``(c1, c2, alpha, x0, tau)`` with ``|x0| > tau``, in product order.
+
+        Returns
+        -------
+        list of tuple of float
+            The points.
+        """
         return [p for p in itertools.product(self.c1, self.c2, self.alpha, self.x0, self.tau) if abs(p[3]) > p[4]]
 
 
@@ -326,6 +438,17 @@ def default_extreme_grid() -> ScalarGrid:
     """Grid with the extreme corners: alpha near 0.5 and 1, tiny tau, large |x0|, c1 >> c2 and c2 >> c1.
 
     Includes the paper's gains (c1 = 0.6, c2 = 0.8) and a negative ``x0`` (the modes are odd).
+
+    Returns
+    -------
+    ScalarGrid
+        3 values per axis (243 points).
+
+    Examples
+    --------
+    >>> from fsmctl.studies.theorem3 import default_extreme_grid
+    >>> len(default_extreme_grid().points())
+    243
     """
     return ScalarGrid(
         c1=(0.01, 0.6, 100.0),
@@ -337,13 +460,43 @@ def default_extreme_grid() -> ScalarGrid:
 
 
 def fast_grid() -> ScalarGrid:
-    """A small grid that still has every extreme (for tests and ``FSMCTL_FAST=1``)."""
+    """A small grid that still has every extreme (for tests and ``FSMCTL_FAST=1``).
+
+    Returns
+    -------
+    ScalarGrid
+        2 values per axis (32 points).
+
+    Examples
+    --------
+    >>> from fsmctl.studies import fast_grid
+    >>> g = fast_grid()
+    >>> len(g.points()), min(g.alpha), max(g.alpha)
+    (32, 0.5001, 0.9999)
+    """
     return ScalarGrid(c1=(0.01, 100.0), c2=(0.01, 100.0), alpha=(0.5001, 0.9999), x0=(-0.5, 1e4), tau=(1e-12, 0.1))
 
 
 @dataclass
 class ScalarStudy:
-    """Simulated vs closed-form settling times over a grid, and Theorem 3's ordering (eqs 37-41)."""
+    """Simulated vs closed-form settling times over a grid, and Theorem 3's ordering (eqs 37-41).
+
+    Parameters
+    ----------
+    measurements : list of SettlingTimeMeasurement
+        Three per grid point (FSM, TSM, LSM).
+    ordering : list of dict, optional
+        Per grid point: the inputs, ``T_fsm_s``, ``T_tsm_s``, ``T_lsm_s`` (simulated) and whether
+        ``T_fsm < T_tsm`` (``fsm_faster_than_tsm``) and ``T_fsm < T_lsm`` (``fsm_faster_than_lsm``).
+
+    Examples
+    --------
+    >>> from fsmctl.studies import ScalarGrid, scalar_settling_study
+    >>> study = scalar_settling_study(ScalarGrid((0.6,), (0.8,), (0.7,), (1.0,), (0.1,)), progress=False)
+    >>> s = study.summary()
+    >>> s["n_measurements"], s["ordering_holds_everywhere"], s["ordering_violations"]
+    (3, True, [])
+    """
 
     measurements: list[SettlingTimeMeasurement]
     ordering: list[dict] = field(default_factory=list)
@@ -351,17 +504,28 @@ class ScalarStudy:
 
     @property
     def max_relative_error(self) -> float:
+        """The largest ``|T_sim - T_closed| / T_closed`` over the measurements."""
         return max(m.relative_error for m in self.measurements)
 
     @property
     def worst(self) -> SettlingTimeMeasurement:
+        """The measurement with the largest relative error."""
         return max(self.measurements, key=lambda m: m.relative_error)
 
     @property
     def ordering_holds(self) -> bool:
+        """Whether FSM is faster than TSM and LSM at every grid point (Theorem 3)."""
         return all(o["fsm_faster_than_tsm"] and o["fsm_faster_than_lsm"] for o in self.ordering)
 
     def summary(self) -> dict:
+        """Counts, the largest relative error, the worst case and the ordering verdict (JSON-able).
+
+        Returns
+        -------
+        dict
+            ``n_measurements``, ``n_grid_points``, ``max_relative_error``, ``worst_case``,
+            ``ordering_holds_everywhere`` and ``ordering_violations`` (the grid points where it fails).
+        """
         w = self.worst
         return {
             "n_measurements": len(self.measurements),
@@ -396,6 +560,18 @@ def scalar_settling_study(
     -------
     ScalarStudy
         Every measurement and, per grid point, the ordering of the three simulated times.
+
+    Examples
+    --------
+    One grid point (the paper's gains), three simulations:
+
+    >>> from fsmctl.studies import ScalarGrid, scalar_settling_study
+    >>> grid = ScalarGrid(c1=(0.6,), c2=(0.8,), alpha=(0.7,), x0=(1.0,), tau=(0.1,))
+    >>> study = scalar_settling_study(grid, progress=False)
+    >>> len(study.measurements), study.ordering_holds, study.max_relative_error < 1e-9
+    (3, True, True)
+    >>> [round(study.ordering[0][f"T_{m}_s"], 4) for m in ("fsm", "tsm", "lsm")]
+    [1.3362, 2.0784, 3.8376]
     """
     import sys
 
@@ -422,7 +598,28 @@ def scalar_settling_study(
 
 
 def write_scalar_study_csv(study: ScalarStudy, path: str | Path) -> Path:
-    """Write one row per measurement (mode, inputs, simulated and closed-form time in s, relative error)."""
+    """Write one row per measurement (mode, inputs, simulated and closed-form time in s, relative error).
+
+    Parameters
+    ----------
+    study : ScalarStudy
+        The study.
+    path : str or pathlib.Path
+        The CSV file.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import ScalarGrid, scalar_settling_study
+    >>> from fsmctl.studies.theorem3 import write_scalar_study_csv
+    >>> study = scalar_settling_study(ScalarGrid((0.6,), (0.8,), (0.7,), (1.0,), (0.1,)), progress=False)
+    >>> write_scalar_study_csv(study, "t3.csv").read_text().splitlines()[0].split(",")[:7]
+    ['mode', 'x0', 'tau', 'c1', 'c2', 'alpha', 'time_simulated_s']
+    """
     path = Path(path)
     rows = [m.to_dict() for m in study.measurements]
     with path.open("w", newline="") as fh:
@@ -458,6 +655,15 @@ def plot_settling_time_against_initial_error(
     Returns
     -------
     matplotlib.figure.Figure
+        Built without pyplot (log-scale initial error).
+
+    Examples
+    --------
+    >>> from fsmctl.studies.theorem3 import plot_settling_time_against_initial_error
+    >>> fig = plot_settling_time_against_initial_error(x0_values=[0.01, 1.0], n_closed_form=20)
+    >>> ax = fig.axes[0]
+    >>> ax.get_xscale(), [line.get_label() for line in ax.lines][:2]
+    ('log', ['FSM (eq 34) closed form', 'FSM simulated (CVODES)'])
     """
     from matplotlib.figure import Figure
 

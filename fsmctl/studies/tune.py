@@ -239,12 +239,50 @@ def _names(value: Any) -> tuple[str, ...]:
 class TuneSettings:
     """What to tune, how hard, and how candidates are scored (see the module docstring).
 
-    ``ranges``: ``(name, low, high)`` triples (or a mapping ``name -> (low, high)``) overriding declared ranges.
-    ``parameters``: names to search; empty = every tunable numeric parameter of the law (and the coupling factors for
-    the ``fsm`` law).  ``t_final`` (s): the horizon, None = the scenario's.  ``tolerance_deg``: the settling tolerance
-    of AAEM and RAEM.  ``batch``: trials asked and evaluated together.  ``pruner``: one of :data:`PRUNERS` or
-    ``"auto"`` (resolved here: ``median`` for one objective, ``none`` for several).  ``constraints``: names of
-    :data:`CONSTRAINTS`; empty = every one that can be evaluated (:func:`available_constraints`).
+    Parameters
+    ----------
+    scenario : str, optional
+        A built-in scenario name (default ``"paper"``) or a scenario file.
+    case : str or None, optional
+        The scenario's case; None: its first.
+    law : str, optional
+        The law to tune: a built-in name (default ``"fsm"``), a derivation script or a derived folder.
+    budget : int, optional
+        Number of trials in all (a resumed study continues to it).
+    seed : int, optional
+        Seed of the sampler and of the ensemble.
+    ensemble : int, optional
+        1 flies the scenario itself; ``M > 1`` flies ``M`` Monte Carlo members per candidate.
+    quantile : float, optional
+        Aggregate over the ensemble: 1.0 the worst member, 0.5 the median.
+    objectives : tuple of str or str, optional
+        Names of :data:`OBJECTIVES` to minimise (a comma-separated string is split).
+    tolerance_deg : float, optional
+        The settling tolerance of AAEM and RAEM (eqs 42-43), deg.
+    t_final : float or None, optional
+        The horizon (s); None: the scenario's.
+    parameters : tuple of str, optional
+        Names to search; empty: every tunable numeric parameter of the law (and the coupling factors for ``fsm``).
+    ranges : tuple of (str, float, float) or Mapping, optional
+        ``(name, low, high)`` triples (or ``name -> (low, high)``) overriding the declared ranges.
+    batch : int, optional
+        Trials asked, evaluated (in parallel) and told together (the results do not depend on the workers).
+    pruner : str, optional
+        One of :data:`PRUNERS` or ``"auto"`` (resolved here: ``median`` for one objective, ``none`` for several).
+    constraints : tuple of str, optional
+        Names of :data:`CONSTRAINTS`; empty: every one that can be evaluated (:func:`available_constraints`).
+
+    Examples
+    --------
+    >>> from fsmctl.studies import TuneSettings
+    >>> s = TuneSettings(objectives="aaem_settling,peak_torque", ranges={"c1": (0.1, 2.0)})
+    >>> s.objectives, s.ranges, s.pruner
+    (('aaem_settling', 'peak_torque'), (('c1', 0.1, 2.0),), 'none')
+    >>> try:
+    ...     TuneSettings(budget=0).validate()
+    ... except ValueError as exc:
+    ...     print(exc)
+    tune: budget must be a whole number of trials >= 1, got 0
     """
 
     scenario: str = "paper"
@@ -281,7 +319,13 @@ class TuneSettings:
 
     def validate(self) -> None:
         """Raise :class:`~fsmctl.errors.InputError` (one line naming the setting) on a bad setting, an unknown law or
-        parameter, or a range that cannot be searched."""
+        parameter, or a range that cannot be searched.
+
+        Raises
+        ------
+        fsmctl.errors.InputError
+            The first bad setting found.
+        """
 
         def whole(v: Any) -> bool:
             return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
@@ -325,7 +369,13 @@ class TuneSettings:
         search_space(self)
 
     def identity(self) -> dict:
-        """Everything that determines the trials except the budget (a resumed study must match it)."""
+        """Everything that determines the trials except the budget (a resumed study must match it).
+
+        Returns
+        -------
+        dict
+            The settings as JSON-able data, without ``budget``.
+        """
         out = asdict(self)
         out.pop("budget")
         return json.loads(json.dumps(out))
@@ -335,7 +385,27 @@ class TuneSettings:
 class SearchParameter:
     """One searched parameter: ``[low, high]`` in ``unit``, log-uniform or uniform; ``size`` components set alike.
 
-    ``coupling``: a factor on the topology's weights (:data:`COUPLING`) rather than a law parameter.
+    Parameters
+    ----------
+    name : str
+        The law parameter (or coupling factor) searched.
+    unit : str
+        Its unit.
+    low, high : float
+        The searched range.
+    log : bool
+        Searched log-uniformly (``low > 0`` and ``high / low >= 100``), else uniformly.
+    size : int
+        Number of components, all set to the searched value (``delta``: one value per axis).
+    coupling : bool, optional
+        A factor on the topology's weights (:data:`COUPLING`) rather than a law parameter.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import SearchParameter
+    >>> delta = SearchParameter("delta", "1/s^2", 1e-4, 1e-1, log=True, size=3)
+    >>> delta.column, delta.scenario_value(0.01)
+    ('delta [1/s^2]', [0.01, 0.01, 0.01])
     """
 
     name: str
@@ -348,9 +418,22 @@ class SearchParameter:
 
     @property
     def column(self) -> str:
+        """``name [unit]``: the parameter's column in ``trials.csv``."""
         return f"{self.name} [{self.unit}]"
 
     def scenario_value(self, value: float) -> float | list[float]:
+        """The searched value as a scenario sets it: a number, or ``size`` equal numbers.
+
+        Parameters
+        ----------
+        value : float
+            The searched value.
+
+        Returns
+        -------
+        float or list of float
+            ``value`` for a scalar parameter, ``[value] * size`` for a vector.
+        """
         return float(value) if self.size == 1 else [float(value)] * self.size
 
 
@@ -396,6 +479,13 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
     InputError
         Unknown law or parameter, a parameter with options or not tunable, an override outside the declared range,
         or a side left unbounded by both the law and ``ranges``.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import TuneSettings, search_space
+    >>> space = search_space(TuneSettings(parameters=("c1", "delta"), ranges={"c1": (0.1, 2.0), "delta": (1e-4, 0.1)}))
+    >>> [(p.name, p.unit, p.low, p.high, p.log, p.size) for p in space]
+    [('c1', '1/s', 0.1, 2.0, False, 1), ('delta', '1/s^2', 0.0001, 0.1, True, 3)]
     """
     from fsmctl.model.laws import resolve_law
 
@@ -470,6 +560,15 @@ def available_constraints(law: str, base: Scenario) -> dict[str, str]:
     -------
     dict
         Constraint name -> reason it cannot be evaluated, or "" when it can.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies import available_constraints
+    >>> available_constraints("fsm", fsmctl.paper_scenario("1"))["wheels"]
+    'paper case 1 has no reaction wheels with a finite max_speed'
+    >>> available_constraints("pid", fsmctl.paper_scenario("1"))["torque"]
+    ''
     """
     from fsmctl.model.laws import resolve_law
 
@@ -732,6 +831,17 @@ def torque_excess(result, since: float = math.nan) -> float:
     Returns
     -------
     float
+        N m; <= 0 when the formation is held within the limit after the transient.
+
+    Examples
+    --------
+    On a 2 s horizon of Case 1 the formation has not converged and the law still asks for more than 2 N m:
+
+    >>> import fsmctl
+    >>> from fsmctl.studies.tune import torque_excess
+    >>> result = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 2.0}))
+    >>> torque_excess(result) > 0
+    True
     """
     t = np.asarray(result.time, dtype=float)
     window = _steady_mask(t) if math.isnan(since) else t >= since - 1e-12
@@ -752,6 +862,14 @@ def wheel_load(result) -> float:
     float
         ``max |J_s,k Omega_ik(t)| / (J_s,k max_speed_k)``; the ``wheels`` constraint is this minus
         :data:`WHEEL_CAPACITY_FRACTION`.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.tune import wheel_load
+    >>> result = fsmctl.simulate(fsmctl.load_scenario("paper-hardware").replace(simulation={"t_final": 1.0}))
+    >>> 0 < wheel_load(result) < 0.99  # the wheels have barely spun up after 1 s
+    True
     """
     act = result.scenario.actuator
     cap = act.per_wheel("spin_inertia") * act.per_wheel("max_speed")
@@ -1174,12 +1292,38 @@ class _Evaluator:
 class TuneResult:
     """A finished (or resumed and finished) search: every trial, the feasible Pareto front and the chosen design.
 
-    ``trials``: one dict per trial in order (``index``, ``state`` "complete" | "pruned" | "failed", ``feasible``,
-    ``params`` by name, ``objectives`` by name, ``constraints`` by name, ``pruned_at`` (s or None), ``error``).
-    ``pareto``: indices of the feasible non-dominated trials.  ``best``: index of the feasible trial with the
-    smallest first objective (None: no feasible trial).  ``theorem1``: whether Theorem 1 holds for the scenario's
-    own weights (None: not a condition of the law).  ``paths``: the files written.  ``notes``: what the user must
-    know (one line each).
+    Parameters
+    ----------
+    settings : TuneSettings
+        The settings that ran.
+    space : list of SearchParameter
+        The searched parameters (:func:`search_space`).
+    constraints : tuple of str
+        The constraints that were applied.
+    trials : list of dict
+        One dict per trial in order (``index``, ``state`` "complete" | "pruned" | "failed", ``feasible``,
+        ``params`` by name, ``objectives`` by name, ``constraints`` by name, ``pruned_at`` (s or None), ``error``).
+    pareto : list of int
+        Indices of the feasible non-dominated trials.
+    best : int or None
+        Index of the feasible trial with the smallest first objective (None: no feasible trial).
+    theorem1 : bool or None
+        Whether Theorem 1 holds for the scenario's own weights (None: not a condition of the law).
+    notes : list of str, optional
+        What the user must know (one line each).
+    paths : list of pathlib.Path, optional
+        The files written.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import TuneSettings
+    >>> from fsmctl.studies.tune import tune
+    >>> result = tune(TuneSettings(budget=2, batch=2, t_final=1.0, objectives=("peak_torque",), parameters=("c1",),
+    ...                            ranges={"c1": (0.1, 2.0)}, constraints=("converged",)), "tuned", progress=False)
+    >>> [t["state"] for t in result.trials], result.best  # 1 s is too short to converge: nothing feasible
+    (['complete', 'complete'], None)
+    >>> print(result.to_text().splitlines()[-1])
+    no feasible design found (widen the ranges, raise the budget or the horizon)
     """
 
     settings: TuneSettings
@@ -1193,6 +1337,13 @@ class TuneResult:
     paths: list[Path] = field(default_factory=list)
 
     def to_text(self) -> str:
+        """The summary ``fsmctl tune`` prints: counts, constraints, the best design (or why there is none), the notes.
+
+        Returns
+        -------
+        str
+            Lines of text.
+        """
         s = self.settings
         n_feasible = sum(t["feasible"] for t in self.trials)
         n_pruned = sum(t["state"] == "pruned" for t in self.trials)
@@ -1361,6 +1512,22 @@ def best_scenario_text(result: TuneResult, base: Scenario) -> str:
     -------
     str
         The TOML text.
+
+    Examples
+    --------
+    :func:`tune` writes it as ``best.toml``; loading that file flies the chosen design:
+
+    >>> import fsmctl
+    >>> from fsmctl.studies import TuneSettings
+    >>> from fsmctl.studies.tune import best_scenario_text, tune
+    >>> result = tune(TuneSettings(budget=2, batch=2, t_final=1.0, objectives=("peak_torque",), parameters=("c1",),
+    ...                            ranges={"c1": (0.1, 2.0)}, constraints=("theorem1",)), "tuned", progress=False)
+    >>> text = best_scenario_text(result, fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0}))
+    >>> text.splitlines()[3]
+    'extends = "paper"'
+    >>> best = fsmctl.load_scenario("tuned/best.toml")
+    >>> best.controller.c1 == result.trials[result.best]["params"]["c1"], best.simulation.t_final
+    (True, 1.0)
     """
     from fsmctl.model.scenario import BUILTIN_SCENARIOS
 
@@ -1681,6 +1848,7 @@ def tune(
     Returns
     -------
     TuneResult
+        Every trial, the feasible Pareto front, the chosen design and the files written.
 
     Raises
     ------
@@ -1692,6 +1860,21 @@ def tune(
     fsmctl.studies.parallel.CampaignInterrupted
         ``SIGINT``/``SIGTERM`` (main thread): the workers were stopped, the journal keeps every told trial and the
         proposed ones of the unfinished batch (``exc.detail``); ``exc.exit_code`` is 130 or 143.
+
+    Examples
+    --------
+    Four candidates of ``c1, c2`` on a 1 s horizon of Case 1, scored by the peak torque, under Theorem 1 only (a
+    real search has a budget of hundreds on the full horizon, ``fsmctl tune``):
+
+    >>> from fsmctl.studies import TuneSettings
+    >>> from fsmctl.studies.tune import tune
+    >>> settings = TuneSettings(budget=4, batch=4, t_final=1.0, objectives=("peak_torque",), parameters=("c1", "c2"),
+    ...                         ranges={"c1": (0.1, 2.0), "c2": (0.1, 2.0)}, constraints=("theorem1",))
+    >>> result = tune(settings, "tuned", progress=False)
+    >>> len(result.trials), result.best in result.pareto
+    (4, True)
+    >>> sorted(p.name for p in result.paths)
+    ['best.toml', 'pareto.csv', 'pareto.png', 'trials.csv', 'tune.json']
     """
     import optuna
     from optuna.storages import JournalStorage

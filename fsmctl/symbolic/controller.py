@@ -56,7 +56,15 @@ __all__ = [
 class SingularityFix(IntEnum):
     """Treatment of the ``alpha |sigma_e|^(alpha-1)`` term of eq 17 (Remark 6).
 
-    The integer values are what the generated code receives in ``gains[5]``.
+    The integer values are what the generated code receives in ``gains[5]``.  ``SWITCH`` replaces
+    ``sig(x)^alpha`` inside ``|x| < epsilon`` by a C^1 polynomial, ``CLAMP`` bounds the gain by
+    ``alpha max(|x|, epsilon)^(alpha-1)``, ``NONE`` is the law as printed.
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic.controller import SingularityFix
+    >>> SingularityFix.parse("clamp"), int(SingularityFix.SWITCH)
+    (<SingularityFix.CLAMP: 2>, 1)
     """
 
     NONE = 0
@@ -65,6 +73,23 @@ class SingularityFix(IntEnum):
 
     @classmethod
     def parse(cls, value) -> SingularityFix:
+        """The member for ``value``: a member, its integer value or its name (any case).
+
+        Parameters
+        ----------
+        value : SingularityFix, int or str
+            What to parse (``"none"``, ``"switch"``, ``"clamp"``, 0, 1, 2).
+
+        Returns
+        -------
+        SingularityFix
+            The member.
+
+        Raises
+        ------
+        fsmctl.symbolic.symbols.DerivationInputError
+            ``value`` names no fix.
+        """
         if isinstance(value, cls):
             return value
         if isinstance(value, int) and not isinstance(value, bool) and value in cls._value2member_map_:
@@ -159,10 +184,48 @@ def _check_gains(c1, c2, alpha):
 def sliding_variable(
     sigma_e, sigma_e_dot, c1, c2, alpha, fix=SingularityFix.SWITCH, epsilon=sp.Rational(1, 10**4)
 ) -> sp.ImmutableMatrix:
-    """Fast sliding surface ``s = sigma_e_dot + c1 sigma_e + c2 sig(sigma_e)^alpha`` (eq 13).
+    """Fast sliding surface ``s = sigma_e_dot + c1 sigma_e + c2 sig(sigma_e)^alpha`` (Liang et al. 2012, eq 13).
 
     ``c2 = 0`` gives the linear surface (LSM) and ``c1 = 0`` the terminal one (TSM)
     of Section 3.3.
+
+    Parameters
+    ----------
+    sigma_e, sigma_e_dot : sequence or Matrix
+        The attitude error (MRP) and its time derivative.
+    c1, c2 : number or Expr
+        The surface gains (``>= 0``).
+    alpha : number or Expr
+        The exponent, ``0.5 < alpha < 1`` (eq 13).
+    fix : SingularityFix or str
+        Remark 6's treatment of ``sig(x)^alpha`` near ``x = 0`` (default ``switch``).
+    epsilon : number or Expr
+        Half-width of the band the fix acts in.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        ``s`` (3 components, 1/s).
+
+    Raises
+    ------
+    fsmctl.symbolic.symbols.DerivationInputError
+        A negative gain, ``alpha`` outside ``(0.5, 1)``, malformed vectors.
+
+    Examples
+    --------
+    ``(1/16)^(3/4) = 1/8``, so at rest with ``c1 = c2 = 1``:
+
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import sliding_variable, vector_symbols
+    >>> sliding_variable([sp.Rational(1, 16), -sp.Rational(1, 16), 0], [0, 0, 0], 1, 1, sp.Rational(3, 4)).T
+    Matrix([[3/16, -3/16, 0]])
+
+    The linear surface (LSM, ``c2 = 0``):
+
+    >>> x, x_dot = vector_symbols("x"), vector_symbols("x_dot")
+    >>> sliding_variable(x, x_dot, sp.Symbol("c1"), 0, sp.Rational(3, 4)).T
+    Matrix([[c1*x[0] + x_dot[0], c1*x[1] + x_dot[1], c1*x[2] + x_dot[2]]])
     """
     sigma_e = as_vector3(sigma_e, "sigma_e")
     sigma_e_dot = as_vector3(sigma_e_dot, "sigma_e_dot")
@@ -232,10 +295,60 @@ def control_law_pieces(
     fix=SingularityFix.SWITCH,
     epsilon=sp.Rational(1, 10**4),
 ) -> ControlLawPieces:
-    """``u^F``, ``u^D``, ``u^C`` exactly as eqs 17-19 build them from ``M``, ``C``, ``E``.
+    """``u^F``, ``u^D``, ``u^C`` exactly as Liang et al. 2012, eqs 17-19, build them from ``M``, ``C``, ``E``.
 
     ``u^F = -(G^T C sigma_e_dot + E) + G^T M (c1 sigma_e_dot + c2 alpha |sigma_e|^(alpha-1) o sigma_e_dot)`` (17),
-    ``u^D = G^T M diag(delta) sgn(s)`` (18), ``u^C = G^T M coordination`` (19).
+    ``u^D = G^T M diag(delta) sgn(s)`` (18), ``u^C = G^T M coordination`` (19); ``u = -u^F - u^D - u^C``
+    (eq 16) is the result's ``.u``.
+
+    Parameters
+    ----------
+    model : LagrangeModel
+        From :func:`lagrange_model` (eq 9) at the same ``sigma_e``, ``sigma_e_dot``.
+    sigma_e, sigma_e_dot : sequence or Matrix
+        The attitude error and its derivative.
+    s : sequence or Matrix
+        The sliding variable (:func:`sliding_variable`, eq 13).
+    c1, c2, alpha : number or Expr
+        The surface's gains and exponent.
+    delta : sequence or Matrix
+        The switching gains ``delta_i`` (eq 18), each ``> 0``.
+    coordination : sequence or Matrix
+        ``sum_j (k^i_ij s_i - k^j_ij s_j)`` (eq 19).
+    boundary_layer : number or Expr
+        0 for ``sgn(s)``; ``phi > 0`` for ``sat(s/phi)`` (Remark 7).
+    fix : SingularityFix or str
+        Remark 6's treatment of the singular term.
+    epsilon : number or Expr
+        Half-width of the band the fix acts in.
+
+    Returns
+    -------
+    ControlLawPieces
+        ``u_F``, ``u_D``, ``u_C`` and their combination ``u`` (N m).
+
+    Raises
+    ------
+    fsmctl.symbolic.symbols.DerivationInputError
+        A non-positive ``delta``, a negative gain, a bad ``alpha`` or malformed vectors.
+
+    Examples
+    --------
+    The torque makes the model (eq 9) follow the closed loop (eq 20), checked at an exact point:
+
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import closed_loop_acceleration, control_law_pieces, lagrange_model, sliding_variable
+    >>> R = sp.Rational
+    >>> J = sp.Matrix([[100, 1, 2], [1, 150, 1], [2, 1, 200]])
+    >>> se, sed = [R(1, 10), R(1, 5), R(-1, 10)], [R(1, 100), 0, R(-1, 50)]
+    >>> m = lagrange_model(J, se, sed, [0, 0, R(1, 100)], [0, 0, 0])
+    >>> c1, c2, alpha, delta, coord = 1, R(1, 2), R(3, 4), [R(1, 10)] * 3, [R(1, 10), 0, 0]
+    >>> s = sliding_variable(se, sed, c1, c2, alpha)
+    >>> u = control_law_pieces(m, se, sed, s, c1, c2, alpha, delta, coord).u
+    >>> acc = closed_loop_acceleration(se, sed, s, c1, c2, alpha, delta, coord)
+    >>> residual = m.M * acc + m.C * sp.Matrix(sed) + m.G_inverse.T * (m.E - u)
+    >>> max(abs(r) for r in residual.evalf(30)) < 1e-25
+    True
     """
     sigma_e = as_vector3(sigma_e, "sigma_e")
     sigma_e_dot = as_vector3(sigma_e_dot, "sigma_e_dot")
@@ -319,7 +432,46 @@ def closed_loop_acceleration(
     fix=SingularityFix.SWITCH,
     epsilon=sp.Rational(1, 10**4),
 ) -> sp.ImmutableMatrix:
-    """Closed loop (eq 20): ``sigma_e_ddot = -(c1 sigma_e_dot + c2 alpha|sigma_e|^(alpha-1) o sigma_e_dot) - delta o sgn(s) - coordination``."""
+    """Closed loop (Liang et al. 2012, eq 20): the error acceleration the law (eqs 16-19) imposes.
+
+    ``sigma_e_ddot = -(c1 sigma_e_dot + c2 alpha|sigma_e|^(alpha-1) o sigma_e_dot) - delta o sgn(s) - coordination``.
+
+    Parameters
+    ----------
+    sigma_e, sigma_e_dot : sequence or Matrix
+        The attitude error and its derivative.
+    s : sequence or Matrix
+        The sliding variable (eq 13).
+    c1, c2, alpha : number or Expr
+        The surface's gains and exponent.
+    delta : sequence or Matrix
+        The switching gains (eq 18).
+    coordination : sequence or Matrix
+        ``sum_j (k^i_ij s_i - k^j_ij s_j)`` (eq 19).
+    boundary_layer : number or Expr
+        0 for ``sgn(s)``; ``phi > 0`` for ``sat(s/phi)`` (Remark 7).
+    fix : SingularityFix or str
+        Remark 6's treatment of the singular term.
+    epsilon : number or Expr
+        Half-width of the band the fix acts in.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        ``sigma_e_ddot`` (3 components, 1/s^2).
+
+    Examples
+    --------
+    At ``sigma_e = 0``, at rest, only the switching and coordination terms act:
+
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import closed_loop_acceleration
+    >>> s = sp.Matrix([1, -1, 0])
+    >>> closed_loop_acceleration([0, 0, 0], [0, 0, 0], s, 1, 1, sp.Rational(3, 4), [2, 2, 2], [0, 0, 1]).T
+    Matrix([[-2, 2, -1]])
+
+    :func:`control_law_pieces` shows that the law's torque produces it in the model of eq 9.
+    """
     sigma_e = as_vector3(sigma_e, "sigma_e")
     sigma_e_dot = as_vector3(sigma_e_dot, "sigma_e_dot")
     c1, c2, alpha = _check_gains(c1, c2, alpha)
@@ -331,7 +483,33 @@ def closed_loop_acceleration(
 
 
 def saturate(u, u_max) -> sp.ImmutableMatrix:
-    """Per-component torque saturation ``min(max(u_k, -u_max), u_max)``."""
+    """Per-component torque saturation ``min(max(u_k, -u_max), u_max)`` (the ideal actuator's limit).
+
+    Built unevaluated (fast for large expressions); ``.doit()`` evaluates numbers.
+
+    Parameters
+    ----------
+    u : sequence or Matrix
+        The commanded torque (3 components, N m).
+    u_max : number or Expr
+        The per-axis limit (N m), positive.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        The applied torque.
+
+    Raises
+    ------
+    fsmctl.symbolic.symbols.DerivationInputError
+        A numeric ``u_max <= 0``.
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import saturate
+    >>> saturate([3, -1, -5], 2).doit().T
+    Matrix([[2, -1, -2]])
+    """
     u = as_vector3(u, "u")
     u_max = as_scalar(u_max, "u_max")
     if u_max.is_number and u_max <= 0:

@@ -58,14 +58,17 @@ from fsmctl.symbolic.symbols import DerivationInputError, symmetric_matrix_symbo
 
 __all__ = [
     "AGENT_INPUTS",
+    "NEIGHBOUR_INPUTS",
     "ErrorState",
     "Law",
     "LawBuilder",
     "LawDefinitionError",
     "LawParameter",
     "LawState",
+    "LawVariants",
     "Lyapunov",
     "contract_names",
+    "law_variants",
 ]
 
 AGENT_INPUTS: tuple[str, ...] = (
@@ -89,7 +92,20 @@ _RESERVED = set(AGENT_INPUTS) | set(NEIGHBOUR_INPUTS) | {"u", "u_commanded", "z_
 
 
 class LawDefinitionError(DerivationInputError):
-    """A derivation script builds a law that breaks the contract (one line, names what is wrong)."""
+    """A derivation script builds a law that breaks the contract (one line, names what is wrong).
+
+    An :class:`~fsmctl.errors.InputError`: ``fsmctl derive`` and ``fsmctl prove --law`` exit with code 2 on it.
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import LawBuilder, LawDefinitionError
+    >>> b = LawBuilder("pd", doc="no torque yet")
+    >>> try:
+    ...     b.build()
+    ... except LawDefinitionError as exc:
+    ...     print(exc)
+    pd: no broadcast declared (what the agent sends to its neighbours)
+    """
 
 
 def contract_names(error_model: ErrorModel | str) -> tuple[str, str]:
@@ -118,6 +134,7 @@ class LawParameter(ParameterRange):
     tunable: bool = True
 
     def to_dict(self) -> dict:
+        """The parameter as a JSON-able dict, as written to ``law.json``."""
         return {
             "name": self.name,
             "default": list(self.default) if self.size > 1 else self.default[0],
@@ -144,9 +161,11 @@ class LawState:
 
     @property
     def size(self) -> int:
+        """Number of components."""
         return len(self.initial)
 
     def to_dict(self) -> dict:
+        """The state as a JSON-able dict (``name``, ``size``, ``initial``, ``unit``, ``doc``), as in ``law.json``."""
         return {"name": self.name, "size": self.size, "initial": list(self.initial), "unit": self.unit, "doc": self.doc}
 
 
@@ -170,7 +189,29 @@ class Lyapunov:
 
 @dataclass(frozen=True)
 class ErrorState:
-    """The error state of an agent, as stage symbols (Liang et al. 2012, eqs 5-8)."""
+    """The error state of an agent, as stage symbols (Liang et al. 2012, eqs 5-8).
+
+    What :meth:`LawBuilder.error_state` returns: each field is a column of stage symbols that the generated
+    code computes once per evaluation.
+
+    Parameters
+    ----------
+    sigma_e : sympy.ImmutableMatrix
+        The attitude error (MRP of the body relative to the reference, shadow set).
+    omega_e : sympy.ImmutableMatrix
+        The rate error ``omega - omega_r`` (eq 8; rad/s).
+    omega_r : sympy.ImmutableMatrix
+        The reference rate in the body frame: ``omega_d`` (paper) or ``C(sigma_e) omega_d`` (exact).
+    omega_r_dot : sympy.ImmutableMatrix
+        Its body-frame time derivative (rad/s^2).
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import LawBuilder
+    >>> e = LawBuilder("pd", "exact", doc="example").error_state()
+    >>> e.sigma_e.T, e.omega_e.T
+    (Matrix([[sigma_e[0], sigma_e[1], sigma_e[2]]]), Matrix([[omega_e[0], omega_e[1], omega_e[2]]]))
+    """
 
     sigma_e: sp.ImmutableMatrix
     omega_e: sp.ImmutableMatrix
@@ -180,9 +221,63 @@ class ErrorState:
 
 @dataclass(frozen=True)
 class Law:
-    """A control law, checked and split into the engine's contract (see the module docstring).
+    """A control law, checked and split into the engine's contract (see :mod:`fsmctl.symbolic.law`).
 
-    Build one with :class:`LawBuilder`; :meth:`function_specs` gives what :mod:`fsmctl.codegen` generates.
+    Build one with :meth:`LawBuilder.build` (never by hand); :meth:`constants_spec`, :meth:`local_spec` and
+    :meth:`control_spec` are what :mod:`fsmctl.codegen` generates, :meth:`metadata` what ``law.json`` holds.
+
+    Parameters
+    ----------
+    name, doc, reference : str
+        The law's name, one-line description and citation.
+    error_model : ErrorModel
+        The error kinematics it was built for (Liang et al. 2012, eqs 7-8 as printed, or exact).
+    parameters : tuple of LawParameter
+        The named parameters, in the order of the ``params`` input.
+    states : tuple of LawState
+        The law's own states, in the order of ``z``.
+    broadcast_name : str
+        The name of what the agent sends to its neighbours.
+    symbols : mapping of str to sympy.ImmutableMatrix
+        The contract's input symbols by name (``t``, ``sigma``, ..., ``k_received_sum``, ``u_max``).
+    constants, local_stages, control_stages : tuple of (str, Matrix, Matrix)
+        ``(name, symbols, expression)`` of the per-agent constants, the stages evaluated with the broadcast and
+        those evaluated with the torque (they read what the agent receives).
+    cache : tuple of (str, Matrix)
+        The local stages the control side reads, in order, as ``(name, symbols)``.
+    broadcast : sympy.ImmutableMatrix
+        What the agent sends (in stage and input symbols).
+    torque : sympy.ImmutableMatrix
+        The commanded torque (3 components, N m).
+    state_derivative : sympy.ImmutableMatrix
+        ``z_dot``.
+    lyapunov : Lyapunov or None
+        The declared Lyapunov candidate, for ``fsmctl prove --law``.
+    batched : bool
+        Whether the SIMD kernels are generated (:mod:`fsmctl.codegen.batched`).
+    broadcast_unit : str
+        The unit of the broadcast.
+
+    Examples
+    --------
+    An MRP PD law with a consensus term (the README's ``pd.py``):
+
+    >>> from fsmctl.symbolic import LawBuilder
+    >>> b = LawBuilder("pd", "paper", doc="MRP PD with consensus on the attitude error")
+    >>> K = b.parameter("K", 20.0, unit="N m", minimum=0.0, doc="attitude gain")
+    >>> P = b.parameter("P", 40.0, unit="N m s", minimum=0.0, doc="rate gain")
+    >>> e = b.error_state()
+    >>> b.broadcast("sigma_e", e.sigma_e)
+    >>> b.torque(-K * e.sigma_e - P * e.omega_e - K * (b.k_received_sum * e.sigma_e - b.received))
+    >>> law = b.build()
+    >>> law.n_params, law.n_broadcast, law.n_states, [name for name, _ in law.cache]
+    (2, 3, 0, ['sigma_e', 'omega_e'])
+
+    At rest on the reference only the neighbours' term acts (eq 19 for the broadcast ``sigma_e``):
+
+    >>> at_rest = {x: 0 for x in (*b.sigma, *b.omega, *b.sigma_d, *b.omega_d, *b.omega_d_dot)}
+    >>> law.expanded(law.torque).subs(at_rest).T
+    Matrix([[K*received[0], K*received[1], K*received[2]]])
     """
 
     name: str
@@ -209,25 +304,47 @@ class Law:
     # -- sizes -------------------------------------------------------------------------------------
     @property
     def n_params(self) -> int:
+        """Length of the ``params`` input (vector parameters count each component)."""
         return sum(p.size for p in self.parameters)
 
     @property
     def n_states(self) -> int:
+        """Length of the law state ``z``."""
         return sum(s.size for s in self.states)
 
     @property
     def n_broadcast(self) -> int:
+        """Length of the broadcast."""
         return self.broadcast.rows
 
     @property
     def n_constants(self) -> int:
+        """Length of the ``constants`` vector (``law_constants``)."""
         return sum(m.rows for _, m, _ in self.constants)
 
     @property
     def n_cache(self) -> int:
+        """Length of the ``cache`` vector passed from ``law_local_*`` to ``law_control_*``."""
         return sum(len(m) for _, m in self.cache)
 
     def parameter(self, name: str) -> LawParameter:
+        """The parameter declared as ``name``.
+
+        Parameters
+        ----------
+        name : str
+            Its name.
+
+        Returns
+        -------
+        LawParameter
+            Its default, unit, range and meaning.
+
+        Raises
+        ------
+        KeyError
+            The law has no such parameter.
+        """
         for p in self.parameters:
             if p.name == name:
                 return p
@@ -235,7 +352,13 @@ class Law:
 
     # -- symbols -----------------------------------------------------------------------------------
     def parameter_symbols(self) -> dict[str, sp.Expr | sp.ImmutableMatrix]:
-        """Each parameter's symbol (a scalar) or column of symbols (a vector), by name."""
+        """Each parameter's symbol (a scalar) or column of symbols (a vector), by name.
+
+        Returns
+        -------
+        dict
+            ``{name: symbol or column}`` in declaration order.
+        """
         out, k = {}, 0
         params = self.symbols["params"]
         for p in self.parameters:
@@ -244,6 +367,13 @@ class Law:
         return out
 
     def state_symbols(self) -> dict[str, sp.ImmutableMatrix]:
+        """Each law state's column of symbols (slices of ``z``), by name.
+
+        Returns
+        -------
+        dict
+            ``{name: column}`` in declaration order.
+        """
         out, k = {}, 0
         z = self.symbols["z"]
         for s in self.states:
@@ -252,7 +382,18 @@ class Law:
         return out
 
     def expanded(self, expr) -> sp.ImmutableMatrix:
-        """``expr`` with every stage and constant symbol replaced by its definition (in agent inputs only)."""
+        """``expr`` with every stage and constant symbol replaced by its definition (in agent inputs only).
+
+        Parameters
+        ----------
+        expr : Expr or Matrix
+            An expression in the law's symbols (e.g. :attr:`torque`).
+
+        Returns
+        -------
+        sympy.ImmutableMatrix
+            A column in the contract's inputs only (a scalar becomes a 1x1 matrix).
+        """
         expr = sp.ImmutableMatrix(expr) if isinstance(expr, sp.MatrixBase) else sp.ImmutableMatrix([expr])
         for _, syms, value in reversed((*self.constants, *self.local_stages, *self.control_stages)):
             expr = expr.xreplace(dict(zip(syms, value, strict=True)))
@@ -263,6 +404,13 @@ class Law:
         return tuple((n, self.symbols[n]) for n in names)
 
     def constants_spec(self) -> FunctionSpec:
+        """The generated function ``law_constants(params) -> constants``.
+
+        Returns
+        -------
+        FunctionSpec
+            What :func:`fsmctl.codegen.build_functions` translates.
+        """
         values = [v for _, _, v in self.constants]
         out = sp.ImmutableMatrix.vstack(*values) if values else sp.ImmutableMatrix.zeros(0, 1)
         return FunctionSpec(
@@ -273,6 +421,13 @@ class Law:
         )
 
     def local_spec(self) -> FunctionSpec:
+        """The generated function ``law_local_<model>(t, sigma, ..., constants) -> (broadcast, cache)``.
+
+        Returns
+        -------
+        FunctionSpec
+            What :func:`fsmctl.codegen.build_functions` translates.
+        """
         local, _ = contract_names(self.error_model)
         cache = [s for _, s in self.cache]
         return FunctionSpec(
@@ -291,6 +446,15 @@ class Law:
         )
 
     def control_spec(self) -> FunctionSpec:
+        """The generated function ``law_control_<model>(..., cache, k_sum, received, k_received_sum, u_max)``.
+
+        Its outputs are ``u`` (saturated at ``u_max`` per axis), ``u_commanded`` and ``z_dot``.
+
+        Returns
+        -------
+        FunctionSpec
+            What :func:`fsmctl.codegen.build_functions` translates.
+        """
         _, control = contract_names(self.error_model)
         return FunctionSpec(
             name=control,
@@ -310,7 +474,13 @@ class Law:
         )
 
     def metadata(self) -> dict:
-        """What the runtime needs to know about the law (written to ``law.json``)."""
+        """What the runtime needs to know about the law (written to ``law.json``).
+
+        Returns
+        -------
+        dict
+            JSON-able: name, doc, reference, parameters, states, broadcast, constants, cache, lyapunov.
+        """
         return {
             "name": self.name,
             "doc": self.doc,
@@ -376,6 +546,31 @@ class LawBuilder:
         components as printed in Section 4)
     J0 : Matrix
         the nominal inertia the controller knows (kg m^2, symmetric)
+
+    Raises
+    ------
+    LawDefinitionError
+        A malformed name or an unknown error model.
+
+    Examples
+    --------
+    A PI law on the attitude error with one law state ``xi`` (``xi_dot = sigma_e``) and a consensus term;
+    the stages and the cache are found by :meth:`build`:
+
+    >>> from fsmctl.symbolic import LawBuilder
+    >>> b = LawBuilder("pi", "exact", doc="MRP PI with consensus")
+    >>> K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
+    >>> P = b.parameter("P", 8.0, unit="N m s", minimum=0.0, doc="rate gain")
+    >>> xi = b.state("xi", 3, unit="s", doc="integral of sigma_e")
+    >>> e = b.error_state()
+    >>> b.derivative(xi, e.sigma_e)
+    >>> b.broadcast("sigma_e", e.sigma_e)
+    >>> b.torque(-K * (e.sigma_e + xi / 10) - P * e.omega_e - K * (b.k_received_sum * e.sigma_e - b.received))
+    >>> law = b.build()
+    >>> law.local_spec().name, law.control_spec().name, law.n_states
+    ('law_local_exact', 'law_control_exact', 3)
+    >>> law.parameter("P").unit, law.parameter("P").default
+    ('N m s', (8.0,))
     """
 
     def __init__(self, name: str, error_model: ErrorModel | str = ErrorModel.PAPER, *, doc: str, reference: str = ""):
@@ -438,6 +633,36 @@ class LawBuilder:
 
         A scenario sets it by name under ``[controller]``; ``choices`` makes it an option whose symbol
         takes the index of the chosen string.
+
+        Parameters
+        ----------
+        name : str
+            Letters, digits and ``_``; unique in the law and not a reserved name (see :meth:`state`).
+        default : float, sequence of float or str
+            The default value (a sequence makes a vector parameter, e.g. ``delta``); one of ``choices`` for an
+            option.
+        unit : str
+            The unit (``fsmctl laws`` prints it).
+        minimum, maximum : float, optional
+            The admissible range, checked for every value a scenario gives.
+        exclusive_minimum, exclusive_maximum : bool
+            Whether the bounds themselves are excluded.
+        doc : str
+            What the parameter means.
+        choices : sequence of str
+            Makes the parameter an option; its symbol takes the index of the chosen string.
+        tunable : bool
+            Whether ``fsmctl tune`` may vary it (options never are).
+
+        Returns
+        -------
+        sympy.Symbol or sympy.ImmutableMatrix
+            The symbol, or a column of symbols ``name[k]`` for a vector.
+
+        Raises
+        ------
+        LawDefinitionError
+            A bad or duplicate name, a non-numeric default, or a default outside its range or choices.
         """
         self._claim(name, "parameter")
         if choices:
@@ -469,7 +694,30 @@ class LawBuilder:
         ``omega``, ``z``, ``sigma_d``, ``omega_d``, ``omega_d_dot``, ``J0``, ``params``, ``constants``, ``cache``,
         ``k_sum``, ``received``, ``k_received_sum``, ``u_max``, ``u``, ``u_commanded``, ``z_dot``, ``broadcast``).
 
-        Give its derivative with :meth:`derivative`.  ``initial`` is a number or ``size`` numbers.
+        Give its derivative with :meth:`derivative`.
+
+        Parameters
+        ----------
+        name : str
+            The state's name.
+        size : int
+            Number of components (positive).
+        initial : float or sequence of float
+            The initial value: a number (every component) or ``size`` numbers.
+        unit : str
+            Its unit.
+        doc : str
+            What it is.
+
+        Returns
+        -------
+        sympy.ImmutableMatrix
+            The column of symbols ``name[k]`` (a slice of ``z``).
+
+        Raises
+        ------
+        LawDefinitionError
+            A bad or duplicate name, a bad size or initial value.
         """
         self._claim(name, "state")
         if isinstance(size, bool) or not isinstance(size, int) or size < 1:
@@ -485,7 +733,25 @@ class LawBuilder:
         return sp.ImmutableMatrix(symbols)
 
     def constant(self, name: str, expr):
-        """A per-agent constant computed once per run from the parameters only; returns its symbol(s)."""
+        """A per-agent constant computed once per run from the parameters only; returns its symbol(s).
+
+        Parameters
+        ----------
+        name : str
+            The constant's name.
+        expr : Expr, Matrix or sequence
+            Its value, in parameter symbols only (e.g. ``epsilon**(alpha - 1)``).
+
+        Returns
+        -------
+        sympy.Symbol or sympy.ImmutableMatrix
+            The symbol standing for it (a column for a matrix value).
+
+        Raises
+        ------
+        LawDefinitionError
+            A bad name, or ``expr`` depends on anything but the parameters.
+        """
         self._claim(name, "constant")
         value = _matrix(expr, f"{self.name}: constant {name}")
         allowed = set(self._param_symbols)
@@ -504,6 +770,23 @@ class LawBuilder:
 
         Stages that do not depend on what the agent receives are evaluated with the broadcast (and the
         ones the torque reads are passed on in ``cache``); the others with the torque.
+
+        Parameters
+        ----------
+        name : str
+            The stage's name.
+        expr : Expr, Matrix or sequence
+            Its value (a scalar or a column), in the law's inputs and earlier stages.
+
+        Returns
+        -------
+        sympy.Symbol or sympy.ImmutableMatrix
+            The symbol (scalar) or column of symbols ``name[k]`` standing for it.
+
+        Raises
+        ------
+        LawDefinitionError
+            A bad or duplicate name, or a value that is not a scalar or a column.
         """
         self._claim(name, "stage")
         value = _matrix(expr, f"{self.name}: stage {name}")
@@ -523,6 +806,11 @@ class LawBuilder:
         frame (``omega_d`` in the paper's model, ``C(sigma_e) omega_d`` in the exact one),
         ``omega_e = omega - omega_r`` and ``omega_r_dot`` its body-frame derivative.  Called twice, it
         returns the same stages.
+
+        Returns
+        -------
+        ErrorState
+            The stage symbols ``sigma_e``, ``omega_e``, ``omega_r``, ``omega_r_dot``.
         """
         if self._error is None:
             se = self.stage("sigma_e", mrp_error(self.sigma, self.sigma_d))
@@ -538,6 +826,20 @@ class LawBuilder:
         """Declare what the agent sends to its neighbours (a vector; e.g. the sliding variable ``s``, unit 1/s).
 
         Afterwards :attr:`received`, :attr:`k_sum` and :attr:`k_received_sum` are available.
+
+        Parameters
+        ----------
+        name : str
+            What the broadcast is called (e.g. ``"s"``, ``"sigma_e"``).
+        expr : Expr, Matrix or sequence
+            Its value; it must not depend on what the agent receives.
+        unit : str
+            Its unit.
+
+        Raises
+        ------
+        LawDefinitionError
+            A second broadcast, a bad name, or a value that is not a column.
         """
         if self._broadcast is not None:
             raise LawDefinitionError(f"{self.name}: broadcast is declared twice")
@@ -573,7 +875,18 @@ class LawBuilder:
         return self._neighbour_symbol("k_received_sum")[0]
 
     def torque(self, u) -> None:
-        """The commanded body torque (3 components, N m), before the actuator's limit."""
+        """Declare the commanded body torque (3 components, N m), before the actuator's limit.
+
+        Parameters
+        ----------
+        u : Matrix or sequence
+            The torque, in the law's inputs, stages and what the agent receives.
+
+        Raises
+        ------
+        LawDefinitionError
+            A second torque, or not 3 components.
+        """
         if self._torque is not None:
             raise LawDefinitionError(f"{self.name}: torque is declared twice")
         u = _matrix(u, f"{self.name}: torque")
@@ -582,7 +895,20 @@ class LawBuilder:
         self._torque = u
 
     def derivative(self, state: sp.ImmutableMatrix, expr) -> None:
-        """The time derivative of a law state declared with :meth:`state`."""
+        """Declare the time derivative of a law state declared with :meth:`state`.
+
+        Parameters
+        ----------
+        state : Matrix
+            The column :meth:`state` returned.
+        expr : Expr, Matrix or sequence
+            Its derivative (as many components as the state).
+
+        Raises
+        ------
+        LawDefinitionError
+            ``state`` is not a declared state, a size mismatch, or a derivative given twice.
+        """
         state = sp.ImmutableMatrix(state)
         for s in self._states:
             k = self._state_offset(s.name)
@@ -607,7 +933,24 @@ class LawBuilder:
         raise KeyError(name)
 
     def lyapunov(self, V, *, claimed_derivative=None, region: Mapping[str, float] | None = None, doc: str = "") -> None:
-        """Declare a Lyapunov candidate for ``fsmctl prove --law`` (see :class:`Lyapunov`)."""
+        """Declare a Lyapunov candidate for ``fsmctl prove --law`` (see :class:`Lyapunov`).
+
+        Parameters
+        ----------
+        V : Expr
+            The candidate, in ``sigma``, ``omega``, ``z``, the parameters and ``J0``.
+        claimed_derivative : Expr, optional
+            What ``V_dot`` along the isolated agent's closed loop should simplify to.
+        region : mapping of str to float, optional
+            Norm bounds ``{"sigma": ..., "omega": ..., "z": ...}`` of the numeric evidence.
+        doc : str
+            What the candidate is (a citation).
+
+        Raises
+        ------
+        LawDefinitionError
+            A region key other than ``sigma``, ``omega``, ``z`` or a non-positive bound.
+        """
         region = dict(region or {"sigma": 1.0, "omega": 0.5, "z": 1.0})
         for key, bound in region.items():
             if key not in ("sigma", "omega", "z") or not (isinstance(bound, (int, float)) and bound > 0):
@@ -621,7 +964,20 @@ class LawBuilder:
 
     # -- build --------------------------------------------------------------------------------------
     def build(self) -> Law:
-        """Check the law against the contract and split it into the generated functions."""
+        """Check the law against the contract and split it into the generated functions.
+
+        Returns
+        -------
+        Law
+            The checked law; its stages are split into those evaluated with the broadcast and those that read
+            what the agent receives.
+
+        Raises
+        ------
+        LawDefinitionError
+            No broadcast or torque, a state without a derivative, a symbol that is no input of the law, or a
+            broadcast that depends on what the agent receives.
+        """
         if self._broadcast is None:
             raise LawDefinitionError(f"{self.name}: no broadcast declared (what the agent sends to its neighbours)")
         if self._torque is None:

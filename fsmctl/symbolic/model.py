@@ -44,13 +44,41 @@ __all__ = [
 
 
 class ErrorModel(str, Enum):  # noqa: UP042 (str() of the member is part of the generated names)
-    """Which error kinematics the Lagrange-like model is derived for."""
+    """Which error kinematics the Lagrange-like model is derived for (Liang et al. 2012, eqs 7-8).
+
+    ``PAPER`` (``"paper"``): eqs 7-8 as printed, ``omega_e = omega - omega_d`` (the reference rate is not
+    rotated into the body frame); ``EXACT`` (``"exact"``): ``omega_e = omega - C(sigma_e) omega_d``.
+    Every function that takes an error model also accepts these strings.
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic.model import ErrorModel
+    >>> ErrorModel.parse("exact") is ErrorModel.EXACT, ErrorModel.PAPER.value
+    (True, 'paper')
+    """
 
     PAPER = "paper"
     EXACT = "exact"
 
     @classmethod
     def parse(cls, value: str | ErrorModel) -> ErrorModel:
+        """The member for ``value`` (``"paper"``, ``"exact"`` or a member).
+
+        Parameters
+        ----------
+        value : str or ErrorModel
+            What to parse.
+
+        Returns
+        -------
+        ErrorModel
+            The member.
+
+        Raises
+        ------
+        fsmctl.symbolic.symbols.DerivationInputError
+            ``value`` names no error model.
+        """
         try:
             return cls(value)
         except ValueError:
@@ -141,18 +169,60 @@ def lagrange_model(
     dcm=None,
     require_positive_definite: bool = True,
 ) -> LagrangeModel:
-    """Lagrange-like model (eq 9) with the correct Coriolis-like matrix ``C``.
+    """Lagrange-like model ``M sigma_e_ddot + C sigma_e_dot + G^-T E = G^-T u`` (Liang et al. 2012, eq 9), corrected.
 
     ``M = G^-T J G^-1``;
     ``C = -M G_dot G^-1 - G^-T (J G^-1 sigma_e_dot)^x G^-1 + G^-T (omega_r^x J - (J omega_r)^x + chi J omega_r^x) G^-1``;
     ``E = J omega_r_dot|_(omega_e=0) + omega_r^x J omega_r``,
     where ``chi = 0`` (paper) or 1 (exact).  The printed ``C`` lacks the
-    ``-(J omega_d)^x`` term: see :func:`lagrange_C_as_printed` and the errata.
+    ``-(J omega_d)^x`` term: see :func:`lagrange_C_as_printed` and the errata (:func:`fsmctl.proofs.errata`).
 
-    ``G_inverse`` and ``dcm`` may be passed as opaque matrices of symbols so
-    that identities can be proved without expanding the closed forms.  The
-    model is linear in ``J``; pass ``require_positive_definite=False`` to
-    evaluate it at an (indefinite) inertia perturbation ``Delta_J``.
+    Parameters
+    ----------
+    J : 3x3 matrix
+        The inertia (kg m^2), symmetric; positive definite unless ``require_positive_definite=False``.
+    sigma_e, sigma_e_dot : sequence or Matrix
+        The attitude error (MRP) and its time derivative.
+    omega_d, omega_d_dot : sequence or Matrix
+        The reference rate and angular acceleration (rad/s, rad/s^2).
+    error_model : ErrorModel or str
+        ``"paper"`` (eqs 7-8 as printed) or ``"exact"``.
+    G_inverse, dcm : Matrix, optional
+        Opaque matrices of symbols standing for ``G(sigma_e)^-1`` and ``C(sigma_e)``, so that identities can
+        be proved without expanding the closed forms.
+    require_positive_definite : bool
+        The model is linear in ``J``; pass False to evaluate it at an (indefinite) inertia perturbation
+        ``Delta_J`` (Theorem 2, eqs 29-33).
+
+    Returns
+    -------
+    LagrangeModel
+        ``M``, ``C``, ``E`` and the pieces ``G``, ``G_inverse``, ``G_dot``, ``omega_r`` they are built from.
+
+    Raises
+    ------
+    fsmctl.symbolic.symbols.DerivationInputError
+        Malformed inputs (shapes, a non-symmetric or non-positive-definite ``J``, an unknown error model).
+
+    Examples
+    --------
+    At ``sigma_e = 0`` the kinematic matrix is ``G = I/4``, so ``M = 16 J``; with a reference at rest
+    ``C`` and ``E`` vanish:
+
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import lagrange_model
+    >>> J = sp.Matrix([[100, 1, 2], [1, 150, 1], [2, 1, 200]])  # J0 of agent 1, Section 4
+    >>> m = lagrange_model(J, [0, 0, 0], [0, 0, 0], [0, 0, 0], [0, 0, 0])
+    >>> m.M == 16 * J, m.C == sp.zeros(3), m.E == sp.zeros(3, 1)
+    (True, True, True)
+
+    With a rotating reference ``E = J omega_d_dot + omega_d^x J omega_d`` (eq 9):
+
+    >>> from fsmctl.symbolic import skew, vector_symbols
+    >>> wd, wdd = vector_symbols("omega_d"), vector_symbols("omega_d_dot")
+    >>> m = lagrange_model(J, [0, 0, 0], [0, 0, 0], wd, wdd)
+    >>> sp.expand(m.E - (J * wdd + skew(wd) * J * wd)) == sp.zeros(3, 1)
+    True
     """
     model = ErrorModel.parse(error_model)
     J = as_symmetric_matrix3(J, "J", positive_definite=require_positive_definite)

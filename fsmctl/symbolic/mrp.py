@@ -32,7 +32,35 @@ __all__ = [
 
 
 def skew(v) -> sp.ImmutableMatrix:
-    """Skew-symmetric cross-product matrix ``v^x`` with ``v^x w = v x w`` (eq 6)."""
+    """Skew-symmetric cross-product matrix ``v^x`` with ``v^x w = v x w`` (Liang et al. 2012, eq 6).
+
+    Parameters
+    ----------
+    v : sequence or Matrix
+        Three components (numbers or SymPy expressions).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        ``[[0, -v3, v2], [v3, 0, -v1], [-v2, v1, 0]]``.
+
+    Raises
+    ------
+    fsmctl.symbolic.symbols.DerivationInputError
+        ``v`` is not a 3-vector.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import skew
+    >>> skew([1, 2, 3])
+    Matrix([
+    [ 0, -3,  2],
+    [ 3,  0, -1],
+    [-2,  1,  0]])
+    >>> skew([1, 2, 3]) * sp.Matrix([4, 5, 6]) == sp.Matrix([1, 2, 3]).cross(sp.Matrix([4, 5, 6]))
+    True
+    """
     v = as_vector3(v, "v")
     return sp.ImmutableMatrix([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
 
@@ -42,17 +70,69 @@ def _sq(v: sp.MatrixBase) -> sp.Expr:
 
 
 def mrp_G(sigma) -> sp.ImmutableMatrix:
-    """Kinematic matrix ``G(sigma) = 1/4 [(1 - sigma^T sigma) I + 2 sigma^x + 2 sigma sigma^T]`` (eq 5)."""
+    """Kinematic matrix ``G(sigma) = 1/4 [(1 - sigma^T sigma) I + 2 sigma^x + 2 sigma sigma^T]`` (eq 5).
+
+    Liang et al. 2012, eq 5 (the MRP kinematic matrix of Schaub & Junkins).
+
+    The MRP kinematics are ``sigma_dot = G(sigma) omega`` (eq 3, :func:`mrp_kinematics`).
+
+    Parameters
+    ----------
+    sigma : sequence or Matrix
+        The MRP ``sigma`` (3 components, numbers or SymPy expressions).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        The 3x3 matrix ``G(sigma)``.
+
+    Examples
+    --------
+    At the identity attitude ``G = I/4``; in general ``G G^T = ((1 + sigma^T sigma)/4)^2 I``:
+
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import mrp_G, vector_symbols
+    >>> mrp_G([0, 0, 0])
+    Matrix([
+    [1/4,   0,   0],
+    [  0, 1/4,   0],
+    [  0,   0, 1/4]])
+    >>> sigma = vector_symbols("sigma")
+    >>> s2 = (sigma.T * sigma)[0]
+    >>> sp.simplify(mrp_G(sigma) * mrp_G(sigma).T - ((1 + s2) / 4) ** 2 * sp.eye(3)) == sp.zeros(3)
+    True
+    """
     sigma = as_vector3(sigma, "sigma")
     return sp.ImmutableMatrix(((1 - _sq(sigma)) * sp.eye(3) + 2 * skew(sigma) + 2 * sigma * sigma.T) / 4)
 
 
 def mrp_G_inverse(sigma) -> sp.ImmutableMatrix:
-    """Closed-form inverse ``G^-1 = 16 / (1 + sigma^T sigma)^2 G^T``.
+    """Closed-form inverse ``G^-1 = 16 / (1 + sigma^T sigma)^2 G^T`` of the MRP kinematic matrix (eq 5).
 
     It follows from ``G G^T = ((1 + sigma^T sigma)/4)^2 I``, which
     :func:`fsmctl.proofs.identities.verify_G_inverse` proves; ``G`` is therefore invertible
-    for every real ``sigma``.
+    for every real ``sigma``.  It appears in the Lagrange-like model (Liang et al. 2012, eq 9).
+
+    Parameters
+    ----------
+    sigma : sequence or Matrix
+        The MRP ``sigma`` (3 components).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        The 3x3 matrix ``G(sigma)^-1``.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import mrp_G, mrp_G_inverse, vector_symbols
+    >>> sigma = vector_symbols("sigma")
+    >>> sp.simplify(mrp_G(sigma) * mrp_G_inverse(sigma))
+    Matrix([
+    [1, 0, 0],
+    [0, 1, 0],
+    [0, 0, 1]])
     """
     sigma = as_vector3(sigma, "sigma")
     return sp.ImmutableMatrix(16 / (1 + _sq(sigma)) ** 2 * mrp_G(sigma).T)
@@ -78,7 +158,32 @@ def _dot(a: sp.MatrixBase, b: sp.MatrixBase) -> sp.Expr:
 
 
 def mrp_to_dcm(sigma) -> sp.ImmutableMatrix:
-    """Direction-cosine matrix ``[BN] = I + (8 (sigma^x)^2 - 4 (1 - sigma^T sigma) sigma^x) / (1 + sigma^T sigma)^2``."""
+    """Direction-cosine matrix ``[BN] = I + (8 (sigma^x)^2 - 4 (1 - sigma^T sigma) sigma^x) / (1 + sigma^T sigma)^2``.
+
+    ``[BN]`` maps N-frame components to B-frame components (Schaub & Junkins; Liang et al. 2012, eq 2 for the MRP).
+
+    Parameters
+    ----------
+    sigma : sequence or Matrix
+        The MRP of B relative to N (3 components).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        The 3x3 rotation matrix ``[BN]``.
+
+    Examples
+    --------
+    A rotation of 90 degrees about the first axis (``sigma = tan(theta/4) e1``):
+
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import mrp_to_dcm
+    >>> sp.simplify(mrp_to_dcm([sp.tan(sp.pi / 8), 0, 0]))
+    Matrix([
+    [1,  0, 0],
+    [0,  0, 1],
+    [0, -1, 0]])
+    """
     sigma = as_vector3(sigma, "sigma")
     s2 = _sq(sigma)
     sx = skew(sigma)
@@ -134,8 +239,33 @@ def mrp_error(sigma, sigma_d) -> sp.ImmutableMatrix:
     """Attitude error ``sigma_e`` with ``[B R] = [B N][R N]^T``, in the shadow set (``|sigma_e| <= 1``).
 
     This is the MRP composition of ``sigma`` with ``sigma_d^-1 = -sigma_d``
-    (Liang et al. 2012, Sec. 2.2, "the absolute attitude error"), computed
+    (Liang et al. 2012, Sec. 2.2, "the absolute attitude error", whose kinematics are eqs 7-8), computed
     through Euler parameters so that it is defined for every pair of inputs.
+
+    Parameters
+    ----------
+    sigma : sequence or Matrix
+        The body attitude (MRP, B relative to N).
+    sigma_d : sequence or Matrix
+        The desired attitude (MRP, R relative to N).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        ``sigma_e`` (3 components), the MRP of B relative to R.
+
+    Examples
+    --------
+    Two rotations about the same axis: the error is the difference of the angles (here 60 - 20 degrees):
+
+    >>> import sympy as sp
+    >>> from fsmctl.symbolic import mrp_error
+    >>> angle = lambda deg: [sp.tan(sp.rad(deg) / 4), 0, 0]
+    >>> err = mrp_error(angle(60), angle(20))
+    >>> [float(x) for x in err] == [float(sp.tan(sp.rad(40) / 4)), 0.0, 0.0]
+    True
+    >>> mrp_error([0.1, 0.2, 0.3], [0.1, 0.2, 0.3]).T
+    Matrix([[0, 0, 0]])
     """
     q = mrp_to_quaternion(as_vector3(sigma, "sigma"))
     qd0, qdv = mrp_to_quaternion(as_vector3(sigma_d, "sigma_d"))
@@ -157,5 +287,24 @@ def mrp_principal_angle(sigma) -> sp.Expr:
 
 
 def mrp_kinematics(sigma, omega) -> sp.ImmutableMatrix:
-    """``sigma_dot = G(sigma) omega`` (eq 3)."""
+    """MRP kinematics ``sigma_dot = G(sigma) omega`` (Liang et al. 2012, eq 3, with ``G`` of eq 5).
+
+    Parameters
+    ----------
+    sigma : sequence or Matrix
+        The MRP (3 components).
+    omega : sequence or Matrix
+        The body angular velocity (body-frame components, rad/s).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        ``sigma_dot`` (3 components, 1/s).
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import mrp_kinematics
+    >>> mrp_kinematics([0, 0, 0], [1, 2, 3]).T  # G(0) = I/4
+    Matrix([[1/4, 1/2, 3/4]])
+    """
     return sp.ImmutableMatrix(mrp_G(sigma) * as_vector3(omega, "omega"))

@@ -53,17 +53,47 @@ class FastSlidingSurface:
 def fast_sliding_surface(b: LawBuilder, c1, c2, alpha, epsilon, fix) -> FastSlidingSurface:
     """Declare the error state, the shared powers, the eq 17 slope and the surface ``s`` (eq 13) on ``b``.
 
+    Declares the constant ``epsilon_pow_alpha_minus_1`` and the stages ``sigma_e``, ``omega_r``, ``omega_e``,
+    ``omega_r_dot`` (:meth:`LawBuilder.error_state`), ``abs_sigma_e_pow_alpha``, ``slope`` and ``s``; the
+    surface is Liang et al. 2012, eq 13, ``s = sigma_e_dot + c1 sigma_e + c2 sig(sigma_e)^alpha`` with
+    ``sigma_e_dot = G(sigma_e) omega_e`` (eq 7), and ``slope`` the gain ``alpha |sigma_e|^(alpha-1)`` of eq 17.
+
     Parameters
     ----------
     b : LawBuilder
         The law being built.
-    c1, c2, alpha, epsilon, fix
-        The surface's gains, exponent and Remark 6 device (usually the law's parameter symbols).
+    c1, c2 : Expr
+        The surface gains (usually parameter symbols of ``b``).
+    alpha : Expr
+        The exponent, ``0.5 < alpha < 1``.
+    epsilon : Expr
+        Half-width of the Remark 6 band.
+    fix : Expr or SingularityFix or str
+        Remark 6's device: a parameter symbol taking the index of ``"none"``, ``"switch"``, ``"clamp"``, or a
+        fixed choice.
 
     Returns
     -------
     FastSlidingSurface
         The stages; the law decides what it broadcasts (usually ``s``).
+
+    Examples
+    --------
+    A minimal sliding-mode law on the paper's surface:
+
+    >>> from fsmctl.symbolic import LawBuilder, fast_sliding_surface
+    >>> b = LawBuilder("sm", "paper", doc="sliding mode on the fast surface")
+    >>> c1, c2 = b.parameter("c1", 1.0, minimum=0.0), b.parameter("c2", 0.5, minimum=0.0)
+    >>> alpha = b.parameter("alpha", 0.75, minimum=0.5, maximum=1.0, exclusive_minimum=True, exclusive_maximum=True)
+    >>> eps = b.parameter("epsilon", 1e-4, minimum=0.0, exclusive_minimum=True)
+    >>> fix = b.parameter("fix", "switch", choices=("none", "switch", "clamp"))
+    >>> surface = fast_sliding_surface(b, c1, c2, alpha, eps, fix)
+    >>> surface.s.T
+    Matrix([[s[0], s[1], s[2]]])
+    >>> b.broadcast("s", surface.s, unit="1/s")
+    >>> b.torque(-b.J0 * surface.s)
+    >>> [name for name, _, _ in b.build().local_stages]
+    ['sigma_e', 'omega_r', 'omega_e', 'omega_r_dot', 'abs_sigma_e_pow_alpha', 'slope', 's']
     """
     q = b.constant("epsilon_pow_alpha_minus_1", epsilon ** (alpha - 1))
     e = b.error_state()

@@ -33,12 +33,59 @@ class DerivationInputError(InputError):
 
 
 def vector_symbols(name: str, n: int = 3, real: bool = True) -> sp.ImmutableMatrix:
-    """Column vector ``[name[0], ..., name[n-1]]`` of real symbols."""
+    """Column vector ``[name[0], ..., name[n-1]]`` of real symbols (e.g. ``sigma``, ``omega`` of eqs 3-4).
+
+    Parameters
+    ----------
+    name : str
+        The base name; component ``k`` is the symbol ``name[k]``.
+    n : int
+        Number of components.
+    real : bool
+        Whether the symbols are real (SymPy assumption).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        An ``n x 1`` column of symbols.  Equal names give equal symbols, so two calls agree.
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import vector_symbols
+    >>> sigma = vector_symbols("sigma")
+    >>> sigma.T
+    Matrix([[sigma[0], sigma[1], sigma[2]]])
+    >>> sigma == vector_symbols("sigma"), sigma[0].is_real
+    (True, True)
+    """
     return sp.ImmutableMatrix([sp.Symbol(f"{name}[{k}]", real=real) for k in range(n)])
 
 
 def symmetric_matrix_symbols(name: str) -> sp.ImmutableMatrix:
-    """Symmetric 3x3 matrix of real symbols ``name[i,j]`` with ``i <= j``."""
+    """Symmetric 3x3 matrix of real symbols ``name[i,j]`` with ``i <= j`` (e.g. the inertia ``J0``, eq 4).
+
+    Parameters
+    ----------
+    name : str
+        The base name.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        3x3, entry ``(i, j)`` and ``(j, i)`` the same symbol ``name[min(i,j),max(i,j)]``.
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import symmetric_matrix_symbols
+    >>> J = symmetric_matrix_symbols("J0")
+    >>> J
+    Matrix([
+    [J0[0,0], J0[0,1], J0[0,2]],
+    [J0[0,1], J0[1,1], J0[1,2]],
+    [J0[0,2], J0[1,2], J0[2,2]]])
+    >>> J == J.T
+    True
+    """
     return sp.ImmutableMatrix(3, 3, lambda i, j: sp.Symbol(f"{name}[{min(i, j)},{max(i, j)}]", real=True))
 
 

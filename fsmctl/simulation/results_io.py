@@ -1,0 +1,661 @@
+"""Result files a user can take elsewhere: NetCDF or CSV, each carrying the scenario that made it.
+
+Every result file fsmctl writes embeds its **provenance** (:func:`provenance`, the one builder every writer
+calls: ``fsmctl simulate``, and the Monte Carlo and reproduction writers): the complete scenario as TOML text
+(:meth:`fsmctl.model.scenario.Scenario.to_toml`, self-contained: the flown case resolved), the case, the law
+(its name, and for a user's law its path and the sha256 of its generated ``manifest.json``), the versions of
+fsmctl, Python, NumPy, SymPy, CasADi, python-control and xarray, and the command line when one is given.
+:func:`scenario_from_result` reads the scenario back, so a result re-runs from itself::
+
+    fsmctl simulate --from runs/case1/result.nc
+
+Formats (:func:`save_result`, also :meth:`fsmctl.simulation.simulator.SimulationResult.save`):
+
+* **NetCDF** (``.nc``, NetCDF-4/HDF5 through ``h5netcdf``): the variables of
+  :meth:`~fsmctl.simulation.simulator.SimulationResult.to_dataset`, compressed (zlib level 4 with the byte
+  shuffle filter); ``precision="float32"`` stores the time series (every variable along ``time_s`` except the
+  time itself) in single precision, about half the size again.  The provenance is the file's global
+  attributes.  A float64 file holds the run's arrays bit for bit.
+* **CSV** (``.csv``): one row per output sample, one column per scalar signal.  Column names are
+  ``<quantity>[_<agent>][_<component>][_<unit>]``: the quantity as in the NetCDF variable name without its
+  unit (``sigma``, ``omega``, ``sigma_e``, ``u``, ``u_unsaturated``, ``broadcast_s``, ``theta_e``, ``aaem``,
+  ...), the agent number from 1, the component (``x``, ``y``, ``z`` for body axes; ``w1``, ``w2``, ... for
+  wheels; ``0``, ``1``, ... for broadcast and law-state components), the unit last with spaces and slashes
+  as ``_`` (``rad_s``, ``N_m``, ``deg``; none for dimensionless MRPs): ``time_s``, ``sigma_1_x``,
+  ``omega_1_x_rad_s``, ``u_1_x_N_m``, ``aaem_deg``.  The first line is the header; ``#`` comment lines
+  follow it, before the data: the provenance, one ``# key = <JSON value>`` per line (the scenario TOML is
+  one JSON string), the coordinates (``# coords = {...}``) and the layout that maps the columns back to the
+  NetCDF variables (``# layout = {...}``, with the per-agent statistics, which have no time axis).  The header
+  comes first because ``numpy.genfromtxt(..., names=True)`` takes its names from the first line even when it
+  is a comment; so ``pandas.read_csv(path, comment="#")``,
+  ``numpy.genfromtxt(path, delimiter=",", names=True)`` and ``numpy.loadtxt(path, delimiter=",", skiprows=1)``
+  all read the table.  Each value is the shortest decimal that reads back to the same double (the same single
+  for ``float32`` series), so :func:`load_result` gives back the same :class:`xarray.Dataset` as the NetCDF
+  file; with pandas pass ``float_precision="round_trip"`` for the exact bits (its default parser may differ
+  in the last digit).
+
+:func:`load_result` reads either format; a file that is not an fsmctl result raises
+:class:`NotAResultError`, a result without the embedded scenario (written before it was embedded)
+:class:`MissingScenarioError` from :func:`scenario_from_result`; both are :class:`~fsmctl.errors.InputError`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import platform
+import shlex
+import tomllib
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from fsmctl.errors import InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import xarray as xr
+
+    from fsmctl.model.scenario import Scenario
+    from fsmctl.simulation.simulator import SimulationResult
+
+__all__ = [
+    "RESULT_FORMAT",
+    "FORMATS",
+    "PRECISIONS",
+    "ResultFileError",
+    "NotAResultError",
+    "MissingScenarioError",
+    "LawChangedWarning",
+    "provenance",
+    "versions",
+    "save_result",
+    "load_result",
+    "scenario_from_result",
+    "csv_column_names",
+]
+
+RESULT_FORMAT = "fsmctl-result 1"
+"""The value of the ``fsmctl_result`` attribute that marks a file as an fsmctl result (name, layout version)."""
+FORMATS = ("netcdf", "csv")
+PRECISIONS = ("float64", "float32")
+_SUFFIXES = {".nc": "netcdf", ".nc4": "netcdf", ".netcdf": "netcdf", ".csv": "csv"}
+_COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}
+_AXES = ("x", "y", "z")
+
+
+class ResultFileError(InputError):
+    """A result file cannot be used: unreadable, not a result, or without what was asked of it.
+
+    An :class:`~fsmctl.errors.InputError`: the command line prints it as one line and exits 2.
+
+    Examples
+    --------
+    >>> try:
+    ...     load_result("missing.nc")
+    ... except ResultFileError as exc:
+    ...     print(exc)
+    cannot read missing.nc: No such file or directory
+    """
+
+
+class NotAResultError(ResultFileError):
+    """The file is not an fsmctl result (not NetCDF/CSV, or without fsmctl's marker attributes).
+
+    Examples
+    --------
+    >>> _ = open("notes.csv", "w").write("a,b\\n1,2\\n")
+    >>> try:
+    ...     load_result("notes.csv")
+    ... except NotAResultError as exc:
+    ...     print(exc)
+    notes.csv: not an fsmctl result file (neither NetCDF nor fsmctl's CSV)
+    """
+
+
+class MissingScenarioError(ResultFileError):
+    """The result does not embed its scenario (written by an fsmctl older than the embedded provenance).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
+    >>> r.to_dataset().to_netcdf("old.nc", engine="scipy")  # how results were written before
+    >>> try:
+    ...     scenario_from_result("old.nc")
+    ... except MissingScenarioError as exc:
+    ...     print(str(exc).split(";")[0])
+    old.nc: this result does not embed its scenario (written by an older fsmctl)
+    """
+
+
+class LawChangedWarning(UserWarning):
+    """A result's user law (script or folder) is no longer the one that was flown (its manifest's sha256 differs).
+
+    Raised by :func:`scenario_from_result`, which still returns the scenario: the re-run flies the law as it
+    is now.
+
+    Examples
+    --------
+    >>> issubclass(LawChangedWarning, UserWarning)
+    True
+    """
+
+
+# ----------------------------------------------------------------------------- provenance
+
+
+def versions() -> dict[str, str]:
+    """The versions that determine a result: fsmctl, Python, NumPy, SymPy, CasADi, python-control, xarray.
+
+    Returns
+    -------
+    dict of str to str
+        Package name to version (``"not installed"`` for an optional package that is absent).
+
+    Examples
+    --------
+    >>> v = versions()
+    >>> sorted(v)
+    ['casadi', 'control', 'fsmctl', 'numpy', 'python', 'sympy', 'xarray']
+    >>> v["python"].count(".")
+    2
+    """
+    from importlib import metadata
+
+    import fsmctl
+
+    out = {"fsmctl": fsmctl.__version__, "python": platform.python_version()}
+    for module, dist in (
+        ("numpy", "numpy"),
+        ("sympy", "sympy"),
+        ("casadi", "casadi"),
+        ("control", "control"),
+        ("xarray", "xarray"),
+    ):
+        try:
+            out[module] = metadata.version(dist)
+        except metadata.PackageNotFoundError:
+            out[module] = "not installed"
+    return out
+
+
+def _law_provenance(scenario: Scenario) -> dict[str, str]:
+    law = scenario.law
+    out = {"law": law.name, "law_builtin": "true" if law.builtin else "false"}
+    if not law.builtin:
+        given = Path(scenario.controller.law).expanduser()  # a script or a derived folder
+        out["law_path"] = str(given.resolve()) if given.exists() else scenario.controller.law
+        out["law_folder"] = str(law.folder)
+        manifest = Path(law.folder) / "manifest.json"
+        try:
+            out["law_manifest_sha256"] = hashlib.sha256(manifest.read_bytes()).hexdigest()
+        except OSError as exc:  # the folder was just resolved, so this is the machine refusing
+            raise ResultFileError(f"cannot read the law's manifest {manifest}: {exc.strerror or exc}") from None
+    return out
+
+
+def provenance(scenario: Scenario, *, command: Sequence[str] | str | None = None) -> dict[str, str]:
+    """The attributes every fsmctl result file carries: where it came from, enough to run it again.
+
+    The one builder of the provenance: :func:`save_result` (hence ``fsmctl simulate``) and the other writers
+    of result files add these attributes as they are, so every file can be re-run with
+    :func:`scenario_from_result`.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario that was flown.
+    command : sequence of str or str, optional
+        The command line that produced the file (``sys.argv``), recorded as one shell-quoted string.
+
+    Returns
+    -------
+    dict of str to str
+        ``fsmctl_result`` (:data:`RESULT_FORMAT`), ``title``, ``source`` (the paper), ``scenario_label``,
+        ``case`` (empty without one), ``scenario_toml`` (the complete scenario,
+        :meth:`~fsmctl.model.scenario.Scenario.to_toml`), ``law``, ``law_builtin`` and, for a user's law,
+        ``law_path`` (its script or folder), ``law_folder`` (the derived code) and ``law_manifest_sha256``;
+        ``version_<package>`` for each of :func:`versions`; ``command`` when given.  All values are strings
+        (NetCDF attributes and CSV comment lines hold them alike).
+
+    Raises
+    ------
+    ResultFileError
+        The law's ``manifest.json`` cannot be read.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> attrs = provenance(fsmctl.paper_scenario("2"), command=["fsmctl", "simulate", "--case", "2"])
+    >>> attrs["fsmctl_result"], attrs["case"], attrs["law"], attrs["command"]
+    ('fsmctl-result 1', '2', 'fsm', 'fsmctl simulate --case 2')
+    >>> fsmctl.load_scenario.__module__ and attrs["scenario_toml"].splitlines()[1]
+    'name = "paper"'
+    """
+    if command is not None and not isinstance(command, str):
+        command = shlex.join(str(c) for c in command)
+    attrs = {
+        "fsmctl_result": RESULT_FORMAT,
+        "title": f"fsmctl simulation: {scenario.label}",
+        "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
+        "scenario_label": scenario.label,
+        "case": scenario.case or "",
+        "scenario_toml": scenario.to_toml(),
+        **_law_provenance(scenario),
+        **{f"version_{k}": v for k, v in versions().items()},
+    }
+    if command is not None:
+        attrs["command"] = command
+    return attrs
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def _format_of(path: Path, format: str | None) -> str:
+    if format is None:
+        fmt = _SUFFIXES.get(path.suffix.lower())
+        if fmt is None:
+            raise InputError(
+                f"{path}: cannot tell the result format from the suffix {path.suffix!r}; use .nc (NetCDF) or .csv, "
+                "or pass format='netcdf' / 'csv'"
+            )
+        return fmt
+    if not isinstance(format, str) or format.lower() not in FORMATS:
+        raise InputError(f"format: must be one of {', '.join(FORMATS)} (or None: from the suffix), got {format!r}")
+    return format.lower()
+
+
+def _dataset(result: SimulationResult, precision: str, command) -> xr.Dataset:
+    if not isinstance(precision, str) or precision.lower() not in PRECISIONS:
+        raise InputError(f"precision: must be one of {', '.join(PRECISIONS)}, got {precision!r}")
+    ds = result.to_dataset()
+    ds.attrs.update(provenance(result.scenario, command=command))
+    ds.attrs["precision"] = precision.lower()
+    return ds
+
+
+def _is_time_series(var) -> bool:
+    return var.dims[:1] == ("time_s",) and var.dtype.kind == "f"
+
+
+def save_result(
+    result: SimulationResult,
+    path: str | Path,
+    *,
+    format: str | None = None,
+    precision: str = "float64",
+    command: Sequence[str] | str | None = None,
+) -> Path:
+    """Write a run to a NetCDF or CSV file with its provenance, atomically (:mod:`fsmctl.outputs`).
+
+    Parameters
+    ----------
+    result : SimulationResult
+        The run.
+    path : str or Path
+        Target file (its folder must exist).
+    format : {None, "netcdf", "csv"}
+        None: from the suffix (``.nc`` NetCDF, ``.csv`` CSV).
+    precision : {"float64", "float32"}
+        Storage of the time series (the time itself stays float64; per-agent statistics stay float64).
+    command : sequence of str or str, optional
+        The command line, recorded in the file (:func:`provenance`).
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        An unknown format, suffix or precision.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
+    >>> save_result(r, "run.nc", precision="float32").name
+    'run.nc'
+    >>> ds = load_result("run.nc")
+    >>> str(ds["sigma"].dtype), str(ds["time_s"].dtype), ds.attrs["case"]
+    ('float32', 'float64', '1')
+    """
+    from fsmctl.outputs import atomic_path
+
+    path = Path(path)
+    fmt = _format_of(path, format)
+    ds = _dataset(result, precision, command)
+    single = ds.attrs["precision"] == "float32"
+    with atomic_path(path) as tmp:
+        if fmt == "netcdf":
+            encoding = {}
+            for name, var in ds.variables.items():
+                if name in ds.dims:
+                    continue  # coordinates: small, exact
+                enc = dict(_COMPRESSION)
+                if single and _is_time_series(var):
+                    enc["dtype"] = "float32"
+                encoding[name] = enc
+            if _h5netcdf_available():
+                ds.to_netcdf(tmp, engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
+            else:  # no HDF5 engine: NetCDF-3 (SciPy) holds the same variables, uncompressed
+                warnings.warn(
+                    "h5netcdf (with h5py) is not installed: writing an uncompressed NetCDF-3 file "
+                    "(pip install h5netcdf h5py for the compressed NetCDF-4 file)",
+                    stacklevel=2,
+                )
+                plain = {k: {"dtype": v["dtype"]} for k, v in encoding.items() if "dtype" in v}
+                ds.to_netcdf(tmp, engine="scipy", encoding=plain)
+        else:
+            _write_csv(ds, tmp, single)
+    return path
+
+
+def _h5netcdf_available() -> bool:
+    import importlib.util
+
+    return importlib.util.find_spec("h5netcdf") is not None and importlib.util.find_spec("h5py") is not None
+
+
+def _unit_suffix(units: str) -> str:
+    u = units.strip()
+    if u in ("", "1"):
+        return ""
+    return u.replace("/", "_").replace(" ", "_").replace("^", "")
+
+
+def _base_name(name: str, units: str) -> str:
+    """The NetCDF variable name without its unit (``omega_rad_per_s`` -> ``omega``, ``aaem_deg`` -> ``aaem``)."""
+    for tail in ("_rad_per_s", "_N_m_s", "_N_m", "_deg"):
+        if name.endswith(tail):
+            return name[: -len(tail)]
+    return name
+
+
+def _component_labels(dim: str, size: int) -> list[str]:
+    if dim == "axis":
+        return list(_AXES[:size])
+    if dim == "agent":
+        return [str(k + 1) for k in range(size)]
+    if dim == "wheel":
+        return [f"w{k + 1}" for k in range(size)]
+    return [str(k) for k in range(size)]
+
+
+def csv_column_names(name: str, dims: Sequence[str], shape: Sequence[int], units: str) -> list[str]:
+    """The CSV columns of one time series, in C order of its non-time dimensions.
+
+    Parameters
+    ----------
+    name : str
+        NetCDF variable name (``omega_rad_per_s``).
+    dims : sequence of str
+        Its dimensions, ``time_s`` first.
+    shape : sequence of int
+        Its shape.
+    units : str
+        Its ``units`` attribute (``"rad/s"``).
+
+    Returns
+    -------
+    list of str
+        ``<quantity>[_<agent>][_<component>][_<unit>]`` per scalar signal.
+
+    Examples
+    --------
+    >>> csv_column_names("omega_rad_per_s", ("time_s", "agent", "axis"), (5, 2, 3), "rad/s")[:4]
+    ['omega_1_x_rad_s', 'omega_1_y_rad_s', 'omega_1_z_rad_s', 'omega_2_x_rad_s']
+    >>> csv_column_names("aaem_deg", ("time_s",), (5,), "deg"), csv_column_names("sigma", ("time_s", "axis"), (5, 3), "1")
+    (['aaem_deg'], ['sigma_x', 'sigma_y', 'sigma_z'])
+    """
+    base, unit = _base_name(name, units), _unit_suffix(units)
+    labels = [[]]
+    for dim, size in zip(dims[1:], shape[1:], strict=True):
+        labels = [[*head, c] for head in labels for c in _component_labels(dim, size)]
+    return ["_".join([base, *parts] + ([unit] if unit else [])) for parts in labels]
+
+
+def _jsonable_attr(v: Any) -> Any:
+    if isinstance(v, np.ndarray):
+        return v.tolist()
+    if isinstance(v, np.generic):
+        return v.item()
+    return v
+
+
+def _write_csv(ds: xr.Dataset, path: Path, single: bool) -> None:
+    columns, blocks, layout = ["time_s"], [ds["time_s"].values[:, None]], {}
+    for name, var in ds.data_vars.items():
+        entry = {
+            "dims": list(var.dims),
+            "shape": list(var.shape),
+            "attrs": {k: _jsonable_attr(v) for k, v in var.attrs.items()},
+        }
+        if var.dims[:1] == ("time_s",):
+            cols = csv_column_names(name, var.dims, var.shape, str(var.attrs.get("units", "1")))
+            entry["columns"] = cols
+            columns += cols
+            values = var.values.reshape(var.shape[0], -1)
+            blocks.append(values.astype(np.float32) if single and _is_time_series(var) else values)
+        else:
+            entry["values"] = var.values.tolist()
+        layout[name] = entry
+    coords = {k: ds[k].values.tolist() for k in ds.coords if k != "time_s"}
+    if len(set(columns)) != len(columns):  # two variables would share a column name: never an ambiguous table
+        twice = sorted({c for c in columns if columns.count(c) > 1})
+        raise InputError(f"{path}: the CSV column names are not unique ({twice[:3]})")
+    # NumPy's shortest decimal that reads back to the same double (or single, for float32 series): exact, and
+    # no digits the data do not have
+    text = np.concatenate([b.astype(str) for b in blocks], axis=1).tolist()
+    with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(",".join(columns) + "\n")
+        for key, value in ds.attrs.items():
+            fh.write(f"# {key} = {json.dumps(_jsonable_attr(value))}\n")
+        fh.write(f"# coords = {json.dumps(coords)}\n")
+        fh.write(f"# layout = {json.dumps(layout, allow_nan=True)}\n")
+        fh.write("\n".join(",".join(row) for row in text) + "\n")
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def _kind(path: Path) -> str:
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(8)
+    except IsADirectoryError:
+        raise NotAResultError(f"{path}: is a directory, not a result file") from None
+    except OSError as exc:
+        raise ResultFileError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if head.startswith(b"\x89HDF\r\n\x1a\n"):
+        return "netcdf4"
+    if head.startswith(b"CDF"):
+        return "netcdf3"
+    if head.startswith(b"time_s"):
+        return "csv"
+    raise NotAResultError(f"{path}: not an fsmctl result file (neither NetCDF nor fsmctl's CSV)")
+
+
+def _check_marker(attrs: Mapping[str, Any], path: Path) -> None:
+    marker = str(attrs.get("fsmctl_result", ""))
+    if marker == RESULT_FORMAT:
+        return
+    if marker.startswith("fsmctl-result"):
+        raise NotAResultError(
+            f"{path}: an fsmctl result of another layout ({marker!r}; this fsmctl reads {RESULT_FORMAT!r})"
+        )
+    if not str(attrs.get("title", "")).startswith("fsmctl simulation"):
+        raise NotAResultError(f"{path}: not an fsmctl result file (no fsmctl_result attribute)")
+
+
+def _read_csv(path: Path) -> xr.Dataset:
+    import xarray as xr
+
+    attrs: dict[str, Any] = {}
+    skip = 1
+    try:
+        with open(path, encoding="utf-8") as fh:
+            header = fh.readline().rstrip("\n").split(",")
+            for line in fh:
+                if not line.startswith("# "):
+                    break
+                skip += 1
+                key, sep, value = line[2:].rstrip("\n").partition(" = ")
+                if not sep:
+                    raise NotAResultError(f"{path}: line {skip} is not a '# key = value' metadata line")
+                try:
+                    attrs[key] = json.loads(value)
+                except ValueError:
+                    raise NotAResultError(f"{path}: line {skip}: the value of {key!r} is not JSON") from None
+    except UnicodeDecodeError:
+        raise NotAResultError(f"{path}: not an fsmctl result file (not UTF-8 text)") from None
+    _check_marker(attrs, path)
+    layout, coords = attrs.pop("layout", None), attrs.pop("coords", None)
+    if not isinstance(layout, Mapping) or not isinstance(coords, Mapping):
+        raise NotAResultError(f"{path}: an fsmctl CSV result needs its '# layout' and '# coords' lines and a header")
+    try:
+        table = np.loadtxt(path, delimiter=",", skiprows=skip, ndmin=2, dtype=np.float64)
+    except ValueError as exc:
+        raise NotAResultError(f"{path}: the table is not numeric CSV ({exc})") from None
+    if table.shape[1] != len(header):
+        raise NotAResultError(f"{path}: {table.shape[1]} values per row but {len(header)} columns in the header")
+    index = {c: k for k, c in enumerate(header)}
+    single = attrs.get("precision") == "float32"
+    variables = {}
+    try:
+        for name, entry in layout.items():
+            dims, shape = tuple(entry["dims"]), tuple(entry["shape"])
+            if "columns" in entry:
+                data = table[:, [index[c] for c in entry["columns"]]].reshape((table.shape[0], *shape[1:]))
+                if single and dims[:1] == ("time_s",):
+                    data = data.astype(np.float32)
+            else:
+                data = np.array(entry["values"], dtype=np.float64).reshape(shape)
+            variables[name] = xr.Variable(dims, data, entry.get("attrs", {}))
+    except (KeyError, TypeError, ValueError) as exc:
+        raise NotAResultError(f"{path}: the CSV does not match its layout line ({exc})") from None
+    coord_values = {"time_s": ("time_s", table[:, index["time_s"]], {"units": "s"})}
+    for k, v in coords.items():
+        coord_values[k] = (k, np.asarray(v, dtype=np.int32))
+    return xr.Dataset(variables, coords=coord_values, attrs=attrs)
+
+
+def load_result(path: str | Path) -> xr.Dataset:
+    """Read an fsmctl result file (NetCDF or CSV) into an :class:`xarray.Dataset`, fully loaded.
+
+    Both formats give the same variable names, dimensions, units and attributes (the provenance of
+    :func:`provenance`), as written by :func:`save_result`.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ``.nc`` or ``.csv`` result (the content decides, not the suffix).
+
+    Returns
+    -------
+    xarray.Dataset
+        Variables ``sigma``, ``omega_rad_per_s``, ``sigma_e``, ``u_N_m``, ``aaem_deg``, ... over ``time_s``,
+        ``agent``, ``axis``; ``attrs`` with the provenance.
+
+    Raises
+    ------
+    NotAResultError
+        The file is not an fsmctl result.
+    ResultFileError
+        The file cannot be read.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
+    >>> _ = r.save("run.csv")
+    >>> ds = load_result("run.csv")
+    >>> ds["omega_rad_per_s"].dims, bool((ds["omega_rad_per_s"].values == r.omega).all())
+    (('time_s', 'agent', 'axis'), True)
+    >>> ds.attrs["law"]
+    'fsm'
+    """
+    import xarray as xr
+
+    path = Path(path)
+    kind = _kind(path)
+    if kind == "csv":
+        return _read_csv(path)
+    engine = "h5netcdf" if kind == "netcdf4" else "scipy"
+    try:
+        with xr.open_dataset(path, engine=engine) as ds:
+            ds.load()
+    except Exception as exc:  # a damaged or foreign HDF5/NetCDF file: whatever the engine raises
+        raise NotAResultError(f"{path}: not a readable NetCDF result ({type(exc).__name__}: {exc})") from None
+    _check_marker(ds.attrs, path)
+    return ds
+
+
+def scenario_from_result(path: str | Path) -> Scenario:
+    """The scenario a result file was flown with (re-run a result from itself).
+
+    ``fsmctl.simulate(scenario_from_result(path))`` repeats the run: for a float64 NetCDF file its arrays
+    equal the file's bit for bit (same fsmctl version and machine).
+
+    Parameters
+    ----------
+    path : str or Path
+        A result written by :func:`save_result` (NetCDF or CSV).
+
+    Returns
+    -------
+    Scenario
+        The embedded scenario, case selected.
+
+    Raises
+    ------
+    MissingScenarioError
+        The result does not embed its scenario.
+    ResultFileError
+        The embedded scenario is not valid TOML or not a valid scenario.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> s = fsmctl.paper_scenario("3a").replace(simulation={"t_final": 0.1})
+    >>> _ = fsmctl.simulate(s).save("run.nc")
+    >>> again = scenario_from_result("run.nc")
+    >>> again == s, again.label
+    (True, 'paper case 3a')
+    """
+    from fsmctl.model.scenario import ScenarioError, scenario_from_dict
+
+    path = Path(path)
+    attrs = load_result(path).attrs
+    text = attrs.get("scenario_toml")
+    if not isinstance(text, str) or not text.strip():
+        raise MissingScenarioError(
+            f"{path}: this result does not embed its scenario (written by an older fsmctl); run it again from "
+            "its scenario file"
+        )
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ResultFileError(f"{path}: the embedded scenario is not valid TOML ({exc})") from None
+    case = attrs.get("case") or None
+    try:
+        scenario = scenario_from_dict(data, case=case, where=f"{path} (embedded scenario)")
+    except ScenarioError as exc:
+        raise ResultFileError(str(exc)) from None
+    recorded = attrs.get("law_manifest_sha256")
+    if recorded:
+        now = _law_provenance(scenario).get("law_manifest_sha256")
+        if now != recorded:
+            warnings.warn(
+                f"{path}: the law {attrs.get('law_path', scenario.controller.law)} has changed since the result was "
+                f"written (manifest sha256 {recorded[:12]}... then, {str(now)[:12]}... now): a re-run flies the law "
+                "as it is now",
+                LawChangedWarning,
+                stacklevel=2,
+            )
+    return scenario

@@ -1,0 +1,365 @@
+"""Conventions of the ``fsmctl`` command line, checked on the real parser (``fsmctl.cli.main.build_parser()``).
+
+* One concept, one option: a ``dest`` that several subcommands have must have the same option strings, metavar,
+  type, action and choices everywhere (a former spelling is a hidden :class:`~fsmctl.cli.options.DeprecatedAlias`
+  of the option, in the same parser, converting like it).
+* Help without raw placeholders: no ``%(``, ``{``, ``}``, ``TODO``, ``XXX`` and no empty help in an option's,
+  a subcommand's or a description's text (epilogs may show TOML braces, but no ``%(``, ``TODO``, ``XXX``).
+* Every subcommand's epilog lists every exit code :func:`fsmctl.cli.main.main` can return (0, 1, 2, 130, 143),
+  each with a meaning, and what ``main`` returns for a success, a bug, bad input, SIGINT and SIGTERM is the code
+  whose meaning says so (a behavioural oracle, independent of how the epilog is built).
+* The library's INFO records on the ``fsmctl`` logger (e.g. the first-compile notice) are one line on stderr,
+  prefixed ``fsmctl: ``, without timestamps; ``--debug`` adds DEBUG, ``--quiet`` keeps warnings only.
+
+Each checker is also run on a planted, broken parser, so that a checker that cannot fail is caught.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import re
+
+import pytest
+
+import fsmctl.cli.main as cli_main
+from fsmctl.cli.exit_codes import MEANINGS
+from fsmctl.cli.options import DeprecatedAlias, HelpFormatter
+from fsmctl.errors import InputError
+
+EXPECTED_CODES = [0, 1, 2, 130, 143]  # main(): success, failure/bug, input error, SIGINT, SIGTERM
+RAW = ("%(", "{", "}", "TODO", "XXX")
+MINIMAL_ARGV = {"derive": ["law.py"], "tune": ["--law", "pid"]}  # what a subcommand requires to parse
+
+
+def subcommands(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    (sub,) = (a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return dict(sub.choices)
+
+
+def _signature(action: argparse.Action) -> tuple:
+    return (
+        tuple(action.option_strings),
+        action.metavar,
+        getattr(action.type, "__qualname__", action.type),
+        type(action).__name__,
+        tuple(action.choices) if action.choices else None,
+    )
+
+
+def option_conflicts(parser: argparse.ArgumentParser) -> list[str]:
+    """Dests that differ in option strings, metavar, type, action or choices between subcommands."""
+    seen: dict[str, dict[tuple, list[str]]] = {}
+    for name, sp in subcommands(parser).items():
+        for action in sp._actions:
+            if isinstance(action, (argparse._HelpAction, DeprecatedAlias)):
+                continue
+            seen.setdefault(action.dest, {}).setdefault(_signature(action), []).append(name)
+    return [
+        f"{dest}: " + "; ".join(f"{sig} in {', '.join(names)}" for sig, names in variants.items())
+        for dest, variants in seen.items()
+        if len(variants) > 1
+    ]
+
+
+def alias_problems(parser: argparse.ArgumentParser) -> list[str]:
+    """Former spellings that are visible, or not a faithful alias of an option of their parser."""
+    problems = []
+    for name, sp in subcommands(parser).items():
+        for action in sp._actions:
+            if not isinstance(action, DeprecatedAlias):
+                continue
+            where = f"{name} {action.option_strings}"
+            if action.help is not argparse.SUPPRESS:
+                problems.append(f"{where}: shown in --help")
+            target = sp._option_string_actions.get(action.canonical)
+            if target is None or target.dest != action.dest or isinstance(target, DeprecatedAlias):
+                problems.append(f"{where}: {action.canonical} is not an option with dest {action.dest!r}")
+            elif action.convert is not target.type:
+                problems.append(f"{where}: converts unlike {action.canonical}")
+            if any(s in sp.format_help() for s in action.option_strings):
+                problems.append(f"{where}: appears in --help")
+    return problems
+
+
+def _texts(parser: argparse.ArgumentParser):
+    """(where, text, is_epilog) for every help text of the parser and its subcommands."""
+    yield "fsmctl description", parser.description, False
+    yield "fsmctl epilog", parser.epilog, True
+    (sub,) = (a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for choice in sub._choices_actions:
+        yield f"fsmctl {choice.dest}: summary", choice.help, False
+    for name, sp in [("fsmctl", parser), *subcommands(parser).items()]:
+        if sp is not parser:
+            yield f"{name} description", sp.description, False
+            yield f"{name} epilog", sp.epilog, True
+        for action in sp._actions:
+            if action.help is argparse.SUPPRESS or isinstance(action, argparse._SubParsersAction):
+                continue
+            yield f"{name} {'/'.join(action.option_strings) or action.dest}", action.help, False
+
+
+def placeholder_problems(parser: argparse.ArgumentParser) -> list[str]:
+    problems = []
+    for where, text, is_epilog in _texts(parser):
+        if text is None or not text.strip():
+            problems.append(f"{where}: empty help")
+            continue
+        raw = [r for r in RAW if r in text and not (is_epilog and r in "{}")]
+        if raw:
+            problems.append(f"{where}: raw {raw} in {text!r}")
+    return problems
+
+
+def epilog_codes(epilog: str | None) -> dict[int, str]:
+    """The ``exit codes:`` list of an epilog, as {code: meaning}."""
+    if not epilog or "exit codes:" not in epilog:
+        return {}
+    block = epilog.split("exit codes:", 1)[1]
+    return {int(code): meaning.strip() for code, meaning in re.findall(r"^- (\d+): (.*)$", block, re.M)}
+
+
+def epilog_problems(parser: argparse.ArgumentParser) -> list[str]:
+    problems = []
+    for name, sp in subcommands(parser).items():
+        codes = epilog_codes(sp.epilog)
+        if sorted(codes) != EXPECTED_CODES:
+            problems.append(f"{name}: the epilog lists exit codes {sorted(codes)}, not {EXPECTED_CODES}")
+        problems += [f"{name}: exit code {c} has no meaning" for c, text in codes.items() if not text]
+    return problems
+
+
+@pytest.fixture(scope="module")
+def parser():
+    return cli_main.build_parser()
+
+
+def _planted() -> argparse.ArgumentParser:
+    """A parser breaking every convention once."""
+    p = argparse.ArgumentParser(prog="fsmctl")
+    sub = p.add_subparsers(dest="command")
+    a = sub.add_parser("a", help="first", description="A.", epilog="exit codes:\n\n- 0: ok\n- 2: input")
+    a.add_argument("--out", metavar="DIR", help="output folder (default: %(default)s)")
+    a.add_argument("--jobs", dest="workers", action=DeprecatedAlias, canonical="--workers", convert=int)
+    b = sub.add_parser("b", help="", description="B {x}.")
+    b.add_argument("--out", metavar="FOLDER", help="TODO")
+    b.add_argument("--seed", type=int, help="seed")
+    c = sub.add_parser("c", help="third", description="C.", epilog="see the docs")
+    c.add_argument("--seed", type=float, help="seed")
+    return p
+
+
+def test_the_checkers_catch_a_planted_parser():
+    planted = _planted()
+    assert {p.split(":")[0] for p in option_conflicts(planted)} == {"out", "seed"}
+    assert any("--workers is not an option" in p for p in alias_problems(planted))
+    found = placeholder_problems(planted)
+    for needle in ("fsmctl b: summary: empty help", "b description: raw ['{', '}']", "a --out: raw ['%(']",
+                   "b --out: raw ['TODO']"):  # fmt: skip
+        assert any(needle in p for p in found), (needle, found)
+    assert [p.split(":")[0] for p in epilog_problems(planted)] == ["a", "b", "c"]
+
+
+def test_one_concept_one_option_across_subcommands(parser):
+    assert option_conflicts(parser) == []
+
+
+def test_the_shared_options_are_where_the_brief_says(parser):
+    """Same dest, same option: a few that used to differ, spelled out independently of the modules."""
+    sub = subcommands(parser)
+    for name in ("prove", "reproduce", "compare-surfaces", "compare", "montecarlo", "tune"):
+        action = sub[name]._option_string_actions["--workers"]
+        assert (action.dest, action.metavar) == ("workers", "N"), name
+    for name in ("simulate", "reproduce", "compare-surfaces", "compare", "montecarlo"):
+        assert "--no-figures" in sub[name]._option_string_actions, name
+    for name in ("simulate", "reproduce", "compare", "montecarlo", "tune"):
+        assert sub[name]._option_string_actions["--no-progress"].dest == "progress", name
+    for name in ("montecarlo", "tune"):
+        assert {"--dask", "--dask-timeout"} <= set(sub[name]._option_string_actions), name
+    for name in ("prove", "simulate", "reproduce", "compare-surfaces", "compare", "montecarlo", "tune"):
+        assert sub[name]._option_string_actions["--scenario"].metavar == "NAME|FILE.toml", name
+
+
+def test_former_spellings_are_hidden_faithful_aliases(parser):
+    assert alias_problems(parser) == []
+    aliases = {
+        name
+        for name, sp in subcommands(parser).items()
+        for a in sp._actions
+        if isinstance(a, DeprecatedAlias) and a.option_strings == ["--jobs"]
+    }
+    assert aliases == {"prove", "reproduce", "compare-surfaces"}
+
+
+def test_a_former_spelling_works_with_one_notice(parser, capsys):
+    args = cli_main.build_parser().parse_args(["reproduce", "--jobs", "3"])
+    assert args.workers == 3
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == ["fsmctl reproduce: --jobs is deprecated, use --workers"]
+    assert cli_main.build_parser().parse_args(["reproduce"]).workers == 2  # the alias leaves the default alone
+    assert capsys.readouterr().err == ""
+    for name in ("prove", "reproduce", "compare-surfaces"):
+        text = subcommands(parser)[name].format_help()
+        assert "deprecated" not in text and "--jobs" not in text, name
+
+
+@pytest.mark.parametrize(
+    ("value", "message"), [("0", "must be >= 1, got 0"), ("two", "expected an integer, got 'two'")]
+)
+def test_a_bad_value_of_a_former_spelling_is_one_line_naming_it(value, message, capsys, tmp_path):
+    """Exit 2 returned (not argparse's SystemExit), one line naming the spelling used, no deprecation notice."""
+    assert cli_main.main(["reproduce", "--jobs", value, "--out", str(tmp_path / "o")]) == 2
+    assert capsys.readouterr().err == f"fsmctl reproduce: error: --jobs {message}\n"
+    assert not (tmp_path / "o").exists()
+
+
+def test_help_has_no_raw_placeholders(parser):
+    assert placeholder_problems(parser) == []
+    for name, sp in [("fsmctl", parser), *subcommands(parser).items()]:
+        text = sp.format_help()  # argparse expands %-formats here: it must not fail
+        assert "%(" not in text and "==SUPPRESS==" not in text, name
+
+
+def test_help_texts_are_valid_restructuredtext(parser):
+    """The documentation renders every help text, description and epilog as reStructuredText (sphinx-argparse),
+    built with warnings as errors: ``|x|`` (a substitution), a stray indentation or a bare ``*emphasis`` fail it."""
+    import io
+
+    docutils_core = pytest.importorskip("docutils.core")
+    problems = []
+    for where, text, _ in _texts(parser):
+        stream = io.StringIO()
+        docutils_core.publish_doctree(text or "", settings_overrides={"warning_stream": stream, "report_level": 2})
+        if stream.getvalue().strip():
+            problems.append(f"{where}: {stream.getvalue().strip()}")
+    assert problems == []
+
+
+def test_every_subcommand_lists_every_exit_code(parser):
+    assert epilog_problems(parser) == []
+    for name, sp in subcommands(parser).items():
+        codes = epilog_codes(sp.epilog)
+        assert codes[2].startswith(("usage", "an unknown law", "the script does not derive")), name
+        assert codes[130].startswith("interrupted (SIGINT"), name
+        assert codes[143].startswith("terminated (SIGTERM)"), name
+        assert "internal error" in codes[1], name
+        assert re.search(r"^exit codes:\n\n- 0: \S", sp.format_help(), re.M), name  # a list, also in --help
+    assert epilog_codes(parser.epilog).keys() == set(EXPECTED_CODES)
+
+
+def test_generic_meanings_come_from_one_place(parser):
+    codes = epilog_codes(subcommands(parser)["simulate"].epilog)
+    assert codes[2] == MEANINGS[2] and codes[143] == MEANINGS[143]
+
+
+class _Boom(Exception):
+    pass
+
+
+OUTCOMES = [  # what the command does -> the code main() returns -> a word its documented meaning must hold
+    (lambda: 0, 0, ""),
+    (lambda: (_ for _ in ()).throw(_Boom("a bug")), 1, "internal error"),
+    (lambda: (_ for _ in ()).throw(InputError("bad input")), 2, "input"),
+    (lambda: (_ for _ in ()).throw(KeyboardInterrupt()), 130, "interrupted"),
+    (lambda: (_ for _ in ()).throw(cli_main.Terminated()), 143, "terminated"),
+]
+
+
+@pytest.mark.parametrize("name", sorted(subcommands(cli_main.build_parser())))
+def test_what_main_returns_is_what_the_epilog_says(name, monkeypatch, capsys):
+    real = cli_main.build_parser
+    documented = epilog_codes(subcommands(real())[name].epilog)
+    for behaviour, code, word in OUTCOMES:
+
+        def patched(behaviour=behaviour):
+            p = real()
+            subcommands(p)[name].set_defaults(func=lambda args: behaviour())
+            return p
+
+        monkeypatch.setattr(cli_main, "build_parser", patched)
+        got = cli_main.main([name, *MINIMAL_ARGV.get(name, [])])
+        err = capsys.readouterr().err
+        assert got == code, (name, code, err)
+        assert word in documented[got], (name, got, documented[got])
+        assert len(err.strip().splitlines()) == (0 if code == 0 else 1), err
+
+
+# ----------------------------------------------------------------------------- the library's messages
+
+
+def _main_logging(monkeypatch, records, *argv):
+    """Run ``fsmctl [argv] laws`` with the command replaced by one that logs ``records`` on the fsmctl logger."""
+    real = cli_main.build_parser
+
+    def command(args):
+        for logger, level, message in records:
+            logging.getLogger(logger).log(level, message, "fsm")
+        return 0
+
+    def patched():
+        p = real()
+        subcommands(p)["laws"].set_defaults(func=command)
+        return p
+
+    monkeypatch.setattr(cli_main, "build_parser", patched)
+    return cli_main.main([*argv, "laws"])
+
+
+NOTICE = ("fsmctl.model.generated_code", logging.INFO, "compiling the generated C for law %r (first use, ~10 s)")
+DETAIL = ("fsmctl.model.generated_code", logging.DEBUG, "cache key of %s:\n  abc")
+WARNING = ("fsmctl.studies", logging.WARNING, "law %s: something to know")
+
+
+def test_a_library_notice_is_one_line_on_stderr(monkeypatch, capsys):
+    assert _main_logging(monkeypatch, [NOTICE, DETAIL]) == 0
+    out, err = capsys.readouterr()
+    assert err == "fsmctl: compiling the generated C for law 'fsm' (first use, ~10 s)\n"  # no time, no level name
+    assert out == ""
+
+
+def test_debug_shows_debug_records_and_quiet_only_warnings(monkeypatch, capsys):
+    assert _main_logging(monkeypatch, [NOTICE, DETAIL, WARNING], "--debug") == 0
+    assert capsys.readouterr().err.splitlines() == [
+        "fsmctl: compiling the generated C for law 'fsm' (first use, ~10 s)",
+        "fsmctl: cache key of fsm: abc",  # one line, even for a message with a line break
+        "fsmctl: warning: law fsm: something to know",
+    ]
+    assert _main_logging(monkeypatch, [NOTICE, DETAIL, WARNING], "--quiet") == 0
+    assert capsys.readouterr().err.splitlines() == ["fsmctl: warning: law fsm: something to know"]
+
+
+def test_the_logger_is_left_as_it_was(monkeypatch, capsys):
+    logger = logging.getLogger("fsmctl")
+    handlers, level = list(logger.handlers), logger.level
+    _main_logging(monkeypatch, [NOTICE])
+    assert logger.handlers == handlers and logger.level == level
+    capsys.readouterr()
+    logging.getLogger(NOTICE[0]).info("after the command")  # nothing of the CLI's is left to print it
+    assert "fsmctl: after the command" not in capsys.readouterr().err
+
+
+# ----------------------------------------------------------------------------- the help layout
+
+
+def test_help_formatter_wraps_paragraphs_and_keeps_lists():
+    text = (
+        "first paragraph with quite a few words in it that must be wrapped\nand joined.\n\n"
+        "exit codes:\n\n- 0: a meaning long enough to wrap onto a second line of the help\n- 2: short\n\n"
+        "  0    a meaning long enough to wrap onto a second line of the help\n"
+        "  term  a definition\n        continued here"
+    )
+    lines = HelpFormatter("x", width=42)._fill_text(text, 40, "").splitlines()
+    assert lines == [  # 40 columns
+        "first paragraph with quite a few words",
+        "in it that must be wrapped and joined.",
+        "",
+        "exit codes:",
+        "",
+        "- 0: a meaning long enough to wrap onto",
+        "  a second line of the help",
+        "- 2: short",
+        "",
+        "  0    a meaning long enough to wrap",
+        "       onto a second line of the help",
+        "  term  a definition continued here",
+    ]

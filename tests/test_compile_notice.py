@@ -1,0 +1,53 @@
+"""The one-line notice that the generated C is being compiled (issue 15): once on a first compile, never from the cache.
+
+The compile cache is pointed at ``tmp_path`` (``FSMCTL_CACHE_DIR``), so the first :func:`compiled_library` of the
+paper's law must run the compiler and log exactly one INFO record on the ``fsmctl`` logger tree naming the law;
+loading the same library again from that (now filled) cache, with the in-process memo cleared, must log nothing.
+One compile (~10 s) in all.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import pytest
+
+from fsmctl.model import generated_code
+
+
+def _notices(caplog: pytest.LogCaptureFixture) -> list[logging.LogRecord]:
+    return [r for r in caplog.records if r.name.startswith("fsmctl") and "compiling the generated C" in r.getMessage()]
+
+
+@pytest.fixture
+def empty_cache(tmp_path, monkeypatch):
+    """An empty compile cache under ``tmp_path``, a real compiler, and no memo of an earlier load."""
+    monkeypatch.setenv("FSMCTL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.delenv("FSMCTL_NO_COMPILE", raising=False)
+    monkeypatch.delenv("FSMCTL_PORTABLE", raising=False)
+    if generated_code._compiler() is None:
+        pytest.skip("no C compiler: nothing is ever compiled, so there is no notice to give")
+    generated_code.compiled_library.cache_clear()
+    yield tmp_path / "cache"
+    generated_code.compiled_library.cache_clear()  # later tests load from their own cache again
+
+
+def test_first_compile_logs_one_notice_and_the_cache_none(empty_cache, caplog):
+    caplog.set_level(logging.INFO, logger="fsmctl")
+    assert not empty_cache.exists() or not any(empty_cache.rglob("libfsmctl*"))
+
+    first = generated_code.compiled_library()
+    assert first is not None, "the compiler failed: no library to test the notice with"
+    assert first.path.is_relative_to(empty_cache), "the library was not compiled in the empty cache"
+    notices = _notices(caplog)
+    assert len(notices) == 1, [r.getMessage() for r in notices]
+    assert notices[0].levelno == logging.INFO
+    assert notices[0].name == "fsmctl.model.generated_code"
+    assert "'fsm'" in notices[0].getMessage()
+    assert "10 s" in notices[0].getMessage()
+
+    caplog.clear()
+    generated_code.compiled_library.cache_clear()  # forget the in-process memo: the next load reads the disk cache
+    second = generated_code.compiled_library()
+    assert second is not None and second.path == first.path, "the second load did not come from the cache"
+    assert _notices(caplog) == []
