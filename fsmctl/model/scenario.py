@@ -475,7 +475,8 @@ def _parameters_section(cls) -> str:
     for name, info in cls.__pydantic_fields__.items():
         default = _default_label(info)
         head = f"{name} : {_type_label(info.annotation)}" + (", optional" if default is not None else "")
-        text = (info.description or "").strip()
+        # |x| is a substitution reference in reStructuredText: shown as literal text in the docs
+        text = re.sub(r"\|([^|\s][^|]*?)\|", r"``|\1|``", (info.description or "").strip())
         unit = (info.json_schema_extra or {}).get("unit") if isinstance(info.json_schema_extra, dict) else None
         extras = [f"unit {unit}"] if unit else []
         for meta in info.metadata:

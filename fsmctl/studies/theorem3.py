@@ -67,7 +67,7 @@ _MAX_ROUNDS = 2000
 
 
 class SettlingTimeInputError(InputError):
-    """Bad input to the Theorem 3 study (alpha, tau, |x0|, gains): a one-line message (an
+    """Bad input to the Theorem 3 study (alpha, tau, ``|x0|``, gains): a one-line message (an
     :class:`~fsmctl.errors.InputError`).
 
     Examples
@@ -397,7 +397,7 @@ def measure_settling_time(
 
 @dataclass(frozen=True)
 class ScalarGrid:
-    """Axes of the (c1, c2, alpha, |x0|, tau) grid; combinations with |x0| <= tau are skipped.
+    """Axes of the (c1, c2, alpha, ``|x0|``, tau) grid; combinations with ``|x0| <= tau`` are skipped.
 
     Parameters
     ----------
