@@ -127,7 +127,7 @@ def test_deterministic_across_worker_counts_and_seeds(tmp_path):
     assert list(one.dataset.status.values) == ["ok"] * 4
     xr.testing.assert_identical(_physics(one.dataset), _physics(two.dataset))
     # seeded reproducibility, from the file written to disk
-    with xr.open_dataset(tmp_path / "w1" / "montecarlo.nc", engine="scipy") as ds:
+    with xr.open_dataset(tmp_path / "w1" / "montecarlo.nc") as ds:
         xr.testing.assert_equal(_physics(ds.load()), _physics(one.dataset))
     other = mc.run_campaign(_settings(seed=8), tmp_path / "s8", workers=1, progress=False, figures=False)
     assert not np.array_equal(other.dataset.aaem_final_deg.values, one.dataset.aaem_final_deg.values)
@@ -241,6 +241,17 @@ def test_cli_campaign_and_bad_input(tmp_path):
     assert (
         (out / "montecarlo.nc").is_file() and (out / "histograms.png").is_file() and (out / "histograms.svg").is_file()
     )
+    # the campaign file carries where it came from: the base scenario (re-runnable), the versions, the command line
+    from fsmctl import paper_scenario, scenario_from_result
+
+    with xr.open_dataset(out / "montecarlo.nc") as ds:
+        assert ds.attrs["command"].endswith(
+            "montecarlo --runs 2 --t-final 0.2 --workers 1 --out " + str(out) + " --no-progress"
+        )
+        assert ds.attrs["version_fsmctl"] and ds.attrs["law"] == "fsm" and ds["aaem_final_deg"].encoding["zlib"]
+    base = scenario_from_result(out / "montecarlo.nc")  # the campaign's base: Case 1 at the campaign's horizon
+    assert base.agents == paper_scenario("1").agents and base.controller == paper_scenario("1").controller
+    assert base.simulation.t_final == 0.2
     bad = subprocess.run([*cmd[:4], "0", "--out", str(tmp_path / "x")], capture_output=True, text=True, timeout=60)
     assert bad.returncode == 2 and len(bad.stderr.strip().splitlines()) == 1
     bad = subprocess.run([*cmd, "--rate-bound", "-1", "--out", str(tmp_path / "y")], capture_output=True, text=True)
@@ -465,7 +476,7 @@ def test_campaign_json_and_dataset_record_the_hardware_settings(tmp_path):
     assert meta["vary"] == "all" and meta["control_period"] == 0.1
     assert meta["link_delay"] == [0.0, 0.2] and meta["sensor_noise_scale"] == [0.5, 1.5]
     assert meta["loss_probability"] is None
-    with xr.open_dataset(tmp_path / "hw" / "montecarlo.nc", engine="scipy") as ds:
+    with xr.open_dataset(tmp_path / "hw" / "montecarlo.nc") as ds:
         attrs = dict(ds.attrs)
         seeds = ds.noise_seed.values.copy()
     assert json.loads(attrs["settings"]) == meta
@@ -493,7 +504,7 @@ def test_noise_campaign_on_the_hardware_scenario_runs(tmp_path):
     code = main(["montecarlo", "--scenario", "paper-hardware", "--vary", "noise", "--runs", "2", "--t-final", "0.2",
                  "--workers", "1", "--no-progress", "--out", str(out)])  # fmt: skip
     assert code == 0
-    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+    with xr.open_dataset(out / "montecarlo.nc") as ds:
         assert list(ds.status.values) == ["ok", "ok"] and len(set(ds.noise_seed.values.tolist())) == 2
         assert ds.attrs["vary"] == "noise"
         # the base scenario's initial state in every run
@@ -541,7 +552,7 @@ def test_cli_control_period_reaches_the_campaign(tmp_path, capsys):
     assert "link delay per link U(0.05, 0.05) s (--link-delay)" in printed
     meta = json.loads((out / "campaign.json").read_text())
     assert meta["control_period"] == 0.05 and meta["link_delay"] == [0.05, 0.05] and meta["vary"] == "all"
-    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+    with xr.open_dataset(out / "montecarlo.nc") as ds:
         assert "control_period=0.05 s" in ds.attrs["scenario"]
         assert float(ds.link_delay_max_s[0]) == 0.05 and math.isnan(float(ds.sensor_noise_scale[0]))
 

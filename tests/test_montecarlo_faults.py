@@ -122,7 +122,7 @@ def test_signal_stops_workers_keeps_chunks(tmp_path, signame, to_group, exit_cod
     )
     assert done.returncode == 0, done.stderr
     assert f"({len(kept)} chunks resumed)" in done.stdout
-    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+    with xr.open_dataset(out / "montecarlo.nc") as ds:
         assert ds.run.values.tolist() == list(range(runs))  # every run exactly once
         assert set(ds.status.values.tolist()) == {"ok"}
     for name, data in kept.items():  # the kept chunks were not run again
@@ -322,7 +322,7 @@ def test_scenario_without_cases_runs_and_settings_are_printed_and_stored(tmp_pat
     summary = json.loads((out / "summary.json").read_text())
     stored = json.loads((out / "campaign.json").read_text())
     assert summary["settings"] == stored and stored["case"] is None and stored["coupling_high"] == 1.0
-    with xr.open_dataset(out / "montecarlo.nc", engine="scipy") as ds:
+    with xr.open_dataset(out / "montecarlo.nc") as ds:
         assert json.loads(ds.attrs["settings"]) == stored
     assert (out / mc.COMPLETE_MARKER).is_file()
 

@@ -237,6 +237,9 @@ def test_fast_reproduce_exit_code_and_files(fast_reproduction):
         assert ds["u_unsaturated_N_m"].attrs["units"] == "N m"
         assert float(ds["time_s"][-1]) == pytest.approx(10.0)
         assert float(ds["aaem_deg"][-1]) < 0.03  # without the limit the law converges within the fast horizon
+        # provenance: the command line, the scenario of this run (re-runnable), the versions
+        assert ds.attrs["command"] == f"fsmctl reproduce --fast --out {out} --jobs 2 --no-progress"
+        assert ds.attrs["version_fsmctl"] and "torque_limit = inf" in ds.attrs["scenario_toml"]
 
 
 def test_report_shows_the_figures_in_the_paper_order(fast_reproduction):

@@ -221,6 +221,7 @@ def run(args: argparse.Namespace) -> int:
             log=log,
             dask_timeout=args.dask_timeout,
             base=base,
+            command=getattr(args, "argv", None) or ["fsmctl", *sys.argv[1:]],
         )
     except CampaignInterrupted as exc:  # the workers are stopped; one line, exit 130 (SIGINT) or 143 (SIGTERM)
         print(f"fsmctl montecarlo: {exc}", file=sys.stderr, flush=True)

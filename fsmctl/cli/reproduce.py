@@ -7,6 +7,7 @@ results, not failures), 2 usage or input error.
 from __future__ import annotations
 
 import argparse
+import sys
 
 from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.options import add_figures_option, add_out_option, add_progress_option, add_scenario_option
@@ -87,6 +88,7 @@ def run(args: argparse.Namespace) -> int:
             figures=not args.no_figures,
             log=print,
             explain=args.explain,
+            command=getattr(args, "argv", None) or ["fsmctl", *sys.argv[1:]],
         )
     print()
     print(format_claims(rep))

@@ -28,6 +28,7 @@ __all__ = [
     "raem_deg",
     "settling_time",
     "save_result",
+    "write_netcdf",
     "load_result",
     "scenario_from_result",
     "provenance",
@@ -54,6 +55,7 @@ __getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
         "metrics": ["principal_angles", "relative_principal_angles", "aaem_deg", "raem_deg", "settling_time"],
         "results_io": [
             "save_result",
+            "write_netcdf",
             "load_result",
             "scenario_from_result",
             "provenance",

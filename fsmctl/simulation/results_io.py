@@ -72,6 +72,7 @@ __all__ = [
     "provenance",
     "versions",
     "save_result",
+    "write_netcdf",
     "load_result",
     "scenario_from_result",
     "csv_column_names",
@@ -330,29 +331,82 @@ def save_result(
     path = Path(path)
     fmt = _format_of(path, format)
     ds = _dataset(result, precision, command)
-    single = ds.attrs["precision"] == "float32"
+    if fmt == "netcdf":
+        return write_netcdf(ds, path, precision=ds.attrs["precision"])
     with atomic_path(path) as tmp:
-        if fmt == "netcdf":
-            encoding = {}
-            for name, var in ds.variables.items():
-                if name in ds.dims:
-                    continue  # coordinates: small, exact
-                enc = dict(_COMPRESSION)
-                if single and _is_time_series(var):
-                    enc["dtype"] = "float32"
-                encoding[name] = enc
-            if _h5netcdf_available():
-                ds.to_netcdf(tmp, engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
-            else:  # no HDF5 engine: NetCDF-3 (SciPy) holds the same variables, uncompressed
-                warnings.warn(
-                    "h5netcdf (with h5py) is not installed: writing an uncompressed NetCDF-3 file "
-                    "(pip install h5netcdf h5py for the compressed NetCDF-4 file)",
-                    stacklevel=2,
-                )
-                plain = {k: {"dtype": v["dtype"]} for k, v in encoding.items() if "dtype" in v}
-                ds.to_netcdf(tmp, engine="scipy", encoding=plain)
-        else:
-            _write_csv(ds, tmp, single)
+        _write_csv(ds, tmp, ds.attrs["precision"] == "float32")
+    return path
+
+
+def write_netcdf(ds: xr.Dataset, path: str | Path, *, precision: str = "float64") -> Path:
+    """Write a dataset as compressed NetCDF-4, atomically: the one NetCDF writer of fsmctl's result files.
+
+    Every data variable is stored with zlib (level 4) and the shuffle filter; with ``precision="float32"`` the
+    floating-point time series (variables whose first dimension is ``time_s``) are stored as float32, while the
+    time itself and every other variable stay float64.  :func:`save_result` and the Monte Carlo campaign files
+    (:mod:`fsmctl.studies.montecarlo`) write through it.  Without h5netcdf the file is an uncompressed NetCDF-3
+    (SciPy), with a warning.
+
+    Parameters
+    ----------
+    ds : xarray.Dataset
+        The data, attributes included (:func:`provenance` for a result file).
+    path : str or Path
+        Target file (its folder must exist); replaced only once completely written (:mod:`fsmctl.outputs`).
+    precision : {"float64", "float32"}
+        Storage of the time series.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        An unknown precision.
+
+    Examples
+    --------
+    >>> import numpy as np, xarray as xr
+    >>> ds = xr.Dataset({"x": (("time_s",), np.linspace(0.0, 1.0, 5))}, coords={"time_s": np.linspace(0.0, 1.0, 5)})
+    >>> write_netcdf(ds, "data.nc", precision="float32").name
+    'data.nc'
+    >>> with xr.open_dataset("data.nc") as back:
+    ...     str(back["x"].dtype), back["x"].encoding["zlib"], float(back["x"][-1])
+    ('float32', True, 1.0)
+    """
+    from fsmctl.outputs import atomic_path
+
+    if not isinstance(precision, str) or precision.lower() not in PRECISIONS:
+        raise InputError(f"precision: must be one of {', '.join(PRECISIONS)}, got {precision!r}")
+    single = precision.lower() == "float32"
+    path = Path(path)
+    encoding = {}
+    for name, var in ds.variables.items():
+        if name in ds.dims:
+            continue  # coordinates: small, exact
+        enc = dict(_COMPRESSION) if var.dtype.kind in "fiub" else {}
+        if single and _is_time_series(var):
+            enc["dtype"] = "float32"
+        encoding[name] = enc
+    if _h5netcdf_available():
+        # encoded in memory, then written as plain bytes: a full or failing disk is an ordinary OSError here,
+        # never an HDF5 error inside the library (which can crash the interpreter when the half-written file
+        # is closed at exit)
+        data = ds.to_netcdf(engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
+        with atomic_path(path) as tmp:
+            tmp.write_bytes(bytes(data))
+        return path
+    # no HDF5 engine: NetCDF-3 (SciPy) holds the same variables, uncompressed
+    warnings.warn(
+        "h5netcdf (with h5py) is not installed: writing an uncompressed NetCDF-3 file "
+        "(pip install h5netcdf h5py for the compressed NetCDF-4 file)",
+        stacklevel=2,
+    )
+    plain = {k: {"dtype": v["dtype"]} for k, v in encoding.items() if "dtype" in v}
+    with atomic_path(path) as tmp:
+        ds.to_netcdf(tmp, engine="scipy", encoding=plain)
     return path
 
 

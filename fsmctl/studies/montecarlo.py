@@ -107,7 +107,7 @@ import numpy as np
 from fsmctl.errors import EnvironmentProblem, InputError
 from fsmctl.model.scenario import Agent, Scenario, Sinusoid, load_scenario
 from fsmctl.model.topology import Link, Topology
-from fsmctl.outputs import atomic_path, jsonable, temporary_files, write_json
+from fsmctl.outputs import jsonable, temporary_files, write_json
 from fsmctl.studies.parallel import CampaignInterrupted, interrupt_guard, single_threaded_workers, worker_pool
 
 __all__ = [
@@ -1237,8 +1237,9 @@ def _environment_problem(what: str, exc: OSError) -> EnvironmentProblem:
 
 
 def _write_netcdf(ds, path: Path) -> None:
-    with atomic_path(path) as tmp:
-        ds.to_netcdf(tmp, engine="scipy")
+    from fsmctl.simulation.results_io import write_netcdf
+
+    write_netcdf(ds, path)
 
 
 def _chunk_path(out: Path, c: int) -> Path:
@@ -1374,7 +1375,7 @@ def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
     try:
         import xarray as xr
 
-        with xr.open_dataset(path, engine="scipy") as ds:
+        with xr.open_dataset(path) as ds:
             # a chunk with a failed or died run is not done: --resume tries those runs again
             return [int(r) for r in ds.run.values] == list(indices) and all(
                 str(v) == STATUS_OK for v in ds.status.values
@@ -1656,6 +1657,7 @@ def run_campaign(
     base: Scenario | None = None,
     log: Callable[[str], None] | None = None,
     dask_timeout: float = DASK_TIMEOUT_S,
+    command: Sequence[str] | str | None = None,
 ) -> CampaignResult:
     """Run (or resume) a Monte Carlo campaign and write ``out_dir``.
 
@@ -1686,6 +1688,9 @@ def run_campaign(
         Receives the lines of :func:`describe_campaign` before the first run (``fsmctl montecarlo`` prints them).
     dask_timeout : float
         Seconds a Dask scheduler gets to accept the connection and answer.
+    command : sequence of str or str, optional
+        The command line (``sys.argv``), embedded in ``montecarlo.nc`` with the base scenario, the law and the
+        versions (:func:`fsmctl.simulation.results_io.provenance`).
 
     Returns
     -------
@@ -1753,7 +1758,7 @@ def run_campaign(
                     _run_local(base, settings, todo, min(n, max(1, len(todo))), run_fn, on_chunk)
             finally:
                 bar.close()
-            result = finish_campaign(out, settings, base, t_start, resumed, figures=figures)
+            result = finish_campaign(out, settings, base, t_start, resumed, figures=figures, command=command)
         except BaseException as exc:
             guard.closing()
             kept = folder.discard_if_empty()
@@ -1772,7 +1777,14 @@ def run_campaign(
 
 
 def finish_campaign(
-    out: Path, settings: CampaignSettings, base: Scenario, t_start: float, resumed: int = 0, *, figures: bool = True
+    out: Path,
+    settings: CampaignSettings,
+    base: Scenario,
+    t_start: float,
+    resumed: int = 0,
+    *,
+    figures: bool = True,
+    command: Sequence[str] | str | None = None,
 ) -> CampaignResult:
     """Merge the chunk files into ``montecarlo.nc``, write ``summary.json``, the histograms and, last, ``complete.json``.
 
@@ -1790,6 +1802,9 @@ def finish_campaign(
         Chunks that were resumed.
     figures : bool, optional
         Write the histograms.
+    command : sequence of str or str, optional
+        The command line, embedded in ``montecarlo.nc`` with the base scenario, the law and the versions
+        (:func:`fsmctl.simulation.results_io.provenance`).
 
     Returns
     -------
@@ -1798,15 +1813,19 @@ def finish_campaign(
     """
     import xarray as xr
 
+    from fsmctl.simulation.results_io import provenance
+
     out = Path(out)
     parts = []
     for c in range(len(_chunks(settings))):
-        with xr.open_dataset(_chunk_path(out, c), engine="scipy") as ds:
+        with xr.open_dataset(_chunk_path(out, c)) as ds:
             parts.append(ds.load())
     ds = xr.concat(parts, dim="run")
     for var in ds.variables.values():
         var.encoding = {}  # string widths differ between chunks
     ident = jsonable(settings.identity())
+    # the base scenario, law, versions and command line (scenario_from_result re-runs the base scenario)
+    ds.attrs.update(provenance(base, command=command))
     ds.attrs.update(
         {
             "title": f"fsmctl Monte Carlo campaign: {base.label}, {settings.runs} runs, seed {settings.seed}",

@@ -32,6 +32,7 @@ import concurrent.futures as cf
 import contextlib
 import csv
 import math
+import shlex
 import sys
 import time as _time
 from collections.abc import Callable, Mapping, Sequence
@@ -523,7 +524,9 @@ def run_record(spec: RunSpec, scenario, result, *, netcdf: str = "", figures: Se
     )
 
 
-def execute_run(source: str | Mapping[str, Any], spec: RunSpec, fast: bool, out_dir: str) -> RunRecord:
+def execute_run(
+    source: str | Mapping[str, Any], spec: RunSpec, fast: bool, out_dir: str, command: str | None = None
+) -> RunRecord:
     """Simulate one :class:`RunSpec`, save its NetCDF and single-run figures, return its :class:`RunRecord`.
 
     Parameters
@@ -537,6 +540,8 @@ def execute_run(source: str | Mapping[str, Any], spec: RunSpec, fast: bool, out_
         Short horizon (``FAST_T_FINAL_S``) and coarser output, for tests.
     out_dir : str
         Output folder (``runs/`` and ``figures/`` below it).
+    command : str, optional
+        The command line, embedded in the run's NetCDF file with its scenario, law and versions.
 
     Returns
     -------
@@ -560,7 +565,7 @@ def execute_run(source: str | Mapping[str, Any], spec: RunSpec, fast: bool, out_
     started = _time.perf_counter()
     result = simulate(scenario, progress=False)
     out = Path(out_dir)
-    nc = result.save(out / "runs" / f"{spec.key}.nc")
+    nc = result.save(out / "runs" / f"{spec.key}.nc", command=command)
     theta_deg = np.degrees(result.theta_e)
     written = []
     title = f"{spec.title} ({scenario.label})"
@@ -1509,6 +1514,7 @@ def reproduce(
     figures: bool = True,
     log: Callable[[str], None] | None = None,
     explain: bool = False,
+    command: Sequence[str] | str | None = None,
 ) -> Reproduction:
     """Run the Section 4 reproduction of Liang et al. (2012) and write its report.
 
@@ -1532,6 +1538,9 @@ def reproduce(
         Search, for every claim not reproduced, the smallest change of an open setting that reproduces it
         (:func:`fsmctl.studies.explain.explain`; separate runs, the scenario is unchanged), at the same horizon
         (``fast``: the short one).  ``fsmctl reproduce`` does by default.
+    command : sequence of str or str, optional
+        The command line (``sys.argv``), embedded in every run's NetCDF file with its scenario, law and versions
+        (:func:`fsmctl.simulation.results_io.provenance`).
 
     Returns
     -------
@@ -1574,6 +1583,8 @@ def reproduce(
 
     started = _time.perf_counter()
     _check_source(source)
+    if command is not None and not isinstance(command, str):
+        command = shlex.join(str(c) for c in command)  # one picklable string for the workers
     out = Path(out_dir)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -1614,11 +1625,11 @@ def reproduce(
             executor = worker_env.enter_context(worker_pool(jobs))  # workers die with this process
         if executor is None:
             for spec in simulated:
-                records[spec.key] = execute_run(source, spec, fast, str(out))
+                records[spec.key] = execute_run(source, spec, fast, str(out), command)
                 bar.update(1)
             bounds = angular_momentum_bound(case1)
         else:
-            futures = {executor.submit(execute_run, source, spec, fast, str(out)): spec for spec in simulated}
+            futures = {executor.submit(execute_run, source, spec, fast, str(out), command): spec for spec in simulated}
             bounds = angular_momentum_bound(case1)  # while the workers simulate
             for fut in cf.as_completed(futures):
                 rec = fut.result()
