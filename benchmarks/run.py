@@ -49,6 +49,7 @@ no-compiler fallback's (:mod:`fsmctl.simulation.casadi_formation`), the neighbou
 from __future__ import annotations
 
 import argparse
+import bisect
 import collections
 import ctypes
 import dataclasses
@@ -1184,6 +1185,22 @@ fsmctl.simulate_many([base.replace(controller=c) for c in throughput_candidates(
 """
 
 
+def _library_symbols() -> tuple[list[int], list[str]] | None:
+    """The compiled library's function symbols (sorted addresses, names) from ``nm``, for the samples perf reports
+    as bare addresses; None without ``nm``."""
+    import shutil
+
+    from fsmctl.model.generated_code import compiled_library
+
+    lib, nm = compiled_library(), shutil.which("nm")
+    if lib is None or nm is None:
+        return None
+    out = subprocess.run([nm, "-n", str(lib.path)], capture_output=True, text=True, timeout=60).stdout
+    rows = [ln.split() for ln in out.splitlines()]
+    rows = [(int(r[0], 16), r[2]) for r in rows if len(r) == 3 and r[1] in "tT"]
+    return [a for a, _ in rows], [n for _, n in rows]
+
+
 def _loop_profile(count: int, log) -> dict | None:
     """Where the compiled loop's time goes: ``perf record`` of one batch of ``count`` candidates (100 s each), samples
     of the library and libm grouped by function kind; None without ``perf``."""
@@ -1207,6 +1224,7 @@ def _loop_profile(count: int, log) -> dict | None:
             capture_output=True, text=True, timeout=300,
         )  # fmt: skip
     groups = collections.Counter()
+    symbols = _library_symbols()
     for line in rep.stdout.splitlines():
         parts = line.split()
         if len(parts) < 4 or not parts[0].endswith("%") or parts[2] not in ("[.]", "[k]"):
@@ -1214,12 +1232,14 @@ def _loop_profile(count: int, log) -> dict | None:
         pct, dso, sym = float(parts[0][:-1]), parts[1], parts[3]
         if "libfsmctl" not in dso and not dso.startswith("libm"):
             continue
+        if "libfsmctl" in dso and sym.startswith("0x") and symbols:  # perf left the address: the symbol table's name
+            sym = symbols[1][max(0, bisect.bisect_right(symbols[0], int(sym, 16)) - 1)]
         if "pow" in sym:
-            kind = "pow (glibc, lane by lane)"
+            kind = "pow (glibc's, or fsmctl_pow's scalar calls)"
         elif any(f in sym for f in ("cos", "sin", "exp", "log")) and dso.startswith("libm"):
             kind = "sin/cos (glibc: disturbance, reference)"
-        elif sym.endswith("_x4"):
-            kind = "generated batched kernels (law_local, law_control, plant_rhs)"
+        elif sym.endswith(("_x4", "_x4.localalias")):
+            kind = "generated batched kernels (law_local with fsmctl's 4-lane pow, law_control, plant_rhs)"
         elif sym in ("eval_rhs", "aggregate", "link_weight", "check_commands_lanes"):
             kind = "driver: eval_rhs (lane packing, neighbour sums, link weights)"
         elif dso.startswith("libm"):
@@ -1782,9 +1802,10 @@ def _throughput_markdown(tp: dict) -> list[str]:
         floor = fixed * b["sim_cpu_s_per_eval"] * scale + b["metrics_cpu_s_per_eval"] * scale
         lines += [
             "",
-            "pow is called lane by lane by the generated kernels (glibc's scalar pow: the batched and scalar paths and "
-            "the CasADi fallback give the same bits); it, the generated kernels and the disturbance's cos are fixed by "
-            "the generated code, which this benchmark does not change.",
+            "pow is fsmctl's (`fsmctl/csrc/fsm_pow.h`, the pow of every compiled path: batched lanes and scalar calls "
+            "give the same bits), four lanes at once inside the law_local kernels; it, the generated kernels and the "
+            "disturbance's cos (glibc's, lane by lane) are fixed by the generated code, which this benchmark does not "
+            "change.",
             f"What bounds it: the generated code and libm are {fixed:.0%} of the loop, {fixed * b['sim_cpu_s_per_eval'] * scale:.3f} "
             f"CPU s per evaluation; with the metrics ({b['metrics_cpu_s_per_eval'] * scale:.3f}) that is {floor:.3f} CPU s, "
             f"i.e. at most {2 * THROUGHPUT_WINDOW_S / floor:.0f} evaluations in 5 minutes even if the hand-written driver "

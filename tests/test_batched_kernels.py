@@ -225,7 +225,7 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     """Each operation the printer knows, compiled both ways with the library's compiler and flags, on every pair
     of special values (signed zeros, subnormals, huge, infinities, NaN): bit-identical, except fmin/fmax ties of
     +0 and -0 (unspecified in C99)."""
-    from fsmctl.model.generated_code import _compiler, compile_flags
+    from fsmctl.model.generated_code import _compiler, _driver_dir, compile_flags, pow_include_args
 
     cc = _compiler()
     if cc is None:
@@ -250,7 +250,8 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     (tmp_path / "g_b.c").write_text(batched_source([("g", g)], "g_b.h"))
     flags, _ = compile_flags(cc)
     so = tmp_path / "g.so"
-    cmd = [cc, *flags, f"-I{tmp_path}", str(tmp_path / "g.c"), str(tmp_path / "g_b.c"), "-o", str(so), "-lm"]
+    sources = [str(tmp_path / "g.c"), str(tmp_path / "g_b.c"), str(_driver_dir() / "fsm_pow.c")]  # as the library
+    cmd = [cc, *flags, f"-I{tmp_path}", f"-I{_driver_dir()}", *pow_include_args(), *sources, "-o", str(so), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     lib = ctypes.CDLL(str(so))

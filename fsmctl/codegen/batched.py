@@ -6,7 +6,8 @@ a C vector type of :data:`LANES` doubles (GCC/Clang ``vector_size``
 extension), so one call evaluates the function for ``LANES`` agents with SIMD
 arithmetic.  Every lane performs exactly the scalar program: the same IEEE
 operations in the same order (``+ - * /`` are correctly rounded per lane, the
-library functions ``pow``/``sin``/``cos``/... are called per lane, and
+library functions ``sin``/``cos``/... are called per lane, ``pow`` is fsmctl's
+(``fsmctl/csrc/fsm_pow.h``, the pow of every compiled path) on four lanes at once, and
 comparisons, ``if_else``, ``sign``, ``fmin``/``fmax`` and ``fabs`` are bit
 selections with the C99 semantics of CasADi's scalar helpers), so with FMA
 contraction off a lane's result is bit-identical to the scalar CasADi C
@@ -34,7 +35,8 @@ import casadi as ca
 __all__ = ["LANES", "UnsupportedInstructionError", "batched_source", "batched_header", "kernel_name"]
 
 LANES = 4
-"""Lanes per kernel call: 4 doubles = one 256-bit AVX register (two SSE2 registers without AVX)."""
+"""Lanes per kernel call: 4 doubles = one 256-bit AVX register (two SSE2 registers without AVX); fsm_pow.h's
+``fsm_pow_v4`` is written for 4."""
 
 
 class UnsupportedInstructionError(ValueError):
@@ -102,6 +104,7 @@ _PRELUDE = """\
 #include <math.h>
 #include <string.h>
 
+#include "fsm_pow.h"
 #include "{header}"
 
 #ifdef FSM_HAVE_BATCHED
@@ -129,13 +132,11 @@ static inline fsm_v fsm_sign(fsm_v x) {{
 /* C99 fmax/fmin: a NaN argument is ignored; equal arguments (+0/-0) give the second, as x86 maxsd/minsd */
 static inline fsm_v fsm_fmax(fsm_v x, fsm_v y) {{ return fsm_select((x > y) | (y != y), x, y); }}
 static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) {{ return fsm_select((x < y) | (y != y), x, y); }}
-/* library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm result;
- * inactive lanes keep x (their results are unspecified and never read) */
-static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {{
-  fsm_v r = x;
-  for (int l = 0; l < lanes; ++l) r[l] = pow(x[l], y[l]);
-  return r;
-}}
+/* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
+ * four lanes at once */
+static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {{ return fsm_pow_v4(x, y, lanes); }}
+/* the other library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm
+ * result; inactive lanes keep x (their results are unspecified and never read) */
 #define FSM_LANEWISE(name, fn) \\
   static inline fsm_v name(fsm_v x, int lanes) {{ \\
     fsm_v r = x; \\

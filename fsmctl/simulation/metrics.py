@@ -18,10 +18,12 @@ and one pair over time (:func:`pair_angles`).
 
 from __future__ import annotations
 
+import ctypes
+
 import numpy as np
 
 from fsmctl.model.casadi_eval import evaluate_mapped
-from fsmctl.model.generated_code import casadi_function
+from fsmctl.model.generated_code import casadi_function, compiled_library
 
 __all__ = [
     "MAP_BLOCK",
@@ -47,6 +49,30 @@ MAP_BLOCK = 1 << 16
 vector, 9 doubles per ``mrp_error``, and its sparsity data, kept while the map is cached by
 :func:`fsmctl.model.casadi_eval.evaluate_mapped`), so longer inputs are evaluated in blocks, the last one padded to a
 power of two: at most 17 map sizes per function are ever built, each under ~10 MB."""
+
+
+_C_LOOPS: dict[str, ctypes.CDLL] = {}
+
+
+def _c_loops() -> ctypes.CDLL | None:
+    """The compiled library's sample loops (``fsmctl/csrc/metrics.c``: the same generated functions that
+    :func:`casadi_function` maps, called sample by sample: the same bits); None without a compiled library."""
+    lib = compiled_library()
+    if lib is None:
+        return None
+    dll = _C_LOOPS.get(str(lib.path))
+    if dll is None:
+        dll = ctypes.CDLL(str(lib.path))
+        dp = ctypes.POINTER(ctypes.c_double)
+        dll.fsm_principal_angles.argtypes = [dp, ctypes.c_longlong, dp]
+        dll.fsm_relative_angles.argtypes = [dp, ctypes.c_longlong, ctypes.c_int, dp]
+        dll.fsm_principal_angles.restype = dll.fsm_relative_angles.restype = ctypes.c_int
+        _C_LOOPS[str(lib.path)] = dll
+    return dll
+
+
+def _ptr(a: np.ndarray):
+    return a.ctypes.data_as(ctypes.POINTER(ctypes.c_double))
 
 
 def _mapped(name: str, m: int, args: list[np.ndarray]) -> np.ndarray:
@@ -91,6 +117,12 @@ def principal_angles(sigma: np.ndarray) -> np.ndarray:
     flat = sigma.reshape(-1, 3)
     if flat.shape[0] == 0:
         return np.zeros(sigma.shape[:-1])
+    dll = _c_loops()
+    if dll is not None:
+        flat = np.ascontiguousarray(flat)
+        theta = np.empty(flat.shape[0])
+        if dll.fsm_principal_angles(_ptr(flat), flat.shape[0], _ptr(theta)) == 0:
+            return theta.reshape(sigma.shape[:-1])
     theta = _mapped("mrp_principal_angle", flat.shape[0], [flat])  # (m, 1)
     return theta.reshape(sigma.shape[:-1])
 
@@ -114,6 +146,12 @@ def _relative_block(sigma_e: np.ndarray, iu: np.ndarray, ju: np.ndarray) -> np.n
     out = np.zeros((T, n, n))
     if iu.size == 0 or T == 0:
         return out
+    dll = _c_loops()
+    if dll is not None:
+        block = np.ascontiguousarray(sigma_e, dtype=float)
+        if dll.fsm_relative_angles(_ptr(block), T, n, _ptr(out)) == 0:
+            return out
+        out[:] = 0.0
     # theta_ij = theta_ji (the inverse rotation has the same angle): evaluate each unordered pair once
     a = sigma_e[:, iu, :].reshape(-1, 3)
     b = sigma_e[:, ju, :].reshape(-1, 3)

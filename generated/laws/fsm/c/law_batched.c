@@ -12,6 +12,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "fsm_pow.h"
 #include "law_batched.h"
 
 #ifdef FSM_HAVE_BATCHED
@@ -39,13 +40,11 @@ static inline fsm_v fsm_sign(fsm_v x) {
 /* C99 fmax/fmin: a NaN argument is ignored; equal arguments (+0/-0) give the second, as x86 maxsd/minsd */
 static inline fsm_v fsm_fmax(fsm_v x, fsm_v y) { return fsm_select((x > y) | (y != y), x, y); }
 static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) { return fsm_select((x < y) | (y != y), x, y); }
-/* library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm result;
- * inactive lanes keep x (their results are unspecified and never read) */
-static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {
-  fsm_v r = x;
-  for (int l = 0; l < lanes; ++l) r[l] = pow(x[l], y[l]);
-  return r;
-}
+/* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
+ * four lanes at once */
+static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) { return fsm_pow_v4(x, y, lanes); }
+/* the other library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm
+ * result; inactive lanes keep x (their results are unspecified and never read) */
 #define FSM_LANEWISE(name, fn) \
   static inline fsm_v name(fsm_v x, int lanes) { \
     fsm_v r = x; \
