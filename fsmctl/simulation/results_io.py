@@ -41,13 +41,15 @@ Formats (:func:`save_result`, also :meth:`fsmctl.simulation.simulator.Simulation
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import platform
 import shlex
+import sys
 import tomllib
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -338,6 +340,24 @@ def save_result(
     return path
 
 
+@contextlib.contextmanager
+def _local_write_lock() -> Iterator[None]:
+    """Make xarray take a local write lock even while a Dask client is the default scheduler.
+
+    With a ``dask.distributed`` client active (the Monte Carlo ``--dask`` path), xarray asks the scheduler for a
+    distributed lock named after the write target, which fails for an in-memory target ("Semaphore or Lock
+    <BytesIO> not known").  The dataset written here is in memory (no Dask arrays), so the synchronous scheduler
+    is the right one for the write itself.
+    """
+    if "dask" not in sys.modules:
+        yield
+        return
+    import dask
+
+    with dask.config.set(scheduler="synchronous"):
+        yield
+
+
 def write_netcdf(ds: xr.Dataset, path: str | Path, *, precision: str = "float64") -> Path:
     """Write a dataset as compressed NetCDF-4, atomically: the one NetCDF writer of fsmctl's result files.
 
@@ -394,7 +414,8 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, *, precision: str = "float64"
         # encoded in memory, then written as plain bytes: a full or failing disk is an ordinary OSError here,
         # never an HDF5 error inside the library (which can crash the interpreter when the half-written file
         # is closed at exit)
-        data = ds.to_netcdf(engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
+        with _local_write_lock():
+            data = ds.to_netcdf(engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
         with atomic_path(path) as tmp:
             tmp.write_bytes(bytes(data))
         return path
