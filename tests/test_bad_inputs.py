@@ -506,3 +506,17 @@ def test_debug_switch_shows_the_traceback(tmp_path):
     assert r.returncode != 0 and "Traceback" in r.stderr
     r = fsmctl_process("simulate", "--scenario", str(tmp_path / "none.toml"))
     assert r.returncode == 2 and "Traceback" not in r.stderr
+
+
+def test_library_helpers_refuse_bad_input_with_input_error(tmp_path):
+    """The library's own checks raise InputError (a ValueError), which the CLI turns into one line and exit 2."""
+    from fsmctl.model.actuators import distribution_matrix
+    from fsmctl.studies.explain import explain
+    from fsmctl.studies.hardware import momentum_budget
+
+    with pytest.raises(InputError, match="3 x N matrix of rank 3"):
+        distribution_matrix(np.ones((3, 4)))  # rank 1: the wheels do not span the body frame
+    with pytest.raises(InputError, match="no reaction wheels"):
+        momentum_budget(fsmctl.paper_scenario("1"))
+    with pytest.raises(InputError, match="unknown setting"):
+        explain("paper", [], tmp_path / "x", settings=["no_such_setting"])

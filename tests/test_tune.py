@@ -464,6 +464,13 @@ def test_cli(unlimited, tmp_path, capsys):
     assert main([*args, "--budget", "4", "--resume", "--workers", "1"]) == 0
     assert len(_rows(out / "trials.csv")) == 4
     assert not math.isnan(float(_rows(out / "trials.csv")[3]["K [N m]"]))
+    # where the files came from: the command line and the versions, in tune.json and as comments in best.toml
+    record = json.loads((out / "tune.json").read_text())
+    assert record["command"].endswith("--no-progress --budget 4 --resume --workers 1"), record["command"]
+    assert {"fsmctl", "casadi", "numpy", "python", "optuna"} <= set(record["versions"])
+    header = (out / "best.toml").read_text().split("extends")[0]
+    assert "# versions: fsmctl " in header and f"# command: {record['command']}" in header
+    assert load_scenario(out / "best.toml").controller.law == "pid"
 
 
 def test_help_documents_every_option_objective_and_constraint(capsys):

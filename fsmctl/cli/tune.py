@@ -250,6 +250,7 @@ def run(args: argparse.Namespace) -> int:
             workers=args.workers or os.cpu_count() or 1,
             dask=args.dask,
             dask_timeout=args.dask_timeout,
+            command=getattr(args, "argv", None) or ["fsmctl", *sys.argv[1:]],
         )
     except CampaignInterrupted as exc:  # the workers are stopped; one line, exit 130 (SIGINT) or 143 (SIGTERM)
         print(f"fsmctl tune: {exc}", file=sys.stderr, flush=True)

@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from fsmctl.errors import InputError
+
 __all__ = [
     "distribution_matrix",
     "distribute",
@@ -106,8 +108,8 @@ def distribution_matrix(axes: np.ndarray) -> np.ndarray:
 
     Raises
     ------
-    ValueError
-        ``axes`` is not a ``3 x N`` matrix of rank 3.
+    InputError
+        ``axes`` is not a ``3 x N`` matrix of rank 3 (a ``ValueError``).
 
     Examples
     --------
@@ -122,7 +124,7 @@ def distribution_matrix(axes: np.ndarray) -> np.ndarray:
     """
     G = np.asarray(axes, dtype=float)
     if G.ndim != 2 or G.shape[0] != 3 or np.linalg.matrix_rank(G) < 3:
-        raise ValueError(f"axes: expected a 3 x N matrix of rank 3, got shape {G.shape}")
+        raise InputError(f"axes: expected a 3 x N matrix of rank 3, got shape {G.shape}")
     return np.linalg.pinv(G)
 
 

@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from fsmctl.errors import InputError
 from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.outputs import write_text
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
@@ -1530,8 +1531,8 @@ def explain(
 
     Raises
     ------
-    ValueError
-        ``settings`` names a setting :func:`search_settings` does not have.
+    InputError
+        ``settings`` names a setting :func:`search_settings` does not have (a ``ValueError``).
 
     See Also
     --------
@@ -1551,7 +1552,7 @@ def explain(
         all_settings = search_settings(load_case(base, "1"))
     unknown = sorted(set(settings or ()) - {s.name for s in all_settings})
     if unknown:
-        raise ValueError(f"unknown setting(s) {unknown} (settings: {[s.name for s in all_settings]})")
+        raise InputError(f"unknown setting(s) {unknown} (settings: {[s.name for s in all_settings]})")
     chosen = [s for s in all_settings if settings is None or s.name in settings]
     by_name = {s.name: s for s in all_settings}
     if "error_mrp" in {s.name for s in chosen}:

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.studies.reproduce import angular_momentum_bound, reference_trajectory
 
@@ -133,8 +134,8 @@ def momentum_budget(scenario: Scenario, *, step: float = 0.05) -> list[WheelBudg
 
     Raises
     ------
-    ValueError
-        The scenario has no reaction wheels.
+    InputError
+        The scenario has no reaction wheels (a ``ValueError``).
 
     Examples
     --------
@@ -148,7 +149,7 @@ def momentum_budget(scenario: Scenario, *, step: float = 0.05) -> list[WheelBudg
 
     act = scenario.actuator
     if not act.enabled:
-        raise ValueError("momentum_budget: the scenario has no reaction wheels (actuator.kind = 'ideal')")
+        raise InputError("momentum_budget: the scenario has no reaction wheels (actuator.kind = 'ideal')")
     G = act.spin_axes()
     Js = act.per_wheel("spin_inertia")
     J_spin = act.spin_inertia_matrix()

@@ -620,9 +620,11 @@ def write_scalar_study_csv(study: ScalarStudy, path: str | Path) -> Path:
     >>> write_scalar_study_csv(study, "t3.csv").read_text().splitlines()[0].split(",")[:7]
     ['mode', 'x0', 'tau', 'c1', 'c2', 'alpha', 'time_simulated_s']
     """
+    from fsmctl.outputs import atomic_path
+
     path = Path(path)
     rows = [m.to_dict() for m in study.measurements]
-    with path.open("w", newline="") as fh:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as fh:  # complete, or the old file stays
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)

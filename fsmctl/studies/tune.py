@@ -127,6 +127,7 @@ import dataclasses
 import json
 import math
 import os
+import shlex
 import sys
 import time
 import warnings
@@ -1493,7 +1494,7 @@ def _topology_overlay(base: Scenario, scales: Mapping[str, float]) -> dict:
     return out
 
 
-def best_scenario_text(result: TuneResult, base: Scenario) -> str:
+def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence[str] = ()) -> str:
     """``best.toml``: the base scenario (``extends``) with the chosen design, for ``fsmctl simulate --scenario``.
 
     The design (``[controller]`` keys: the law, its tuned parameters; ``[topology]`` weights when the coupling
@@ -1507,6 +1508,8 @@ def best_scenario_text(result: TuneResult, base: Scenario) -> str:
         A search with a feasible trial (``result.best``).
     base : Scenario
         The tuned scenario (its source tables and cases).
+    comments : sequence of str, optional
+        More ``#`` comment lines for the header (:func:`tune` adds the versions and the command line).
 
     Returns
     -------
@@ -1556,6 +1559,7 @@ def best_scenario_text(result: TuneResult, base: Scenario) -> str:
     lines = [
         f"# written by fsmctl tune: trial {t['index']} of {len(result.trials)}, law {s.law}, seed {s.seed}",
         f"# {summary}",
+        *comments,
         "# run it: fsmctl simulate --scenario best.toml",
         f"extends = {toml_value(extends)}",
         f"name = {toml_value(f'{base.name}-tuned')}",
@@ -1580,9 +1584,9 @@ def _same_design(a: Scenario, b: Scenario) -> bool:
 def _write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scenario | None, extra: dict) -> None:
     import optuna
 
-    from fsmctl import __version__
     from fsmctl.model.scenario import load_scenario
     from fsmctl.outputs import atomic_path, write_json, write_text
+    from fsmctl.simulation.results_io import versions
 
     paths = [out / "trials.csv", out / "pareto.csv", out / "pareto.png"]
     _write_csv(paths[0], result, range(len(result.trials)))
@@ -1593,7 +1597,12 @@ def _write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scen
     best: dict[str, Any] | None = None
     if result.best is not None:
         path = out / "best.toml"
-        write_text(path, best_scenario_text(result, base))
+        provenance = [
+            f"# versions: {', '.join(f'{k} {v}' for k, v in versions().items())}, optuna {optuna.__version__}"
+        ]
+        if extra.get("command"):
+            provenance.append(f"# command: {extra['command']}")
+        write_text(path, best_scenario_text(result, base, comments=provenance))
         paths.append(path)
         verified = expected is not None and _same_design(load_scenario(path), expected)
         if not verified:
@@ -1605,12 +1614,7 @@ def _write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scen
         best = {**t, "scenario_file": "best.toml", "scenario_file_verified": verified}
     payload = {
         "settings": asdict(result.settings),
-        "versions": {
-            "fsmctl": __version__,
-            "optuna": optuna.__version__,
-            "numpy": np.__version__,
-            "python": sys.version.split()[0],
-        },
+        "versions": {**versions(), "optuna": optuna.__version__},
         "scenario": base.label,
         "horizon_s": base.simulation.t_final,
         "torque_limit_N_m": base.controller.torque_limit,
@@ -1817,6 +1821,7 @@ def tune(
     workers: int = 1,
     dask: Any = None,
     dask_timeout: float | None = None,
+    command: Sequence[str] | str | None = None,
 ) -> TuneResult:
     """Search ``settings.law``'s parameters on ``settings.scenario`` and write the results to ``out_dir``.
 
@@ -1844,6 +1849,9 @@ def tune(
         ``fsmctl montecarlo --dask`` checks it).
     dask_timeout : float, optional
         Seconds a Dask scheduler gets to accept the connection and answer (default: montecarlo's).
+    command : sequence of str or str, optional
+        The command line that started the search (``sys.argv``), recorded in ``tune.json`` and as a comment in
+        ``best.toml``, next to the versions (:func:`fsmctl.simulation.versions`).
 
     Returns
     -------
@@ -1916,6 +1924,8 @@ def tune(
             )
     requirements: tuple[np.ndarray, ...] = ()
     extra: dict[str, Any] = {"batch": settings.batch, "pruner": settings.pruner}
+    if command is not None:
+        extra["command"] = command if isinstance(command, str) else shlex.join(str(c) for c in command)
     if "theorem2" in constraints:
         from fsmctl.proofs.theorem2 import reference_delta_requirement
 
