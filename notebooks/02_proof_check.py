@@ -46,7 +46,7 @@ CHEAP = [
     "theorem3-closed-forms", "theorem3-fsm-vs-lsm", "theorem3-fsm-vs-tsm",
 ]  # fmt: skip
 ids = CHEAP if FAST else None
-results = run_claims(ids, ProofContext(scenario, n_random=300 if FAST else 3000), jobs=1 if FAST else 2)
+results = run_claims(ids, ProofContext(scenario, n_random=300 if FAST else 3000), workers=1 if FAST else 2)
 print(format_table(results, scenario))
 assert set(r.id for r in results) <= set(claim_ids())
 

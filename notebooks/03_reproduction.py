@@ -34,7 +34,7 @@ from fsmctl.studies.reproduce import format_claims, overlay_figures, reproduce
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
 OUT = Path(os.environ.get("FSMCTL_OUT") or "reproduction")  # in the working folder, as `fsmctl reproduce`
-rep = reproduce("paper", OUT, fast=FAST, jobs=2, progress=False, figures=False)
+rep = reproduce("paper", OUT, fast=FAST, workers=2, progress=False, figures=False)
 print(f"{len(rep.records)} runs in {rep.wall_time_s:.1f} s; files in {OUT}")
 
 # %% [markdown]

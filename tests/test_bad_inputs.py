@@ -520,3 +520,20 @@ def test_library_helpers_refuse_bad_input_with_input_error(tmp_path):
         momentum_budget(fsmctl.paper_scenario("1"))
     with pytest.raises(InputError, match="unknown setting"):
         explain("paper", [], tmp_path / "x", settings=["no_such_setting"])
+
+
+def test_renamed_jobs_keyword_still_works_with_a_warning_and_workers_is_checked(tmp_path):
+    """``jobs=`` became ``workers=`` (as the command line's --jobs became --workers): one rule, renamed_keyword."""
+    from fsmctl.proofs import ProofContext, run_claims
+    from fsmctl.studies import compare_surfaces
+    from fsmctl.studies.reproduce import reproduce
+
+    ctx = ProofContext(fsmctl.paper_scenario("1"), n_random=10)
+    with pytest.warns(FutureWarning, match=r"run_claims\(jobs=\.\.\.\) is deprecated: use workers="):
+        old = run_claims(["lemma2-sqrt-sum"], ctx, jobs=1)
+    assert [r.verdict for r in old] == [r.verdict for r in run_claims(["lemma2-sqrt-sum"], ctx, workers=1)]
+    with pytest.warns(FutureWarning, match="compare_surfaces"), pytest.raises(InputError, match="workers must be"):
+        compare_surfaces(fsmctl.paper_scenario("1"), jobs=0)  # the old name's value is the one checked
+    with pytest.raises(InputError, match="workers must be a whole number >= 1"):
+        reproduce("paper", tmp_path / "r", workers=0)
+    assert not (tmp_path / "r").exists()

@@ -39,7 +39,7 @@ EXPECTED_CASE1 = {
 
 @pytest.fixture(scope="module")
 def case1_results():
-    results = run_claims(None, ProofContext(paper_scenario("1"), n_random=300), jobs=2)
+    results = run_claims(None, ProofContext(paper_scenario("1"), n_random=300), workers=2)
     return {r.id: r for r in results}
 
 

@@ -354,7 +354,7 @@ def test_reproduce_writes_only_under_its_working_folder(tmp_path, monkeypatch):
     monkeypatch.setattr(tempfile, "tempdir", None)
     monkeypatch.chdir(work)
     assert tempfile.gettempdir() == str(system_temp)
-    rep = reproduce("paper", fast=True, jobs=2, progress=False, figures=False)
+    rep = reproduce("paper", fast=True, workers=2, progress=False, figures=False)
     assert rep.out_dir == type(rep.out_dir)("reproduction")
     assert (work / "reproduction" / "report.md").is_file() and (work / "reproduction" / "runs" / "case1.nc").is_file()
     # fsmctl-build-* are process-private build folders, removed when their process exits

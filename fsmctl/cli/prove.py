@@ -150,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = _load(args.scenario or "paper", args.case)
     ctx = ProofContext(scenario, Region(args.region_sigma, args.region_omega), args.samples, args.seed)
     ids = list(dict.fromkeys(args.claims))
-    results = run_claims(ids or None, ctx, jobs=args.workers)
+    results = run_claims(ids or None, ctx, workers=args.workers)
     if args.json:
         print(report.to_json(results))
     else:

@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
             args.scenario,
             args.out,
             fast=args.fast,
-            jobs=args.workers,
+            workers=args.workers,
             progress=args.progress,
             figures=not args.no_figures,
             log=print,

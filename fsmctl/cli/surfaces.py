@@ -102,7 +102,7 @@ def _compare(args: argparse.Namespace, scenario) -> int:
         reach_threshold=args.reach_threshold,
         sigma_tolerance=args.sigma_tolerance,
         metric_tolerance_deg=args.metric_tolerance,
-        jobs=args.workers,
+        workers=args.workers,
     )
     try:
         paths = comp.write(args.out, figures=not args.no_figures)

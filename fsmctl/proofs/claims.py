@@ -34,6 +34,7 @@ import sympy as sp
 
 import fsmctl.proofs.theorem1 as t1
 import fsmctl.proofs.theorem2 as t2
+from fsmctl.errors import renamed_keyword
 from fsmctl.model.scenario import Scenario
 
 __all__ = [
@@ -164,7 +165,7 @@ class Claim:
     check: Callable[[ProofContext], _Outcome]
     uses_scenario: bool = False
     heavy: bool = False
-    """several seconds of SymPy: run in a worker process when ``jobs > 1``"""
+    """several seconds of SymPy: run in a worker process when ``workers > 1``"""
 
 
 def _mark(ok: bool) -> str:
@@ -1196,7 +1197,9 @@ def _run_ids(ids: list[str], ctx: ProofContext) -> list[ClaimResult]:
     return _run([get_claim(i) for i in ids], ctx)
 
 
-def run_claims(ids: list[str] | None, ctx: ProofContext, *, jobs: int = 1) -> list[ClaimResult]:
+def run_claims(
+    ids: list[str] | None, ctx: ProofContext, *, workers: int = 1, jobs: int | None = None
+) -> list[ClaimResult]:
     """Check the given claims (all when ``ids`` is empty or None) and time each one.
 
     Parameters
@@ -1205,9 +1208,11 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, jobs: int = 1) -> li
         Claim ids (see :func:`claim_ids`); unknown ids raise KeyError.
     ctx : ProofContext
         The scenario and the sampling options.
-    jobs : int
-        With ``jobs > 1`` (and the ``fork`` start method available) the heavy symbolic
+    workers : int
+        With ``workers > 1`` (and the ``fork`` start method available) the heavy symbolic
         claims run in one worker process while the others run here; results are identical.
+    jobs : int, optional
+        Former name of ``workers`` (deprecated: a ``FutureWarning``).
 
     Returns
     -------
@@ -1231,11 +1236,12 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, jobs: int = 1) -> li
     >>> print(results[1].detail.splitlines()[2])
     eta exists: constant symmetric eta (the paper's form, non-strict): yes; time-varying symmetric eta(t): yes; ...
     """
+    workers = renamed_keyword("run_claims", "jobs", "workers", jobs, workers)
     claims = [get_claim(i) for i in ids] if ids else list(CLAIMS)
     heavy = [c for c in claims if c.heavy]
     light = [c for c in claims if not c.heavy]
     results: dict[str, ClaimResult] = {}
-    if jobs > 1 and heavy and light:
+    if workers > 1 and heavy and light:
         import multiprocessing as mp
         from concurrent.futures import ProcessPoolExecutor
 

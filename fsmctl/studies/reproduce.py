@@ -42,7 +42,7 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.errors import InputError
+from fsmctl.errors import InputError, renamed_keyword
 from fsmctl.outputs import atomic_path, environment_problem, write_json, write_text
 from fsmctl.studies.parallel import single_threaded_workers, stop_pool, worker_pool
 
@@ -1509,12 +1509,13 @@ def reproduce(
     out_dir: str | Path = "reproduction",
     *,
     fast: bool = False,
-    jobs: int = 2,
+    workers: int = 2,
     progress: bool | None = None,
     figures: bool = True,
     log: Callable[[str], None] | None = None,
     explain: bool = False,
     command: Sequence[str] | str | None = None,
+    jobs: int | None = None,
 ) -> Reproduction:
     """Run the Section 4 reproduction of Liang et al. (2012) and write its report.
 
@@ -1526,7 +1527,7 @@ def reproduce(
         Output folder (created).
     fast : bool
         Short horizon (10 s; long runs 30 s) and coarser output: for tests and quick looks.
-    jobs : int
+    workers : int
         Worker processes (1: run in this process).
     progress : bool, optional
         tqdm bar over the runs; default: when stderr is a terminal.
@@ -1541,6 +1542,8 @@ def reproduce(
     command : sequence of str or str, optional
         The command line (``sys.argv``), embedded in every run's NetCDF file with its scenario, law and versions
         (:func:`fsmctl.simulation.results_io.provenance`).
+    jobs : int, optional
+        Former name of ``workers`` (deprecated: a ``FutureWarning``).
 
     Returns
     -------
@@ -1550,7 +1553,7 @@ def reproduce(
     Raises
     ------
     InputError
-        If ``source`` cannot be read or lacks one of the paper's cases.
+        If ``source`` cannot be read or lacks one of the paper's cases, or ``workers`` is not a whole number >= 1.
     OSError
         If ``out_dir`` cannot be created (:func:`fsmctl.outputs.environment_problem` names it).
 
@@ -1582,6 +1585,9 @@ def reproduce(
     from tqdm.auto import tqdm
 
     started = _time.perf_counter()
+    workers = renamed_keyword("reproduce", "jobs", "workers", jobs, workers)
+    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
+        raise InputError(f"reproduce: workers must be a whole number >= 1, got {workers!r}")
     _check_source(source)
     if command is not None and not isinstance(command, str):
         command = shlex.join(str(c) for c in command)  # one picklable string for the workers
@@ -1619,10 +1625,10 @@ def reproduce(
     executor = None
     worker_env = contextlib.ExitStack()
     try:
-        if jobs > 1:
+        if workers > 1:
             # one BLAS thread per worker; the environment is restored once the pool has shut down
             worker_env.enter_context(single_threaded_workers())
-            executor = worker_env.enter_context(worker_pool(jobs))  # workers die with this process
+            executor = worker_env.enter_context(worker_pool(workers))  # workers die with this process
         if executor is None:
             for spec in simulated:
                 records[spec.key] = execute_run(source, spec, fast, str(out), command)

@@ -356,7 +356,7 @@ class SurfaceComparison:
     >>> import fsmctl
     >>> from fsmctl.studies import Variant, compare_surfaces
     >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
-    ...                      scalar_check=False, jobs=1, progress=False)
+    ...                      scalar_check=False, workers=1, progress=False)
     >>> c.run_row("limit/uncertain/coupled", "fsm")["n_agents"]
     6
     >>> [o["metric"] for o in c.ordering()]
@@ -551,9 +551,10 @@ def compare_surfaces(
     reach_threshold: float = 1e-3,
     sigma_tolerance: float = 1e-3,
     metric_tolerance_deg: float = 0.03,
-    jobs: int = 2,
+    workers: int = 2,
     scalar_check: bool = True,
     progress: bool | None = None,
+    jobs: int | None = None,
 ) -> SurfaceComparison:
     """Run the scenario with each sliding surface under each variant and measure Theorem 3's quantities.
 
@@ -573,12 +574,14 @@ def compare_surfaces(
         Target ``tau`` of Theorem 3 for every ``|sigma_ei,k|`` (MRP); keep it above the Remark 6 band ``epsilon``.
     metric_tolerance_deg : float
         Tolerance of the AAEM/RAEM settling times (eqs 42-43).
-    jobs : int
+    workers : int
         Simulations run concurrently in threads (the compiled loop releases the GIL).
     scalar_check : bool
         Also run the scalar Theorem 3 grid (:func:`fsmctl.studies.theorem3.scalar_settling_study`).
     progress : bool, optional
         tqdm progress bar (default: on a terminal).
+    jobs : int, optional
+        Former name of ``workers`` (deprecated: a ``FutureWarning``).
 
     Returns
     -------
@@ -590,7 +593,7 @@ def compare_surfaces(
     ------
     fsmctl.errors.InputError
         A tolerance or threshold that is not a finite positive number, ``sigma_tolerance`` inside the Remark 6 band
-        ``epsilon``, ``jobs < 1`` or a non-positive ``t_final``.
+        ``epsilon``, ``workers < 1`` or a non-positive ``t_final``.
 
     Examples
     --------
@@ -599,7 +602,7 @@ def compare_surfaces(
     >>> import fsmctl
     >>> from fsmctl.studies import Variant, compare_surfaces
     >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
-    ...                      scalar_check=False, jobs=1, progress=False)
+    ...                      scalar_check=False, workers=1, progress=False)
     >>> [(r["variant"], r["surface"]) for r in c.runs]
     [('limit/uncertain/coupled', 'fsm'), ('limit/uncertain/coupled', 'tsm'), ('limit/uncertain/coupled', 'lsm')]
     >>> all(r["control_effort_N_m_s"] > 0 for r in c.runs), len(c.agents)
@@ -607,27 +610,28 @@ def compare_surfaces(
     """
     from tqdm import tqdm
 
-    from fsmctl.errors import InputError as UsageError
+    from fsmctl.errors import InputError, renamed_keyword
     from fsmctl.simulation.simulator import SimulationError
     from fsmctl.studies.compare import LawRun, compare_laws, default_steady_window
 
     for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),
                     ("metric_tolerance_deg", metric_tolerance_deg)):  # fmt: skip
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise UsageError(f"{name} must be a finite number > 0, got {v}")
+            raise InputError(f"{name} must be a finite number > 0, got {v}")
     if sigma_tolerance <= scenario.controller.epsilon:
-        raise UsageError(
+        raise InputError(
             f"sigma_tolerance = {sigma_tolerance:g} must exceed the Remark 6 band epsilon = {scenario.controller.epsilon:g} "
             "(inside the band the surface is linear and Theorem 3 does not apply)"
         )
-    if jobs < 1:
-        raise UsageError(f"jobs must be >= 1, got {jobs}")
+    workers = renamed_keyword("compare_surfaces", "jobs", "workers", jobs, workers)
+    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
+        raise InputError(f"workers must be a whole number >= 1, got {workers!r}")
     sim = {}
     if fast:
         sim = {"t_final": 10.0, "dt": 0.002, "output_interval": 0.02}
     if t_final is not None:
         if not (math.isfinite(t_final) and t_final > 0):
-            raise UsageError(f"t_final must be > 0, got {t_final}")
+            raise InputError(f"t_final must be > 0, got {t_final}")
         sim["t_final"] = float(t_final)
     base = scenario.replace(simulation=sim) if sim else scenario
     variants = list(default_variants() if variants is None else variants)
@@ -651,7 +655,7 @@ def compare_surfaces(
             on_result=lambda run, result: _agent_rows(result, run.label, v, opts),
         )
 
-    with ThreadPoolExecutor(max_workers=jobs) as pool:
+    with ThreadPoolExecutor(max_workers=workers) as pool:
         comparisons = list(
             tqdm(pool.map(one, variants), total=len(variants), desc="compare-surfaces", disable=not progress)
         )
@@ -718,7 +722,7 @@ def plot_error_metrics(comparison: SurfaceComparison, metric: str = "aaem_deg"):
     >>> from fsmctl.studies import Variant, compare_surfaces
     >>> from fsmctl.studies.surfaces import plot_error_metrics
     >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
-    ...                      scalar_check=False, jobs=1, progress=False)
+    ...                      scalar_check=False, workers=1, progress=False)
     >>> fig = plot_error_metrics(c, "raem_deg")
     >>> len(fig.axes), len(fig.axes[0].lines) >= 3
     (1, True)
@@ -771,7 +775,7 @@ def plot_agent_times(comparison: SurfaceComparison, variant: str | None = None):
     >>> from fsmctl.studies import Variant, compare_surfaces
     >>> from fsmctl.studies.surfaces import plot_agent_times
     >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
-    ...                      scalar_check=False, jobs=1, progress=False)
+    ...                      scalar_check=False, workers=1, progress=False)
     >>> [ax.get_ylabel().split()[0] for ax in plot_agent_times(c).axes]
     ['reaching', 'sliding-phase', 'control']
     """
