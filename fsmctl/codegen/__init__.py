@@ -14,26 +14,15 @@ from __future__ import annotations
 
 import lazy_loader
 
-__all__ = [
-    "to_casadi_function",
-    "GeneratedFunction",
-    "build_functions",
-    "write_generated",
-    "check_generated",
-    "load_derivation_script",
-    "law_functions",
-    "write_law",
-    "check_law",
-]
+_ATTRS = {
+    "casadi_bridge": ["to_casadi_function"],
+    "writer": ["GeneratedFunction", "build_functions", "write_generated", "check_generated"],
+    "laws": ["load_derivation_script", "law_functions", "write_law", "check_law"],
+}
 
-__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "casadi_bridge": ["to_casadi_function"],
-        "writer": ["GeneratedFunction", "build_functions", "write_generated", "check_generated"],
-        "laws": ["load_derivation_script", "law_functions", "write_law", "check_law"],
-    },
-)
+__all__ = [name for names in _ATTRS.values() for name in names]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(__name__, submod_attrs=_ATTRS)
 
 
 def __dir__() -> list[str]:

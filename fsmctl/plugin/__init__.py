@@ -19,50 +19,28 @@ from __future__ import annotations
 
 import lazy_loader
 
-__all__ = [
-    # iosys.py
-    "formation",
-    "FormationSystem",
-    "initial_state",
-    "mrp_state",
-    "spacecraft",
-    "reference_generator",
-    "law_controller",
-    "fsm_controller",
-    "law_parameter_values",
-    "Neighbour",
-    "ParameterizedSystem",
-    "quaternion_from_mrp",
-    "mrp_from_quaternion",
-    # hardware.py
-    "reaction_wheel_spacecraft",
-    "reaction_wheel_state",
-    "star_tracker",
-    "rate_gyro",
-    "link",
-]
+_ATTRS = {
+    "iosys": [
+        "formation",
+        "FormationSystem",
+        "initial_state",
+        "mrp_state",
+        "spacecraft",
+        "reference_generator",
+        "law_controller",
+        "fsm_controller",
+        "law_parameter_values",
+        "Neighbour",
+        "ParameterizedSystem",
+        "quaternion_from_mrp",
+        "mrp_from_quaternion",
+    ],
+    "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
+}
 
-__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "iosys": [
-            "formation",
-            "FormationSystem",
-            "initial_state",
-            "mrp_state",
-            "spacecraft",
-            "reference_generator",
-            "law_controller",
-            "fsm_controller",
-            "law_parameter_values",
-            "Neighbour",
-            "ParameterizedSystem",
-            "quaternion_from_mrp",
-            "mrp_from_quaternion",
-        ],
-        "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
-    },
-)
+__all__ = [name for names in _ATTRS.values() for name in names]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(__name__, submod_attrs=_ATTRS)
 
 
 def __dir__() -> list[str]:

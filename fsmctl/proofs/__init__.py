@@ -18,36 +18,18 @@ from __future__ import annotations
 
 import lazy_loader
 
-__all__ = [
-    "CLAIMS",
-    "VERDICTS",
-    "ClaimResult",
-    "ProofContext",
-    "claim_ids",
-    "run_claims",
-    "format_table",
-    "write_report",
-    "Erratum",
-    "errata",
-    "analyze_topology",
-    "eta_interval",
-    "Region",
-    "delta_requirements",
-    "check_law",
-    "LawReport",
-]
+_ATTRS = {
+    "claims": ["CLAIMS", "VERDICTS", "ClaimResult", "ProofContext", "claim_ids", "run_claims"],
+    "report": ["format_table", "write_report"],
+    "errata": ["Erratum", "errata"],
+    "theorem1": ["analyze_topology", "eta_interval"],
+    "theorem2": ["Region", "delta_requirements"],
+    "law_check": ["check_law", "LawReport"],
+}
 
-__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "claims": ["CLAIMS", "VERDICTS", "ClaimResult", "ProofContext", "claim_ids", "run_claims"],
-        "report": ["format_table", "write_report"],
-        "errata": ["Erratum", "errata"],
-        "theorem1": ["analyze_topology", "eta_interval"],
-        "theorem2": ["Region", "delta_requirements"],
-        "law_check": ["check_law", "LawReport"],
-    },
-)
+__all__ = [name for names in _ATTRS.values() for name in names]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(__name__, submod_attrs=_ATTRS)
 
 
 def __dir__() -> list[str]:

@@ -14,60 +14,35 @@ from __future__ import annotations
 
 import lazy_loader
 
-__all__ = [
-    "simulate",
-    "simulate_many",
-    "SimulationResult",
-    "SimulationError",
-    "StepSizeWarning",
-    "DiscontinuousControlWarning",
-    "step_size_report",
-    "principal_angles",
-    "relative_principal_angles",
-    "aaem_deg",
-    "raem_deg",
-    "settling_time",
-    "save_result",
-    "write_netcdf",
-    "load_result",
-    "scenario_from_result",
-    "provenance",
-    "versions",
-    "csv_column_names",
-    "ResultFileError",
-    "NotAResultError",
-    "MissingScenarioError",
-    "LawChangedWarning",
-]
+_ATTRS = {
+    "simulator": [
+        "simulate",
+        "simulate_many",
+        "SimulationResult",
+        "SimulationError",
+        "StepSizeWarning",
+        "DiscontinuousControlWarning",
+        "step_size_report",
+    ],
+    "metrics": ["principal_angles", "relative_principal_angles", "aaem_deg", "raem_deg", "settling_time"],
+    "results_io": [
+        "save_result",
+        "write_netcdf",
+        "load_result",
+        "scenario_from_result",
+        "provenance",
+        "versions",
+        "csv_column_names",
+        "ResultFileError",
+        "NotAResultError",
+        "MissingScenarioError",
+        "LawChangedWarning",
+    ],
+}
 
-__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "simulator": [
-            "simulate",
-            "simulate_many",
-            "SimulationResult",
-            "SimulationError",
-            "StepSizeWarning",
-            "DiscontinuousControlWarning",
-            "step_size_report",
-        ],
-        "metrics": ["principal_angles", "relative_principal_angles", "aaem_deg", "raem_deg", "settling_time"],
-        "results_io": [
-            "save_result",
-            "write_netcdf",
-            "load_result",
-            "scenario_from_result",
-            "provenance",
-            "versions",
-            "csv_column_names",
-            "ResultFileError",
-            "NotAResultError",
-            "MissingScenarioError",
-            "LawChangedWarning",
-        ],
-    },
-)
+__all__ = [name for names in _ATTRS.values() for name in names]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(__name__, submod_attrs=_ATTRS)
 
 
 def __dir__() -> list[str]:

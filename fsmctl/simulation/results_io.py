@@ -377,8 +377,9 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, *, precision: str = "float64"
         Storage of the time series.
     compress : bool, optional
         ``False`` writes an uncompressed NetCDF-3 file (SciPy) instead: for intermediate files of many small
-        variables, such as the Monte Carlo chunk files, which it writes about 30 times faster (HDF5 creates every
-        variable as an object of its own); every reader of NetCDF opens both.
+        variables, such as the Monte Carlo chunk files, which it writes about 5 times faster (0.06 s instead of
+        0.33 s for a chunk of 10 runs: HDF5 creates every variable as an object of its own); every reader of
+        NetCDF opens both.
 
     Returns
     -------
@@ -418,24 +419,19 @@ def write_netcdf(ds: xr.Dataset, path: str | Path, *, precision: str = "float64"
         if single and _is_time_series(var):
             enc["dtype"] = "float32"
         encoding[name] = enc
-    if compress and _h5netcdf_available():
-        # encoded in memory, then written as plain bytes: a full or failing disk is an ordinary OSError here,
-        # never an HDF5 error inside the library (which can crash the interpreter when the half-written file
-        # is closed at exit)
-        with _local_write_lock():
-            data = ds.to_netcdf(engine="h5netcdf", encoding=encoding, invalid_netcdf=False)
-        with atomic_path(path) as tmp:
-            tmp.write_bytes(bytes(data))
-        return path
-    if compress:  # no HDF5 engine: NetCDF-3 (SciPy) holds the same variables, uncompressed
+    engine = "h5netcdf" if compress and _h5netcdf_available() else "scipy"
+    if compress and engine == "scipy":  # NetCDF-3 holds the same variables, uncompressed
         warnings.warn(
             "h5netcdf (with h5py) is not installed: writing an uncompressed NetCDF-3 file "
             "(pip install h5netcdf h5py for the compressed NetCDF-4 file)",
             stacklevel=2,
         )
-    plain = {k: {"dtype": v["dtype"]} for k, v in encoding.items() if "dtype" in v}
-    with _local_write_lock():  # in memory, then plain bytes, as above
-        data = ds.to_netcdf(engine="scipy", encoding=plain)
+    if engine == "scipy":  # no compression filters in NetCDF-3: only the storage type stays
+        encoding = {k: {"dtype": v["dtype"]} for k, v in encoding.items() if "dtype" in v}
+    # encoded in memory, then written as plain bytes: a full or failing disk is an ordinary OSError here, never an
+    # HDF5 error inside the library (which can crash the interpreter when the half-written file is closed at exit)
+    with _local_write_lock():
+        data = ds.to_netcdf(engine=engine, encoding=encoding)
     with atomic_path(path) as tmp:
         tmp.write_bytes(bytes(data))
     return path

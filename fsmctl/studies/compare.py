@@ -54,6 +54,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
+from fsmctl.studies.parallel import check_workers
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -931,8 +932,7 @@ def compare_laws(
         isinstance(steady_window_s, (int, float)) and math.isfinite(steady_window_s) and steady_window_s > 0
     ):
         raise InputError(f"steady window must be a finite number of seconds > 0, got {steady_window_s!r}")
-    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"workers must be an integer >= 1, got {workers!r}")
+    check_workers(workers, "compare_laws")
     runs = _as_runs(laws)
     scenarios = [run_scenario(scenario, r) for r in runs]  # every input checked (and laws derived) first
     horizon = scenario.simulation.t_final

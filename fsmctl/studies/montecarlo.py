@@ -1747,7 +1747,7 @@ def run_campaign(
             def on_chunk(c: int, idx: Sequence[int], rows) -> None:
                 ds = _chunk_dataset(rows, base.n_agents, noise_seeds)
                 with guard.deferred():  # an interrupt waits until the chunk file is complete
-                    # an intermediate file: NetCDF-3, which the parent writes ~30x faster than compressed
+                    # an intermediate file: NetCDF-3, which the parent writes ~5x faster than compressed
                     # NetCDF-4 (whose CPU time would compete with the workers'); montecarlo.nc is compressed
                     _write_netcdf(ds, _chunk_path(out, c), compress=False)
                 bar.update(len(idx))

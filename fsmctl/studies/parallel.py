@@ -35,11 +35,14 @@ from collections.abc import Iterator
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.context import BaseContext
 
+from fsmctl.errors import InputError
+
 __all__ = [
     "WORKER_THREAD_VARIABLES",
     "WATCHDOG_PERIOD_S",
     "CampaignInterrupted",
     "InterruptGuard",
+    "check_workers",
     "interrupt_guard",
     "process_pool_context",
     "single_threaded_workers",
@@ -58,6 +61,40 @@ ORPHAN_EXIT_CODE = 70
 """exit status of a worker that found its parent gone"""
 
 _PR_SET_PDEATHSIG = 1  # <linux/prctl.h>
+
+
+def check_workers(workers: object, where: str) -> int:
+    """The one check of a worker count given to a study (``tune``, ``reproduce``, ``compare_laws``, ...).
+
+    Parameters
+    ----------
+    workers : object
+        What the caller passed.
+    where : str
+        The function's name, for the message.
+
+    Returns
+    -------
+    int
+        ``workers``, a whole number >= 1.
+
+    Raises
+    ------
+    InputError
+        ``workers`` is not a whole number >= 1 (``True`` is not one).
+
+    Examples
+    --------
+    >>> check_workers(2, "reproduce")
+    2
+    >>> check_workers(0, "reproduce")
+    Traceback (most recent call last):
+    ...
+    fsmctl.errors.InputError: reproduce: workers must be a whole number >= 1, got 0
+    """
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"{where}: workers must be a whole number >= 1, got {workers!r}")
+    return workers
 
 
 def process_pool_context() -> BaseContext:

@@ -44,7 +44,7 @@ import numpy as np
 
 from fsmctl.errors import InputError, renamed_keyword
 from fsmctl.outputs import atomic_path, environment_problem, write_json, write_text
-from fsmctl.studies.parallel import single_threaded_workers, stop_pool, worker_pool
+from fsmctl.studies.parallel import check_workers, single_threaded_workers, stop_pool, worker_pool
 
 __all__ = [
     "REPRODUCED",
@@ -1586,8 +1586,7 @@ def reproduce(
 
     started = _time.perf_counter()
     workers = renamed_keyword("reproduce", "jobs", "workers", jobs, workers)
-    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
-        raise InputError(f"reproduce: workers must be a whole number >= 1, got {workers!r}")
+    check_workers(workers, "reproduce")
     _check_source(source)
     if command is not None and not isinstance(command, str):
         command = shlex.join(str(c) for c in command)  # one picklable string for the workers

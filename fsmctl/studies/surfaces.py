@@ -613,6 +613,7 @@ def compare_surfaces(
     from fsmctl.errors import InputError, renamed_keyword
     from fsmctl.simulation.simulator import SimulationError
     from fsmctl.studies.compare import LawRun, compare_laws, default_steady_window
+    from fsmctl.studies.parallel import check_workers
 
     for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),
                     ("metric_tolerance_deg", metric_tolerance_deg)):  # fmt: skip
@@ -624,8 +625,7 @@ def compare_surfaces(
             "(inside the band the surface is linear and Theorem 3 does not apply)"
         )
     workers = renamed_keyword("compare_surfaces", "jobs", "workers", jobs, workers)
-    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
-        raise InputError(f"workers must be a whole number >= 1, got {workers!r}")
+    check_workers(workers, "compare_surfaces")
     sim = {}
     if fast:
         sim = {"t_final": 10.0, "dt": 0.002, "output_interval": 0.02}

@@ -1889,11 +1889,10 @@ def tune(
 
     from fsmctl.outputs import output_folder
     from fsmctl.studies.montecarlo import DASK_TIMEOUT_S, _connect_dask
-    from fsmctl.studies.parallel import CampaignInterrupted, interrupt_guard
+    from fsmctl.studies.parallel import CampaignInterrupted, check_workers, interrupt_guard
 
     settings.validate()
-    if not isinstance(workers, int) or isinstance(workers, bool) or workers < 1:
-        raise InputError(f"tune: workers must be a whole number >= 1, got {workers!r}")
+    check_workers(workers, "tune")
     base = _base_scenario(settings)
     settings = dataclasses.replace(settings, case=base.case)
     space = search_space(settings, base)

@@ -26,50 +26,28 @@ from __future__ import annotations
 
 import lazy_loader
 
-__all__ = [
-    "LawBuilder",
-    "Law",
-    "ErrorState",
-    "LawDefinitionError",
-    "fast_sliding_surface",
-    "FunctionSpec",
-    "lagrange_model",
-    "mrp_G",
-    "mrp_G_inverse",
-    "mrp_error",
-    "mrp_kinematics",
-    "mrp_to_dcm",
-    "skew",
-    "sliding_variable",
-    "control_law_pieces",
-    "closed_loop_acceleration",
-    "saturate",
-    "settling_time_closed_forms",
-    "vector_symbols",
-    "symmetric_matrix_symbols",
-]
+_ATTRS = {
+    "law": ["LawBuilder", "Law", "ErrorState", "LawDefinitionError"],
+    "surfaces": ["fast_sliding_surface"],
+    "functions": ["FunctionSpec"],
+    # ErrorModel and SingularityFix stay importable from here (notebook 01 does) but are not in __all__:
+    # every function takes their strings, and the enums are documented in their modules
+    "model": ["lagrange_model", "ErrorModel"],
+    "mrp": ["mrp_G", "mrp_G_inverse", "mrp_error", "mrp_kinematics", "mrp_to_dcm", "skew"],
+    "controller": [
+        "SingularityFix",
+        "sliding_variable",
+        "control_law_pieces",
+        "closed_loop_acceleration",
+        "saturate",
+    ],
+    "theorem3": ["settling_time_closed_forms"],
+    "symbols": ["vector_symbols", "symmetric_matrix_symbols"],
+}
 
-__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
-    __name__,
-    submod_attrs={
-        "law": ["LawBuilder", "Law", "ErrorState", "LawDefinitionError"],
-        "surfaces": ["fast_sliding_surface"],
-        "functions": ["FunctionSpec"],
-        # ErrorModel and SingularityFix stay importable from here (notebook 01 does) but are not in __all__:
-        # every function takes their strings, and the enums are documented in their modules
-        "model": ["lagrange_model", "ErrorModel"],
-        "mrp": ["mrp_G", "mrp_G_inverse", "mrp_error", "mrp_kinematics", "mrp_to_dcm", "skew"],
-        "controller": [
-            "SingularityFix",
-            "sliding_variable",
-            "control_law_pieces",
-            "closed_loop_acceleration",
-            "saturate",
-        ],
-        "theorem3": ["settling_time_closed_forms"],
-        "symbols": ["vector_symbols", "symmetric_matrix_symbols"],
-    },
-)
+__all__ = [name for names in _ATTRS.values() for name in names if name not in ("ErrorModel", "SingularityFix")]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(__name__, submod_attrs=_ATTRS)
 
 
 def __dir__() -> list[str]:
