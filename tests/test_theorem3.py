@@ -154,3 +154,20 @@ def test_figure_and_csv(tmp_path):
     path = t3.write_scalar_study_csv(study, tmp_path / "t3.csv")
     text = path.read_text().splitlines()
     assert text[0].startswith("mode,x0,tau") and len(text) == 4
+
+
+def test_csv_is_written_atomically(tmp_path, monkeypatch):
+    """A write that fails halfway leaves the previous file whole (no truncated CSV), and no temporary file."""
+    import csv
+
+    study = t3.scalar_settling_study([(0.6, 0.8, 0.7, 1.0, 1e-3)], progress=False)
+    path = t3.write_scalar_study_csv(study, tmp_path / "t3.csv")
+    before = path.read_text()
+
+    def fail(self, rows):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(csv.DictWriter, "writerows", fail)
+    with pytest.raises(OSError):
+        t3.write_scalar_study_csv(study, path)
+    assert path.read_text() == before and sorted(p.name for p in tmp_path.iterdir()) == ["t3.csv"]
