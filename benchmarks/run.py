@@ -1329,7 +1329,9 @@ def throughput_section(quick: bool, log) -> dict:
 def _montecarlo_breakdown(settings, runs: int = 10) -> dict:
     """Per-run CPU of a chunk of Monte Carlo runs in this process, by stage: drawing the run, flying the chunk
     together (:func:`fsmctl.simulate_many`; its compiled loop alone: the runs' ``wall_time``), and the record
-    (Theorem 1 and 2 checks, metrics)."""
+    (Theorem 1 and 2 checks, metrics); then the same chunk flown with the base scenario's disturbances (shared
+    between the runs, so the driver evaluates each agent's once per time instead of once per run): what the
+    per-run disturbance costs."""
     from fsmctl.simulation.simulator import simulate_many
     from fsmctl.studies import montecarlo as mc
 
@@ -1348,9 +1350,20 @@ def _montecarlo_breakdown(settings, runs: int = 10) -> dict:
             mc.run_record(drawn[k], settings, seeds[k], r)
     record = time.process_time() - c
     loop = sum(r.wall_time for r in results if not isinstance(r, Exception))
+    shared = [
+        run.replace(
+            agents=[
+                dataclasses.replace(a, disturbance=b.disturbance) for a, b in zip(run.agents, base.agents, strict=True)
+            ]
+        )
+        for run in drawn
+    ]
+    c = time.process_time()
+    simulate_many(shared, errors="return")
+    fly_shared = time.process_time() - c
     return {
         "runs": runs, "draw_cpu_s": draw / runs, "fly_cpu_s": fly / runs, "loop_s": loop / runs,
-        "record_cpu_s": record / runs,
+        "record_cpu_s": record / runs, "fly_shared_disturbance_cpu_s": fly_shared / runs,
     }  # fmt: skip
 
 
@@ -1719,6 +1732,12 @@ def markdown(res: dict) -> str:
                 f"the record (Theorem 1/2 checks, metrics) {bd['record_cpu_s']:.3f}; total {total:.3f} CPU s per run, "
                 f"i.e. {500 * total:.0f} s for 1000 runs on 2 cores at best. The 120 s target needs <= 0.24 CPU s per run.",
             ]
+            if "fly_shared_disturbance_cpu_s" in bd:
+                lines.append(
+                    f"The same chunk with the base scenario's disturbances (shared between the runs) flies in "
+                    f"{bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run: each run's own disturbance (its glibc cos, "
+                    f"evaluated per run) costs {bd['fly_cpu_s'] - bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run."
+                )
             prof = (res.get("throughput") or {}).get("profile")
             if prof:
                 fixed = sum(v for k, v in prof.items() if not k.startswith("driver")) / 100.0
