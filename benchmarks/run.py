@@ -1237,9 +1237,14 @@ def _loop_profile(count: int, log) -> dict | None:
         if "pow" in sym:
             kind = "pow (glibc's, or fsmctl_pow's scalar calls)"
         elif any(f in sym for f in ("cos", "sin", "exp", "log")) and dso.startswith("libm"):
-            kind = "sin/cos (glibc: disturbance, reference)"
+            kind = "sin/cos (glibc's: the lanes off fsmctl's fast path)"
+        elif sym in ("fsmctl_sin", "fsmctl_cos"):
+            kind = "sin/cos (fsmctl's scalar calls: the reference)"
         elif sym.endswith(("_x4", "_x4.localalias")):
-            kind = "generated batched kernels (law_local with fsmctl's 4-lane pow, law_control, plant_rhs)"
+            kind = (
+                "generated batched kernels (law_local with fsmctl's 4-lane pow, law_control, plant_rhs, "
+                "disturbance_torque with fsmctl's 4-lane cos)"
+            )
         elif sym in ("eval_rhs", "aggregate", "link_weight", "check_commands_lanes"):
             kind = "driver: eval_rhs (lane packing, neighbour sums, link weights)"
         elif dso.startswith("libm"):
@@ -1735,8 +1740,9 @@ def markdown(res: dict) -> str:
             if "fly_shared_disturbance_cpu_s" in bd:
                 lines.append(
                     f"The same chunk with the base scenario's disturbances (shared between the runs) flies in "
-                    f"{bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run: each run's own disturbance (its glibc cos, "
-                    f"evaluated per run) costs {bd['fly_cpu_s'] - bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run."
+                    f"{bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run: each run's own disturbance (three cosines per "
+                    f"agent and time, four agents per call of the batched kernel) costs "
+                    f"{bd['fly_cpu_s'] - bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run."
                 )
             prof = (res.get("throughput") or {}).get("profile")
             if prof:
@@ -1821,10 +1827,10 @@ def _throughput_markdown(tp: dict) -> list[str]:
         floor = fixed * b["sim_cpu_s_per_eval"] * scale + b["metrics_cpu_s_per_eval"] * scale
         lines += [
             "",
-            "pow is fsmctl's (`fsmctl/csrc/fsm_pow.h`, the pow of every compiled path: batched lanes and scalar calls "
-            "give the same bits), four lanes at once inside the law_local kernels; it, the generated kernels and the "
-            "disturbance's cos (glibc's, lane by lane) are fixed by the generated code, which this benchmark does not "
-            "change.",
+            "pow, sin and cos are fsmctl's (`fsmctl/csrc/fsm_pow.h`, `fsm_trig.h`: those of every compiled path, "
+            "batched lanes and scalar calls give the same bits), four lanes at once inside the law_local and "
+            "disturbance_torque kernels; they and the generated kernels are fixed by the generated code, which this "
+            "benchmark does not change.",
             f"What bounds it: the generated code and libm are {fixed:.0%} of the loop, {fixed * b['sim_cpu_s_per_eval'] * scale:.3f} "
             f"CPU s per evaluation; with the metrics ({b['metrics_cpu_s_per_eval'] * scale:.3f}) that is {floor:.3f} CPU s, "
             f"i.e. at most {2 * THROUGHPUT_WINDOW_S / floor:.0f} evaluations in 5 minutes even if the hand-written driver "

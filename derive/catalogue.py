@@ -88,6 +88,7 @@ def disturbance_spec() -> FunctionSpec:
         doc="sinusoidal disturbance torque d_k(t) = a_k cos(w_k t + phi_k) + c_k (Case 1, eq 29's u_d)",
         inputs=(("t", t), ("params", p)),
         outputs=(("d", value),),
+        batched=True,
     )
 
 

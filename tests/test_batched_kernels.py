@@ -10,6 +10,7 @@ lanes, both error models, zero-order hold, the adaptive integrator).
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import itertools
 import os
 import subprocess
@@ -136,8 +137,29 @@ def _with_agents(scenario, n: int, **sections):
     return with_agents(scenario, agents, None if n == scenario.n_agents else ring(n, 8.0, 1.5), **sections)
 
 
+def _own_disturbances(scenario, n: int, shared: int):
+    """``n`` agents whose first ``n - shared`` have disturbances of their own (amplitudes, frequencies, phases:
+    the driver evaluates those FSM_LANES at a time) and whose last ``shared`` copy agent 1's (evaluated once)."""
+    agents = []
+    for i in range(n):
+        a = scenario.agents[i % len(scenario.agents)]
+        if i < n - shared:
+            k = 1.0 + 0.37 * i
+            d = dataclasses.replace(
+                a.disturbance,
+                amplitude=tuple(0.2 * k * (1, -1, 1)[j] for j in range(3)),
+                frequency=tuple(0.3 * k + 0.1 * j for j in range(3)),
+                phase=tuple(1.7 * i + 0.5 * j for j in range(3)),
+            )
+        else:
+            d = agents[0].disturbance
+        agents.append(dataclasses.replace(a, disturbance=d))
+    return with_agents(scenario, agents, ring(n, 8.0, 1.5), simulation={"t_final": 1.0, "output_interval": 0.01})
+
+
 CASES = {
     "case1-6-agents": lambda p: p.replace(simulation={"t_final": 2.0, "output_interval": 0.01}),
+    "7-agents-own-and-shared-disturbances": lambda p: _own_disturbances(p, 7, shared=2),
     "one-agent": lambda p: _with_agents(p, 1, simulation={"t_final": 1.0, "output_interval": 0.01}),
     "3-agents-sgn": lambda p: _with_agents(
         p, 3, controller={"boundary_layer": 0.0}, simulation={"t_final": 1.0, "output_interval": 0.01}
@@ -217,7 +239,7 @@ def test_printer_writes_exact_constants_and_every_lane_rule():
     )  # fmt: skip
     source = batched_source([("g", ca.Function("g", [x, y], [expr]))], "g.h")
     assert "fsm_splat(0.1)" in source and "fsm_splat((-1e-300))" in source and "fsm_splat(INFINITY)" in source
-    for helper in ("fsm_fmin", "fsm_fmax", "fsm_sign", "fsm_fabs", "fsm_if_else_zero", "fsm_pow", "fsm_sqrt"):
+    for helper in ("fsm_fmin", "fsm_fmax", "fsm_sign", "fsm_fabs", "fsm_if_else_zero", "fsm_pow", "fsm_sqrt", "fsm_cos"):
         assert f"{helper}(" in source.split("int g_x4")[1], helper
 
 
@@ -225,7 +247,7 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     """Each operation the printer knows, compiled both ways with the library's compiler and flags, on every pair
     of special values (signed zeros, subnormals, huge, infinities, NaN): bit-identical, except fmin/fmax ties of
     +0 and -0 (unspecified in C99)."""
-    from fsmctl.model.generated_code import _compiler, _driver_dir, compile_flags, pow_include_args
+    from fsmctl.model.generated_code import _compiler, _driver_dir, compile_flags, math_include_args
 
     cc = _compiler()
     if cc is None:
@@ -250,8 +272,9 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     (tmp_path / "g_b.c").write_text(batched_source([("g", g)], "g_b.h"))
     flags, _ = compile_flags(cc)
     so = tmp_path / "g.so"
-    sources = [str(tmp_path / "g.c"), str(tmp_path / "g_b.c"), str(_driver_dir() / "fsm_pow.c")]  # as the library
-    cmd = [cc, *flags, f"-I{tmp_path}", f"-I{_driver_dir()}", *pow_include_args(), *sources, "-o", str(so), "-lm"]
+    math = [str(_driver_dir() / f) for f in ("fsm_pow.c", "fsm_trig.c")]  # fsmctl's pow, sin, cos: as the library
+    sources = [str(tmp_path / "g.c"), str(tmp_path / "g_b.c"), *math]
+    cmd = [cc, *flags, f"-I{tmp_path}", f"-I{_driver_dir()}", *math_include_args(), *sources, "-o", str(so), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     lib = ctypes.CDLL(str(so))

@@ -5,9 +5,10 @@ CasADi's own code generator prints one scalar statement per instruction of an
 a C vector type of :data:`LANES` doubles (GCC/Clang ``vector_size``
 extension), so one call evaluates the function for ``LANES`` agents with SIMD
 arithmetic.  Every lane performs exactly the scalar program: the same IEEE
-operations in the same order (``+ - * /`` are correctly rounded per lane, the
-library functions ``sin``/``cos``/... are called per lane, ``pow`` is fsmctl's
-(``fsmctl/csrc/fsm_pow.h``, the pow of every compiled path) on four lanes at once, and
+operations in the same order (``+ - * /`` are correctly rounded per lane, ``pow``,
+``sin`` and ``cos`` are fsmctl's (``fsmctl/csrc/fsm_pow.h`` and ``fsm_trig.h``, those of
+every compiled path) on four lanes at once, the other library functions
+(``sqrt``, ``exp``, ...) are called per lane, and
 comparisons, ``if_else``, ``sign``, ``fmin``/``fmax`` and ``fabs`` are bit
 selections with the C99 semantics of CasADi's scalar helpers), so with FMA
 contraction off a lane's result is bit-identical to the scalar CasADi C
@@ -36,7 +37,7 @@ __all__ = ["LANES", "UnsupportedInstructionError", "batched_source", "batched_he
 
 LANES = 4
 """Lanes per kernel call: 4 doubles = one 256-bit AVX register (two SSE2 registers without AVX); fsm_pow.h's
-``fsm_pow_v4`` is written for 4."""
+``fsm_pow_v4`` and fsm_trig.h's ``fsm_sincos_v4`` are written for 4."""
 
 
 class UnsupportedInstructionError(ValueError):
@@ -105,6 +106,7 @@ _PRELUDE = """\
 #include <string.h>
 
 #include "fsm_pow.h"
+#include "fsm_trig.h"
 #include "{header}"
 
 #ifdef FSM_HAVE_BATCHED
@@ -135,6 +137,9 @@ static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) {{ return fsm_select((x < y) | (y
 /* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
  * four lanes at once */
 static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {{ return fsm_pow_v4(x, y, lanes); }}
+/* sin, cos: fsmctl's (fsmctl/csrc/fsm_trig.h, likewise), four lanes at once */
+static inline fsm_v fsm_sin(fsm_v x, int lanes) {{ return fsm_sincos_v4(x, 1, lanes); }}
+static inline fsm_v fsm_cos(fsm_v x, int lanes) {{ return fsm_sincos_v4(x, 0, lanes); }}
 /* the other library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm
  * result; inactive lanes keep x (their results are unspecified and never read) */
 #define FSM_LANEWISE(name, fn) \\
@@ -144,8 +149,6 @@ static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {{ return fsm_pow_v4(x,
     return r; \\
   }}
 FSM_LANEWISE(fsm_sqrt, sqrt)
-FSM_LANEWISE(fsm_sin, sin)
-FSM_LANEWISE(fsm_cos, cos)
 FSM_LANEWISE(fsm_exp, exp)
 FSM_LANEWISE(fsm_log, log)
 FSM_LANEWISE(fsm_tan, tan)

@@ -115,7 +115,8 @@ static int law_contract_ok(const fsm_problem *P, int *nk, int *nc) {
  * generated kernels).  The rows hold every argument and result of the per-agent functions, so law_local
  * writes the cache where law_control reads it, and the run constants (parameters, inertias) are packed
  * once.  Row offsets follow from the law's sizes.  Lanes past the last agent repeat it; their results are
- * never read. */
+ * never read.  Time and reference are the same for every group: the kernels read them from the shared rows
+ * (law_row), so a group's own rows RW_T, RW_SD, RW_WD and RW_WDD stay unused. */
 enum {
   RW_T, RW_SIGMA, RW_OMEGA, RW_Z, RW_SD, RW_WD, RW_WDD, RW_J0, RW_PARAMS, RW_CONST, /* law inputs, as LI_* */
   RW_CACHE, RW_KSUM, RW_RECV, RW_KRS, RW_UMAX,                                /* control inputs, as CI_* */
@@ -127,6 +128,10 @@ enum {
 #define LANE(g, row) ((g) + FSM_LANES * (row))
 /* Lane rows of the wheel kernels (wheels of all agents, flattened, FSM_LANES at a time). */
 enum { WL_U, WL_OM, WL_PAR, WL_UM = WL_PAR + 4, WL_UN, WL_G, WL_JS = WL_G + 3, WL_UNET, WL_WD, WL_OD = WL_WD + 3, WL_END };
+/* Lane rows of the disturbance kernel (the agents whose disturbance parameters are distinct, FSM_LANES at a time). */
+enum { DL_PAR, DL_D = DL_PAR + 12, DL_END = DL_D + 3 };
+/* Lane rows every group shares (the same value in every lane): time and reference, filled once per evaluation. */
+enum { CM_T, CM_SD, CM_WD = CM_SD + 3, CM_WDD = CM_WD + 3, CM_END = CM_WDD + 3 };
 
 
 /* The agent in lane l of group g: lanes past the last agent repeat it (their results are never read). */
@@ -158,6 +163,7 @@ typedef struct {
   int n, nz, nb, np, nk, nc, stride;     /* agents, law states, broadcast, params, constants, cache; state stride */
   int members;                           /* runs flown together (>= 1): the output layout, see fsm_problem */
   int batched;                           /* 1: lane-batched kernels for the per-agent functions */
+  double common[CM_END * FSM_LANES];     /* the shared lane rows (CM_*) */
   int n_groups;                          /* ceil(n / FSM_LANES) */
   int row[RW_END + 1];                   /* row offsets of the lane blocks */
   double *lanes;                         /* n_groups blocks of row[RW_END] x FSM_LANES doubles */
@@ -172,6 +178,9 @@ typedef struct {
   int *d_src;                            /* agent whose disturbance parameters agent i's equal, bit for bit (<= i) */
   double d_time;
   int d_valid;
+  double *dl;                            /* disturbance lanes (batched): n_dgroups blocks of DL_END x FSM_LANES */
+  int *d_lane;                           /* per lane of the disturbance groups: the agent it evaluates */
+  int n_ddistinct, n_dgroups;            /* agents with d_src[i] == i; ceil(n_ddistinct / FSM_LANES) */
   double wd[3], wdd[3];
   double *k_val, *k_base, *k_lo, *k_hi;  /* per-link schedule cache */
   double *k_flo, *k_fhi;                 /* per link: where the cache needs no period check (see link_weight) */
@@ -214,6 +223,8 @@ static void free_workspace(workspace *W) {
   free(W->act_src);
   free(W->act_k);
   free(W->d_src);
+  free(W->dl);
+  free(W->d_lane);
   free(W->wl);
   free(W->wheel_lane);
   free(W->wheel_x);
@@ -258,6 +269,7 @@ static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes
 #define law_control_paper_x4 fsm_no_kernel
 #define law_control_exact_x4 fsm_no_kernel
 #define plant_rhs_x4 fsm_no_kernel
+#define disturbance_torque_x4 fsm_no_kernel
 #define gyrostat_rhs_x4 fsm_no_kernel
 #define wheel_torque_x4 fsm_no_kernel
 #define wheel_acceleration_x4 fsm_no_kernel
@@ -273,6 +285,16 @@ static void lane_rows(workspace *W) {
 
 static double *group_block(workspace *W, int g) { return W->lanes + (size_t)g * W->row[RW_END] * FSM_LANES; }
 #define ROW(G, r) LANE(G, W->row[r])
+/* Argument row r of a law kernel for group G: the shared rows (time, reference) or the group's own. */
+static inline const double *law_row(workspace *W, double *G, int r) {
+  switch (r) {
+    case RW_T: return LANE(W->common, CM_T);
+    case RW_SD: return LANE(W->common, CM_SD);
+    case RW_WD: return LANE(W->common, CM_WD);
+    case RW_WDD: return LANE(W->common, CM_WDD);
+    default: return ROW(G, r);
+  }
+}
 /* Where agent i's value of a lane row sits (batched kernels): lane i % FSM_LANES of row r of group i / FSM_LANES. */
 static inline double *lane_slot(workspace *W, int r, int i) {
   double *G = group_block(W, i / FSM_LANES);
@@ -440,6 +462,22 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     law_constants(arg, res, W->iw, W->w, 0);
   }
   if (W->batched) pack_lane_constants(W, P);
+  if (W->batched) { /* disturbance lanes: the agents with distinct parameters, packed once */
+    for (int i = 0; i < n; ++i) W->n_ddistinct += W->d_src[i] == i;
+    W->n_dgroups = (W->n_ddistinct + FSM_LANES - 1) / FSM_LANES;
+    const size_t slots = (size_t)W->n_dgroups * FSM_LANES;
+    W->dl = calloc(slots * DL_END > 0 ? slots * DL_END : 1, sizeof(double));
+    W->d_lane = calloc(slots > 0 ? slots : 1, sizeof(int));
+    if (!W->dl || !W->d_lane) { free_workspace(W); return FSM_NOMEM; }
+    size_t m = 0;
+    for (int i = 0; i < n; ++i)
+      if (W->d_src[i] == i) W->d_lane[m++] = i;
+    for (; m < slots; ++m) W->d_lane[m] = W->d_lane[W->n_ddistinct - 1]; /* lanes past the last repeat it */
+    for (int g = 0; g < W->n_dgroups; ++g)
+      for (int l = 0; l < FSM_LANES; ++l)
+        to_lane(W->dl + (size_t)g * DL_END * FSM_LANES + FSM_LANES * DL_PAR,
+                P->dist_params + 12 * (size_t)W->d_lane[g * FSM_LANES + l], 12, l);
+  }
   if (W->batched && W->nw > 0) { /* wheel lanes: the constant rows are packed once */
     const int total = n * W->nw;
     W->n_wgroups = (total + FSM_LANES - 1) / FSM_LANES;
@@ -807,12 +845,12 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     reference_rhs(arg, res, W->iw, W->w, 0);
   }
   if (W->batched) {
+    broadcast_row(LANE(W->common, CM_T), &t, 1);
+    broadcast_row(LANE(W->common, CM_SD), sd, 3);
+    broadcast_row(LANE(W->common, CM_WD), W->wd, 3);
+    broadcast_row(LANE(W->common, CM_WDD), W->wdd, 3);
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
-      broadcast_row(ROW(G, RW_T), &t, 1);
-      broadcast_row(ROW(G, RW_SD), sd, 3);
-      broadcast_row(ROW(G, RW_WD), W->wd, 3);
-      broadcast_row(ROW(G, RW_WDD), W->wdd, 3);
       for (int l = 0; l < FSM_LANES; ++l) {
         const int i = lane_agent(g, l, n);
         const double *xi = x + 3 + (size_t)S * i;
@@ -823,7 +861,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       }
       if (compute_control) {
         const double *arg[N_LOCAL_IN];
-        for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = ROW(G, RW_T + a);
+        for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = law_row(W, G, RW_T + a);
         double *res[2] = {ROW(G, RW_B), ROW(G, RW_CACHE)};
         W->local_x(arg, res, active_lanes(g, n));
         for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
@@ -847,7 +885,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       for (int g = 0; g < W->n_groups; ++g) {
         double *G = group_block(W, g);
         const double *arg[N_CONTROL_IN];
-        for (int a = 0; a < N_CONTROL_IN; ++a) arg[a] = ROW(G, RW_T + a);
+        for (int a = 0; a < N_CONTROL_IN; ++a) arg[a] = law_row(W, G, RW_T + a);
         double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), ROW(G, RW_ZDOT)};
         W->control_x(arg, res, active_lanes(g, n));
         if (in_lanes) continue;
@@ -876,17 +914,29 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       check_commands(W, t);
     if (W->nw > 0) wheel_commands(W, P);
   }
-  /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3 */
+  /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3.  Each
+   * distinct disturbance is evaluated once (batched: FSM_LANES of them per kernel call); agents whose parameters
+   * equal an earlier agent's copy its torque. */
   if (!W->d_valid || W->d_time != t) {
-    for (int i = 0; i < n; ++i) {
-      if (W->d_src[i] != i) {
-        memcpy(W->d + 3 * i, W->d + 3 * W->d_src[i], 3 * sizeof(double));
-        continue;
+    if (W->batched) {
+      for (int g = 0; g < W->n_dgroups; ++g) {
+        double *D = W->dl + (size_t)g * DL_END * FSM_LANES;
+        const int lanes = active_lanes(g, W->n_ddistinct);
+        const double *arg[2] = {LANE(W->common, CM_T), LANE(D, DL_PAR)};
+        double *res[1] = {LANE(D, DL_D)};
+        disturbance_torque_x4(arg, res, lanes);
+        for (int l = 0; l < lanes; ++l) from_lane3(W->d + 3 * W->d_lane[g * FSM_LANES + l], LANE(D, DL_D), l);
       }
-      const double *arg[2] = {&t, P->dist_params + 12 * i};
-      double *res[1] = {W->d + 3 * i};
-      disturbance_torque(arg, res, W->iw, W->w, 0);
+    } else {
+      for (int i = 0; i < n; ++i) {
+        if (W->d_src[i] != i) continue;
+        const double *arg[2] = {&t, P->dist_params + 12 * i};
+        double *res[1] = {W->d + 3 * i};
+        disturbance_torque(arg, res, W->iw, W->w, 0);
+      }
     }
+    for (int i = 0; i < n; ++i)
+      if (W->d_src[i] != i) memcpy(W->d + 3 * i, W->d + 3 * W->d_src[i], 3 * sizeof(double));
     W->d_time = t;
     W->d_valid = 1;
   }

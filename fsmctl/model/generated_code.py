@@ -652,10 +652,11 @@ def _acquire_lock(folder: Path) -> int | None:
     return None
 
 
-def pow_include_args() -> list[str]:
-    """Compiler arguments that make every source's ``pow`` fsmctl's (``fsmctl/csrc/fsm_pow.h``, defined in
-    ``fsm_pow.c``): the scalar and the batched paths of the library give the same bits."""
-    return ["-include", str(_driver_dir() / "fsm_pow.h")]
+def math_include_args() -> list[str]:
+    """Compiler arguments that make every source's ``pow``, ``sin`` and ``cos`` fsmctl's (``fsmctl/csrc/fsm_pow.h``
+    and ``fsm_trig.h``, defined in ``fsm_pow.c`` and ``fsm_trig.c``): the scalar and the batched paths of the
+    library give the same bits."""
+    return ["-include", str(_driver_dir() / "fsm_pow.h"), "-include", str(_driver_dir() / "fsm_trig.h")]
 
 
 def _build(cc: str, flags: tuple[str, ...], sources: list[Path], target: Path) -> _BuildResult:
@@ -668,7 +669,7 @@ def _build(cc: str, flags: tuple[str, ...], sources: list[Path], target: Path) -
     """
     tmp = _temp_file(target.parent, target.name)
     includes = [f"-I{d}" for d in dict.fromkeys(p.parent for p in sources)]
-    cmd = [cc, *flags, *includes, *pow_include_args(), *map(str, sources), "-o", str(tmp), "-lm"]
+    cmd = [cc, *flags, *includes, *math_include_args(), *map(str, sources), "-o", str(tmp), "-lm"]
     try:
         try:
             proc = subprocess.run(cmd, capture_output=True, text=True, timeout=_BUILD_TIMEOUT_S)

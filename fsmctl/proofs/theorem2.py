@@ -305,7 +305,7 @@ def delta_requirements(
     *,
     n_random: int = 3000,
     seed: int = 0,
-    dt_reference: float = 0.05,
+    dt_reference: float | None = 0.05,
     search_scale: bool = True,
 ) -> Theorem2Numeric:
     """The ``delta_i`` Theorem 2 needs for a scenario, by sampling (Liang et al. 2012, eqs 29-33, corrected).
@@ -320,8 +320,10 @@ def delta_requirements(
         Uniform random samples added to the grid (box corners, face and edge centres, centre).
     seed : int
         Seed of the random samples.
-    dt_reference : float
-        Time step of the scan of the reference trajectory over ``[0, t_final]``.
+    dt_reference : float or None
+        Time step of the scan of the reference trajectory over ``[0, t_final]``; None: no scan (each agent's
+        ``reference_trajectory`` is NaN and ``trajectory_samples`` 0; e.g. a Monte Carlo record, which keeps only
+        the region and reference-box requirements).
     search_scale : bool
         When the configured delta falls short, bisect for the largest scaled box on which it suffices.
 
@@ -357,8 +359,11 @@ def delta_requirements(
     n_grid = _state_samples(region, wd_bound, 0, rng)[0].shape[1]
     zeros = np.zeros((3, n))
     # reference trajectory: sigma_e = 0, omega_e = 0 with the actual signals
-    times = np.arange(0.0, scenario.simulation.t_final + 0.5 * dt_reference, dt_reference)
-    omega_d_t, omega_d_dot_t = _reference_signals(scenario, times)
+    if dt_reference is None:
+        times = np.zeros(0)
+    else:
+        times = np.arange(0.0, scenario.simulation.t_final + 0.5 * dt_reference, dt_reference)
+        omega_d_t, omega_d_dot_t = _reference_signals(scenario, times)
     gains_ref = gains.copy()
     gains_ref[5] = SINGULARITY_FIXES["switch"]  # at omega_e = 0 the Remark 6 slope multiplies sigma_e_dot = 0
     # the sliding variable is the same for every agent (it does not involve J): bound it once for the coupling term
@@ -397,11 +402,16 @@ def delta_requirements(
         ref_bound = np.max(req[:, at_ref], axis=1) if np.any(at_ref) else np.full(3, np.nan)
         # trajectory scan
         m = times.size
-        ud_t = agent.disturbance(times).T
-        dt_, Pt = _evaluate(fn_dP, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, gains_ref, omega_d_dot_t)
-        traj = _requirement(
-            kappa, dt_, Pt, np.zeros_like(Pt), np.zeros_like(Pt), u_bound * 0, wdd_bound * 0, coord_bound * 0
-        )
+        if m:
+            ud_t = agent.disturbance(times).T
+            dt_, Pt = _evaluate(
+                fn_dP, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, gains_ref, omega_d_dot_t
+            )
+            traj = _requirement(
+                kappa, dt_, Pt, np.zeros_like(Pt), np.zeros_like(Pt), u_bound * 0, wdd_bound * 0, coord_bound * 0
+            )
+        else:
+            traj = np.full((3, 1), np.nan)
         note = ""
         if kappa is not None:
             dev = float(np.max(np.abs(P - np.eye(3)[None] / (1 + kappa))))

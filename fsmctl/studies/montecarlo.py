@@ -1092,7 +1092,7 @@ def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.S
     t1 = analyze_topology(scenario.topology, scenario.simulation.t_final)
     paper_law = scenario.law.name == "fsm"  # Theorems 1-2 are the paper's law's conditions
     t2 = (
-        delta_requirements(scenario, Region(0.0, 0.0), n_random=0, dt_reference=0.5, search_scale=False)
+        delta_requirements(scenario, Region(0.0, 0.0), n_random=0, dt_reference=None, search_scale=False)
         if paper_law
         else None
     )

@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "fsm_pow.h"
+#include "fsm_trig.h"
 #include "batched.h"
 
 #ifdef FSM_HAVE_BATCHED
@@ -43,6 +44,9 @@ static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) { return fsm_select((x < y) | (y 
 /* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
  * four lanes at once */
 static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) { return fsm_pow_v4(x, y, lanes); }
+/* sin, cos: fsmctl's (fsmctl/csrc/fsm_trig.h, likewise), four lanes at once */
+static inline fsm_v fsm_sin(fsm_v x, int lanes) { return fsm_sincos_v4(x, 1, lanes); }
+static inline fsm_v fsm_cos(fsm_v x, int lanes) { return fsm_sincos_v4(x, 0, lanes); }
 /* the other library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm
  * result; inactive lanes keep x (their results are unspecified and never read) */
 #define FSM_LANEWISE(name, fn) \
@@ -52,8 +56,6 @@ static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) { return fsm_pow_v4(x, 
     return r; \
   }
 FSM_LANEWISE(fsm_sqrt, sqrt)
-FSM_LANEWISE(fsm_sin, sin)
-FSM_LANEWISE(fsm_cos, cos)
 FSM_LANEWISE(fsm_exp, exp)
 FSM_LANEWISE(fsm_log, log)
 FSM_LANEWISE(fsm_tan, tan)
@@ -69,6 +71,43 @@ static inline fsm_v fsm_atan2(fsm_v y, fsm_v x, int lanes) {
   fsm_v r = y;
   for (int l = 0; l < lanes; ++l) r[l] = atan2(y[l], x[l]);
   return r;
+}
+
+int disturbance_torque_x4(const double *const *arg, double *const *res, int lanes) {
+  if (lanes > 4) lanes = 4; /* never index past the vector */
+  fsm_v w0, w1, w2, w3, w4;
+  w0 = fsm_load(arg[1] + 36);
+  w1 = fsm_load(arg[1] + 0);
+  w2 = fsm_load(arg[1] + 24);
+  w3 = fsm_load(arg[1] + 12);
+  w4 = fsm_load(arg[0] + 0);
+  w3 = w3 * w4;
+  w2 = w2 + w3;
+  w2 = fsm_cos(w2, lanes);
+  w1 = w1 * w2;
+  w0 = w0 + w1;
+  fsm_store(res[0] + 0, w0);
+  w0 = fsm_load(arg[1] + 40);
+  w1 = fsm_load(arg[1] + 4);
+  w2 = fsm_load(arg[1] + 28);
+  w3 = fsm_load(arg[1] + 16);
+  w3 = w3 * w4;
+  w2 = w2 + w3;
+  w2 = fsm_cos(w2, lanes);
+  w1 = w1 * w2;
+  w0 = w0 + w1;
+  fsm_store(res[0] + 4, w0);
+  w0 = fsm_load(arg[1] + 44);
+  w1 = fsm_load(arg[1] + 8);
+  w2 = fsm_load(arg[1] + 32);
+  w3 = fsm_load(arg[1] + 20);
+  w3 = w3 * w4;
+  w2 = w2 + w3;
+  w2 = fsm_cos(w2, lanes);
+  w1 = w1 * w2;
+  w0 = w0 + w1;
+  fsm_store(res[0] + 8, w0);
+  return 0;
 }
 
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes) {

@@ -22,6 +22,7 @@
 #ifdef __cplusplus
 extern "C" {
 #endif
+int disturbance_torque_x4(const double *const *arg, double *const *res, int lanes);
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes);
 int gyrostat_rhs_x4(const double *const *arg, double *const *res, int lanes);
 int wheel_torque_x4(const double *const *arg, double *const *res, int lanes);

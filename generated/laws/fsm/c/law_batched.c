@@ -13,6 +13,7 @@
 #include <string.h>
 
 #include "fsm_pow.h"
+#include "fsm_trig.h"
 #include "law_batched.h"
 
 #ifdef FSM_HAVE_BATCHED
@@ -43,6 +44,9 @@ static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) { return fsm_select((x < y) | (y 
 /* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
  * four lanes at once */
 static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) { return fsm_pow_v4(x, y, lanes); }
+/* sin, cos: fsmctl's (fsmctl/csrc/fsm_trig.h, likewise), four lanes at once */
+static inline fsm_v fsm_sin(fsm_v x, int lanes) { return fsm_sincos_v4(x, 1, lanes); }
+static inline fsm_v fsm_cos(fsm_v x, int lanes) { return fsm_sincos_v4(x, 0, lanes); }
 /* the other library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm
  * result; inactive lanes keep x (their results are unspecified and never read) */
 #define FSM_LANEWISE(name, fn) \
@@ -52,8 +56,6 @@ static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) { return fsm_pow_v4(x, 
     return r; \
   }
 FSM_LANEWISE(fsm_sqrt, sqrt)
-FSM_LANEWISE(fsm_sin, sin)
-FSM_LANEWISE(fsm_cos, cos)
 FSM_LANEWISE(fsm_exp, exp)
 FSM_LANEWISE(fsm_log, log)
 FSM_LANEWISE(fsm_tan, tan)

@@ -1,0 +1,39 @@
+/* fsmctl's sin and cos (fsm_trig.h): the scalar entry points, one lane of the batched computation, and a batched
+ * loop (for the tests: fsm_trig_lanes(x, out, n, want_sin) = fsm_sincos_v4 on blocks of four, the last block
+ * partial). */
+#include <string.h>
+
+#include "fsm_trig.h"
+
+#undef sin
+#undef cos
+
+double fsmctl_sin(double x) {
+#ifdef __GNUC__
+  return fsm_sincos_v4(fsm_trig_splat(x), 1, 1)[0];
+#else
+  return sin(x);
+#endif
+}
+
+double fsmctl_cos(double x) {
+#ifdef __GNUC__
+  return fsm_sincos_v4(fsm_trig_splat(x), 0, 1)[0];
+#else
+  return cos(x);
+#endif
+}
+
+void fsm_trig_lanes(const double *x, double *out, long long n, int want_sin) {
+  for (long long i = 0; i < n; i += 4) {
+    const int lanes = n - i < 4 ? (int)(n - i) : 4;
+#ifdef __GNUC__
+    fsm_trig_v vx = fsm_trig_splat(0.0);
+    memcpy(&vx, x + i, sizeof(double) * lanes);
+    const fsm_trig_v r = fsm_sincos_v4(vx, want_sin, lanes);
+    memcpy(out + i, &r, sizeof(double) * lanes);
+#else
+    for (int l = 0; l < lanes; ++l) out[i + l] = want_sin ? sin(x[i + l]) : cos(x[i + l]);
+#endif
+  }
+}
