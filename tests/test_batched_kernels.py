@@ -239,7 +239,8 @@ def test_printer_writes_exact_constants_and_every_lane_rule():
     )  # fmt: skip
     source = batched_source([("g", ca.Function("g", [x, y], [expr]))], "g.h")
     assert "fsm_splat(0.1)" in source and "fsm_splat((-1e-300))" in source and "fsm_splat(INFINITY)" in source
-    for helper in ("fsm_fmin", "fsm_fmax", "fsm_sign", "fsm_fabs", "fsm_if_else_zero", "fsm_pow", "fsm_sqrt", "fsm_cos"):
+    helpers = ("fsm_fmin", "fsm_fmax", "fsm_sign", "fsm_fabs", "fsm_if_else_zero", "fsm_pow", "fsm_sqrt", "fsm_cos")
+    for helper in helpers:
         assert f"{helper}(" in source.split("int g_x4")[1], helper
 
 
