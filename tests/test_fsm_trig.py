@@ -20,7 +20,7 @@ from fsmctl.model.generated_code import compiled_library
 
 _DP = ctypes.POINTER(ctypes.c_double)
 _BOUND_ULP = 0.8
-"""The measured maximum is 0.76 ulp (2^20 samples per range; fdlibm's kernels, whose final rounding of
+"""The measured maximum is 0.76 ulp (2^19 samples per range; fdlibm's kernels, whose final rounding of
 1 - z/2 + ... and x + x^3 S(x^2) is not compensated); glibc's sin/cos are at 0.51 on the same samples."""
 
 

@@ -582,6 +582,22 @@ def test_singular_law_gives_a_clear_error_not_a_silent_torque(paper):
         fsmctl.simulate(s)
 
 
+@pytest.mark.parametrize("agent", [0, 1, 2])
+def test_a_state_overflowing_is_reported_with_its_agent_and_time(agent):
+    """A finite torque (an open-loop law) on a body spinning at 1e160 rad/s: omega x J omega overflows in the first
+    step, the step's new state is not finite, and the run stops there naming the agent (the driver's branch-free
+    finiteness pass, then the search for the first bad entry)."""
+    from formations import single_spacecraft
+
+    s = single_spacecraft(n_agents=3, t_final=0.01, control_period=0.0)
+    agents = list(s.agents)
+    agents[agent] = dataclasses.replace(agents[agent], omega0=(1e160, -1e160, 1e160))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the step-size advice for this rate
+        with pytest.raises(SimulationError, match=rf"a state became non-finite at t = 0.001 s in agent {agent + 1} "):
+            fsmctl.simulate(dataclasses.replace(s, agents=tuple(agents)))
+
+
 def test_no_nan_when_sigma_e_components_cross_zero(paper):
     r = fsmctl.simulate(paper.replace(simulation={"t_final": 20.0, "output_interval": 0.01}))
     assert paper.simulation.integrator == "rk4"  # the default: fixed-step RK4 in C

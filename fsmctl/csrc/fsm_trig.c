@@ -1,6 +1,6 @@
-/* fsmctl's sin and cos (fsm_trig.h): the scalar entry points, one lane of the batched computation, and a batched
- * loop (for the tests: fsm_trig_lanes(x, out, n, want_sin) = fsm_sincos_v4 on blocks of four, the last block
- * partial). */
+/* fsmctl's sin and cos (fsm_trig.h): the exported scalar entry points (fsm_sin1 and fsm_cos1, one lane of the
+ * batched computation) and a batched loop (for the tests: fsm_trig_lanes(x, out, n, want_sin) = fsm_sincos_v4 on
+ * blocks of four, the last block partial). */
 #include <string.h>
 
 #include "fsm_trig.h"
@@ -8,21 +8,9 @@
 #undef sin
 #undef cos
 
-double fsmctl_sin(double x) {
-#ifdef __GNUC__
-  return fsm_sincos_v4(fsm_trig_splat(x), 1, 1)[0];
-#else
-  return sin(x);
-#endif
-}
+double fsmctl_sin(double x) { return fsm_sin1(x); }
 
-double fsmctl_cos(double x) {
-#ifdef __GNUC__
-  return fsm_sincos_v4(fsm_trig_splat(x), 0, 1)[0];
-#else
-  return cos(x);
-#endif
-}
+double fsmctl_cos(double x) { return fsm_cos1(x); }
 
 void fsm_trig_lanes(const double *x, double *out, long long n, int want_sin) {
   for (long long i = 0; i < n; i += 4) {

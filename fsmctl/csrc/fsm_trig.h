@@ -1,21 +1,23 @@
 /*
  * fsmctl's sin and cos: the one implementation that every compiled path of fsmctl uses.
  *
- * fsmctl.model.generated_code compiles every source of the library with `-include fsm_trig.h` (next to
- * fsm_pow.h), so `sin` and `cos` in the CasADi-generated scalar C (the disturbance d_i(t) and the reference
- * omega_d(t)) mean fsmctl_sin and fsmctl_cos, whose lanes are computed by fsm_sincos_v4, and the lane-batched
- * kernels evaluate four lanes at once with it: a scalar call and a lane of a batched call give the same bits.  Each
- * run's own disturbance (a Monte Carlo campaign draws one per run) costs three cosines per agent and time; with the
- * C library's cos called lane by lane they were a sixth of a campaign's compiled loop.  Only the CasADi virtual
- * machine (the fallback without a C compiler) uses its own sin and cos; they agree to about 1 ulp.
+ * fsmctl.model.generated_code compiles every source of the library with `-include fsm_trig.h` (next to fsm_pow.h),
+ * so `sin` and `cos` in the CasADi-generated scalar C (the disturbance d_i(t) and the reference omega_d(t)) mean
+ * fsm_sin1 and fsm_cos1 (one lane of fsm_sincos_v4, inlined; fsmctl_sin and fsmctl_cos are the same as exported
+ * functions), and the lane-batched kernels evaluate four lanes at once with it: a scalar call and a lane of a
+ * batched call give the same bits.  Each run's own disturbance (a Monte Carlo campaign draws one per run) costs
+ * three cosines per agent and time; with the C library's cos called lane by lane they were a sixth of a campaign's
+ * compiled loop.  Only the CasADi virtual machine (the fallback without a C compiler) uses its own sin and cos; they
+ * agree to about 1 ulp.
  *
  * Method (no tables; plain IEEE + - * /, so the result does not depend on the CPU's instruction set):
  * x = n pi/2 + r with n = nearest integer to x 2/pi and r = rh + rl in double-double, by Cody and Waite's reduction
  * with pi/2 in three parts (the first two of 33 bits: n P1 and n P2 are exact for |n| < 2^20, x - n P1 is exact
  * by Sterbenz's lemma, x - n P1 - n P2 is summed exactly by TwoSum); then sin r and cos r by the kernels of
  * fdlibm (__kernel_sin, __kernel_cos: the rl correction included), and the quadrant n mod 4 picks and signs one.
- * Measured error (2^16 samples per range against long double sinl/cosl and 2000 against mpmath): at most 0.55 ulp
- * for |x| <= 2 pi, at most 0.56 ulp for |x| < 2^20 (tests/test_fsm_trig.py).
+ * Measured error (2^19 samples per range against long double sinl/cosl, |x| <= 2 pi, <= 100 and < 2^20): at most
+ * 0.76 ulp, the fdlibm kernels' uncompensated final rounding (glibc's sin and cos: 0.51 on the same samples);
+ * tests/test_fsm_trig.py checks 0.8 ulp against sinl/cosl and against mpmath.
  * Lanes outside the fast path call the C library's sin or cos, whose special cases (C99 Annex F) they keep: zeros,
  * |x| >= 2^20, infinities and NaN, and the rare arguments within 2^-10 of a nonzero multiple of pi/2, where the
  * reduction's absolute error (< 2^-100) would no longer be negligible against |r|.
@@ -83,10 +85,18 @@ static inline fsm_trig_v fsm_sincos_v4(fsm_trig_v x, int want_sin, int lanes) {
     if (!fast[l]) res[l] = want_sin ? sin(x[l]) : cos(x[l]);
   return res;
 }
+
+/* one lane, inlined where the generated scalar C calls sin or cos: a sin and a cos of the same argument (the
+ * reference's omega_d and omega_d_dot) share the reduction and the kernels after inlining */
+static inline double fsm_sin1(double x) { return fsm_sincos_v4(fsm_trig_splat(x), 1, 1)[0]; }
+static inline double fsm_cos1(double x) { return fsm_sincos_v4(fsm_trig_splat(x), 0, 1)[0]; }
+#else
+static inline double fsm_sin1(double x) { return sin(x); }
+static inline double fsm_cos1(double x) { return cos(x); }
 #endif /* __GNUC__ */
 
 /* from here on, sin and cos are fsmctl's */
-#define sin fsmctl_sin
-#define cos fsmctl_cos
+#define sin fsm_sin1
+#define cos fsm_cos1
 
 #endif /* FSMCTL_FSM_TRIG_H */
