@@ -95,7 +95,7 @@ import socket
 import struct
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict, dataclass, field, replace
@@ -1178,7 +1178,9 @@ def _run_chunk(
     # Reaches only BLAS libraries loaded after this point (e.g. SciPy's, at the first linprog). The local
     # pool's workers get one thread from their environment at start (parallel.single_threaded_workers).
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    seeds = np.random.SeedSequence(settings.seed).spawn(settings.runs)
+    # run k's seed is SeedSequence(seed).spawn(runs)[k], built for this chunk's runs alone (spawning all the
+    # campaign's seeds in every chunk would cost O(runs) per chunk)
+    seeds = {k: _child(np.random.SeedSequence(settings.seed), k) for k in indices}
     if run_fn is not None:
         out = []
         for k in indices:
@@ -1191,7 +1193,7 @@ def _run_chunk(
 
 
 def _run_chunk_together(
-    base: Scenario, settings: CampaignSettings, indices: Sequence[int], seeds: Sequence[np.random.SeedSequence]
+    base: Scenario, settings: CampaignSettings, indices: Sequence[int], seeds: Mapping[int, np.random.SeedSequence]
 ) -> list[tuple[int, str, str, dict]]:
     from fsmctl.simulation.simulator import SimulationError, simulate_many
 
