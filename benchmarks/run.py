@@ -1372,19 +1372,26 @@ def _montecarlo_breakdown(settings, runs: int = 10) -> dict:
     }  # fmt: skip
 
 
-def montecarlo_section(runs: int, log, previous: dict | None = None) -> dict:
+def montecarlo_section(runs: int, log, previous: dict | None = None, repeats: int = 2) -> dict:
+    """The whole campaign (``run_campaign``: workers, chunk files, the merged ``montecarlo.nc``), ``repeats`` times
+    (the same seeded runs): the fastest is reported, as every section of this shared machine's file, with all walls."""
     from fsmctl.studies import montecarlo as mc
 
     settings = mc.CampaignSettings(runs=runs, seed=2012, chunk_size=10)
-    with tempfile.TemporaryDirectory() as tmp:
-        t = time.perf_counter()
-        res = mc.run_campaign(settings, Path(tmp) / "mc", workers=2, progress=False, figures=False)
-        wall = time.perf_counter() - t
+    walls, best = [], None
+    for _ in range(max(1, repeats)):
+        with tempfile.TemporaryDirectory() as tmp:
+            t = time.perf_counter()
+            res = mc.run_campaign(settings, Path(tmp) / "mc", workers=2, progress=False, figures=False)
+            walls.append(time.perf_counter() - t)
+        log(f"montecarlo: {runs} runs in {walls[-1]:.1f} s")
+        if best is None or walls[-1] < min(walls[:-1]):
+            best = res
+    res, wall = best, min(walls)
     s = res.summary
     cpu = s["cpu_time_s_total"]
-    log(f"montecarlo: {runs} runs in {wall:.1f} s")
     out = {
-        "runs": runs, "workers": 2, "wall_s": wall, "cpu_s_total": cpu, "cpu_s_per_run": cpu / runs,
+        "runs": runs, "workers": 2, "wall_s": wall, "walls_s": walls, "cpu_s_total": cpu, "cpu_s_per_run": cpu / runs,
         "projected_1000_runs_wall_s": wall * 1000 / runs, "ok": s["ok"], "failed": s["failed"],
         "worker_died": s["worker_died"], "converged_fraction": s["converged_fraction"],
         "theorem1_holds_fraction": s["theorem1_holds_fraction"], "theorem2_at_reference_holds_fraction": s["theorem2_at_reference_holds_fraction"],
@@ -1713,7 +1720,13 @@ def markdown(res: dict) -> str:
             "",
             "## Monte Carlo (Case 1, 100 s at dt = 1 ms per run, 2 workers)",
             "",
-            f"{mc['runs']} runs in {mc['wall_s']:.1f} s wall ({mc['cpu_s_per_run']:.3f} CPU s per run in the workers, "
+            f"{mc['runs']} runs in {mc['wall_s']:.1f} s wall"
+            + (
+                f" (fastest of {len(mc['walls_s'])} campaigns: {', '.join(f'{w:.1f}' for w in mc['walls_s'])} s)"
+                if len(mc.get("walls_s", [])) > 1
+                else ""
+            )
+            + f" ({mc['cpu_s_per_run']:.3f} CPU s per run in the workers, "
             f"i.e. {500 * mc['cpu_s_per_run']:.0f} s for 1000 runs on two otherwise idle cores); projected 1000 runs: "
             f"{proj:.0f} s (target of issue 14: <= 120 s: {'met' if proj <= 120 else f'MISSED by {proj - 120:.0f} s ({proj / 120:.2f}x)'}; "
             f"earlier target <= 300 s: {'met' if proj <= 300 else 'MISSED'}). "
@@ -1902,7 +1915,10 @@ def main(argv=None) -> int:
     previous_mc = res.get("montecarlo")
     if previous_mc and not previous_mc.get("before"):
         previous_mc = {**previous_mc, "date": res.get("measured", {}).get("montecarlo") or previous_date}
-    section("montecarlo", lambda: montecarlo_section(runs, log, previous_mc) if runs > 0 else None)
+    section(
+        "montecarlo",
+        lambda: montecarlo_section(runs, log, previous_mc, repeats=1 if args.quick else 2) if runs > 0 else None,
+    )
     res["load_average_end"] = os.getloadavg()
     res["total_wall_s"] = time.perf_counter() - t0
     out = Path(args.out)
