@@ -755,7 +755,7 @@ def _pre_hardware_driver(log):
     import subprocess
     import tempfile
 
-    from fsmctl.model.generated_code import _compiler, _sources, compile_flags, default_law_dir
+    from fsmctl.model.generated_code import _compiler, _sources, compile_flags, default_law_dir, math_include_args
     from fsmctl.simulation.simulator import _PROGRESS, _dp, _Output, _Problem
 
     cc = _compiler()
@@ -773,11 +773,14 @@ def _pre_hardware_driver(log):
     except (subprocess.CalledProcessError, OSError) as exc:
         log(f"hardware: no pre-hardware baseline ({exc})")
         return None
-    sources = [p for p in _sources(default_law_dir()) if p.parent.name != "csrc"] + [tmp / "formation.c"]
+    # today's generated code as the library compiles it: with fsmctl's pow, sin and cos (fsmctl/csrc/fsm_*.h/.c)
+    math = [p for p in _sources(default_law_dir()) if p.parent.name == "csrc" and p.name.startswith("fsm_")]
+    sources = [p for p in _sources(default_law_dir()) if p.parent.name != "csrc"] + math + [tmp / "formation.c"]
     flags, _ = compile_flags(cc)
     includes = [f"-I{d}" for d in dict.fromkeys(p.parent for p in sources)]
     lib = tmp / "libfsm_pre_hardware.so"
-    subprocess.run([cc, *flags, *includes, *map(str, sources), "-o", str(lib), "-lm"], check=True)
+    cmd = [cc, *flags, *includes, *math_include_args(), *map(str, sources), "-o", str(lib), "-lm"]
+    subprocess.run(cmd, check=True, capture_output=True)
     dll = ctypes.CDLL(str(lib))
     dll.fsm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.POINTER(_Output), _PROGRESS, ctypes.c_longlong]
     dll.fsm_simulate.restype = ctypes.c_int
