@@ -96,6 +96,18 @@ def test_reference_trajectory_requirement_by_hand(case1):
     assert res.ok  # delta = 0.005 covers the reference itself
 
 
+def test_without_the_trajectory_scan_the_requirements_are_the_same(case1):
+    """dt_reference=None (the Monte Carlo record) skips only the scan along the reference trajectory: the region
+    and reference-box requirements, and the verdict, are those of the scanned run, bit for bit."""
+    scanned = delta_requirements(case1, Region(0.0, 0.0), n_random=0, dt_reference=0.5, search_scale=False)
+    bare = delta_requirements(case1, Region(0.0, 0.0), n_random=0, dt_reference=None, search_scale=False)
+    assert bare.trajectory_samples == 0 and scanned.trajectory_samples == 201
+    for a, b in zip(scanned.agents, bare.agents, strict=True):
+        assert (a.region, a.reference_bound, a.configured, a.ok) == (b.region, b.reference_bound, b.configured, b.ok)
+        assert np.isnan(b.reference_trajectory).all() and np.isfinite(a.reference_trajectory).all()
+    assert bare.ok == scanned.ok
+
+
 def test_default_region_needs_far_more_than_the_configured_delta(case1):
     res = delta_requirements(case1, Region(0.05, 0.05), n_random=200, search_scale=True)
     assert not res.ok

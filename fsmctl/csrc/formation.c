@@ -116,7 +116,7 @@ static int law_contract_ok(const fsm_problem *P, int *nk, int *nc) {
  * writes the cache where law_control reads it, and the run constants (parameters, inertias) are packed
  * once.  Row offsets follow from the law's sizes.  Lanes past the last agent repeat it; their results are
  * never read.  Time and reference are the same for every group: the kernels read them from the shared rows
- * (law_row), so a group's own rows RW_T, RW_SD, RW_WD and RW_WDD stay unused. */
+ * (law_row), and a group has no rows RW_T, RW_SD, RW_WD, RW_WDD of its own (size 0 in lane_rows). */
 enum {
   RW_T, RW_SIGMA, RW_OMEGA, RW_Z, RW_SD, RW_WD, RW_WDD, RW_J0, RW_PARAMS, RW_CONST, /* law inputs, as LI_* */
   RW_CACHE, RW_KSUM, RW_RECV, RW_KRS, RW_UMAX,                                /* control inputs, as CI_* */
@@ -277,7 +277,8 @@ static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes
 
 
 static void lane_rows(workspace *W) {
-  const int size[RW_END] = {1, 3, 3, W->nz, 3, 3, 3, 9, W->np, W->nk, W->nc, 1, W->nb, 1, 1,
+  /* RW_T, RW_SD, RW_WD, RW_WDD: none of their own (the kernels read the shared rows, law_row) */
+  const int size[RW_END] = {0, 3, 3, W->nz, 0, 0, 0, 9, W->np, W->nk, W->nc, 1, W->nb, 1, 1,
                             W->nb, 3, 3, W->nz, 3, 9, 3, 3, 3, 3, 9};
   W->row[0] = 0;
   for (int r = 0; r < RW_END; ++r) W->row[r + 1] = W->row[r] + size[r];
