@@ -45,7 +45,7 @@ k_i = base.topology.links[0].k_i
 
 
 def with_delta(s, value):
-    return s.with_agents([dataclasses.replace(a, delta=(value,) * 3) for a in s.agents])
+    return s.replace(controller={"delta": value})  # every axis of every agent (eq 18)
 
 
 def with_disturbance_scale(s, factor):

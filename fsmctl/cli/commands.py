@@ -26,7 +26,7 @@ import sys
 from pathlib import Path
 
 from fsmctl.cli.exit_codes import epilog
-from fsmctl.cli.law_options import add_law_options, controller_changes
+from fsmctl.cli.law_options import add_law_options, law_changes
 from fsmctl.cli.options import (
     add_case_option,
     add_dt_option,
@@ -152,16 +152,10 @@ def run(args: argparse.Namespace) -> int:
     from fsmctl.simulation.simulator import SimulationError, simulate
 
     scenario = _base_scenario(args)
-    controller = controller_changes(args, scenario)  # --law, --set
-    controller |= {
-        k: v
-        for k, v in (
-            ("error_model", args.error_model),
-            ("torque_limit", args.torque_limit),
-            ("boundary_layer", args.boundary_layer),
-        )
-        if v is not None
-    }
+    law, parameters, controller = law_changes(args)  # --law, --set
+    if args.boundary_layer is not None:
+        parameters["boundary_layer"] = args.boundary_layer
+    controller |= {k: v for k, v in (("error_model", args.error_model), ("torque_limit", args.torque_limit)) if v is not None}
     simulation = {
         k: v
         for k, v in (
@@ -178,16 +172,12 @@ def run(args: argparse.Namespace) -> int:
         # keep the scenario's output spacing unless it no longer fits the horizon
         interval = min(scenario.simulation.output_interval, t_final)
         simulation["output_interval"] = interval
-    scenario = scenario.replace(controller=controller, simulation=simulation)
+    scenario = scenario.with_law(law, parameters).replace(controller=controller, simulation=simulation)
     with output_folder(args.out) as out:
         if args.from_result is not None:
             print(f"from {args.from_result}:")
         for line in scenario.describe():
             print(line)
-        if controller.keys() & {"law", "parameters"}:
-            law = scenario.law
-            given = ", ".join(f"{k}={v}" for k, v in dict(scenario.controller.parameters).items())
-            print(f"  law: {law.name} ({law.folder})" + (f", parameters {given}" if given else ""))
         try:
             result = simulate(scenario, progress=args.progress)
         except SimulationError as exc:

@@ -1,9 +1,11 @@
 """``--law`` and ``--set KEY=VALUE``: the control-law options shared by ``fsmctl simulate`` and ``fsmctl montecarlo``.
 
 ``--law NAME|FILE.py|DIR`` sets ``[controller] law`` (:func:`fsmctl.model.laws.resolve_law`: a built-in name,
-a derivation script or a folder written by ``fsmctl derive``).  ``--set KEY=VALUE`` (repeatable) sets a law
-parameter by name (``[controller]`` parameters, checked against the ranges the law declares) or one of the
-``[controller]`` keys of its own (``alpha``, ``torque_limit``, ...); the value is read as a TOML value:
+a derivation script or a folder written by ``fsmctl derive``; the scenario's written keys that the new law declares
+carry over, the others are dropped, and a warning says which).  ``--set KEY=VALUE`` (repeatable) sets a law
+parameter or preset choice by name for every agent (checked against what the law declares) or one of the
+``[controller]`` keys every law shares (``torque_limit``, ``error_model``, ``enabled``); the value is read as a
+TOML value:
 ``--set K=2.0 --set delta=[0.01,0.01,0.01] --set singularity_fix=clamp`` (a bare word is a string).
 """
 
@@ -15,7 +17,7 @@ import re
 import tomllib
 from typing import Any
 
-__all__ = ["add_law_options", "key_value", "controller_changes"]
+__all__ = ["add_law_options", "key_value", "law_changes"]
 
 _KEY = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 _BARE_WORD = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
@@ -89,21 +91,22 @@ def key_value(text: str) -> tuple[str, Any]:
     return key, parsed["v"]
 
 
-def controller_changes(args: argparse.Namespace, scenario) -> dict[str, Any]:
-    """The ``controller`` changes ``--law``/``--set`` ask for, for ``scenario.replace(controller=...)``.
+def law_changes(args: argparse.Namespace) -> tuple[str | None, dict[str, Any], dict[str, Any]]:
+    """What ``--law``/``--set`` ask for, for :meth:`fsmctl.model.scenario.Scenario.with_law` and ``replace``.
 
     Parameters
     ----------
     args : argparse.Namespace
         Parsed options with ``law`` and ``law_set``.
-    scenario : fsmctl.model.scenario.Scenario
-        The scenario the changes apply to (its ``controller.parameters`` are kept unless overridden).
 
     Returns
     -------
-    dict
-        ``law``, ``parameters`` (merged with the scenario's) and the ``[controller]`` keys of their own that
-        ``--set`` names; empty when neither option was given.
+    law : str or None
+        ``--law`` (None: the scenario's).
+    parameters : dict
+        The law parameters and preset choices ``--set`` names (set for every agent).
+    controller : dict
+        The ``[controller]`` keys of their own that ``--set`` names (``torque_limit``, ``error_model``, ``enabled``).
 
     Raises
     ------
@@ -113,19 +116,10 @@ def controller_changes(args: argparse.Namespace, scenario) -> dict[str, Any]:
     from fsmctl.cli.main import UsageError
     from fsmctl.model.scenario import ControllerSettings
 
-    changes: dict[str, Any] = {}
-    if getattr(args, "law", None) is not None:
-        changes["law"] = args.law
-    sets = dict(getattr(args, "law_set", None) or [])
     own = {f.name for f in dataclasses.fields(ControllerSettings)}
-    parameters = {}
-    for key, value in sets.items():
+    parameters, controller = {}, {}
+    for key, value in dict(getattr(args, "law_set", None) or []).items():
         if key in _OWN_KEYS_REFUSED:
             raise UsageError(f"--set {key}=...: {_OWN_KEYS_REFUSED[key]}")
-        if key in own:
-            changes[key] = value
-        else:
-            parameters[key] = value
-    if parameters:
-        changes["parameters"] = {**dict(scenario.controller.parameters), **parameters}
-    return changes
+        (controller if key in own else parameters)[key] = value
+    return getattr(args, "law", None), parameters, controller

@@ -22,7 +22,7 @@ from collections.abc import Iterable
 from dataclasses import replace
 
 from fsmctl.cli.exit_codes import epilog
-from fsmctl.cli.law_options import add_law_options, controller_changes
+from fsmctl.cli.law_options import add_law_options, law_changes
 from fsmctl.cli.options import (
     add_case_option,
     add_dt_option,
@@ -196,11 +196,8 @@ def run(args: argparse.Namespace) -> int:
     if args.law is not None or args.law_set:
         # the law and its parameters are part of the campaign's settings (campaign.json): --resume checks them
         settings.validate()
-        _, scenario = campaign_base(settings)
-        changes = controller_changes(args, scenario)
-        if "law" in changes:
-            changes["law"] = _portable_law(changes["law"])
-        changes = {k: (dict(v) if k == "parameters" else v) for k, v in changes.items()}
+        law, parameters, own = law_changes(args)
+        changes = {**own, **parameters} | ({"law": _portable_law(law)} if law is not None else {})
         settings = replace(settings, controller=json.dumps(changes, sort_keys=True))
         settings, base = campaign_base(settings)
         for line in describe_campaign(settings, base):

@@ -8,8 +8,8 @@
   ``~/.cache/fsmctl/laws``), keyed by the script's content and the SymPy/CasADi/fsmctl versions.
 
 :func:`parameter_matrix` is the one place a scenario's values become a law's packed parameters
-(``[controller]`` keys by name, an agent's ``delta`` for a law with a ``delta`` parameter, else the law's
-defaults), checked against the law's declared ranges.
+(an agent's own value, else ``[controller]``'s, else the law's declared default; then the presets the scenario
+selects), checked against the law's declared ranges.
 """
 
 from __future__ import annotations
@@ -37,10 +37,17 @@ __all__ = [
     "builtin_laws",
     "resolve_law",
     "parameter_matrix",
+    "written_keys",
+    "check_written_parameters",
     "initial_law_states",
+    "LawSwitchWarning",
 ]
 
 LAW_FILE = "law.json"
+CONTROLLER_KEYS = ("law", "torque_limit", "error_model", "enabled")
+"""the ``[controller]`` keys every law shares (:class:`fsmctl.model.scenario.ControllerSettings`; checked there)"""
+AGENT_KEYS = ("J0", "delta_J", "sigma0", "omega0", "disturbance")
+"""an agent's own keys (:class:`fsmctl.model.scenario.Agent`; every other key of ``[[agents]]`` is a law parameter)"""
 
 
 class LawError(InputError):
@@ -54,6 +61,25 @@ class LawError(InputError):
     ... except LawError as exc:
     ...     print(str(exc).split(":")[0])
     law 'no-such-law'
+    """
+
+
+class LawSwitchWarning(UserWarning):
+    """Another law is flown on a scenario: which of the keys written for its own law apply, which are ignored.
+
+    :meth:`fsmctl.model.scenario.Scenario.replace` (``controller={"law": ...}``, ``--law`` on the command line)
+    keeps the written parameters and preset choices that the new law declares (by name) and drops the others; this
+    warning says so in one line.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import fsmctl
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     pid = fsmctl.paper_scenario("1").replace(controller={"law": "pid"})
+    >>> print(caught[0].message)  # doctest: +ELLIPSIS
+    law 'pid' flown instead of 'fsm': written keys applied: none; ignored (not parameters of pid): c1, c2, ...
     """
 
 
@@ -107,7 +133,8 @@ class LawParameterInfo(ParameterRange):
         Parameters
         ----------
         value : float, sequence of float or str
-            The value as the scenario gives it (a number, ``size`` numbers, or an option's name).
+            The value as the scenario gives it (a number, ``size`` numbers, or an option's name); a number for a
+            vector parameter sets every component.
         where : str
             Where it comes from (e.g. ``"controller.c1"``), for error messages.
 
@@ -125,7 +152,7 @@ class LawParameterInfo(ParameterRange):
             if not isinstance(value, str) or value.lower() not in self.choices:
                 raise LawError(f"{where}: must be one of {', '.join(self.choices)}, got {value!r}")
             return (float(self.choices.index(value.lower())),)
-        items = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value]
+        items = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value] * self.size
         if self.size == 1 and len(items) == 1 and isinstance(value, (list, tuple, np.ndarray)):
             raise LawError(f"{where}: expected a number, got a list")
         if len(items) != self.size:
@@ -139,6 +166,16 @@ class LawParameterInfo(ParameterRange):
                 raise LawError(f"{where}: {why}")
             out.append(float(v))
         return tuple(out)
+
+
+@dataclass(frozen=True)
+class LawPresetGroup:
+    """TEMPORARY (replaced by the declaration branch): a named group of parameter presets."""
+
+    name: str
+    default: str
+    options: dict
+    doc: str
 
 
 @dataclass(frozen=True)
@@ -191,6 +228,7 @@ class LawCode:
     n_constants: int
     n_cache: int
     has_lyapunov: bool
+    presets: tuple = ()
 
     @property
     def n_params(self) -> int:
@@ -302,6 +340,15 @@ def _read_law(folder: Path) -> LawCode:
         n_constants=sum(int(c["size"]) for c in meta["constants"]),
         n_cache=sum(int(c["size"]) for c in meta["cache"]),
         has_lyapunov=meta.get("lyapunov") is not None,
+        presets=tuple(
+            LawPresetGroup(
+                g["name"],
+                g["default"],
+                {k: {n: tuple(v) for n, v in o.items()} for k, o in g["options"].items()},
+                g.get("doc", ""),
+            )
+            for g in meta.get("presets", [])
+        ),
     )
 
 
@@ -448,13 +495,104 @@ def resolve_law(law: str | Path | LawCode | None) -> LawCode:
 resolve_law.cache_clear = _resolve.cache_clear  # type: ignore[attr-defined]
 
 
+def written_keys(law: LawCode) -> tuple[str, ...]:
+    """The keys a scenario may write for ``law``: its parameters' names, then its preset groups' names.
+
+    Parameters
+    ----------
+    law : LawCode
+        The law.
+
+    Returns
+    -------
+    tuple of str
+        The names, in declaration order.
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> from fsmctl.model.laws import written_keys
+    >>> written_keys(resolve_law("pid"))
+    ('K', 'P', 'Ki', 'k_coupling')
+    """
+    return tuple(p.name for p in law.parameters) + tuple(g.name for g in law.presets)
+
+
+def _check_written(law: LawCode, written, where: str, own: str) -> None:
+    unknown = [k for k in written if k not in written_keys(law)]
+    if unknown:
+        names = ", ".join(p.name for p in law.parameters) or "none"
+        groups = "".join(f"; preset {g.name} = {' | '.join(g.options)}" for g in law.presets)
+        raise LawError(
+            f"{where}.{unknown[0]}: unknown key: the law {law.name!r} has no parameter {unknown[0]!r} "
+            f"(its parameters: {names}{groups}) and {own}"
+        )
+
+
+def check_written_parameters(law: LawCode, written, where: str = "controller") -> None:
+    """Check a ``[controller]`` table's written law parameters against ``law``: keys, sizes, ranges, presets.
+
+    The check of :func:`parameter_matrix` for the values every agent shares, run when a
+    :class:`~fsmctl.model.scenario.ControllerSettings` is built (before any agent is known).
+
+    Parameters
+    ----------
+    law : LawCode
+        The law.
+    written : mapping
+        The written values by name.
+    where : str
+        The table's name in messages.
+
+    Raises
+    ------
+    LawError
+        A key the law does not declare, a value of the wrong size or outside its range, or an unknown preset.
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> from fsmctl.model.laws import check_written_parameters
+    >>> try:
+    ...     check_written_parameters(resolve_law("pid"), {"K": -1.0})
+    ... except LawError as exc:
+    ...     print(exc)
+    controller.K: must be > 0, got -1
+    """
+    _check_written(law, written, where, f"[controller]'s own keys are {', '.join(CONTROLLER_KEYS)}")
+    groups = {g.name: g for g in law.presets}
+    for p in law.parameters:
+        if p.name in written:
+            p.values(written[p.name], f"{where}.{p.name}")
+    for name, option in written.items():
+        if name in groups and (option.lower() if isinstance(option, str) else option) not in groups[name].options:
+            raise LawError(f"{where}.{name}: must be one of {', '.join(groups[name].options)}, got {option!r}")
+
+
+def _preset_values(law: LawCode, controller, agent, where: str) -> dict[str, tuple[float, ...]]:
+    """The packed values the selected presets fix (an agent's choice before ``[controller]``'s, else the default)."""
+    out: dict[str, tuple[float, ...]] = {}
+    for group in law.presets:
+        if group.name in agent.parameters:
+            option, at = agent.parameters[group.name], f"{where}.{group.name}"
+        else:
+            option, at = controller.parameters.get(group.name, group.default), f"controller.{group.name}"
+        key = option.lower() if isinstance(option, str) else option
+        if key not in group.options:
+            raise LawError(f"{at}: must be one of {', '.join(group.options)}, got {option!r}")
+        out.update(group.options[key])
+    return out
+
+
 def parameter_matrix(law: LawCode, scenario) -> np.ndarray:
     """The law's packed parameters for every agent, ``(n_agents, n_params)``: the one place they are resolved.
 
-    Values come from the scenario's ``[controller]`` (the paper's typed keys c1, c2, alpha, boundary_layer,
-    epsilon, singularity_fix with the ``surface`` applied, and ``controller.parameters`` by name), an agent's
-    ``delta`` for a law with a ``delta`` parameter, else the law's declared defaults; each is checked against
-    the declared range.
+    The rule, for each agent and each parameter the law declares: the agent's own value (``[[agents]]``), else
+    ``[controller]``'s, else **the law's declared default**; then the presets the scenario selects (a preset group
+    such as the paper's ``surface``, declared by the law) fix their parameters.  Every value is checked against the
+    declared range; a number given for a vector parameter sets every component.  A written key the law does not
+    declare is an error naming the law and its parameters (:meth:`fsmctl.model.scenario.Scenario.replace` drops the
+    keys of another law when the law is switched, and says which).
 
     Parameters
     ----------
@@ -471,7 +609,7 @@ def parameter_matrix(law: LawCode, scenario) -> np.ndarray:
     Raises
     ------
     LawError
-        A value outside its range, of the wrong size, or a parameter the law does not declare.
+        A value outside its range, of the wrong size, an unknown preset, or a key the law does not declare.
 
     Examples
     --------
@@ -483,28 +621,29 @@ def parameter_matrix(law: LawCode, scenario) -> np.ndarray:
     >>> P = parameter_matrix(resolve_law("fsm"), paper_scenario("1"))
     >>> P.shape, P[0, :3].tolist()
     ((6, 9), [0.6, 0.8, 0.7])
+
+    The terminal sliding surface of Sec. 3.3 is the ``fsm`` law's preset ``surface = "tsm"`` (``c1 = 0``):
+
+    >>> parameter_matrix(resolve_law("fsm"), paper_scenario("1").replace(controller={"surface": "tsm"}))[0, :2]
+    array([0. , 0.8])
     """
     c = scenario.controller
-    given = dict(c.parameters)
-    unknown = sorted(set(given) - {p.name for p in law.parameters})
-    if unknown:
-        names = ", ".join(p.name for p in law.parameters) or "none"
-        raise LawError(f"controller: the law {law.name!r} has no parameter {unknown[0]!r} (its parameters: {names})")
-    typed = c.typed_law_parameters()
+    _check_written(law, c.parameters, "controller", f"[controller]'s own keys are {', '.join(CONTROLLER_KEYS)}")
     rows = []
-    for index, agent in enumerate(scenario.agents):
+    for index, agent in enumerate(scenario.agents, start=1):
+        where = f"agents[{index}]"
+        _check_written(law, agent.parameters, where, f"an agent's own keys are {', '.join(AGENT_KEYS)}")
+        fixed = _preset_values(law, c, agent, where)
         row: list[float] = []
         for p in law.parameters:
-            if p.name == "delta" and p.size == 3:
-                value, where = agent.delta, f"agents[{index}].delta"
-            elif p.name in given:
-                value, where = given[p.name], f"controller.{p.name}"
-            elif p.name in typed:
-                value, where = typed[p.name], f"controller.{p.name}"
+            if p.name in fixed:
+                row.extend(fixed[p.name])
+            elif p.name in agent.parameters:
+                row.extend(p.values(agent.parameters[p.name], f"{where}.{p.name}"))
+            elif p.name in c.parameters:
+                row.extend(p.values(c.parameters[p.name], f"controller.{p.name}"))
             else:
                 row.extend(p.default)
-                continue
-            row.extend(p.values(value, where))
         rows.append(row)
     return np.array(rows, dtype=float).reshape(len(scenario.agents), law.n_params)
 

@@ -1,8 +1,8 @@
 """Typed, validated formation scenarios, loadable from TOML (Liang et al. 2012, Section 4).
 
 A :class:`Scenario` fixes everything a run needs: the agents (nominal inertia
-``J0``, perturbation ``delta_J``, initial attitude and rate, switching gain
-``delta``, disturbance torque), the reference (``sigma_d(0)`` and a sinusoidal
+``J0``, perturbation ``delta_J``, initial attitude and rate, disturbance torque, own law
+parameters), the reference (``sigma_d(0)`` and a sinusoidal
 ``omega_d(t)``), the communication topology (:class:`~fsmctl.model.topology.Topology`),
 the controller settings and the numerical settings.  Named *cases* are partial
 overrides of the base scenario (the paper's Cases 1, 2, 3a-3c).
@@ -49,6 +49,17 @@ from pydantic import BeforeValidator, ConfigDict, Field, ValidationError, model_
 from pydantic.dataclasses import dataclass
 
 from fsmctl.errors import InputError
+from fsmctl.model.laws import (
+    AGENT_KEYS,
+    CONTROLLER_KEYS,
+    LawCode,
+    LawError,
+    LawSwitchWarning,
+    check_written_parameters,
+    parameter_matrix,
+    resolve_law,
+    written_keys,
+)
 from fsmctl.model.topology import Topology, TopologyError
 
 __all__ = [
@@ -73,9 +84,7 @@ __all__ = [
 ]
 
 BUILTIN_SCENARIOS = ("paper", "paper-hardware")
-SINGULARITY_FIXES = {"none": 0, "switch": 1, "clamp": 2}
 ERROR_MODELS = ("paper", "exact")
-SURFACES = ("fsm", "tsm", "lsm")
 INTEGRATORS = ("rk4", "dopri45")
 GRID_RTOL = 1e-9
 """relative tolerance of "a multiple of dt" (float rounding only: 0.1 / 0.001 = 99.999...)"""
@@ -288,24 +297,34 @@ class LawParameters(Mapping):
         return self
 
 
+def _law_parameter_value(key: str, v: Any) -> Any:
+    """One written law parameter: a number (float), a vector (tuple of floats) or an option (lower case)."""
+    if isinstance(v, str):
+        return v.lower()  # option names are case-insensitive, stored and printed in lower case
+    if isinstance(v, (list, tuple, np.ndarray)):
+        items = list(np.asarray(v, dtype=object).ravel()) if isinstance(v, np.ndarray) else list(v)
+        if any(isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.integer, np.floating)) for x in items):
+            raise ValueError(f"{key}: a vector parameter holds numbers, got {list(v)!r}")
+        return tuple(float(x) for x in items)
+    if isinstance(v, (bool, np.bool_)):
+        raise ValueError(f"{key}: expected a number, got {v!r}")
+    if not isinstance(v, (int, float, np.integer, np.floating)):
+        raise ValueError(f"{key}: expected a number, a vector of numbers or an option name, got {v!r}")
+    return float(v)
+
+
 def _law_parameters(value: Any) -> LawParameters:
-    """A mapping of law parameters -> :class:`LawParameters` (lists become tuples)."""
+    """A mapping of written law parameters -> :class:`LawParameters` (numbers as floats, vectors as tuples)."""
     if isinstance(value, LawParameters):
         return value
     if not isinstance(value, Mapping):
         raise ValueError(f"expected a table of the law's parameters by name, got {value!r}")
-    out = []
+    out = {}
     for key, v in value.items():
         if not isinstance(key, str):
             raise ValueError(f"parameter names are strings, got {key!r}")
-        if isinstance(v, bool) or not isinstance(v, (int, float, str, list, tuple, np.ndarray)):
-            raise ValueError(f"{key}: expected a number, a vector or an option string, got {v!r}")
-        if isinstance(v, (list, tuple, np.ndarray)):
-            v = tuple(v)
-            if any(isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)) for x in v):
-                raise ValueError(f"{key}: a vector parameter holds numbers, got {list(v)!r}")
-        out.append((key, v))
-    return LawParameters(dict(out))
+        out[key] = _law_parameter_value(key, v)
+    return LawParameters(out)
 
 
 def _doc(description: str, unit: str | None = None, **kw) -> Any:
@@ -320,9 +339,7 @@ Mat3 = Annotated[
 ]
 Bool = Annotated[bool, BeforeValidator(_strict_bool)]
 Text = Annotated[str, BeforeValidator(_strict_str)]
-SingularityFix = Annotated[Literal["switch", "clamp", "none"], BeforeValidator(_lower)]
 ErrorModel = Annotated[Literal["paper", "exact"], BeforeValidator(_lower)]
-Surface = Annotated[Literal["fsm", "tsm", "lsm"], BeforeValidator(_lower)]
 Integrator = Annotated[Literal["rk4", "dopri45"], BeforeValidator(_lower)]
 TorqueLimit = Annotated[float, Field(gt=0, allow_inf_nan=True), BeforeValidator(_inf_words)]
 Numbers = Annotated[tuple[float, ...], BeforeValidator(_numbers)]
@@ -408,6 +425,8 @@ def _scenario_error(exc: ValidationError, where: str = "") -> ScenarioError:
         # a section's own check names its key ("max_torque: ...", "t_final = ..."): report it as a file does
         # ("actuator.max_torque: ...")
         joined = first["type"] in ("value_error", "assertion_error") and _KEY_FIRST.match(text)
+        if joined and path.endswith("parameters"):  # a law parameter: named as the file writes it
+            path = path.removesuffix("parameters").rstrip(".")
         msg = (f"{path}.{text}" if joined else f"{path}: {text}") if path else text
     if len(errors) > 1 and not (unknown and first in unknown):
         msg += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
@@ -681,26 +700,25 @@ class Sinusoid:
 
 @_validated
 class Agent:
-    """One spacecraft: inertia, initial state, switching gain and disturbance (Liang et al. 2012, eqs 9, 18, 29).
+    """One spacecraft: inertia, initial state, disturbance and its own law parameters (Liang et al. 2012, eqs 9, 29).
 
     Examples
     --------
     >>> from fsmctl import Agent
     >>> a = Agent(J0=[[100.0, 0, 0], [0, 150.0, 0], [0, 0, 200.0]], delta_J=[[30.0, 0, 0], [0, 45.0, 0], [0, 0, 60.0]],
     ...           sigma0=[0.3, 0.2, -0.3], omega0=[0.35, -0.13, 0.27])
-    >>> a.J_true.diagonal().tolist(), a.delta
-    ([130.0, 195.0, 260.0], None)
+    >>> a.J_true.diagonal().tolist(), dict(a.parameters)
+    ([130.0, 195.0, 260.0], {})
     """
 
     J0: Mat3 = _doc("nominal inertia, used by the controller (symmetric positive definite)", "kg m^2")
     delta_J: Mat3 = _doc("inertia perturbation: the plant has J = J0 + delta_J (eq 29)", "kg m^2")
     sigma0: Vec3 = _doc("initial attitude (MRP, inertial to body)", "1")
     omega0: Vec3 = _doc("initial body angular velocity", "rad/s")
-    delta: Vec3 | None = _doc(
-        "this agent's value of the law's `delta` parameter (the switching gain delta_i of eq 18 for the paper's "
-        "law), every component > 0; unset: the [controller] value or the law's default; ignored by a law without it",
-        "1/s^2",
-        default=None,
+    parameters: Annotated[Any, BeforeValidator(_law_parameters)] = _doc(
+        "this agent's own values of law parameters, by name (in a TOML file: further [[agents]] keys, e.g. the "
+        "paper's switching gain delta = [0.005, 0.005, 0.005] of eq 18); they take precedence over [controller]'s",
+        default_factory=lambda: LawParameters(),
     )
     disturbance: Sinusoid = _doc("disturbance torque d_i(t)", "N m", default_factory=Sinusoid)
 
@@ -710,8 +728,6 @@ class Agent:
             problem = _inertia_problem(J, where)
             if problem:
                 raise ValueError(problem)
-        if self.delta is not None and not all(d > 0 for d in self.delta):
-            raise ValueError(f"delta: every component must be > 0 (eq 18), got {list(self.delta)}")
         if np.linalg.norm(self.sigma0) > 1e6:
             raise ValueError(f"sigma0: |sigma0| = {np.linalg.norm(self.sigma0):.3g} is beyond any attitude")
         return self
@@ -745,21 +761,23 @@ class Reference:
 
 @_validated
 class ControllerSettings:
-    """The control law and its parameters, the actuator limit and the error kinematics.
+    """What every law shares: the law, its written parameters, the torque limit, the error model, on/off.
 
     ``law`` names a built-in law (``fsmctl laws``), a derivation script (``.py``) or a derived law folder; a
     relative path in a scenario file is relative to the file's folder (elsewhere: to the current folder).
-    The paper's FSM law (Liang et al. 2012, eqs 13-19, Remarks 6-7) has typed keys below; any law's
-    parameters are set by name as further ``[controller]`` keys (gathered in ``parameters``), checked
-    against the ranges the law declares; unset ones take the law's defaults.
+    Every other ``[controller]`` key of a file (and every other key given to :meth:`Scenario.replace`) is a
+    parameter of the law, or the name of one of its preset groups (the paper's law: ``surface = "tsm"``), gathered
+    in ``parameters`` and checked against what the law declares (:func:`fsmctl.model.laws.parameter_matrix`).
+    A parameter nobody wrote takes the flown law's declared default; an agent's own value (``[[agents]]``) takes
+    precedence over ``[controller]``'s.
 
     Examples
     --------
     >>> import fsmctl
     >>> c = fsmctl.paper_scenario("1").controller
-    >>> c.law, c.c1, c.c2, c.alpha, c.torque_limit
-    ('fsm', 0.6, 0.8, 0.7, 2.0)
-    >>> pid = fsmctl.paper_scenario("1").replace(controller={"law": "pid", "parameters": {"K": 10.0}})
+    >>> c.law, c.parameters["c1"], c.parameters["alpha"], c.torque_limit
+    ('fsm', 0.6, 0.7, 2.0)
+    >>> pid = fsmctl.paper_scenario("1").replace(controller={"law": "pid", "K": 10.0})
     >>> dict(pid.controller.parameters)
     {'K': 10.0}
     """
@@ -768,37 +786,14 @@ class ControllerSettings:
         "control law: a built-in name (fsmctl laws), a derivation script FILE.py or a derived folder", default="fsm"
     )
     parameters: Annotated[Any, BeforeValidator(_law_parameters)] = _doc(
-        "the law's named parameters (in a TOML file: further [controller] keys, e.g. K = 2.0)",
+        "the law's parameters and preset choices as written, by name (in a TOML file: further [controller] keys, "
+        "e.g. c1 = 0.6 or K = 2.0); unwritten ones take the law's declared defaults",
         default_factory=lambda: LawParameters(),
     )
-    c1: Real | None = _doc(
-        "FSM: linear gain of the fast sliding surface s = omega_e + c1 sigma_e + c2 sig(sigma_e)^alpha (eq 13); "
-        "unset: the law's default",
-        "1/s",
-        ge=0,
-        default=None,
-    )
-    c2: Real | None = _doc(
-        "FSM: terminal gain of the surface (eq 13); unset: the law's default", "1/s", ge=0, default=None
-    )
-    alpha: Real | None = _doc(
-        "FSM: exponent of sig(sigma_e)^alpha, 0.5 < alpha < 1 (eq 13); unset: the law's default",
-        "1",
-        gt=0.5,
-        lt=1,
-        default=None,
-    )
-    boundary_layer: Real = _doc("FSM: phi of sat(s/phi) (Remark 7); 0 means sgn", "1/s", ge=0, default=0.0)
-    singularity_fix: SingularityFix = _doc(
-        "Remark 6 device near sigma_e = 0: 'switch' (C^1 extension inside |x| < epsilon), 'clamp' or 'none'",
-        default="switch",
-    )
-    epsilon: Real = _doc("band of the Remark 6 fix", "1 (MRP)", gt=0, default=1e-4)
     torque_limit: TorqueLimit = _doc('per-component torque bound; inf (or "inf") for none', "N m", default=math.inf)
     error_model: ErrorModel = _doc(
         "controller's error kinematics: 'paper' (eqs 7-8 as printed) or 'exact'", default="paper"
     )
-    surface: Surface = _doc("'fsm' (eq 13), 'tsm' (c1 -> 0) or 'lsm' (c2 -> 0), Sec. 3.3", default="fsm")
     enabled: Bool = _doc(
         "false: the torque is not applied (u = 0, open loop); the law is still evaluated and reported as "
         "u_unsaturated (torque-free and disturbance-only runs)",
@@ -806,47 +801,26 @@ class ControllerSettings:
     )
 
     @model_validator(mode="after")
-    def _surface_gains(self) -> ControllerSettings:
-        if self.c1 is not None and self.surface in ("fsm", "lsm") and not self.c1 > 0:
-            raise ValueError(f"c1: must be > 0 for the {self.surface} surface, got {self.c1}")
-        if self.c2 is not None and self.surface in ("fsm", "tsm") and not self.c2 > 0:
-            raise ValueError(f"c2: must be > 0 for the {self.surface} surface, got {self.c2}")
+    def _declared(self) -> ControllerSettings:
         for key in self.parameters:
-            if not isinstance(key, str) or key in _CONTROLLER_FIELDS:
+            if key in _CONTROLLER_FIELDS:
                 raise ValueError(f"parameters: {key!r} is a [controller] key of its own")
+        law = resolve_law(self.law)  # a law that cannot be found is a LawError
+        try:
+            check_written_parameters(law, self.parameters, "controller")
+        except LawError as exc:
+            raise ValueError(str(exc).removeprefix("controller.")) from None
         return self
-
-    def typed_law_parameters(self) -> dict[str, Any]:
-        """The typed keys given, by law-parameter name (the ``surface`` applied: TSM has c1 = 0, LSM c2 = 0)."""
-        out: dict[str, Any] = {"boundary_layer": self.boundary_layer, "epsilon": self.epsilon}
-        out["singularity_fix"] = self.singularity_fix
-        if self.alpha is not None:
-            out["alpha"] = self.alpha
-        if self.surface == "tsm":
-            out["c1"] = 0.0
-        elif self.c1 is not None:
-            out["c1"] = self.c1
-        if self.surface == "lsm":
-            out["c2"] = 0.0
-        elif self.c2 is not None:
-            out["c2"] = self.c2
-        return out
 
     @property
     def effective_torque_limit(self) -> float:
         """Per-component bound the plant sees: ``torque_limit``, or 0 when the controller is disabled."""
         return self.torque_limit if self.enabled else 0.0
 
-    def gains_vector(self) -> np.ndarray:
-        """``[c1, c2, alpha, boundary_layer, epsilon, fix_mode]`` with the surface applied."""
-        c1 = 0.0 if self.surface == "tsm" else self.c1
-        c2 = 0.0 if self.surface == "lsm" else self.c2
-        return np.array(
-            [c1, c2, self.alpha, self.boundary_layer, self.epsilon, SINGULARITY_FIXES[self.singularity_fix]], float
-        )
-
 
 _CONTROLLER_FIELDS = frozenset(f.name for f in dataclasses.fields(ControllerSettings))
+if _CONTROLLER_FIELDS != {*CONTROLLER_KEYS, "parameters"}:  # checked at load: the two lists are one rule
+    raise ImportError("fsmctl.model.laws.CONTROLLER_KEYS does not list ControllerSettings' fields")
 
 
 @_validated
@@ -1323,16 +1297,16 @@ class Scenario:
                 "links: sensors and imperfect links act at the control instants; set "
                 "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
             )
-        from fsmctl.model.laws import parameter_matrix, resolve_law  # the law's declared parameters and ranges
-
-        parameter_matrix(resolve_law(self.controller.law), self)
+        law = resolve_law(self.controller.law)  # a law that cannot be found is a LawError
+        try:
+            parameter_matrix(law, self)  # the written keys against the law's declarations and ranges
+        except LawError as exc:
+            raise ValueError(str(exc)) from None
         return self
 
     @property
-    def law(self):
+    def law(self) -> LawCode:
         """The :class:`~fsmctl.model.laws.LawCode` this scenario flies (``controller.law``)."""
-        from fsmctl.model.laws import resolve_law
-
         return resolve_law(self.controller.law)
 
     @property
@@ -1405,6 +1379,11 @@ class Scenario:
         controller = section(self.controller, skip=("parameters",))
         if self.controller.parameters:
             controller["parameters"] = plain(dict(self.controller.parameters))
+        agents = []
+        for a in self.agents:
+            agents.append(section(a, skip=("parameters",)))
+            if a.parameters:
+                agents[-1]["parameters"] = plain(dict(a.parameters))
         links = [
             {
                 "receiver": lk.receiver + 1,
@@ -1425,7 +1404,7 @@ class Scenario:
             "links": section(self.links),
             "reference": section(self.reference),
             "topology": {"links": links},
-            "agents": [section(a) for a in self.agents],
+            "agents": agents,
             "choices": dict(self.choices),
         }
         if self.case is not None:
@@ -1479,19 +1458,32 @@ class Scenario:
         """A validated copy with fields of a section replaced.
 
         The copy goes through the same validators as a file: a bad value raises :class:`ScenarioError` naming
-        ``section.key``.
+        ``section.key``.  ``controller={...}`` works as a file's ``[controller]`` table does: its own keys
+        (``law``, ``torque_limit``, ``error_model``, ``enabled``, ``parameters``) replace theirs, every other key
+        writes a law parameter or preset choice (None removes a written one, so that the law's default applies).
+        ``parameters=`` replaces the whole written set.
+
+        Switching the law (``controller={"law": ...}`` without ``parameters``) keeps the written keys, in
+        ``[controller]`` and in the agents, that the new law declares and drops the others, and says which in one
+        :class:`~fsmctl.model.laws.LawSwitchWarning`.
 
         Parameters
         ----------
         **sections
             ``controller``, ``simulation``, ``reference``, ``actuator``, ``sensors``, ``links`` (mappings of
-            field names to new values, or a whole section object), ``agents`` (a sequence of :class:`Agent`) and
-            ``topology`` (a :class:`~fsmctl.model.topology.Topology`; give both when the agent count changes).
+            field names to new values, or a whole section object), ``agents`` (a sequence of :class:`Agent`, or
+            one mapping per agent of changes: its fields, or its own law parameters such as ``{"delta": 0.01}``)
+            and ``topology`` (a :class:`~fsmctl.model.topology.Topology`; give both when the agent count changes).
 
         Returns
         -------
         Scenario
             The validated copy.
+
+        Raises
+        ------
+        ScenarioError
+            An unknown section, a bad value or a key the law does not declare.
 
         Examples
         --------
@@ -1501,6 +1493,9 @@ class Scenario:
         10.0
         >>> s.replace(actuator={"kind": "reaction_wheels", "layout": "pyramid"}).actuator.n_wheels
         4
+        >>> fast = s.replace(agents=[{"delta": 0.05}] + [{}] * 5)  # agent 1's own switching gain (eq 18)
+        >>> fast.law_parameters()[0]["delta"], fast.law_parameters()[1]["delta"]
+        ((0.05, 0.05, 0.05), (0.005, 0.005, 0.005))
         """
         known = ("controller", "simulation", "reference", "actuator", "sensors", "links", "agents", "topology")
         unknown = sorted(set(sections) - set(known))
@@ -1519,14 +1514,58 @@ class Scenario:
             if not isinstance(values, Mapping):
                 raise ScenarioError(f"replace({section}=...): expected a mapping of field names to values")
             current = {f.name: getattr(current_section, f.name) for f in dataclasses.fields(current_section)}
+            if section == "controller":
+                values = _controller_changes(current, values)
             changes[section] = {**current, **dict(values)}
         if agents is not None:
-            if isinstance(agents, (str, bytes, Mapping)) or not isinstance(agents, Sequence):
-                raise ScenarioError(f"agents: expected a sequence of Agent, got {agents!r}")
-            changes["agents"] = tuple(agents)
+            changes["agents"] = _agent_changes(self.agents, agents)
         if topology is not None:
             changes["topology"] = topology
+        if "controller" in changes and "parameters" not in (sections.get("controller") or {}):
+            changes = _switch_law(self, changes)
         return dataclasses.replace(self, **changes)
+
+    def with_law(self, law: str | Path | None = None, parameters: Mapping[str, Any] | None = None) -> Scenario:
+        """A validated copy flying ``law`` with ``parameters`` set for every agent (``--law``, ``--set``).
+
+        Switching the law follows the rule of :meth:`replace` (the written keys the new law declares carry over,
+        the others are dropped, one :class:`~fsmctl.model.laws.LawSwitchWarning` says which); then each of
+        ``parameters`` is written in ``[controller]`` and the agents' own values of it give way, so that every
+        agent flies it.
+
+        Parameters
+        ----------
+        law : str, pathlib.Path or None, optional
+            A built-in law name, a derivation script or a derived folder; None keeps the scenario's law.
+        parameters : mapping, optional
+            Law parameters or preset choices by name, as a ``[controller]`` table writes them.
+
+        Returns
+        -------
+        Scenario
+            The validated copy.
+
+        Raises
+        ------
+        ScenarioError
+            A key the law does not declare, or a value outside its declared range.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> s = fsmctl.paper_scenario("1").replace(agents=[{"delta": 0.05}] + [{}] * 5)
+        >>> {p["delta"][0] for p in s.with_law(parameters={"delta": 0.01}).law_parameters()}
+        {0.01}
+        """
+        out = self if law is None else self.replace(controller={"law": str(law)})
+        values = dict(parameters or {})
+        if not values:
+            return out
+        own = sorted(set(values) & _CONTROLLER_FIELDS)
+        if own:
+            raise ScenarioError(f"controller.{own[0]}: a [controller] key of its own, not a law parameter")
+        agents = [{k: None for k in values if k in a.parameters} for a in out.agents]
+        return out.replace(controller=values, **({"agents": agents} if any(agents) else {}))
 
     def with_agents(self, agents: Sequence[Agent]) -> Scenario:
         """A validated copy with another agent list (same count as the topology).
@@ -1559,9 +1598,19 @@ class Scenario:
         return self.replace(topology=topology)
 
     def law_parameters(self) -> list[dict[str, Any]]:
-        """The law's parameters by name for every agent, as flown (:func:`fsmctl.model.laws.parameter_matrix`)."""
-        from fsmctl.model.laws import parameter_matrix
+        """The law's parameters by name for every agent, as flown (:func:`fsmctl.model.laws.parameter_matrix`).
 
+        Returns
+        -------
+        list of dict
+            One dict per agent: a number, a tuple (a vector parameter) or an option's name, per parameter.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> fsmctl.paper_scenario("1").replace(controller={"surface": "tsm"}).law_parameters()[0]["c1"]
+        0.0
+        """
         law = self.law
         rows, out = parameter_matrix(law, self), []
         for row in rows:
@@ -1629,7 +1678,11 @@ class Scenario:
         lines = [
             f"scenario {self.label}: {self.n_agents} agents, {len(self.topology.links)} links",
             f"  law: {law.name} ({law.source or law.folder})"
-            + (f", surface={c.surface}" if c.surface != "fsm" and "c1" in common else ""),
+            + "".join(
+                f", {g.name}={c.parameters[g.name]}"
+                for g in law.presets
+                if g.name in c.parameters and c.parameters[g.name] != g.default
+            ),
             "  law parameters: " + " ".join(f"{k}={v}" for k, v in common.items()),
             *(
                 ["  per agent: " + "; ".join(f"{k}: {sorted({a[k] for a in per_agent})}" for k in differing)]
@@ -1644,6 +1697,73 @@ class Scenario:
         ]
         lines += [f"  choice {k}: {v}" for k, v in self.choices]
         return lines
+
+
+def _controller_changes(current: Mapping[str, Any], values: Mapping[str, Any]) -> dict[str, Any]:
+    """``replace(controller=...)``: own keys replace theirs, the others write law parameters (None unwrites)."""
+    out = {k: v for k, v in values.items() if k in _CONTROLLER_FIELDS}
+    written = {k: v for k, v in values.items() if k not in _CONTROLLER_FIELDS}
+    if written:
+        base = dict(out.get("parameters", current["parameters"]))
+        base.update(written)
+        out["parameters"] = {k: v for k, v in base.items() if v is not None}
+    return out
+
+
+def _agent_changes(agents: tuple[Agent, ...], new: Any) -> tuple[Agent, ...]:
+    """``replace(agents=...)``: a sequence of :class:`Agent`, or one mapping of changes per current agent."""
+    if isinstance(new, (str, bytes, Mapping)) or not isinstance(new, Sequence):
+        raise ScenarioError(f"agents: expected a sequence of Agent (or of mappings of changes), got {new!r}")
+    if not any(isinstance(a, Mapping) for a in new):
+        return tuple(new)
+    if len(new) != len(agents):
+        raise ScenarioError(f"agents: {len(new)} mappings of changes for {len(agents)} agents (give one per agent)")
+    out = []
+    for index, (agent, change) in enumerate(zip(agents, new, strict=True), start=1):
+        if not isinstance(change, Mapping):
+            raise ScenarioError(f"agents[{index}]: expected a mapping of changes, got {change!r}")
+        fields = {f.name for f in dataclasses.fields(Agent)}
+        own = {k: v for k, v in change.items() if k in fields and k != "parameters"}
+        written = dict(change.get("parameters", agent.parameters))
+        written.update({k: v for k, v in change.items() if k not in fields})
+        written = {k: v for k, v in written.items() if v is not None}
+        out.append(_within(f"agents[{index}]", dataclasses.replace, agent, **own, parameters=written))
+    return tuple(out)
+
+
+def _switch_law(scenario: Scenario, changes: dict[str, Any]) -> dict[str, Any]:
+    """Flying another law: keep the written keys it declares, drop the others, and say which (one warning)."""
+    controller = changes["controller"]
+    if not isinstance(controller, Mapping):
+        return changes
+    old, new = scenario.law, resolve_law(controller["law"])
+    if old.folder == new.folder:
+        return changes
+    keys = set(written_keys(new))
+    agents = changes.get("agents", scenario.agents)
+    written = dict(controller["parameters"])
+    applied = sorted(k for k in written if k in keys)
+    ignored = sorted(k for k in written if k not in keys)
+    for index, agent in enumerate(agents, start=1):
+        applied += [f"agents[{index}].{k}" for k in agent.parameters if k in keys]
+        ignored += [f"agents[{index}].{k}" for k in agent.parameters if k not in keys]
+    if not (applied or ignored):
+        return changes
+    warnings.warn(
+        f"law {new.name!r} flown instead of {old.name!r}: written keys applied: {', '.join(applied) or 'none'}; "
+        f"ignored (not parameters of {new.name}): {', '.join(ignored) or 'none'}",
+        LawSwitchWarning,
+        stacklevel=3,
+    )
+    out = dict(changes)
+    out["controller"] = {**controller, "parameters": {k: v for k, v in written.items() if k in keys}}
+    out["agents"] = tuple(
+        a
+        if all(k in keys for k in a.parameters)
+        else dataclasses.replace(a, parameters={k: v for k, v in a.parameters.items() if k in keys})
+        for a in agents
+    )
+    return out
 
 
 # ----------------------------------------------------------------------------- the file format
@@ -1674,9 +1794,8 @@ TOP_KEYS = (
     "cases",
     "choices",
 )
-AGENT_DEFAULT_KEYS = ("delta", "delta_J", "disturbance")
+AGENT_DEFAULT_KEYS = ("delta_J", "disturbance")
 """keys of ``[controller]`` that are defaults for every agent (the file's shorthand)"""
-AGENT_KEYS = ("J0", "delta_J", "sigma0", "omega0", "delta", "disturbance")
 
 
 def _unknown(d: Mapping, known: Sequence[str], where: str) -> None:
@@ -1698,7 +1817,8 @@ def _within(where: str, build, *args, **kwargs):
 
 def _agent_from_table(d: Mapping, i: int, defaults: Mapping) -> Agent:
     where = f"agents[{i + 1}]"
-    _unknown(d, AGENT_KEYS, where)
+    if not isinstance(d, Mapping):
+        raise ScenarioError(f"{where}: expected a table, got {d!r}")
     for key in ("J0", "sigma0", "omega0"):
         if key not in d:
             raise ScenarioError(f"{where}.{key}: missing")
@@ -1713,14 +1833,30 @@ def _agent_from_table(d: Mapping, i: int, defaults: Mapping) -> Agent:
                 f"{where if src == 'delta_J' else 'controller'}.delta_J.scale: expected a finite number, got {scale!r}"
             )
         dJ = tuple(tuple(scale * x for x in row) for row in J0)
-    delta = d.get("delta", defaults.get("delta"))
-    if _is_real(delta):
-        delta = [delta] * 3
     dist = d.get("disturbance", defaults.get("disturbance"))
     disturbance = Sinusoid() if dist is None else Sinusoid.from_mapping(dist, f"{where}.disturbance")
     return _within(
-        where, Agent, J0=J0, delta_J=dJ, sigma0=d["sigma0"], omega0=d["omega0"], delta=delta, disturbance=disturbance
+        where,
+        Agent,
+        J0=J0,
+        delta_J=dJ,
+        sigma0=d["sigma0"],
+        omega0=d["omega0"],
+        disturbance=disturbance,
+        parameters=_written_parameters(d, AGENT_KEYS, where),
     )
+
+
+def _written_parameters(table: Mapping, own: Sequence[str], where: str) -> dict[str, Any]:
+    """A table's law parameters: its keys that are not ``own``, merged with its ``parameters`` sub-table."""
+    nested = table.get("parameters", {})
+    if not isinstance(nested, Mapping):
+        raise ScenarioError(f"{where}.parameters: expected a table of the law's parameters by name, got {nested!r}")
+    flat = {k: v for k, v in table.items() if k not in own and k != "parameters"}
+    twice = sorted(set(flat) & set(nested))
+    if twice:
+        raise ScenarioError(f"{where}: {twice[0]!r} is given twice (as a key and in {where}.parameters)")
+    return {**flat, **nested}
 
 
 def _mat3_or_error(v: Any, key: str) -> tuple[tuple[float, ...], ...]:
@@ -1745,8 +1881,8 @@ def _laws_relative_to(data: dict, folder: Path) -> None:
 def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "scenario") -> Scenario:
     """Build a validated :class:`Scenario` from a mapping (a parsed TOML file), optionally applying a case.
 
-    The file's shorthands (``delta``/``delta_J``/``disturbance`` defaults in ``[controller]``,
-    ``delta_J = {scale = ...}``, a scalar ``delta``, ``kind = ["cos"|"sin", ...]`` of sinusoids, the
+    The file's shorthands (``delta_J``/``disturbance`` defaults in ``[controller]``,
+    ``delta_J = {scale = ...}``, ``kind = ["cos"|"sin", ...]`` of sinusoids, the
     topology tables) are expanded here; every value is then checked by the dataclasses' validators.
 
     Parameters
@@ -1808,14 +1944,12 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
     if not isinstance(ctrl, Mapping):
         raise ScenarioError("controller: expected a table")
     known = {*(f.name for f in dataclasses.fields(ControllerSettings)), *AGENT_DEFAULT_KEYS}
-    # further keys are the law's named parameters (checked against the law's declared ones)
-    law_params = {k: v for k, v in ctrl.items() if k not in known}
-    law_params.update(ctrl.get("parameters", {}) if isinstance(ctrl.get("parameters", {}), Mapping) else {})
+    # further keys are the law's parameters (checked against the law's declarations by the Scenario)
     controller = _within(
         "controller",
         ControllerSettings,
         **{k: v for k, v in ctrl.items() if k in known and k not in AGENT_DEFAULT_KEYS and k != "parameters"},
-        parameters=law_params,
+        parameters=_written_parameters(ctrl, tuple(known), "controller"),
     )
     defaults = {k: ctrl[k] for k in AGENT_DEFAULT_KEYS if k in ctrl}
     sim = merged.get("simulation", {})

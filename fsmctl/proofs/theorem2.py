@@ -38,7 +38,7 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.casadi_eval import evaluate_mapped
 from fsmctl.model.generated_code import casadi_function, generated_dir
-from fsmctl.model.scenario import SINGULARITY_FIXES, Scenario
+from fsmctl.model.scenario import Scenario
 
 __all__ = [
     "AgentDelta",
@@ -365,7 +365,7 @@ def delta_requirements(
         times = np.arange(0.0, scenario.simulation.t_final + 0.5 * dt_reference, dt_reference)
         omega_d_t, omega_d_dot_t = _reference_signals(scenario, times)
     gains_ref = gains.copy()
-    gains_ref[5] = SINGULARITY_FIXES["switch"]  # at omega_e = 0 the Remark 6 slope multiplies sigma_e_dot = 0
+    gains_ref[5] = 1.0  # TEMPORARY: "switch" (until the one-catalogue branch lands)  # at omega_e = 0 the Remark 6 slope multiplies sigma_e_dot = 0
     # the sliding variable is the same for every agent (it does not involve J): bound it once for the coupling term
     Ki = scenario.topology.k_i_matrix()
     kj_max = scenario.topology.k_j_max_matrix()

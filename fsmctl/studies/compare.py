@@ -44,6 +44,7 @@ import math
 import sys
 import time
 import tomllib
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -53,6 +54,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from fsmctl.errors import InputError
+from fsmctl.model.laws import LawSwitchWarning, resolve_law, written_keys
 from fsmctl.model.scenario import Scenario
 from fsmctl.studies.parallel import check_workers
 
@@ -80,9 +82,6 @@ DEFAULT_TOLERANCES_DEG = (1.0, 0.1, 0.01)
 SERIES_POINTS = 2000
 """At most about this many samples of AAEM/RAEM per run are kept for the figure."""
 
-_TYPED = ("c1", "c2", "alpha", "boundary_layer", "singularity_fix", "epsilon")
-"""Law parameters that are typed ``[controller]`` keys of their own (not in ``controller.parameters``)."""
-
 _trapezoid = getattr(np, "trapezoid", None) or np.trapz  # noqa: NPY201 (NumPy < 2 has only trapz)
 
 
@@ -100,13 +99,13 @@ class LawRun:
     law : str or Path
         A built-in law name (``fsmctl laws``), a derivation script ``FILE.py`` or a derived law folder.
     parameters : mapping
-        Values of the law's declared parameters by name (e.g. ``{"c1": 0.6}`` for ``fsm``, ``{"K": 2.0}``); the
-        paper's typed keys (c1, c2, alpha, boundary_layer, singularity_fix, epsilon) go to their ``[controller]``
-        fields, a 3-vector ``delta`` to every agent, ``surface`` (``fsm``/``tsm``/``lsm``) to the controller.
-        Unset parameters keep the scenario's values (those the law declares), else the law's defaults.
+        Values of the law's declared parameters or preset choices by name (e.g. ``{"c1": 0.6}`` or
+        ``{"surface": "tsm"}`` for ``fsm``, ``{"K": 2.0}``), each set for every agent.  Unset parameters keep the
+        scenario's written values that the law declares (the rule of :meth:`fsmctl.Scenario.replace` when the law
+        is switched), else the law's defaults.
     controller : mapping
-        Overrides of ``[controller]`` fields other than ``law`` and ``parameters``: ``torque_limit`` (N m,
-        ``math.inf`` or ``"inf"`` for none), ``surface``, ``error_model``, ``enabled``, ...
+        Overrides of the ``[controller]`` keys every law shares: ``torque_limit`` (N m, ``math.inf`` or ``"inf"``
+        for none), ``error_model``, ``enabled``.
 
     Examples
     --------
@@ -351,52 +350,40 @@ def run_scenario(scenario: Scenario, run: LawRun) -> Scenario:
     --------
     >>> import fsmctl
     >>> s = run_scenario(fsmctl.paper_scenario("1"), LawRun("TSM", "fsm", {"surface": "tsm"}, {"torque_limit": "inf"}))
-    >>> s.controller.surface, s.controller.torque_limit
+    >>> s.controller.parameters["surface"], s.controller.torque_limit
     ('tsm', inf)
     """
-    from fsmctl.model.laws import resolve_law
-
     where = f"run {run.label!r}"
     try:
         law = resolve_law(run.law)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
-    declared = {p.name: p for p in law.parameters}
+    declared = written_keys(law)
     fixed = {"law", "parameters"}
     known_controller = sorted(f.name for f in dataclasses.fields(type(scenario.controller)) if f.name not in fixed)
     for key in run.controller:
         if key not in known_controller:
             raise InputError(f"{where}: controller has no setting {key!r} (known: {', '.join(known_controller)})")
-    controller: dict[str, Any] = {"law": str(run.law)}
-    parameters = {k: v for k, v in scenario.controller.parameters.items() if k in declared}
-    agents = None
-    for key, value in run.parameters.items():
-        if key == "surface":
-            if not {"c1", "c2"} <= set(declared):
-                raise InputError(f"{where}: 'surface' needs a law with c1 and c2 (the law {law.name!r} has neither)")
-            controller["surface"] = value
-        elif key not in declared:
-            names = ", ".join(declared) or "none"
+    for key in run.parameters:
+        if key not in declared:
+            names = ", ".join(p.name for p in law.parameters) or "none"
             raise InputError(f"{where}: the law {law.name!r} has no parameter {key!r} (its parameters: {names})")
-        elif key in _TYPED:
-            controller[key] = value
-        elif key == "delta" and declared[key].size == 3:  # per agent in a scenario: set every agent's
-            vec = [value] * 3 if isinstance(value, (int, float)) else value
-            try:
-                agents = [dataclasses.replace(a, delta=tuple(vec)) for a in scenario.agents]
-            except (InputError, TypeError, ValueError) as exc:
-                raise InputError(f"{where}: delta: {exc}") from None
-        else:
-            parameters[key] = value
-    controller["parameters"] = parameters
-    controller.update(run.controller)
-    sections: dict[str, Any] = {"controller": controller}
-    if agents is not None:
+    with warnings.catch_warnings():  # the documented rule: the written keys the run's law declares carry over
+        warnings.simplefilter("ignore", LawSwitchWarning)
+        try:
+            base = scenario.replace(controller={"law": str(run.law)})
+        except InputError as exc:
+            raise InputError(f"{where}: {exc}") from None
+    # a run's parameter is every agent's: the agents' own values of it give way
+    agents = [{k: None for k in run.parameters if k in a.parameters} for a in base.agents]
+    sections: dict[str, Any] = {"controller": {**run.parameters, **run.controller}}
+    if any(agents):
         sections["agents"] = agents
     try:
-        return scenario.replace(**sections)
+        return base.replace(**sections)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
+
 
 
 # ----------------------------------------------------------------------------- metrics

@@ -303,10 +303,7 @@ class Setting:
             tables = dict(self.options)[value]
             law = law_path if law_path is not None else str(law_script(UNSWITCHED_LAW))
             return {s: {k: (law if v == "@law" else v) for k, v in t.items()} for s, t in tables.items()}
-        x = float(value)
-        if self.name == "delta":
-            return {"controller": {"delta": [x, x, x]}}
-        return {"controller": {self.name: x}}
+        return {"controller": {self.name: float(value)}}  # a number sets every component of a vector
 
 
 def _num(x: Any) -> str:
@@ -354,8 +351,8 @@ def search_settings(scenario) -> tuple[Setting, ...]:
     c, sim = scenario.controller, scenario.simulation
     params = scenario.law_parameters()[0]  # agent 1, as flown
     alpha = float(params.get("alpha", 0.7))
-    delta = float(np.asarray(params.get("delta", scenario.agents[0].delta), float).ravel()[0])
-    phi = float(c.boundary_layer)
+    delta = float(np.asarray(params.get("delta", 0.005), float).ravel()[0])
+    phi = float(params.get("boundary_layer", 0.0))
     u_max = float(c.torque_limit)
     tol = SETTLING_TOLERANCES_DEG[0]
     out: list[Setting] = []

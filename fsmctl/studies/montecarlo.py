@@ -719,8 +719,8 @@ def sample_run_scenario(base: Scenario, settings: CampaignSettings, seed: np.ran
                 delta_J=tuple(tuple(row) for row in delta_J.tolist()),
                 sigma0=tuple(sigma0.tolist()),
                 omega0=tuple(omega0.tolist()),
-                delta=agent.delta,
                 disturbance=disturbance,
+                parameters=agent.parameters,
             )
         )
     topology = _random_topology(rng, base.topology, settings)
@@ -846,7 +846,8 @@ def campaign_base(settings: CampaignSettings) -> tuple[CampaignSettings, Scenari
     dt = sim.get("dt", base.simulation.dt)
     t_final = sim.get("t_final", base.simulation.t_final)
     sim["output_interval"] = _fitting_output_interval(settings.output_interval, dt, t_final)
-    base = base.replace(simulation=sim, controller=ctrl)
+    own = {k: ctrl.pop(k) for k in list(ctrl) if k in ("torque_limit", "error_model", "enabled")}
+    base = base.with_law(ctrl.pop("law", None), ctrl).replace(simulation=sim, controller=own)
     settings = replace(settings, case=base.case)
     check_campaign(settings, base)
     return settings, base

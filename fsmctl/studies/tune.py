@@ -1529,7 +1529,7 @@ def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence
     >>> text.splitlines()[3]
     'extends = "paper"'
     >>> best = fsmctl.load_scenario("tuned/best.toml")
-    >>> best.controller.c1 == result.trials[result.best]["params"]["c1"], best.simulation.t_final
+    >>> best.controller.parameters["c1"] == result.trials[result.best]["params"]["c1"], best.simulation.t_final
     (True, 1.0)
     """
     from fsmctl.model.scenario import BUILTIN_SCENARIOS
