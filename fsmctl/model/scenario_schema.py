@@ -2,8 +2,8 @@
 
 :func:`file_schema` builds a JSON Schema (draft 2020-12) of a scenario TOML file from the pydantic
 dataclasses of :mod:`fsmctl.model.scenario` (their types, ranges, defaults, units and descriptions), adding
-the file's shorthands (``[controller]`` defaults for every agent, ``delta_J = {scale = ...}``, a scalar
-``delta``, ``kind`` of sinusoids, the topology tables, one value for every wheel, ``"inf"`` limits,
+the file's shorthands (``[controller]`` defaults for every agent, ``delta_J = {scale = ...}``, law parameters as
+further keys of ``[controller]`` and ``[[agents]]``, ``kind`` of sinusoids, the topology tables, one value for every wheel, ``"inf"`` limits,
 ``extends``, ``[cases]``).  The hardware sections (``[actuator]``, ``[sensors.star_tracker]``,
 ``[sensors.gyro]``, ``[links]``) and ``simulation.seed`` come from their dataclasses like the others.  :func:`reference_markdown`
 turns it into the reference page of every key.  Both are written by::
@@ -104,14 +104,6 @@ def _sinusoid_table(description: str, unit: str) -> dict:
         "description": "per axis: 'cos' as above, or 'sin' for amplitude_k sin(frequency_k t + phase_k) + offset_k",
     }
     return s
-
-
-def _delta_schema() -> dict:
-    return {
-        "description": "switching gain delta_i of eq 18 (every component > 0): one number for all axes, or 3 numbers",
-        "unit": "1/s^2",
-        "anyOf": [{"type": "number", "exclusiveMinimum": 0}, _vec3("per axis")],
-    }
 
 
 def _delta_j_schema() -> dict:
@@ -331,8 +323,9 @@ def file_schema() -> dict:
     """
     controller = _section(sc.ControllerSettings)
     controller["description"] = (
-        "the control law, its parameters and the actuator limit; further keys are the law's named parameters "
-        "(fsmctl laws lists them), e.g. K = 2.0 for law = 'pid'"
+        "what every law shares: the law, the torque limit, the error model, on/off; further keys are the law's "
+        "parameters and preset choices by name (fsmctl laws NAME lists them; see Law parameters below), e.g. "
+        "c1 = 0.6 for law = 'fsm', K = 2.0 for law = 'pid'"
     )
     law_value = {
         "anyOf": [{"type": "number"}, {"type": "array", "items": {"type": "number"}}, {"type": "string"}],
@@ -350,10 +343,6 @@ def file_schema() -> dict:
         "default": "inf",
         "anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"enum": ["inf", "infinity", "none"]}],
     }
-    controller["properties"]["delta"] = {
-        **_delta_schema(),
-        "description": "default of agents' delta: " + _delta_schema()["description"],
-    }
     controller["properties"]["delta_J"] = {
         **_delta_j_schema(),
         "description": "default of agents' delta_J: " + _delta_j_schema()["description"],
@@ -367,7 +356,13 @@ def file_schema() -> dict:
     simulation["properties"]["seed"]["minimum"] = 0
     agent = _section(sc.Agent)
     agent["description"] = "one spacecraft ([[agents]], in order: agent 1, 2, ...)"
-    agent["properties"]["delta"] = _delta_schema()
+    agent["properties"]["parameters"] = {
+        "type": "object",
+        "additionalProperties": law_value,
+        "description": "this agent's own law parameters (the same as giving them as further [[agents]] keys); "
+        "they take precedence over [controller]'s",
+    }
+    agent["additionalProperties"] = law_value
     agent["properties"]["delta_J"] = _delta_j_schema()
     agent["properties"]["disturbance"] = _sinusoid_table("disturbance torque d_i(t)", "N m")
     agent["required"] = ["J0", "sigma0", "omega0"]
@@ -547,7 +542,7 @@ def reference_markdown(schema: dict | None = None) -> str:
         "Rules checked beyond single values: inertias symmetric positive definite (a warning when not physically "
         "realizable, J1 + J2 < J3); `t_final`, `output_interval` and `control_period` multiples of `dt`; `t_final` "
         "a multiple of `output_interval` (the output grid ends at `t_final`); the topology's agent numbers within "
-        "the agent list; `c1 > 0` for `fsm`/`lsm` and `c2 > 0` for `fsm`/`tsm`; `[sensors]` and imperfect `[links]` "
+        "the agent list; every law parameter within the range its law declares; `[sensors]` and imperfect `[links]` "
         "only with `simulation.control_period > 0` (they act at the control instants); the wheel spin axes span "
         '3-D (`layout = "custom"` needs `axes`, the other layouts refuse them); a per-wheel array has one value or '
         "one per wheel; `links.delay_table`/`loss_table` are n x n with a value on every link of the topology.",
@@ -582,7 +577,8 @@ def reference_markdown(schema: dict | None = None) -> str:
     agent = props["agents"]["items"]
     out += ["## `[[agents]]`", "", agent["description"], "", head]
     out += _rows(agent["properties"], set(agent.get("required", [])), "agents[i].")
-    out.append("")
+    out += ["", "Every further key of an `[[agents]]` table is a law parameter of that agent (below).", ""]
+    out += _law_parameters_section()
     sin = agent["properties"]["disturbance"]
     out += ["## Sinusoid tables (`disturbance`, `reference.omega`)", "", sin["description"], "", head]
     out += _rows(sin["properties"], set(), "")
@@ -603,6 +599,42 @@ def reference_markdown(schema: dict | None = None) -> str:
         "",
     ]
     return "\n".join(out)
+
+
+def _law_parameters_section() -> list[str]:
+    """The rule of law parameters and the table of every built-in law's declared parameters and presets."""
+    from fsmctl.model.laws import builtin_laws
+
+    out = [
+        "## Law parameters",
+        "",
+        "A law declares its parameters (name, default, unit, range) in its derivation script; `fsmctl laws NAME` "
+        "prints them for any law, built-in or yours. A scenario writes them as further keys of `[controller]` (every "
+        "agent) or of an `[[agents]]` table (that agent); for each agent and parameter the value flown is the "
+        "agent's own, else `[controller]`'s, else **the flown law's declared default**. A number given for a vector "
+        "parameter sets every component. A law may declare preset groups (the paper's `surface`): one key whose "
+        "value names a preset that fixes some parameters, over the values written for them. A written key the "
+        "law does not declare is an error that names the law and its parameters.",
+        "",
+        "Flying another law on a scenario (`--law`, `scenario.replace(controller={\"law\": ...})`) keeps the written "
+        "keys that the new law declares, by name, and drops the others; one warning line says which "
+        "(`LawSwitchWarning`). `--set KEY=VALUE` sets a parameter for every agent (the agents' own values of it "
+        "give way).",
+        "",
+    ]
+    head = "| parameter | default | unit | range | meaning |\n|---|---|---|---|---|"
+    for name, law in builtin_laws().items():
+        out += [f"### `law = \"{name}\"`", "", law.doc.split("\n")[0], "", head]
+        for p in law.parameters:
+            out.append(f"| `{p.name}` | {p.default_text()} | {p.unit} | {p.range_text()} | {p.doc} |")
+        for g in law.presets:
+            options = ", ".join(
+                f"`{k}`" + (" (" + ", ".join(f"{n} = {v[0]:g}" for n, v in o.items()) + ")" if o else "")
+                for k, o in g.options.items()
+            )
+            out.append(f"| `{g.name}` (preset) | {g.default} | | {options} | {g.doc} |")
+        out.append("")
+    return out
 
 
 # ----------------------------------------------------------------------------- writing / checking
