@@ -64,10 +64,15 @@ def test_reference_page_documents_every_key_with_unit_and_default():
         for f in dataclasses.fields(cls):
             assert f"`{prefix}{f.name}`" in page, f"{prefix}{f.name} missing from {REFERENCE_PATH}"
     assert "| `simulation.dt` | number (> 0) | s | `0.001` |" in page
-    assert "| `controller.alpha` | number (> 0.5, < 1) | 1 | the law's |" in page
+    from fsmctl.model import builtin_laws
+
+    for name, law in builtin_laws().items():  # every built-in law's declared parameters, with range and default
+        section = page.split(f'### `law = "{name}"`')[1].split("###")[0]
+        for p in law.parameters:
+            assert f"| `{p.name}` | {p.default_text()} | {p.unit} | {p.range_text()} |" in section
     assert '| `controller.law` | string |  | `"fsm"` |' in page
     # defaults in the page are the dataclasses' defaults
-    assert sc.SimulationSettings().dt == 0.001 and math.isinf(sc.ControllerSettings(c1=1, c2=1, alpha=0.7).torque_limit)
+    assert sc.SimulationSettings().dt == 0.001 and math.isinf(sc.ControllerSettings().torque_limit)
 
 
 # ----------------------------------------------------------------------------- hardware sections (issue 13)

@@ -318,8 +318,8 @@ def file_schema() -> dict:
     >>> schema = file_schema()
     >>> sorted(schema["properties"])[:5]
     ['actuator', 'agents', 'cases', 'choices', 'controller']
-    >>> schema["properties"]["controller"]["properties"]["c1"]["unit"]
-    '1/s'
+    >>> schema["properties"]["controller"]["properties"]["torque_limit"]["unit"]
+    'N m'
     """
     controller = _section(sc.ControllerSettings)
     controller["description"] = (
@@ -420,8 +420,63 @@ def file_schema() -> dict:
             },
         },
         "anyOf": [{"required": ["extends"]}, {"required": list(REQUIRED_SECTIONS)}],
+        "allOf": _builtin_law_rules(controller, agent),
         "additionalProperties": False,
     }
+
+
+def _parameter_schema(p) -> dict:
+    """A declared law parameter's schema: an option, a number in its range, or (a vector) one or ``size`` of them."""
+    if p.choices:
+        return {"enum": list(p.choices), "description": p.doc}
+    number: dict[str, Any] = {"type": "number"}
+    if p.minimum is not None:
+        number["exclusiveMinimum" if p.exclusive_minimum else "minimum"] = p.minimum
+    if p.maximum is not None:
+        number["exclusiveMaximum" if p.exclusive_maximum else "maximum"] = p.maximum
+    if p.size == 1:
+        return {**number, "description": p.doc}
+    vector = {"type": "array", "items": number, "minItems": p.size, "maxItems": p.size}
+    return {"anyOf": [number, vector], "description": p.doc}
+
+
+def _builtin_law_rules(controller: dict, agent: dict) -> list[dict]:
+    """One ``if law = NAME then ...`` rule per built-in law: the keys it declares, with their types and ranges.
+
+    A file's law parameters are checked against the flown law's declarations (the loader's rule); for a law given
+    by a path the schema cannot know them, and only the generic shape (a number, a vector or an option) is checked.
+    """
+    from fsmctl.model.laws import builtin_laws
+
+    default = sc.ControllerSettings.__pydantic_fields__["law"].default
+    out = []
+    for name, law in builtin_laws().items():
+        keys = {p.name: _parameter_schema(p) for p in law.parameters}
+        keys |= {g.name: {"enum": list(g.options), "description": g.doc} for g in law.presets}
+        when: dict[str, Any] = {"properties": {"law": {"const": name}}}
+        if name != default:
+            when["required"] = ["law"]
+        written = {"type": "object", "properties": keys, "additionalProperties": False}
+        out.append(
+            {
+                "if": {"properties": {"controller": when}, "required": ["controller"]},
+                "then": {
+                    "properties": {
+                        "controller": {
+                            "properties": {**keys, "parameters": written},
+                            "propertyNames": {"enum": sorted({*controller["properties"], *keys})},
+                        },
+                        "agents": {
+                            "items": {
+                                "properties": {**keys, "parameters": written},
+                                "propertyNames": {"enum": sorted({*agent["properties"], *keys})},
+                            }
+                        },
+                    }
+                },
+            }
+        )
+    return out
 
 
 # ----------------------------------------------------------------------------- Markdown
