@@ -1,7 +1,7 @@
 """``python -m derive``: derive, verify and generate the project's code.
 
 Runs the symbolic proofs of :mod:`fsmctl.proofs.identities` and the errata checks of
-:mod:`fsmctl.proofs.errata` (any failure stops with exit code 1), translates the model's function
+:func:`fsmctl.proofs.errata.all_errata` (any failure stops with exit code 1), translates the model's function
 catalogue (``derive/catalogue.py``) to CasADi and writes ``generated/``, then derives every built-in law
 (``derive/laws/*.py``, the same kind of derivation script a user writes) into ``generated/laws/<name>/``.
 
@@ -21,9 +21,8 @@ from derive.catalogue import GAIN_CONSTANTS_LAYOUT, GAINS_LAYOUT, SINUSOID_LAYOU
 from derive.laws import BUILTIN_LAWS
 from fsmctl.codegen.laws import write_law
 from fsmctl.codegen.writer import build_functions, check_generated, write_generated
-from fsmctl.proofs.errata import errata
+from fsmctl.proofs.errata import all_errata
 from fsmctl.proofs.identities import all_identities
-from fsmctl.proofs.seed_audit import audit_errata
 from fsmctl.symbolic.law import law_variants
 
 DEFAULT_OUTPUT = Path(__file__).resolve().parent.parent / "generated"
@@ -106,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"identity {r.id} (eq {r.equations}) does not hold: {r.statement}", file=sys.stderr)
         return 1
 
-    found = errata() + audit_errata()  # the errata of the proofs, then those of the re-audit against the print
+    found = all_errata()  # the errata of the proofs, then those of the re-audit against the print
     for e in found:
         say(f"  {'erratum' if e.checked else 'UNCHECKED':9} {e.id:24} eq {e.equation}")
     unchecked = [e for e in found if not e.checked]

@@ -29,8 +29,7 @@ import sympy as sp
 from IPython.display import Markdown, display
 
 from fsmctl.model.generated_code import generated_dir
-from fsmctl.proofs.errata import errata
-from fsmctl.proofs.seed_audit import audit_errata
+from fsmctl.proofs.errata import all_errata
 from fsmctl.symbolic import (
     SingularityFix,
     closed_loop_acceleration,
@@ -120,7 +119,7 @@ show("u_3", sp.simplify(pieces.u[2]))
 
 # %%
 recorded = json.loads((generated_dir() / "errata.json").read_text())
-found = errata() + audit_errata() if not FAST else None  # the proofs' errata, then the re-audit's
+found = all_errata() if not FAST else None  # the proofs' errata, then the re-audit's
 for e in recorded:
     display(Markdown(f"**{e['id']}** (eq {e['equation']}) — checked: {e['checked']}"))
     display(Markdown(f"printed: $${e['as_printed_latex']}$$ correct: $${e['correct_latex']}$$"))

@@ -122,7 +122,7 @@ def test_unexpected_failure_is_reported_as_unproved(monkeypatch):
 
 def test_json_and_markdown(case1_results):
     results = list(case1_results.values())
-    rows = json.loads(to_json(results))
+    rows = json.loads(to_json(results))["claims"]
     assert [row["id"] for row in rows] == claim_ids()
     assert all({"id", "equations", "verdict", "detail", "seconds"} <= set(row) for row in rows)
     md = to_markdown(results, paper_scenario("1"))

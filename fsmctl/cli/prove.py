@@ -1,12 +1,13 @@
 """``fsmctl prove``: check the claims of Liang, Sun & Wang (2012), Section 3, for a scenario; or a law's.
 
-``fsmctl prove`` checks the paper's claims (:mod:`fsmctl.proofs.claims`); ``fsmctl prove --law L`` checks
+``fsmctl prove`` checks the paper's claims (:mod:`fsmctl.proofs.claims`) and, without ``CLAIM_ID``, every
+erratum of the printed paper (:func:`fsmctl.proofs.errata.all_errata`); ``fsmctl prove --law L`` checks
 what a law declares instead (:func:`fsmctl.proofs.law_check.check_law`: its contract, and its Lyapunov
 candidate when it declares one).
 
 Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 every claim as expected (known errata
 included) / the law's checks passed, 1 a claim fails for the scenario / a law check failed (or a check did not
-go through), 2 usage or input error.
+go through, an erratum that could not be confirmed included), 2 usage or input error.
 """
 
 from __future__ import annotations
@@ -32,6 +33,10 @@ EPILOG = epilog(
     EXIT_CODES,
     text="""verdicts: proved (symbolic), numeric (sampling only, not a proof), erratum (the printed statement is
 false; the corrected one is checked), fails for this scenario.
+
+without CLAIM_ID, every erratum of the printed paper is also checked and reported after the claims, with its
+equations and the claim that examines it (JSON: {"claims": [...], "errata": [...]}; "errata" is null when
+CLAIM_IDs select claims).
 
 --law NAME|FILE.py|DIR checks a law instead of the paper's claims (--error-model, --samples, --seed,
 --json and --report apply).""",
@@ -67,7 +72,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--json",
         action="store_true",
-        help='print JSON: an array with one object per claim (with --law: one object, the law report, its checks in "checks")',
+        help='print JSON: {"claims": [...], "errata": [...]}, one object per claim and per erratum of the paper '
+        '(with --law: one object, the law report, its checks in "checks")',
     )
     p.add_argument("--report", metavar="FILE.md", type=Path, help="also write a Markdown report with LaTeX")
     p.add_argument(
@@ -118,15 +124,20 @@ def run(args: argparse.Namespace) -> int:
     args : argparse.Namespace
         Parsed ``fsmctl prove`` options.
 
+    Without claim ids, every erratum of the printed paper (:func:`fsmctl.proofs.errata.all_errata`) is checked
+    and reported after the claims.
+
     Returns
     -------
     int
         0 every claim as expected (known errata included), 1 a claim fails for the scenario or a
-        check did not go through; bad input raises :class:`fsmctl.cli.main.UsageError` (exit code 2).
+        check did not go through (an erratum not confirmed included); bad input raises
+        :class:`fsmctl.cli.main.UsageError` (exit code 2).
     """
     from fsmctl.cli.main import UsageError  # one line, exit 2
     from fsmctl.proofs import report
     from fsmctl.proofs.claims import ProofContext, claim_ids, run_claims
+    from fsmctl.proofs.errata import all_errata
     from fsmctl.proofs.theorem2 import Region
 
     if args.law is not None:
@@ -151,18 +162,20 @@ def run(args: argparse.Namespace) -> int:
     ctx = ProofContext(scenario, Region(args.region_sigma, args.region_omega), args.samples, args.seed)
     ids = list(dict.fromkeys(args.claims))
     results = run_claims(ids or None, ctx, workers=args.workers)
+    errata = None if ids else all_errata()  # the full check: every erratum of the paper, from the one registry
     if args.json:
-        print(report.to_json(results))
+        print(report.to_json(results, errata))
     else:
-        print(report.format_table(results, scenario))
+        print(report.format_table(results, scenario, errata=errata))
     if args.report is not None:
         try:
-            report.write_report(args.report, results, scenario)
+            report.write_report(args.report, results, scenario, errata)
         except OSError as exc:
             raise UsageError(f"cannot write report {args.report}: {exc.strerror or exc}") from None
         if not args.json:
             print(f"report written to {args.report}", file=sys.stderr)
-    return 0 if all(r.expected for r in results) else 1
+    expected = all(r.expected for r in results) and all(e.checked for e in errata or ())
+    return 0 if expected else 1
 
 
 def _load(source: str, case: str | None):

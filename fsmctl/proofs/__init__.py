@@ -3,7 +3,8 @@
 * the paper's claims (Lemmas 1-2, eqs 7-41, Theorems 1-3, Remarks 4 and 6): :func:`run_claims` with a
   :class:`ProofContext`, the ids :func:`claim_ids`, the registry :data:`CLAIMS`, the :data:`VERDICTS`, each
   outcome a :class:`ClaimResult`; reports :func:`format_table` and :func:`write_report`;
-* the errata of the printed paper, each confirmed symbolically: :func:`errata`, :class:`Erratum`;
+* the errata of the printed paper, each confirmed symbolically: :func:`all_errata` (every one: those of the
+  proofs, :func:`errata`, then those of the re-audit against the printed text), :class:`Erratum`;
 * Theorem 1 on a concrete time-varying topology (eqs 25-27): :func:`analyze_topology`, :func:`eta_interval`;
 * Theorem 2's switching gain (eqs 29-33): :func:`delta_requirements` over a :class:`Region`;
 * any law written with :class:`fsmctl.symbolic.LawBuilder` (``fsmctl prove --law``): :func:`check_law`,
@@ -21,7 +22,7 @@ import lazy_loader
 _ATTRS = {
     "claims": ["CLAIMS", "VERDICTS", "ClaimResult", "ProofContext", "claim_ids", "run_claims"],
     "report": ["format_table", "write_report"],
-    "errata": ["Erratum", "errata"],
+    "errata": ["Erratum", "all_errata", "errata"],
     "theorem1": ["analyze_topology", "eta_interval"],
     "theorem2": ["Region", "delta_requirements"],
     "law_check": ["check_law", "LawReport"],

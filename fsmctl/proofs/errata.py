@@ -27,6 +27,7 @@ from fsmctl.symbolic.symbols import symmetric_matrix_symbols, vector_symbols
 
 __all__ = [
     "Erratum",
+    "all_errata",
     "errata",
     "ERRATA_CHECKS",
     "erratum_error_kinematics",
@@ -394,8 +395,9 @@ def errata() -> list[Erratum]:
     """Run every errata check and return the list, in equation order.
 
     Each check (:data:`ERRATA_CHECKS`) confirms symbolically that a printed formula of Liang et al. 2012 is
-    false and that its correction holds; ``python -m derive`` writes the result to ``generated/errata.json``
-    and ``fsmctl prove`` reports them.  Running all of them takes a few seconds of SymPy.
+    false and that its correction holds.  These are the errata found while proving Section 3; every erratum of
+    the paper (these, then those of the re-audit against the printed text) is :func:`all_errata`.  Running
+    all of them takes a few seconds of SymPy.
 
     Returns
     -------
@@ -415,3 +417,30 @@ def errata() -> list[Erratum]:
     ('17, 20, 23', True)
     """
     return [check() for check in ERRATA_CHECKS]
+
+
+def all_errata() -> list[Erratum]:
+    """Every erratum of Liang et al. 2012 that fsmctl knows, each one checked: the one registry of the errata.
+
+    :func:`errata` (found while proving Section 3: :data:`ERRATA_CHECKS`), then
+    :func:`fsmctl.proofs.seed_audit.audit_errata` (found by the re-audit of every printed equation against the
+    printed text: :data:`fsmctl.proofs.seed_audit.AUDIT_CHECKS`).  ``python -m derive`` writes this list to
+    ``generated/errata.json``; ``fsmctl prove`` reports it, each erratum with its equations.
+
+    Returns
+    -------
+    list of Erratum
+        The errata of the proofs in equation order, then those of the re-audit in the audit's order; ids unique.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs.errata import all_errata
+    >>> found = all_errata()
+    >>> len(found), all(e.checked for e in found)
+    (15, True)
+    >>> [(e.id, e.equation) for e in found if e.id == "eq18-delta-diag"]
+    [('eq18-delta-diag', '18, 20, 30')]
+    """
+    from fsmctl.proofs.seed_audit import audit_errata  # seed_audit imports Erratum from this module
+
+    return errata() + audit_errata()

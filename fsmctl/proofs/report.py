@@ -1,7 +1,8 @@
 """Output of ``fsmctl prove``: a text table, JSON, and a Markdown report with LaTeX.
 
 Liang, Sun & Wang (2012), Section 3: one row per claim (id, equations, verdict, seconds),
-the detail of each claim indented below it.
+the detail of each claim indented below it; after a full check, one row per erratum of the printed paper
+(:func:`fsmctl.proofs.errata.all_errata`: id, equations, whether it was confirmed, the claim that examines it).
 """
 
 from __future__ import annotations
@@ -10,11 +11,24 @@ import json
 import textwrap
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fsmctl.model.scenario import Scenario
 from fsmctl.proofs.claims import CLAIMS, ClaimResult
 
-__all__ = ["format_list", "format_table", "summary_line", "to_json", "to_markdown", "write_report"]
+if TYPE_CHECKING:
+    from fsmctl.proofs.errata import Erratum
+
+__all__ = [
+    "errata_summary_line",
+    "format_errata",
+    "format_list",
+    "format_table",
+    "summary_line",
+    "to_json",
+    "to_markdown",
+    "write_report",
+]
 
 
 def format_list() -> str:
@@ -30,7 +44,93 @@ def format_list() -> str:
     e = max(len(c.equations) for c in CLAIMS)
     rows = [f"{'id':{w}}  {'equations':{e}}  title (* uses the scenario)"]
     rows += [f"{c.id:{w}}  {c.equations:{e}}  {c.title}{' *' if c.uses_scenario else ''}" for c in CLAIMS]
+    rows.append("without CLAIM_ID, every erratum of the printed paper is checked and reported too")
     return "\n".join(rows)
+
+
+def _claims_of(results: Sequence[ClaimResult]) -> dict[str, str]:
+    """Erratum id -> the id of the claim that examines it (the claim's ``data["erratum"]``)."""
+    return {r.data["erratum"]: r.id for r in results if "erratum" in r.data}
+
+
+def errata_summary_line(errata: Sequence[Erratum]) -> str:
+    """One line counting the errata of the printed paper that were confirmed.
+
+    Parameters
+    ----------
+    errata : sequence of Erratum
+        The checked errata of Liang et al. 2012 (:func:`fsmctl.proofs.errata.all_errata`).
+
+    Returns
+    -------
+    str
+        ``N errata of the printed paper: c confirmed ...``, naming those that could not be confirmed.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs.seed_audit import erratum_skew_sign
+    >>> errata_summary_line([erratum_skew_sign()])
+    '1 erratum of the printed paper: 1 confirmed (printed form refuted, correction checked)'
+    """
+    bad = [e.id for e in errata if not e.checked]
+    noun = "erratum" if len(errata) == 1 else "errata"
+    line = f"{len(errata)} {noun} of the printed paper: {len(errata) - len(bad)} confirmed"
+    if bad:
+        return f"{line}; UNCHECKED (the printed form not refuted or the correction not checked): {', '.join(bad)}"
+    return f"{line} (printed form refuted, correction checked)"
+
+
+def format_errata(errata: Sequence[Erratum], results: Sequence[ClaimResult] = (), *, width: int = 120) -> str:
+    """Plain-text table of the errata of the printed paper: id, equations, status, the claim that examines it.
+
+    Parameters
+    ----------
+    errata : sequence of Erratum
+        The checked errata of Liang et al. 2012 (:func:`fsmctl.proofs.errata.all_errata`).
+    results : sequence of ClaimResult
+        The checked claims: an erratum that one of them examines names it (else ``-``: the erratum's own
+        check is the only one, as for those found by the re-audit of the printed text).
+    width : int
+        Column at which the printed and corrected statements are wrapped.
+
+    Returns
+    -------
+    str
+        A heading, one row per erratum (``confirmed`` or ``UNCHECKED``) with the statement as printed and the
+        correct one indented below it, and :func:`errata_summary_line`.
+
+    Examples
+    --------
+    The sign error in the skew matrix of eq 6, found by the re-audit of the printed text (no claim examines it):
+
+    >>> from fsmctl.proofs.seed_audit import erratum_skew_sign
+    >>> print(format_errata([erratum_skew_sign()]))
+    errata of the printed paper (fsmctl.proofs.errata.all_errata): each printed form refuted, its correction checked
+    erratum        eqs  status     claim
+    ---...
+    eq6-skew-sign  6    confirmed  -
+        as printed: v^x = [[0, -(v)_3, (v)_2], [(v)_3, 0, -(v)_1], [-(v)_2, -(v)_1, 0]]
+        correct: v^x = [[0, -(v)_3, (v)_2], [(v)_3, 0, -(v)_1], [-(v)_2, (v)_1, 0]] (fsmctl.symbolic.mrp.skew)
+    1 erratum of the printed paper: 1 confirmed (printed form refuted, correction checked)
+    """
+    claims = _claims_of(results)
+    w = max([len(e.id) for e in errata] + [7])
+    q = max([len(e.equation) for e in errata] + [3])
+    lines = [
+        "errata of the printed paper (fsmctl.proofs.errata.all_errata): each printed form refuted, its correction "
+        "checked",
+        f"{'erratum':{w}}  {'eqs':{q}}  status     claim",
+        "-" * min(width, w + q + 40),
+    ]
+    for e in errata:
+        status = "confirmed" if e.checked else "UNCHECKED"
+        lines.append(f"{e.id:{w}}  {e.equation:{q}}  {status:9}  {claims.get(e.id, '-')}")
+        for label, text in (("as printed", e.as_printed), ("correct", e.correct)):
+            lines.extend(
+                textwrap.wrap(f"{label}: {text}", width=width, initial_indent="    ", subsequent_indent="      ")
+            )
+    lines.append(errata_summary_line(errata))
+    return "\n".join(lines)
 
 
 def summary_line(results: Sequence[ClaimResult]) -> str:
@@ -57,7 +157,13 @@ def summary_line(results: Sequence[ClaimResult]) -> str:
     return f"{len(results)} {noun}: {parts} ({total:.1f} s of checks){tail}"
 
 
-def format_table(results: Sequence[ClaimResult], scenario: Scenario | None = None, *, width: int = 120) -> str:
+def format_table(
+    results: Sequence[ClaimResult],
+    scenario: Scenario | None = None,
+    *,
+    errata: Sequence[Erratum] | None = None,
+    width: int = 120,
+) -> str:
     """Plain-text table: one line per claim (id, equations of Liang et al. 2012, verdict, seconds), then its detail.
 
     Parameters
@@ -66,13 +172,16 @@ def format_table(results: Sequence[ClaimResult], scenario: Scenario | None = Non
         Checked claims.
     scenario : Scenario, optional
         Named in the heading.
+    errata : sequence of Erratum, optional
+        The checked errata of the printed paper (:func:`fsmctl.proofs.errata.all_errata`), shown after the
+        claims (:func:`format_errata`).
     width : int
         Column at which the detail is wrapped.
 
     Returns
     -------
     str
-        The table, ending with :func:`summary_line`.
+        The table, ending with :func:`summary_line` (and :func:`errata_summary_line` when ``errata`` is given).
 
     Examples
     --------
@@ -101,25 +210,53 @@ def format_table(results: Sequence[ClaimResult], scenario: Scenario | None = Non
         lines.append(f"{r.id:{w}}  {r.equations:{e}}  {r.verdict:{v}}  {r.seconds:7.2f}  {r.title}")
         for para in r.detail.splitlines():
             lines.extend(textwrap.wrap(para, width=width, initial_indent="    ", subsequent_indent="      ") or [""])
+    if errata is not None:
+        lines += ["", *format_errata(errata, results, width=width).splitlines()[:-1]]
     lines.append(summary_line(results))
+    if errata is not None:
+        lines.append(errata_summary_line(errata))
     return "\n".join(lines)
 
 
-def to_json(results: Sequence[ClaimResult]) -> str:
-    """JSON array, one object per claim.
+def to_json(results: Sequence[ClaimResult], errata: Sequence[Erratum] | None = None) -> str:
+    """JSON object: ``{"claims": [...], "errata": [...]}``, one object per claim and per erratum.
 
     Parameters
     ----------
     results : sequence of ClaimResult
         Checked claims (Liang et al. 2012, Section 3).
+    errata : sequence of Erratum, optional
+        The checked errata of the printed paper (:func:`fsmctl.proofs.errata.all_errata`); None when they
+        were not checked (``fsmctl prove CLAIM_ID...`` checks only the claims named).
 
     Returns
     -------
     str
-        Objects with ``id``, ``equations``, ``verdict``, ``detail``, ``seconds`` and also ``title``,
-        ``latex``, ``expected`` and ``data`` (the numbers of the scenario checks).
+        ``claims``: objects with ``id``, ``equations``, ``verdict``, ``detail``, ``seconds`` and also ``title``,
+        ``latex``, ``expected`` and ``data`` (the numbers of the scenario checks).  ``errata``: null, or objects
+        with the fields of ``generated/errata.json`` (``id``, ``equation``, ``as_printed``, ``correct``,
+        ``residual``, ``consequence``, the LaTeX, ``checked``) and ``claim``, the id of the claim that examines
+        the erratum (null for those found by the re-audit of the printed text).
+
+    Examples
+    --------
+    >>> import json
+    >>> import fsmctl
+    >>> from fsmctl.proofs import ProofContext, run_claims
+    >>> from fsmctl.proofs.seed_audit import erratum_skew_sign
+    >>> results = run_claims(["lemma2-sqrt-sum"], ProofContext(fsmctl.paper_scenario()))
+    >>> doc = json.loads(to_json(results, [erratum_skew_sign()]))
+    >>> [c["id"] for c in doc["claims"]], [(e["id"], e["equation"], e["claim"]) for e in doc["errata"]]
+    (['lemma2-sqrt-sum'], [('eq6-skew-sign', '6', None)])
+    >>> json.loads(to_json(results))["errata"] is None
+    True
     """
-    return json.dumps([r.to_dict() for r in results], indent=2, allow_nan=False, default=_default)
+    claims = _claims_of(results)
+    doc = {
+        "claims": [r.to_dict() for r in results],
+        "errata": None if errata is None else [{**e.to_dict(), "claim": claims.get(e.id)} for e in errata],
+    }
+    return json.dumps(doc, indent=2, allow_nan=False, default=_default)
 
 
 def _default(x):
@@ -129,7 +266,9 @@ def _default(x):
         return str(x)
 
 
-def to_markdown(results: Sequence[ClaimResult], scenario: Scenario | None = None) -> str:
+def to_markdown(
+    results: Sequence[ClaimResult], scenario: Scenario | None = None, errata: Sequence[Erratum] | None = None
+) -> str:
     """Markdown report with the LaTeX of each checked statement (``$$ ... $$``).
 
     Parameters
@@ -138,11 +277,14 @@ def to_markdown(results: Sequence[ClaimResult], scenario: Scenario | None = None
         Checked claims (Liang et al. 2012, Section 3).
     scenario : Scenario, optional
         Named in the heading.
+    errata : sequence of Erratum, optional
+        The checked errata of the printed paper (:func:`fsmctl.proofs.errata.all_errata`).
 
     Returns
     -------
     str
-        A summary table, then one section per claim: equations, verdict, LaTeX, detail.
+        A summary table, then one section per claim: equations, verdict, LaTeX, detail; with ``errata``, a
+        section listing them (equations, status, claim, the printed and the correct statement in LaTeX).
     """
     out = ["# fsmctl prove: Liang, Sun & Wang (2012), Section 3", ""]
     if scenario is not None:
@@ -162,10 +304,33 @@ def to_markdown(results: Sequence[ClaimResult], scenario: Scenario | None = None
             out += ["$$", r.latex, "$$", ""]
         out += [f"- {line}" for line in r.detail.splitlines()]
         out.append("")
+    if errata is not None:
+        claims = _claims_of(results)
+        out += [
+            "## Errata of the printed paper",
+            "",
+            errata_summary_line(errata) + ".",
+            "",
+            "| erratum | equations | status | claim |",
+            "|---|---|---|---|",
+        ]
+        for e in errata:
+            claim = claims.get(e.id)
+            shown = f"[`{claim}`](#{claim})" if claim else "-"
+            out.append(f"| `{e.id}` | {e.equation} | {'confirmed' if e.checked else 'UNCHECKED'} | {shown} |")
+        out.append("")
+        for e in errata:
+            out += [f"- `{e.id}` (eq. {e.equation}): printed ${e.as_printed_latex}$, correct ${e.correct_latex}$"]
+        out.append("")
     return "\n".join(out)
 
 
-def write_report(path: str | Path, results: Sequence[ClaimResult], scenario: Scenario | None = None) -> Path:
+def write_report(
+    path: str | Path,
+    results: Sequence[ClaimResult],
+    scenario: Scenario | None = None,
+    errata: Sequence[Erratum] | None = None,
+) -> Path:
     """Write :func:`to_markdown` (Liang et al. 2012, Section 3) to a file.
 
     Parameters
@@ -176,6 +341,8 @@ def write_report(path: str | Path, results: Sequence[ClaimResult], scenario: Sce
         Checked claims.
     scenario : Scenario, optional
         Named in the heading.
+    errata : sequence of Erratum, optional
+        The checked errata of the printed paper (:func:`fsmctl.proofs.errata.all_errata`).
 
     Returns
     -------
@@ -196,4 +363,4 @@ def write_report(path: str | Path, results: Sequence[ClaimResult], scenario: Sce
     """
     from fsmctl.outputs import write_text
 
-    return write_text(path, to_markdown(results, scenario))
+    return write_text(path, to_markdown(results, scenario, errata))

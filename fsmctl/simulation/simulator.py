@@ -561,8 +561,8 @@ class SimulationResult:
     """Time series and statistics of one run.
 
     Arrays (``T`` output samples, ``n`` agents): ``time`` (T,) s; ``sigma``,
-    ``sigma_e`` (T, n, 3) MRP; ``omega``, ``omega_e`` (T, n, 3) rad/s (the true error state, whatever the
-    law computes); ``broadcast`` (T, n, n_b): what each agent sends (for the paper's law the sliding
+    ``sigma_e`` (T, n, 3) MRP; ``omega``, ``omega_e`` (T, n, 3) rad/s (the error of the true attitude and rate,
+    not of the measurements, in the kinematics of the scenario's ``controller.error_model``); ``broadcast`` (T, n, n_b): what each agent sends (for the paper's law the sliding
     variable, also available as ``s``); ``z`` (T, n, n_z): the law's own states;
     ``u``, ``u_unsaturated`` (T, n, 3) N m (applied and commanded; with reaction wheels ``u`` is their reaction
     torque on the body); ``sigma_d`` (T, 3).  With reaction wheels: ``wheel_speed`` (T, n, N) rad/s relative to the
@@ -583,7 +583,10 @@ class SimulationResult:
     sigma, omega : numpy.ndarray, shape (T, n, 3)
         Attitude (MRP, shadow set) and body rate (rad/s) of each agent.
     sigma_e, omega_e : numpy.ndarray, shape (T, n, 3)
-        Attitude error (MRP) and rate error (rad/s), eqs 5-8 (the true error state).
+        Attitude error (MRP) and rate error (rad/s), eqs 5-8, of the true attitude and rate (not of what the
+        sensors measured), in the error kinematics of the scenario's ``controller.error_model``:
+        ``omega_e = omega - omega_d`` (``"paper"``, eq 8 as printed) or ``omega - C(sigma_e) omega_d``
+        (``"exact"``), the error state the flown law variant is built on.
     broadcast : numpy.ndarray, shape (T, n, n_b)
         What each agent broadcasts (``s`` for the paper's law).
     z : numpy.ndarray, shape (T, n, n_z)
@@ -599,7 +602,8 @@ class SimulationResult:
     u_unsaturated_max : numpy.ndarray, shape (n,)
         Largest commanded torque component, N m.
     backend : str
-        ``"c"`` (compiled) or ``"casadi"`` (the fallback).
+        ``"compiled"`` (the generated C, compiled on first use) or ``"casadi-vm"`` (the fallback without a C
+        compiler or with ``FSMCTL_NO_COMPILE=1``: the serialized CasADi functions).
     wall_time : float
         Seconds the run took.
     steps_taken, steps_rejected : int
@@ -619,6 +623,8 @@ class SimulationResult:
     ((21, 6, 3), 0.2)
     >>> round(float(r.aaem_deg[0]), 3), round(float(r.raem_deg[0]), 3)
     (134.427, 114.1)
+    >>> r.backend  # "casadi-vm" on a machine without a C compiler
+    'compiled'
     """
 
     scenario: Scenario

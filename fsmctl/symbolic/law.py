@@ -542,8 +542,14 @@ class LawBuilder:
     sigma, omega : Matrix
         the agent's attitude (MRP, body to inertial) and body rate (rad/s), as it measures them
     sigma_d, omega_d, omega_d_dot : Matrix
-        the reference attitude (MRP), its rate and angular acceleration (rad/s, rad/s^2; inertial-frame
-        components as printed in Section 4)
+        the reference attitude (MRP of the reference frame R), its angular velocity and the time derivative of
+        that (rad/s, rad/s^2), in R-frame components as printed in Section 4: ``sigma_d_dot = G(sigma_d) omega_d``.
+        The law sees the reference rate in the body frame through :meth:`error_state`:
+        ``omega_r = C(sigma_e) omega_d`` (exact; ``C(sigma_e) = [B R]``, :func:`~fsmctl.symbolic.mrp_to_dcm`)
+        or ``omega_r = omega_d`` (paper, eqs 7-8 as printed), and ``omega_e = omega - omega_r``; the time
+        derivative of ``omega_r``'s body-frame components is
+        ``omega_r_dot = C(sigma_e) omega_d_dot + omega_r^x omega_e`` (exact, from ``C_dot = -omega_e^x C``)
+        or ``omega_r_dot = omega_d_dot`` (paper)
     J0 : Matrix
         the nominal inertia the controller knows (kg m^2, symmetric)
 
