@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fsmctl.errors import EnvironmentProblem
+from fsmctl.errors import EnvironmentProblem, InputError
 from fsmctl.studies import montecarlo as mc
 
 psutil = pytest.importorskip("psutil")
@@ -251,6 +251,64 @@ def test_non_dask_endpoint_is_one_line_exit_2_in_bounded_time(tmp_path, capsys, 
     assert code == 2 and elapsed < 15, (code, elapsed, err)
     assert "not a Dask scheduler" in _one_line(err)
     assert not out.exists()  # nothing was written, so no folder either
+
+
+BAD_ADDRESSES = {
+    "http-scheme": "http://127.0.0.1:8786",
+    "unknown-scheme": "foo://x",
+    "bare-word": "scheduler",  # distributed's tcp default, but without the port distributed requires
+    "tcp-without-port": "tcp://127.0.0.1",
+    "inproc-syntax": "inproc://x",
+}
+
+
+@pytest.mark.parametrize("address", list(BAD_ADDRESSES.values()), ids=list(BAD_ADDRESSES))
+def test_address_distributed_refuses_is_input_error_before_any_connection(tmp_path, address):
+    """What distributed's address parsing and comm backends refuse is an InputError naming the address."""
+    pytest.importorskip("distributed")
+    out = tmp_path / "out"
+    with pytest.raises(InputError, match="not a scheduler address") as info:
+        mc.run_campaign(mc.CampaignSettings(runs=1, t_final=0.1), out, dask=address, progress=False, figures=False)
+    assert f"--dask {address}:" in str(info.value)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("address", ["http://127.0.0.1:8786", "foo://x", "scheduler"], ids=["http", "foo", "bare"])
+def test_cli_address_of_a_wrong_scheme_is_one_line_exit_2_at_once(tmp_path, address):
+    """Was: a half-started distributed.Client whose finalizer waited 2 x --dask-timeout, then a traceback."""
+    pytest.importorskip("distributed")
+    t0 = time.monotonic()
+    proc = subprocess.run(
+        [*CLI, *TINY, "--out", str(tmp_path / "out"), "--dask", address],  # the default --dask-timeout: 10 s
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    elapsed = time.monotonic() - t0
+    assert proc.returncode == 2, proc.stderr
+    assert "not a scheduler address" in _one_line(proc.stderr)
+    assert elapsed < 10, elapsed  # the finalizer alone took 20 s
+
+
+def test_tls_without_certificates_is_one_line_exit_2_at_once(tmp_path):
+    """A scheme distributed serves but cannot use here (no TLS context configured): one line, no finalizer wait."""
+    pytest.importorskip("distributed")
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        address = f"tls://127.0.0.1:{server.getsockname()[1]}"
+        with pytest.raises(EnvironmentProblem, match=r"cannot connect to a Dask scheduler.*TLS"):
+            mc.run_campaign(
+                mc.CampaignSettings(runs=1, t_final=0.1), tmp_path / "lib", dask=address, progress=False, figures=False
+            )
+        t0 = time.monotonic()
+        proc = subprocess.run(
+            [*CLI, *TINY, "--out", str(tmp_path / "out"), "--dask", address],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        elapsed = time.monotonic() - t0
+    assert proc.returncode == 2 and "TLS" in _one_line(proc.stderr)
+    assert elapsed < 10, elapsed  # the finalizer alone took 20 s
 
 
 # ----------------------------------------------------------------------------- output folders

@@ -1547,23 +1547,89 @@ def _dask_handshake(sock: socket.socket, deadline: float) -> str | None:
     return None
 
 
-def _check_dask_endpoint(address: str, timeout_s: float) -> None:
-    """Pre-flight of a ``tcp://`` scheduler address: it must accept a connection and send a Dask handshake.
+def _probe_dask_comm(address: str, timeout_s: float) -> None:
+    """Open and close a connection to ``address`` with distributed's own ``connect`` (a fresh event loop).
 
-    Raises :class:`~fsmctl.errors.EnvironmentProblem` (nothing listening, no answer within ``timeout_s``,
-    an answer that is not Dask's) or :class:`~fsmctl.errors.InputError` (not an address).  Other
-    schemes (``tls://``, ``inproc://``, ...) are left to distributed.
+    Runs in a thread of its own, so it works whether or not the caller's thread runs an event loop (a
+    notebook).  The connection arguments are the ones a :class:`distributed.Client` without ``security``
+    uses (:class:`distributed.security.Security` from the Dask configuration).  Raises what ``connect``
+    raises.
     """
-    from distributed.comm.addressing import parse_address, parse_host_port
+    import asyncio
+    import threading
 
-    try:
-        scheme, loc = parse_address(address, strict=False)
-        if scheme != "tcp":
-            return
-        host, port = parse_host_port(loc, 8786)
-    except (ValueError, TypeError) as exc:
-        raise InputError(f"--dask {address}: not a scheduler address ({exc})") from None
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    async def probe() -> None:
+        comm = await connect(address, timeout=timeout_s, **Security().get_connection_args("client"))
+        await comm.close()
+
+    failure: list[BaseException] = []
+
+    def target() -> None:
+        try:
+            asyncio.run(probe())
+        except BaseException as exc:  # handed to the caller's thread
+            failure.append(exc)
+
+    thread = threading.Thread(target=target, name="fsmctl-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout_s + 5.0)  # connect() gives up after timeout_s; the margin covers closing
+    if thread.is_alive():
+        raise TimeoutError
+    if failure:
+        raise failure[0]
+
+
+def _check_dask_endpoint(address: str, timeout_s: float) -> None:
+    """Pre-flight of a scheduler address, so that a bad one is a one-line error at once.
+
+    The address must be one that distributed accepts: a scheme that one of its registered comm backends
+    serves (``tcp``, ``tls``, ``inproc``, ``ws``, ... and those that plug-ins register), default ``tcp``,
+    and a location in that scheme's syntax (``host:port`` for ``tcp``, port included); otherwise
+    :class:`~fsmctl.errors.InputError`.  A ``tcp://`` endpoint must then accept a connection and send a
+    Dask handshake, read here with bounded sizes (distributed's own reader allocates whatever the first 8
+    bytes say); any other scheme must accept a connection through distributed's ``connect``.  Otherwise
+    :class:`~fsmctl.errors.EnvironmentProblem` (nothing listening, no answer within ``timeout_s``, an
+    answer that is not Dask's, a backend that cannot work here, such as ``tls`` without certificates).
+
+    Without this check, an address that distributed refuses by a ``ValueError`` or ``TypeError`` leaves a
+    half-started :class:`distributed.Client` whose finalizer waits twice the timeout and prints a traceback.
+    """
+    import warnings
+
+    from distributed.comm.addressing import parse_address
+    from distributed.comm.registry import get_backend
+
+    with warnings.catch_warnings(record=True) as caught:  # a deprecated backend (ucx) warns when it loads
+        warnings.simplefilter("always")
+        try:
+            scheme, loc = parse_address(address)
+            backend = get_backend(scheme)
+            host_port = backend.get_address_host_port(loc) if scheme == "tcp" else None
+        except (ValueError, TypeError) as exc:
+            raise InputError(f"--dask {address}: not a scheduler address ({exc})") from None
+        except ImportError as exc:  # a plug-in's backend that does not load
+            raise EnvironmentProblem(errno.ENOENT, f"--dask {address}: {type(exc).__name__}: {exc}") from None
     what = f"--dask {address}: cannot connect to a Dask scheduler"
+    if host_port is None:
+        try:
+            with warnings.catch_warnings(record=True) as more:
+                warnings.simplefilter("always")
+                _probe_dask_comm(address, timeout_s)
+        except ValueError as exc:  # the backend's own address syntax (inproc://host/pid/n)
+            raise InputError(f"--dask {address}: not a scheduler address ({exc})") from None
+        except TimeoutError:
+            raise EnvironmentProblem(errno.ETIMEDOUT, f"{what} (no answer within {timeout_s:g} s)") from None
+        except Exception as exc:  # OSError, or a backend that cannot work here (TypeError: tls without ssl context)
+            notes = [str(w.message).splitlines()[0] for w in (*caught, *more)]
+            text = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
+            raise EnvironmentProblem(
+                getattr(exc, "errno", None) or errno.EPROTO, f"{what} ({'; '.join([text, *notes])})"
+            ) from None
+        return
+    host, port = host_port
     deadline = time.monotonic() + timeout_s
     try:
         sock = socket.create_connection((host, int(port)), timeout=timeout_s)
@@ -1675,7 +1741,10 @@ def run_campaign(
         Local worker processes (default: the number of CPUs); 1 runs in this process.
     dask : str or distributed.Client, optional
         Address of (or a client to) an existing Dask distributed cluster; replaces the local pool.
-        A ``tcp://`` address must answer with a Dask handshake within ``dask_timeout``.
+        An address must be one that distributed accepts (a scheme of one of its comm backends: ``tcp``,
+        the default, ``tls``, ``inproc``, ``ws``, ...; ``host:port`` with the port for ``tcp``), else
+        :class:`~fsmctl.errors.InputError` before any connection; a ``tcp://`` address must answer with a
+        Dask handshake within ``dask_timeout``.
     resume : bool
         Continue a campaign already in ``out_dir`` (same settings), running only missing chunks.
     progress : bool, optional
@@ -1702,7 +1771,7 @@ def run_campaign(
     Raises
     ------
     fsmctl.errors.InputError
-        A bad setting, or ``out_dir`` holds another campaign.
+        A bad setting, a ``dask`` address that distributed does not accept, or ``out_dir`` holds another campaign.
     fsmctl.errors.EnvironmentProblem
         ``out_dir`` cannot be created or written (read-only, full), or ``dask`` is not a reachable scheduler.
     CampaignInterrupted
