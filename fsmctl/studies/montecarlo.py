@@ -70,7 +70,11 @@ Per-run seeds come from ``numpy.random.SeedSequence(seed).spawn(runs)``, so a se
 gives the same runs (perturbations and noise seeds) whatever the number of workers, chunking or backend
 (process pool or Dask).
 Runs are grouped in chunks; every finished chunk is written to ``OUT/chunks/chunk_NNNNN.nc`` at
-once, so an interrupted campaign resumes (``--resume``) with only the missing chunks.
+once, so an interrupted campaign resumes (``--resume``) with only the missing chunks.  The settings are
+in ``OUT/campaign.json`` and in every chunk file (attribute ``settings``): a resumed campaign must have
+the same ones, and a ``campaign.json`` that is damaged (cut short, not JSON) or missing is rebuilt from
+the chunk files when they all record this campaign's settings (a warning on the ``fsmctl`` logger names
+the file); otherwise the error says which settings the chunks record.
 
 Outputs are written atomically (a hidden temporary file, then a rename) and ``OUT/complete.json`` is
 written last: a folder without it holds an unfinished campaign.  A campaign that fails or is
@@ -89,6 +93,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import logging
 import math
 import os
 import socket
@@ -138,9 +143,12 @@ TIMING_VARIABLES = ("wall_time_s", "cpu_time_s")
 """per-run variables that depend on the machine (excluded from reproducibility comparisons)"""
 COMPLETE_MARKER = "complete.json"
 """written last: its presence means the campaign in the folder finished"""
+_CAMPAIGN_FILE = "campaign.json"  # the settings; every chunk file records them too (attribute "settings")
+_CAMPAIGN_KEYS = ("runs", "seed", "chunk_size")  # in every campaign.json that fsmctl wrote
 DASK_TIMEOUT_S = 10.0
 """default wait for a Dask scheduler to accept a connection and send its handshake"""
 _DASK_HANDSHAKE_MAX_BYTES = 1 << 16  # a scheduler's handshake is ~60 bytes
+_log = logging.getLogger(__name__)
 
 
 # ----------------------------------------------------------------------------- settings
@@ -1311,22 +1319,26 @@ class _OutputFolder:
             raise EnvironmentProblem(
                 exc.errno or errno.EIO, f"--out {out}: cannot create the output folder ({exc.strerror or exc})"
             ) from None
-        meta = out / "campaign.json"
+        meta = out / _CAMPAIGN_FILE
         ident = jsonable(settings.identity())
         if meta.is_file():
-            try:
-                old = json.loads(meta.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
-                old = None
             if not resume:
                 raise InputError(
                     f"{out} already holds a campaign; pass --resume to continue it or choose another --out"
                 )
-            if old != ident:
-                diff = sorted(k for k in ident if not isinstance(old, dict) or old.get(k) != ident[k])
+            old, damage = _read_campaign_file(meta)
+            if damage is not None:
+                self._recover(meta, f"{meta} is damaged ({damage})", ident)
+            elif old != ident:
+                diff = sorted(k for k in ident if old.get(k) != ident[k])
                 raise InputError(f"{out} holds a campaign with different settings ({', '.join(diff)}); cannot resume")
         elif any(self.chunks.glob("chunk_*.nc")):
-            raise InputError(f"{out}/chunks holds chunk files but no campaign.json; choose another --out")
+            if not resume:
+                raise InputError(
+                    f"{out}/chunks holds chunk files but no {_CAMPAIGN_FILE}; pass --resume to rebuild it from them "
+                    "or choose another --out"
+                )
+            self._recover(meta, f"{meta} is missing", ident)
         self._created_meta = not meta.exists()
         marker = out / COMPLETE_MARKER
         try:
@@ -1338,6 +1350,40 @@ class _OutputFolder:
         except BaseException:
             self.discard_if_empty()
             raise
+
+    def _recover(self, meta: Path, what: str, ident: dict) -> None:
+        """``campaign.json`` is damaged or missing: resume if the chunk files record these settings, else explain.
+
+        Every chunk file records the settings of its campaign (attribute ``settings``).  When the readable
+        chunk files all record ``ident``, the campaign is this one and ``prepare`` rewrites ``campaign.json``;
+        without a readable chunk nothing of the old campaign is kept and this one starts afresh.  Unreadable
+        chunk files (cut short by an interrupt) are flown again anyway.
+        """
+        recorded = {}
+        for path in self.chunk_files():
+            try:
+                recorded[path.name] = _chunk_settings(path)
+            except Exception:  # unreadable: the chunk is flown again and its file replaced
+                continue
+        fix = f"start afresh in another --out or after removing {self.out}"
+        if any(v is None for v in recorded.values()):
+            unrecorded = sorted(k for k, v in recorded.items() if v is None)
+            raise InputError(
+                f"{what}; cannot resume: the chunk files do not record the campaign's settings ({unrecorded[0]} "
+                f"records none: an older fsmctl wrote it); {fix}"
+            )
+        different = {k: v for k, v in recorded.items() if v != ident}
+        if different:
+            name, other = sorted(different.items())[0]
+            keys = sorted(k for k in {*ident, *other} if other.get(k) != ident.get(k))
+            raise InputError(
+                f"{what}; cannot resume: the chunk files record a campaign with different settings ({name}: "
+                f"{', '.join(keys)}); resume with the settings they record, or {fix}"
+            )
+        if recorded:
+            _log.warning("%s; rebuilt from the %d chunk files, which record these settings", what, len(recorded))
+        else:
+            _log.warning("%s; no chunk file to keep: the campaign starts afresh", what)
 
     def chunk_files(self) -> list[Path]:
         try:
@@ -1356,7 +1402,7 @@ class _OutputFolder:
                     tmp.unlink()
         if self._created_meta:
             with contextlib.suppress(OSError):
-                (self.out / "campaign.json").unlink()
+                (self.out / _CAMPAIGN_FILE).unlink()
         self._remove_created()
         return 0
 
@@ -1384,6 +1430,32 @@ def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
             )
     except Exception:  # unreadable partial file: rerun the chunk
         return False
+
+
+def _read_campaign_file(meta: Path) -> tuple[dict, str | None]:
+    """``(settings, None)`` from ``campaign.json``, or ``({}, what is wrong)`` when it is not a campaign's settings."""
+    try:
+        text = meta.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        return {}, "not UTF-8 text"
+    except OSError as exc:
+        raise _environment_problem(f"cannot read {meta}", exc) from exc
+    try:
+        old = json.loads(text)
+    except ValueError as exc:
+        return {}, f"not valid JSON: {exc}"
+    if not isinstance(old, dict) or not all(k in old for k in _CAMPAIGN_KEYS):
+        return {}, "not a JSON object holding a campaign's settings (" + ", ".join(_CAMPAIGN_KEYS) + ")"
+    return old, None
+
+
+def _chunk_settings(path: Path) -> dict | None:
+    """The campaign settings a chunk file records (its ``settings`` attribute); None if it records none."""
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        text = ds.attrs.get("settings")
+    return None if text is None else json.loads(text)
 
 
 # ----------------------------------------------------------------------------- campaign
@@ -1815,8 +1887,11 @@ def run_campaign(
                     todo.append((c, idx))
             bar = _progress(settings.runs, settings.runs - sum(len(i) for _, i in todo), progress)
 
+            recorded = json.dumps(jsonable(settings.identity()), allow_nan=False)  # what rebuilds campaign.json
+
             def on_chunk(c: int, idx: Sequence[int], rows) -> None:
                 ds = _chunk_dataset(rows, base.n_agents, noise_seeds)
+                ds.attrs["settings"] = recorded
                 with guard.deferred():  # an interrupt waits until the chunk file is complete
                     # an intermediate file: NetCDF-3, which the parent writes ~5x faster than compressed
                     # NetCDF-4 (whose CPU time would compete with the workers'); montecarlo.nc is compressed
