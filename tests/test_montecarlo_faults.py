@@ -446,7 +446,7 @@ def test_damaged_campaign_json_and_chunks_that_record_nothing_says_what_to_do(in
     del old.attrs["settings"]
     chunk.unlink()
     old.to_netcdf(chunk, format="NETCDF3_64BIT")
-    with pytest.raises(InputError, match=r"is damaged.*do not record the campaign's settings.*remove"):
+    with pytest.raises(InputError, match=r"is damaged.*do not record the campaign's settings.*another --out"):
         _campaign(interrupted_campaign, resume=True)
     assert meta.read_text(encoding="utf-8") == damaged  # left as it was
 
