@@ -570,3 +570,53 @@ def test_wheel_runs_record_the_wheels_peaks(tmp_path):
     assert float(ds.wheel_momentum_peak_N_m_s[0]) > 0 and float(ds.wheel_speed_peak_rad_per_s[0]) > 0
     paper = mc.run_campaign(_settings(runs=1), tmp_path / "p", workers=1, progress=False, figures=False).dataset
     assert math.isnan(float(paper.wheel_momentum_peak_N_m_s[0])) and float(paper.link_delay_max_s[0]) == 0.0
+
+
+# ----------------------------------------------------------------------------- memory of a run's record (issue 23)
+
+
+def _switching_ring(path, n: int):
+    """A ring of ``n`` agents whose links switch (the campaign gives every link a phase of its own)."""
+    agents = "".join(
+        f"[[agents]]\nJ0 = [[{100 + i % 7}.0, 0.0, 0.0], [0.0, 120.0, 0.0], [0.0, 0.0, 150.0]]\n"
+        f"sigma0 = [{0.1 * math.cos(i):.4f}, {0.1 * math.sin(i):.4f}, 0.05]\nomega0 = [0.01, 0.0, -0.01]\n\n"
+        for i in range(n)
+    )
+    path.write_text(
+        'name = "switching-ring"\n[simulation]\nt_final = 0.2\ndt = 0.001\noutput_interval = 0.1\n'
+        '[controller]\nlaw = "fsm"\nc1 = 0.6\nc2 = 0.8\nalpha = 0.7\ndelta = 0.005\nboundary_layer = 0.01\n'
+        "torque_limit = 10.0\n[reference]\nsigma0 = [0.0, 0.0, 0.0]\n"
+        "omega = { amplitude = [0.02, 0.0, 0.0], frequency = [0.05, 0.0, 0.0] }\n"
+        '[topology]\nkind = "ring"\nk_i = 2.0\nk_j = { breakpoints = [0.0, 6.5], values = [1.0, 0.0], period = 8.0 }\n\n'
+        + agents,
+        encoding="utf-8",
+    )
+    return path
+
+
+def test_run_record_does_not_hold_a_matrix_per_topology_configuration(tmp_path):
+    """Was: 1.9 GB for a 200-agent ring (its Theorem 1 check kept every configuration's n x n matrix, 3 times).
+
+    With a phase per link, the run's topology has about two configurations per link and period; the record's
+    memory must stay below one dense n x n matrix per configuration (it was 7 times above it, now 0.2 times).
+    """
+    import tracemalloc
+
+    from fsmctl.proofs.theorem1 import configurations
+
+    n = 100
+    settings, base = mc.campaign_base(mc.CampaignSettings(scenario=str(_switching_ring(tmp_path / "ring.toml", n))))
+    seed = np.random.SeedSequence(3).spawn(1)[0]
+    scenario = mc.sample_run_scenario(base, settings, seed)
+    result = fsmctl.simulate(scenario)
+    n_configurations = len(configurations(scenario.topology, scenario.simulation.t_final)[0])
+    dense = n_configurations * n * n * 8  # one float64 n x n matrix per configuration
+    assert n_configurations > 2 * n  # the case at issue: ~2 per link, so dense matrices would scale with n^3
+    tracemalloc.start()
+    try:
+        record = mc.run_record(scenario, settings, seed, result)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert math.isfinite(record["theorem1_lambda_min"])
+    assert peak < dense, (peak, dense)  # before: 7.2 x dense (191 MB), now 0.2 x (5 MB)

@@ -24,7 +24,7 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from fsmctl.errors import EnvironmentProblem
+from fsmctl.errors import EnvironmentProblem, InputError
 from fsmctl.studies import montecarlo as mc
 
 psutil = pytest.importorskip("psutil")
@@ -253,6 +253,64 @@ def test_non_dask_endpoint_is_one_line_exit_2_in_bounded_time(tmp_path, capsys, 
     assert not out.exists()  # nothing was written, so no folder either
 
 
+BAD_ADDRESSES = {
+    "http-scheme": "http://127.0.0.1:8786",
+    "unknown-scheme": "foo://x",
+    "bare-word": "scheduler",  # distributed's tcp default, but without the port distributed requires
+    "tcp-without-port": "tcp://127.0.0.1",
+    "inproc-syntax": "inproc://x",
+}
+
+
+@pytest.mark.parametrize("address", list(BAD_ADDRESSES.values()), ids=list(BAD_ADDRESSES))
+def test_address_distributed_refuses_is_input_error_before_any_connection(tmp_path, address):
+    """What distributed's address parsing and comm backends refuse is an InputError naming the address."""
+    pytest.importorskip("distributed")
+    out = tmp_path / "out"
+    with pytest.raises(InputError, match="not a scheduler address") as info:
+        mc.run_campaign(mc.CampaignSettings(runs=1, t_final=0.1), out, dask=address, progress=False, figures=False)
+    assert f"--dask {address}:" in str(info.value)
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("address", ["http://127.0.0.1:8786", "foo://x", "scheduler"], ids=["http", "foo", "bare"])
+def test_cli_address_of_a_wrong_scheme_is_one_line_exit_2_at_once(tmp_path, address):
+    """Was: a half-started distributed.Client whose finalizer waited 2 x --dask-timeout, then a traceback."""
+    pytest.importorskip("distributed")
+    t0 = time.monotonic()
+    proc = subprocess.run(
+        [*CLI, *TINY, "--out", str(tmp_path / "out"), "--dask", address],  # the default --dask-timeout: 10 s
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    elapsed = time.monotonic() - t0
+    assert proc.returncode == 2, proc.stderr
+    assert "not a scheduler address" in _one_line(proc.stderr)
+    assert elapsed < 10, elapsed  # the finalizer alone took 20 s
+
+
+def test_tls_without_certificates_is_one_line_exit_2_at_once(tmp_path):
+    """A scheme distributed serves but cannot use here (no TLS context configured): one line, no finalizer wait."""
+    pytest.importorskip("distributed")
+    with socket.create_server(("127.0.0.1", 0)) as server:
+        address = f"tls://127.0.0.1:{server.getsockname()[1]}"
+        with pytest.raises(EnvironmentProblem, match=r"cannot connect to a Dask scheduler.*TLS"):
+            mc.run_campaign(
+                mc.CampaignSettings(runs=1, t_final=0.1), tmp_path / "lib", dask=address, progress=False, figures=False
+            )
+        t0 = time.monotonic()
+        proc = subprocess.run(
+            [*CLI, *TINY, "--out", str(tmp_path / "out"), "--dask", address],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        elapsed = time.monotonic() - t0
+    assert proc.returncode == 2 and "TLS" in _one_line(proc.stderr)
+    assert elapsed < 10, elapsed  # the finalizer alone took 20 s
+
+
 # ----------------------------------------------------------------------------- output folders
 
 
@@ -297,6 +355,109 @@ def test_full_device_is_one_line_and_leaves_no_folder(tmp_path, max_file_bytes):
     assert not (tmp_path / "new").exists()  # the folders it created are gone again
     assert proc.returncode == 2
     assert "cannot write" in _one_line(proc.stderr)
+
+
+# ----------------------------------------------------------------------------- a damaged campaign.json
+
+RESUMABLE = {"runs": 6, "seed": 5, "t_final": 0.3, "chunk_size": 2, "output_interval": 0.1, "steady_window": 0.1}
+
+
+def _campaign(out: Path, resume: bool = False, **kw) -> mc.CampaignResult:
+    settings = mc.CampaignSettings(**{**RESUMABLE, **kw})
+    return mc.run_campaign(settings, out, workers=1, progress=False, figures=False, resume=resume)
+
+
+def _without_timings(ds: xr.Dataset) -> xr.Dataset:
+    return ds.drop_vars(list(mc.TIMING_VARIABLES))
+
+
+@pytest.fixture(scope="module")
+def finished_campaign(tmp_path_factory) -> tuple[Path, mc.CampaignResult]:
+    out = tmp_path_factory.mktemp("finished") / "campaign"
+    return out, _campaign(out)
+
+
+@pytest.fixture
+def interrupted_campaign(tmp_path, finished_campaign) -> Path:
+    """A copy of the finished campaign as an interrupt leaves it: the last chunk and the merged files missing."""
+    import shutil
+
+    out = tmp_path / "campaign"
+    shutil.copytree(finished_campaign[0], out)
+    for name in ("chunks/chunk_00002.nc", "montecarlo.nc", "summary.json", "complete.json"):
+        (out / name).unlink()
+    return out
+
+
+DAMAGES = {
+    "truncated": lambda text: text[: len(text) // 2],
+    "empty": lambda text: "",
+    "not-an-object": lambda text: "[1, 2]\n",
+    "not-utf8": lambda text: "\udcff",
+    "missing": None,
+}
+
+
+@pytest.mark.parametrize("damage", list(DAMAGES), ids=list(DAMAGES))
+def test_damaged_campaign_json_is_rebuilt_from_the_chunk_files(interrupted_campaign, finished_campaign, damage, caplog):
+    """Was: "holds a campaign with different settings" (and chunk files without campaign.json: choose another --out)."""
+    out = interrupted_campaign
+    meta = out / "campaign.json"
+    original = meta.read_text(encoding="utf-8")
+    if DAMAGES[damage] is None:
+        meta.unlink()
+    else:
+        meta.write_bytes(DAMAGES[damage](original).encode("utf-8", "surrogateescape"))
+    with pytest.raises(InputError, match="--resume"):  # a folder with a campaign still needs --resume
+        _campaign(out)
+    with caplog.at_level("WARNING", logger="fsmctl"):
+        resumed = _campaign(out, resume=True)
+    assert resumed.resumed_chunks == 2
+    xr.testing.assert_identical(_without_timings(resumed.dataset), _without_timings(finished_campaign[1].dataset))
+    assert json.loads(meta.read_text(encoding="utf-8")) == json.loads(original)
+    warning = " ".join(r.getMessage() for r in caplog.records if r.levelname == "WARNING")
+    assert str(meta) in warning and ("damaged" if damage != "missing" else "missing") in warning
+    assert "rebuilt from the 2 chunk files" in warning
+
+
+def test_damaged_campaign_json_and_chunks_of_other_settings_is_one_line(interrupted_campaign, capsys):
+    from fsmctl.cli.main import main
+
+    meta = interrupted_campaign / "campaign.json"
+    meta.write_text(meta.read_text(encoding="utf-8")[:40], encoding="utf-8")
+    with pytest.raises(InputError, match=r"is damaged \(not valid JSON.*chunk_00000.nc: seed\)"):
+        _campaign(interrupted_campaign, seed=99, resume=True)
+    argv = ["--runs", "6", "--seed", "99", "--t-final", "0.3", "--chunk-size", "2", "--output-interval", "0.1"]
+    code = main(
+        ["montecarlo", *argv, "--workers", "1", "--no-progress", "--out", str(interrupted_campaign), "--resume"]
+    )
+    line = _one_line(capsys.readouterr().err)
+    assert code == 2 and f"{meta} is damaged" in line and "different settings" in line
+
+
+def test_damaged_campaign_json_and_chunks_that_record_nothing_says_what_to_do(interrupted_campaign):
+    """Chunk files of an older fsmctl do not record the settings: nothing to check the campaign against."""
+    meta = interrupted_campaign / "campaign.json"
+    damaged = meta.read_text(encoding="utf-8")[:-30]
+    meta.write_text(damaged, encoding="utf-8")
+    chunk = interrupted_campaign / "chunks" / "chunk_00001.nc"
+    with xr.open_dataset(chunk) as ds:
+        old = ds.load()
+    del old.attrs["settings"]
+    chunk.unlink()
+    old.to_netcdf(chunk, format="NETCDF3_64BIT")
+    with pytest.raises(InputError, match=r"is damaged.*do not record the campaign's settings.*another --out"):
+        _campaign(interrupted_campaign, resume=True)
+    assert meta.read_text(encoding="utf-8") == damaged  # left as it was
+
+
+def test_damaged_campaign_json_without_chunks_starts_afresh(tmp_path, finished_campaign):
+    out = tmp_path / "campaign"
+    (out / "chunks").mkdir(parents=True)
+    (out / "campaign.json").write_text('{"runs": 6, "se', encoding="utf-8")
+    result = _campaign(out, resume=True)
+    assert result.resumed_chunks == 0 and result.summary["runs"] == 6
+    xr.testing.assert_identical(_without_timings(result.dataset), _without_timings(finished_campaign[1].dataset))
 
 
 # ----------------------------------------------------------------------------- inputs and outputs

@@ -89,11 +89,27 @@ def _intersect(a: tuple[float, float] | None, b: tuple[float, float] | None) -> 
 
 @dataclass(frozen=True)
 class Configuration:
-    """One distinct value of the matrix ``K_j(t) = [k^j_ij(t)]`` and the time segments where it holds."""
+    """One distinct value of the matrix ``K_j(t) = [k^j_ij(t)]`` and the time segments where it holds.
 
-    k_j: np.ndarray
+    Kept as the weights of the topology's links (``weights[e] = k^j`` of ``links[e]``, receiver ``receivers[e]``,
+    sender ``senders[e]``); :attr:`k_j` builds the dense matrix on demand.  A topology whose links switch at
+    phases of their own has about two configurations per link and period (a Monte Carlo run's topology), so
+    dense matrices would take O(links n^2) memory: 1.3 GB for a 200-agent ring.
+    """
+
+    weights: np.ndarray
     segments: tuple[tuple[float, float], ...]
     """``[t_start, t_end)`` segments (s) within the analysed window"""
+    receivers: np.ndarray
+    senders: np.ndarray
+    n_agents: int
+
+    @property
+    def k_j(self) -> np.ndarray:
+        """``K_j[i, j] = k^j_ij`` of this configuration, ``(n_agents, n_agents)``, zero where there is no link."""
+        K = np.zeros((self.n_agents, self.n_agents))
+        K[self.receivers, self.senders] = self.weights
+        return K
 
     @property
     def t(self) -> float:
@@ -209,26 +225,31 @@ def configurations(topology: Topology, t_final: float) -> tuple[tuple[Configurat
     probes = 0.5 * (cuts[:-1] + cuts[1:])
     if period is None:
         probes = np.append(probes, t1 + 1.0)
-    Ks = topology.k_j_matrices(probes)
+    # every link's k^j at every probe (the values Topology.k_j_matrices scatters into its matrices)
+    links = topology.links
+    Ws = np.zeros((len(probes), len(links)))
+    for e, link in enumerate(links):
+        Ws[:, e] = link.k_j_at(probes)
     found: dict[bytes, list] = {}
     order: list[bytes] = []
     for k, (a, b) in enumerate(itertools.pairwise(cuts)):
-        K = Ks[k]
-        key = K.tobytes()
+        key = Ws[k].tobytes()
         if key not in found:
-            found[key] = [K.copy(), []]
+            found[key] = [Ws[k].copy(), []]
             order.append(key)
         found[key][1].append((float(a), float(b)))
     if period is None:
         # after the horizon the last configuration persists for non-periodic schedules
-        K = Ks[-1]
-        key = K.tobytes()
+        key = Ws[-1].tobytes()
         if key not in found:
-            found[key] = [K.copy(), [(t1, math.inf)]]
+            found[key] = [Ws[-1].copy(), [(t1, math.inf)]]
             order.append(key)
     if period == 0.0:
         found[order[0]][1] = [(0.0, math.inf)]
-    confs = tuple(Configuration(found[k][0], tuple(found[k][1])) for k in order)
+    receivers = np.array([link.receiver for link in links], dtype=np.intp)
+    senders = np.array([link.sender for link in links], dtype=np.intp)
+    n = topology.n_agents
+    confs = tuple(Configuration(found[k][0], tuple(found[k][1]), receivers, senders, n) for k in order)
     return confs, window
 
 
@@ -396,30 +417,48 @@ def analyze_topology(topology: Topology, t_final: float) -> Theorem1Analysis:
     n = topology.n_agents
     Ki = topology.k_i_matrix()
     confs, window = configurations(topology, t_final)
-    Kjs = [c.k_j for c in confs]
-    Kj_max = np.max(np.stack(Kjs), axis=0) if Kjs else np.zeros((n, n))
-    kj_lists = [K.tolist() for K in Kjs]  # Python floats: the per-pair checks below run on them
+    # the links' weights in every configuration, (configurations, links): O(links) per configuration, never
+    # one n x n matrix per configuration (see Configuration)
+    W = np.stack([c.weights for c in confs]) if confs else np.zeros((0, len(topology.links)))
+    column = {(link.receiver, link.sender): e for e, link in enumerate(topology.links)}
+    Kj_max = np.zeros((n, n))
+    if confs:
+        for (r, sdr), e in column.items():
+            Kj_max[r, sdr] = W[:, e].max()
+
+    def weights_of(i: int, j: int) -> list[float]:
+        """k^j_ij in every configuration (Python floats; 0 without a link)."""
+        e = column.get((i, j))
+        return W[:, e].tolist() if e is not None else [0.0] * len(confs)
 
     def when_max(i: int, j: int) -> str:
-        for c in confs:
-            if c.k_j[i, j] == Kj_max[i, j]:
+        for c, w in zip(confs, weights_of(i, j), strict=True):
+            if w == Kj_max[i, j]:
                 return _segments_text(c.segments)
         return ""
 
     pairs: list[PairResult] = []
     failures: list[str] = []
+    verdicts: dict[tuple, tuple] = {}  # a pair's checks depend on its weights only: unlinked pairs share one
     for i in range(n):
         for j in range(i + 1, n):
             a, A, b, B = (float(x) for x in (Ki[i, j], Kj_max[i, j], Ki[j, i], Kj_max[j, i]))
-            I_ij, I_ji = eta_interval(a, A), eta_interval(b, B)
-            interval = _intersect(I_ij, I_ji)
-            tv_ok = all(
-                _intersect(eta_interval(a, kij), eta_interval(b, kji)) is not None
-                for kij, kji in dict.fromkeys((Kj[i][j], Kj[j][i]) for Kj in kj_lists)  # distinct pairs, in order
-            )
-            printed_ok = bool(interval is not None and interval[1] > 0 and min(a, b) > 0 and interval[0] < min(a, b))
+            if (i, j) in column or (j, i) in column:  # the distinct (k^j_ij, k^j_ji) over the configurations, in order
+                distinct = tuple(dict.fromkeys(zip(weights_of(i, j), weights_of(j, i), strict=True)))
+            else:
+                distinct = ((0.0, 0.0),) if confs else ()
+            key = (a, A, b, B, distinct)
+            if key not in verdicts:
+                I_ij, I_ji = eta_interval(a, A), eta_interval(b, B)
+                interval = _intersect(I_ij, I_ji)
+                tv_ok = all(_intersect(eta_interval(a, kij), eta_interval(b, kji)) is not None for kij, kji in distinct)
+                printed_ok = bool(
+                    interval is not None and interval[1] > 0 and min(a, b) > 0 and interval[0] < min(a, b)
+                )
+                eta = _choose_eta(interval, [(a, A), (b, B)]) if interval is not None else None
+                verdicts[key] = (I_ij, I_ji, interval, tv_ok, printed_ok, eta)
+            I_ij, I_ji, interval, tv_ok, printed_ok, eta = verdicts[key]
             if interval is not None:
-                eta = _choose_eta(interval, [(a, A), (b, B)])
                 pairs.append(PairResult(i, j, a, b, A, B, interval, printed_ok, tv_ok, eta))
                 continue
             if I_ij is None or I_ji is None:
@@ -453,15 +492,15 @@ def analyze_topology(topology: Topology, t_final: float) -> Theorem1Analysis:
         return {(i, j): eta_interval(Ki[i, j], Kj[i, j]) for i in range(n) for j in range(n) if i != j}
 
     balanced_constant = symmetric_constant or _balanced_feasible(ordered_bounds(Kj_max), n)
-    balanced_tv = balanced_constant or symmetric_tv or all(_balanced_feasible(ordered_bounds(K), n) for K in Kjs)
+    balanced_tv = balanced_constant or symmetric_tv or all(_balanced_feasible(ordered_bounds(c.k_j), n) for c in confs)
 
     lam, lam_t = math.inf, 0.0
-    if confs:
-        L = np.diag(Ki.sum(axis=1))[None] - np.stack(Kjs)  # L(t) of every configuration
-        evs = np.linalg.eigvalsh(0.5 * (L + L.transpose(0, 2, 1)))[:, 0].tolist() if n else [0.0] * len(confs)
-        for c, ev in zip(confs, evs, strict=True):
-            if ev < lam:
-                lam, lam_t = ev, c.t
+    degree = np.diag(Ki.sum(axis=1))
+    for c in confs:  # one n x n matrix at a time
+        L = degree - c.k_j  # L(t) of this configuration
+        ev = float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]) if n else 0.0
+        if ev < lam:
+            lam, lam_t = ev, c.t
     return Theorem1Analysis(
         window=window,
         configurations=confs,

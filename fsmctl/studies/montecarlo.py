@@ -70,7 +70,11 @@ Per-run seeds come from ``numpy.random.SeedSequence(seed).spawn(runs)``, so a se
 gives the same runs (perturbations and noise seeds) whatever the number of workers, chunking or backend
 (process pool or Dask).
 Runs are grouped in chunks; every finished chunk is written to ``OUT/chunks/chunk_NNNNN.nc`` at
-once, so an interrupted campaign resumes (``--resume``) with only the missing chunks.
+once, so an interrupted campaign resumes (``--resume``) with only the missing chunks.  The settings are
+in ``OUT/campaign.json`` and in every chunk file (attribute ``settings``): a resumed campaign must have
+the same ones, and a ``campaign.json`` that is damaged (cut short, not JSON) or missing is rebuilt from
+the chunk files when they all record this campaign's settings (a warning on the ``fsmctl`` logger names
+the file); otherwise the error says which settings the chunks record.
 
 Outputs are written atomically (a hidden temporary file, then a rename) and ``OUT/complete.json`` is
 written last: a folder without it holds an unfinished campaign.  A campaign that fails or is
@@ -89,6 +93,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import json
+import logging
 import math
 import os
 import socket
@@ -138,9 +143,12 @@ TIMING_VARIABLES = ("wall_time_s", "cpu_time_s")
 """per-run variables that depend on the machine (excluded from reproducibility comparisons)"""
 COMPLETE_MARKER = "complete.json"
 """written last: its presence means the campaign in the folder finished"""
+_CAMPAIGN_FILE = "campaign.json"  # the settings; every chunk file records them too (attribute "settings")
+_CAMPAIGN_KEYS = ("runs", "seed", "chunk_size")  # in every campaign.json that fsmctl wrote
 DASK_TIMEOUT_S = 10.0
 """default wait for a Dask scheduler to accept a connection and send its handshake"""
 _DASK_HANDSHAKE_MAX_BYTES = 1 << 16  # a scheduler's handshake is ~60 bytes
+_log = logging.getLogger(__name__)
 
 
 # ----------------------------------------------------------------------------- settings
@@ -1312,22 +1320,26 @@ class _OutputFolder:
             raise EnvironmentProblem(
                 exc.errno or errno.EIO, f"--out {out}: cannot create the output folder ({exc.strerror or exc})"
             ) from None
-        meta = out / "campaign.json"
+        meta = out / _CAMPAIGN_FILE
         ident = jsonable(settings.identity())
         if meta.is_file():
-            try:
-                old = json.loads(meta.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
-                old = None
             if not resume:
                 raise InputError(
                     f"{out} already holds a campaign; pass --resume to continue it or choose another --out"
                 )
-            if old != ident:
-                diff = sorted(k for k in ident if not isinstance(old, dict) or old.get(k) != ident[k])
+            old, damage = _read_campaign_file(meta)
+            if damage is not None:
+                self._recover(meta, f"{meta} is damaged ({damage})", ident)
+            elif old != ident:
+                diff = sorted(k for k in ident if old.get(k) != ident[k])
                 raise InputError(f"{out} holds a campaign with different settings ({', '.join(diff)}); cannot resume")
         elif any(self.chunks.glob("chunk_*.nc")):
-            raise InputError(f"{out}/chunks holds chunk files but no campaign.json; choose another --out")
+            if not resume:
+                raise InputError(
+                    f"{out}/chunks holds chunk files but no {_CAMPAIGN_FILE}; pass --resume to rebuild it from them "
+                    "or choose another --out"
+                )
+            self._recover(meta, f"{meta} is missing", ident)
         self._created_meta = not meta.exists()
         marker = out / COMPLETE_MARKER
         try:
@@ -1339,6 +1351,40 @@ class _OutputFolder:
         except BaseException:
             self.discard_if_empty()
             raise
+
+    def _recover(self, meta: Path, what: str, ident: dict) -> None:
+        """``campaign.json`` is damaged or missing: resume if the chunk files record these settings, else explain.
+
+        Every chunk file records the settings of its campaign (attribute ``settings``).  When the readable
+        chunk files all record ``ident``, the campaign is this one and ``prepare`` rewrites ``campaign.json``;
+        without a readable chunk nothing of the old campaign is kept and this one starts afresh.  Unreadable
+        chunk files (cut short by an interrupt) are flown again anyway.
+        """
+        recorded = {}
+        for path in self.chunk_files():
+            try:
+                recorded[path.name] = _chunk_settings(path)
+            except Exception:  # unreadable: the chunk is flown again and its file replaced
+                continue
+        fix = f"start afresh in another --out or after removing {self.out}"
+        if any(v is None for v in recorded.values()):
+            unrecorded = sorted(k for k, v in recorded.items() if v is None)
+            raise InputError(
+                f"{what}; cannot resume: the chunk files do not record the campaign's settings ({unrecorded[0]} "
+                f"records none: an older fsmctl wrote it); {fix}"
+            )
+        different = {k: v for k, v in recorded.items() if v != ident}
+        if different:
+            name, other = sorted(different.items())[0]
+            keys = sorted(k for k in {*ident, *other} if other.get(k) != ident.get(k))
+            raise InputError(
+                f"{what}; cannot resume: the chunk files record a campaign with different settings ({name}: "
+                f"{', '.join(keys)}); resume with the settings they record, or {fix}"
+            )
+        if recorded:
+            _log.warning("%s; rebuilt from the %d chunk files, which record these settings", what, len(recorded))
+        else:
+            _log.warning("%s; no chunk file to keep: the campaign starts afresh", what)
 
     def chunk_files(self) -> list[Path]:
         try:
@@ -1357,7 +1403,7 @@ class _OutputFolder:
                     tmp.unlink()
         if self._created_meta:
             with contextlib.suppress(OSError):
-                (self.out / "campaign.json").unlink()
+                (self.out / _CAMPAIGN_FILE).unlink()
         self._remove_created()
         return 0
 
@@ -1385,6 +1431,32 @@ def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
             )
     except Exception:  # unreadable partial file: rerun the chunk
         return False
+
+
+def _read_campaign_file(meta: Path) -> tuple[dict, str | None]:
+    """``(settings, None)`` from ``campaign.json``, or ``({}, what is wrong)`` when it is not a campaign's settings."""
+    try:
+        text = meta.read_bytes().decode("utf-8")
+    except UnicodeDecodeError:
+        return {}, "not UTF-8 text"
+    except OSError as exc:
+        raise _environment_problem(f"cannot read {meta}", exc) from exc
+    try:
+        old = json.loads(text)
+    except ValueError as exc:
+        return {}, f"not valid JSON: {exc}"
+    if not isinstance(old, dict) or not all(k in old for k in _CAMPAIGN_KEYS):
+        return {}, "not a JSON object holding a campaign's settings (" + ", ".join(_CAMPAIGN_KEYS) + ")"
+    return old, None
+
+
+def _chunk_settings(path: Path) -> dict | None:
+    """The campaign settings a chunk file records (its ``settings`` attribute); None if it records none."""
+    import xarray as xr
+
+    with xr.open_dataset(path) as ds:
+        text = ds.attrs.get("settings")
+    return None if text is None else json.loads(text)
 
 
 # ----------------------------------------------------------------------------- campaign
@@ -1548,23 +1620,89 @@ def _dask_handshake(sock: socket.socket, deadline: float) -> str | None:
     return None
 
 
-def _check_dask_endpoint(address: str, timeout_s: float) -> None:
-    """Pre-flight of a ``tcp://`` scheduler address: it must accept a connection and send a Dask handshake.
+def _probe_dask_comm(address: str, timeout_s: float) -> None:
+    """Open and close a connection to ``address`` with distributed's own ``connect`` (a fresh event loop).
 
-    Raises :class:`~fsmctl.errors.EnvironmentProblem` (nothing listening, no answer within ``timeout_s``,
-    an answer that is not Dask's) or :class:`~fsmctl.errors.InputError` (not an address).  Other
-    schemes (``tls://``, ``inproc://``, ...) are left to distributed.
+    Runs in a thread of its own, so it works whether or not the caller's thread runs an event loop (a
+    notebook).  The connection arguments are the ones a :class:`distributed.Client` without ``security``
+    uses (:class:`distributed.security.Security` from the Dask configuration).  Raises what ``connect``
+    raises.
     """
-    from distributed.comm.addressing import parse_address, parse_host_port
+    import asyncio
+    import threading
 
-    try:
-        scheme, loc = parse_address(address, strict=False)
-        if scheme != "tcp":
-            return
-        host, port = parse_host_port(loc, 8786)
-    except (ValueError, TypeError) as exc:
-        raise InputError(f"--dask {address}: not a scheduler address ({exc})") from None
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    async def probe() -> None:
+        comm = await connect(address, timeout=timeout_s, **Security().get_connection_args("client"))
+        await comm.close()
+
+    failure: list[BaseException] = []
+
+    def target() -> None:
+        try:
+            asyncio.run(probe())
+        except BaseException as exc:  # handed to the caller's thread
+            failure.append(exc)
+
+    thread = threading.Thread(target=target, name="fsmctl-dask-probe", daemon=True)
+    thread.start()
+    thread.join(timeout_s + 5.0)  # connect() gives up after timeout_s; the margin covers closing
+    if thread.is_alive():
+        raise TimeoutError
+    if failure:
+        raise failure[0]
+
+
+def _check_dask_endpoint(address: str, timeout_s: float) -> None:
+    """Pre-flight of a scheduler address, so that a bad one is a one-line error at once.
+
+    The address must be one that distributed accepts: a scheme that one of its registered comm backends
+    serves (``tcp``, ``tls``, ``inproc``, ``ws``, ... and those that plug-ins register), default ``tcp``,
+    and a location in that scheme's syntax (``host:port`` for ``tcp``, port included); otherwise
+    :class:`~fsmctl.errors.InputError`.  A ``tcp://`` endpoint must then accept a connection and send a
+    Dask handshake, read here with bounded sizes (distributed's own reader allocates whatever the first 8
+    bytes say); any other scheme must accept a connection through distributed's ``connect``.  Otherwise
+    :class:`~fsmctl.errors.EnvironmentProblem` (nothing listening, no answer within ``timeout_s``, an
+    answer that is not Dask's, a backend that cannot work here, such as ``tls`` without certificates).
+
+    Without this check, an address that distributed refuses by a ``ValueError`` or ``TypeError`` leaves a
+    half-started :class:`distributed.Client` whose finalizer waits twice the timeout and prints a traceback.
+    """
+    import warnings
+
+    from distributed.comm.addressing import parse_address
+    from distributed.comm.registry import get_backend
+
+    with warnings.catch_warnings(record=True) as caught:  # a deprecated backend (ucx) warns when it loads
+        warnings.simplefilter("always")
+        try:
+            scheme, loc = parse_address(address)
+            backend = get_backend(scheme)
+            host_port = backend.get_address_host_port(loc) if scheme == "tcp" else None
+        except (ValueError, TypeError) as exc:
+            raise InputError(f"--dask {address}: not a scheduler address ({exc})") from None
+        except ImportError as exc:  # a plug-in's backend that does not load
+            raise EnvironmentProblem(errno.ENOENT, f"--dask {address}: {type(exc).__name__}: {exc}") from None
     what = f"--dask {address}: cannot connect to a Dask scheduler"
+    if host_port is None:
+        try:
+            with warnings.catch_warnings(record=True) as more:
+                warnings.simplefilter("always")
+                _probe_dask_comm(address, timeout_s)
+        except ValueError as exc:  # the backend's own address syntax (inproc://host/pid/n)
+            raise InputError(f"--dask {address}: not a scheduler address ({exc})") from None
+        except TimeoutError:
+            raise EnvironmentProblem(errno.ETIMEDOUT, f"{what} (no answer within {timeout_s:g} s)") from None
+        except Exception as exc:  # OSError, or a backend that cannot work here (TypeError: tls without ssl context)
+            notes = [str(w.message).splitlines()[0] for w in (*caught, *more)]
+            text = " ".join(f"{type(exc).__name__}: {exc}".split())[:300]
+            raise EnvironmentProblem(
+                getattr(exc, "errno", None) or errno.EPROTO, f"{what} ({'; '.join([text, *notes])})"
+            ) from None
+        return
+    host, port = host_port
     deadline = time.monotonic() + timeout_s
     try:
         sock = socket.create_connection((host, int(port)), timeout=timeout_s)
@@ -1676,7 +1814,10 @@ def run_campaign(
         Local worker processes (default: the number of CPUs); 1 runs in this process.
     dask : str or distributed.Client, optional
         Address of (or a client to) an existing Dask distributed cluster; replaces the local pool.
-        A ``tcp://`` address must answer with a Dask handshake within ``dask_timeout``.
+        An address must be one that distributed accepts (a scheme of one of its comm backends: ``tcp``,
+        the default, ``tls``, ``inproc``, ``ws``, ...; ``host:port`` with the port for ``tcp``), else
+        :class:`~fsmctl.errors.InputError` before any connection; a ``tcp://`` address must answer with a
+        Dask handshake within ``dask_timeout``.
     resume : bool
         Continue a campaign already in ``out_dir`` (same settings), running only missing chunks.
     progress : bool, optional
@@ -1703,7 +1844,7 @@ def run_campaign(
     Raises
     ------
     fsmctl.errors.InputError
-        A bad setting, or ``out_dir`` holds another campaign.
+        A bad setting, a ``dask`` address that distributed does not accept, or ``out_dir`` holds another campaign.
     fsmctl.errors.EnvironmentProblem
         ``out_dir`` cannot be created or written (read-only, full), or ``dask`` is not a reachable scheduler.
     CampaignInterrupted
@@ -1747,8 +1888,11 @@ def run_campaign(
                     todo.append((c, idx))
             bar = _progress(settings.runs, settings.runs - sum(len(i) for _, i in todo), progress)
 
+            recorded = json.dumps(jsonable(settings.identity()), allow_nan=False)  # what rebuilds campaign.json
+
             def on_chunk(c: int, idx: Sequence[int], rows) -> None:
                 ds = _chunk_dataset(rows, base.n_agents, noise_seeds)
+                ds.attrs["settings"] = recorded
                 with guard.deferred():  # an interrupt waits until the chunk file is complete
                     # an intermediate file: NetCDF-3, which the parent writes ~5x faster than compressed
                     # NetCDF-4 (whose CPU time would compete with the workers'); montecarlo.nc is compressed
