@@ -1218,7 +1218,13 @@ def _failure_message(p: PackedProblem, raw: dict) -> str:
             else " (check inertias, gains and the step size)"
         )
     elif rc == 5:
-        detail += f" at t = {raw['fail_time']:.6g} s (discontinuous control? use rk4 or a boundary layer)"
+        d = p.law.discontinuity
+        why = (
+            "a discontinuous right-hand side (a wheel at its speed limit, Coulomb friction)? use rk4"
+            if d is None
+            else f"discontinuous at {d.where}? use rk4" + ("" if d.smoothed_by is None else f" or {d.smoothed_by} > 0")
+        )
+        detail += f" at t = {raw['fail_time']:.6g} s ({why})"
     return f"simulation failed: {detail}"
 
 

@@ -1171,14 +1171,15 @@ class LawBuilder:
         where : str
             Where, in words (the warning quotes it), e.g. ``"sgn(s) of the switching term u^D (eq 18)"``.
         smoothed_by : str, Symbol or None
-            The scalar numeric parameter (its name or the symbol :meth:`parameter` returned) whose positive value
-            makes the law continuous (e.g. a boundary layer, Remark 7); None when no parameter does.
+            The scalar numeric parameter (its name or the symbol :meth:`parameter` returned, range ``0 <= x``)
+            whose positive value makes the law continuous (e.g. a boundary layer, Remark 7); None when no parameter
+            does.
 
         Raises
         ------
         LawDefinitionError
-            A second declaration, an empty ``where``, or ``smoothed_by`` that is no scalar numeric parameter with
-            a lower bound of 0.
+            A second declaration, an empty ``where``, or ``smoothed_by`` that is no scalar numeric parameter of
+            range ``0 <= x``.
 
         Examples
         --------
@@ -1194,10 +1195,10 @@ class LawBuilder:
         name = None
         if smoothed_by is not None:
             p = self._declared_parameter(smoothed_by, "discontinuous(smoothed_by=...)")
-            if p.size != 1 or p.choices or p.minimum is None or p.minimum < 0:
+            if p.size != 1 or p.choices or p.minimum != 0 or p.problem(0.0) is not None:
                 raise LawDefinitionError(
                     f"{self.name}: discontinuous(smoothed_by={p.name}): must be a scalar numeric parameter whose "
-                    f"range starts at 0 (it smooths the law when > 0), got range {p.range_text()}"
+                    f"range is 0 <= x (0: discontinuous, > 0: smoothed), got range {p.range_text()}"
                 )
             name = p.name
         self._discontinuity = Discontinuity(where.strip(), name)
