@@ -276,3 +276,15 @@ def test_bad_declarations_are_rejected_in_one_line(declare, message):
     with pytest.raises(LawDefinitionError, match=message) as info:
         declare(b, p)
     assert "\n" not in str(info.value) and str(info.value).startswith("bad")
+
+
+def test_fsmctl_laws_shows_the_declarations():
+    from fsmctl.cli.laws import format_law, law_to_dict
+
+    text = format_law(resolve_law("fsm"))
+    assert "discontinuous: at sgn(s) of the switching term u^D (eq 18) unless boundary_layer > 0" in text
+    assert "presets:   surface = fsm, tsm (c1 = 0), lsm (c2 = 0); default fsm" in text
+    assert "Theorems 1-2 apply" in text and "Theorems" not in format_law(resolve_law("pid"))
+    d = law_to_dict(resolve_law("adaptive_fsm"))
+    assert d["discontinuity"]["smoothed_by"] is None and d["paper_theorems"] is None
+    assert d["presets"][0]["options"]["tsm"] == {"c1": [0.0]}
