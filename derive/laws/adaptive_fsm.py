@@ -45,6 +45,7 @@ from fsmctl.symbolic.controller import (
     computed_torque_pieces,
     coordination_term,
 )
+from fsmctl.symbolic.fsm_parameters import declare_fsm_parameters, declare_surface_presets
 from fsmctl.symbolic.law import Law, LawBuilder
 from fsmctl.symbolic.surfaces import fast_sliding_surface
 
@@ -65,22 +66,9 @@ def law(error_model) -> Law:
         doc="the paper's fast sliding mode with adaptive switching gains (Plestan et al. 2010) and coordination",
         reference=REFERENCE,
     )
-    c1 = b.parameter("c1", 0.6, unit="1/s", minimum=0.0, doc="linear gain of the surface s (eq 13); paper's value")
-    c2 = b.parameter("c2", 0.8, unit="1/s", minimum=0.0, doc="terminal gain of the surface (eq 13); paper's value")
-    alpha = b.parameter(
-        "alpha", 0.7, minimum=0.5, maximum=1.0, exclusive_minimum=True, exclusive_maximum=True,
-        doc="exponent of sig(sigma_e)^alpha (eq 13); the paper scenario's choice",
-    )  # fmt: skip
-    phi = b.parameter(
-        "boundary_layer", 0.0, unit="1/s", minimum=0.0, doc="phi of sat(s/phi) (Remark 7); 0: sgn (as the fsm law)"
-    )
-    epsilon = b.parameter(
-        "epsilon", 1e-4, minimum=0.0, exclusive_minimum=True, doc="band of the Remark 6 fix (MRP units), as fsm"
-    )
-    fix = b.parameter(
-        "singularity_fix", "switch", choices=("none", "switch", "clamp"),
-        doc="Remark 6 device near sigma_e = 0: C^1 'switch' extension, 'clamp' of the slope, or 'none' (as fsm)",
-    )  # fmt: skip
+    p = declare_fsm_parameters(b, delta=None)
+    c1, c2, alpha, phi, epsilon, fix = p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix
+    declare_surface_presets(b, p)
     gamma = b.parameter(
         "gamma", 0.01, unit="1/s", minimum=0.0, exclusive_minimum=True,
         doc=(
@@ -124,6 +112,10 @@ def law(error_model) -> Law:
             )
         )
     b.derivative(delta_hat, rates)
+    b.discontinuous(
+        "sgn(|s_k| - adaptation_band) of the gain adaptation d/dt delta_hat (and sgn(s) of the switching term, "
+        "eq 18, with boundary_layer = 0)"
+    )
 
     pieces = computed_torque_pieces(
         b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta_hat,

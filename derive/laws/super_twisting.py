@@ -55,6 +55,7 @@ from fsmctl.symbolic.controller import (
     coordination_term,
     sliding_variable,
 )
+from fsmctl.symbolic.fsm_parameters import declare_fsm_parameters, declare_surface_presets
 from fsmctl.symbolic.law import Law, LawBuilder
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_inverse
 from fsmctl.symbolic.surfaces import fast_sliding_surface
@@ -72,26 +73,9 @@ def law(error_model) -> Law:
         doc="super-twisting sliding mode on the paper's fast sliding surface, with neighbour coordination (eq 19)",
         reference=REFERENCE,
     )
-    c1 = b.parameter(
-        "c1", 0.6, unit="1/s", minimum=0.0,
-        doc="linear gain of the surface s (eq 13); default: the paper's value",
-    )  # fmt: skip
-    c2 = b.parameter(
-        "c2", 0.8, unit="1/s", minimum=0.0,
-        doc="terminal gain of the surface (eq 13); default: the paper's value",
-    )  # fmt: skip
-    alpha = b.parameter(
-        "alpha", 0.7, minimum=0.5, maximum=1.0, exclusive_minimum=True, exclusive_maximum=True,
-        doc="exponent of sig(sigma_e)^alpha (eq 13); default: the paper scenario's choice",
-    )  # fmt: skip
-    epsilon = b.parameter(
-        "epsilon", 1e-4, minimum=0.0, exclusive_minimum=True,
-        doc="band of the Remark 6 fix (MRP units); default: as the fsm law",
-    )  # fmt: skip
-    fix = b.parameter(
-        "singularity_fix", "switch", choices=("none", "switch", "clamp"),
-        doc="Remark 6 device near sigma_e = 0 (as the fsm law); 'switch' keeps s_dot = v exact",
-    )  # fmt: skip
+    p = declare_fsm_parameters(b, boundary_layer=None, delta=None)
+    c1, c2, alpha, epsilon, fix = p.c1, p.c2, p.alpha, p.epsilon, p.singularity_fix
+    declare_surface_presets(b, p)
     k1 = b.parameter(
         "k1", 0.1, unit="1/s^(3/2)", minimum=0.0, exclusive_minimum=True,
         doc=(
@@ -114,6 +98,7 @@ def law(error_model) -> Law:
     b.broadcast("s", s, unit="1/s")
 
     w = b.state("w", 3, initial=0.0, unit="1/s^2", doc="integral term of the super-twisting algorithm")
+    b.discontinuous("sgn(s) of the super-twisting integral term d/dt w = -k2 sgn(s)")
     b.derivative(w, -k2 * s.applyfunc(sp.sign))
     v = b.stage("v", [-k1 * sp.sqrt(sp.Abs(sk)) * sp.sign(sk) + wk for sk, wk in zip(s, w, strict=True)])
 

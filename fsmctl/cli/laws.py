@@ -104,8 +104,10 @@ def law_to_dict(law) -> dict:
     -------
     dict
         ``name``, ``doc``, ``reference``, ``source``, ``folder``, ``builtin``, ``broadcast`` (name, size),
-        ``states`` (as declared), ``lyapunov`` (whether one is declared) and ``parameters`` (name, default, size,
-        unit, minimum, maximum, exclusive bounds, range text, choices, tunable, doc).
+        ``states`` (as declared), ``lyapunov`` (whether one is declared), the declarations ``discontinuity``
+        (``where``, ``smoothed_by``, or None), ``presets`` (name, default, options, doc), ``loop_rates`` (their
+        doc, or None) and ``paper_theorems`` (the paper's symbol -> parameter name, or None), and ``parameters``
+        (name, default, size, unit, minimum, maximum, exclusive bounds, range text, choices, tunable, doc).
     """
     return {
         "name": law.name,
@@ -117,6 +119,20 @@ def law_to_dict(law) -> dict:
         "broadcast": {"name": law.broadcast_name, "size": law.n_broadcast},
         "states": [dict(s) for s in law.states],
         "lyapunov": law.has_lyapunov,
+        "discontinuity": None
+        if law.discontinuity is None
+        else {"where": law.discontinuity.where, "smoothed_by": law.discontinuity.smoothed_by},
+        "presets": [
+            {
+                "name": g.name,
+                "default": g.default,
+                "options": {o: {k: list(v) for k, v in sets.items()} for o, sets in g.options.items()},
+                "doc": g.doc,
+            }
+            for g in law.presets
+        ],
+        "loop_rates": law.loop_rates_doc,
+        "paper_theorems": None if law.paper_theorems is None else dict(law.paper_theorems.parameters),
         "parameters": [
             {
                 "name": p.name,
@@ -174,6 +190,27 @@ def format_law(law) -> str:
     else:
         lines.append("  states:    none")
     lines.append(f"  lyapunov:  {'declared (fsmctl prove --law checks it)' if law.has_lyapunov else 'none declared'}")
+    d = law.discontinuity
+    if d is not None:
+        smooth = f" unless {d.smoothed_by} > 0" if d.smoothed_by is not None else ""
+        lines.append(f"  discontinuous: at {d.where}{smooth}")
+    for g in law.presets:
+        options = ", ".join(
+            o
+            + (
+                " (" + ", ".join(f"{k} = {', '.join(f'{x:g}' for x in v)}" for k, v in sets.items()) + ")"
+                if sets
+                else ""
+            )
+            for o, sets in g.options.items()
+        )
+        lines.append(f"  presets:   {g.name} = {options}; default {g.default}{': ' + g.doc if g.doc else ''}")
+    if law.loop_rates_doc is not None:
+        lines.append(f"  loop rates: {law.loop_rates_doc}")
+    if law.paper_theorems is not None:
+        lines.append(
+            "  paper:     eqs 13-19 of Liang et al. 2012: Theorems 1-2 apply (fsmctl prove --law checks eq 20)"
+        )
     if not law.parameters:
         lines.append("  parameters: none")
         return "\n".join(lines)

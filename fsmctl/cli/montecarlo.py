@@ -264,8 +264,9 @@ def report_lines(result: CampaignResult) -> Iterable[str]:
     theorems = (
         f"Theorem 1 held: {s['theorem1_holds_fraction']:.1%}; "
         f"Theorem 2 at the reference held: {s['theorem2_at_reference_holds_fraction']:.1%}"
-        if s.get("law", "fsm") == "fsm"
-        else f"Theorems 1-2: not applicable (they are the paper's law's conditions; the law is {s['law']})"
+        if s["paper_theorems"]
+        else f"Theorems 1-2: not applicable (they are the paper's law's conditions; the law {s['law']} does not "
+        "declare it is eqs 13-19)"
     )
     yield f"  converged (AAEM and RAEM < {s['tolerance_deg']:g} deg): {s['converged_fraction']:.1%}; {theorems}"
     yield f"  AAEM settling: {med('aaem_settling_s')} s ({st['aaem_settling_s']['nan']} never settled)"

@@ -3,10 +3,12 @@
 The same generator as the project's ``generated/`` (:func:`fsmctl.codegen.writer.write_generated`), so a law
 folder has the same do-not-edit headers, serialized CasADi functions and sha256 manifest:
 
-    law.json                        the law's parameters (units, ranges, defaults), states, broadcast, cache
+    law.json                        the law's parameters (units, ranges, defaults), states, broadcast, cache,
+                                    and its declarations (discontinuity, presets, loop rates, paper theorems)
     c/law_constants.c/.h            per-agent constants
     c/law_local_{paper,exact}.c/.h  broadcast and cache (fsmctl.symbolic.law)
     c/law_control_{paper,exact}.c/.h  torque and law-state derivative
+    c/law_loop_rates.c/.h           bounds on the loop's rates, if the law declares them
     c/law_batched.c/.h              the lane-batched kernels of the local and control functions
     casadi/*.casadi                 the same functions for the no-compiler fallback and the plug-in
     manifest.json
@@ -42,7 +44,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
     """The CasADi functions of a law: constants, then local and control for each error model.
 
     The per-agent contract of :mod:`fsmctl.symbolic.law`: ``law_constants``, ``law_local_<model>`` and
-    ``law_control_<model>`` for ``model`` in ``paper``, ``exact``, then the script's ``EXTRA_FUNCTIONS``.
+    ``law_control_<model>`` for ``model`` in ``paper``, ``exact``, then ``law_loop_rates`` if the law declares
+    :meth:`~fsmctl.symbolic.law.LawBuilder.loop_rates`, then the script's ``EXTRA_FUNCTIONS``.
 
     Parameters
     ----------
@@ -85,7 +88,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
     specs = [variants.paper.constants_spec()]
     for law in variants:
         specs += [law.local_spec(), law.control_spec()]
-    specs += list(variants.extra)
+    rates = variants.paper.loop_rates_spec()  # law_loop_rates(params), if the law declares loop_rates()
+    specs += ([] if rates is None else [rates]) + list(variants.extra)
     try:
         return build_functions(specs)
     except UnsupportedExpressionError as exc:

@@ -20,8 +20,10 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
@@ -32,7 +34,10 @@ from fsmctl.ranges import ParameterRange
 
 __all__ = [
     "LawCode",
+    "LawDiscontinuity",
+    "LawPaperTheorems",
     "LawParameterInfo",
+    "LawPresetGroup",
     "LawError",
     "builtin_laws",
     "resolve_law",
@@ -169,13 +174,100 @@ class LawParameterInfo(ParameterRange):
 
 
 @dataclass(frozen=True)
+class LawDiscontinuity:
+    """Where a law's closed loop is discontinuous, as its script declares it (``LawBuilder.discontinuous``).
+
+    Parameters
+    ----------
+    where : str
+        Where, in words (e.g. ``"sgn(s) of the switching term u^D (eq 18)"``).
+    smoothed_by : str or None
+        The parameter whose positive value makes the law continuous (e.g. ``boundary_layer``), or None.
+    column : int or None
+        That parameter's column in the packed parameters.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.model import resolve_law
+    >>> d = resolve_law("fsm").discontinuity
+    >>> d.smoothed_by, d.discontinuous(np.array([0.6, 0.8, 0.7, 0.0, 1e-4, 1.0, 0.005, 0.005, 0.005]))
+    ('boundary_layer', True)
+    """
+
+    where: str
+    smoothed_by: str | None
+    column: int | None
+
+    def discontinuous(self, params) -> bool:
+        """Whether the law flown with ``params`` is discontinuous (for any agent).
+
+        Parameters
+        ----------
+        params : array_like
+            A packed parameter row ``(n_params,)`` or one row per agent ``(n_agents, n_params)``.
+
+        Returns
+        -------
+        bool
+            True unless the smoothing parameter is > 0 for every agent (always True without one).
+        """
+        if self.column is None:
+            return True
+        values = np.atleast_2d(np.asarray(params, dtype=float))[:, self.column]
+        return bool(np.any(values <= 0.0))
+
+
+@dataclass(frozen=True)
 class LawPresetGroup:
-    """TEMPORARY (replaced by the declaration branch): a named group of parameter presets."""
+    """A named group of parameter presets a law declares (``LawBuilder.preset_group``), selected by one key.
+
+    Parameters
+    ----------
+    name : str
+        The group's name: the ``[controller]`` key that selects an option.
+    default : str
+        The option that applies when a scenario selects none (it changes no parameter's default).
+    options : mapping of str to mapping of str to tuple of float
+        Each option's packed values by parameter name.
+    doc : str
+        What the group chooses.
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> g = resolve_law("fsm").preset_group("surface")
+    >>> g.default, dict(g.options["tsm"])
+    ('fsm', {'c1': (0.0,)})
+    """
 
     name: str
     default: str
-    options: dict
+    options: Mapping[str, Mapping[str, tuple[float, ...]]]
     doc: str
+
+
+@dataclass(frozen=True)
+class LawPaperTheorems:
+    """The declaration that a law is Liang et al. 2012's eqs 13-19 (``LawBuilder.paper_theorems``).
+
+    Theorems 1-2 of the paper then apply to it: Theorem 1 constrains the coupling weights (eq 19), Theorem 2 the
+    switching gain; ``fsmctl prove --law`` verifies the declaration (the closed loop is eq 20).
+
+    Parameters
+    ----------
+    parameters : mapping of str to str
+        The law's parameter name for each of the paper's symbols (``c1``, ``c2``, ``alpha``, ``boundary_layer``,
+        ``epsilon``, ``singularity_fix``, ``delta``).
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> resolve_law("fsm").paper_theorems.parameters["delta"], resolve_law("pid").paper_theorems
+    ('delta', None)
+    """
+
+    parameters: Mapping[str, str]
 
 
 @dataclass(frozen=True)
@@ -204,6 +296,14 @@ class LawCode:
         Sizes of the broadcast vector, the law's precomputed constants and its per-step cache.
     has_lyapunov : bool
         Whether the law declares a Lyapunov function (checked by ``fsmctl prove --law``).
+    discontinuity : LawDiscontinuity or None
+        Where its closed loop is discontinuous, unless a parameter smooths it; None for a continuous law.
+    presets : tuple of LawPresetGroup
+        Its named parameter presets (e.g. the ``surface`` of the paper's law, Sec. 3.3).
+    loop_rates_doc : str or None
+        How its declared loop-rate bounds come about (:meth:`loop_rates`); None if it declares none.
+    paper_theorems : LawPaperTheorems or None
+        Whether it is the paper's eqs 13-19, so that Theorems 1-2 apply (and with which parameters).
 
     Examples
     --------
@@ -228,7 +328,10 @@ class LawCode:
     n_constants: int
     n_cache: int
     has_lyapunov: bool
-    presets: tuple = ()
+    discontinuity: LawDiscontinuity | None = None
+    presets: tuple[LawPresetGroup, ...] = ()
+    loop_rates_doc: str | None = None
+    paper_theorems: LawPaperTheorems | None = None
 
     @property
     def n_params(self) -> int:
@@ -267,6 +370,59 @@ class LawCode:
             if p.name == name:
                 return p
         raise KeyError(name)
+
+    def preset_group(self, name: str) -> LawPresetGroup:
+        """A declared preset group by name.
+
+        Parameters
+        ----------
+        name : str
+            The group's name (its ``[controller]`` key).
+
+        Returns
+        -------
+        LawPresetGroup
+            Its declaration.
+
+        Raises
+        ------
+        KeyError
+            The law declares no such group.
+        """
+        for g in self.presets:
+            if g.name == name:
+                return g
+        raise KeyError(name)
+
+    def loop_rates(self, params) -> tuple[float, float] | None:
+        """The law's declared loop-rate bounds ``(surface, layer)`` (1/s), the largest over agents, or None.
+
+        Evaluates the generated ``law_loop_rates(params)`` for each row.
+
+        Parameters
+        ----------
+        params : array_like
+            A packed parameter row ``(n_params,)`` or one row per agent ``(n_agents, n_params)``.
+
+        Returns
+        -------
+        tuple of float or None
+            ``(surface, layer)``, or None when the law declares no loop rates.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from fsmctl.model import resolve_law
+        >>> row = np.array([0.6, 0.8, 0.7, 0.01, 1e-4, 1.0, 0.005, 0.004, 0.003])
+        >>> [round(v, 3) for v in resolve_law("fsm").loop_rates(row)], resolve_law("pid").loop_rates(row[:4])
+        ([17.083, 0.5], None)
+        """
+        if self.loop_rates_doc is None:
+            return None
+        rates = self.casadi("law_loop_rates")
+        rows = np.atleast_2d(np.asarray(params, dtype=float))
+        values = [[float(v) for v in rates(row)] for row in rows]
+        return max(v[0] for v in values), max(v[1] for v in values)
 
     def state_labels(self) -> list[str]:
         """One label per law state component: ``name`` for a scalar, ``name[k]`` for a vector.
@@ -340,20 +496,46 @@ def _read_law(folder: Path) -> LawCode:
         n_constants=sum(int(c["size"]) for c in meta["constants"]),
         n_cache=sum(int(c["size"]) for c in meta["cache"]),
         has_lyapunov=meta.get("lyapunov") is not None,
+        discontinuity=_read_discontinuity(meta.get("discontinuity"), params),
         presets=tuple(
             LawPresetGroup(
                 g["name"],
                 g["default"],
-                {k: {n: tuple(v) for n, v in o.items()} for k, o in g["options"].items()},
+                MappingProxyType(
+                    {
+                        option: MappingProxyType({k: tuple(float(x) for x in v) for k, v in sets.items()})
+                        for option, sets in g["options"].items()
+                    }
+                ),
                 g.get("doc", ""),
             )
             for g in meta.get("presets", [])
         ),
+        loop_rates_doc=None if meta.get("loop_rates") is None else meta["loop_rates"].get("doc", ""),
+        paper_theorems=None
+        if meta.get("paper_theorems") is None
+        else LawPaperTheorems(MappingProxyType(dict(meta["paper_theorems"]))),
     )
 
 
+def _read_discontinuity(entry: dict | None, params: tuple[LawParameterInfo, ...]) -> LawDiscontinuity | None:
+    if entry is None:
+        return None
+    name, column, k = entry.get("smoothed_by"), None, 0
+    for p in params:
+        if p.name == name:
+            column = k
+        k += p.size
+    if name is not None and column is None:
+        raise LawError(f"law.json: discontinuity smoothed by {name!r}, which is not a parameter of the law")
+    return LawDiscontinuity(entry["where"], name, column)
+
+
 def builtin_laws() -> dict[str, LawCode]:
-    """The built-in laws by name, in a fixed order (the paper's first).
+    """The built-in laws by name: those that declare they are the paper's law first, then by name.
+
+    A law that declares ``LawBuilder.paper_theorems`` (:attr:`LawCode.paper_theorems`) is listed before the
+    others; within each group the laws are ordered by name.
 
     Returns
     -------
@@ -367,8 +549,8 @@ def builtin_laws() -> dict[str, LawCode]:
     ['fsm', 'adaptive_fsm', 'pid', 'super_twisting']
     """
     root = generated_dir() / "laws"
-    folders = sorted((p for p in root.iterdir() if (p / LAW_FILE).is_file()), key=lambda p: (p.name != "fsm", p.name))
-    return {p.name: _read_law(p) for p in folders}
+    laws = [_read_law(p) for p in sorted(root.iterdir()) if (p / LAW_FILE).is_file()]
+    return {law.name: law for law in sorted(laws, key=lambda law: (law.paper_theorems is None, law.name))}
 
 
 def _law_cache_root() -> Path:

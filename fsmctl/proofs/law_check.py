@@ -25,14 +25,16 @@ The checks:
 2. ``closed-loop`` (derived): the isolated agent in error coordinates (``J = J0``, no disturbance, no
    neighbours, the reference at rest so ``sigma_e = sigma``, ``omega_e = omega`` on the shadow set):
    ``sigma_dot = G(sigma) omega``, ``omega_dot = J0^-1 (u - omega x J0 omega)``, ``z_dot``;
-   for the paper's law also ``closed-loop-eq20`` (checked): ``sigma_ddot`` is the closed loop of eq 20
-   (Liang, Sun & Wang 2012) with no coordination.
+   for a law that declares it is the paper's eqs 13-19 (:meth:`fsmctl.symbolic.law.LawBuilder.paper_theorems`)
+   also ``closed-loop-eq20`` (checked): ``sigma_ddot`` is the closed loop of eq 20 (Liang, Sun & Wang 2012) with
+   no coordination, with the parameters the declaration names, and the broadcast is ``s`` of eq 13; a law that
+   declares it falsely fails this check.
 3. ``lyapunov``: ``V_dot = grad V . f`` along that closed loop, proved equal to the declared
    ``claimed_derivative`` and that one manifestly ``<= 0`` (proved), or sampled (evidence; fails when
    ``V_dot > 0`` at a sampled point or the claimed derivative differs from ``V_dot`` there), or
    ``not declared``.
 
-For the paper's law the report's notes point to ``fsmctl prove`` (the paper's own claims).  Symbolic steps run
+For such a law the report's notes point to ``fsmctl prove`` (the paper's own claims).  Symbolic steps run
 in a forked child with a time budget (:data:`SYMBOLIC_BUDGET`); numeric steps are seeded.
 
 Library code: raises :class:`fsmctl.model.laws.LawError` (an input error) for a law it cannot check.
@@ -90,7 +92,6 @@ J0_SPREAD = 0.1
 NEAR_REFERENCE = 3e-4
 """a quarter of the points have sigma within this (per component) of sigma_d: small errors, Remark 6's band"""
 
-FSM_PARAMETERS = ("c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix", "delta")
 ERROR_STAGES = ("sigma_e", "omega_r", "omega_e", "omega_r_dot")
 """the stages :meth:`fsmctl.symbolic.law.LawBuilder.error_state` declares"""
 
@@ -990,7 +991,7 @@ def _check_closed_loop(cl: _ClosedLoop) -> LawCheck:
     ]
     if law.n_states:
         lines.append(f"z_dot has {sp.count_ops(cl.z_dot)} operations")
-    if _is_fsm(law):
+    if _is_paper_law(law):
         lines.append("its readable form is eq 20, in sigma: see closed-loop-eq20")
     return LawCheck(
         "closed-loop", DERIVED,
@@ -999,8 +1000,19 @@ def _check_closed_loop(cl: _ClosedLoop) -> LawCheck:
     )  # fmt: skip
 
 
-def _is_fsm(law: Law) -> bool:
-    return law.name == "fsm" and all(n in [p.name for p in law.parameters] for n in FSM_PARAMETERS)
+def _is_paper_law(law: Law) -> bool:
+    """Whether the law declares that it is the paper's eqs 13-19 (``LawBuilder.paper_theorems``)."""
+    return law.paper_theorems is not None
+
+
+def _parameter_column(law: Law, name: str) -> int:
+    """The column of the scalar parameter ``name`` in the packed ``params``."""
+    k = 0
+    for q in law.parameters:
+        if q.name == name:
+            return k
+        k += q.size
+    raise KeyError(name)
 
 
 def _check_eq20(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> LawCheck:
@@ -1010,9 +1022,19 @@ def _check_eq20(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> LawC
     law = cl.law
     sym = law.symbols
     sigma, omega, J0 = sym["sigma"], sym["omega"], sym["J0"]
-    p = law.parameter_symbols()
-    s_syms = next(s for n, s, _ in law.local_stages if n == "s")
-    s = sp.ImmutableMatrix([cl.stages[x] for x in s_syms])
+    by_name = law.parameter_symbols()
+    p = {role: by_name[name] for role, name in law.paper_theorems.parameters}  # the declared roles
+    statement = (
+        "the law declares it is the paper's eqs 13-19 (LawBuilder.paper_theorems): sigma_ddot of the closed loop "
+        "is eq 20 (no coordination) and the broadcast is s of eq 13"
+    )
+    if law.n_broadcast != 3:
+        return LawCheck(
+            "closed-loop-eq20", CHECKED, statement,
+            f"[FAILS] the broadcast {law.broadcast_name} has {law.n_broadcast} components; eq 19 broadcasts s (3)",
+            passed=False,
+        )  # fmt: skip
+    s = cl.at_rest(law.broadcast)
     G = mrp_G(sigma)
     sigma_dot = sp.ImmutableMatrix(G * omega)
     kw = {"boundary_layer": p["boundary_layer"], "fix": p["singularity_fix"], "epsilon": p["epsilon"]}
@@ -1057,7 +1079,7 @@ def _check_eq20(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> LawC
     u, target, ds, s_num = val[0:3], val[3:6], val[6:9], val[9:12]
     near = np.any(np.abs(s_num) < SURFACE_BAND, axis=0)
     sg = x.arrays["sigma"]
-    eps = x.arrays["params"][:, [q.name for q in law.parameters].index("epsilon")]
+    eps = x.arrays["params"][:, _parameter_column(law, law.paper_theorems.parameter("epsilon"))]
     near |= np.any(np.abs(np.abs(sg) - eps[:, None]) < SURFACE_BAND, axis=1)
     G_fn = sp.lambdify([list(sigma), list(omega)], [mrp_G(sigma), mrp_G_dot(sigma, sigma_dot)], modules="numpy")
     errs = np.zeros(samples)
@@ -1082,8 +1104,7 @@ def _check_eq20(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> LawC
     )
     passed = bool(numeric_ok)
     return LawCheck(
-        "closed-loop-eq20", CHECKED,
-        "for the paper's law, sigma_ddot of the closed loop is eq 20 (no coordination) and s is eq 13",
+        "closed-loop-eq20", CHECKED, statement,
         "\n".join(lines),
         latex=r"\ddot\sigma = \dot G\,\omega + G\,J_0^{-1}(u - \omega^\times J_0\omega) = -\big(c_1\dot\sigma"
         r" + c_2\alpha|\sigma|^{\alpha-1}\circ\dot\sigma\big) - \delta\circ\mathrm{sgn}(s)",
@@ -1144,7 +1165,7 @@ def _check_lyapunov(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> 
             "lyapunov", NOT_DECLARED, "a Lyapunov candidate (LawBuilder.lyapunov)",
             f"law {law.name} declares no Lyapunov candidate: nothing to prove here"
             + ("; the paper's own stability claims (eqs 23-28, Theorems 1-2) are checked by `fsmctl prove`"
-               if _is_fsm(law) else ""),
+               if _is_paper_law(law) else ""),
         )  # fmt: skip
     V = cl.at_rest(ly.V)[0]
     claimed = None if ly.claimed_derivative is None else cl.at_rest(ly.claimed_derivative)[0]
@@ -1372,12 +1393,12 @@ def check_law(
         if "closed-loop" in wanted:
             c = timed(_check_closed_loop, cl)
             out.append(LawCheck(c.id, c.kind, c.statement, c.detail, c.latex, c.passed, c.seconds + build, c.data))
-    if cl is not None and "closed-loop-eq20" in wanted and _is_fsm(law):
+    if cl is not None and "closed-loop-eq20" in wanted and _is_paper_law(law):
         out.append(timed(_check_eq20, cl, np.random.default_rng([seed, 2]), samples))
     if cl is not None and "lyapunov" in wanted:
         out.append(timed(_check_lyapunov, cl, np.random.default_rng([seed, 3]), samples))
     notes = [f"seed {seed}, {samples} samples per numeric check"]
-    if _is_fsm(law):
+    if _is_paper_law(law):
         notes.append(
             "the paper's own claims (Lemmas 1-2, eqs 20-28, Theorems 1-3, Remarks 4 and 6, the errata) are "
             "checked by `fsmctl prove` (list them with `fsmctl prove --list`)"

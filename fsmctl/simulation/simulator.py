@@ -1046,10 +1046,13 @@ def _check_integrator(p: PackedProblem, scenario: Scenario) -> None:
             DiscontinuousControlWarning,
             stacklevel=3,
         )
-    if p.integrator == 1 and scenario.controller.boundary_layer == 0:
+    d = p.law.discontinuity  # declared by the law (LawBuilder.discontinuous)
+    if p.integrator == 1 and d is not None and d.discontinuous(p.params):
+        smoothing = f" ({d.smoothed_by} = 0)" if d.smoothed_by is not None else ""
+        remedy = f" or {d.smoothed_by} > 0" if d.smoothed_by is not None else ""
         warnings.warn(
-            "adaptive integration of the discontinuous sgn(s) control (boundary_layer = 0): the step size will "
-            "collapse near the sliding surface; use integrator='rk4' or a boundary layer (Remark 7)",
+            f"adaptive integration of the law {p.law.name}, discontinuous at {d.where}{smoothing}: the step size "
+            f"will collapse near the switching surface; use integrator='rk4'{remedy}",
             DiscontinuousControlWarning,
             stacklevel=3,
         )
@@ -1221,7 +1224,13 @@ def _failure_message(p: PackedProblem, raw: dict) -> str:
             else " (check inertias, gains and the step size)"
         )
     elif rc == 5:
-        detail += f" at t = {raw['fail_time']:.6g} s (discontinuous control? use rk4 or a boundary layer)"
+        d = p.law.discontinuity
+        why = (
+            "a discontinuous right-hand side (a wheel at its speed limit, Coulomb friction)? use rk4"
+            if d is None
+            else f"discontinuous at {d.where}? use rk4" + ("" if d.smoothed_by is None else f" or {d.smoothed_by} > 0")
+        )
+        detail += f" at t = {raw['fail_time']:.6g} s ({why})"
     return f"simulation failed: {detail}"
 
 
@@ -1308,13 +1317,16 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
 
     Rates (1/s), each from the (packed) scenario alone, no run; over agents the worst value is taken:
 
-    * ``surface = c1 + c2 slope``: the sliding surface (eq 13) on which ``sigma_e`` decays at
-      ``c1 + c2 d sig(x)^alpha/dx``; the slope is largest in the Remark 6 band: ``r1 = (2 - alpha)
-      epsilon^(alpha-1)`` for ``switch`` (the ``c2 r1`` of the paper scenario's [choices] 'step' text),
-      ``alpha epsilon^(alpha-1)`` for ``clamp`` and, since the printed law (``none``) is unbounded as
-      ``sigma_e -> 0``, also that band-edge value for ``none`` (an underestimate).
-    * ``layer = max delta_k / phi``: inside the boundary layer ``sat(s/phi)`` (Remark 7) s decays at
-      ``delta/phi`` (0 for ``sgn``, which has no time constant).
+    * ``surface`` and ``layer``: the law's own rates, as it declares them
+      (:meth:`fsmctl.symbolic.law.LawBuilder.loop_rates`, evaluated per agent): for the paper's law
+      ``surface = c1 + c2 r1``, the sliding surface (eq 13) on which ``sigma_e`` decays at
+      ``c1 + c2 d sig(x)^alpha/dx`` with the slope's largest value in the Remark 6 band (``r1 = (2 - alpha)
+      epsilon^(alpha-1)`` for ``switch``, the ``c2 r1`` of the paper scenario's [choices] 'step' text), and
+      ``layer = max delta_k / phi`` inside the boundary layer ``sat(s/phi)`` (Remark 7; 0 for ``sgn``)
+      (:func:`fsmctl.symbolic.fsm_parameters.fsm_loop_rates`).  A law that declares none gets ``surface``
+      from its linearisation at the initial state (finite differences of the generated law, ``a + sqrt(b)``
+      for ``omega_dot = J0^-1 u`` with ``a = ||J0^-1 du/domega||``, ``b = ||J0^-1 du/dsigma|| / 4``; an
+      estimate) and ``layer = 0``.
     * ``coordination = max_i (sum_j k^i_ij + sum_j max_t |k^j_ij(t)|)``: Gershgorin's bound on the
       eigenvalues of the coupling ``k_sum_i s_i - sum_j k^j_ij s_j`` (eq 19) over the receiving agents.
     * ``gain = max_i ||(J0_i + delta_J_i)^-1 J0_i||_2``: the controller computes torques with ``J0``, the plant
@@ -1362,14 +1374,10 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
     p = pack(scenario) if isinstance(scenario, Scenario) else scenario
     n = p.n_agents
     J, J0 = np.asarray(p.J_true, dtype=float), np.asarray(p.J0, dtype=float)
-    fsm = _law_columns(p, ("c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix", "delta"))
-    if fsm is not None:  # the paper's law (and its variants): its rates in closed form
-        c1, c2, alpha, phi, eps = (float(np.max(fsm[k])) for k in ("c1", "c2", "alpha", "boundary_layer", "epsilon"))
-        switch = bool(np.any(fsm["singularity_fix"] == 1))
-        slope = (2.0 - alpha) * eps ** (alpha - 1.0) if switch else alpha * eps ** (alpha - 1.0)
-        surface = c1 + c2 * slope
-        layer = float(np.max(fsm["delta"])) / phi if phi > 0 else 0.0
-    else:  # any other law: its linearisation at the initial state, by finite differences (an estimate)
+    declared = p.law.loop_rates(p.params)  # the law's own bounds (LawBuilder.loop_rates), the worst agent
+    if declared is not None:
+        surface, layer = declared
+    else:  # a law that declares none: its linearisation at the initial state, by finite differences (an estimate)
         surface, layer = _law_rate_estimate(p), 0.0
     k_in = np.zeros(n)
     for e in range(p.n_links):
@@ -1395,8 +1403,8 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
             parts = ", ".join(
                 f"{name} {value:.3g}"
                 for name, value in (
-                    ("surface c1 + c2 r1", surface),
-                    ("boundary layer delta/phi", layer),
+                    ("law surface", surface),
+                    ("law layer", layer),
                     ("coordination", coordination),
                     ("inertia gain ||J^-1 J0||", gain),
                     ("gyroscopic", gyroscopic),
@@ -1423,22 +1431,6 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
         "omega_max": omega_max,
         "rotation_per_step": omega_max * dt,
         "problems": problems,
-    }
-
-
-def _law_columns(p: PackedProblem, names: tuple[str, ...]) -> dict[str, np.ndarray] | None:
-    """The packed parameters of ``names`` by name (``(n,)`` or ``(n, size)``), or None if the law lacks one."""
-    offsets, k = {}, 0
-    for q in p.law.parameters:
-        offsets[q.name] = (k, q.size)
-        k += q.size
-    if not all(name in offsets for name in names):
-        return None
-    return {
-        name: p.params[:, offsets[name][0]]
-        if offsets[name][1] == 1
-        else p.params[:, slice(offsets[name][0], sum(offsets[name]))]
-        for name in names
     }
 
 

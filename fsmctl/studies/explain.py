@@ -433,7 +433,7 @@ def search_settings(scenario) -> tuple[Setting, ...]:
             why="eqs 7-8 as printed drop the rotation of omega_d into the body frame",
         )
     )
-    if str(c.law) == "fsm":
+    if scenario.law.paper_theorems is not None:  # the law is eqs 13-19: fsm_unswitched is its unswitched twin
         out.append(
             Setting(
                 "error_mrp",

@@ -1099,7 +1099,7 @@ def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.S
     summary = result.summary(tolerances_deg=(tol, 0.1 * tol), steady_window=settings.steady_window)
     aaem, raem = result.aaem_deg, result.raem_deg
     t1 = analyze_topology(scenario.topology, scenario.simulation.t_final)
-    paper_law = scenario.law.name == "fsm"  # Theorems 1-2 are the paper's law's conditions
+    paper_law = scenario.law.paper_theorems is not None  # Theorems 1-2 apply to a law that declares them
     t2 = (
         delta_requirements(scenario, Region(0.0, 0.0), n_random=0, dt_reference=None, search_scale=False)
         if paper_law
@@ -1987,6 +1987,8 @@ def finish_campaign(
             "vary": settings.vary,
             "random_processes": ", ".join(random_processes(base)) or "none",
             "law": base.law.name,
+            # 1: the law declares it is the paper's eqs 13-19 (LawBuilder.paper_theorems), so Theorems 1-2 apply
+            "paper_theorems": int(base.law.paper_theorems is not None),
         }
     )
     _write_netcdf(ds, out / "montecarlo.nc")
@@ -2043,11 +2045,12 @@ def summarize(ds, settings: CampaignSettings) -> dict:
             if s != STATUS_OK
         ],
         "tolerance_deg": settings.tolerance_deg,
-        "law": str(ds.attrs.get("law", "fsm")),
+        "law": str(ds.attrs["law"]),
+        "paper_theorems": bool(int(ds.attrs["paper_theorems"])),
     }
     for k in _FLAGS:
         v = ds[k].values.astype(bool)[ok]
-        applies = k == "converged" or out["law"] == "fsm"  # Theorems 1-2 are about the paper's law
+        applies = k == "converged" or out["paper_theorems"]  # Theorems 1-2 apply to a law that declares them
         out[f"{k}_fraction"] = float(v.mean()) if v.size and applies else math.nan
     stats = {}
     for k in _SCALARS:

@@ -32,13 +32,13 @@ Constraints (:data:`CONSTRAINTS`, ``TuneSettings.constraints``; Optuna's ``Trial
 feasible when every value is ``<= 0``; default: every constraint that can be evaluated for the law and scenario):
 
 * ``converged`` (s): ``max(aaem_settling, raem_settling) - T``: both metrics settle within the horizon.
-* ``theorem1`` (the ``fsm`` law): 0 when Theorem 1's conditions (eqs 25-27 in the form the proof needs: a balanced,
+* ``theorem1`` (a law that declares the paper's theorems, ``LawBuilder.paper_theorems``): 0 when Theorem 1's conditions (eqs 25-27 in the form the proof needs: a balanced,
   possibly time-varying ``eta`` with ``gamma_ij >= 0``; :func:`fsmctl.proofs.theorem1.analyze_topology`) hold for
   the scenario's time-varying topology with the candidate's coupling weights over the horizon; else ``1 + e`` with
   ``e >= 0`` the largest excess ``max_t k^j_ij(t) - k^i_ij`` over the links (eq 27 needs ``k^i >= k^j``), so the
   sampler is steered towards the condition.  It is evaluated on the design's topology, not on the ensemble's
   perturbed graphs (robustness draws whose dropped links are not the design).
-* ``theorem2`` (1/s^2, the ``fsm`` law): ``max`` over agents, axes and ensemble members of ``required_ik -
+* ``theorem2`` (1/s^2, a law that declares the paper's theorems): ``max`` over agents, axes and ensemble members of ``required_ik -
   delta_ik``, i.e. minus Theorem 2's margin (:func:`fsmctl.proofs.theorem2.delta_margin`): feasible when the
   candidate's switching gain ``delta`` covers the requirement at the reference ``sigma_e = 0, omega_e = 0`` for
   every agent and axis.  The requirement (:func:`fsmctl.proofs.theorem2.reference_delta_requirement`) is the larger
@@ -74,8 +74,8 @@ to every component (and, for ``delta``, to every agent).  Parameters with named 
 not searched.  The coupling weights are two factors (:data:`COUPLING`, unit 1, declared range ``0 <= x``, default
 range ``[0.1, 10]``): ``k_i_scale`` multiplies every link's ``k^i_ij`` and ``k_j_scale`` every value of every
 ``k^j_ij(t)`` schedule of the scenario's topology (and of each ensemble member's); they are searched by default for
-the ``fsm`` law when the scenario has non-zero weights (Theorem 1 is about them), for other laws when named in
-``parameters``.  The chosen design is written with its scaled ``[topology]`` weights.
+a law that declares it is the paper's eqs 13-19 (``LawBuilder.paper_theorems``, as ``fsm`` does) when the scenario
+has non-zero weights (Theorem 1 is about them), for other laws when named in ``parameters``.  The chosen design is written with its scaled ``[topology]`` weights.
 
 Pruning (``TuneSettings.pruner``, :data:`PRUNERS`; Optuna's pruners judge one objective, so with several objectives
 only ``none`` applies; ``auto`` = ``median`` for one objective, ``none`` for several): a candidate's runs are watched
@@ -496,7 +496,7 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
     names = list(settings.parameters)
     if not names:
         names = [p.name for p in law.parameters if p.tunable and not p.choices]
-        if law.name == "fsm" and (base is None or _has_coupling(base.topology)):
+        if law.paper_theorems is not None and (base is None or _has_coupling(base.topology)):
             names += list(COUPLING)
     if len(set(names)) != len(names):
         raise InputError(f"tune: parameters: each may be named once, got {','.join(names)}")
@@ -574,13 +574,14 @@ def available_constraints(law: str, base: Scenario) -> dict[str, str]:
     from fsmctl.model.laws import resolve_law
 
     law_code = resolve_law(law)
-    paper = law_code.name == "fsm"
+    paper = law_code.paper_theorems is not None  # the law declares it is eqs 13-19 (LawBuilder.paper_theorems)
     act = base.actuator
     limit = base.controller.torque_limit
+    why_not = "is a condition of the paper's law (eqs 13-19), and the law {!r} does not declare it is that law"
     return {
         "converged": "",
-        "theorem1": "" if paper else f"Theorem 1 is a condition of the paper's law (fsm), not of {law_code.name!r}",
-        "theorem2": "" if paper else f"Theorem 2 is a condition of the paper's law (fsm), not of {law_code.name!r}",
+        "theorem1": "" if paper else "Theorem 1 " + why_not.format(law_code.name),
+        "theorem2": "" if paper else "Theorem 2 " + why_not.format(law_code.name),
         "torque": "" if math.isfinite(limit) else f"{base.label} has no torque limit (controller.torque_limit = inf)",
         "wheels": ""
         if act.enabled and bool(np.isfinite(act.per_wheel("max_speed")).any())
@@ -1912,7 +1913,7 @@ def tune(
     theorem1: bool | None = None
     theorem1_fixed: float | None = None
     searched_coupling = any(p.coupling for p in space)
-    if _law_name(settings.law) == "fsm":
+    if _declares_paper_theorems(settings.law):
         theorem1 = theorem1_constraint(base.topology, t_final) == 0
     if "theorem1" in constraints and not searched_coupling:
         theorem1_fixed = theorem1_constraint(base.topology, t_final)
@@ -2081,8 +2082,8 @@ def _pending(study, storage, space, told: int, batch: int, budget: int) -> dict[
     return pending
 
 
-def _law_name(law: str) -> str:
-    """The resolved name of a law spec (``fsm`` for the built-in FSM law)."""
+def _declares_paper_theorems(law: str) -> bool:
+    """Whether a law spec declares it is the paper's eqs 13-19, so that Theorems 1-2 apply to it."""
     from fsmctl.model.laws import resolve_law
 
-    return resolve_law(law).name
+    return resolve_law(law).paper_theorems is not None

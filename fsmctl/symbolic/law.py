@@ -59,6 +59,9 @@ from fsmctl.symbolic.symbols import DerivationInputError, symmetric_matrix_symbo
 __all__ = [
     "AGENT_INPUTS",
     "NEIGHBOUR_INPUTS",
+    "PAPER_THEOREM_ROLES",
+    "SHARED_CONTROLLER_KEYS",
+    "Discontinuity",
     "ErrorState",
     "Law",
     "LawBuilder",
@@ -66,7 +69,10 @@ __all__ = [
     "LawParameter",
     "LawState",
     "LawVariants",
+    "LoopRates",
     "Lyapunov",
+    "PaperTheorems",
+    "PresetGroup",
     "contract_names",
     "law_variants",
 ]
@@ -86,6 +92,22 @@ AGENT_INPUTS: tuple[str, ...] = (
 """Inputs of ``law_local_*`` (and the first inputs of ``law_control_*``), in order."""
 NEIGHBOUR_INPUTS: tuple[str, ...] = ("cache", "k_sum", "received", "k_received_sum", "u_max")
 """The further inputs of ``law_control_*``, in order."""
+
+SHARED_CONTROLLER_KEYS: tuple[str, ...] = ("law", "parameters", "torque_limit", "error_model", "enabled")
+"""The ``[controller]`` keys every law shares: no parameter or preset group of a law may take these names."""
+PAPER_THEOREM_ROLES: tuple[str, ...] = (
+    "c1",
+    "c2",
+    "alpha",
+    "boundary_layer",
+    "epsilon",
+    "singularity_fix",
+    "delta",
+)
+"""The symbols of Liang et al. 2012, eqs 13-19, that :meth:`LawBuilder.paper_theorems` maps to a law's parameters."""
+
+LOOP_RATES_FUNCTION = "law_loop_rates"
+"""The generated function of :meth:`LawBuilder.loop_rates`: ``law_loop_rates(params) -> (surface, layer)``."""
 
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
 _RESERVED = set(AGENT_INPUTS) | set(NEIGHBOUR_INPUTS) | {"u", "u_commanded", "z_dot", "broadcast"}
@@ -188,6 +210,104 @@ class Lyapunov:
 
 
 @dataclass(frozen=True)
+class Discontinuity:
+    """Where a law's closed-loop right-hand side is discontinuous, declared with :meth:`LawBuilder.discontinuous`.
+
+    Parameters
+    ----------
+    where : str
+        In words (e.g. ``"sgn(s) of the switching term u^D (eq 18)"``).
+    smoothed_by : str or None
+        The scalar parameter that removes the discontinuity when it is > 0 (e.g. the boundary layer ``phi`` of
+        ``sat(s/phi)``, Remark 7); None when no parameter does.
+    """
+
+    where: str
+    smoothed_by: str | None = None
+
+
+@dataclass(frozen=True)
+class PresetGroup:
+    """A named group of parameter presets, declared with :meth:`LawBuilder.preset_group`.
+
+    A scenario selects one option with one ``[controller]`` key named like the group.
+
+    Parameters
+    ----------
+    name : str
+        The group's name (the ``[controller]`` key).
+    default : str
+        The option that applies when the scenario names none (it changes no parameter's default).
+    options : tuple of (str, tuple of (str, tuple of float))
+        Each option's name and the packed values it gives to parameters, by name.
+    doc : str
+        What the group chooses.
+    """
+
+    name: str
+    default: str
+    options: tuple[tuple[str, tuple[tuple[str, tuple[float, ...]], ...]], ...]
+    doc: str = ""
+
+    def to_dict(self) -> dict:
+        """The group as a JSON-able dict, as written to ``law.json``."""
+        return {
+            "name": self.name,
+            "default": self.default,
+            "doc": self.doc,
+            "options": {option: {name: list(values) for name, values in sets} for option, sets in self.options},
+        }
+
+
+@dataclass(frozen=True)
+class LoopRates:
+    """Bounds on the closed loop's fastest rates (1/s) in the law's parameters, from :meth:`LawBuilder.loop_rates`.
+
+    Generated as ``law_loop_rates(params) -> (surface, layer)``; ``fsmctl.simulation.step_size_report`` evaluates
+    it per agent and takes the largest value.
+
+    Parameters
+    ----------
+    surface : sympy.Expr
+        The rate at which the error decays on the law's surface (or the law's own loop rate).
+    layer : sympy.Expr
+        The further rate of the switching term where it is linear (e.g. ``delta/phi`` inside a boundary layer).
+    doc : str
+        How the bounds are obtained (the report names them).
+    """
+
+    surface: sp.Expr
+    layer: sp.Expr
+    doc: str = ""
+
+
+@dataclass(frozen=True)
+class PaperTheorems:
+    """The declaration that a law *is* Liang et al. 2012's eqs 13-19, from :meth:`LawBuilder.paper_theorems`.
+
+    Theorems 1-2 of the paper then apply to it (Theorem 1 constrains the coupling weights of eq 19, Theorem 2
+    the switching gain ``delta``), and ``fsmctl prove --law`` checks the claim: the closed loop must be eq 20.
+
+    Parameters
+    ----------
+    parameters : tuple of (str, str)
+        ``(role, parameter name)`` for each of :data:`PAPER_THEOREM_ROLES`.
+    """
+
+    parameters: tuple[tuple[str, str], ...]
+
+    def parameter(self, role: str) -> str:
+        """The name of the law's parameter that plays ``role`` (one of :data:`PAPER_THEOREM_ROLES`).
+
+        Raises
+        ------
+        KeyError
+            ``role`` is not one of the paper's symbols.
+        """
+        return dict(self.parameters)[role]
+
+
+@dataclass(frozen=True)
 class ErrorState:
     """The error state of an agent, as stage symbols (Liang et al. 2012, eqs 5-8).
 
@@ -257,6 +377,14 @@ class Law:
         Whether the SIMD kernels are generated (:mod:`fsmctl.codegen.batched`).
     broadcast_unit : str
         The unit of the broadcast.
+    discontinuity : Discontinuity or None
+        Where the closed loop is discontinuous (:meth:`LawBuilder.discontinuous`); None for a continuous law.
+    presets : tuple of PresetGroup
+        The named parameter presets (:meth:`LawBuilder.preset_group`).
+    loop_rates : LoopRates or None
+        Closed-form bounds on the loop's rates (:meth:`LawBuilder.loop_rates`).
+    paper_theorems : PaperTheorems or None
+        Whether the law is the paper's eqs 13-19, with which parameters (:meth:`LawBuilder.paper_theorems`).
 
     Examples
     --------
@@ -300,6 +428,10 @@ class Law:
     lyapunov: Lyapunov | None = None
     batched: bool = True
     broadcast_unit: str = "1"
+    discontinuity: Discontinuity | None = None
+    presets: tuple[PresetGroup, ...] = ()
+    loop_rates: LoopRates | None = None
+    paper_theorems: PaperTheorems | None = None
 
     # -- sizes -------------------------------------------------------------------------------------
     @property
@@ -473,13 +605,34 @@ class Law:
             batched=self.batched,
         )
 
+    def loop_rates_spec(self) -> FunctionSpec | None:
+        """The generated function ``law_loop_rates(params) -> (surface, layer)``, or None if none is declared.
+
+        Returns
+        -------
+        FunctionSpec or None
+            What :func:`fsmctl.codegen.build_functions` translates.
+        """
+        if self.loop_rates is None:
+            return None
+        return FunctionSpec(
+            name=LOOP_RATES_FUNCTION,
+            doc=f"{self.name}: bounds on the closed loop's rates (1/s): {self.loop_rates.doc}",
+            inputs=self._inputs(("params",)),
+            outputs=(
+                ("surface", sp.ImmutableMatrix([self.loop_rates.surface])),
+                ("layer", sp.ImmutableMatrix([self.loop_rates.layer])),
+            ),
+        )
+
     def metadata(self) -> dict:
         """What the runtime needs to know about the law (written to ``law.json``).
 
         Returns
         -------
         dict
-            JSON-able: name, doc, reference, parameters, states, broadcast, constants, cache, lyapunov.
+            JSON-able: name, doc, reference, parameters, states, broadcast, constants, cache, lyapunov, and the
+            declarations discontinuity, presets, loop_rates and paper_theorems.
         """
         return {
             "name": self.name,
@@ -491,6 +644,14 @@ class Law:
             "constants": [{"name": n, "size": m.rows} for n, m, _ in self.constants],
             "cache": [{"name": n, "size": len(m)} for n, m in self.cache],
             "lyapunov": None if self.lyapunov is None else {"doc": self.lyapunov.doc},
+            "discontinuity": None
+            if self.discontinuity is None
+            else {"where": self.discontinuity.where, "smoothed_by": self.discontinuity.smoothed_by},
+            "presets": [g.to_dict() for g in self.presets],
+            "loop_rates": None
+            if self.loop_rates is None
+            else {"function": LOOP_RATES_FUNCTION, "doc": self.loop_rates.doc},
+            "paper_theorems": None if self.paper_theorems is None else dict(self.paper_theorems.parameters),
         }
 
 
@@ -606,6 +767,10 @@ class LawBuilder:
         self._torque: sp.ImmutableMatrix | None = None
         self._error: ErrorState | None = None
         self._lyapunov: Lyapunov | None = None
+        self._discontinuity: Discontinuity | None = None
+        self._presets: list[PresetGroup] = []
+        self._loop_rates: LoopRates | None = None
+        self._paper_theorems: PaperTheorems | None = None
         self.batched = True
 
     # -- declarations -----------------------------------------------------------------------------
@@ -671,6 +836,11 @@ class LawBuilder:
             A bad or duplicate name, a non-numeric default, or a default outside its range or choices.
         """
         self._claim(name, "parameter")
+        if name in SHARED_CONTROLLER_KEYS or name in {g.name for g in self._presets}:
+            raise LawDefinitionError(
+                f"{self.name}: parameter {name!r} clashes with "
+                + ("a preset group" if name not in SHARED_CONTROLLER_KEYS else "a [controller] key every law shares")
+            )
         if choices:
             choices = tuple(str(c) for c in choices)
             if default not in choices:
@@ -968,6 +1138,248 @@ class LawBuilder:
             str(doc),
         )
 
+    # -- what the engine and the tools need to know ------------------------------------------------
+    def _declared_parameter(self, value, what: str) -> LawParameter:
+        """The declared parameter that ``value`` (its name, its symbol or its column of symbols) stands for."""
+        k = 0
+        for p in self._parameters:
+            symbols = tuple(self._param_symbols[k : k + p.size])
+            k += p.size
+            if isinstance(value, str):
+                if value == p.name:
+                    return p
+            elif isinstance(value, sp.MatrixBase):
+                if tuple(value) == symbols:
+                    return p
+            elif p.size == 1 and value == symbols[0]:
+                return p
+        raise LawDefinitionError(f"{self.name}: {what}: {value!r} is not a parameter declared with parameter()")
+
+    def _parameter_expression(self, expr, what: str) -> sp.Expr:
+        value = _matrix(expr, f"{self.name}: {what}")
+        if value.rows != 1:
+            raise LawDefinitionError(f"{self.name}: {what} must be a scalar, got {value.rows} components")
+        extra = value.free_symbols - set(self._param_symbols)
+        if extra:
+            raise LawDefinitionError(
+                f"{self.name}: {what} may depend on parameters only, not {sorted(map(str, extra))}"
+            )
+        return value[0]
+
+    def discontinuous(self, where: str, *, smoothed_by=None) -> None:
+        """Declare that the closed loop's right-hand side is discontinuous (e.g. ``sgn(s)``), unless a parameter is > 0.
+
+        An adaptive integrator (``integrator = "dopri45"``) then warns when the flown parameters leave it
+        discontinuous: its step size collapses near the switching surface.
+
+        Parameters
+        ----------
+        where : str
+            Where, in words (the warning quotes it), e.g. ``"sgn(s) of the switching term u^D (eq 18)"``.
+        smoothed_by : str, Symbol or None
+            The scalar numeric parameter (its name or the symbol :meth:`parameter` returned, range ``0 <= x``)
+            whose positive value makes the law continuous (e.g. a boundary layer, Remark 7); None when no parameter
+            does.
+
+        Raises
+        ------
+        LawDefinitionError
+            A second declaration, an empty ``where``, or ``smoothed_by`` that is no scalar numeric parameter of
+            range ``0 <= x``.
+
+        Examples
+        --------
+        >>> from fsmctl.symbolic import LawBuilder
+        >>> b = LawBuilder("smc", doc="sliding mode")
+        >>> phi = b.parameter("phi", 0.0, minimum=0.0, doc="boundary layer")
+        >>> b.discontinuous("sgn(s)", smoothed_by=phi)
+        """
+        if self._discontinuity is not None:
+            raise LawDefinitionError(f"{self.name}: discontinuous() is declared twice")
+        if not isinstance(where, str) or not where.strip():
+            raise LawDefinitionError(f"{self.name}: discontinuous(): say where, in words (e.g. 'sgn(s)')")
+        name = None
+        if smoothed_by is not None:
+            p = self._declared_parameter(smoothed_by, "discontinuous(smoothed_by=...)")
+            if p.size != 1 or p.choices or p.minimum != 0 or p.problem(0.0) is not None:
+                raise LawDefinitionError(
+                    f"{self.name}: discontinuous(smoothed_by={p.name}): must be a scalar numeric parameter whose "
+                    f"range is 0 <= x (0: discontinuous, > 0: smoothed), got range {p.range_text()}"
+                )
+            name = p.name
+        self._discontinuity = Discontinuity(where.strip(), name)
+
+    def preset_group(self, name: str, *, default: str, options: Mapping[str, Mapping], doc: str = "") -> None:
+        """Declare a named group of parameter presets that a scenario selects with one ``[controller]`` key.
+
+        E.g. the paper's surfaces (Sec. 3.3): ``surface = "tsm"`` sets ``c1 = 0``, ``"lsm"`` sets ``c2 = 0``.
+
+        Parameters
+        ----------
+        name : str
+            The group's name, the ``[controller]`` key; not a parameter's name nor a key every law shares
+            (:data:`SHARED_CONTROLLER_KEYS`).
+        default : str
+            The option that applies when the scenario selects none; it must not change any parameter's default.
+        options : mapping of str to mapping
+            Each option's name and the values it sets, by parameter (its name or its symbol): a number, ``size``
+            numbers, or one of an option parameter's choices.
+        doc : str
+            What the group chooses.
+
+        Raises
+        ------
+        LawDefinitionError
+            A bad or clashing name, a default that is no option or changes a default, an option that names an
+            undeclared parameter or a value outside its declared range.
+
+        Examples
+        --------
+        >>> from fsmctl.symbolic import LawBuilder
+        >>> b = LawBuilder("smc", doc="sliding mode")
+        >>> c1 = b.parameter("c1", 0.6, minimum=0.0)
+        >>> c2 = b.parameter("c2", 0.8, minimum=0.0)
+        >>> b.preset_group("surface", default="fsm", options={"fsm": {}, "tsm": {c1: 0}, "lsm": {"c2": 0}})
+        """
+        if not isinstance(name, str) or not _NAME.match(name):
+            raise LawDefinitionError(f"{self.name}: preset group name must be letters, digits and _, got {name!r}")
+        if name in SHARED_CONTROLLER_KEYS:
+            raise LawDefinitionError(
+                f"{self.name}: preset group {name!r} clashes with a [controller] key every law shares "
+                f"({', '.join(SHARED_CONTROLLER_KEYS)})"
+            )
+        if name in {p.name for p in self._parameters}:
+            raise LawDefinitionError(f"{self.name}: preset group {name!r} clashes with the parameter of that name")
+        if name in {g.name for g in self._presets}:
+            raise LawDefinitionError(f"{self.name}: preset group {name!r} is declared twice")
+        if not isinstance(options, Mapping) or not options:
+            raise LawDefinitionError(f"{self.name}: preset group {name}: options must be a non-empty mapping")
+        packed = []
+        for option, sets in options.items():
+            if not isinstance(option, str) or not _NAME.match(option):
+                raise LawDefinitionError(
+                    f"{self.name}: preset group {name}: option names are letters, digits and _, got {option!r}"
+                )
+            if not isinstance(sets, Mapping):
+                raise LawDefinitionError(
+                    f"{self.name}: preset group {name}: option {option} must map parameters to values"
+                )
+            values = {}
+            for key, value in sets.items():
+                p = self._declared_parameter(key, f"preset {name}={option}")
+                where = f"{self.name}: preset {name}={option}: {p.name}"
+                if p.name in values:
+                    raise LawDefinitionError(f"{where} is set twice")
+                if p.choices:
+                    if value not in p.choices:
+                        raise LawDefinitionError(f"{where}: {value!r} is not one of {p.choices}")
+                    values[p.name] = (float(p.choices.index(value)),)
+                    continue
+                numbers = _floats(value, where)
+                if len(numbers) == 1 and p.size > 1:
+                    numbers = numbers * p.size
+                if len(numbers) != p.size:
+                    raise LawDefinitionError(f"{where}: {len(numbers)} numbers for a parameter of size {p.size}")
+                for v in numbers:
+                    if (why := p.problem(v)) is not None:
+                        raise LawDefinitionError(f"{where}: {why}")
+                values[p.name] = numbers
+            packed.append((option, tuple(values.items())))
+        if default not in options:
+            raise LawDefinitionError(
+                f"{self.name}: preset group {name}: default {default!r} is not one of its options {list(options)}"
+            )
+        for pname, values in dict(packed)[default]:
+            if values != self._declared_parameter(pname, "preset").default:
+                raise LawDefinitionError(
+                    f"{self.name}: preset group {name}: the default option {default} changes the default of {pname} "
+                    "(a parameter no one sets takes its declared default)"
+                )
+        self._presets.append(PresetGroup(name, default, tuple(packed), str(doc)))
+
+    def loop_rates(self, *, surface, layer=0, doc: str = "") -> None:
+        """Declare bounds on the closed loop's fastest rates (1/s), in the parameters only.
+
+        ``fsmctl.simulation.step_size_report`` judges the RK4 step with them (evaluated per agent, the largest
+        taken); a law that declares none is judged by a finite-difference linearisation at the initial state.
+
+        Parameters
+        ----------
+        surface : Expr
+            The rate of the law's own loop (e.g. ``c1 + c2 r1`` on the paper's surface).
+        layer : Expr
+            The further rate of the switching term where it is linear (e.g. ``max_k delta_k / phi``), 0 if none.
+        doc : str
+            How the bounds come about (the step-size report names them).
+
+        Raises
+        ------
+        LawDefinitionError
+            A second declaration, or an expression that is not a scalar in the parameters.
+
+        Examples
+        --------
+        >>> from fsmctl.symbolic import LawBuilder
+        >>> b = LawBuilder("pd", doc="PD")
+        >>> K = b.parameter("K", 2.0, minimum=0.0)
+        >>> b.loop_rates(surface=K, doc="the attitude gain K")
+        """
+        if self._loop_rates is not None:
+            raise LawDefinitionError(f"{self.name}: loop_rates() is declared twice")
+        self._loop_rates = LoopRates(
+            self._parameter_expression(surface, "loop_rates(surface=...)"),
+            self._parameter_expression(layer, "loop_rates(layer=...)"),
+            str(doc),
+        )
+
+    def paper_theorems(self, **parameters) -> None:
+        """Declare that this law is Liang et al. 2012's eqs 13-19 with these parameters, so Theorems 1-2 apply.
+
+        Theorem 1 then constrains the coupling weights of eq 19 and Theorem 2 the switching gain; the tools
+        that check them (``fsmctl prove``, ``fsmctl montecarlo``, ``fsmctl tune``) read the parameters named
+        here, and ``fsmctl prove --law`` checks the claim: the isolated agent's closed loop must be eq 20 and the
+        broadcast eq 13 (``closed-loop-eq20``), else the check fails.
+
+        Parameters
+        ----------
+        **parameters
+            One parameter (the symbol :meth:`parameter` returned) for each of :data:`PAPER_THEOREM_ROLES`:
+            ``c1``, ``c2``, ``alpha``, ``boundary_layer``, ``epsilon`` (scalars), ``singularity_fix`` (an option
+            with the choices none, switch, clamp) and ``delta`` (3 components).
+
+        Raises
+        ------
+        LawDefinitionError
+            A second declaration, a missing or unknown role, or a parameter of the wrong kind.
+        """
+        if self._paper_theorems is not None:
+            raise LawDefinitionError(f"{self.name}: paper_theorems() is declared twice")
+        given, wanted = set(parameters), set(PAPER_THEOREM_ROLES)
+        if given != wanted:
+            missing, unknown = sorted(wanted - given), sorted(given - wanted)
+            raise LawDefinitionError(
+                f"{self.name}: paper_theorems(): "
+                + "; ".join(
+                    ([f"missing {', '.join(missing)}"] if missing else [])
+                    + ([f"unknown {', '.join(unknown)}"] if unknown else [])
+                )
+                + f" (it takes {', '.join(PAPER_THEOREM_ROLES)})"
+            )
+        names = []
+        for role in PAPER_THEOREM_ROLES:
+            p = self._declared_parameter(parameters[role], f"paper_theorems({role}=...)")
+            if role == "singularity_fix":
+                ok = p.choices == ("none", "switch", "clamp")
+                kind = "an option with the choices none, switch, clamp"
+            elif role == "delta":
+                ok, kind = p.size == 3 and not p.choices, "a numeric parameter of 3 components"
+            else:
+                ok, kind = p.size == 1 and not p.choices, "a scalar numeric parameter"
+            if not ok:
+                raise LawDefinitionError(f"{self.name}: paper_theorems({role}={p.name}): must be {kind}")
+            names.append((role, p.name))
+        self._paper_theorems = PaperTheorems(tuple(names))
+
     # -- build --------------------------------------------------------------------------------------
     def build(self) -> Law:
         """Check the law against the contract and split it into the generated functions.
@@ -1066,6 +1478,10 @@ class LawBuilder:
             lyapunov=self._lyapunov,
             batched=self.batched,
             broadcast_unit=self._broadcast_unit,
+            discontinuity=self._discontinuity,
+            presets=tuple(self._presets),
+            loop_rates=self._loop_rates,
+            paper_theorems=self._paper_theorems,
         )
 
 
@@ -1098,7 +1514,10 @@ def law_variants(build, extra: Sequence[FunctionSpec] = ()) -> LawVariants:
             raise LawDefinitionError(f"law({model.value!r}) built a law for the {law.error_model.value} error model")
         laws.append(law)
     a, b = laws
-    for what in ("name", "parameters", "states", "broadcast_name", "n_broadcast", "n_constants"):
+    for what in (
+        "name", "parameters", "states", "broadcast_name", "n_broadcast", "n_constants",
+        "discontinuity", "presets", "loop_rates", "paper_theorems",
+    ):  # fmt: skip
         if getattr(a, what) != getattr(b, what):
             raise LawDefinitionError(f"{a.name}: the paper and exact variants differ in {what}")
     return LawVariants(a, b, tuple(extra))

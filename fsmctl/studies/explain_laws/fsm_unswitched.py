@@ -18,6 +18,7 @@ Pure SymPy: no NumPy, no I/O.
 from __future__ import annotations
 
 from fsmctl.symbolic.controller import computed_torque_pieces, coordination_term
+from fsmctl.symbolic.fsm_parameters import declare_fsm_parameters, declare_surface_presets, fsm_loop_rates
 from fsmctl.symbolic.law import ErrorState, Law, LawBuilder
 from fsmctl.symbolic.model import reference_acceleration_in_body, reference_rate_in_body
 from fsmctl.symbolic.mrp import mrp_compose
@@ -58,24 +59,13 @@ def law(error_model) -> Law:
         + ("" if SHADOW_SWITCH else ", error MRP not switched to the shadow set"),
         reference=REFERENCE,
     )
-    c1 = b.parameter("c1", 0.6, unit="1/s", minimum=0.0, doc="linear gain of the surface s (eq 13)")
-    c2 = b.parameter("c2", 0.8, unit="1/s", minimum=0.0, doc="terminal gain of the surface (eq 13)")
-    alpha = b.parameter(
-        "alpha", 0.7, minimum=0.5, maximum=1.0, exclusive_minimum=True, exclusive_maximum=True,
-        doc="exponent of sig(sigma_e)^alpha (eq 13)",
+    p = declare_fsm_parameters(b)
+    c1, c2, alpha, phi, epsilon, fix, delta = (
+        p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
     )  # fmt: skip
-    phi = b.parameter("boundary_layer", 0.0, unit="1/s", minimum=0.0, doc="phi of sat(s/phi) (Remark 7); 0: sgn")
-    epsilon = b.parameter(
-        "epsilon", 1e-4, minimum=0.0, exclusive_minimum=True, doc="band of the Remark 6 fix (MRP units)"
-    )
-    fix = b.parameter(
-        "singularity_fix", "switch", choices=("none", "switch", "clamp"),
-        doc="Remark 6 device near sigma_e = 0: C^1 'switch' extension, 'clamp' of the slope, or 'none'",
-    )  # fmt: skip
-    delta = b.parameter(
-        "delta", [0.005, 0.005, 0.005], unit="1/s^2", minimum=0.0, exclusive_minimum=True,
-        doc="switching gain of u^D (eq 18), per axis; a scenario's agents may set their own",
-    )  # fmt: skip
+    b.discontinuous("sgn(s) of the switching term u^D (eq 18)", smoothed_by=phi)
+    b.loop_rates(**fsm_loop_rates(p))
+    declare_surface_presets(b, p)
     surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
     e, s = surface.error, surface.s
     b.broadcast("s", s, unit="1/s")
