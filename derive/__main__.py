@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from derive.catalogue import GAIN_CONSTANTS_LAYOUT, GAINS_LAYOUT, SINUSOID_LAYOUT, WHEEL_LAYOUT, function_catalogue
+from derive.catalogue import SINUSOID_LAYOUT, WHEEL_LAYOUT, function_catalogue
 from derive.laws import BUILTIN_LAWS
 from fsmctl.codegen.laws import write_law
 from fsmctl.codegen.writer import build_functions, check_generated, write_generated
@@ -57,9 +57,7 @@ def write_everything(out: Path, *, functions, identities, errata_found, laws) ->
         out,
         functions=functions,
         layouts={
-            "gains": list(GAINS_LAYOUT),
             "wheel": list(WHEEL_LAYOUT),
-            "gain_constants": list(GAIN_CONSTANTS_LAYOUT),
             "sinusoid_params": list(SINUSOID_LAYOUT),
         },
         documents={

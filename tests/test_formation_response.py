@@ -294,7 +294,7 @@ def test_a_gain_by_name_in_params_is_the_formation_built_with_that_gain(two):
     # per-agent delta (eq 18) by name, for every agent, is the scenario whose agents carry it
     d = [0.02, 0.01, 0.03]
     built = respond(
-        fsmctl.formation(with_agents(two, [dataclasses.replace(a, delta=tuple(d)) for a in two.agents])), two
+        fsmctl.formation(two.replace(agents=[{"delta": d}] * two.n_agents)), two
     )
     assert np.array_equal(respond(loop, two, params={"delta": d}).outputs, built.outputs)
     # the prefixed key of one agent wins over the bare name for that agent
@@ -321,12 +321,14 @@ def test_a_gain_by_name_is_checked_like_a_scenario_file(two):
 def test_fsm_controller_gains_are_named_parameters():
     paper = fsmctl.paper_scenario("1")
     a = paper.agents[0]
-    ctrl = fsmctl.fsm_controller(a.J0_array, paper.controller, a.delta, name="k")
+    delta = paper.law_parameters()[0]["delta"]
+    ctrl = fsmctl.fsm_controller(a.J0_array, paper.controller, delta, name="k")
     assert {"k_c1", "k_c2", "k_alpha", "k_boundary_layer", "k_epsilon", "k_singularity_fix", "k_delta"} < set(
         ctrl.params
     )
-    assert ctrl.params["k_c1"] == paper.controller.c1 and ctrl.params["k_alpha"] == paper.controller.alpha
-    lsm = fsmctl.fsm_controller(a.J0_array, paper.replace(controller={"surface": "lsm"}).controller, a.delta, name="k")
+    assert ctrl.params["k_c1"] == paper.controller.parameters["c1"] == 0.6
+    assert ctrl.params["k_alpha"] == paper.controller.parameters["alpha"] == 0.7
+    lsm = fsmctl.fsm_controller(a.J0_array, paper.replace(controller={"surface": "lsm"}).controller, delta, name="k")
     assert lsm.params["k_c2"] == 0.0  # the surface's zeroed gain is the parameter's value
 
 

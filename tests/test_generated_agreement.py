@@ -7,6 +7,8 @@ mechanics; it shares no code with derive/ or fsmctl/.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 import oracle_numpy as oracle
 import pytest
@@ -15,10 +17,15 @@ from hypothesis import strategies as st
 from spec_numpy import LambdifiedSpec
 
 from derive.catalogue import function_catalogue
+from derive.laws import fsm as fsm_script
 from fsmctl.model.generated_code import casadi_function
+from fsmctl.model.laws import resolve_law
 
 SETTINGS = settings(max_examples=200, derandomize=True, deadline=None, database=None)
 SPECS = {s.name: s for s in function_catalogue()}
+for _model in ("paper", "exact"):  # the paper's law, generated once in its folder (generated/laws/fsm)
+    _law = fsm_script.law(_model)
+    SPECS.update({spec.name: spec for spec in (_law.constants_spec(), _law.local_spec(), _law.control_spec())})
 
 
 @pytest.fixture(scope="module")
@@ -70,23 +77,52 @@ def states(draw):
 
 
 def _law_inputs(x, fix=0, boundary_layer=0.0, u_max=np.inf):
-    gains = np.array([x["c1"], x["c2"], x["alpha"], boundary_layer, 1e-4, fix])
-    gc = float(casadi_function("sliding_constants")(gains))
+    """The contract inputs of the paper's law (``generated/laws/fsm``) for a drawn state."""
+    params = np.r_[x["c1"], x["c2"], x["alpha"], boundary_layer, 1e-4, fix, x["delta"]]
+    constants = np.asarray(resolve_law("fsm").casadi("law_constants")(params)).ravel()
     # coordination = k_sum s - received; with k_sum = 0 the coordination vector is -received
     return dict(
+        t=0.0,
         sigma=x["sigma"],
         omega=x["omega"],
+        z=np.zeros(0),
         sigma_d=x["sigma_d"],
         omega_d=x["omega_d"],
         omega_d_dot=x["omega_d_dot"],
-        gains=gains,
-        gain_constants=gc,
         J0=x["J0"],
-        delta=x["delta"],
+        params=params,
+        constants=constants,
         k_sum=0.0,
         received=-x["coordination"],
+        k_received_sum=0.0,
         u_max=u_max,
     )
+
+
+_LOCAL = ("t", "sigma", "omega", "z", "sigma_d", "omega_d", "omega_d_dot", "J0", "params", "constants")
+
+
+def _fsm_law(model, inputs):
+    """The paper's law's compiled ``law_local_<model>`` then ``law_control_<model>``: s, cache, u, u_commanded."""
+    law = resolve_law("fsm")
+    s, cache = law.casadi(f"law_local_{model}")(*(inputs[k] for k in _LOCAL))
+    u, u_commanded, _ = law.casadi(f"law_control_{model}")(
+        *(inputs[k] for k in _LOCAL), cache, *(inputs[k] for k in ("k_sum", "received", "k_received_sum", "u_max"))
+    )
+    return {k: np.asarray(v).ravel() for k, v in (("s", s), ("cache", cache), ("u", u), ("u_commanded", u_commanded))}
+
+
+def _fsm_law_sympy(model, inputs, lambdified):
+    """The same two functions evaluated from the law's SymPy stages (``sympy.lambdify``)."""
+    local = lambdified(f"law_local_{model}")(**{k: inputs[k] for k in _LOCAL if k != "z"}, z=np.zeros((0, 1)))
+    out = lambdified(f"law_control_{model}")(
+        **{k: inputs[k] for k in _LOCAL if k != "z"},
+        z=np.zeros((0, 1)),
+        cache=local["cache"],
+        **{k: inputs[k] for k in ("k_sum", "received", "k_received_sum", "u_max")},
+    )
+    return {"s": local["broadcast"].ravel(), "cache": local["cache"].ravel(), "u": out["u"].ravel(),
+            "u_commanded": out["u_commanded"].ravel()}  # fmt: skip
 
 
 def _well_conditioned(x, model):
@@ -107,21 +143,25 @@ def _oracle_law_args(x):
 @SETTINGS
 @given(x=states())
 def test_control_law_three_ways(model, x, lambdified):
+    """The paper's law as generated once (``generated/laws/fsm``, compiled), its SymPy stages (lambdified) and the
+    independent oracle (dynamic inversion; eqs 16-19 literally) agree: torque, sliding variable, error state."""
     assume(_well_conditioned(x, model))
     inputs = _law_inputs(x)
-    compiled = casadi_function(f"control_law_{model}").call(inputs)
-    compiled = {k: np.asarray(v).ravel() for k, v in compiled.items()}
-    sym = {k: v.ravel() for k, v in lambdified(f"control_law_{model}")(**inputs).items()}
+    compiled = _fsm_law(model, inputs)
+    sym = _fsm_law_sympy(model, inputs, lambdified)
     args = _oracle_law_args(x)
     inverted = oracle.control_by_dynamic_inversion(*args, error_model=model)
     scale = 1.0 + np.abs(inverted).max()
-    for key in ("u", "u_unsaturated", "s", "sigma_e", "u_F", "u_D", "u_C"):
+    for key in ("u", "u_commanded", "s", "cache"):
         np.testing.assert_allclose(compiled[key], sym[key], rtol=1e-9, atol=1e-9 * scale, err_msg=key)
-    np.testing.assert_allclose(compiled["u_unsaturated"], inverted, rtol=1e-7, atol=1e-8 * scale)
+    np.testing.assert_allclose(compiled["u_commanded"], inverted, rtol=1e-7, atol=1e-8 * scale)
+    se, we, _ = oracle.error_rates(x["sigma"], x["omega"], x["sigma_d"], x["omega_d"], model)
+    s = oracle.sliding_variable(se, oracle.mrp_G(se) @ we, x["c1"], x["c2"], x["alpha"])
+    np.testing.assert_allclose(compiled["cache"][:3], se, rtol=1e-9, atol=1e-12)  # the cache starts with sigma_e
+    np.testing.assert_allclose(compiled["s"], s, rtol=1e-8, atol=1e-10)
     if model == "paper":  # eqs 16-19 literally, with the oracle's own (Euler-consistent) C
         literal = oracle.control_law_eqs_16_19(*args, variant="euler")
-        for mine, theirs in (("u_unsaturated", "u"), ("u_F", "uF"), ("u_D", "uD"), ("u_C", "uC")):
-            np.testing.assert_allclose(compiled[mine], literal[theirs], rtol=1e-7, atol=1e-8 * scale, err_msg=mine)
+        np.testing.assert_allclose(compiled["u_commanded"], literal["u"], rtol=1e-7, atol=1e-8 * scale)
 
 
 @SETTINGS
@@ -132,7 +172,7 @@ def test_printed_C_would_give_a_different_torque(x):
     assume(np.linalg.norm(np.cross(x["J0"] @ x["omega_d"], x["omega"] - x["omega_d"])) > 1e-3)
     args = _oracle_law_args(x)
     printed = oracle.control_law_eqs_16_19(*args, variant="printed")["u"]
-    mine = np.asarray(casadi_function("control_law_paper").call(_law_inputs(x))["u_unsaturated"]).ravel()
+    mine = _fsm_law("paper", _law_inputs(x))["u_commanded"]
     gap = np.cross(x["J0"] @ x["omega_d"], x["omega"] - x["omega_d"])
     np.testing.assert_allclose(printed - mine, gap, rtol=1e-6, atol=1e-8 * (1 + np.abs(mine).max()))
 
@@ -179,61 +219,45 @@ def test_reference_three_ways(x, t, lambdified):
         np.testing.assert_allclose(out[k], sym[name].ravel(), atol=1e-14)
 
 
+@functools.cache
+def _closed_loop_eq20():
+    """Eq 20 from the symbolic layer's stages (:func:`fsmctl.symbolic.controller.closed_loop_acceleration`), lambdified."""
+    import sympy as sp
+
+    from fsmctl.symbolic.controller import SingularityFix, closed_loop_acceleration, sliding_variable
+
+    se, sed, delta, coord = (sp.Matrix(sp.symbols(f"{n}:3", real=True)) for n in ("se", "sed", "delta", "coord"))
+    c1, c2, alpha = sp.symbols("c1 c2 alpha", positive=True)
+    s = sliding_variable(se, sed, c1, c2, alpha, SingularityFix.NONE)
+    acc = closed_loop_acceleration(se, sed, s, c1, c2, alpha, delta, coord, fix=SingularityFix.NONE)
+    return sp.lambdify([se, sed, c1, c2, alpha, delta, coord], [acc, s], "numpy")
+
+
 @SETTINGS
 @given(x=states(), sigma_e_dot=vec(-0.5, 0.5))
-def test_closed_loop_eq20_three_ways(x, sigma_e_dot, lambdified):
+def test_closed_loop_eq20_two_ways(x, sigma_e_dot):
+    """The closed loop of eq 20 as the symbolic layer derives it equals the oracle's transcription."""
     se = x["sigma"] / max(1.0, np.linalg.norm(x["sigma"]))
     assume(np.min(np.abs(se)) > 1e-3)
     s = oracle.sliding_variable(se, sigma_e_dot, x["c1"], x["c2"], x["alpha"])
     assume(np.min(np.abs(s)) > 1e-9)
-    gains = np.array([x["c1"], x["c2"], x["alpha"], 0.0, 1e-4, 0])
-    out = [
-        np.asarray(v).ravel()
-        for v in casadi_function("closed_loop")(se, sigma_e_dot, gains, x["delta"], x["coordination"])
-    ]
-    sym = lambdified("closed_loop")(
-        sigma_e=se, sigma_e_dot=sigma_e_dot, gains=gains, delta=x["delta"], coordination=x["coordination"]
-    )
+    acc, s_sym = _closed_loop_eq20()(se, sigma_e_dot, x["c1"], x["c2"], x["alpha"], x["delta"], x["coordination"])
     ref = oracle.closed_loop_eq20(se, sigma_e_dot, x["c1"], x["c2"], x["alpha"], x["delta"], x["coordination"])
-    np.testing.assert_allclose(out[0], ref, rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(out[0], sym["sigma_e_ddot"].ravel(), rtol=1e-10, atol=1e-12)
-    np.testing.assert_allclose(out[1], s, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(acc, float).ravel(), ref, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(s_sym, float).ravel(), s, rtol=1e-10, atol=1e-12)
 
 
-@pytest.mark.parametrize("model", ["paper", "exact"])
-@pytest.mark.parametrize("fix", [0, 1, 2])
-@settings(max_examples=60, derandomize=True, deadline=None, database=None)
-@given(x=states(), k_sum=st.floats(0.0, 20.0), u_max=st.sampled_from([np.inf, 2.0, 0.05]))
-def test_the_fsm_law_script_flies_the_paper_law_bit_for_bit(model, fix, x, k_sum, u_max):
-    """The built-in law ``fsm`` (derive/laws/fsm.py, written with the public LawBuilder API) gives the same
-    sliding variable and torque, bit for bit, as the catalogue's ``sliding_<model>`` + ``control_core`` pair
-    (the paper's law of eqs 13-19 as the whole-loop engine evaluated it before laws were open; the oracle tests
-    above check that pair's ``control_law_<model>`` against an independent transcription), for every Remark 6
-    fix, coupling and torque limit: the refactoring into a law-agnostic engine changed no arithmetic (equal as numbers: the sign of an exact zero,
-    e.g. s at sigma = sigma_d, may differ, which no later operation can tell apart)."""
-    from fsmctl.model.laws import resolve_law
+def test_the_papers_law_is_generated_once_in_its_folder():
+    """The model catalogue (``generated/``) derives no control law: no model function outputs a torque, a sliding
+    variable or sliding dynamics, or reads a law's gains; the paper's law lives in ``generated/laws/fsm`` alone."""
+    import json
 
-    law = resolve_law("fsm")
-    inputs = _law_inputs(x, fix=fix, boundary_layer=0.01, u_max=u_max)
-    inputs["k_sum"] = k_sum
-    sliding = casadi_function(f"sliding_{model}").call(
-        {k: inputs[k] for k in ("sigma", "omega", "sigma_d", "omega_d", "omega_d_dot", "gains", "gain_constants")}
-    )
-    core = casadi_function("control_core").call(
-        {
-            **{k: sliding[k] for k in ("sigma_e", "omega_e", "omega_r", "omega_r_dot", "s", "slope")},
-            **{k: inputs[k] for k in ("J0", "gains", "delta", "k_sum", "received", "u_max")},
-        }
-    )
-    reference = {"s": sliding["s"], "u": core["u"], "u_unsaturated": core["u_unsaturated"]}
-    params = np.r_[inputs["gains"], x["delta"]]
-    constants = law.casadi("law_constants")(params)
-    agent = (0.0, x["sigma"], x["omega"], np.zeros(0), x["sigma_d"], x["omega_d"], x["omega_d_dot"], x["J0"], params)
-    s, cache = law.casadi(f"law_local_{model}")(*agent, constants)
-    u, u_commanded, z_dot = law.casadi(f"law_control_{model}")(
-        *agent, constants, cache, k_sum, inputs["received"], 0.0, u_max
-    )
-    for got, want in ((s, reference["s"]), (u, reference["u"]), (u_commanded, reference["u_unsaturated"])):
-        got, want = np.asarray(got).ravel(), np.asarray(want).ravel()
-        assert ((got == want) | (np.isnan(got) & np.isnan(want))).all(), (got, want)
-    assert np.asarray(z_dot).size == 0  # the paper's law has no state of its own
+    from fsmctl.model.generated_code import generated_dir, manifest
+
+    law_outputs = {"u", "u_unsaturated", "u_commanded", "s", "x_dot", "sigma_e_ddot", "gain_constants"}
+    for f in manifest()["functions"]:
+        assert not law_outputs & {o["name"] for o in f["outputs"]}, f["name"]
+        assert not {"gains", "gain_constants", "delta"} & {i["name"] for i in f["inputs"]}, f["name"]
+    assert set(manifest()["layouts"]) == {"wheel", "sinusoid_params"}
+    folder = json.loads((generated_dir() / "laws" / "fsm" / "manifest.json").read_text())
+    assert {f["name"] for f in folder["functions"]} >= {"law_constants", "law_local_paper", "law_control_paper"}

@@ -2,8 +2,8 @@
 ``fsmctl.formation``).
 
 Oracles: Euler's equation and the MRP kinematics (eqs 3-5) written out in NumPy, the paper's omega_d(t)
-(Sec. 4), the generated control laws called directly (the paper's analysis function ``control_law_*`` and a
-law's contract functions, with the neighbour sums written out), and the compiled simulator.
+(Sec. 4), the generated control laws called directly (a law's contract functions, the paper's law's among them,
+with the neighbour sums written out), and the compiled simulator.
 Liang, Sun & Wang, Acta Astronautica 81 (2012).
 """
 
@@ -19,10 +19,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import fsmctl
-from fsmctl.model.generated_code import casadi_function
 from fsmctl.model.laws import derive_script, initial_law_states, parameter_matrix, resolve_law
 from fsmctl.model.topology import Schedule
 from fsmctl.plugin.iosys import Neighbour, initial_state, law_controller, law_parameter_values, mrp_state
+
+DELTA = (0.005, 0.005, 0.005)  # the paper scenario's switching gain (eq 18), [controller] delta of paper.toml
 
 
 def skew(v):
@@ -143,31 +144,34 @@ def test_fsm_controller_is_the_generated_law_with_received_sliding_variables(pap
     c = paper.controller
     sched = Schedule((0.0, 6.5), (5.0, 0.0), period=8.0)
     nbrs = [Neighbour("a", 8.0, sched, phase=0.0), Neighbour("b", 8.0, sched, phase=6.0)]
-    ctrl = fsmctl.fsm_controller(agent.J0_array, c, agent.delta, neighbours=nbrs, name="ctrl")
+    ctrl = fsmctl.fsm_controller(agent.J0_array, c, DELTA, neighbours=nbrs, name="ctrl")
     assert ctrl.input_labels[:3] == ["sigma[0]", "sigma[1]", "sigma[2]"]
     assert ctrl.input_labels[15:] == ["s_a[0]", "s_a[1]", "s_a[2]", "s_b[0]", "s_b[1]", "s_b[2]"]
     assert ctrl.output_labels == ["tau[0]", "tau[1]", "tau[2]", "s[0]", "s[1]", "s[2]"]
     assert ctrl.nstates == 0
-    law = casadi_function("control_law_paper")
-    gc = float(casadi_function("sliding_constants")(c.gains_vector()))
+    law = resolve_law("fsm")  # the paper's law, generated once in generated/laws/fsm
+    params = parameter_matrix(law, paper)[0]
+    constants = law.casadi("law_constants")(params)
     rng = np.random.default_rng(3)
     own = np.concatenate([[0.1, -0.2, 0.3], [0.01, 0.02, -0.03], paper.reference.sigma0, [0.1, 0, -0.1], [0, 0, 0]])
     s_a, s_b = rng.normal(size=3) * 1e-3, rng.normal(size=3) * 1e-3
     for t in (0.0, 1.0):  # at t = 1: k(1 + 6) = 0, neighbour b is silent
         k_a, k_b = sched.value(t), sched.value(t + 6.0)
         y = ctrl.output(t, [], np.concatenate([own, s_a, s_b]))
-        out = law(
-            *np.split(own, 5), c.gains_vector(), gc, agent.J0_array, agent.delta, 16.0, k_a * s_a + k_b * s_b, 2.0
-        )
-        assert np.allclose(y[:3], np.asarray(out[0]).ravel(), rtol=1e-13, atol=1e-13)
-        assert np.allclose(y[3:], np.asarray(out[1]).ravel(), rtol=1e-13, atol=1e-15)
+        sig, om, sig_d, om_d, om_d_dot = np.split(own, 5)
+        agent_in = (t, sig, om, np.zeros(0), sig_d, om_d, om_d_dot, agent.J0_array, params, constants)
+        s, cache = law.casadi("law_local_paper")(*agent_in)
+        # k_sum = sum_j k^i_ij = 8 + 8; received = sum_j k^j_ij(t) s_j
+        u = law.casadi("law_control_paper")(*agent_in, cache, 16.0, k_a * s_a + k_b * s_b, k_a + k_b, 2.0)[0]
+        assert np.allclose(y[:3], np.asarray(u).ravel(), rtol=1e-13, atol=1e-13)
+        assert np.allclose(y[3:], np.asarray(s).ravel(), rtol=1e-13, atol=1e-15)
     # neighbour b's sliding variable does not matter while its weight is 0 ...
     y1 = ctrl.output(1.0, [], np.concatenate([own, s_a, s_b]))
     y2 = ctrl.output(1.0, [], np.concatenate([own, s_a, 100 * s_b]))
     assert np.array_equal(y1, y2)
     # ... and does when it is on
-    c_inf = c.__class__(**{**c.__dict__, "torque_limit": math.inf})
-    ctrl_inf = fsmctl.fsm_controller(agent.J0_array, c_inf, agent.delta, neighbours=nbrs, name="ctrl")
+    c_inf = paper.replace(controller={"torque_limit": math.inf}).controller
+    ctrl_inf = fsmctl.fsm_controller(agent.J0_array, c_inf, DELTA, neighbours=nbrs, name="ctrl")
     y1 = ctrl_inf.output(0.0, [], np.concatenate([own, s_a, s_b]))
     y2 = ctrl_inf.output(0.0, [], np.concatenate([own, s_a, 100 * s_b]))
     assert np.abs(y1[:3] - y2[:3]).max() > 1e-3
@@ -176,7 +180,7 @@ def test_fsm_controller_is_the_generated_law_with_received_sliding_variables(pap
 def test_disabled_controller_outputs_zero_torque(paper):
     agent = paper.agents[0]
     off = paper.replace(controller={"enabled": False}).controller
-    ctrl = fsmctl.fsm_controller(agent.J0_array, off, agent.delta)
+    ctrl = fsmctl.fsm_controller(agent.J0_array, off, DELTA)
     own = np.concatenate([[0.1, -0.2, 0.3], [0.01, 0.02, -0.03], paper.reference.sigma0, [0.1, 0, -0.1], [0, 0, 0]])
     y = ctrl.output(0.0, [], own)
     assert np.all(y[:3] == 0.0) and np.abs(y[3:]).max() > 0
@@ -190,14 +194,14 @@ def test_fsm_controller_is_law_controller_of_the_papers_law(paper):
     """``fsm_controller`` (gains and delta as today) and ``law_controller("fsm", ...)`` (one parameter per law
     parameter, by name): the same system, the same outputs."""
     agent = paper.agents[2]
-    c = paper.controller.__class__(**{**paper.controller.__dict__, "torque_limit": math.inf, "boundary_layer": 0.01})
     s = paper.replace(controller={"torque_limit": math.inf, "boundary_layer": 0.01})
+    c = s.controller
     law = resolve_law("fsm")
     values = law_parameter_values(law, parameter_matrix(law, s)[2])
-    assert values["singularity_fix"] == "switch" and np.array_equal(values["delta"], agent.delta)
+    assert values["singularity_fix"] == "switch" and np.array_equal(values["delta"], DELTA)
     sched = Schedule((0.0, 6.5), (5.0, 0.0), period=8.0)
     nbrs = [Neighbour("a", 8.0, sched), Neighbour("b", 3.0, sched, phase=6.0)]
-    old = fsmctl.fsm_controller(agent.J0_array, c, agent.delta, neighbours=nbrs, name="old")
+    old = fsmctl.fsm_controller(agent.J0_array, c, DELTA, neighbours=nbrs, name="old")
     new = law_controller(law, agent.J0_array, parameters=values, neighbours=nbrs, name="new")
     assert old.input_labels == new.input_labels and old.output_labels == new.output_labels
     assert sorted(old.params) == sorted(f"old_{k}" for k in [*values, "J0", "u_max", "owner"])
@@ -207,22 +211,22 @@ def test_fsm_controller_is_law_controller_of_the_papers_law(paper):
         u = np.concatenate([_own_signals(paper), rng.normal(size=6) * 1e-2])
         assert np.array_equal(old.output(t, [], u), new.output(t, [], u))
     # a gain by name, at evaluation time, is the controller built with that gain: c1 = 0 is the TSM surface
-    # (ControllerSettings.surface = "tsm" zeroes c1 in gains_vector), fix "clamp" is singularity_fix = "clamp"
+    # (the surface preset "tsm" sets c1 = 0), fix "clamp" is singularity_fix = "clamp"
     u = np.concatenate([_own_signals(paper), rng.normal(size=6) * 1e-2])
     tsm = fsmctl.fsm_controller(
-        agent.J0_array, c.__class__(**{**c.__dict__, "surface": "tsm"}), agent.delta, neighbours=nbrs
+        agent.J0_array, s.replace(controller={"surface": "tsm"}).controller, DELTA, neighbours=nbrs
     )
     assert np.array_equal(tsm.output(1.0, [], u), new.output(1.0, [], u, params={"new_c1": 0.0}))
     assert np.array_equal(tsm.output(1.0, [], u), old.output(1.0, [], u, params={"old_c1": 0.0}))
     assert not np.array_equal(new.output(1.0, [], u), new.output(1.0, [], u, params={"new_c1": 0.0}))
     clamp = fsmctl.fsm_controller(
-        agent.J0_array, c.__class__(**{**c.__dict__, "singularity_fix": "clamp"}), agent.delta, neighbours=nbrs
+        agent.J0_array, s.replace(controller={"singularity_fix": "clamp"}).controller, DELTA, neighbours=nbrs
     )
     fix = new.output(1.0, [], u, params={"new_singularity_fix": "clamp"})
     assert np.array_equal(fix, clamp.output(1.0, [], u))
-    delta = old.output(1.0, [], u, params={"old_delta": 2 * np.asarray(agent.delta)})
+    delta = old.output(1.0, [], u, params={"old_delta": 2 * np.asarray(DELTA)})
     assert np.array_equal(
-        delta, fsmctl.fsm_controller(agent.J0_array, c, 2 * np.asarray(agent.delta), neighbours=nbrs).output(1.0, [], u)
+        delta, fsmctl.fsm_controller(agent.J0_array, c, 2 * np.asarray(DELTA), neighbours=nbrs).output(1.0, [], u)
     )
     assert not np.array_equal(delta, old.output(1.0, [], u))
     # validated by the scenario files' path (the law's declared range): alpha outside (0.5, 1)

@@ -103,7 +103,7 @@ def test_run_scenario_respects_bounds():
     for a, b in zip(sc.agents, base.agents, strict=True):
         assert np.all(np.abs(a.omega0) <= 0.2)
         assert np.all(np.abs(a.disturbance.amplitude) <= 0.5 * np.abs(b.disturbance.amplitude) + 1e-15)
-        assert a.J0 == b.J0 and a.delta == b.delta
+        assert a.J0 == b.J0 and a.parameters == b.parameters
     assert 0 < len(sc.topology.links) < len(base.topology.links)
     again = mc.sample_run_scenario(base, s, np.random.SeedSequence(5))
     assert again.agents == sc.agents and again.topology == sc.topology

@@ -118,8 +118,8 @@ def test_default_backend_is_the_compiled_generated_code(paper):
     dll = _driver()
     if dll is None:
         pytest.skip("no C compiler")
-    # the per-agent functions of generated/c are linked into the driver's library
-    for name in ("plant_rhs", "control_core", "sliding_paper", "sliding_exact", "mrp_shadow", "disturbance_torque"):
+    # the per-agent functions of generated/c and of the flown law's folder are linked into the driver's library
+    for name in ("plant_rhs", "law_local_paper", "law_control_exact", "mrp_shadow", "disturbance_torque"):
         assert hasattr(dll, name), name
     r = fsmctl.simulate(paper.replace(simulation={"t_final": 0.1}))
     assert r.backend == "compiled"
@@ -237,7 +237,7 @@ def rigid_bodies(draw):
 def test_torque_free_conservation_for_random_bodies(paper, body):
     J, sigma0, omega0 = body
     agent = fsmctl.Agent(
-        J0=tuple(map(tuple, J)), delta_J=ZERO3x3, sigma0=tuple(sigma0), omega0=tuple(omega0), delta=(0.01,) * 3
+        J0=tuple(map(tuple, J)), delta_J=ZERO3x3, sigma0=tuple(sigma0), omega0=tuple(omega0), parameters={"delta": (0.01,) * 3}
     )
     s = with_agents(
         paper,
@@ -259,7 +259,7 @@ def test_shadow_switching_keeps_the_attitude_and_theta_continuous(paper):
     """A spin at 1 rad/s about a principal axis through 180 deg: sigma jumps to its shadow, the attitude does not."""
     J = np.diag([100.0, 150.0, 200.0])
     agent = fsmctl.Agent(
-        J0=tuple(map(tuple, J)), delta_J=ZERO3x3, sigma0=(0.0, 0.0, 0.0), omega0=(0.0, 0.0, 1.0), delta=(0.01,) * 3
+        J0=tuple(map(tuple, J)), delta_J=ZERO3x3, sigma0=(0.0, 0.0, 0.0), omega0=(0.0, 0.0, 1.0), parameters={"delta": (0.01,) * 3}
     )
     s = with_agents(
         paper,
@@ -297,6 +297,7 @@ def test_plant_uses_true_inertia_and_disturbance_controller_uses_nominal(paper):
     """One evaluation of the formation RHS against Euler's equation (eq 4) with J = J0 + dJ (eq 29), d_i(t) of
     Sec. 4, and the controller's torque recomputed from the generated law with J0 (not J)."""
     from fsmctl.model.generated_code import casadi_function
+    from fsmctl.model.laws import resolve_law
 
     rhs = CompiledRHS(paper)
     p = rhs.p
@@ -305,17 +306,16 @@ def test_plant_uses_true_inertia_and_disturbance_controller_uses_nominal(paper):
     t = 3.7
     dx, u = rhs(t, x, with_u=True)
     ref = casadi_function("reference_rhs")
-    sliding = casadi_function("sliding_paper")
-    law = casadi_function("control_law_paper")
-    gc = float(casadi_function("sliding_constants")(p.params[0, :6]))
+    fsm = resolve_law("fsm")  # the paper's law, generated once in generated/laws/fsm
+    local, control = fsm.casadi("law_local_paper"), fsm.casadi("law_control_paper")
     sd_dot, wd, wdd = (np.asarray(v).ravel() for v in ref(t, x[:3], p.ref_params))
     assert np.allclose(dx[:3], sd_dot, rtol=1e-13, atol=1e-15)
-    s_all = [
-        np.asarray(
-            sliding(x[3 + 6 * j : 6 + 6 * j], x[6 + 6 * j : 9 + 6 * j], x[:3], wd, wdd, p.params[j, :6], gc)[0]
-        ).ravel()
-        for j in range(6)
-    ]
+
+    def agent_in(j, J0):
+        gc = fsm.casadi("law_constants")(p.params[j])
+        return (t, x[3 + 6 * j : 6 + 6 * j], x[6 + 6 * j : 9 + 6 * j], np.zeros(0), x[:3], wd, wdd, J0, p.params[j], gc)
+
+    s_all = [np.asarray(local(*agent_in(j, paper.agents[j].J0_array))[0]).ravel() for j in range(6)]
     # Table 2 (k^i = 8 on every link, k^j by the oracle's exact rule; 3.7 + phi_14 = 3.7 + 2.8 is a switching
     # instant, and the double 3.7 lies just after it: link 1 <- 4 is off)
     K = np.array([[oracle.k_j_exact(i, j, t) for j in range(1, 7)] for i in range(1, 7)])
@@ -332,10 +332,13 @@ def test_plant_uses_true_inertia_and_disturbance_controller_uses_nominal(paper):
         assert np.allclose(dx[3 + 6 * i : 6 + 6 * i], mrp_G(sigma) @ omega, rtol=1e-12, atol=1e-15)
         # controller: nominal J0, and only sum_j k^j_ij(t) s_j from the neighbours
         received = sum(K[i, j] * s_all[j] for j in range(6))
-        args = (sigma, omega, x[:3], wd, wdd, p.params[i, :6], gc)
-        tail = (p.params[i, 6:9], Ki[i].sum(), received, p.u_max[i])
-        u_J0 = np.asarray(law(*args, agent.J0_array, *tail)[6]).ravel()  # unsaturated: a sharper comparison
-        u_J = np.asarray(law(*args, agent.J_true, *tail)[6]).ravel()
+        tail = (Ki[i].sum(), received, K[i].sum(), p.u_max[i])
+
+        def commanded(J0, i=i, tail=tail):  # u_commanded (unsaturated): a sharper comparison
+            args = agent_in(i, J0)
+            return np.asarray(control(*args, local(*args)[1], *tail)[1]).ravel()
+
+        u_J0, u_J = commanded(agent.J0_array), commanded(agent.J_true)
         assert np.allclose(np.clip(u_J0, -2, 2), u[i], rtol=1e-12, atol=1e-12)
         assert np.abs(u_J - u_J0).max() > 1e-3 * np.abs(u_J0).max()  # J0 and J give different commands
 

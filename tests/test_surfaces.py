@@ -34,12 +34,12 @@ def fast_comparison(paper_case1):
 
 def test_variant_scenarios(paper_case1):
     v = sf.variant_scenario(paper_case1, sf.Variant(False, False, False), "tsm")
-    assert v.controller.surface == "tsm" and v.controller.gains_vector()[0] == 0.0
+    assert v.law_parameters()[0]["c1"] == 0.0 and v.law_parameters()[0]["c2"] == 0.8
     assert math.isinf(v.controller.torque_limit)
     assert all(np.all(np.asarray(a.delta_J) == 0) and np.all(a.disturbance.bound() == 0) for a in v.agents)
     assert v.topology.links == ()
     w = sf.variant_scenario(paper_case1, sf.Variant(True, True, True), "lsm")
-    assert w.controller.torque_limit == 2.0 and w.controller.gains_vector()[1] == 0.0
+    assert w.controller.torque_limit == 2.0 and w.law_parameters()[0]["c2"] == 0.0
     assert w.topology == paper_case1.topology and w.agents == paper_case1.agents
     unlimited = paper_case1.replace(controller={"torque_limit": math.inf})
     assert sf.variant_scenario(unlimited, sf.Variant(True, True, True), "fsm").controller.torque_limit == 2.0

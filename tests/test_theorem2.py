@@ -10,7 +10,8 @@ import pytest
 
 from fsmctl import load_scenario, paper_scenario
 from fsmctl.model.generated_code import casadi_function
-from fsmctl.proofs.theorem2 import Region, delta_requirements, drift_function, proportional_kappa
+from fsmctl.model.laws import resolve_law
+from fsmctl.proofs.theorem2 import Region, delta_requirements, drift_function, fsm_parameters, proportional_kappa
 
 DATA = Path(__file__).parent / "data"
 
@@ -20,10 +21,10 @@ def case1():
     return paper_scenario("1")
 
 
-def _inputs(sc, agent, sigma_e, omega_e, omega_d, u_d, omega_d_dot, gains=None):
+def _inputs(sc, agent, sigma_e, omega_e, omega_d, u_d, omega_d_dot, params=None):
     a = sc.agents[agent]
-    g = sc.controller.gains_vector() if gains is None else gains
-    return (sigma_e, omega_e, omega_d, u_d, np.array(a.J0), a.J_true, g, omega_d_dot)
+    p = fsm_parameters(sc)[agent] if params is None else params
+    return (sigma_e, omega_e, omega_d, u_d, np.array(a.J0), a.J_true, p, omega_d_dot)
 
 
 def test_P_is_scalar_for_proportional_uncertainty(case1):
@@ -47,30 +48,38 @@ def test_drift_on_the_reference_matches_the_closed_form(case1):
 
 @pytest.mark.parametrize("error_model", ["paper", "exact"])
 def test_drift_matches_a_finite_difference_of_s_along_the_motion(case1, error_model):
-    """d = ds/dt at delta = 0, checked by a central difference with the compiled functions (no AD)."""
+    """d = ds/dt at delta = 0, checked by a central difference with the paper's law's compiled functions (no AD)."""
     sc = case1
     a = sc.agents[1]
     J0, J = np.array(a.J0), a.J_true
-    gains = sc.controller.gains_vector()
-    law = casadi_function(f"control_law_{error_model}")
-    sliding = casadi_function(f"sliding_{error_model}")
+    fsm = resolve_law("fsm")
+    params = fsm_parameters(sc)[1]
+    p0 = params.copy()
+    p0[-3:] = 0.0  # delta = 0 (the law's last parameter)
+    assert [p.name for p in fsm.parameters][-1] == "delta"
+    local, control = fsm.casadi(f"law_local_{error_model}"), fsm.casadi(f"law_control_{error_model}")
     plant = casadi_function("plant_rhs")
-    gc = casadi_function("sliding_constants")(gains)
+    gc = fsm.casadi("law_constants")(p0)
     sigma_e, omega_e = np.array([0.03, -0.02, 0.04]), np.array([0.01, -0.03, 0.02])
     wd, wdd, ud = np.array([0.1, -0.05, 0.08]), np.array([0.002, -0.001, 0.0015]), np.array([0.1, -0.2, 0.15])
-    omega_r = np.array(sliding(sigma_e, np.zeros(3), np.zeros(3), wd, wdd, gains, gc)[3]).ravel()
+
+    def agent_in(x):
+        return (0.0, x[:3], x[3:6], np.zeros(0), x[6:9], x[9:], wdd, J0, p0, gc)
+
+    omega_r = np.array(local(*agent_in(np.concatenate([sigma_e, np.zeros(6), wd])))[1]).ravel()[3:6]  # cache
     x = np.concatenate([sigma_e, omega_e + omega_r, np.zeros(3), wd])
 
     def s_of(x):
-        return np.array(sliding(x[:3], x[3:6], x[6:9], x[9:], wdd, gains, gc)[0]).ravel()
+        return np.array(local(*agent_in(x))[0]).ravel()
 
-    u = np.array(law(x[:3], x[3:6], x[6:9], x[9:], wdd, gains, gc, J0, np.zeros(3), 0.0, np.zeros(3), 1e300)[6]).ravel()
+    cache = local(*agent_in(x))[1]
+    u = np.array(control(*agent_in(x), cache, 0.0, np.zeros(3), 0.0, 1e300)[1]).ravel()  # u_commanded
     sdot, wdot = (np.array(v).ravel() for v in plant(x[:3], x[3:6], u + ud, J))
     sddot = np.array(plant(x[6:9], x[9:], np.zeros(3), J0)[0]).ravel()
     xdot = np.concatenate([sdot, wdot, sddot, wdd])
     h = 1e-6
     fd = (s_of(x + h * xdot) - s_of(x - h * xdot)) / (2 * h)
-    d = np.array(drift_function(error_model)(sigma_e, omega_e, wd, ud, J0, J, gains, wdd)[0]).ravel()
+    d = np.array(drift_function(error_model)(sigma_e, omega_e, wd, ud, J0, J, params, wdd)[0]).ravel()
     assert np.allclose(d, fd, rtol=1e-6, atol=1e-9)
 
 
@@ -161,7 +170,7 @@ def test_buffered_evaluation_and_output_subsets_are_bit_identical(case1, error_m
     a = case1.agents[1]
     J0, J = np.array(a.J0), a.J_true + np.diag([1.0, -2.0, 3.0]) + 0.5  # not symmetric: catches a transposed J
     full, sub = drift_function(error_model), drift_function(error_model, ("d", "P"))
-    for gains in (case1.controller.gains_vector(), np.array([0.6, 0.8, 0.7, 0.0, 0.01, 0.0])):
+    for gains in (fsm_parameters(case1)[1], np.array([0.6, 0.8, 0.7, 0.0, 0.01, 0.0, 0.005, 0.005, 0.005])):
         ref = [np.array(x) for x in full.map(n, "serial")(sig, om, wd, ud, J0, J, gains, wdd)]
         args = [sig.T, om.T, wd.T, ud.T, J0.T, J.T, gains, wdd.T]
         got = evaluate_mapped(full, n, args, shared=(4, 5, 6))

@@ -45,7 +45,7 @@ class UnsupportedInstructionError(ValueError):
 
 
 def kernel_name(function_name: str) -> str:
-    """C name of the batched kernel of a generated function (``sliding_paper`` -> ``sliding_paper_x4``)."""
+    """C name of the batched kernel of a generated function (``plant_rhs`` -> ``plant_rhs_x4``)."""
     return f"{function_name}_x{LANES}"
 
 

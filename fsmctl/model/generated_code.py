@@ -108,6 +108,7 @@ __all__ = [
     "layout",
     "compiled_library",
     "casadi_function",
+    "law_sx_function",
     "backend",
     "compile_flags",
 ]
@@ -223,7 +224,7 @@ def manifest() -> dict:
 
 
 def layout(name: str) -> tuple[str, ...]:
-    """A packed-parameter layout from the manifest (``gains``, ``gain_constants``, ``sinusoid_params``).
+    """A packed-parameter layout from the manifest (``wheel``, ``sinusoid_params``).
 
     Parameters
     ----------
@@ -238,8 +239,8 @@ def layout(name: str) -> tuple[str, ...]:
     Examples
     --------
     >>> from fsmctl.model.generated_code import layout
-    >>> layout("gains")
-    ('c1', 'c2', 'alpha', 'boundary_layer', 'epsilon', 'fix_mode')
+    >>> layout("wheel")
+    ('speed_max', 'viscous', 'coulomb', 'coulomb_band')
     """
     return tuple(manifest()["layouts"][name])
 
@@ -985,6 +986,50 @@ def _law_casadi_function(law_dir: Path, name: str) -> ca.Function:
         return ca.external(name, str(lib.path))
     _warn_fallback()
     return ca.Function.deserialize((law_dir / "casadi" / f"{name}.casadi").read_text())
+
+
+@functools.cache
+def _law_sx_function(law_dir: Path, name: str) -> ca.Function:
+    path = law_dir / "casadi" / f"{name}.casadi"
+    if not path.is_file():
+        raise KeyError(f"law folder {law_dir}: no generated function {name!r}")
+    return ca.Function.deserialize(path.read_text())
+
+
+def law_sx_function(law_dir: Path, name: str) -> ca.Function:
+    """A law's generated function as its serialized CasADi ``SX`` graph, callable on CasADi symbols.
+
+    What automatic differentiation and symbolic composition need (the compiled function of
+    :func:`law_casadi_function` takes numbers only); the same graph the C code was generated from.
+
+    Parameters
+    ----------
+    law_dir : pathlib.Path
+        The law folder.
+    name : str
+        The function's name (``law_constants``, ``law_local_paper``, ...; the folder's ``manifest.json``).
+
+    Returns
+    -------
+    casadi.Function
+        The deserialized ``SXFunction``.
+
+    Raises
+    ------
+    KeyError
+        The folder has no function of that name.
+
+    Examples
+    --------
+    The paper's sliding variable (Liang et al. 2012, eq 13) as a function of the attitude, differentiated:
+
+    >>> import casadi as ca
+    >>> from fsmctl.model.generated_code import default_law_dir, law_sx_function
+    >>> f = law_sx_function(default_law_dir(), "law_local_paper")
+    >>> f.name_in()[:3], f.name_out()
+    (['t', 'sigma', 'omega'], ['broadcast', 'cache'])
+    """
+    return _law_sx_function(Path(law_dir).resolve(), name)
 
 
 def law_casadi_function(law_dir: Path, name: str) -> ca.Function:

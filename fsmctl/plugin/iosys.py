@@ -63,7 +63,7 @@ from fsmctl.model.laws import (
     resolve_law,
 )
 from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid, check_inertia
-from fsmctl.model.topology import Schedule, schedule_weight
+from fsmctl.model.topology import Schedule, Topology, schedule_weight
 
 __all__ = [
     "Neighbour",
@@ -189,18 +189,6 @@ def _positive3(value: Any, where: str) -> np.ndarray:
 def _twelve(value: Any, where: str) -> np.ndarray:
     """The packed sinusoid ``[amplitude, frequency, phase, offset]`` (manifest layout ``sinusoid_params``)."""
     return _numbers(value, (12,), "12 real numbers [amplitude, frequency, phase, offset]", where)
-
-
-def _gains(value: Any, where: str) -> np.ndarray:
-    """``[c1, c2, alpha, boundary_layer, epsilon, fix_mode]`` (manifest layout ``gains``)."""
-    g = _numbers(value, (6,), "6 real numbers [c1, c2, alpha, boundary_layer, epsilon, fix_mode]", where)
-    c1, c2, alpha, phi, eps, fix = g
-    if c1 < 0 or c2 < 0 or not 0.5 < alpha < 1 or phi < 0 or eps <= 0 or fix not in (0.0, 1.0, 2.0):
-        raise ScenarioError(
-            f"{where}: need c1, c2 >= 0, 0.5 < alpha < 1, boundary_layer >= 0, epsilon > 0, fix_mode in "
-            f"{{0, 1, 2}}, got {g.tolist()}"
-        )
-    return g
 
 
 def _torque_limit(value: Any, where: str) -> float:
@@ -981,8 +969,27 @@ def law_controller(
     return _controller("law_controller", law, J0, scheme, u_max, error_model, nbrs, name)
 
 
-_GAINS = ("c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix")
-"""The paper law's parameters packed in ``fsm_controller``'s ``gains`` (manifest layout ``gains``)."""
+def _flown_parameters(
+    law: LawCode, controller: ControllerSettings, J0: np.ndarray, delta: np.ndarray, where: str
+) -> dict[str, Any]:
+    """The parameters ``law`` flies under ``controller`` for an agent with this ``J0`` and ``delta`` (written,
+    preset or default), as a one-agent scenario's :meth:`fsmctl.Scenario.law_parameters` gives them: the path
+    every scenario takes."""
+    from fsmctl.model.scenario import Agent, Reference
+
+    zero = (0.0, 0.0, 0.0)
+    agent = Agent(J0=J0.tolist(), delta_J=np.zeros((3, 3)).tolist(), sigma0=zero, omega0=zero)
+    try:
+        one = Scenario(
+            name=where,
+            agents=(agent,),
+            reference=Reference(sigma0=zero, omega=Sinusoid()),
+            topology=Topology(1, ()),
+            controller=controller,
+        ).with_law(law.name, {"delta": delta.tolist()})
+        return one.law_parameters()[0]
+    except (ScenarioError, LawError) as exc:
+        raise ScenarioError(f"{where}: controller: {exc}") from None
 
 
 def fsm_controller(
@@ -1000,10 +1007,11 @@ def fsm_controller(
     J0 : array_like, shape (3, 3)
         Nominal inertia used by the law: finite, symmetric positive definite.
     controller : ControllerSettings
-        Gains, boundary layer, Remark 6 fix, torque limit (0, i.e. no torque, when ``enabled`` is False),
-        error model, surface.
+        The paper's law's parameters as a scenario's ``[controller]`` sets them (the law's defaults for those
+        it leaves unset; the ``surface`` preset applied), torque limit (0, i.e. no torque, when ``enabled`` is
+        False) and error model; its ``law`` is not read (this is the paper's law).
     delta : sequence of 3 floats
-        Switching gain of eq 18 (finite, positive).
+        Switching gain of eq 18 (finite, positive); wins over the controller's.
     neighbours : sequence of Neighbour
         Agents whose sliding variables this one receives (unique names); each adds inputs ``s_<name>[0..2]``.
     name : str, optional
@@ -1027,8 +1035,8 @@ def fsm_controller(
     --------
     >>> import fsmctl
     >>> paper = fsmctl.paper_scenario("1")
-    >>> a = paper.agents[0]
-    >>> ctrl = fsmctl.fsm_controller(a.J0_array, paper.controller, a.delta, name="ctrl1")
+    >>> a, delta = paper.agents[0], paper.law_parameters()[0]["delta"]
+    >>> ctrl = fsmctl.fsm_controller(a.J0_array, paper.controller, delta, name="ctrl1")
     >>> ctrl.output_labels
     ['tau[0]', 'tau[1]', 'tau[2]', 's[0]', 's[1]', 's[2]']
     >>> float(ctrl.params["ctrl1_u_max"]), float(ctrl.params["ctrl1_c1"]), ctrl.params["ctrl1_delta"].tolist()
@@ -1040,14 +1048,11 @@ def fsm_controller(
     delta = _positive3(delta, f"{where}: delta")
     if not isinstance(controller, ControllerSettings):
         raise ScenarioError(f"{where}: controller: expected ControllerSettings, got {type(controller).__name__}")
-    gains = _gains(controller.gains_vector(), f"{where}: controller")
     u_max = _torque_limit(controller.effective_torque_limit, f"{where}: controller torque limit")
     nbrs = _neighbours(neighbours, where)
     law = resolve_law("fsm")
-    fix = law.parameter("singularity_fix")
-    parameters: dict[str, Any] = {k: float(v) for k, v in zip(_GAINS[:5], gains[:5], strict=True)}
-    parameters["singularity_fix"] = fix.choices[int(gains[5])]
-    parameters["delta"] = delta
+    parameters = _flown_parameters(law, controller, J0, delta, where)
+    parameters["delta"] = delta  # the argument itself, as given (validated above)
     scheme = _law_scheme(law, parameters, where)
     return _controller("fsm_controller", law, J0, scheme, u_max, controller.error_model, nbrs, name)
 

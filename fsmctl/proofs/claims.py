@@ -565,20 +565,22 @@ def _vdot_mu(ctx: ProofContext) -> _Outcome:
 
 
 def _initial_V(sc: Scenario) -> float:
-    """``V(0) = sum_i s_i(0)^T s_i(0) / 2`` with the generated sliding function (eq 13, 21-22)."""
-    from fsmctl.model.generated_code import casadi_function
+    """``V(0) = sum_i s_i(0)^T s_i(0) / 2`` with the paper's law's generated sliding variable (eq 13, 21-22)."""
+    from fsmctl.model.laws import resolve_law
 
-    f = casadi_function(f"sliding_{sc.controller.error_model}")
-    const = casadi_function("sliding_constants")
-    gains = sc.controller.gains_vector()
-    gc = const(gains)
+    law = resolve_law("fsm")
+    f = law.casadi(f"law_local_{sc.controller.error_model}")  # broadcast: s (eq 13)
+    const = law.casadi("law_constants")
     w = sc.reference.omega
     wd0 = w(0.0)
     wdd0 = -np.asarray(w.amplitude) * np.asarray(w.frequency) * np.sin(np.asarray(w.phase))
     V = 0.0
-    for a in sc.agents:
-        s = np.array(f(a.sigma0, a.omega0, sc.reference.sigma0, wd0, wdd0, gains, gc)[0]).ravel()
-        V += 0.5 * float(s @ s)
+    for a, params in zip(sc.agents, t2.fsm_parameters(sc), strict=True):
+        z = np.zeros(law.n_states)
+        s = np.array(
+            f(0.0, a.sigma0, a.omega0, z, sc.reference.sigma0, wd0, wdd0, a.J0_array, params, const(params))[0]
+        )
+        V += 0.5 * float(s.ravel() @ s.ravel())
     return V
 
 
@@ -829,6 +831,18 @@ def _opaque(m: sp.MatrixBase) -> sp.Matrix:
     return sp.Matrix(m).applyfunc(visit)
 
 
+def _fsm_values(sc: Scenario) -> dict:
+    """The paper's law's scalar parameters for the first agent, by name (:func:`theorem2.fsm_parameters`)."""
+    from fsmctl.model.laws import resolve_law
+
+    row, out, k = t2.fsm_parameters(sc)[0], {}, 0
+    for info in resolve_law("fsm").parameters:
+        v = row[k : k + info.size]
+        out[info.name] = info.choices[int(v[0])] if info.choices else float(v[0]) if info.size == 1 else tuple(v)
+        k += info.size
+    return out
+
+
 def _theorem2_delta(ctx: ProofContext) -> _Outcome:
     """The delta_i Theorem 2 (corrected) needs for the scenario, by sampling, vs the configured delta_i."""
     sc = ctx.scenario
@@ -838,7 +852,8 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
         f"scenario {sc.label}, region {ctx.region.describe()} (contains the reference sigma_e = 0, omega_e = 0)",
         f"sampling: {res.description}",
         "requirement: (delta_i)_k > sup (1+kappa_i) |d_i|_k, d_i = s_i_dot at delta = 0 without coordination "
-        "(automatic differentiation of the generated sliding_*, control_law_*, plant_rhs along the rigid-body motion)",
+        "(automatic differentiation of the paper's law's generated law_local_*, law_control_* and the model's "
+        "plant_rhs along the rigid-body motion)",
         f"coupling: {res.coupling}",
     ]
     for a in res.agents:
@@ -852,11 +867,13 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
     if res.agents:
         lines.append(f"{res.agents[0].note}")
     c = sc.controller
-    if c.singularity_fix == "switch":
-        slope = (2 - c.alpha) * c.epsilon ** (c.alpha - 1)
+    p = _fsm_values(sc)
+    fix, alpha, epsilon = p["singularity_fix"], p["alpha"], p["epsilon"]
+    if fix == "switch":
+        slope = (2 - alpha) * epsilon ** (alpha - 1)
         lines.append(
             f"why it grows off the reference: a_eq contains c2 slope_k sigma_e_dot,k with the Remark 6 slope up to "
-            f"(2 - alpha) epsilon^(alpha-1) = {slope:.4g} near sigma_e,k = 0 (c2 slope = {c.c2 * slope:.4g} 1/s)"
+            f"(2 - alpha) epsilon^(alpha-1) = {slope:.4g} near sigma_e,k = 0 (c2 slope = {p['c2'] * slope:.4g} 1/s)"
             + (
                 "; with error_model = paper the rotation G(sigma_e)(R(sigma_e) - I) omega_d that eqs 7-8 drop enters "
                 "s_dot through the same slope"
@@ -866,7 +883,7 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
         )
     else:
         lines.append(
-            f"singularity_fix = {c.singularity_fix}: the surface keeps sig(sigma_e)^alpha, whose slope is unbounded at "
+            f"singularity_fix = {fix}: the surface keeps sig(sigma_e)^alpha, whose slope is unbounded at "
             "sigma_e,k = 0, so s_dot (and the requirement) is unbounded wherever omega_e != 0 there (Remark 6)"
         )
     if res.largest_scale is not None:

@@ -19,8 +19,9 @@ Symbolic part
 
 Numeric part
     :func:`delta_requirements` evaluates ``d = s_dot`` at ``delta = 0``, no coordination
-    (and ``P``), by automatic differentiation of the *generated* functions
-    (``sliding_*``, ``control_law_*``, ``plant_rhs``) along the true rigid-body motion,
+    (and ``P``), by automatic differentiation of the *generated* functions (the paper's law as it flies,
+    ``generated/laws/fsm``: ``law_constants``, ``law_local_*``, ``law_control_*``; the model's ``plant_rhs``)
+    along the true rigid-body motion,
     over a stated box of ``(sigma_e, omega_e)`` and the bound boxes of ``omega_d``,
     ``omega_d_dot`` and the disturbance, and on the reference trajectory itself.
 """
@@ -28,6 +29,7 @@ Numeric part
 from __future__ import annotations
 
 import functools
+import json
 import math
 import time
 from dataclasses import dataclass, field
@@ -37,7 +39,8 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.casadi_eval import evaluate_mapped
-from fsmctl.model.generated_code import casadi_function, generated_dir
+from fsmctl.model.generated_code import casadi_function, generated_dir, law_sx_function
+from fsmctl.model.laws import LawCode, resolve_law
 from fsmctl.model.scenario import Scenario
 
 __all__ = [
@@ -49,6 +52,7 @@ __all__ = [
     "drift_function",
     "format_vector",
     "fsm_deltas",
+    "fsm_parameters",
     "proportional_kappa",
     "reference_delta_requirement",
 ]
@@ -132,27 +136,54 @@ def _load(name: str) -> ca.Function:
     return ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
 
 
+def _paper_law() -> LawCode:
+    """The paper's law (``generated/laws/fsm``): Theorem 2 is about it."""
+    return resolve_law("fsm")
+
+
+def _offset(law: LawCode, name: str) -> tuple[int, int]:
+    """``(start, size)`` of a parameter in the law's packed vector."""
+    k = 0
+    for p in law.parameters:
+        if p.name == name:
+            return k, p.size
+        k += p.size
+    raise KeyError(name)  # pragma: no cover - the paper's law declares the names used here
+
+
+def _cache_slot(law: LawCode, name: str) -> tuple[int, int]:
+    """``(start, size)`` of a stage in the law's cache (``law.json``)."""
+    k = 0
+    for entry in json.loads((law.folder / "law.json").read_text("utf-8"))["cache"]:
+        if entry["name"] == name:
+            return k, int(entry["size"])
+        k += int(entry["size"])
+    raise KeyError(name)  # pragma: no cover - the paper's law caches its error state
+
+
 DRIFT_OUTPUTS = ("d", "P", "A", "B", "s")
-DRIFT_INPUTS = ("sigma_e", "omega_e", "omega_d", "u_d", "J0", "J", "gains", "omega_d_dot")
+DRIFT_INPUTS = ("sigma_e", "omega_e", "omega_d", "u_d", "J0", "J", "params", "omega_d_dot")
 
 
 @functools.cache
 def drift_function(error_model: str, outputs: tuple[str, ...] = DRIFT_OUTPUTS) -> ca.Function:
     """CasADi function of the sliding-variable dynamics at ``delta = 0`` built from the generated functions.
 
-    Inputs ``(sigma_e, omega_e, omega_d, u_d, J0, J, gains, omega_d_dot)``; outputs
+    Inputs ``(sigma_e, omega_e, omega_d, u_d, J0, J, params, omega_d_dot)``, ``params`` the paper's law's
+    packed parameters (a row of :func:`fsm_parameters`; its ``delta`` is not read: ``d`` is at ``delta = 0``);
+    outputs
     ``d`` (``s_dot`` with ``delta = 0`` and no coordination), ``P`` (``-ds_dot/d coordination``),
     ``A = dd/du_d``, ``B = dd/domega_d_dot`` (``d`` is affine in both) and ``s``.
     ``s_dot`` is the exact time derivative of the generated ``s(sigma, omega, sigma_d, omega_d)``
-    along the rigid-body motion (``plant_rhs`` with the true ``J``, control from
-    ``control_law_<error_model>`` with ``J0``, the reference frame moving with ``omega_d``),
+    along the rigid-body motion (``plant_rhs`` with the true ``J``, control ``u_commanded`` from the law's
+    ``law_control_<error_model>`` with ``J0``, the reference frame moving with ``omega_d``),
     taken at ``sigma_d = 0`` (the error dynamics do not depend on ``sigma_d``).
     Liang et al. 2012, eqs 16-20, 29-30.
 
     Parameters
     ----------
     error_model : str
-        ``"paper"`` or ``"exact"`` (the generated ``control_law_*``/``sliding_*`` pair).
+        ``"paper"`` or ``"exact"`` (the law's generated ``law_local_*``/``law_control_*`` pair).
     outputs : tuple of str
         A subset of ``("d", "P", "A", "B", "s")``, in that order by default.  A function with fewer
         outputs evaluates only the part of the same expression graph they need: its values are those of
@@ -161,7 +192,20 @@ def drift_function(error_model: str, outputs: tuple[str, ...] = DRIFT_OUTPUTS) -
     Returns
     -------
     casadi.Function
-        ``(sigma_e, omega_e, omega_d, u_d, J0, J, gains, omega_d_dot) -> outputs``.
+        ``(sigma_e, omega_e, omega_d, u_d, J0, J, params, omega_d_dot) -> outputs``.
+
+    Examples
+    --------
+    At the reference (``sigma_e = 0``, ``omega_e = 0``) without disturbance or reference motion the sliding
+    variable stays 0:
+
+    >>> import numpy as np, fsmctl
+    >>> from fsmctl.proofs.theorem2 import drift_function, fsm_parameters
+    >>> paper = fsmctl.paper_scenario("1")
+    >>> J0, z = paper.agents[0].J0_array, np.zeros(3)
+    >>> d = drift_function("paper", ("d",))(z, z, z, z, J0, 1.3 * J0, fsm_parameters(paper)[0], z)
+    >>> np.asarray(d).ravel().tolist()
+    [0.0, 0.0, 0.0]
     """
     unknown = [o for o in outputs if o not in DRIFT_OUTPUTS]
     if unknown or not outputs:
@@ -174,25 +218,32 @@ def drift_function(error_model: str, outputs: tuple[str, ...] = DRIFT_OUTPUTS) -
 @functools.cache
 def _drift_expressions(error_model: str) -> tuple[tuple[ca.SX, ...], dict[str, ca.SX]]:
     """The symbolic inputs and outputs of :func:`drift_function` (built once per error model)."""
-    law, sliding = _load(f"control_law_{error_model}"), _load(f"sliding_{error_model}")
-    plant, const = _load("plant_rhs"), _load("sliding_constants")
+    fsm = _paper_law()
+    local = law_sx_function(fsm.folder, f"law_local_{error_model}")
+    control = law_sx_function(fsm.folder, f"law_control_{error_model}")
+    const = law_sx_function(fsm.folder, "law_constants")
+    plant = _load("plant_rhs")
     sym = ca.SX.sym
     sig, om, sigd = sym("sigma", 3), sym("omega", 3), sym("sigma_d", 3)
     se, we, wd, wdd, ud = sym("sigma_e", 3), sym("omega_e", 3), sym("omega_d", 3), sym("omega_d_dot", 3), sym("u_d", 3)
-    J0, J, gains, coord = sym("J0", 3, 3), sym("J", 3, 3), sym("gains", 6), sym("coordination", 3)
+    J0, J, params, coord = sym("J0", 3, 3), sym("J", 3, 3), sym("params", fsm.n_params), sym("coordination", 3)
     zero = ca.SX.zeros(3)
-    gc = const(gains)
-    law_out = law(sig, om, sigd, wd, wdd, gains, gc, J0, zero, 0, -coord, 1e300)
-    u = law_out[6]  # u_unsaturated: Theorem 2 ignores the torque limit
+    k, n = _offset(fsm, "delta")
+    p = ca.vertcat(params[:k], ca.SX.zeros(n), params[k + n :])  # delta = 0: the drift of eqs 30-33
+    gc = const(p)
+    z = ca.SX.zeros(fsm.n_states)
+    s, cache = local(0, sig, om, z, sigd, wd, wdd, J0, p, gc)
+    # coordination k_sum s - received = -(-coord); u_commanded: Theorem 2 ignores the torque limit
+    u = control(0, sig, om, z, sigd, wd, wdd, J0, p, gc, cache, 0, -coord, 0, 1e300)[1]
     sig_dot, om_dot = plant(sig, om, u + ud, J)
     sigd_dot, _ = plant(sigd, wd, zero, J0)  # G(sigma_d) omega_d
-    s = sliding(sig, om, sigd, wd, wdd, gains, gc)[0]
     x = ca.vertcat(sig, om, sigd, wd)
     xdot = ca.vertcat(sig_dot, om_dot, sigd_dot, wdd)
     s_dot = ca.jtimes(s, x, xdot)  # s does not depend on omega_d_dot (checked below)
     if ca.jacobian(s, wdd).nnz() != 0:  # pragma: no cover - structural guarantee of the generated code
         raise RuntimeError("the generated sliding variable depends on omega_d_dot; extend the derivative")
-    omega_r = sliding(se, zero, zero, wd, wdd, gains, gc)[3]
+    k, n = _cache_slot(fsm, "omega_r")
+    omega_r = local(0, se, zero, z, zero, wd, wdd, J0, p, gc)[1][k : k + n]
     state = ca.vertcat(sig, om, sigd)
     at = ca.vertcat(se, we + omega_r, zero)
     s_dot, s = ca.substitute([s_dot, s], [state], [at])
@@ -200,7 +251,7 @@ def _drift_expressions(error_model: str) -> tuple[tuple[ca.SX, ...], dict[str, c
     P = -ca.jacobian(s_dot, coord)
     A = ca.jacobian(d, ud)
     B = ca.jacobian(d, wdd)
-    return (se, we, wd, ud, J0, J, gains, wdd), {"d": d, "P": P, "A": A, "B": B, "s": s}
+    return (se, we, wd, ud, J0, J, params, wdd), {"d": d, "P": P, "A": A, "B": B, "s": s}
 
 
 def proportional_kappa(J0: np.ndarray, delta_J: np.ndarray) -> float | None:
@@ -256,8 +307,8 @@ def _state_samples(
     return sig, om, wd
 
 
-def _evaluate(fn: ca.Function, sig, om, wd, ud, J0, J, gains, wdd) -> list[np.ndarray]:
-    """``fn`` (a :func:`drift_function`) on the columns of ``sig, om, wd, ud, wdd`` (3, n), one ``J0, J, gains``.
+def _evaluate(fn: ca.Function, sig, om, wd, ud, J0, J, params, wdd) -> list[np.ndarray]:
+    """``fn`` (a :func:`drift_function`) on the columns of ``sig, om, wd, ud, wdd`` (3, n), one ``J0, J, params``.
 
     Returns each output in the layout of the ``DM`` results of ``fn.map(n)`` converted by ``np.array``:
     vectors (``d``, ``s``) as C-contiguous (3, n), matrices (``P``, ``A``, ``B``) as (n, 3, 3) views of a
@@ -266,7 +317,7 @@ def _evaluate(fn: ca.Function, sig, om, wd, ud, J0, J, gains, wdd) -> list[np.nd
     """
     n = sig.shape[1]
     args = [np.transpose(x) for x in (sig, om, wd, ud)]  # (n, 3): sample-major
-    args += [np.transpose(J0), np.transpose(J), gains, np.transpose(wdd)]  # matrices column-major
+    args += [np.transpose(J0), np.transpose(J), params, np.transpose(wdd)]  # matrices column-major
     out = []
     for v in evaluate_mapped(fn, n, args, shared=(4, 5, 6)):
         if v.ndim == 2:  # (n, 3) -> (3, n)
@@ -350,7 +401,7 @@ def delta_requirements(
     c = scenario.controller
     fn = drift_function(c.error_model)
     fn_dP = drift_function(c.error_model, ("d", "P"))  # the trajectory scan needs no A, B, s
-    gains = scenario.controller.gains_vector()
+    rows = fsm_parameters(scenario)
     rng = np.random.default_rng(seed)
     wd_bound = scenario.reference.omega.bound()
     wdd_bound = scenario.reference.omega.rate_bound()
@@ -364,8 +415,11 @@ def delta_requirements(
     else:
         times = np.arange(0.0, scenario.simulation.t_final + 0.5 * dt_reference, dt_reference)
         omega_d_t, omega_d_dot_t = _reference_signals(scenario, times)
-    gains_ref = gains.copy()
-    gains_ref[5] = 1.0  # TEMPORARY: "switch" (until the one-catalogue branch lands)  # at omega_e = 0 the Remark 6 slope multiplies sigma_e_dot = 0
+    fsm = _paper_law()
+    fix_at, _ = _offset(fsm, "singularity_fix")
+    rows_ref = rows.copy()  # at omega_e = 0 the Remark 6 slope multiplies sigma_e_dot = 0
+    rows_ref[:, fix_at] = fsm.parameter("singularity_fix").values("switch", "singularity_fix")[0]
+    fix_name = fsm.parameter("singularity_fix").choices[int(rows[0, fix_at])]
     # the sliding variable is the same for every agent (it does not involve J): bound it once for the coupling term
     Ki = scenario.topology.k_i_matrix()
     kj_max = scenario.topology.k_j_max_matrix()
@@ -382,10 +436,10 @@ def delta_requirements(
         # sigma_e_dot = 0 at the reference: evaluate it without the 0 * inf of an unfixed slope (gains_ref);
         # a zero region is the reference alone, evaluated once
         only_ref = bool(np.all(at_ref))
-        d, P, A, B, s = _evaluate(fn, sig, om, wd, zeros, J0, J, gains_ref if only_ref else gains, zeros)
+        d, P, A, B, s = _evaluate(fn, sig, om, wd, zeros, J0, J, rows_ref[i] if only_ref else rows[i], zeros)
         if np.any(at_ref) and not only_ref:
             r = _evaluate(
-                fn, sig[:, at_ref], om[:, at_ref], wd[:, at_ref], zeros[:, at_ref], J0, J, gains_ref, zeros[:, at_ref]
+                fn, sig[:, at_ref], om[:, at_ref], wd[:, at_ref], zeros[:, at_ref], J0, J, rows_ref[i], zeros[:, at_ref]
             )
             for full, part in zip((d, P, A, B, s), r, strict=True):
                 if full.ndim == 2:
@@ -405,7 +459,7 @@ def delta_requirements(
         if m:
             ud_t = agent.disturbance(times).T
             dt_, Pt = _evaluate(
-                fn_dP, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, gains_ref, omega_d_dot_t
+                fn_dP, np.zeros((3, m)), np.zeros((3, m)), omega_d_t, ud_t, J0, J, rows_ref[i], omega_d_dot_t
             )
             traj = _requirement(
                 kappa, dt_, Pt, np.zeros_like(Pt), np.zeros_like(Pt), u_bound * 0, wdd_bound * 0, coord_bound * 0
@@ -421,7 +475,7 @@ def delta_requirements(
         if not np.all(np.isfinite(region_req)):
             note += (
                 "; unbounded: ds/dt contains c2 alpha |sigma_e,k|^(alpha-1) sigma_e_dot,k, infinite at sigma_e,k = 0 "
-                f"with omega_e != 0 (Remark 6; singularity_fix = {c.singularity_fix})"
+                f"with omega_e != 0 (Remark 6; singularity_fix = {fix_name})"
             )
         agents.append(
             AgentDelta(
@@ -456,12 +510,12 @@ def delta_requirements(
         and not result.ok
         and all(all(cf > r for cf, r in zip(a.configured, a.reference_bound, strict=True)) for a in result.agents)
     ):
-        scale = _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_bound)
+        scale = _largest_scale(scenario, region, fn, rows, kappas, wd_bound, wdd_bound, s_bound)
         result = Theorem2Numeric(**{**result.__dict__, "largest_scale": scale})
     return Theorem2Numeric(**{**result.__dict__, "seconds": time.perf_counter() - t_start})
 
 
-def _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_bound, iters: int = 10) -> float:
+def _largest_scale(scenario, region, fn, rows, kappas, wd_bound, wdd_bound, s_bound, iters: int = 10) -> float:
     """Largest f (to 1.4 %, bisection on log10 f) with configured delta > requirement on the grid of f * region."""
     Ki = scenario.topology.k_i_matrix()
     kj_max = scenario.topology.k_j_max_matrix()
@@ -473,7 +527,7 @@ def _largest_scale(scenario, region, fn, gains, kappas, wd_bound, wdd_bound, s_b
         sig, om, wd = _state_samples(sub, wd_bound, 0, None, omega_vertices_only=True)
         zeros = np.zeros_like(sig)
         for i, agent in enumerate(scenario.agents):
-            d, P, A, B, _ = _evaluate(fn, sig, om, wd, zeros, np.array(agent.J0), agent.J_true, gains, zeros)
+            d, P, A, B, _ = _evaluate(fn, sig, om, wd, zeros, np.array(agent.J0), agent.J_true, rows[i], zeros)
             cb = (Ki[i].sum() + kj_max[i].sum()) * s_bound * f
             req = np.max(_requirement(kappas[i], d, P, A, B, agent.disturbance.bound(), wdd_bound, cb), axis=1)
             if not np.all(deltas[i] > req):
@@ -588,6 +642,46 @@ def fsm_deltas(scenario: Scenario) -> np.ndarray:
     if "delta" not in rows[0]:
         raise InputError(f"Theorem 2 concerns the paper's law and its delta; the scenario flies {scenario.law.name!r}")
     return np.array([row["delta"] for row in rows], dtype=float)
+
+
+def fsm_parameters(scenario: Scenario) -> np.ndarray:
+    """``(n_agents, n_params)``: the paper's law's packed parameters per agent, as the scenario flies them.
+
+    Theorem 2 is about the paper's law (``generated/laws/fsm``, Liang et al. 2012, eqs 13-19).  Its parameters
+    are the flown law's values (:meth:`fsmctl.Scenario.law_parameters`: written, preset or default) of the names
+    the paper's law declares, and the paper's law's defaults for the others (a law built on the paper's surface
+    shares its names).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+
+    Returns
+    -------
+    numpy.ndarray
+        One packed row per agent, in the order of ``resolve_law("fsm").parameters``.
+
+    Raises
+    ------
+    fsmctl.model.LawError
+        A flown value outside the paper's law's declared range.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.proofs.theorem2 import fsm_parameters
+    >>> fsm_parameters(fsmctl.paper_scenario("1").replace(controller={"surface": "tsm"}))[0].tolist()
+    [0.0, 0.8, 0.7, 0.001, 0.0001, 1.0, 0.005, 0.005, 0.005]
+    """
+    fsm = _paper_law()
+    rows = []
+    for values in scenario.law_parameters():
+        row: list[float] = []
+        for p in fsm.parameters:
+            row.extend(p.values(values[p.name], f"controller.{p.name}") if p.name in values else p.default)
+        rows.append(row)
+    return np.array(rows, dtype=float).reshape(scenario.n_agents, fsm.n_params)
 
 
 def format_vector(v: tuple[float, ...] | list[float] | np.ndarray) -> str:

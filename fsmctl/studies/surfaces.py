@@ -6,8 +6,8 @@ ideal sliding phase of a scalar error: FSM settles faster than TSM (same ``c2``)
 what the theorem leaves out: the reaching phase, the torque limit (saturation), the inertia
 uncertainty and disturbance of Case 1 (eq 29), and the coupling through the topology (eq 19).
 
-The surface is selected by :attr:`fsmctl.model.scenario.ControllerSettings.surface` (``tsm`` sets
-``c1 = 0``, ``lsm`` sets ``c2 = 0`` in the generated code).  Per agent it measures
+The surface is selected by the ``surface`` preset of the paper's law (``[controller] surface``: ``tsm`` sets
+``c1 = 0``, ``lsm`` sets ``c2 = 0``).  Per agent it measures
 
 * the reaching time: first time ``||s_i|| <= reach_threshold``;
 * the settling time: first time after which every ``|sigma_ei,k| <= sigma_tolerance``;
@@ -26,7 +26,7 @@ per-agent quantities above are measured on each run's result by the comparison's
 Remark 6 (the ``alpha |sigma_e|^(alpha-1)`` singularity) is handled for TSM exactly as for FSM:
 the generated code applies the scenario's ``singularity_fix`` (default ``switch``) to the term
 ``c2 sig(sigma_e)^alpha`` whatever ``c1`` is; :func:`remark6_treatment` reads the resulting slope
-of the surface at ``sigma_e = 0`` from the generated ``closed_loop`` function.
+of the surface at ``sigma_e = 0`` from the paper's law's generated ``law_local_paper`` (its broadcast ``s``).
 """
 
 from __future__ import annotations
@@ -129,7 +129,7 @@ def variant_scenario(scenario: Scenario, variant: Variant, surface: str) -> Scen
     variant : Variant
         Which features stay on.
     surface : str
-        ``"fsm"``, ``"tsm"`` or ``"lsm"`` (``controller.surface``).
+        ``"fsm"``, ``"tsm"`` or ``"lsm"`` (the paper's law's ``surface`` preset).
 
     Returns
     -------
@@ -142,8 +142,8 @@ def variant_scenario(scenario: Scenario, variant: Variant, surface: str) -> Scen
     >>> from fsmctl.studies import Variant
     >>> from fsmctl.studies.surfaces import variant_scenario
     >>> s = variant_scenario(fsmctl.paper_scenario("1"), Variant(False, True, False), "tsm")
-    >>> s.controller.surface, s.controller.torque_limit, len(s.topology.links)
-    ('tsm', inf, 0)
+    >>> s.law_parameters()[0]["c1"], s.controller.torque_limit, len(s.topology.links)
+    (0.0, inf, 0)
     """
     limit = scenario.controller.torque_limit
     if variant.torque_limit and not math.isfinite(limit):
@@ -158,6 +158,11 @@ def variant_scenario(scenario: Scenario, variant: Variant, surface: str) -> Scen
 
 
 # ----------------------------------------------------------------------------- Remark 6
+
+
+def _paper_law_scenario(scenario: Scenario, surface: str | None = None) -> Scenario:
+    """The scenario flying the paper's law (with a surface preset), as :func:`compare_surfaces` flies it."""
+    return scenario.replace(controller={"law": "fsm"} if surface is None else {"law": "fsm", "surface": surface})
 
 
 def remark6_treatment(scenario: Scenario) -> list[dict]:
@@ -177,7 +182,9 @@ def remark6_treatment(scenario: Scenario) -> list[dict]:
     -------
     list of dict
         Per surface: ``slope_at_zero_per_s``, ``slope_at_band_edge_per_s``, ``band_time_constant_s``,
-        the fix and ``epsilon``; computed by CasADi AD of the generated ``closed_loop`` function.
+        the fix and ``epsilon`` (of the first agent); computed by CasADi AD of the sliding variable ``s`` that the
+        paper's law broadcasts (its generated ``law_local_paper``) with respect to the attitude, at
+        ``sigma_d = 0`` and no rotation (there ``sigma_e = sigma`` and ``sigma_e_dot = 0``).
 
     Examples
     --------
@@ -192,26 +199,30 @@ def remark6_treatment(scenario: Scenario) -> list[dict]:
     """
     import casadi as ca
 
-    from fsmctl.model.generated_code import generated_dir, manifest
+    from fsmctl.model.generated_code import law_sx_function
+    from fsmctl.model.laws import parameter_matrix
 
-    entry = next(f for f in manifest()["functions"] if f["name"] == "closed_loop")
-    fn = ca.Function.deserialize((generated_dir() / entry["serialized"]).read_text())
     x = ca.SX.sym("x", 3)
+    z = ca.DM.zeros(3)
     out = []
     for surface in SURFACES:
-        c = scenario.replace(controller={"surface": surface}).controller
-        gains = c.gains_vector()
-        s = fn(x, ca.DM.zeros(3), gains, ca.DM.ones(3), ca.DM.zeros(3))[1]
+        sc = _paper_law_scenario(scenario, surface)
+        law, values = sc.law, sc.law_parameters()[0]
+        params = parameter_matrix(law, sc)[0]
+        local = law_sx_function(law.folder, "law_local_paper")  # at sigma_d = 0, omega = 0 both error models agree
+        constants = law_sx_function(law.folder, "law_constants")(params)
+        # s(sigma) at omega = 0, sigma_d = 0, omega_d = 0: c1 sigma_e + c2 phi(sigma_e) (eq 13, Remark 6's phi)
+        s = local(0, x, z, ca.DM.zeros(law.n_states), z, z, z, ca.DM.eye(3), params, constants)[0]
         slope = ca.Function("slope", [x], [ca.jacobian(s, x)[0, 0]])
-        at_zero = float(slope(ca.DM.zeros(3)))
-        edge = float(slope(ca.DM([c.epsilon * (1 + 1e-9), 0.0, 0.0])))
+        at_zero = float(slope(z))
+        edge = float(slope(ca.DM([values["epsilon"] * (1 + 1e-9), 0.0, 0.0])))
         out.append(
             {
                 "surface": surface,
-                "singularity_fix": c.singularity_fix,
-                "epsilon": c.epsilon,
-                "c1_used": float(gains[0]),
-                "c2_used": float(gains[1]),
+                "singularity_fix": values["singularity_fix"],
+                "epsilon": values["epsilon"],
+                "c1_used": values["c1"],
+                "c2_used": values["c2"],
                 "slope_at_zero_per_s": at_zero,
                 "slope_at_band_edge_per_s": edge,
                 "band_time_constant_s": 1.0 / at_zero if math.isfinite(at_zero) and at_zero > 0 else math.nan,
@@ -237,12 +248,16 @@ def _settling(time_s: np.ndarray, values: np.ndarray, threshold: float) -> float
     return settling_time(time_s, values, threshold)
 
 
-def _predicted_sliding_time(surface: str, sigma_e: np.ndarray, tol: float, c) -> float:
-    """Theorem 3 (eqs 34-36): time for every component to reach ``|x| <= tol`` on the ideal sliding mode."""
+def _predicted_sliding_time(surface: str, sigma_e: np.ndarray, tol: float, p: dict) -> float:
+    """Theorem 3 (eqs 34-36): time for every component to reach ``|x| <= tol`` on the ideal sliding mode.
+
+    ``p``: the agent's law parameters as flown (``c1``, ``c2``, ``alpha``; the surface's preset applied)."""
     from fsmctl.studies.theorem3 import closed_form_settling_time
 
     times = [
-        closed_form_settling_time(surface, float(x), tol, c.c1, c.c2, c.alpha) for x in sigma_e if abs(float(x)) > tol
+        closed_form_settling_time(surface, float(x), tol, p["c1"], p["c2"], p["alpha"])
+        for x in sigma_e
+        if abs(float(x)) > tol
     ]
     return max(times, default=0.0)
 
@@ -252,7 +267,7 @@ def _agent_rows(result, surface: str, variant: Variant, opts: dict) -> list[dict
 
     Called by :func:`fsmctl.studies.compare.compare_laws` with each finished run (its ``on_result`` hook)."""
     t = result.time
-    c = result.scenario.controller
+    flown = result.scenario.law_parameters()
     s_norm = np.linalg.norm(result.s, axis=2)
     sig_max = np.max(np.abs(result.sigma_e), axis=2)
     abs_u = np.sum(np.abs(result.u), axis=2)
@@ -263,7 +278,7 @@ def _agent_rows(result, surface: str, variant: Variant, opts: dict) -> list[dict
         settle = _settling(t, sig_max[:, i], opts["sigma_tolerance"])
         if math.isfinite(reach):
             k = int(np.searchsorted(t, reach))
-            predicted = _predicted_sliding_time(surface, result.sigma_e[k, i], opts["sigma_tolerance"], c)
+            predicted = _predicted_sliding_time(surface, result.sigma_e[k, i], opts["sigma_tolerance"], flown[i])
         else:
             predicted = math.nan
         agents.append(
@@ -619,9 +634,10 @@ def compare_surfaces(
                     ("metric_tolerance_deg", metric_tolerance_deg)):  # fmt: skip
         if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise InputError(f"{name} must be a finite number > 0, got {v}")
-    if sigma_tolerance <= scenario.controller.epsilon:
+    band = max(v["epsilon"] for v in _paper_law_scenario(scenario).law_parameters())
+    if sigma_tolerance <= band:
         raise InputError(
-            f"sigma_tolerance = {sigma_tolerance:g} must exceed the Remark 6 band epsilon = {scenario.controller.epsilon:g} "
+            f"sigma_tolerance = {sigma_tolerance:g} must exceed the Remark 6 band epsilon = {band:g} "
             "(inside the band the surface is linear and Theorem 3 does not apply)"
         )
     workers = renamed_keyword("compare_surfaces", "jobs", "workers", jobs, workers)

@@ -12,14 +12,15 @@ by eqs 34-36; Theorem 3 claims ``T_fsm < T_tsm`` and ``T_fsm < T_lsm`` (eqs 37-4
 
 This module *measures* those times by simulation and compares them with the closed forms:
 
-* the right-hand side is the generated CasADi function ``scalar_sliding_mode``
-  (``generated/``, derived in :func:`fsmctl.symbolic.controller.scalar_sliding_mode`), loaded from its
-  serialized form so that CVODES gets exact Jacobians;
+* the right-hand side is the paper's scalar sliding mode as the symbolic layer derives it
+  (:func:`fsmctl.symbolic.controller.scalar_sliding_mode`: one error component on the surface ``s = 0`` of eq 13),
+  translated exactly into a CasADi ``SX`` function (:func:`fsmctl.codegen.to_casadi_function`) so that
+  CVODES gets exact Jacobians;
 * CVODES integrates ``x`` itself (no change of state variable), with time rescaled to a
   horizon ``h`` (the local time scale ``|x|/|x_dot|``), horizon after horizon, until the
   output grid brackets the crossing ``|x| = tau``;
 * the crossing time is then refined by Newton's method on ``g(eta) = |x(t_a + eta)| - tau``,
-  whose derivative ``g'(eta) = sgn(x) f(x)`` is the generated right-hand side itself.
+  whose derivative ``g'(eta) = sgn(x) f(x)`` is that right-hand side itself.
 
 The closed forms are not re-typed here: they are the SymPy expressions the proof check
 derives and checks (:mod:`fsmctl.proofs.claims`, claim ``theorem3-closed-forms``),
@@ -106,7 +107,7 @@ def _check_inputs(mode: str, x0: float, tau: float, c1: float, c2: float, alpha:
 
 
 def _mode_gains(mode: str, c1: float, c2: float, alpha: float) -> tuple[float, float, float]:
-    """``c = [c1, c2, alpha]`` of the generated function: TSM sets c1 = 0, LSM sets c2 = 0 (Sec. 3.3)."""
+    """``c = [c1, c2, alpha]`` of the right-hand side: TSM sets c1 = 0, LSM sets c2 = 0 (Sec. 3.3)."""
     return (0.0 if mode == "tsm" else float(c1), 0.0 if mode == "lsm" else float(c2), float(alpha))
 
 
@@ -213,11 +214,18 @@ def closed_form_settling_time(mode: str, x0: float, tau: float, c1: float, c2: f
 
 @functools.cache
 def _scalar_rhs() -> ca.Function:
-    """The generated ``scalar_sliding_mode`` (x, c) -> x_dot, deserialized (differentiable SX function)."""
-    from fsmctl.model.generated_code import generated_dir, manifest
+    """``scalar_sliding_mode: (x, c) -> x_dot``, ``c = [c1, c2, alpha]``: the SymPy scalar sliding mode of Sec. 3.3
+    (:func:`fsmctl.symbolic.controller.scalar_sliding_mode`) as a differentiable CasADi SX function."""
+    import sympy as sp
 
-    entry = next(f for f in manifest()["functions"] if f["name"] == "scalar_sliding_mode")
-    return ca.Function.deserialize((generated_dir() / entry["serialized"]).read_text())
+    from fsmctl.codegen import to_casadi_function
+    from fsmctl.symbolic.controller import scalar_sliding_mode
+    from fsmctl.symbolic.symbols import vector_symbols
+
+    x = sp.ImmutableMatrix([sp.Symbol("x", real=True)])
+    c = vector_symbols("c", 3)
+    x_dot = sp.ImmutableMatrix([scalar_sliding_mode(x[0], c[0], c[1], c[2])])
+    return to_casadi_function("scalar_sliding_mode", [("x", x), ("c", c)], [("x_dot", x_dot)])
 
 
 @functools.cache
