@@ -367,7 +367,7 @@ def _isolated(name, parameters, t_final=60.0):
         {
             "name": "isolated",
             "simulation": {"t_final": t_final, "dt": 0.001, "output_interval": 0.01},
-            "controller": {"law": str(SCRIPTS[name]), "torque_limit": "inf", "delta": 0.005, **parameters},
+            "controller": {"law": str(SCRIPTS[name]), "torque_limit": "inf", **parameters},
             "reference": {"sigma0": [0.0, 0.0, 0.0], "omega": {}},
             "agents": [{"J0": J0_PAPER_1, "sigma0": [0.3, 0.2, -0.3], "omega0": [0.35, -0.13, 0.27]}],
             "topology": {"links": []},

@@ -178,7 +178,7 @@ def test_bad_runs_are_input_errors(short, laws, message):
 
 
 def test_bad_options(short, pd_law):
-    with pytest.raises(InputError, match="'surface' needs a law with c1 and c2"):
+    with pytest.raises(InputError, match="the law 'pd' has no parameter 'surface'"):
         run_scenario(short, LawRun("pd", str(pd_law), {"surface": "tsm"}))
     with pytest.raises(InputError, match="tolerances"):
         compare_laws(short, ["fsm"], tolerances_deg=(1.0, -1.0))

@@ -128,7 +128,8 @@ def test_default_scenario_is_untouched(settling):
     from fsmctl import paper_scenario
 
     c = paper_scenario("1").controller
-    assert (c.torque_limit, c.alpha, c.boundary_layer, c.error_model, str(c.law)) == (2.0, 0.7, 0.001, "paper", "fsm")
+    assert (c.torque_limit, c.error_model, str(c.law)) == (2.0, "paper", "fsm")
+    assert (c.parameters["alpha"], c.parameters["boundary_layer"]) == (0.7, 0.001)
 
 
 def test_no_setting_lists_the_ranges(tmp_path):
@@ -186,7 +187,8 @@ def test_setting_distance_rounding_and_grid():
     assert settings["error_mrp"].distance("unswitched") == 1.0
     tables = settings["error_mrp"].tables("unswitched")
     assert tables == {"controller": {"law": str(law_script(UNSWITCHED_LAW))}}
-    assert settings["delta"].tables(0.05) == {"controller": {"delta": [0.05, 0.05, 0.05]}}
+    assert settings["delta"].tables(0.05) == {"controller": {"delta": 0.05}}  # every axis of every agent
+    assert paper_scenario("1").replace(**settings["delta"].tables(0.05)).law_parameters()[5]["delta"] == (0.05,) * 3
     assert settings["tolerance"].grading and settings["tolerance"].tables(0.1) == {}
 
 

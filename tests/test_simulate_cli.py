@@ -387,10 +387,10 @@ def test_simulate_flies_a_derived_law_with_set_parameters(pd_law, tmp_path, caps
         capsys,
     )
     assert rc == 0, err
-    assert f"law: pd ({folder})" in out and "parameters K=0, P=0.0" in out
+    assert "law: pd (pd.py)" in out and "law parameters: K=0.0 P=0.0" in out
     summary = json.loads((tmp_path / "zero" / "summary.json").read_text())
     assert summary["law"] == str(folder)
-    assert summary["overrides"]["controller"] == {"law": str(folder), "parameters": {"K": 0, "P": 0.0}}
+    assert summary["overrides"]["controller"] == {"law": str(folder), "K": 0, "P": 0.0}
     rc, _, err = _run(["simulate", *short, "--set", "enabled=false", "--out", str(tmp_path / "open")], capsys)
     assert rc == 0, err
     sigma_zero, u_zero = _sigma(tmp_path / "zero")
@@ -438,7 +438,7 @@ def test_montecarlo_flies_a_derived_law(pd_law, tmp_path):
     assert any(line.startswith(f"  law: pd ({folder}), parameters K=2.0") for line in head[:12]), head[:12]
     assert "2 ok, 0 failed" in proc.stdout
     meta = json.loads((tmp_path / "mc" / "campaign.json").read_text())
-    assert json.loads(meta["controller"]) == {"law": str(folder), "parameters": {"K": 2.0}}  # the law is recorded
+    assert json.loads(meta["controller"]) == {"law": str(folder), "K": 2.0}  # the law is recorded
     resume = subprocess.run([*cmd, "--resume"], capture_output=True, text=True, timeout=120)
     assert resume.returncode == 0, resume.stderr  # same law and parameters: nothing left to run
     other = [*cmd[:-2], "--set", "K=3.0", "--out", str(tmp_path / "mc"), "--resume"]

@@ -13,6 +13,7 @@ import csv
 import dataclasses
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import oracle_numpy as oracle
@@ -49,7 +50,7 @@ def test_remark6_slope_matches_derive(paper_case1):
     """The generated surface's slope at sigma_e = 0 and at the band edge equals c1 + c2 phi'(x) of derive (SymPy)."""
     from fsmctl.symbolic.controller import SingularityFix, surface_term_slope
 
-    c = paper_case1.controller
+    c = SimpleNamespace(**paper_case1.law_parameters()[0])
     x = sp.Symbol("x", real=True)
     phi_slope = surface_term_slope(x, sp.nsimplify(c.alpha), SingularityFix.SWITCH, sp.nsimplify(c.epsilon))
     rows = {r["surface"]: r for r in sf.remark6_treatment(paper_case1)}
@@ -116,7 +117,7 @@ def test_per_agent_measurements_against_the_trajectory(ideal_rerun):
     (int sum_k |u_ik| dt, trapezoid on the output samples) and Theorem 3's prediction (eqs 34-36 from
     sigma_e at reaching, by the NumPy oracle), all recomputed here from the re-simulated trajectory."""
     r, rows, run = ideal_rerun
-    t, c = r.time, r.scenario.controller
+    t, c = r.time, SimpleNamespace(**r.scenario.law_parameters()[0])
     assert [a["agent"] for a in rows] == [1, 2, 3, 4, 5, 6]
     efforts, reaches = [], []
     for i, a in enumerate(rows):

@@ -251,9 +251,7 @@ def test_wheels_heavier_than_the_spacecraft_are_refused():
 def test_adaptive_steps_with_a_wheel_speed_limit_are_warned_about():
     from fsmctl.simulation.simulator import DiscontinuousControlWarning
 
-    s = _spin(0.5, torque_z=0.2, max_speed=20.0).replace(
-        simulation={"integrator": "dopri45"}, controller={"boundary_layer": 0.01}
-    )
+    s = _spin(0.5, torque_z=0.2, max_speed=20.0).replace(simulation={"integrator": "dopri45"})
     with pytest.warns(DiscontinuousControlWarning, match="wheel speed limit"):
         fsmctl.simulate(s)
 
@@ -294,5 +292,5 @@ def test_dopri45_counts_wheel_saturation_at_each_step_start_like_rk4():
     )  # fmt: skip
     rk4 = fsmctl.simulate(s)
     with pytest.warns(simulator.DiscontinuousControlWarning):
-        dopri = fsmctl.simulate(s.replace(simulation={"integrator": "dopri45"}, controller={"boundary_layer": 0.01}))
+        dopri = fsmctl.simulate(s.replace(simulation={"integrator": "dopri45"}))
     assert abs(dopri.saturated_time[0] - rk4.saturated_time[0]) < 0.01

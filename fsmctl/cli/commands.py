@@ -194,7 +194,8 @@ def run(args: argparse.Namespace) -> int:
 
             for name, fig in simulation_figures(result, tolerances_deg=(0.03, 0.01)).items():
                 files += [str(p) for p in save_figure(fig, out / f"{label}_{name}")]
-        return _write_summary(args, scenario, controller, simulation, summary, files, out, result_path)
+        overrides = {**({"law": law} if law is not None else {}), **controller, **parameters}
+        return _write_summary(args, scenario, overrides, simulation, summary, files, out, result_path)
 
 
 def _base_scenario(args: argparse.Namespace):

@@ -69,11 +69,10 @@ _ATTRS = {
     "attitude": ["quaternion_from_mrp", "mrp_from_quaternion"],
     "actuators": ["spin_inertia_matrix", "distribution_matrix", "distribute", "max_body_torque"],
     "noise": ["hardware_noise", "allan_deviation", "random_walk_coefficients"],
+    "generated_paths": ["generated_dir", "GeneratedCodeError"],
     "generated_code": [
         "backend",
         "compiled_library",
-        "generated_dir",
-        "GeneratedCodeError",
         "CompilerUnavailableWarning",
         "LibraryCacheWarning",
     ],

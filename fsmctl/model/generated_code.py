@@ -89,10 +89,11 @@ import time
 import warnings
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
 import casadi as ca
+
+from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 
 try:
     import fcntl
@@ -102,8 +103,6 @@ except ImportError:  # pragma: no cover - Windows: no advisory locks, os.replace
 __all__ = [
     "CompilerUnavailableWarning",
     "LibraryCacheWarning",
-    "GeneratedCodeError",
-    "generated_dir",
     "manifest",
     "layout",
     "compiled_library",
@@ -164,45 +163,6 @@ class LibraryCacheWarning(RuntimeWarning):
     """
 
 
-class GeneratedCodeError(RuntimeError):
-    """``generated/`` is missing, inconsistent with its manifest, or failed to compile.
-
-    Regenerate it with ``python -m derive`` (``python -m derive --check`` tells whether it is stale).
-
-    Examples
-    --------
-    >>> from fsmctl.model import GeneratedCodeError
-    >>> issubclass(GeneratedCodeError, RuntimeError)
-    True
-    """
-
-
-def generated_dir() -> Path:
-    """The folder of generated code (``generated/`` of the source tree or the installed package data).
-
-    Returns
-    -------
-    pathlib.Path
-        The folder holding ``manifest.json``, ``c/``, ``casadi/`` and ``laws/``.
-
-    Raises
-    ------
-    GeneratedCodeError
-        The package data is not installed or has no ``manifest.json``.
-
-    Examples
-    --------
-    >>> from fsmctl.model import generated_dir
-    >>> (generated_dir() / "manifest.json").is_file(), (generated_dir() / "laws" / "fsm").is_dir()
-    (True, True)
-    """
-    try:
-        path = Path(str(resources.files("fsmctl._generated")))
-    except ModuleNotFoundError as exc:  # pragma: no cover - broken installation
-        raise GeneratedCodeError("fsmctl._generated is not installed; run `python -m derive`") from exc
-    if not (path / "manifest.json").is_file():
-        raise GeneratedCodeError(f"{path}/manifest.json not found; run `python -m derive` to generate code")
-    return path
 
 
 @functools.cache
@@ -263,13 +223,6 @@ def default_law_dir() -> Path:
 def _sources(law_dir: Path) -> list[Path]:
     gen = generated_dir()
     return sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(_driver_dir().glob("*.c"))
-
-
-def _cache_root() -> Path:
-    if os.environ.get("FSMCTL_CACHE_DIR"):
-        return Path(os.environ["FSMCTL_CACHE_DIR"])
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "fsmctl"
 
 
 def _compiler() -> str | None:
@@ -791,7 +744,7 @@ def _library_anywhere(
         No library can be built or loaded anywhere.
     """
     try:
-        root = _cache_root()
+        root = cache_root()
     except RuntimeError as exc:  # Path.home(): no home folder to hold the default cache
         problem = f"there is no folder for the compiled-library cache ({exc})"
     else:

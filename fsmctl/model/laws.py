@@ -29,7 +29,7 @@ import numpy as np
 
 from fsmctl import __version__
 from fsmctl.errors import InputError
-from fsmctl.model.generated_code import GeneratedCodeError, _cache_root, generated_dir
+from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 from fsmctl.ranges import ParameterRange
 
 __all__ = [
@@ -84,7 +84,7 @@ class LawSwitchWarning(UserWarning):
     ...     warnings.simplefilter("always")
     ...     pid = fsmctl.paper_scenario("1").replace(controller={"law": "pid"})
     >>> print(caught[0].message)  # doctest: +ELLIPSIS
-    law 'pid' flown instead of 'fsm': written keys applied: none; ignored (not parameters of pid): c1, c2, ...
+    law 'pid' flown instead of 'fsm': written keys applied: none; ignored (not parameters of pid): alpha, ...
     """
 
 
@@ -554,7 +554,7 @@ def builtin_laws() -> dict[str, LawCode]:
 
 
 def _law_cache_root() -> Path:
-    return _cache_root() / "laws"
+    return cache_root() / "laws"
 
 
 def _script_key(path: Path) -> str:

@@ -234,8 +234,14 @@ class PackedProblem:
 
 
 def pack(scenario: Scenario, law: LawCode | str | None = None) -> PackedProblem:
-    """Flatten a validated scenario (flying ``law``, default the scenario's ``controller.law``)."""
-    law = resolve_law(scenario.controller.law if law is None else law)
+    """Flatten a validated scenario (flying ``law``, default the scenario's ``controller.law``).
+
+    Another ``law`` is flown by the rule of :meth:`fsmctl.Scenario.replace`: the scenario's written keys that it
+    declares apply, the others are dropped (one :class:`~fsmctl.model.laws.LawSwitchWarning` says which).
+    """
+    if law is not None and resolve_law(law).folder != scenario.law.folder:
+        scenario = scenario.replace(controller={"law": str(resolve_law(law).folder)})
+    law = resolve_law(scenario.controller.law)
     agents = scenario.agents
     n = len(agents)
     c = scenario.controller

@@ -1521,8 +1521,9 @@ class Scenario:
             changes["agents"] = _agent_changes(self.agents, agents)
         if topology is not None:
             changes["topology"] = topology
-        if "controller" in changes and "parameters" not in (sections.get("controller") or {}):
-            changes = _switch_law(self, changes)
+        asked = sections.get("controller")
+        if isinstance(asked, Mapping) and "parameters" not in asked:
+            changes = _switch_law(self, changes, given={k for k in asked if k not in _CONTROLLER_FIELDS})
         return dataclasses.replace(self, **changes)
 
     def with_law(self, law: str | Path | None = None, parameters: Mapping[str, Any] | None = None) -> Scenario:
@@ -1731,30 +1732,70 @@ def _agent_changes(agents: tuple[Agent, ...], new: Any) -> tuple[Agent, ...]:
     return tuple(out)
 
 
-def _switch_law(scenario: Scenario, changes: dict[str, Any]) -> dict[str, Any]:
-    """Flying another law: keep the written keys it declares, drop the others, and say which (one warning)."""
+def _warn_law_switch(old: LawCode, new: LawCode, applied: list[str], ignored: list[str], stacklevel: int) -> None:
+    """The one line that says which written keys another law flies with (:class:`LawSwitchWarning`)."""
+    warnings.warn(
+        f"law {new.name!r} flown instead of {old.name!r}: written keys applied: {', '.join(applied) or 'none'}; "
+        f"ignored (not parameters of {new.name}): {', '.join(ignored) or 'none'}",
+        LawSwitchWarning,
+        stacklevel=stacklevel,
+    )
+
+
+def _switched_tables(base: dict, over: Mapping, where: str) -> dict:
+    """``base`` as the tables ``over`` is merged onto (``extends``, a case): when ``over`` sets another law, the
+    base's written keys that the new law does not declare are dropped, as :meth:`Scenario.replace` drops them."""
+    over_ctrl, base_ctrl = over.get("controller"), base.get("controller")
+    if not isinstance(over_ctrl, Mapping) or "law" not in over_ctrl or not isinstance(base_ctrl, Mapping):
+        return base
+    default = ControllerSettings.__pydantic_fields__["law"].default
+    try:
+        old, new = resolve_law(base_ctrl.get("law", default)), resolve_law(over_ctrl["law"])
+    except LawError as exc:
+        raise ScenarioError(f"{where}.controller.law: {exc}") from None
+    if old.folder == new.folder:
+        return base
+    keys, own = set(written_keys(new)), {*_CONTROLLER_FIELDS, *AGENT_DEFAULT_KEYS}
+    out = copy.deepcopy(base)
+    ctrl = out["controller"]
+    nested = ctrl.get("parameters") if isinstance(ctrl.get("parameters"), dict) else {}
+    written = [k for k in ctrl if k not in own] + list(nested)
+    applied, ignored = sorted(k for k in written if k in keys), sorted(k for k in written if k not in keys)
+    for k in ignored:
+        ctrl.pop(k, None)
+        nested.pop(k, None)
+    agents = out.get("agents") if "agents" not in over and isinstance(out.get("agents"), list) else []
+    for index, agent in enumerate(agents, start=1):
+        if isinstance(agent, dict):
+            for k in [k for k in agent if k not in AGENT_KEYS and k != "parameters"]:
+                (applied if k in keys else ignored).append(f"agents[{index}].{k}")
+                if k not in keys:
+                    del agent[k]
+    if applied or ignored:
+        _warn_law_switch(old, new, applied, ignored, stacklevel=5)
+    return out
+
+
+def _switch_law(scenario: Scenario, changes: dict[str, Any], given: set[str]) -> dict[str, Any]:
+    """Flying another law: keep the scenario's written keys it declares, drop the others, and say which (one
+    warning); the keys ``given`` with the switch are the new law's own (checked as any written key)."""
     controller = changes["controller"]
     if not isinstance(controller, Mapping):
         return changes
     old, new = scenario.law, resolve_law(controller["law"])
     if old.folder == new.folder:
         return changes
-    keys = set(written_keys(new))
+    keys = set(written_keys(new)) | given
     agents = changes.get("agents", scenario.agents)
     written = dict(controller["parameters"])
-    applied = sorted(k for k in written if k in keys)
+    applied = sorted(k for k in written if k in keys and k not in given)
     ignored = sorted(k for k in written if k not in keys)
     for index, agent in enumerate(agents, start=1):
         applied += [f"agents[{index}].{k}" for k in agent.parameters if k in keys]
         ignored += [f"agents[{index}].{k}" for k in agent.parameters if k not in keys]
     if not (applied or ignored):
         return changes
-    warnings.warn(
-        f"law {new.name!r} flown instead of {old.name!r}: written keys applied: {', '.join(applied) or 'none'}; "
-        f"ignored (not parameters of {new.name}): {', '.join(ignored) or 'none'}",
-        LawSwitchWarning,
-        stacklevel=3,
-    )
+    _warn_law_switch(old, new, applied, ignored, stacklevel=4)
     out = dict(changes)
     out["controller"] = {**controller, "parameters": {k: v for k, v in written.items() if k in keys}}
     out["agents"] = tuple(
@@ -1936,7 +1977,7 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
         _unknown(override, TOP_KEYS, f"cases.{case}")
         if "agents" in override:
             raise ScenarioError(f"cases.{case}: cases cannot replace the agent list (override controller.* instead)")
-        merged = _deep_merge(merged, override)
+        merged = _deep_merge(_switched_tables(merged, override, f"cases.{case}"), override)
     for key in ("controller", "reference", "agents", "topology"):
         if key not in merged:
             raise ScenarioError(f"{key}: missing")
@@ -2051,7 +2092,8 @@ def _resolve_extends(data: dict, where: str, folder: Path | None, seen: tuple[st
         base_folder = path.parent
         _laws_relative_to(base, base_folder)
     base = _resolve_extends(base, f"{where}.extends", base_folder, (*seen, base_name))
-    merged = _deep_merge(base, {k: v for k, v in data.items() if k != "extends"})
+    own = {k: v for k, v in data.items() if k != "extends"}
+    merged = _deep_merge(_switched_tables(base, own, where), own)
     return merged
 
 
