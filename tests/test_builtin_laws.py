@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ import pytest
 import fsmctl
 from fsmctl.codegen.laws import load_derivation_script
 from fsmctl.errors import InputError
-from fsmctl.model.laws import initial_law_states, resolve_law
+from fsmctl.model.laws import LawSwitchWarning, initial_law_states, resolve_law
 from fsmctl.model.scenario import scenario_from_dict
 from fsmctl.simulation.simulator import simulate
 from fsmctl.symbolic.law import LawBuilder, LawDefinitionError, law_variants
@@ -315,12 +316,14 @@ def test_declared_metadata():
 
 
 def _paper(name, parameters, t_final=20.0, **typed):
-    """The paper's Case 1 flying a law, without the torque limit (the paper's typed keys apply, e.g. its
-    boundary_layer = 0.001)."""
-    return fsmctl.paper_scenario("1").replace(
-        controller={"law": str(SCRIPTS[name]), "parameters": parameters, "torque_limit": math.inf, **typed},
-        simulation={"t_final": t_final},
-    )
+    """The paper's Case 1 flying a law, without the torque limit (the paper's written keys that the law declares
+    carry over, e.g. its boundary_layer = 0.001)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LawSwitchWarning)
+        return fsmctl.paper_scenario("1").replace(
+            controller={"law": str(SCRIPTS[name]), **parameters, "torque_limit": math.inf, **typed},
+            simulation={"t_final": t_final},
+        )
 
 
 def test_pid_closed_loop_converges_and_integrates_sigma_e():
@@ -345,7 +348,7 @@ def test_super_twisting_closed_loop_converges():
 
 def test_adaptive_fsm_closed_loop_adapts_within_bounds():
     r = simulate(_paper("adaptive_fsm", {}))
-    assert r.scenario.controller.boundary_layer == 0.001  # the paper scenario's, a typed key
+    assert r.scenario.law_parameters()[0]["boundary_layer"] == 0.001  # carried over from the paper scenario
     theta = np.degrees(r.theta_e)
     assert theta[-1].max() < 0.01 and np.all(theta[-1] < theta[0])
     delta_hat = r.z  # (T, n, 3)

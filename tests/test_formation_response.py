@@ -8,7 +8,6 @@ system names), the formation of a scenario built with the changed gain, and the 
 
 from __future__ import annotations
 
-import dataclasses
 import importlib
 import subprocess
 import sys
@@ -293,9 +292,7 @@ def test_a_gain_by_name_in_params_is_the_formation_built_with_that_gain(two):
     assert np.abs(changed.outputs - base.outputs).max() > 1e-4
     # per-agent delta (eq 18) by name, for every agent, is the scenario whose agents carry it
     d = [0.02, 0.01, 0.03]
-    built = respond(
-        fsmctl.formation(two.replace(agents=[{"delta": d}] * two.n_agents)), two
-    )
+    built = respond(fsmctl.formation(two.replace(agents=[{"delta": d}] * two.n_agents)), two)
     assert np.array_equal(respond(loop, two, params={"delta": d}).outputs, built.outputs)
     # the prefixed key of one agent wins over the bare name for that agent
     mixed = respond(loop, two, params={"c1": 1.3, "ctrl2_c1": 0.6, "alpha": 0.6})

@@ -22,7 +22,7 @@ from fsmctl.model.scenario import ScenarioError, load_scenario
 # A PD law whose gains carry the names of two of the paper's law's options, with defaults far from the paper
 # scenario's values (epsilon = 1e-4 and boundary_layer = 0.001 there): before issue 23 the typed [controller]
 # settings supplied 1e-4 and 0 to any law parameter of these names, even when the file never wrote them.
-NAME_CLASH_LAW = '''
+NAME_CLASH_LAW = """
 from fsmctl.symbolic.law import LawBuilder
 
 
@@ -34,7 +34,7 @@ def law(error_model):
     b.broadcast("sigma_e", e.sigma_e)
     b.torque(-kp * e.sigma_e - kd * e.omega_e)
     return b.build()
-'''
+"""
 
 RING = """
 name = "ring3"

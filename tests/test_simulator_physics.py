@@ -237,7 +237,11 @@ def rigid_bodies(draw):
 def test_torque_free_conservation_for_random_bodies(paper, body):
     J, sigma0, omega0 = body
     agent = fsmctl.Agent(
-        J0=tuple(map(tuple, J)), delta_J=ZERO3x3, sigma0=tuple(sigma0), omega0=tuple(omega0), parameters={"delta": (0.01,) * 3}
+        J0=tuple(map(tuple, J)),
+        delta_J=ZERO3x3,
+        sigma0=tuple(sigma0),
+        omega0=tuple(omega0),
+        parameters={"delta": (0.01,) * 3},
     )
     s = with_agents(
         paper,
@@ -259,7 +263,11 @@ def test_shadow_switching_keeps_the_attitude_and_theta_continuous(paper):
     """A spin at 1 rad/s about a principal axis through 180 deg: sigma jumps to its shadow, the attitude does not."""
     J = np.diag([100.0, 150.0, 200.0])
     agent = fsmctl.Agent(
-        J0=tuple(map(tuple, J)), delta_J=ZERO3x3, sigma0=(0.0, 0.0, 0.0), omega0=(0.0, 0.0, 1.0), parameters={"delta": (0.01,) * 3}
+        J0=tuple(map(tuple, J)),
+        delta_J=ZERO3x3,
+        sigma0=(0.0, 0.0, 0.0),
+        omega0=(0.0, 0.0, 1.0),
+        parameters={"delta": (0.01,) * 3},
     )
     s = with_agents(
         paper,

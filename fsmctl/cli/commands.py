@@ -155,7 +155,9 @@ def run(args: argparse.Namespace) -> int:
     law, parameters, controller = law_changes(args)  # --law, --set
     if args.boundary_layer is not None:
         parameters["boundary_layer"] = args.boundary_layer
-    controller |= {k: v for k, v in (("error_model", args.error_model), ("torque_limit", args.torque_limit)) if v is not None}
+    controller |= {
+        k: v for k, v in (("error_model", args.error_model), ("torque_limit", args.torque_limit)) if v is not None
+    }
     simulation = {
         k: v
         for k, v in (

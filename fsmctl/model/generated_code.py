@@ -163,8 +163,6 @@ class LibraryCacheWarning(RuntimeWarning):
     """
 
 
-
-
 @functools.cache
 def manifest() -> dict:
     """The parsed ``manifest.json`` of the generated code.

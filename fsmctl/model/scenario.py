@@ -303,7 +303,9 @@ def _law_parameter_value(key: str, v: Any) -> Any:
         return v.lower()  # option names are case-insensitive, stored and printed in lower case
     if isinstance(v, (list, tuple, np.ndarray)):
         items = list(np.asarray(v, dtype=object).ravel()) if isinstance(v, np.ndarray) else list(v)
-        if any(isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.integer, np.floating)) for x in items):
+        if any(
+            isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, float, np.integer, np.floating)) for x in items
+        ):
             raise ValueError(f"{key}: a vector parameter holds numbers, got {list(v)!r}")
         return tuple(float(x) for x in items)
     if isinstance(v, (bool, np.bool_)):

@@ -671,7 +671,7 @@ def _law_parameters_section() -> list[str]:
         "value names a preset that fixes some parameters, over the values written for them. A written key the "
         "law does not declare is an error that names the law and its parameters.",
         "",
-        "Flying another law on a scenario (`--law`, `scenario.replace(controller={\"law\": ...})`) keeps the written "
+        'Flying another law on a scenario (`--law`, `scenario.replace(controller={"law": ...})`) keeps the written '
         "keys that the new law declares, by name, and drops the others; one warning line says which "
         "(`LawSwitchWarning`). `--set KEY=VALUE` sets a parameter for every agent (the agents' own values of it "
         "give way).",
@@ -679,7 +679,7 @@ def _law_parameters_section() -> list[str]:
     ]
     head = "| parameter | default | unit | range | meaning |\n|---|---|---|---|---|"
     for name, law in builtin_laws().items():
-        out += [f"### `law = \"{name}\"`", "", law.doc.split("\n")[0], "", head]
+        out += [f'### `law = "{name}"`', "", law.doc.split("\n")[0], "", head]
         for p in law.parameters:
             out.append(f"| `{p.name}` | {p.default_text()} | {p.unit} | {p.range_text()} | {p.doc} |")
         for g in law.presets:

@@ -385,7 +385,6 @@ def run_scenario(scenario: Scenario, run: LawRun) -> Scenario:
         raise InputError(f"{where}: {exc}") from None
 
 
-
 # ----------------------------------------------------------------------------- metrics
 
 
