@@ -184,3 +184,18 @@ def test_set_overrides_the_agents_own_values(tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # same law: nothing to report
         base.with_law("pid", {"K": 2.0})
+
+
+def test_prove_reads_the_flown_laws_defaults_for_a_scenario_that_writes_none(tmp_path, capsys):
+    """A ring whose [controller] leaves the paper's law's parameters to their defaults: `fsmctl prove` ended in
+    `internal error: TypeError` (alpha unset) or `agents[0].delta: expected 3 numbers, got 1` (delta unset)."""
+    path = ring(tmp_path, "fsm")
+    code = main(["prove", "--scenario", str(path), "--json", "theorem1-gains", "theorem2-delta"])
+    captured = capsys.readouterr()
+    assert code in (0, 1), captured.err  # 1: a claim fails for this scenario, as the paper's does
+    assert "internal error" not in captured.err and "Traceback" not in captured.err
+    import json
+
+    claims = {c["id"]: c for c in json.loads(captured.out)["claims"]}
+    assert set(claims) == {"theorem1-gains", "theorem2-delta"}
+    assert "0.005" in json.dumps(claims["theorem2-delta"])  # the declared default delta, every agent

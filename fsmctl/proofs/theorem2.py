@@ -638,10 +638,13 @@ def fsm_deltas(scenario: Scenario) -> np.ndarray:
     InputError
         The scenario's law has no ``delta`` (Theorem 2 is about the paper's law).
     """
-    rows = scenario.law_parameters()
-    if "delta" not in rows[0]:
-        raise InputError(f"Theorem 2 concerns the paper's law and its delta; the scenario flies {scenario.law.name!r}")
-    return np.array([row["delta"] for row in rows], dtype=float)
+    theorems = scenario.law.paper_theorems  # the law's declaration that it is eqs 13-19, with its names
+    if theorems is None:
+        raise InputError(
+            f"Theorem 2 concerns the paper's law and its delta; the scenario flies {scenario.law.name!r}, which does "
+            "not declare the paper's theorems (LawBuilder.paper_theorems)"
+        )
+    return np.array([row[theorems.parameters["delta"]] for row in scenario.law_parameters()], dtype=float)
 
 
 def fsm_parameters(scenario: Scenario) -> np.ndarray:
@@ -675,11 +678,15 @@ def fsm_parameters(scenario: Scenario) -> np.ndarray:
     [0.0, 0.8, 0.7, 0.001, 0.0001, 1.0, 0.005, 0.005, 0.005]
     """
     fsm = _paper_law()
+    theorems = scenario.law.paper_theorems
+    # the flown law's name of each of the paper's parameters: declared (LawBuilder.paper_theorems), else the same
+    names = dict(theorems.parameters) if theorems is not None else {p.name: p.name for p in fsm.parameters}
     rows = []
     for values in scenario.law_parameters():
         row: list[float] = []
         for p in fsm.parameters:
-            row.extend(p.values(values[p.name], f"controller.{p.name}") if p.name in values else p.default)
+            name = names.get(p.name)
+            row.extend(p.values(values[name], f"controller.{name}") if name in values else p.default)
         rows.append(row)
     return np.array(rows, dtype=float).reshape(scenario.n_agents, fsm.n_params)
 

@@ -31,6 +31,7 @@ cancellation error of its own (``alpha`` near 1 makes eq 34 a ratio of nearly eq
 from __future__ import annotations
 
 import csv
+import dataclasses
 import functools
 import itertools
 import math
@@ -46,6 +47,8 @@ from fsmctl.errors import InputError
 __all__ = [
     "MODES",
     "MODE_LABELS",
+    "SURFACE_MODES",
+    "SurfaceMode",
     "SettlingTimeInputError",
     "SettlingTimeMeasurement",
     "ScalarGrid",
@@ -60,8 +63,33 @@ __all__ = [
     "plot_settling_time_against_initial_error",
 ]
 
-MODES = ("fsm", "tsm", "lsm")
-MODE_LABELS = {"fsm": "FSM (eq 34)", "tsm": "TSM (eq 35)", "lsm": "LSM (eq 36)"}
+@dataclasses.dataclass(frozen=True)
+class SurfaceMode:
+    """One sliding surface of Sec. 3.3 in the scalar study: its label and which gains it keeps (eqs 34-36).
+
+    Parameters
+    ----------
+    label : str
+        How tables and figures name it.
+    linear : bool
+        Whether it keeps the linear gain ``c1`` (FSM, LSM); TSM sets it to 0.
+    terminal : bool
+        Whether it keeps the terminal gain ``c2`` (FSM, TSM); LSM sets it to 0.
+    """
+
+    label: str
+    linear: bool
+    terminal: bool
+
+
+SURFACE_MODES = {
+    "fsm": SurfaceMode("FSM (eq 34)", linear=True, terminal=True),
+    "tsm": SurfaceMode("TSM (eq 35)", linear=False, terminal=True),
+    "lsm": SurfaceMode("LSM (eq 36)", linear=True, terminal=False),
+}
+"""the surfaces of Theorem 3, one typed entry each"""
+MODES = tuple(SURFACE_MODES)
+MODE_LABELS = {name: m.label for name, m in SURFACE_MODES.items()}
 _GRID_POINTS = 16
 """output points per horizon used to bracket the crossing"""
 _MAX_ROUNDS = 2000
@@ -100,15 +128,16 @@ def _check_inputs(mode: str, x0: float, tau: float, c1: float, c2: float, alpha:
         raise SettlingTimeInputError(
             f"|x0| must exceed tau (|x0| = {abs(x0)}, tau = {tau}): the settling time would be 0"
         )
-    if mode in ("fsm", "lsm") and not c1 > 0:
+    if SURFACE_MODES[mode].linear and not c1 > 0:
         raise SettlingTimeInputError(f"c1 must be > 0 for the {mode.upper()} mode, got {c1}")
-    if mode in ("fsm", "tsm") and not c2 > 0:
+    if SURFACE_MODES[mode].terminal and not c2 > 0:
         raise SettlingTimeInputError(f"c2 must be > 0 for the {mode.upper()} mode, got {c2}")
 
 
 def _mode_gains(mode: str, c1: float, c2: float, alpha: float) -> tuple[float, float, float]:
     """``c = [c1, c2, alpha]`` of the right-hand side: TSM sets c1 = 0, LSM sets c2 = 0 (Sec. 3.3)."""
-    return (0.0 if mode == "tsm" else float(c1), 0.0 if mode == "lsm" else float(c2), float(alpha))
+    m = SURFACE_MODES[mode]
+    return (float(c1) if m.linear else 0.0, float(c2) if m.terminal else 0.0, float(alpha))
 
 
 # ----------------------------------------------------------------------------- closed forms (single source)
