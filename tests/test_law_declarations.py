@@ -17,6 +17,7 @@ import pytest
 
 import fsmctl
 from fsmctl.model import LawPresetGroup, builtin_laws, parameter_matrix, resolve_law
+from fsmctl.model.laws import LawSwitchWarning
 from fsmctl.proofs.law_check import check_law
 from fsmctl.simulation import DiscontinuousControlWarning, step_size_report
 from fsmctl.studies import available_constraints
@@ -96,7 +97,11 @@ def test_a_law_no_parameter_smooths_warns_whatever_its_parameters(short):
     st = resolve_law("super_twisting").discontinuity
     assert st.smoothed_by is None and "d/dt w" in st.where
     assert st.discontinuous(np.zeros((3, resolve_law("super_twisting").n_params)))
-    s = short.replace(controller={"law": "super_twisting", "boundary_layer": 0.01})
+    with pytest.warns(
+        LawSwitchWarning,
+        match=r"ignored \(not parameters of super_twisting of the same unit and size\): boundary_layer",
+    ):
+        s = short.replace(controller={"law": "super_twisting"})  # the paper's boundary_layer = 0.001 is dropped
     with pytest.warns(DiscontinuousControlWarning, match="law super_twisting, discontinuous at sgn") as record:
         fsmctl.simulate(s)
     assert not any("boundary_layer" in str(w.message) for w in record)

@@ -109,10 +109,19 @@ def test_flying_another_law_applies_the_declared_keys_and_says_which(tmp_path, c
         switched = paper.replace(controller={"law": str(clash_law)})
     message = str(caught[0].message)
     assert len(message.splitlines()) == 1
-    assert re.search(r"written keys applied: boundary_layer, epsilon; ignored .*: alpha, c1, c2, delta", message)
-    assert dict(switched.controller.parameters) == {"boundary_layer": 0.001, "epsilon": 1e-4}
-    assert parameter_matrix(switched.law, switched)[0].tolist() == [1e-4, 0.001]
-    with pytest.warns(LawSwitchWarning, match=r"applied: none; ignored \(not parameters of pid\): alpha, "):
+    # the clash law's gains are in N m, the paper's epsilon and boundary_layer in MRP units and 1/s: not carried
+    assert re.search(r"written keys applied: none; ignored .*: alpha, boundary_layer, c1, c2, delta", message)
+    assert dict(switched.controller.parameters) == {}
+    assert parameter_matrix(switched.law, switched)[0].tolist() == [40.0, 60.0]
+    with pytest.warns(LawSwitchWarning) as caught:
+        st = paper.replace(controller={"law": "super_twisting"})  # the same parameters of the paper's surface
+    assert "applied: alpha = 0.7, c1 = 0.6, c2 = 0.8, epsilon = 0.0001, singularity_fix = switch" in str(
+        caught[0].message
+    )
+    assert st.law_parameters()[0]["c1"] == 0.6
+    with pytest.warns(
+        LawSwitchWarning, match=r"applied: none; ignored \(not parameters of pid of the same unit and size\): alpha, "
+    ):
         pid = paper.replace(controller={"law": "pid"})
     assert parameter_matrix(pid.law, pid)[0].tolist() == [p.default[0] for p in resolve_law("pid").parameters]
 
@@ -199,3 +208,33 @@ def test_prove_reads_the_flown_laws_defaults_for_a_scenario_that_writes_none(tmp
     claims = {c["id"]: c for c in json.loads(captured.out)["claims"]}
     assert set(claims) == {"theorem1-gains", "theorem2-delta"}
     assert "0.005" in json.dumps(claims["theorem2-delta"])  # the declared default delta, every agent
+
+
+def test_a_preset_and_a_value_it_fixes_given_together_is_an_error(tmp_path, capsys):
+    args = ["simulate", "--t-final", "0.1", "--no-figures", "--out", str(tmp_path / "o")]
+    assert main([*args, "--set", "surface=tsm", "--set", "c1=0.5"]) == 2
+    assert "controller.c1: fixed by surface = tsm (c1 = 0); set one of them" in capsys.readouterr().err
+
+
+def test_a_parameter_of_another_unit_does_not_carry_over(tmp_path, clash_law):
+    """The paper's epsilon (a band in MRP units) is not the name-clash law's epsilon (a gain in N m)."""
+    from fsmctl.model.laws import carried_keys
+
+    assert carried_keys(resolve_law("fsm"), resolve_law(str(clash_law))) == ()
+    with pytest.warns(LawSwitchWarning, match=r"applied: none; ignored .*: alpha, boundary_layer, c1, c2, delta"):
+        switched = fsmctl.paper_scenario("1").replace(controller={"law": str(clash_law)})
+    assert parameter_matrix(switched.law, switched)[0].tolist() == [40.0, 60.0]
+
+
+def test_a_changed_or_dropped_key_loses_its_documented_choice():
+    paper = fsmctl.paper_scenario("1")
+    assert "delta" in dict(paper.choices)
+    assert "delta" not in dict(paper.replace(controller={"delta": 0.5}).choices)
+    with pytest.warns(LawSwitchWarning):
+        pid = paper.replace(controller={"law": "pid"})
+    assert not {"alpha", "delta", "boundary_layer"} & set(dict(pid.choices))
+
+
+def test_the_per_agent_line_lists_the_values_in_agent_order(tmp_path):
+    s = load_scenario(ring(tmp_path, "pid", agent1="K = 0.9")).replace(agents=[{}, {"K": 0.3}, {"K": 0.6}])
+    assert "per agent (1, 2, ...): K = [0.9, 0.3, 0.6]" in "\n".join(s.describe())

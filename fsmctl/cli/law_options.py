@@ -1,8 +1,8 @@
 """``--law`` and ``--set KEY=VALUE``: the control-law options shared by ``fsmctl simulate`` and ``fsmctl montecarlo``.
 
 ``--law NAME|FILE.py|DIR`` sets ``[controller] law`` (:func:`fsmctl.model.laws.resolve_law`: a built-in name,
-a derivation script or a folder written by ``fsmctl derive``; the scenario's written keys that the new law declares
-carry over, the others are dropped, and a warning says which).  ``--set KEY=VALUE`` (repeatable) sets a law
+a derivation script or a folder written by ``fsmctl derive``; the scenario's written keys that are the same parameter of the new
+law carry over, the others are dropped, and a warning says which).  ``--set KEY=VALUE`` (repeatable) sets a law
 parameter or preset choice by name for every agent (checked against what the law declares) or one of the
 ``[controller]`` keys every law shares (``torque_limit``, ``error_model``, ``enabled``); the value is read as a
 TOML value:

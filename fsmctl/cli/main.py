@@ -261,6 +261,14 @@ def main(argv: list[str] | None = None) -> int:
         return _run(args)
 
 
+def _warning_line(message, category, filename, lineno, file=None, line=None) -> None:
+    """A Python warning during a command: one line through the ``fsmctl`` logger (``fsmctl: warning: ...``), where
+    it comes from only with ``--debug``."""
+    text = " ".join(str(message).split())
+    logging.getLogger("fsmctl").warning("%s: %s", category.__name__, text)
+    logging.getLogger("fsmctl").debug("  (raised at %s:%s)", filename, lineno)
+
+
 def _run(args: argparse.Namespace) -> int:
     """Run the chosen subcommand and turn what it raises into one line and an exit code."""
     errors = _input_errors()
@@ -276,6 +284,7 @@ def _run(args: argparse.Namespace) -> int:
             raise UsageError(str(invalid[0]))
         with warnings.catch_warnings():
             warnings.filterwarnings("once")
+            warnings.showwarning = _warning_line  # one line on stderr, as the library's notices
             code = int(args.func(args) or 0)
         try:
             sys.stdout.flush()  # a full or closed stdout is reported here, not at exit

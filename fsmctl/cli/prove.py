@@ -72,7 +72,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--json",
         action="store_true",
-        help='print JSON: {"claims": [...], "errata": [...]}, one object per claim and per erratum of the paper '
+        help="print JSON: an object with the list of the claims and the list of the errata of the paper (one object "
+        "each) "
         '(with --law: one object, the law report, its checks in "checks")',
     )
     p.add_argument("--report", metavar="FILE.md", type=Path, help="also write a Markdown report with LaTeX")

@@ -109,7 +109,8 @@ def _compare(args: argparse.Namespace, scenario) -> int:
         if comp.scalar_study is not None:
             paths.append(write_scalar_study_csv(comp.scalar_study, args.out / "theorem3_scalar.csv"))
         if not args.no_figures:
-            c1, c2, alpha = (_fsm_gain(scenario, name) for name in ("c1", "c2", "alpha"))
+            flown = scenario.replace(controller={"law": "fsm"}).law_parameters()[0]  # compare-surfaces flies fsm
+            c1, c2, alpha = (float(flown[name]) for name in ("c1", "c2", "alpha"))
             initial = np.geomspace(2 * args.sigma_tolerance, 1.0, 6 if args.fast else 12)
             fig = plot_settling_time_against_initial_error(c1, c2, alpha, args.sigma_tolerance, initial)
             for ext in ("png", "svg"):
@@ -121,9 +122,3 @@ def _compare(args: argparse.Namespace, scenario) -> int:
     print(comp.table())
     print(f"wrote {len(paths)} files to {args.out}", file=sys.stderr)
     return 0
-
-
-def _fsm_gain(scenario, name: str) -> float:
-    """The scenario's FSM gain ``name`` (eq 13), or the law's declared default when the scenario leaves it unset."""
-    value = getattr(scenario.controller, name)
-    return float(value) if value is not None else scenario.law.parameter(name).default[0]

@@ -43,6 +43,7 @@ __all__ = [
     "resolve_law",
     "parameter_matrix",
     "written_keys",
+    "carried_keys",
     "check_written_parameters",
     "initial_law_states",
     "LawSwitchWarning",
@@ -73,7 +74,8 @@ class LawSwitchWarning(UserWarning):
     """Another law is flown on a scenario: which of the keys written for its own law apply, which are ignored.
 
     :meth:`fsmctl.model.scenario.Scenario.replace` (``controller={"law": ...}``, ``--law`` on the command line)
-    keeps the written parameters and preset choices that the new law declares (by name) and drops the others; this
+    keeps the written parameters and preset choices that are the same parameter of the new law (:func:`carried_keys`:
+    the same name, unit and size) and drops the others; this
     warning says so in one line.
 
     Examples
@@ -84,7 +86,7 @@ class LawSwitchWarning(UserWarning):
     ...     warnings.simplefilter("always")
     ...     pid = fsmctl.paper_scenario("1").replace(controller={"law": "pid"})
     >>> print(caught[0].message)  # doctest: +ELLIPSIS
-    law 'pid' flown instead of 'fsm': written keys applied: none; ignored (not parameters of pid): alpha, ...
+    law 'pid' flown instead of 'fsm': written keys applied: none; ignored (not parameters of pid of the same unit and size): alpha, ...
     """
 
 
@@ -709,6 +711,38 @@ def _check_written(law: LawCode, written, where: str, own: str) -> None:
             f"{where}.{unknown[0]}: unknown key: the law {law.name!r} has no parameter {unknown[0]!r} "
             f"(its parameters: {names}{groups}) and {own}"
         )
+
+
+def carried_keys(old: LawCode, new: LawCode) -> tuple[str, ...]:
+    """The keys written for ``old`` that carry over when ``new`` is flown instead: the same parameter in both.
+
+    The same parameter is the same name with the same unit, number of components and options (a preset group: the
+    same name and options).  A key of another meaning under the same name (a PD gain called ``epsilon`` in N m, where
+    the paper's law has a band in MRP units) does not carry over; :meth:`fsmctl.model.scenario.Scenario.replace`
+    drops it and says so.
+
+    Parameters
+    ----------
+    old, new : LawCode
+        The law the keys were written for and the law flown instead.
+
+    Returns
+    -------
+    tuple of str
+        The names, in ``new``'s declaration order.
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> from fsmctl.model.laws import carried_keys
+    >>> carried_keys(resolve_law("fsm"), resolve_law("super_twisting"))
+    ('c1', 'c2', 'alpha', 'epsilon', 'singularity_fix', 'surface')
+    """
+    mine = {p.name: (p.unit, p.size, p.choices) for p in old.parameters}
+    groups = {g.name: tuple(g.options) for g in old.presets}
+    return tuple(p.name for p in new.parameters if mine.get(p.name) == (p.unit, p.size, p.choices)) + tuple(
+        g.name for g in new.presets if groups.get(g.name) == tuple(g.options)
+    )
 
 
 def check_written_parameters(law: LawCode, written, where: str = "controller") -> None:

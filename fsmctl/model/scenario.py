@@ -55,10 +55,10 @@ from fsmctl.model.laws import (
     LawCode,
     LawError,
     LawSwitchWarning,
+    carried_keys,
     check_written_parameters,
     parameter_matrix,
     resolve_law,
-    written_keys,
 )
 from fsmctl.model.topology import Topology, TopologyError
 
@@ -743,6 +743,9 @@ class Agent:
     def J_true(self) -> np.ndarray:
         """(3, 3) kg m^2: the plant's inertia ``J = J0 + delta_J`` (eq 29)."""
         return np.array(self.J0) + np.array(self.delta_J)
+
+
+_AGENT_FIELDS = frozenset(f.name for f in dataclasses.fields(Agent))
 
 
 @_validated
@@ -1466,7 +1469,8 @@ class Scenario:
         ``parameters=`` replaces the whole written set.
 
         Switching the law (``controller={"law": ...}`` without ``parameters``) keeps the written keys, in
-        ``[controller]`` and in the agents, that the new law declares and drops the others, and says which in one
+        ``[controller]`` and in the agents, that are the same parameter of the new law
+        (:func:`~fsmctl.model.laws.carried_keys`: the same name, unit and size) and drops the others, and says which in one
         :class:`~fsmctl.model.laws.LawSwitchWarning`.
 
         Parameters
@@ -1524,14 +1528,19 @@ class Scenario:
         if topology is not None:
             changes["topology"] = topology
         asked = sections.get("controller")
+        given = {k for k in asked if k not in _CONTROLLER_FIELDS} if isinstance(asked, Mapping) else set()
+        if isinstance(agents, Sequence):
+            given |= {k for a in agents if isinstance(a, Mapping) for k in a if k not in _AGENT_FIELDS}
+        if given & {k for k, _ in self.choices}:  # a choice's reason is about the value it replaces
+            changes["choices"] = tuple((k, v) for k, v in self.choices if k not in given)
         if isinstance(asked, Mapping) and "parameters" not in asked:
-            changes = _switch_law(self, changes, given={k for k in asked if k not in _CONTROLLER_FIELDS})
+            changes = _switch_law(self, changes, given=given)
         return dataclasses.replace(self, **changes)
 
     def with_law(self, law: str | Path | None = None, parameters: Mapping[str, Any] | None = None) -> Scenario:
         """A validated copy flying ``law`` with ``parameters`` set for every agent (``--law``, ``--set``).
 
-        Switching the law follows the rule of :meth:`replace` (the written keys the new law declares carry over,
+        Switching the law follows the rule of :meth:`replace` (the written keys that are the same parameter of the new law carry over,
         the others are dropped, one :class:`~fsmctl.model.laws.LawSwitchWarning` says which); then each of
         ``parameters`` is written in ``[controller]`` and the agents' own values of it give way, so that every
         agent flies it.
@@ -1567,6 +1576,15 @@ class Scenario:
         own = sorted(set(values) & _CONTROLLER_FIELDS)
         if own:
             raise ScenarioError(f"controller.{own[0]}: a [controller] key of its own, not a law parameter")
+        for group in out.law.presets:  # a preset fixes its parameters: giving both is a contradiction
+            option = values.get(group.name)
+            fixed = group.options.get(option.lower(), {}) if isinstance(option, str) else {}
+            clash = sorted(set(fixed) & set(values))
+            if clash:
+                raise ScenarioError(
+                    f"controller.{clash[0]}: fixed by {group.name} = {option.lower()} ({clash[0]} = "
+                    f"{fixed[clash[0]][0]:g}); set one of them"
+                )
         agents = [{k: None for k in values if k in a.parameters} for a in out.agents]
         return out.replace(controller=values, **({"agents": agents} if any(agents) else {}))
 
@@ -1688,7 +1706,7 @@ class Scenario:
             ),
             "  law parameters: " + " ".join(f"{k}={v}" for k, v in common.items()),
             *(
-                ["  per agent: " + "; ".join(f"{k}: {sorted({a[k] for a in per_agent})}" for k in differing)]
+                ["  per agent (1, 2, ...): " + "; ".join(f"{k} = {[a[k] for a in per_agent]}" for k in differing)]
                 if differing
                 else []
             ),
@@ -1738,10 +1756,23 @@ def _warn_law_switch(old: LawCode, new: LawCode, applied: list[str], ignored: li
     """The one line that says which written keys another law flies with (:class:`LawSwitchWarning`)."""
     warnings.warn(
         f"law {new.name!r} flown instead of {old.name!r}: written keys applied: {', '.join(applied) or 'none'}; "
-        f"ignored (not parameters of {new.name}): {', '.join(ignored) or 'none'}",
+        f"ignored (not parameters of {new.name} of the same unit and size): {', '.join(ignored) or 'none'}",
         LawSwitchWarning,
         stacklevel=stacklevel,
     )
+
+
+def _shown(key: str, value: Any) -> str:
+    """``key = value`` as a file writes it (a vector in brackets, an option by name)."""
+    if isinstance(value, tuple):
+        return f"{key} = [{', '.join(f'{v:g}' for v in value)}]"
+    return f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
+
+
+def _sorted_split(written: Mapping[str, Any], keys: set[str], prefix: str = "") -> tuple[list[str], list[str]]:
+    """The written keys that carry over (with their values) and those dropped."""
+    applied = [_shown(prefix + k, written[k]) for k in sorted(written) if k in keys]
+    return applied, [prefix + k for k in sorted(written) if k not in keys]
 
 
 def _switched_tables(base: dict, over: Mapping, where: str) -> dict:
@@ -1757,21 +1788,31 @@ def _switched_tables(base: dict, over: Mapping, where: str) -> dict:
         raise ScenarioError(f"{where}.controller.law: {exc}") from None
     if old.folder == new.folder:
         return base
-    keys, own = set(written_keys(new)), {*_CONTROLLER_FIELDS, *AGENT_DEFAULT_KEYS}
+    keys, own = set(carried_keys(old, new)), {*_CONTROLLER_FIELDS, *AGENT_DEFAULT_KEYS}
     out = copy.deepcopy(base)
     ctrl = out["controller"]
     nested = ctrl.get("parameters") if isinstance(ctrl.get("parameters"), dict) else {}
-    written = [k for k in ctrl if k not in own] + list(nested)
-    applied, ignored = sorted(k for k in written if k in keys), sorted(k for k in written if k not in keys)
+    mine = set(over_ctrl) | set(over_ctrl.get("parameters") or {})  # the overlay's own keys: its law's, checked
+    written = {k: v for k, v in ctrl.items() if k not in own and k not in mine} | {
+        k: v for k, v in nested.items() if k not in mine
+    }
+    applied, ignored = (
+        [f"{k} = {written[k]}" for k in sorted(written) if k in keys],
+        [k for k in sorted(written) if k not in keys],
+    )
     for k in ignored:
         ctrl.pop(k, None)
         nested.pop(k, None)
+        if isinstance(out.get("choices"), dict):
+            out["choices"].pop(k, None)  # the reason of a value no longer flown
     agents = out.get("agents") if "agents" not in over and isinstance(out.get("agents"), list) else []
     for index, agent in enumerate(agents, start=1):
         if isinstance(agent, dict):
             for k in [k for k in agent if k not in AGENT_KEYS and k != "parameters"]:
-                (applied if k in keys else ignored).append(f"agents[{index}].{k}")
-                if k not in keys:
+                if k in keys:
+                    applied.append(f"agents[{index}].{k} = {agent[k]}")
+                else:
+                    ignored.append(f"agents[{index}].{k}")
                     del agent[k]
     if applied or ignored:
         _warn_law_switch(old, new, applied, ignored, stacklevel=5)
@@ -1787,18 +1828,18 @@ def _switch_law(scenario: Scenario, changes: dict[str, Any], given: set[str]) ->
     old, new = scenario.law, resolve_law(controller["law"])
     if old.folder == new.folder:
         return changes
-    keys = set(written_keys(new)) | given
+    keys = set(carried_keys(old, new)) | given
     agents = changes.get("agents", scenario.agents)
     written = dict(controller["parameters"])
-    applied = sorted(k for k in written if k in keys and k not in given)
-    ignored = sorted(k for k in written if k not in keys)
+    applied, ignored = _sorted_split({k: v for k, v in written.items() if k not in given}, keys)
     for index, agent in enumerate(agents, start=1):
-        applied += [f"agents[{index}].{k}" for k in agent.parameters if k in keys]
-        ignored += [f"agents[{index}].{k}" for k in agent.parameters if k not in keys]
+        more = _sorted_split(dict(agent.parameters), keys, f"agents[{index}].")
+        applied, ignored = applied + more[0], ignored + more[1]
     if not (applied or ignored):
         return changes
     _warn_law_switch(old, new, applied, ignored, stacklevel=4)
     out = dict(changes)
+    out["choices"] = tuple((k, v) for k, v in changes.get("choices", scenario.choices) if k not in written or k in keys)
     out["controller"] = {**controller, "parameters": {k: v for k, v in written.items() if k in keys}}
     out["agents"] = tuple(
         a

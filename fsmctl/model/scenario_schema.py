@@ -672,7 +672,8 @@ def _law_parameters_section() -> list[str]:
         "law does not declare is an error that names the law and its parameters.",
         "",
         'Flying another law on a scenario (`--law`, `scenario.replace(controller={"law": ...})`) keeps the written '
-        "keys that the new law declares, by name, and drops the others; one warning line says which "
+        "keys that are the same parameter of the new law (the same name, unit and size) and drops the others; one "
+        "warning line says which "
         "(`LawSwitchWarning`). `--set KEY=VALUE` sets a parameter for every agent (the agents' own values of it "
         "give way).",
         "",

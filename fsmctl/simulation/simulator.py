@@ -1080,11 +1080,12 @@ def _check_final_sample(time: np.ndarray, t_final: float, backend: str) -> None:
 
 
 def _singularity_fix_none(p: PackedProblem) -> bool:
-    """Whether the FSM law runs with ``singularity_fix = none`` (for the hint of a non-finite command)."""
-    try:
-        fix = p.law.parameter("singularity_fix")
-    except KeyError:
+    """Whether a law on the paper's surface runs without the Remark 6 device (for the hint of a non-finite command):
+    its declaration (``LawBuilder.paper_theorems``) names the parameter that selects the device."""
+    theorems = p.law.paper_theorems
+    if theorems is None or theorems.parameters.get("singularity_fix") is None:
         return False
+    fix = p.law.parameter(theorems.parameters["singularity_fix"])
     k = sum(q.size for q in p.law.parameters[: p.law.parameters.index(fix)])
     return bool(np.any(p.params[:, k] == fix.choices.index("none")))
 

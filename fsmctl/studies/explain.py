@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from fsmctl.errors import InputError
+from fsmctl.model.laws import LawSwitchWarning
 from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.outputs import write_text
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
@@ -740,7 +741,14 @@ def _simulate(data: Mapping[str, Any] | str, candidate: Candidate, spec: RunSpec
     record = run_record(spec, scenario, result, wall_time_s=_time.perf_counter() - started)
     record.summary["cpu_time_s"] = _time.process_time() - cpu
     unswitched = any(n == "error_mrp" for n, _ in candidate.changes)
-    messages = sorted({str(w.message).splitlines()[0] for w in caught if "triangle inequality" not in str(w.message)})
+    messages = sorted(
+        {
+            str(w.message).splitlines()[0]
+            for w in caught
+            # the candidate's own law switch (error MRP: unswitched) is the candidate, named in its label
+            if "triangle inequality" not in str(w.message) and not issubclass(w.category, LawSwitchWarning)
+        }
+    )
     return ExplainRun(candidate, record, figure_numbers(result, unswitched), messages)
 
 

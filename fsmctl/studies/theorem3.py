@@ -63,6 +63,7 @@ __all__ = [
     "plot_settling_time_against_initial_error",
 ]
 
+
 @dataclasses.dataclass(frozen=True)
 class SurfaceMode:
     """One sliding surface of Sec. 3.3 in the scalar study: its label and which gains it keeps (eqs 34-36).
