@@ -14,11 +14,16 @@ has AVX-512, an AVX-512 or an AVX one where this one is AVX2), or nothing where 
 from __future__ import annotations
 
 import ctypes
+import os
 import sys
 from pathlib import Path
 
 import numpy as np
-from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+
+try:  # NumPy's dispatch tables (not a public API: without them, only the OpenBLAS kernel is known)
+    from numpy._core._multiarray_umath import __cpu_dispatch__, __cpu_features__
+except ImportError:  # pragma: no cover - another NumPy layout
+    __cpu_dispatch__, __cpu_features__ = [], {}
 
 _AVX512_KERNELS = ("skylakex", "cooperlake", "sapphirerapids")
 
@@ -40,7 +45,13 @@ def openblas_core() -> str | None:
 
 
 def other_machine(core: str | None) -> dict[str, str]:
-    """Environment variables that emulate another common machine with the same packages (may be empty)."""
+    """Environment variables that emulate another common machine with the same packages (may be empty).
+
+    Empty where the machine itself sets ``OPENBLAS_CORETYPE`` or ``OPENBLAS_L2_SIZE`` (some processors need them:
+    older OpenBLAS builds compute wrong results or crash there), so that a setting the machine made is never changed.
+    """
+    if os.environ.get("OPENBLAS_CORETYPE") or os.environ.get("OPENBLAS_L2_SIZE"):
+        return {}
     if core is None or not __cpu_features__.get("AVX2"):
         return {}
     if core.lower() in _AVX512_KERNELS:  # an AVX-512 machine: compute as an AVX2 one does

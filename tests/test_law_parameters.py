@@ -238,3 +238,16 @@ def test_a_changed_or_dropped_key_loses_its_documented_choice():
 def test_the_per_agent_line_lists_the_values_in_agent_order(tmp_path):
     s = load_scenario(ring(tmp_path, "pid", agent1="K = 0.9")).replace(agents=[{}, {"K": 0.3}, {"K": 0.6}])
     assert "per agent (1, 2, ...): K = [0.9, 0.3, 0.6]" in "\n".join(s.describe())
+
+
+def test_a_file_that_extends_another_and_sets_another_law(tmp_path):
+    path = tmp_path / "pd.toml"
+    path.write_text('extends = "paper"\nname = "paper-pd"\n[controller]\nlaw = "pid"\nK = 10.0\n')
+    with pytest.warns(LawSwitchWarning, match=r"law 'pid' flown instead of 'fsm': written keys applied: none"):
+        s = load_scenario(path)
+    assert dict(s.controller.parameters) == {"K": 10.0}
+    path.write_text('extends = "paper"\n[controller]\nlaw = "pid"\nK = -1.0\n')
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the error alone: no warning about the switch of a file that does not load
+        with pytest.raises(ScenarioError, match=r"controller\.K: must be > 0, got -1"):
+            load_scenario(path)

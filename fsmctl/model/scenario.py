@@ -1533,9 +1533,13 @@ class Scenario:
             given |= {k for a in agents if isinstance(a, Mapping) for k in a if k not in _AGENT_FIELDS}
         if given & {k for k, _ in self.choices}:  # a choice's reason is about the value it replaces
             changes["choices"] = tuple((k, v) for k, v in self.choices if k not in given)
+        note = None
         if isinstance(asked, Mapping) and "parameters" not in asked:
-            changes = _switch_law(self, changes, given=given)
-        return dataclasses.replace(self, **changes)
+            changes, note = _switch_law(self, changes, given=given)
+        out = dataclasses.replace(self, **changes)
+        if note:  # said once the copy is valid: a bad value is one line, never a warning and then the error
+            warnings.warn(note, LawSwitchWarning, stacklevel=2)
+        return out
 
     def with_law(self, law: str | Path | None = None, parameters: Mapping[str, Any] | None = None) -> Scenario:
         """A validated copy flying ``law`` with ``parameters`` set for every agent (``--law``, ``--set``).
@@ -1569,14 +1573,12 @@ class Scenario:
         >>> {p["delta"][0] for p in s.with_law(parameters={"delta": 0.01}).law_parameters()}
         {0.01}
         """
-        out = self if law is None else self.replace(controller={"law": str(law)})
         values = dict(parameters or {})
-        if not values:
-            return out
         own = sorted(set(values) & _CONTROLLER_FIELDS)
         if own:
             raise ScenarioError(f"controller.{own[0]}: a [controller] key of its own, not a law parameter")
-        for group in out.law.presets:  # a preset fixes its parameters: giving both is a contradiction
+        flown = self.law if law is None else resolve_law(str(law))
+        for group in flown.presets:  # a preset fixes its parameters: giving both is a contradiction
             option = values.get(group.name)
             fixed = group.options.get(option.lower(), {}) if isinstance(option, str) else {}
             clash = sorted(set(fixed) & set(values))
@@ -1585,8 +1587,11 @@ class Scenario:
                     f"controller.{clash[0]}: fixed by {group.name} = {option.lower()} ({clash[0]} = "
                     f"{fixed[clash[0]][0]:g}); set one of them"
                 )
-        agents = [{k: None for k in values if k in a.parameters} for a in out.agents]
-        return out.replace(controller=values, **({"agents": agents} if any(agents) else {}))
+        agents = [{k: None for k in values if k in a.parameters} for a in self.agents]
+        controller = values if law is None else {"law": str(law), **values}
+        if not controller:
+            return self
+        return self.replace(controller=controller, **({"agents": agents} if any(agents) else {}))
 
     def with_agents(self, agents: Sequence[Agent]) -> Scenario:
         """A validated copy with another agent list (same count as the topology).
@@ -1752,14 +1757,22 @@ def _agent_changes(agents: tuple[Agent, ...], new: Any) -> tuple[Agent, ...]:
     return tuple(out)
 
 
-def _warn_law_switch(old: LawCode, new: LawCode, applied: list[str], ignored: list[str], stacklevel: int) -> None:
-    """The one line that says which written keys another law flies with (:class:`LawSwitchWarning`)."""
-    warnings.warn(
+def _law_switch_note(old: LawCode, new: LawCode, applied: list[str], ignored: list[str]) -> str:
+    """The one line that says which written keys another law flies with (a :class:`LawSwitchWarning`)."""
+    return (
         f"law {new.name!r} flown instead of {old.name!r}: written keys applied: {', '.join(applied) or 'none'}; "
-        f"ignored (not parameters of {new.name} of the same unit and size): {', '.join(ignored) or 'none'}",
-        LawSwitchWarning,
-        stacklevel=stacklevel,
+        f"ignored (not parameters of {new.name} of the same unit and size): {', '.join(ignored) or 'none'}"
     )
+
+
+def _warnings_after(build, *args, **kwargs):
+    """``build(*args, **kwargs)``, its warnings shown only once it has returned (a failing build is one error)."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        out = build(*args, **kwargs)
+    for w in caught:
+        warnings.warn(w.message, stacklevel=3)
+    return out
 
 
 def _shown(key: str, value: Any) -> str:
@@ -1815,19 +1828,20 @@ def _switched_tables(base: dict, over: Mapping, where: str) -> dict:
                     ignored.append(f"agents[{index}].{k}")
                     del agent[k]
     if applied or ignored:
-        _warn_law_switch(old, new, applied, ignored, stacklevel=5)
+        warnings.warn(_law_switch_note(old, new, applied, ignored), LawSwitchWarning, stacklevel=2)
     return out
 
 
-def _switch_law(scenario: Scenario, changes: dict[str, Any], given: set[str]) -> dict[str, Any]:
-    """Flying another law: keep the scenario's written keys it declares, drop the others, and say which (one
-    warning); the keys ``given`` with the switch are the new law's own (checked as any written key)."""
+def _switch_law(scenario: Scenario, changes: dict[str, Any], given: set[str]) -> tuple[dict[str, Any], str | None]:
+    """Flying another law: keep the scenario's written keys that are the same parameter of the new law, drop the
+    others; returns the changes and the line that says which (None: nothing to say).  The keys ``given`` with the
+    switch are the new law's own (checked as any written key)."""
     controller = changes["controller"]
     if not isinstance(controller, Mapping):
-        return changes
+        return changes, None
     old, new = scenario.law, resolve_law(controller["law"])
     if old.folder == new.folder:
-        return changes
+        return changes, None
     keys = set(carried_keys(old, new)) | given
     agents = changes.get("agents", scenario.agents)
     written = dict(controller["parameters"])
@@ -1836,8 +1850,7 @@ def _switch_law(scenario: Scenario, changes: dict[str, Any], given: set[str]) ->
         more = _sorted_split(dict(agent.parameters), keys, f"agents[{index}].")
         applied, ignored = applied + more[0], ignored + more[1]
     if not (applied or ignored):
-        return changes
-    _warn_law_switch(old, new, applied, ignored, stacklevel=4)
+        return changes, None
     out = dict(changes)
     out["choices"] = tuple((k, v) for k, v in changes.get("choices", scenario.choices) if k not in written or k in keys)
     out["controller"] = {**controller, "parameters": {k: v for k, v in written.items() if k in keys}}
@@ -1847,7 +1860,7 @@ def _switch_law(scenario: Scenario, changes: dict[str, Any], given: set[str]) ->
         else dataclasses.replace(a, parameters={k: v for k, v in a.parameters.items() if k in keys})
         for a in agents
     )
-    return out
+    return out, _law_switch_note(old, new, applied, ignored)
 
 
 # ----------------------------------------------------------------------------- the file format
@@ -2001,6 +2014,10 @@ def scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "
     ...     print(str(exc)[:40])
     scenario: unknown key(s) ['colour'] (kno
     """
+    return _warnings_after(_scenario_from_dict, data, case, where=where)
+
+
+def _scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = "scenario") -> Scenario:
     if isinstance(data, Mapping) and "extends" in data:
         data = _resolve_extends(dict(data), where, None)
     _unknown(data, TOP_KEYS, where)
@@ -2172,6 +2189,10 @@ def load_scenario(source: str | Path = "paper", case: str | None = None) -> Scen
     >>> load_scenario("paper-hardware").actuator.kind
     'reaction_wheels'
     """
+    return _warnings_after(_load_scenario, source, case)
+
+
+def _load_scenario(source: str | Path = "paper", case: str | None = None) -> Scenario:
     if isinstance(source, str) and source in BUILTIN_SCENARIOS:
         data = _builtin_data(source)
         where = f"built-in scenario {source!r}"
