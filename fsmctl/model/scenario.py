@@ -1330,9 +1330,11 @@ class Scenario:
         The mapping is what :func:`scenario_from_dict` reads, with every value spelled out: every section's
         every field (defaults included, so a later fsmctl with other defaults flies the same run), each agent's
         full ``delta_J`` matrix and disturbance, the topology as an explicit ``links`` array (1-based agents, each
-        link's ``k_i``, phase and ``k_j`` schedule), the law by the name or path given in ``controller.law`` and
-        its parameters in ``[controller.parameters]``, and the ``[choices]``.  Floats keep their bits (written
-        with ``repr`` by :meth:`to_toml`).
+        link's ``k_i``, phase and ``k_j`` schedule), the law by the name or path given in ``controller.law``, the
+        written law parameters in ``[controller.parameters]`` and each agent's own in its ``parameters`` table, and
+        the ``[choices]``.  A law parameter nobody wrote is not spelled out: it is the law's declared default (the
+        law's folder, recorded with a result file's provenance, holds it).  Floats keep their bits (written with
+        ``repr`` by :meth:`to_toml`).
 
         Only the flown case is written: the other cases of the source file are overrides of *its* base, which
         this scenario may no longer be (after :meth:`replace`).  A scenario with a case gets a ``[cases]`` table
