@@ -214,7 +214,7 @@ def format_law(law) -> str:
     if not law.parameters:
         lines.append("  parameters: none")
         return "\n".join(lines)
-    lines.append(f"  parameters ({len(law.parameters)}, {law.n_params} values):")
+    lines.append(f"  parameters ({len(law.parameters)}; {law.n_params} numbers in the packed vector):")
     lines += parameter_table(law.parameters)
     return "\n".join(lines)
 

@@ -153,7 +153,8 @@ def fsm_loop_rates(p: FsmParameters) -> dict[str, sp.Expr]:
     return {
         "surface": p.c1 + p.c2 * slope,
         "layer": layer,
-        "doc": "surface c1 + c2 r1 (eq 13, the Remark 6 slope); boundary layer max delta_k/phi (Remark 7)",
+        "doc": "surface c1 + c2 r1, r1 = the slope of the Remark 6 term at sigma_e = 0 (eq 13); boundary layer "
+        "max delta_k/phi (Remark 7)",
     }
 
 
