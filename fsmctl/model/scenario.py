@@ -35,6 +35,7 @@ import functools
 import inspect
 import math
 import re
+import sys
 import textwrap
 import tomllib
 import warnings
@@ -1540,7 +1541,7 @@ class Scenario:
             changes, note = _switch_law(self, changes, given=given)
         out = dataclasses.replace(self, **changes)
         if note:  # said once the copy is valid: a bad value is one line, never a warning and then the error
-            warnings.warn(note, LawSwitchWarning, stacklevel=2)
+            warnings.warn(note, LawSwitchWarning, stacklevel=_outside())
         return out
 
     def with_law(self, law: str | Path | None = None, parameters: Mapping[str, Any] | None = None) -> Scenario:
@@ -1773,8 +1774,16 @@ def _warnings_after(build, *args, **kwargs):
         warnings.simplefilter("always")
         out = build(*args, **kwargs)
     for w in caught:
-        warnings.warn(w.message, stacklevel=3)
+        warnings.warn(w.message, stacklevel=_outside())
     return out
+
+
+def _outside() -> int:
+    """The ``stacklevel`` of the first caller outside this module (a warning points at the user's line)."""
+    frame, level = sys._getframe(1), 1
+    while frame is not None and frame.f_code.co_filename == __file__:
+        frame, level = frame.f_back, level + 1
+    return level
 
 
 def _shown(key: str, value: Any) -> str:
