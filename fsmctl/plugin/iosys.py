@@ -356,9 +356,14 @@ def _unknown_keys(params: Mapping[str, Any], known: Any, where: str) -> None:
         if key not in known:
             listed = [k for k in known if not (isinstance(k, str) and k.endswith("_owner"))]
             text = str(key).lower()
-            order = sorted(
-                listed, key=lambda k: -difflib.SequenceMatcher(None, text, str(k).lower()).ratio()
-            )  # stable: ties keep the system's order
+
+            def score(
+                k: Any, text: str = text
+            ) -> float:  # the full key or its local part after the system prefix ("ctrl1_c1")
+                k = str(k).lower()
+                return max(difflib.SequenceMatcher(None, text, part).ratio() for part in (k, k.split("_", 1)[-1]))
+
+            order = sorted(listed, key=lambda k: -score(k))  # stable: ties keep the system's order
             raise ParameterKeyError(
                 f"{where}: unknown parameter {key!r} (known: {', '.join(map(str, order)) or 'none'})"
             )
