@@ -22,6 +22,7 @@ from scipy.spatial.transform import Rotation
 import fsmctl
 from fsmctl import ScenarioError
 from fsmctl.errors import InputError
+from fsmctl.plugin.iosys import InvalidStateError, ParameterKeyError, initial_state, law_controller, quaternion_from_mrp
 
 J1 = np.array([[100.0, 2.0, -3.0], [2.0, 150.0, 4.0], [-3.0, 4.0, 200.0]])
 J2 = np.array([[30.0, 0.0, 1.0], [0.0, 80.0, 0.0], [1.0, 0.0, 60.0]])
@@ -367,3 +368,177 @@ def test_factories_reject_bad_numbers_in_one_line():
         with pytest.raises(ScenarioError, match=match) as exc:
             make()
         one_line(exc)
+
+
+# ----------------------------------------------------------------------------- python-control's defaults (issue 24)
+
+
+def _wheel_plant():
+    from fsmctl.plugin.hardware import reaction_wheel_spacecraft
+
+    return reaction_wheel_spacecraft(np.diag([100.0, 150.0, 200.0]), {"layout": "pyramid"}, name="rw")
+
+
+@pytest.mark.parametrize(
+    "make, hint",
+    [
+        (lambda: fsmctl.spacecraft(np.diag([100.0, 150.0, 200.0]), name="sc1"), "quaternion_from_mrp"),
+        (lambda: fsmctl.reference_generator(fsmctl.Sinusoid(offset=(0.0, 0.0, 0.1)), name="ref"), "quaternion_from"),
+        (_wheel_plant, "reaction_wheel_state"),
+    ],
+)
+def test_the_default_zero_state_is_refused_with_its_cause(make, hint):
+    """x = 0 (python-control's default X0) holds q = 0, which is no rotation: a one-line error naming the cause
+    (the old code gave NaN sigma and found x = 0 an equilibrium with success=True)."""
+    sys = make()
+    u = np.zeros(sys.ninputs)
+    for call in (
+        lambda: ct.input_output_response(sys, [0.0, 1.0]),
+        lambda: sys.dynamics(0.0, np.zeros(sys.nstates), u),
+        lambda: sys.output(0.0, np.zeros(sys.nstates), u),
+        lambda: ct.find_operating_point(sys, 0, u),
+    ):
+        with pytest.raises(InvalidStateError) as info:
+            call()
+        message = str(info.value)
+        assert "\n" not in message and isinstance(info.value, ValueError) and isinstance(info.value, InputError)
+        assert f"{sys.name!r}: the attitude quaternion" in message and "default X0" in message
+        assert hint in message and "[1, 0, 0, 0]" in message
+    # a quaternion of tiny norm is refused too; a valid one of any other norm flies as before
+    x = np.zeros(sys.nstates)
+    x[0] = 1e-7
+    with pytest.raises(InvalidStateError):
+        sys.output(0.0, x, u)
+    x[0] = 1e-3  # q / |q| is the identity: a valid (if unnormalised) state
+    assert np.all(np.isfinite(sys.output(0.0, x, u)))
+
+
+def test_formation_from_the_default_zero_state_names_the_cause_not_an_algebraic_loop():
+    loop = fsmctl.formation(fsmctl.paper_scenario("1"))
+    with pytest.raises(InvalidStateError, match=r"reference.*initial_state"):
+        ct.input_output_response(loop, [0.0, 0.1])
+    x = initial_state(fsmctl.paper_scenario("1"))
+    x[4:8] = 0.0  # sc1's quaternion
+    with pytest.raises(InvalidStateError, match=r"spacecraft 'sc1'"):
+        loop.dynamics(0.0, x, [])
+
+
+def test_valid_states_give_bit_identical_results_to_the_unchecked_functions():
+    """The check reads the state only: every result at a valid state is the model's own output, bit for bit."""
+    s = fsmctl.paper_scenario("1")
+    loop = fsmctl.formation(s)
+    x = initial_state(s)
+    r = ct.input_output_response(loop, np.linspace(0.0, 0.2, 5), 0, x, solve_ivp_kwargs={"max_step": 0.01})
+    for k, t in enumerate(r.time):
+        assert np.array_equal(loop.output(t, r.states[:, k], []), r.outputs[:, k])
+    sc = loop.syslist[1]
+    assert sc.name == "sc1"
+    xs, us = x[4:11], np.array([0.1, -0.2, 0.3])
+    p = sc.params
+    assert np.array_equal(sc.dynamics(0.3, xs, us), sc._model_update(0.3, xs, us, sc._resolve(p)))
+    assert np.array_equal(sc.output(0.3, xs, us), sc._model_output(0.3, xs, us, sc._resolve(p)))
+
+
+@pytest.mark.parametrize(
+    "make, key, closest",
+    [
+        (lambda: fsmctl.spacecraft(np.eye(3), name="sc"), "J", "sc_J"),
+        (lambda: fsmctl.spacecraft(np.eye(3), name="sc"), "sc_j", "sc_J"),
+        (_wheel_plant, "torque_limit", None),
+        (
+            lambda: law_controller("fsm", np.eye(3), name="ctrl"),
+            "u_max",
+            "ctrl_u_max",
+        ),
+        (lambda: law_controller("fsm", np.eye(3), name="ctrl"), "ctrl_C1", "ctrl_c1"),
+    ],
+)
+def test_unknown_parameter_keys_of_a_system_raise(make, key, closest):
+    sys = make()
+    x0 = np.zeros(sys.nstates)
+    if sys.nstates:
+        x0[0] = 1.0
+    u = np.zeros(sys.ninputs)
+    for call in (
+        lambda: sys.dynamics(0.0, x0, u, params={key: 1.0}),
+        lambda: sys.output(0.0, x0, u, params={key: 1.0}),
+        lambda: ct.input_output_response(sys, [0.0, 0.1], 0, x0, params={key: 1.0}),
+    ):
+        with pytest.raises(ParameterKeyError) as info:
+            call()
+        message = str(info.value)
+        assert "\n" not in message and isinstance(info.value, ValueError)
+        assert f"unknown parameter {key!r}" in message
+        known = message.split("known: ", 1)[1]
+        if closest:
+            assert known.startswith(closest)
+        assert f"{sys.name}_owner" not in known
+        for k in sys.params:
+            if not k.endswith("_owner"):
+                assert k in known
+
+
+@pytest.mark.parametrize("key, closest", [("C1", "c1"), ("u_max", None), ("torque_limit", None), ("J", None)])
+def test_unknown_parameter_keys_of_a_formation_raise(key, closest):
+    s = fsmctl.paper_scenario("1").replace(controller={"torque_limit": float("inf")})  # c1 acts at t = 0
+    loop = fsmctl.formation(s)
+    x = initial_state(s)
+    with pytest.raises(ParameterKeyError, match=rf"unknown parameter {key!r}") as info:
+        ct.input_output_response(loop, [0.0, 0.01], 0, x, params={key: 0.3})
+    if closest:
+        assert str(info.value).split("known: ", 1)[1].startswith(closest)
+    with pytest.raises(ParameterKeyError):
+        loop.dynamics(0.0, x, [], params={key: 0.3})
+    # known keys, bare or prefixed, are taken as before
+    assert not np.array_equal(loop.dynamics(0.0, x, [], params={"c1": 1.2}), loop.dynamics(0.0, x, []))
+    assert np.array_equal(
+        loop.dynamics(0.0, x, [], params={"ctrl3_c1": 1.2}),
+        loop.dynamics(0.0, x, [], params={"ctrl3_c1": 1.2, "ctrl3_owner": loop.params["ctrl3_owner"]}),
+    )
+
+
+def test_adding_a_params_key_by_mutation_raises_and_replacing_a_known_one_is_used():
+    s = fsmctl.paper_scenario("1").replace(controller={"torque_limit": float("inf")})
+    loop = fsmctl.formation(s)
+    x = initial_state(s)
+    before = loop.dynamics(0.0, x, [])
+    for key in ("c1", "ctrl1_C1"):
+        with pytest.raises(ParameterKeyError, match=rf"unknown parameter {key!r}"):
+            loop.params[key] = 1.2
+        with pytest.raises(ParameterKeyError):
+            loop.params.update({key: 1.2})
+        with pytest.raises(ParameterKeyError):
+            loop.params.setdefault(key, 1.2)
+        with pytest.raises(ParameterKeyError):
+            loop.params |= {key: 1.2}
+    assert np.array_equal(loop.dynamics(0.0, x, []), before)
+    loop.params["ctrl1_c1"] = 1.2
+    assert np.array_equal(loop.dynamics(0.0, x, []), loop.dynamics(0.0, x, [], params={"ctrl1_c1": 1.2}))
+    assert not np.array_equal(loop.dynamics(0.0, x, []), before)
+    sc = fsmctl.spacecraft(np.eye(3), name="sc")
+    with pytest.raises(ParameterKeyError, match="unknown parameter 'J'"):
+        sc.params["J"] = 2 * np.eye(3)
+    # copies, deep copies and pickles keep the rule
+    import pickle
+
+    for other in (sc.copy("sd"), copy.deepcopy(sc), copy.copy(sc)):
+        with pytest.raises(ParameterKeyError):
+            other.params["J"] = 2 * np.eye(3)
+    p = pickle.loads(pickle.dumps(sc.params))
+    with pytest.raises(ParameterKeyError):
+        p["J"] = 1.0
+
+
+def test_fsmctl_system_inside_a_plain_interconnect_takes_every_key_as_python_control_does():
+    """Documented limit: python-control hands every key of a plain ct.interconnect to every subsystem, so fsmctl
+    cannot tell a typo there from another subsystem's key."""
+    sc = fsmctl.spacecraft(np.diag([100.0, 150.0, 200.0]), name="sc")
+    pd = ct.ss([], [], [], -np.hstack([np.eye(3), 10 * np.eye(3)]), inputs=6, outputs=3, name="pd")
+    loop = ct.interconnect(
+        [sc, pd],
+        connections=[["sc.tau", "pd.y"], ["pd.u[0:3]", "sc.sigma"], ["pd.u[3:6]", "sc.omega"]],
+        inplist=[],
+        outlist=["sc.sigma"],
+    )
+    x0 = np.concatenate([quaternion_from_mrp([0.1, 0.0, 0.0]), np.zeros(3)])
+    assert np.array_equal(loop.dynamics(0.0, x0, [], params={"J": 1.0}), loop.dynamics(0.0, x0, []))

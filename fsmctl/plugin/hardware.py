@@ -320,6 +320,7 @@ def reaction_wheel_spacecraft(
         + _labels("wheel_torque", n),
         states=_labels("q", 4) + _labels("omega") + _labels("Omega", n),
         name=name,
+        attitude=True,
     )
 
 

@@ -40,6 +40,7 @@ shadow set, exactly like the compiled simulator, whose MRPs are shadow-switched.
 from __future__ import annotations
 
 import copy
+import difflib
 import math
 import re
 import uuid
@@ -80,6 +81,8 @@ __all__ = [
     "quaternion_from_mrp",
     "mrp_from_quaternion",
     "DEFAULT_NORMALIZATION_GAIN",
+    "InvalidStateError",
+    "ParameterKeyError",
 ]
 
 DEFAULT_NORMALIZATION_GAIN = 1.0
@@ -290,6 +293,138 @@ class _Owner:
         return f"<fsmctl {self.kind} {self.prefix!r} #{self.serial[:8]}>"
 
 
+class InvalidStateError(InputError):
+    """A state python-control handed an fsmctl system is not a state of it: a quaternion ``q`` of (near-)zero norm.
+
+    ``x = 0``, python-control's default ``X0`` (and the start of :func:`control.find_operating_point`), holds
+    ``q = 0``, which is no rotation.  A one-line :class:`fsmctl.errors.InputError` (a :class:`ValueError`).
+
+    Examples
+    --------
+    >>> import numpy as np, fsmctl
+    >>> from fsmctl.plugin.iosys import InvalidStateError
+    >>> sc = fsmctl.spacecraft(np.eye(3), name="sc")
+    >>> try:
+    ...     sc.output(0.0, np.zeros(7), np.zeros(3))
+    ... except InvalidStateError as exc:
+    ...     print(str(exc)[:60])
+    spacecraft 'sc': the attitude quaternion q = [0, 0, 0, 0] is
+    """
+
+
+class ParameterKeyError(InputError):
+    """A ``params`` key no part of an fsmctl system uses (a typo would otherwise run with the defaults).
+
+    Raised by ``params=`` of :func:`control.input_output_response`, :meth:`~control.NonlinearIOSystem.dynamics`,
+    :meth:`~control.NonlinearIOSystem.output`, ... of an fsmctl system, and by adding a key to its ``params``.
+
+    Examples
+    --------
+    >>> import numpy as np, fsmctl
+    >>> from fsmctl.plugin.iosys import ParameterKeyError
+    >>> sc = fsmctl.spacecraft(np.eye(3), name="sc")
+    >>> try:
+    ...     sc.dynamics(0.0, [1, 0, 0, 0, 0, 0, 0], np.zeros(3), params={"J": np.eye(3)})
+    ... except ParameterKeyError as exc:
+    ...     print(exc)
+    spacecraft 'sc': unknown parameter 'J' (known: sc_J, sc_disturbance)
+    """
+
+
+_MIN_QUATERNION_NORM2 = 1e-12
+"""``|q|^2`` below which a state's quaternion is refused (``|q| < 1e-6``; a flown state keeps ``|q|`` near 1)."""
+
+_STATE_HINTS = {
+    "spacecraft": "np.concatenate([quaternion_from_mrp(sigma0), omega0])",
+    "reference_generator": "quaternion_from_mrp(sigma_d0)",
+    "reaction_wheel_spacecraft": "reaction_wheel_state(plant, sigma0, omega0)",
+}
+
+
+def _invalid_quaternion(where: str, kind: str, q: Any) -> InvalidStateError:
+    shown = ", ".join(f"{float(v):.3g}" for v in q)
+    return InvalidStateError(
+        f"{where}: the attitude quaternion q = [{shown}] is not a rotation (|q| < 1e-6; x = 0 is python-control's "
+        f"default X0): start from fsmctl.initial_state(scenario) for a formation, {_STATE_HINTS[kind]} for this "
+        "system (fsmctl.plugin.iosys / hardware; the identity attitude is q = [1, 0, 0, 0])"
+    )
+
+
+def _unknown_keys(params: Mapping[str, Any], known: Any, where: str) -> None:
+    """Raise :class:`ParameterKeyError` for the first key of ``params`` not in ``known`` (closest known first)."""
+    for key in params:
+        if key not in known:
+            listed = [k for k in known if not (isinstance(k, str) and k.endswith("_owner"))]
+            text = str(key).lower()
+
+            def score(
+                k: Any, text: str = text
+            ) -> float:  # the full key or its local part after the system prefix ("ctrl1_c1")
+                k = str(k).lower()
+                return max(difflib.SequenceMatcher(None, text, part).ratio() for part in (k, k.split("_", 1)[-1]))
+
+            order = sorted(listed, key=lambda k: -score(k))  # stable: ties keep the system's order
+            raise ParameterKeyError(
+                f"{where}: unknown parameter {key!r} (known: {', '.join(map(str, order)) or 'none'})"
+            )
+
+
+class _KnownKeys:
+    """The keys of ``params`` followed by extra accepted keys (a formation's bare law names), in that order."""
+
+    def __init__(self, params: Mapping[str, Any], extra: Sequence[str]):
+        self._keys = dict.fromkeys([*extra, *params])
+
+    def __contains__(self, key: Any) -> bool:
+        return key in self._keys
+
+    def __iter__(self):
+        return iter(self._keys)
+
+
+class _Params(dict):
+    """The ``params`` of an fsmctl system: the value of a key can be replaced, a new key is refused
+    (:class:`ParameterKeyError`), since no part of the system would read it."""
+
+    def __init__(self, values: Mapping[str, Any], where: str, extra: tuple[str, ...] = ()):
+        super().__init__(values)
+        self._where = where
+        self._extra = extra  # keys that are taken by params= but are not stored (a formation's bare law names)
+
+    def __reduce__(self):
+        return (type(self), (dict(self), self._where, self._extra))
+
+    def _check(self, keys: Any) -> None:
+        for key in keys:
+            if key not in self:
+                hint = (
+                    f"; {key!r} is taken by params= (input_output_response, dynamics, ...), not stored"
+                    if key in self._extra
+                    else ""
+                )
+                try:
+                    _unknown_keys({key: None}, self, f"{self._where}: params")
+                except ParameterKeyError as exc:
+                    raise ParameterKeyError(f"{exc}{hint}") from None
+
+    def __setitem__(self, key, value):
+        self._check((key,))
+        super().__setitem__(key, value)
+
+    def update(self, *args, **kwargs):
+        other = dict(*args, **kwargs)
+        self._check(other)
+        super().update(other)
+
+    def setdefault(self, key, default=None):
+        self._check((key,))
+        return super().setdefault(key, default)
+
+    def __ior__(self, other):
+        self.update(other)
+        return self
+
+
 _Model = Callable[[float, np.ndarray, np.ndarray, Mapping[str, Any]], np.ndarray]
 
 
@@ -360,12 +495,14 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
         validators: Mapping[str, Callable[[Any, str], Any]],
         *,
         name: str | None = None,
+        attitude: bool = False,
         **kwargs,
     ):
         self._kind = kind
         self._model_update = update
         self._model_output = output
         self._validators = dict(validators)
+        self._attitude = attitude
         super().__init__(self._updfcn if update is not None else None, self._outfcn, name=name, **kwargs)
         self._locals = tuple(values)
         self.params = {}
@@ -407,16 +544,18 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
 
     def _bind(self, prefix: str, values: dict[str, Any] | None = None) -> None:
         """Store the parameters under ``f"{prefix}_..."`` keys with a new owner tag (other keys are kept)."""
+        params = dict(self.params)
         if values is None:
-            values = {local: self.params.pop(key, None) for local, key in self._keys.items()}
-            self.params.pop(self._owner_key, None)
+            values = {local: params.pop(key, None) for local, key in self._keys.items()}
+            params.pop(self._owner_key, None)
         self._prefix = prefix
         self._keys = {local: f"{prefix}_{local}" for local in self._locals}
         self._owner_key = f"{prefix}_owner"
         self._owner = _Owner(self._kind, prefix, uuid.uuid4().hex)
         for local in self._locals:
-            self.params[self._keys[local]] = values[local]
-        self.params[self._owner_key] = self._owner
+            params[self._keys[local]] = values[local]
+        params[self._owner_key] = self._owner
+        self.params = _Params(params, self._where)
         self._current_params = self.params.copy()
         self._seen: dict[str, tuple[Any, Any]] = {}
         self._last: tuple[Any, Any] = (None, None)
@@ -502,10 +641,22 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
         self._last = (params, out)
         return out
 
+    def _update_params(self, params):
+        # python-control calls this with the params given to this system (dynamics, output,
+        # input_output_response, ...), or, from an interconnection, with the merged params, which hold this
+        # system's owner tag (and every other subsystem's keys): only the former are checked for unknown keys
+        if params and self._owner_key not in params:
+            _unknown_keys(params, self.params, self._where)
+        super()._update_params(params)
+
     def _updfcn(self, t, x, u, params):
+        if self._attitude and x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3] < _MIN_QUATERNION_NORM2:
+            raise _invalid_quaternion(self._where, self._kind, x[:4])
         return self._model_update(t, x, u, self._resolve(params))
 
     def _outfcn(self, t, x, u, params):
+        if self._attitude and x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3] < _MIN_QUATERNION_NORM2:
+            raise _invalid_quaternion(self._where, self._kind, x[:4])
         return self._model_output(t, x, u, self._resolve(params))
 
 
@@ -603,6 +754,7 @@ def spacecraft(
         outputs=_labels("sigma") + _labels("omega"),
         states=_labels("q", 4) + _labels("omega"),
         name=name,
+        attitude=True,
     )
 
 
@@ -663,6 +815,7 @@ def reference_generator(
         outputs=_labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot"),
         states=_labels("q_d", 4),
         name=name,
+        attitude=True,
     )
 
 
@@ -1102,6 +1255,7 @@ class FormationSystem(ct.InterconnectedSystem):
 
     law_parameters: tuple[str, ...] = ()
     controllers: tuple[str, ...] = ()
+    _tag_key: str = "reference_owner"
 
     def __init__(self, *args, **kwargs):
         """Made by :func:`formation` (the arguments are :class:`control.InterconnectedSystem`'s).
@@ -1116,6 +1270,8 @@ class FormationSystem(ct.InterconnectedSystem):
         super().__init__(*args, **kwargs)
 
     def _update_params(self, params):
+        if params and self._tag_key not in params:  # given to this system (not merged by an outer interconnection)
+            _unknown_keys(params, _KnownKeys(self.params, self.law_parameters), f"formation {self.name!r}")
         if params:
             bare = [k for k in params if k in self.law_parameters]
             if bare:
@@ -1448,6 +1604,8 @@ def formation(
     loop.__class__ = FormationSystem  # the same object, with bare law-parameter names in params
     loop.law_parameters = tuple(p.name for p in law.parameters)
     loop.controllers = tuple(f"ctrl{i}" for i in range(1, n + 1))
+    loop._tag_key = systems[0]._owner_key  # the reference's tag: present when an outer interconnection merged these
+    loop.params = _Params(loop.params, f"formation {name!r}", loop.law_parameters)
     return loop
 
 
