@@ -34,6 +34,8 @@ _ATTRS = {
         "ParameterizedSystem",
         "quaternion_from_mrp",
         "mrp_from_quaternion",
+        "InvalidStateError",
+        "ParameterKeyError",
     ],
     "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
 }

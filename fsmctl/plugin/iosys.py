@@ -453,6 +453,9 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
         ``validator(value, where) -> checked value`` per local name, applied to values given at evaluation time.
     name : str, optional
         System name, and the prefix of the parameter keys; default python-control's unique ``sys[<id>]``.
+    attitude : bool, optional
+        Whether the state starts with an attitude quaternion ``q``: a state whose ``q`` has (near-)zero norm, such
+        as python-control's default ``X0 = 0``, is then refused with :class:`InvalidStateError`.
     **kwargs
         Passed to :class:`control.NonlinearIOSystem` (``inputs``, ``outputs``, ``states``, ...).
 
