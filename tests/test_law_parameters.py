@@ -251,3 +251,11 @@ def test_a_file_that_extends_another_and_sets_another_law(tmp_path):
         warnings.simplefilter("error")  # the error alone: no warning about the switch of a file that does not load
         with pytest.raises(ScenarioError, match=r"controller\.K: must be > 0, got -1"):
             load_scenario(path)
+
+
+def test_extends_drops_the_bases_own_agent_parameters_written_in_a_sub_table(tmp_path):
+    base = ring(tmp_path, "fsm", agent1="parameters = { delta = 0.01 }")
+    (tmp_path / "pd.toml").write_text(f'extends = "{base.name}"\n[controller]\nlaw = "pid"\n')
+    with pytest.warns(LawSwitchWarning, match=r"ignored .*: agents\[1\]\.delta"):
+        s = load_scenario(tmp_path / "pd.toml")
+    assert all(not a.parameters for a in s.agents)

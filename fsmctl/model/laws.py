@@ -21,6 +21,7 @@ import os
 import shutil
 import tempfile
 from collections.abc import Mapping
+from typing import Any
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -776,13 +777,20 @@ def check_written_parameters(law: LawCode, written, where: str = "controller") -
     controller.K: must be > 0, got -1
     """
     _check_written(law, written, where, f"[controller]'s own keys are {', '.join(CONTROLLER_KEYS)}")
-    groups = {g.name: g for g in law.presets}
     for p in law.parameters:
         if p.name in written:
             p.values(written[p.name], f"{where}.{p.name}")
-    for name, option in written.items():
-        if name in groups and (option.lower() if isinstance(option, str) else option) not in groups[name].options:
-            raise LawError(f"{where}.{name}: must be one of {', '.join(groups[name].options)}, got {option!r}")
+    for group in law.presets:
+        if group.name in written:
+            _preset_option(group, written[group.name], f"{where}.{group.name}")
+
+
+def _preset_option(group: LawPresetGroup, option: Any, where: str) -> Mapping[str, tuple[float, ...]]:
+    """The packed values a written preset choice fixes (case-insensitive), or a :class:`LawError` naming the options."""
+    key = option.lower() if isinstance(option, str) else option
+    if key not in group.options:
+        raise LawError(f"{where}: must be one of {', '.join(group.options)}, got {option!r}")
+    return group.options[key]
 
 
 def _preset_values(law: LawCode, controller, agent, where: str) -> dict[str, tuple[float, ...]]:
@@ -793,10 +801,7 @@ def _preset_values(law: LawCode, controller, agent, where: str) -> dict[str, tup
             option, at = agent.parameters[group.name], f"{where}.{group.name}"
         else:
             option, at = controller.parameters.get(group.name, group.default), f"controller.{group.name}"
-        key = option.lower() if isinstance(option, str) else option
-        if key not in group.options:
-            raise LawError(f"{at}: must be one of {', '.join(group.options)}, got {option!r}")
-        out.update(group.options[key])
+        out.update(_preset_option(group, option, at))
     return out
 
 

@@ -1788,15 +1788,29 @@ def _outside() -> int:
 
 def _shown(key: str, value: Any) -> str:
     """``key = value`` as a file writes it (a vector in brackets, an option by name)."""
-    if isinstance(value, tuple):
+    if isinstance(value, (tuple, list)):
         return f"{key} = [{', '.join(f'{v:g}' for v in value)}]"
-    return f"{key} = {value:g}" if isinstance(value, float) else f"{key} = {value}"
+    number = isinstance(value, (int, float)) and not isinstance(value, bool)
+    return f"{key} = {value:g}" if number else f"{key} = {value}"
 
 
 def _sorted_split(written: Mapping[str, Any], keys: set[str], prefix: str = "") -> tuple[list[str], list[str]]:
     """The written keys that carry over (with their values) and those dropped."""
     applied = [_shown(prefix + k, written[k]) for k in sorted(written) if k in keys]
     return applied, [prefix + k for k in sorted(written) if k not in keys]
+
+
+def _drop_from_table(table: dict, own: set[str], keys: set[str], prefix: str = "") -> tuple[list[str], list[str]]:
+    """A file's table (``[controller]``, an ``[[agents]]`` entry): its written law keys, flat or in its
+    ``parameters`` sub-table, that are not ``keys`` removed in place; returns :func:`_sorted_split` of them."""
+    nested = table.get("parameters") if isinstance(table.get("parameters"), dict) else {}
+    written = {k: v for k, v in (table | nested).items() if k not in own and k != "parameters"}
+    applied, ignored = _sorted_split(written, keys, prefix)
+    for k in written:
+        if k not in keys:
+            table.pop(k, None)
+            nested.pop(k, None)
+    return applied, ignored
 
 
 def _switched_tables(base: dict, over: Mapping, where: str) -> dict:
@@ -1812,32 +1826,18 @@ def _switched_tables(base: dict, over: Mapping, where: str) -> dict:
         raise ScenarioError(f"{where}.controller.law: {exc}") from None
     if old.folder == new.folder:
         return base
-    keys, own = set(carried_keys(old, new)), {*_CONTROLLER_FIELDS, *AGENT_DEFAULT_KEYS}
-    out = copy.deepcopy(base)
-    ctrl = out["controller"]
-    nested = ctrl.get("parameters") if isinstance(ctrl.get("parameters"), dict) else {}
     mine = set(over_ctrl) | set(over_ctrl.get("parameters") or {})  # the overlay's own keys: its law's, checked
-    written = {k: v for k, v in ctrl.items() if k not in own and k not in mine} | {
-        k: v for k, v in nested.items() if k not in mine
-    }
-    applied, ignored = (
-        [f"{k} = {written[k]}" for k in sorted(written) if k in keys],
-        [k for k in sorted(written) if k not in keys],
-    )
-    for k in ignored:
-        ctrl.pop(k, None)
-        nested.pop(k, None)
-        if isinstance(out.get("choices"), dict):
+    keys = set(carried_keys(old, new)) | mine
+    out = copy.deepcopy(base)
+    applied, ignored = _drop_from_table(out["controller"], {*_CONTROLLER_FIELDS, *AGENT_DEFAULT_KEYS, *mine}, keys)
+    if isinstance(out.get("choices"), dict):
+        for k in ignored:
             out["choices"].pop(k, None)  # the reason of a value no longer flown
     agents = out.get("agents") if "agents" not in over and isinstance(out.get("agents"), list) else []
     for index, agent in enumerate(agents, start=1):
         if isinstance(agent, dict):
-            for k in [k for k in agent if k not in AGENT_KEYS and k != "parameters"]:
-                if k in keys:
-                    applied.append(f"agents[{index}].{k} = {agent[k]}")
-                else:
-                    ignored.append(f"agents[{index}].{k}")
-                    del agent[k]
+            more = _drop_from_table(agent, set(AGENT_KEYS), keys, f"agents[{index}].")
+            applied, ignored = applied + more[0], ignored + more[1]
     if applied or ignored:
         warnings.warn(_law_switch_note(old, new, applied, ignored), LawSwitchWarning, stacklevel=2)
     return out
