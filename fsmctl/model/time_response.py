@@ -6,7 +6,8 @@ Figs 1-9) colours agent ``i`` with :func:`agent_color` ``(i)``, so an agent keep
 :class:`FormationResponse` is a :class:`control.TimeResponseData` whose :meth:`~FormationResponse.plot` groups
 a formation's signals: one axes per signal group (``sigma``, ``omega``, ``tau``, ``sigma_e``, ...), the agents as
 colours, the components as line styles, instead of python-control's one axes per signal (54 for the paper's six
-spacecraft).  The group and the agent are read from the signal names fsmctl uses (:func:`fsmctl.formation`,
+spacecraft); it takes python-control's ``time_response_plot`` keywords (``ax``, ``plot_inputs``,
+``overlay_signals``, ``label``, ...) where a grouped plot can honour them and names the others in an error.  The group and the agent are read from the signal names fsmctl uses (:func:`fsmctl.formation`,
 :meth:`fsmctl.SimulationResult.to_time_response`): ``sc<i>_<group>[k]`` (also ``sc<i>.<group>[k]`` and
 ``<group>_<i>[k]``); a name without an agent (``aaem_deg``) is a formation-level signal, drawn in black.
 """
