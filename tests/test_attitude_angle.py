@@ -124,6 +124,7 @@ def test_it_is_the_simulators_relative_angle():
         (np.zeros(3), [0.0, np.nan, 0.0], {}, r"sigma_b holds a value that is not finite"),
         (np.zeros(3), np.zeros(3), {"axis": 2}, r"sigma_a of shape \(3,\) has no axis 2"),
         ("abc", np.zeros(3), {}, r"sigma_a must be an array of numbers"),
+        (np.zeros(3), np.zeros(3), {"axis": True}, r"axis must be an integer, got True"),
     ],
 )
 def test_bad_input_is_one_line(a, b, kwargs, match):

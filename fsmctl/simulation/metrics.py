@@ -169,7 +169,7 @@ def attitude_error_angle(sigma_a, sigma_b, *, axis: int = -1, degrees: bool = Fa
     ------
     fsmctl.errors.InputError
         An input that is not a numeric array, that has no axis ``axis`` of length 3, holds a value that is
-        not finite, or does not broadcast against the other.
+        not finite, or does not broadcast against the other; an ``axis`` that is not an integer.
 
     Examples
     --------
@@ -192,6 +192,8 @@ def attitude_error_angle(sigma_a, sigma_b, *, axis: int = -1, degrees: bool = Fa
     >>> attitude_error_angle(spin, np.zeros((3, 1)), axis=0, degrees=True).round(9).tolist()
     [0.0, 90.0, 180.0, 90.0, 0.0]
     """
+    if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)):
+        raise InputError(f"attitude_error_angle: axis must be an integer, got {axis!r}")
     arrays = []
     for name, value in (("sigma_a", sigma_a), ("sigma_b", sigma_b)):
         try:
@@ -200,7 +202,7 @@ def attitude_error_angle(sigma_a, sigma_b, *, axis: int = -1, degrees: bool = Fa
             raise InputError(f"attitude_error_angle: {name} must be an array of numbers (MRPs)") from None
         try:
             x = np.moveaxis(x, axis, -1)
-        except (np.exceptions.AxisError, TypeError):
+        except np.exceptions.AxisError:
             raise InputError(
                 f"attitude_error_angle: {name} of shape {x.shape} has no axis {axis!r} (MRP components)"
             ) from None
