@@ -15,7 +15,7 @@ its layers, and imports flow one way (``tests/test_layers.py`` enforces it):
 The top level holds what a user needs to build and fly a formation and take its results elsewhere: the scenario
 types, :func:`simulate`, the result files (:func:`save_result`, :func:`load_result`, :func:`scenario_from_result`),
 the laws (:func:`resolve_law`), and the python-control systems with their time response (:func:`formation`,
-:func:`law_controller`, :class:`FormationResponse`, ...).  The studies (reproduction, comparisons, Monte Carlo,
+:func:`law_controller`, :class:`FormationResponse`, :func:`attitude_error_angle`, ...).  The studies (reproduction, comparisons, Monte Carlo,
 tuning) keep their own namespace, :mod:`fsmctl.studies`, like the ``fsmctl`` subcommands they back.
 
 ``derive/`` (beside the package) holds the project's own derivation scripts: the model and the built-in laws.
@@ -104,6 +104,7 @@ __all__ = [
     "FormationResponse",
     "formation_response",
     "agent_color",
+    "attitude_error_angle",
     "resolve_law",
     "builtin_laws",
 ]
@@ -114,6 +115,7 @@ __getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
     submod_attrs={
         "simulation.simulator": ["simulate", "simulate_many", "SimulationResult", "SimulationError", "StepSizeWarning"],
         "simulation.results_io": ["save_result", "load_result", "scenario_from_result"],
+        "simulation.metrics": ["attitude_error_angle"],
         "plugin.iosys": [
             "spacecraft",
             "fsm_controller",

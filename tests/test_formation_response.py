@@ -364,10 +364,10 @@ def test_plot_groups_signals_colours_agents_and_styles_components(plt):
         "θ_e: attitude error angle (deg)",
         "AAEM, RAEM: attitude error metrics (deg, eqs 42-43)",
     ]
-    assert cplt.axes.shape == (6, 1) and [len(lines) for lines in cplt.lines] == [9, 9, 9, 9, 3, 2]
+    assert cplt.axes.shape == (6, 1) and [len(lines) for lines in cplt.lines[:, 0]] == [9, 9, 9, 9, 3, 2]
     assert cplt.figure.get_suptitle() == "synthetic"
     drawn = 0
-    for lines in cplt.lines:
+    for lines in cplt.lines[:, 0]:
         for line in lines:
             label = line.get_label()
             assert np.array_equal(line.get_xdata(), r.time)
@@ -398,7 +398,7 @@ def test_plot_limits_the_axes_and_chooses_groups(plt):
         "ω_e: rate error (rad/s, eq 7)",
         "u: torque on the body (N m)",
     ]
-    assert [line.get_label() for line in cplt.lines[0]][:2] == ["sc1_omega_e[0]", "sc1_omega_e[1]"]
+    assert [line.get_label() for line in cplt.lines[0, 0]][:2] == ["sc1_omega_e[0]", "sc1_omega_e[1]"]
     assert cplt.figure.get_suptitle() == "two groups"
     with warnings.catch_warnings(record=True) as caught:  # every group drawn: fsmctl does not warn (what
         warnings.simplefilter("always")  # matplotlib says about its own API depends on its version: not tested)
@@ -408,11 +408,6 @@ def test_plot_limits_the_axes_and_chooses_groups(plt):
         r.plot(groups=["nu"])
     with pytest.raises(InputError, match="max_axes must be an integer >= 1"):
         r.plot(max_axes=0)
-    multi = FormationResponse(
-        r.time, np.zeros((2, 3, r.time.size)), output_labels=["a", "b"], issiso=False, multi_trace=True
-    )
-    with pytest.raises(InputError, match="one trace expected"):
-        multi.plot()
 
 
 def test_signal_names_of_both_conventions_are_parsed(plt):
@@ -425,10 +420,10 @@ def test_signal_names_of_both_conventions_are_parsed(plt):
         "s": ["ctrl2_s[1]"],
     }
     cplt = r.plot()
-    assert [line.get_color() for line in cplt.lines[0]] == [agent_color(0), agent_color(0), agent_color(1)]
-    assert [line.get_linestyle() for line in cplt.lines[0]] == ["-", "--", "-"]
-    assert cplt.lines[3][0].get_color() == agent_color(1) and cplt.lines[3][0].get_linestyle() == "--"
-    assert cplt.lines[2][0].get_color() == "black"
+    assert [line.get_color() for line in cplt.lines[0, 0]] == [agent_color(0), agent_color(0), agent_color(1)]
+    assert [line.get_linestyle() for line in cplt.lines[0, 0]] == ["-", "--", "-"]
+    assert cplt.lines[3, 0][0].get_color() == agent_color(1) and cplt.lines[3, 0][0].get_linestyle() == "--"
+    assert cplt.lines[2, 0][0].get_color() == "black"
 
 
 def test_formation_response_wraps_a_plug_in_response(two, plt):
@@ -437,9 +432,9 @@ def test_formation_response_wraps_a_plug_in_response(two, plt):
     assert isinstance(r, FormationResponse) and formation_response(r) is r
     assert np.array_equal(r.outputs, raw.outputs) and r.output_labels == raw.output_labels
     cplt = r.plot()
-    assert cplt.axes.shape == (3, 1) and [len(lines) for lines in cplt.lines] == [6, 6, 6]
-    assert np.array_equal(cplt.lines[1][4].get_ydata(), raw.outputs[raw.output_labels.index("sc2_omega[1]")])
-    assert cplt.lines[1][4].get_color() == agent_color(1)
+    assert cplt.axes.shape == (3, 1) and [len(lines) for lines in cplt.lines[:, 0]] == [6, 6, 6]
+    assert np.array_equal(cplt.lines[1, 0][4].get_ydata(), raw.outputs[raw.output_labels.index("sc2_omega[1]")])
+    assert cplt.lines[1, 0][4].get_color() == agent_color(1)
     with pytest.raises(InputError, match=r"expected a control\.TimeResponseData"):
         formation_response(np.zeros(3))
 

@@ -443,11 +443,11 @@ def test_time_response_plots(paper, tmp_path):
     assert isinstance(tr, ct.TimeResponseData) and isinstance(tr, FormationResponse)
     assert tr.time.shape == r.time.shape and tr.outputs.shape == (18, r.time.size)
     cplt = tr.plot()
-    assert cplt.axes.shape == (3, 1) and [len(lines) for lines in cplt.lines] == [6, 6, 6]
+    assert cplt.axes.shape == (3, 1) and [len(lines) for lines in cplt.lines[:, 0]] == [6, 6, 6]
     cplt.figure.savefig(tmp_path / "response.png")
     assert (tmp_path / "response.png").stat().st_size > 1000
     # axes 2 is the torque: its first line is sc1_tau[0], the applied torque, in agent 0's colour
-    line = cplt.lines[2][0]
+    line = cplt.lines[2, 0][0]
     assert line.get_label() == "sc1_tau[0]" and line.get_color() == agent_color(0)
     assert np.array_equal(line.get_ydata(), r.u[:, 0, 0])
     plt.close("all")

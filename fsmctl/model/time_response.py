@@ -6,7 +6,8 @@ Figs 1-9) colours agent ``i`` with :func:`agent_color` ``(i)``, so an agent keep
 :class:`FormationResponse` is a :class:`control.TimeResponseData` whose :meth:`~FormationResponse.plot` groups
 a formation's signals: one axes per signal group (``sigma``, ``omega``, ``tau``, ``sigma_e``, ...), the agents as
 colours, the components as line styles, instead of python-control's one axes per signal (54 for the paper's six
-spacecraft).  The group and the agent are read from the signal names fsmctl uses (:func:`fsmctl.formation`,
+spacecraft); it takes python-control's ``time_response_plot`` keywords (``ax``, ``plot_inputs``,
+``overlay_signals``, ``label``, ...) where a grouped plot can honour them and names the others in an error.  The group and the agent are read from the signal names fsmctl uses (:func:`fsmctl.formation`,
 :meth:`fsmctl.SimulationResult.to_time_response`): ``sc<i>_<group>[k]`` (also ``sc<i>.<group>[k]`` and
 ``<group>_<i>[k]``); a name without an agent (``aaem_deg``) is a formation-level signal, drawn in black.
 """
@@ -16,8 +17,9 @@ from __future__ import annotations
 import operator
 import re
 import warnings
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import control as ct
 import numpy as np
@@ -175,6 +177,8 @@ class FormationResponse(ct.TimeResponseData):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
+        if not self.ninputs:  # python-control keeps plot_inputs=True for an empty (0, T) input array
+            self.plot_inputs = False
 
     def signal_groups(self) -> dict[str, list[str]]:
         """The output names by signal group, in the order :meth:`plot` draws them.
@@ -194,128 +198,487 @@ class FormationResponse(ct.TimeResponseData):
         """
         return {g: [s.label for s in signals] for g, signals in _groups(self.output_labels).items()}
 
-    def plot(self, groups: Sequence[str] | None = None, *, max_axes: int = 6, title: str | None = None):
-        """Plot the outputs grouped: one axes per signal group, agents as colours, components as line styles.
+    def plot(
+        self,
+        *fmt: str,
+        groups: Sequence[str] | str | None = None,
+        max_axes: int = 6,
+        ax=None,
+        plot_inputs: bool | str | None = None,
+        plot_outputs: bool = True,
+        transpose: bool = False,
+        overlay_traces: bool = False,
+        overlay_signals: bool = False,
+        add_initial_zero: bool = True,
+        label: str | Sequence[str] | None = None,
+        trace_labels: Sequence[str] | None = None,
+        title: str | None = None,
+        legend_loc: str | int | bool | None = None,
+        legend_map=None,
+        show_legend: bool | None = None,
+        time_label: str = "time (s)",
+        sharex: bool | str | None = None,
+        sharey: bool | str | None = None,
+        rcParams: Mapping[str, Any] | None = None,
+        **kwargs: Any,
+    ):
+        """Plot the signals grouped: one axes per signal group, agents as colours, components as line styles.
 
         Agent ``i`` is drawn in :func:`agent_color` ``(i)``, component ``k`` of a vector with line style
         ``("-", "--", ":")[k]``; formation-level signals (no agent) in black, each labelled.  One legend (beside
-        the axes) names the agents and the components.
+        the axes) names the agents and the components.  The keywords are those of python-control's
+        :meth:`control.TimeResponseData.plot` (:func:`control.time_response_plot`), with the same meanings,
+        where they apply to a grouped plot; the others (``output_props``, ``input_props``, ``trace_props``:
+        the colours are the agents'; ``relabel``; ``plot_inputs="overlay"``; ``overlay_traces`` with several
+        traces: the line styles are the components') raise :class:`~fsmctl.errors.InputError` naming the
+        keyword, as does any keyword that is neither one of these nor a matplotlib line property.
+
+        As in python-control, the lines go to the current figure when it has as many axes as this plot needs
+        (so that ``r1.plot(label="a"); r2.plot(label="b", linestyle="--")`` overlays two responses, the legend
+        naming both), on it when it has none, else to a new figure; ``plt.figure()`` first, or ``ax=``, chooses.
 
         Parameters
         ----------
-        groups : sequence of str, optional
-            The groups to draw, in this order (names of :meth:`signal_groups`); default: all, in the order of
-            the outputs, at most ``max_axes`` of them.
+        *fmt : str, optional
+            A matplotlib format string (``"k--"``) for every line; it replaces the agents' colours and the
+            components' line styles (python-control: it replaces the line properties).
+        groups : sequence of str or str, optional
+            The output groups to draw, in this order (names of :meth:`signal_groups`); default: all, in the
+            order of the outputs, at most ``max_axes`` of them.
         max_axes : int
-            Most axes drawn when ``groups`` is not given (the rest is left out with a warning).
+            Most output groups drawn when ``groups`` is not given (the rest is left out with a warning).
+        ax : matplotlib Axes or array of Axes, optional
+            The axes to draw on, one per plotted panel in the plot's shape (``(n_groups, n_traces)``, transposed
+            with ``transpose=True``); default: see above.
+        plot_inputs : bool or None
+            ``True``: the inputs too, grouped like the outputs, below them (left of them with ``transpose``);
+            ``False``: not; ``None`` (default): if the response has inputs and its ``plot_inputs`` says so.  A
+            formation (:func:`fsmctl.formation`) has no inputs.
+        plot_outputs : bool
+            ``False``: inputs only.
+        transpose : bool
+            Signal groups left to right (inputs first) and traces top to bottom.
+        overlay_traces : bool
+            Accepted for a response of one trace (nothing to overlay); with several traces each one has its
+            own column.
+        overlay_signals : bool
+            All output groups on one axes (and all input groups on another).
+        add_initial_zero : bool
+            Start inputs of a ``"step"`` trace at zero, as python-control does.
+        label : str or sequence of str, optional
+            A name of the response (one per trace): added to its lines' labels (``"sc1_sigma[0], run A"``)
+            and to the legend, drawn with the line keywords given, so overlaid responses are told apart.
+        trace_labels : sequence of str, optional
+            Titles of the traces' columns (default the response's ``trace_labels``, else ``"Trace <j>"``).
         title : str, optional
-            Figure title; default the response's ``title``.
+            Figure title; default the response's ``title`` (none when ``ax`` is given, as python-control).
+
+        Other Parameters
+        ----------------
+        legend_loc : str, int or False, optional
+            Where the legend goes (a matplotlib location; default ``"outside right upper"``, beside the axes);
+            ``False``: no legend.
+        legend_map : array of str or None, optional
+            One entry per axes (the plot's shape): a location for a legend on that axes, or ``None``; replaces
+            the figure's legend.
+        show_legend : bool, optional
+            ``False``: no legend.
+        time_label : str
+            Label of the time axis.
+        sharex, sharey : bool or str, optional
+            Axis sharing of a new figure (:func:`matplotlib.pyplot.subplots`); default python-control's
+            ``config.defaults["timeplot.sharex"]`` and ``["timeplot.sharey"]``.
+        rcParams : dict, optional
+            matplotlib settings for this plot (:func:`matplotlib.pyplot.rc_context`).
+        **kwargs
+            matplotlib line properties for every line (``color``, ``linestyle``, ``linewidth``, ``alpha``,
+            ...): they override the agents' colours and the components' styles, and the legend stops
+            listing what they replace.
 
         Returns
         -------
         control.ControlPlot
-            ``lines`` (an array with one list of :class:`matplotlib.lines.Line2D` per axes), ``axes`` (shape
-            ``(n_groups, 1)``), ``figure``, ``legend`` (the figure's legend).
+            ``lines`` (an array of the axes' shape, each a list of :class:`matplotlib.lines.Line2D`), ``axes``
+            (shape ``(n_panels, n_traces)``, transposed with ``transpose``), ``figure``, ``legend`` (the
+            figure's legend, or the array of axes legends of ``legend_map``; ``None`` without one).
 
         Raises
         ------
         fsmctl.errors.InputError
-            A response with several traces or no outputs, an unknown group, or ``max_axes < 1``.
+            A keyword that does not apply or a bad value (see above); an unknown group; ``max_axes < 1``;
+            nothing to plot (no outputs, ``plot_inputs=True`` without inputs, both ``False``); ``ax``, ``label``,
+            ``trace_labels`` or ``legend_map`` of the wrong size.
 
         Warns
         -----
         UserWarning
             When there are more groups than ``max_axes`` and ``groups`` is not given.
 
+        See Also
+        --------
+        control.time_response_plot : python-control's plot of the same response, one axes per signal.
+
         Examples
         --------
         >>> import matplotlib
         >>> matplotlib.use("Agg")
+        >>> import matplotlib.pyplot as plt
         >>> import numpy as np
         >>> t = np.linspace(0.0, 1.0, 5)
         >>> labels = [f"sc{i}_{g}[{k}]" for i in (1, 2) for g in ("sigma", "omega") for k in range(3)]
         >>> r = FormationResponse(t, np.ones((12, 5)), output_labels=labels, issiso=False)
         >>> cplt = r.plot()
-        >>> [ax.get_title() for ax in cplt.axes[:, 0]], [len(lines) for lines in cplt.lines]
+        >>> [ax.get_title() for ax in cplt.axes[:, 0]], [len(lines) for lines in cplt.lines[:, 0]]
         (['σ: attitude (MRP)', 'ω: body rate (rad/s)'], [6, 6])
         >>> [text.get_text() for text in cplt.legend.get_texts()]
         ['sc1', 'sc2', '[0]', '[1]', '[2]']
-        >>> import matplotlib.pyplot as plt
+
+        A second response on the same axes, in grey, named in the legend:
+
+        >>> cplt = FormationResponse(t, np.zeros((12, 5)), output_labels=labels, issiso=False).plot(
+        ...     label="zero", color="0.5", linewidth=3)
+        >>> [text.get_text() for text in cplt.legend.get_texts()]
+        ['sc1', 'sc2', '[0]', '[1]', '[2]', 'zero']
         >>> plt.close(cplt.figure)
+
+        One axes for everything, on axes of your own:
+
+        >>> fig, ax = plt.subplots()
+        >>> cplt = r.plot(ax=ax, overlay_signals=True, legend_loc="upper left")
+        >>> cplt.axes.shape, len(cplt.lines[0, 0]), cplt.axes[0, 0] is ax
+        ((1, 1), 12, True)
+        >>> plt.close(fig)
         """
         import matplotlib.pyplot as plt
-        from matplotlib.lines import Line2D
 
-        if self.ntraces:
-            raise InputError(f"FormationResponse.plot: one trace expected, the response has {self.ntraces}")
-        if not self.noutputs:
-            raise InputError("FormationResponse.plot: the response has no outputs")
-        available = _groups(self.output_labels)
-        if groups is None:
-            if isinstance(max_axes, bool) or not isinstance(max_axes, int) or max_axes < 1:
-                raise InputError(f"FormationResponse.plot: max_axes must be an integer >= 1, got {max_axes!r}")
-            chosen = list(available)
-            if len(chosen) > max_axes:
-                warnings.warn(
-                    f"FormationResponse.plot: {len(chosen)} signal groups, drawing the first {max_axes}; left out: "
-                    f"{', '.join(chosen[max_axes:])} (choose with plot(groups=[...]))",
-                    UserWarning,
-                    stacklevel=2,
+        where = "FormationResponse.plot"
+        _check_keywords(fmt, kwargs, where)
+        for name, value in (
+            ("plot_outputs", plot_outputs),
+            ("transpose", transpose),
+            ("overlay_traces", overlay_traces),
+            ("overlay_signals", overlay_signals),
+            ("add_initial_zero", add_initial_zero),
+        ):
+            if not isinstance(value, (bool, np.bool_)):
+                raise InputError(f"{where}: {name} must be True or False, got {value!r}")
+        ntraces = max(1, self.ntraces)
+        if overlay_traces and ntraces > 1:
+            raise InputError(
+                f"{where}: overlay_traces=True does not apply to a grouped plot of {ntraces} traces (colours are "
+                "the agents', line styles the components'): each trace has its own column"
+            )
+        if plot_inputs is None:
+            plot_inputs = bool(self.plot_inputs) and self.ninputs > 0
+        elif isinstance(plot_inputs, str) and plot_inputs == "overlay":
+            raise InputError(
+                f"{where}: plot_inputs='overlay' does not apply to a grouped plot (inputs and outputs are different "
+                "groups); use plot_inputs=True"
+            )
+        elif not isinstance(plot_inputs, (bool, np.bool_)):
+            raise InputError(f"{where}: plot_inputs must be True, False, None or 'overlay', got {plot_inputs!r}")
+        elif plot_inputs and not self.ninputs:
+            raise InputError(f"{where}: plot_inputs=True, but the response has no inputs")
+        if not plot_outputs and not plot_inputs:
+            raise InputError(f"{where}: plot_inputs and plot_outputs are both False: nothing to plot")
+        if plot_outputs and not self.noutputs:
+            raise InputError(f"{where}: the response has no outputs")
+        if not plot_outputs and groups is not None:
+            raise InputError(f"{where}: groups= chooses output groups, and plot_outputs=False")
+
+        panels = self._panels(groups, max_axes, bool(plot_outputs), bool(plot_inputs), where)
+        if overlay_signals:
+            panels = [
+                _Panel(
+                    kind,
+                    "Outputs" if kind == "output" else "Inputs",
+                    [s for p in panels if p.kind == kind for s in p.signals],
                 )
-                chosen = chosen[:max_axes]
-        else:
-            if isinstance(groups, str):
-                groups = [groups]
-            chosen = list(groups)
-            unknown = [g for g in chosen if g not in available]
-            if unknown or not chosen:
-                raise InputError(
-                    f"FormationResponse.plot: no signal group {unknown[0] if unknown else '(none given)'!r}; "
-                    f"the groups are {', '.join(available)}"
-                )
-        y = np.asarray(self.y, dtype=float).reshape(self.noutputs, -1)
-        t = np.asarray(self.t, dtype=float)
-        fig, axes = plt.subplots(
-            len(chosen), 1, sharex=True, squeeze=False, figsize=(8.0, 0.6 + 1.9 * len(chosen)), layout="constrained"
-        )
-        lines = np.empty(len(chosen), dtype=object)
-        agents: set[int] = set()
-        components: set[int] = set()
-        for row, group in enumerate(chosen):
-            ax = axes[row, 0]
-            signals = available[group]
-            drawn = []
-            for position, s in enumerate(signals):
-                if s.agent is not None:
-                    agents.add(s.agent)
-                    color, label = agent_color(s.agent), s.label
-                    style = _STYLES[(s.component or 0) % len(_STYLES)]
-                    if s.component is not None:
-                        components.add(s.component)
-                else:
-                    color, label = "black", s.label
-                    style = _STYLES[(s.component if s.component is not None else position) % len(_STYLES)]
-                (line,) = ax.plot(t, y[s.index], color=color, linestyle=style, linewidth=1.2, label=label)
-                drawn.append(line)
-            lines[row] = drawn
-            ax.set_title(_title(group, signals), fontsize=10)
-            ax.grid(True, alpha=0.3)
-            if all(s.agent is None for s in signals) and len(signals) > 1:
-                ax.legend(fontsize=8, loc="best")
-        axes[-1, 0].set_xlabel("time (s)")
-        handles = [Line2D([], [], color=agent_color(i), linestyle="-", label=f"sc{i + 1}") for i in sorted(agents)] + [
-            Line2D([], [], color="black", linestyle=_STYLES[k % len(_STYLES)], label=f"[{k}]")
-            for k in sorted(components)
-        ]
-        legend = fig.legend(handles=handles, loc="outside right upper", fontsize=8) if handles else None
-        text = title if title is not None else self.title
-        if text:
-            fig.suptitle(text)
+                for kind in ("output", "input")
+                if any(p.kind == kind for p in panels)
+            ]
+        if transpose:  # python-control: inputs left of outputs
+            panels = [p for p in panels if p.kind == "input"] + [p for p in panels if p.kind == "output"]
+        names = _per_trace(trace_labels, "trace_labels", ntraces, where)
+        if names is None:
+            names = list(self.trace_labels) if self.trace_labels else [f"Trace {j}" for j in range(ntraces)]
+        run_names = _per_trace(label, "label", ntraces, where)
+        shape = (len(panels), ntraces)
+        if transpose:
+            shape = shape[::-1]
+        legend_loc, legend_map, show = _legend_keywords(legend_loc, legend_map, show_legend, shape, where)
+        if rcParams is not None and not isinstance(rcParams, Mapping):
+            raise InputError(f"{where}: rcParams must be a dict of matplotlib settings, got {type(rcParams).__name__}")
+        try:
+            context = plt.rc_context(dict(rcParams or {}))
+            context.__enter__()
+        except (KeyError, ValueError) as exc:
+            raise InputError(f"{where}: rcParams: {_one_line(exc)}") from None
+        try:
+            fig, axes = _figure_axes(ax, shape, sharex, sharey, where)
+            y = np.asarray(self.y, dtype=float).reshape(self.noutputs, ntraces, -1)
+            u = np.asarray(self.u, dtype=float).reshape(self.ninputs, ntraces, -1) if plot_inputs else None
+            t = np.asarray(self.t, dtype=float)
+            lines = np.empty(shape, dtype=object)
+            for index in np.ndindex(shape):
+                lines[index] = []
+            agents: set[int] = set()
+            components: set[int] = set()
+            for trace in range(ntraces):
+                suffix = f", {run_names[trace]}" if run_names else ""
+                for position, panel in enumerate(panels):
+                    where_ax = (trace, position) if transpose else (position, trace)
+                    axis = axes[where_ax]
+                    data = y if panel.kind == "output" else u
+                    step = (
+                        panel.kind == "input"
+                        and add_initial_zero
+                        and self.trace_types is not None
+                        and trace < len(self.trace_types)
+                        and self.trace_types[trace] == "step"
+                    )
+                    x = np.concatenate([t[:1], t]) if step else t
+                    for n, sig in enumerate(panel.signals):
+                        values = data[sig.index, trace]
+                        if step:
+                            values = np.concatenate([[0.0], values])
+                        props = {} if fmt else _line_style(sig, n)
+                        props.update(kwargs)
+                        (line,) = axis.plot(x, values, *fmt, label=sig.label + suffix, **props)
+                        lines[where_ax].append(line)
+                        if sig.agent is not None:
+                            agents.add(sig.agent)
+                        if sig.component is not None and sig.agent is not None:
+                            components.add(sig.component)
+                    axis.set_title(panel.title, fontsize=10)
+                    axis.grid(True, alpha=0.3)
+                    if len(panel.signals) > 1 and all(sig.agent is None for sig in panel.signals):
+                        axis.legend(fontsize=8, loc="best")
+            for col in range(shape[1]):
+                axes[-1, col].set_xlabel(time_label)
+            if ntraces > 1:
+                for trace in range(ntraces):
+                    if transpose:
+                        axes[trace, 0].set_ylabel(names[trace])
+                    else:
+                        axes[0, trace].set_title(f"{names[trace]}\n{axes[0, trace].get_title()}", fontsize=10)
+            legend = _legend(fig, axes, fmt, kwargs, agents, components, run_names, legend_loc, legend_map, show)
+            if ax is None:
+                text = self.title if title is None else title
+                if text:
+                    fig.suptitle(text)
+            elif title is not None:
+                fig.suptitle(title)
+        finally:
+            context.__exit__(None, None, None)
         return ct.ControlPlot(lines, axes, fig, legend=legend)
+
+    def _panels(self, groups, max_axes, outputs: bool, inputs: bool, where: str) -> list[_Panel]:
+        """The axes' contents: the chosen output groups, then every input group."""
+        panels = []
+        if outputs:
+            available = _groups(self.output_labels)
+            if groups is None:
+                if isinstance(max_axes, bool) or not isinstance(max_axes, int) or max_axes < 1:
+                    raise InputError(f"{where}: max_axes must be an integer >= 1, got {max_axes!r}")
+                chosen = list(available)
+                if len(chosen) > max_axes:
+                    warnings.warn(
+                        f"{where}: {len(chosen)} signal groups, drawing the first {max_axes}; left out: "
+                        f"{', '.join(chosen[max_axes:])} (choose with plot(groups=[...]))",
+                        UserWarning,
+                        stacklevel=3,
+                    )
+                    chosen = chosen[:max_axes]
+            else:
+                chosen = [groups] if isinstance(groups, str) else list(groups)
+                unknown = [g for g in chosen if g not in available]
+                if unknown or not chosen:
+                    raise InputError(
+                        f"{where}: no signal group {unknown[0] if unknown else '(none given)'!r}; "
+                        f"the groups are {', '.join(available)}"
+                    )
+            panels += [_Panel("output", _title(g, available[g]), available[g]) for g in chosen]
+        if inputs:
+            for g, signals in _groups(self.input_labels).items():
+                panels.append(_Panel("input", "inputs" if g == _METRICS else _title(g, signals), signals))
+        return panels
+
+
+@dataclass(frozen=True)
+class _Panel:
+    kind: str  # "output" or "input"
+    title: str
+    signals: list[_Signal]
+
+
+_NOT_APPLICABLE = {
+    "output_props": "the lines are coloured by agent (fsmctl.agent_color) and styled by component; pass color= or "
+    "linestyle= to set every line",
+    "input_props": "the lines are coloured by agent (fsmctl.agent_color) and styled by component; pass color= or "
+    "linestyle= to set every line",
+    "trace_props": "the traces have a column each (line styles are the components'); pass linestyle= to set every line",
+    "relabel": "python-control deprecates it; the axes are always labelled",
+}
+"""python-control's ``time_response_plot`` keywords that a grouped plot cannot honour, and why."""
+
+
+def _one_line(exc: BaseException) -> str:
+    text = str(exc).strip()
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+def _check_keywords(fmt: tuple, kwargs: dict[str, Any], where: str) -> None:
+    """Refuse the keywords that do not apply and anything that is not a matplotlib line property, before drawing."""
+    from matplotlib import cbook
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    for key in kwargs:
+        if key in _NOT_APPLICABLE:
+            raise InputError(f"{where}: {key}= does not apply to a grouped plot: {_NOT_APPLICABLE[key]}")
+    for key in cbook.normalize_kwargs(kwargs, Line2D):
+        if not callable(getattr(Line2D, f"set_{key}", None)):
+            raise InputError(
+                f"{where}: unknown keyword {key!r} (neither a keyword of python-control's time_response_plot that "
+                "applies here nor a matplotlib line property)"
+            )
+    if len(fmt) > 1 or any(not isinstance(f, str) for f in fmt):
+        raise InputError(f"{where}: at most one positional argument, a matplotlib format string, got {fmt!r}")
+    try:  # the values, on a figure pyplot does not track
+        Figure().add_subplot().plot([0.0], [0.0], *fmt, **kwargs)
+    except (AttributeError, TypeError, ValueError) as exc:
+        raise InputError(f"{where}: {_one_line(exc)}") from None
+
+
+def _per_trace(value, name: str, ntraces: int, where: str) -> list[str] | None:
+    """``label``/``trace_labels``: ``None``, one string (every trace) or one string per trace."""
+    if value is None:
+        return None
+    if isinstance(value, str):
+        return [value] * ntraces
+    values = list(value) if isinstance(value, Sequence) or isinstance(value, np.ndarray) else None
+    if values is None or len(values) != ntraces or not all(isinstance(v, str) for v in values):
+        raise InputError(f"{where}: {name} must be a string or {ntraces} string(s), one per trace, got {value!r}")
+    return values
+
+
+def _legend_keywords(legend_loc, legend_map, show_legend, shape: tuple[int, int], where: str):
+    """python-control's legend keywords (``ctrlplot._process_legend_keywords``): ``(loc, map, show)``."""
+    if show_legend is not None and not isinstance(show_legend, (bool, np.bool_)):
+        raise InputError(f"{where}: show_legend must be True, False or None, got {show_legend!r}")
+    if legend_loc is False or (legend_map is not None and legend_map is False) or show_legend is False:
+        return None, None, False
+    if legend_loc is not None and (isinstance(legend_loc, bool) or not isinstance(legend_loc, (int, str))):
+        raise InputError(f"{where}: legend_loc must be a matplotlib location (str or int) or False, got {legend_loc!r}")
+    if legend_map is not None:
+        legend_map = np.atleast_2d(np.asarray(legend_map, dtype=object))
+        if legend_map.shape != shape:
+            raise InputError(f"{where}: legend_map has shape {legend_map.shape}, the axes {shape}")
+    return legend_loc, legend_map, True
+
+
+def _figure_axes(ax, shape: tuple[int, int], sharex, sharey, where: str):
+    """python-control's choice of axes (``ctrlplot._process_ax_keyword``), with a new figure sized for the groups."""
+    import matplotlib.pyplot as plt
+    from matplotlib.axes import Axes
+
+    count = shape[0] * shape[1]
+    if ax is not None:
+        given = np.asarray(ax, dtype=object)
+        if given.size != count or not all(isinstance(a, Axes) for a in given.flat):
+            raise InputError(
+                f"{where}: ax must hold {count} matplotlib Axes (the plot's shape {shape}), got {given.size} "
+                f"object(s) of shape {given.shape}"
+            )
+        axes = given.reshape(shape)
+        return axes[0, 0].figure, axes
+    sharex = ct.config.defaults["timeplot.sharex"] if sharex is None else sharex
+    sharey = ct.config.defaults["timeplot.sharey"] if sharey is None else sharey
+    fig = plt.gcf() if plt.get_fignums() else None
+    if fig is not None and len(fig.get_axes()) == count:  # python-control: draw into the current figure
+        return fig, np.asarray(fig.get_axes(), dtype=object).reshape(shape)
+    if fig is not None and not fig.get_axes():
+        axes = fig.subplots(*shape, sharex=sharex, sharey=sharey, squeeze=False)
+        fig.set_layout_engine("constrained")
+        return fig, axes
+    rows, cols = shape
+    size = (8.0 if cols == 1 else min(3.0 + 4.0 * cols, 24.0), 0.6 + 1.9 * rows)
+    fig, axes = plt.subplots(
+        rows, cols, sharex=sharex, sharey=sharey, squeeze=False, figsize=size, layout="constrained"
+    )
+    return fig, axes
+
+
+def _line_style(signal: _Signal, position: int) -> dict[str, Any]:
+    """Agent colour and component line style of a signal (black, one style per signal, for formation signals)."""
+    if signal.agent is not None:
+        return {
+            "color": agent_color(signal.agent),
+            "linestyle": _STYLES[(signal.component or 0) % len(_STYLES)],
+            "linewidth": 1.2,
+        }
+    k = signal.component if signal.component is not None else position
+    return {"color": "black", "linestyle": _STYLES[k % len(_STYLES)], "linewidth": 1.2}
+
+
+def _legend(fig, axes, fmt, kwargs, agents, components, run_names, legend_loc, legend_map, show):
+    """The figure's legend: agents, components and named responses of every call on this figure so far."""
+    from matplotlib import cbook
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    style = cbook.normalize_kwargs(kwargs, Line2D)
+    known = getattr(fig, "_fsmctl_legend", None)
+    if known is None:
+        known = fig._fsmctl_legend = {"agents": {}, "components": {}, "runs": {}}
+    if not fmt and "color" not in style:
+        for i in sorted(agents):
+            known["agents"].setdefault(i, Line2D([], [], color=agent_color(i), linestyle="-", label=f"sc{i + 1}"))
+    if not fmt and "linestyle" not in style:
+        for k in sorted(components):
+            known["components"].setdefault(
+                k, Line2D([], [], color="black", linestyle=_STYLES[k % len(_STYLES)], label=f"[{k}]")
+            )
+    for name in dict.fromkeys(run_names or ()):
+        props = {"color": "black", "linestyle": "-", **style} if not fmt else dict(style)
+        (handle,) = Figure().add_subplot().plot([], [], *fmt, **props)
+        handle.set_label(name)
+        known["runs"][name] = handle
+    handles = [
+        *(known["agents"][i] for i in sorted(known["agents"])),
+        *(known["components"][k] for k in sorted(known["components"])),
+        *known["runs"].values(),
+    ]
+    previous = getattr(fig, "_fsmctl_legend_artist", None)
+    if previous is not None and previous in fig.legends:
+        previous.remove()
+    fig._fsmctl_legend_artist = None
+    if not show or not handles:
+        return None
+    if legend_map is not None:
+        out = np.full(axes.shape, None, dtype=object)
+        for index in np.ndindex(axes.shape):
+            if legend_map[index] is not None:
+                out[index] = axes[index].legend(handles=handles, loc=legend_map[index], fontsize=8)
+        return out
+    if legend_loc is None:
+        engine = fig.get_layout_engine()
+        legend_loc = (
+            "outside right upper" if engine is not None and "Constrained" in type(engine).__name__ else "upper right"
+        )
+    fig._fsmctl_legend_artist = fig.legend(handles=handles, loc=legend_loc, fontsize=8)
+    return fig._fsmctl_legend_artist
 
 
 def formation_response(response: ct.TimeResponseData) -> FormationResponse:
     """A python-control time response as a :class:`FormationResponse` (same data, readable ``plot()``).
+
+    The way to plot a response of a formation: ``ct.input_output_response(fsmctl.formation(s), ...).plot()``
+    raises python-control's "input plotting requested but no inputs in time response data" (a formation has
+    no inputs, yet python-control 0.10 stores its empty input array and marks it for plotting), and would draw
+    one axes per signal (54 for the paper's six spacecraft).  The response returned here does not mark the
+    missing inputs, so ``ct.time_response_plot`` of it draws too.
 
     Parameters
     ----------
@@ -326,7 +689,8 @@ def formation_response(response: ct.TimeResponseData) -> FormationResponse:
     Returns
     -------
     FormationResponse
-        A new object sharing the response's arrays and labels.
+        A new object sharing the response's arrays and labels (``plot_inputs`` is False when there are no
+        inputs).
 
     Raises
     ------
@@ -343,6 +707,12 @@ def formation_response(response: ct.TimeResponseData) -> FormationResponse:
     >>> r = formation_response(ct.input_output_response(fsmctl.formation(s), [0.0, 0.01], 0, initial_state(s)))
     >>> list(r.signal_groups()), len(r.signal_groups()["sigma"])
     (['sigma', 'omega', 'tau'], 18)
+    >>> import matplotlib
+    >>> matplotlib.use("Agg")
+    >>> import matplotlib.pyplot as plt
+    >>> r.plot().axes.shape
+    (3, 1)
+    >>> plt.close("all")
     """
     if isinstance(response, FormationResponse):
         return response
@@ -350,4 +720,6 @@ def formation_response(response: ct.TimeResponseData) -> FormationResponse:
         raise InputError(f"formation_response: expected a control.TimeResponseData, got {type(response).__name__}")
     new = FormationResponse.__new__(FormationResponse)
     new.__dict__.update(response.__dict__)
+    if not new.ninputs:  # python-control marks an empty (0, T) input array for plotting: nothing to plot there
+        new.plot_inputs = False
     return new

@@ -11,6 +11,10 @@ What a user of this layer calls:
 * the flight hardware (:mod:`fsmctl.plugin.hardware`): :func:`reaction_wheel_spacecraft`, :func:`star_tracker`,
   :func:`rate_gyro`, :func:`link`.
 
+Their responses: :func:`fsmctl.formation_response` (a grouped ``plot()`` taking python-control's keywords) and
+:func:`fsmctl.attitude_error_angle` (the angle between two ``sigma`` outputs, which jump at 180 deg), at the top
+level of :mod:`fsmctl`.
+
 Everything loads on first use (SPEC 1 lazy loading), so ``import fsmctl.plugin`` does not import CasADi or
 python-control.
 """

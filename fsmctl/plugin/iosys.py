@@ -703,6 +703,8 @@ def spacecraft(
     ParameterizedSystem
         Inputs ``tau[0..2]`` (N m); states ``q[0..3]`` (Euler parameters, scalar first, N -> B) and
         ``omega[0..2]`` (rad/s, body frame); outputs ``sigma[0..2]`` (MRP, ``|sigma| <= 1``) and ``omega[0..2]``.
+        ``sigma`` switches set at 180 deg (a jump of 2): compare attitudes with :func:`fsmctl.attitude_error_angle`,
+        not by differences of ``sigma``.
         Parameters ``f"{name}_J"`` (3x3), ``f"{name}_disturbance"`` (12: amplitude, frequency, phase, offset)
         and the owner tag ``f"{name}_owner"``; values passed with ``params=`` replace them for that call.
 
@@ -1464,11 +1466,13 @@ def formation(
     Returns
     -------
     FormationSystem
-        No inputs. States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``
+        No inputs (plot a response through :func:`fsmctl.formation_response`: python-control's own ``plot()``
+        asks for inputs). States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``
         (and the wheel speeds), then the controllers' law states ``ctrl<i>_<state>[k]`` if the law has any
         (:func:`initial_state` builds all of these from the scenario, :func:`mrp_state` maps them back to MRPs),
         then the states of the actuator and sensor blocks (pass ``[initial_state(s), x_blocks]``, or
-        ``[initial_state(s), 0]`` for zeros).  Outputs ``sc<i>_sigma[k]`` (``|sigma| <= 1``),
+        ``[initial_state(s), 0]`` for zeros).  Outputs ``sc<i>_sigma[k]`` (``|sigma| <= 1``: it jumps at 180 deg;
+        compare two agents with :func:`fsmctl.attitude_error_angle`, not by differences),
         ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the torque applied to the body: the actuator block's ``tau``,
         the wheels' reaction, else the law's output; the output labels of
         :meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,

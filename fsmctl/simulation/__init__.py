@@ -3,7 +3,8 @@
 * :func:`simulate` / :func:`simulate_many` fly a :class:`~fsmctl.model.scenario.Scenario` (the generated C, the
   whole time loop compiled; CasADi's virtual machine without a compiler) and return a :class:`SimulationResult`;
 * the metrics of Liang et al. (2012), eqs 42-43: :func:`aaem_deg`, :func:`raem_deg`, from the principal angles
-  :func:`principal_angles` / :func:`relative_principal_angles`, and :func:`settling_time`;
+  :func:`principal_angles` / :func:`relative_principal_angles`, and :func:`settling_time`; the same angle between
+  any two MRP signals, :func:`attitude_error_angle` (it does not jump where sigma switches to its shadow set);
 * result files (:mod:`fsmctl.simulation.results_io`): :meth:`SimulationResult.save` writes NetCDF or CSV with the
   run's provenance (:func:`provenance`), :func:`load_result` reads them, :func:`scenario_from_result` re-runs one.
 
@@ -24,7 +25,14 @@ _ATTRS = {
         "DiscontinuousControlWarning",
         "step_size_report",
     ],
-    "metrics": ["principal_angles", "relative_principal_angles", "aaem_deg", "raem_deg", "settling_time"],
+    "metrics": [
+        "principal_angles",
+        "relative_principal_angles",
+        "attitude_error_angle",
+        "aaem_deg",
+        "raem_deg",
+        "settling_time",
+    ],
     "results_io": [
         "save_result",
         "write_netcdf",

@@ -3,7 +3,9 @@
 Principal angles and relative attitudes are evaluated with the generated MRP
 functions (``mrp_principal_angle``, ``mrp_error``), mapped over the samples by
 CasADi (through NumPy buffers, :func:`fsmctl.model.casadi_eval.evaluate_mapped`), so no
-MRP formula is re-typed here.
+MRP formula is re-typed here.  :func:`attitude_error_angle` is the same route for any two MRP signals (two
+outputs of a python-control response): the angle of the rotation between them, which does not jump where an
+MRP switches to its shadow set.
 
 Memory.  The relative attitude metric (eq 43) involves every pair of agents at every
 sample: ``T x n x n`` angles, 8 bytes each (200 agents over the paper's 100 s at 0.01 s:
@@ -22,6 +24,7 @@ import ctypes
 
 import numpy as np
 
+from fsmctl.errors import InputError
 from fsmctl.model.casadi_eval import evaluate_mapped
 from fsmctl.model.generated_code import casadi_function, compiled_library
 
@@ -29,6 +32,7 @@ __all__ = [
     "MAP_BLOCK",
     "RAEM_WORKING_BYTES",
     "principal_angles",
+    "attitude_error_angle",
     "relative_principal_angles",
     "relative_angles_at",
     "pair_angles",
@@ -127,6 +131,101 @@ def principal_angles(sigma: np.ndarray) -> np.ndarray:
     return theta.reshape(sigma.shape[:-1])
 
 
+def _error_angles(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``(m, 3), (m, 3) -> (m,)``: the principal angle of ``a (x) b^-1`` (the generated ``mrp_error``, then
+    :func:`principal_angles`): the one route of every relative angle here."""
+    if a.shape[0] == 0:
+        return np.zeros(0)
+    return principal_angles(_mapped("mrp_error", a.shape[0], [a, b]))
+
+
+def attitude_error_angle(sigma_a, sigma_b, *, axis: int = -1, degrees: bool = False) -> np.ndarray:
+    """Principal angle of the rotation between two attitudes given as MRPs: continuous where sigma switches set.
+
+    The outputs ``sigma`` of fsmctl's systems are MRPs in the shadow set ``|sigma| <= 1``: at ``|sigma| = 1``
+    (a rotation of 180 deg) they switch to ``-sigma / |sigma|^2``, a jump of 2, so ``sigma_a - sigma_b`` jumps by 2
+    (by up to 4 when both switch) while the attitudes move continuously.  This angle does not: it is the principal angle ``theta`` (Liang et
+    al. 2012, eq 2) of the relative attitude ``sigma_a (x) sigma_b^-1``, the formula of the simulator's
+    ``theta_e`` and of the relative angles of RAEM (eq 43): the generated ``mrp_error`` and
+    ``mrp_principal_angle``.  Either MRP may be in either set.
+
+    Parameters
+    ----------
+    sigma_a, sigma_b : array_like
+        MRPs, the three components along ``axis``; the other axes (time, agents, ...) broadcast against each
+        other.  A python-control response holds a signal as ``(3, T)`` rows: pass ``axis=0``.
+    axis : int
+        The axis of length 3 holding the MRP components, in both arrays.
+    degrees : bool
+        Return degrees instead of radians.
+
+    Returns
+    -------
+    numpy.ndarray
+        The angle, in ``[0, pi]`` rad (``[0, 180]`` deg), with the broadcast shape of the two inputs without
+        ``axis``.
+
+    Raises
+    ------
+    fsmctl.errors.InputError
+        An input that is not a numeric array, that has no axis ``axis`` of length 3, holds a value that is
+        not finite, or does not broadcast against the other; an ``axis`` that is not an integer.
+
+    Examples
+    --------
+    One attitude on both sides of the switch: 179 deg and 181 deg about z, the second written in the shadow
+    set (``|sigma| <= 1``, as the outputs are).  The MRPs differ by ~2, the attitudes by 2 deg:
+
+    >>> import numpy as np
+    >>> mrp_z = lambda deg: np.array([0.0, 0.0, np.tan(np.radians(deg) / 4)])
+    >>> shadow = lambda s: -s / (s @ s)
+    >>> a, b = mrp_z(179.0), shadow(mrp_z(181.0))
+    >>> (a - b).round(3).tolist()
+    [0.0, 0.0, 1.983]
+    >>> round(float(attitude_error_angle(a, b, degrees=True)), 9)
+    2.0
+
+    Over time, with signals as python-control rows ``(3, T)``:
+
+    >>> t = np.linspace(0.0, 2.0, 5)  # a spin at 180 deg/s about z: 0, 90, 180, 270, 360 deg
+    >>> spin = np.stack([np.zeros(5), np.zeros(5), np.tan(np.radians(180.0 * t) / 4)])
+    >>> attitude_error_angle(spin, np.zeros((3, 1)), axis=0, degrees=True).round(9).tolist()
+    [0.0, 90.0, 180.0, 90.0, 0.0]
+    """
+    if isinstance(axis, bool) or not isinstance(axis, (int, np.integer)):
+        raise InputError(f"attitude_error_angle: axis must be an integer, got {axis!r}")
+    arrays = []
+    for name, value in (("sigma_a", sigma_a), ("sigma_b", sigma_b)):
+        try:
+            x = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError(f"attitude_error_angle: {name} must be an array of numbers (MRPs)") from None
+        try:
+            x = np.moveaxis(x, axis, -1)
+        except np.exceptions.AxisError:
+            raise InputError(
+                f"attitude_error_angle: {name} of shape {x.shape} has no axis {axis!r} (MRP components)"
+            ) from None
+        if x.shape[-1] != 3:
+            raise InputError(
+                f"attitude_error_angle: {name} has {x.shape[-1]} components along axis {axis}, an MRP has 3 "
+                f"(shape {np.shape(value)})"
+            )
+        if not np.isfinite(x).all():
+            raise InputError(f"attitude_error_angle: {name} holds a value that is not finite (NaN or inf)")
+        arrays.append(x)
+    try:
+        shape = np.broadcast_shapes(arrays[0].shape, arrays[1].shape)
+    except ValueError:
+        raise InputError(
+            f"attitude_error_angle: the shapes {np.shape(sigma_a)} and {np.shape(sigma_b)} do not broadcast "
+            f"(components along axis {axis})"
+        ) from None
+    a, b = (np.broadcast_to(x, shape).reshape(-1, 3) for x in arrays)
+    theta = _error_angles(a, b).reshape(shape[:-1])
+    return np.degrees(theta) if degrees else theta
+
+
 def _per_sample_bytes(n: int) -> int:
     """Working bytes of one sample of the pairwise computation: the pair inputs, the relative MRPs and
     their angles (3 + 3 + 3 + 1 doubles per unordered pair) and two ``(n, n)`` arrays (angles, squares);
@@ -153,11 +252,7 @@ def _relative_block(sigma_e: np.ndarray, iu: np.ndarray, ju: np.ndarray) -> np.n
             return out
         out[:] = 0.0
     # theta_ij = theta_ji (the inverse rotation has the same angle): evaluate each unordered pair once
-    a = sigma_e[:, iu, :].reshape(-1, 3)
-    b = sigma_e[:, ju, :].reshape(-1, 3)
-    rel = _mapped("mrp_error", a.shape[0], [a, b])  # (T * pairs, 3)
-    del a, b
-    theta = principal_angles(rel).reshape(T, iu.size)
+    theta = _error_angles(sigma_e[:, iu, :].reshape(-1, 3), sigma_e[:, ju, :].reshape(-1, 3)).reshape(T, iu.size)
     out[:, iu, ju] = theta
     out[:, ju, iu] = theta
     return out
@@ -217,8 +312,7 @@ def pair_angles(sigma_e: np.ndarray, i: int, j: int) -> np.ndarray:
     if sigma_e.shape[0] == 0:
         return np.zeros(0)
     i, j = min(i, j), max(i, j)  # as in relative_principal_angles: theta_ij = theta_ji, evaluated for i < j
-    rel = _mapped("mrp_error", sigma_e.shape[0], [sigma_e[:, i, :], sigma_e[:, j, :]])
-    return principal_angles(rel)
+    return _error_angles(sigma_e[:, i, :], sigma_e[:, j, :])
 
 
 def streamed_raem_deg(sigma_e: np.ndarray, *, working_bytes: int = RAEM_WORKING_BYTES) -> np.ndarray:
