@@ -1437,9 +1437,9 @@ def formation(
     Parameters
     ----------
     scenario : Scenario
-        The formation: agents, topology, reference, law.  Sampled control, the scenario's own sensors and
-        imperfect links act at control instants, which a continuous-time interconnection cannot hold: they are
-        refused (fly them with :func:`fsmctl.simulate`).
+        The formation: agents, topology, reference, law.  With ``simulation.control_period > 0`` the loop is
+        the discrete-time sampled-data loop of :func:`fsmctl.plugin.sampled.sampled_formation` (the scenario's
+        sensors included; imperfect links and ``actuators``/``sensors`` blocks refused).
     actuators : None, system, sequence or callable, optional
         A continuous-time python-control system inserted between controller ``i`` and plant ``i``: its inputs
         ``tau_command[0..2]`` receive the law's torque ``ctrl<i>.tau``, its outputs ``tau[0..2]`` drive the
@@ -1478,7 +1478,7 @@ def formation(
     Raises
     ------
     fsmctl.ScenarioError
-        ``scenario`` not a :class:`fsmctl.Scenario`, or one that needs control instants; an actuator or sensor
+        ``scenario`` not a :class:`fsmctl.Scenario`, or a sampled one with imperfect links or blocks; an actuator or sensor
         block whose signals do not fit (a missing ``tau_command``/``tau``/``*_measured`` signal, an input that
         is no plant output, the wrong number of components, two sensors measuring the same signal), a
         discrete-time block, or a sequence whose length is not the number of agents.
