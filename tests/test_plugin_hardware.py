@@ -400,7 +400,7 @@ J3 = np.diag([100.0, 150.0, 200.0])
         (lambda: star_tracker([1e-4] * 3, 0.1, horizon=-1.0), "horizon"),
         (lambda: star_tracker([1e-4] * 3, 0.1, horizon=1.0, seed=-1), "seed"),
         (lambda: star_tracker([1e-4] * 3, 0.1, horizon=1.0, agent=True), "agent"),
-        (lambda: star_tracker([1e-4] * 3, 0.1, horizon=1.0, dt=0.1), "dt"),
+        (lambda: star_tracker([1e-4] * 3, 0.1, horizon=1.0, dt=0.2), "dt"),
         (lambda: rate_gyro(-1.0, 0.0, [0.0] * 3, 0.1, horizon=1.0), "angle_random_walk"),
         (lambda: rate_gyro(0.0, float("nan"), [0.0] * 3, 0.1, horizon=1.0), "rate_random_walk"),
         (lambda: rate_gyro(0.0, 0.0, "bias", 0.1, horizon=1.0), "bias"),
@@ -466,12 +466,17 @@ def test_formation_flies_wheels_like_the_compiled_loop():
     [
         {"simulation": {"control_period": 0.1}},
         {"simulation": {"control_period": 0.1}, "sensors": {"gyro": {"angle_random_walk": 1e-5}}},
-        {"simulation": {"control_period": 0.1}, "links": {"delay": 0.1}},
     ],
 )
-def test_formation_refuses_what_a_continuous_interconnection_cannot_hold(change):
+def test_formation_of_a_sampled_scenario_is_discrete_time(change):
+    import fsmctl
+
+    assert fsmctl.formation(fsmctl.paper_scenario("1").replace(**change)).dt == 0.1
+
+
+def test_formation_refuses_imperfect_links():
     import fsmctl
     from fsmctl.errors import InputError
 
-    with pytest.raises(InputError, match="continuous-time interconnection cannot hold"):
-        fsmctl.formation(fsmctl.paper_scenario("1").replace(**change))
+    with pytest.raises(InputError, match="imperfect links"):
+        fsmctl.formation(fsmctl.paper_scenario("1").replace(simulation={"control_period": 0.1}, links={"delay": 0.1}))

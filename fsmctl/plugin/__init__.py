@@ -9,7 +9,11 @@ What a user of this layer calls:
   :func:`fsm_controller` is the paper's, Liang et al. 2012, eqs 13-19) with its :class:`Neighbour` links, and
   :class:`ParameterizedSystem` (their parameter ownership);
 * the flight hardware (:mod:`fsmctl.plugin.hardware`): :func:`reaction_wheel_spacecraft`, :func:`star_tracker`,
-  :func:`rate_gyro`, :func:`link`.
+  :func:`rate_gyro`, :func:`link`;
+* :func:`solver_options` (:mod:`fsmctl.plugin.solver`): the ``solve_ivp`` options of an accurate run;
+* sampled-data loops (:mod:`fsmctl.plugin.sampled`): :func:`zoh`, :func:`discrete_law_controller`,
+  :func:`discrete_fsm_controller`, :func:`sampled_formation` (what :func:`formation` builds for a scenario with
+  ``simulation.control_period > 0``).
 
 Their responses: :func:`fsmctl.formation_response` (a grouped ``plot()`` taking python-control's keywords) and
 :func:`fsmctl.attitude_error_angle` (the angle between two ``sigma`` outputs, which jump at 180 deg), at the top
@@ -41,6 +45,8 @@ _ATTRS = {
         "InvalidStateError",
         "ParameterKeyError",
     ],
+    "sampled": ["zoh", "discrete_law_controller", "discrete_fsm_controller", "sampled_formation"],
+    "solver": ["solver_options"],
     "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
 }
 

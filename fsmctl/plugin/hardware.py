@@ -10,7 +10,8 @@ systems of :mod:`fsmctl.plugin.iosys`, and each evaluates the generated function
   the body torque the law asks for; the plant distributes it to the wheels continuously, so a sampled law (the
   compiled loop holds the wheel commands over each control period) is a held input.
 * :func:`star_tracker`, :func:`rate_gyro`: the measurement of each sample instant ``t_q = q period`` (discrete
-  time, ``dt = period``; or, with ``dt=0``, continuous time with each sample's noise held until the next).
+  time, ``dt = period``; or, with ``dt=0``, continuous time with each sample's noise held until the next; ``dt``
+  means what it means to python-control).
 * :func:`link`: one communication link's delay and packet loss (discrete time), the rule of the compiled loop.
 
 Parameters follow :class:`fsmctl.plugin.iosys.ParameterizedSystem` (keys ``f"{name}_J"``, ... and an owner tag);
@@ -382,15 +383,25 @@ def _describe(value: Any) -> str:
     return f"{_show(value)} ({type(value).__name__})"
 
 
-def _timebase(dt: Any, period: float, where: str) -> float:
-    """``dt=None``: discrete time with ``dt = period``; ``dt=0``: continuous time (the samples held)."""
-    if dt is None:
+def _timebase(dt: Any, period: float, where: str, *, stateful: bool = False) -> float | None:
+    """The system's ``dt`` in python-control's meaning: ``0`` continuous time (the samples held), ``None``
+    unspecified (a static sensor's held samples are right in either timebase; a link, which has discrete states,
+    is discrete), ``True`` or ``period`` discrete time with ``dt = period``; another period is refused."""
+    if dt is None and not stateful:
+        return None
+    if dt is None or dt is True or (isinstance(dt, np.bool_) and bool(dt)):
         return period
-    if isinstance(dt, (bool, np.bool_)) or not isinstance(dt, (int, float, np.integer, np.floating)) or dt != 0:
-        raise ScenarioError(
-            f"{where}: dt: None (discrete time, dt = period) or 0 (continuous time, each sample held), got {_show(dt)}"
-        )
-    return 0
+    if isinstance(dt, (bool, np.bool_)) or not isinstance(dt, (int, float, np.integer, np.floating)):
+        raise ScenarioError(f"{where}: dt: expected None, True, 0 or the period {period}, got {_show(dt)}")
+    if dt == 0 and not stateful:
+        return 0
+    if dt > 0 and math.isclose(float(dt), period, rel_tol=1e-9, abs_tol=0.0):
+        return period
+    accepted = "None, True or the period" if stateful else "None, True, 0 or the period"
+    raise ScenarioError(
+        f"{where}: dt = {_show(dt)}: expected {accepted} {period} (python-control's dt: a sensor sampled every "
+        f"{period} s is discrete time with that period)"
+    )
 
 
 class _Samples:
@@ -450,7 +461,8 @@ def _sensor(kind: str, name: str | None, noise_std=None, gyro=None, *, period, h
     period, Q = _samples(horizon, period, where)
     seed = _count(seed, f"{where}: seed", 0)
     agent = _count(agent, f"{where}: agent", 0)
-    held = _timebase(dt, period, where) == 0
+    timebase = _timebase(dt, period, where)
+    held = timebase != period  # continuous or unspecified time: the latest sample at or before t
     common = {"seed": seed, "n_agents": agent + 1, "n_samples": Q, "period": period}
     measure = casadi_function("sensor_measurement")
     zero3 = np.zeros(3)
@@ -468,7 +480,7 @@ def _sensor(kind: str, name: str | None, noise_std=None, gyro=None, *, period, h
         lambda t, x, u, p: call(u, samples(t)),
         inputs=inputs,
         outputs=outputs,
-        dt=0 if held else period,
+        dt=timebase,
         name=name,
     )
     sys.samples = samples.table  # the drawn noise of the instants 0 .. Q-1 (read-only)
@@ -482,7 +494,7 @@ def star_tracker(
     horizon: float,
     seed: int = 0,
     agent: int = 0,
-    dt: float | None = None,
+    dt: float | bool | None = True,
     name: str | None = None,
 ) -> ct.NonlinearIOSystem:
     """A star tracker: the attitude rotated by a small random body-frame rotation at each sample instant.
@@ -505,10 +517,13 @@ def star_tracker(
         The run's seed (``simulation.seed``, >= 0).
     agent : int
         Index (0-based, >= 0) of the agent whose noise stream is used.
-    dt : {None, 0}
-        ``None``: a discrete-time system with ``dt = period`` (evaluated at the instants).  ``0``: a
-        continuous-time system that applies the noise of the latest instant at or before ``t`` (for
+    dt : {True, period, 0, None}
+        python-control's timebase.  ``True`` (default) or the period itself: a discrete-time system with
+        ``dt = period`` (evaluated at the instants; for the sampled-data loops of :mod:`fsmctl.plugin.sampled`).
+        ``0``: a continuous-time system that applies the noise of the latest instant at or before ``t`` (for
         :func:`control.interconnect` with the continuous-time plants and laws of :mod:`fsmctl.plugin`).
+        ``None``: unspecified (``sys.dt is None``), the same held rule, which is right in either timebase.
+        Another period is refused.
     name : str, optional
         System name; default python-control's unique ``sys[<id>]``.
 
@@ -552,7 +567,7 @@ def rate_gyro(
     horizon: float,
     seed: int = 0,
     agent: int = 0,
-    dt: float | None = None,
+    dt: float | bool | None = True,
     name: str | None = None,
 ) -> ct.NonlinearIOSystem:
     """A rate gyro: the body rate plus Farrenkopf's error (bias, bias random walk, white noise) at each instant.
@@ -614,6 +629,7 @@ def link(
     index: int = 0,
     size: int = 3,
     signal: str = "b",
+    dt: float | bool | None = True,
     name: str | None = None,
 ) -> ct.NonlinearIOSystem:
     """One communication link (discrete time, ``dt = period``): transport delay and packet loss.
@@ -644,6 +660,9 @@ def link(
         Number of components of the broadcast (>= 1).
     signal : str
         Name of the broadcast: input ``<signal>[k]``, output ``<signal>_received[k]``.
+    dt : {True, period, None}
+        python-control's timebase: the link has discrete states, so ``True``, ``None`` (unspecified) and the
+        period itself all give ``dt = period``; ``0`` (continuous time) and another period are refused.
     name : str, optional
         System name; default python-control's unique ``sys[<id>]``.
 
@@ -678,6 +697,7 @@ def link(
     if p > 1:
         raise ScenarioError(f"{where}: loss_probability: must be <= 1, got {p}")
     period, Q = _samples(horizon, period, where)
+    _timebase(dt, period, where, stateful=True)
     seed = _count(seed, f"{where}: seed", 0)
     index = _count(index, f"{where}: index", 0)
     m = _count(size, f"{where}: size", 1)

@@ -1439,9 +1439,9 @@ def formation(
     Parameters
     ----------
     scenario : Scenario
-        The formation: agents, topology, reference, law.  Sampled control, the scenario's own sensors and
-        imperfect links act at control instants, which a continuous-time interconnection cannot hold: they are
-        refused (fly them with :func:`fsmctl.simulate`).
+        The formation: agents, topology, reference, law.  With ``simulation.control_period > 0`` the loop is
+        the discrete-time sampled-data loop of :func:`fsmctl.plugin.sampled.sampled_formation` (the scenario's
+        sensors included; imperfect links and ``actuators``/``sensors`` blocks refused).
     actuators : None, system, sequence or callable, optional
         A continuous-time python-control system inserted between controller ``i`` and plant ``i``: its inputs
         ``tau_command[0..2]`` receive the law's torque ``ctrl<i>.tau``, its outputs ``tau[0..2]`` drive the
@@ -1482,7 +1482,7 @@ def formation(
     Raises
     ------
     fsmctl.ScenarioError
-        ``scenario`` not a :class:`fsmctl.Scenario`, or one that needs control instants; an actuator or sensor
+        ``scenario`` not a :class:`fsmctl.Scenario`, or a sampled one with imperfect links or blocks; an actuator or sensor
         block whose signals do not fit (a missing ``tau_command``/``tau``/``*_measured`` signal, an input that
         is no plant output, the wrong number of components, two sensors measuring the same signal), a
         discrete-time block, or a sequence whose length is not the number of agents.
@@ -1515,7 +1515,16 @@ def formation(
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"formation: expected a Scenario, got {type(scenario).__name__}")
-    _continuous_time_only(scenario)
+    if scenario.simulation.control_period > 0:
+        from fsmctl.plugin.sampled import sampled_formation  # it builds on this module
+
+        if actuators is not None or sensors is not None:
+            raise ScenarioError(
+                "formation: actuators= and sensors= blocks are continuous time; the loop of a scenario with "
+                "simulation.control_period > 0 is discrete time (fsmctl.plugin.sampled.sampled_formation): wire "
+                "discrete-time blocks into it by hand"
+            )
+        return sampled_formation(scenario, normalization_gain=normalization_gain, name=name)
     n = scenario.n_agents
     law = scenario.law
     wheels = scenario.actuator.enabled
@@ -1523,11 +1532,7 @@ def formation(
         from fsmctl.plugin.hardware import reaction_wheel_spacecraft  # it builds on this module
     act_blocks = _agent_blocks(actuators, "actuators", scenario)
     sensor_blocks = _agent_blocks(sensors, "sensors", scenario)
-    c = scenario.controller
-    try:
-        rows = parameter_matrix(law, scenario)
-    except LawError as exc:
-        raise ScenarioError(str(exc)) from None
+    controller_list = _scenario_controllers(scenario)
     bname = law.broadcast_name
     plants, controllers, blocks, connections, ignored_outputs = [], [], [], [], []
     torque_from = []
@@ -1545,22 +1550,8 @@ def formation(
                 agent.J_true, disturbance=agent.disturbance, normalization_gain=normalization_gain, name=f"sc{i}"
             )
         plants.append(plant)
-        nbrs = [
-            Neighbour(f"sc{link.sender + 1}", link.k_i, link.k_j, link.phase)
-            for link in scenario.topology.links
-            if link.receiver == i - 1
-        ]
-        controllers.append(
-            law_controller(
-                law,
-                agent.J0_array,
-                parameters=law_parameter_values(law, rows[i - 1]),
-                u_max=c.effective_torque_limit,
-                error_model=c.error_model,
-                neighbours=nbrs,
-                name=f"ctrl{i}",
-            )
-        )
+        nbrs = _agent_neighbours(scenario, i - 1)
+        controllers.append(controller_list[i - 1])
         torque_input = "u_command" if wheels else "tau"
         connections += [
             [f"ctrl{i}.sigma_d", "reference.sigma_d"],
@@ -1608,32 +1599,51 @@ def formation(
         inputs=[],
         **ignored,
     )
+    return _as_formation(loop, scenario, name)
+
+
+def _as_formation(loop: ct.InterconnectedSystem, scenario: Scenario, name: str) -> FormationSystem:
+    """``loop`` (the interconnection of ``scenario``'s reference, plants and ``ctrl<i>``) as a FormationSystem."""
     loop.__class__ = FormationSystem  # the same object, with bare law-parameter names in params
-    loop.law_parameters = tuple(p.name for p in law.parameters)
-    loop.controllers = tuple(f"ctrl{i}" for i in range(1, n + 1))
-    loop._tag_key = systems[0]._owner_key  # the reference's tag: present when an outer interconnection merged these
+    loop.law_parameters = tuple(p.name for p in scenario.law.parameters)
+    loop.controllers = tuple(f"ctrl{i}" for i in range(1, scenario.n_agents + 1))
+    loop.scenario = scenario
+    loop._tag_key = loop.syslist[
+        0
+    ]._owner_key  # the reference's tag: present when an outer interconnection merged these
     loop.params = _Params(loop.params, f"formation {name!r}", loop.law_parameters)
     return loop
 
 
-def _continuous_time_only(scenario: Scenario) -> None:
-    """A continuous-time interconnection cannot hold sampled control, sensors sampled at control instants or
-    delayed/lossy links: refuse them (one line) rather than fly a different loop."""
-    parts = [
-        name
-        for name, on in (
-            ("simulation.control_period > 0", scenario.simulation.control_period > 0),
-            ("sensors", scenario.sensors.enabled),
-            ("imperfect links", scenario.links_active),
-        )
-        if on
+def _agent_neighbours(scenario: Scenario, i: int, phase_lead: float = 0.0) -> list[Neighbour]:
+    """The links ``i <- j`` of agent ``i`` (0-based) as :class:`Neighbour` s, schedules read ``phase_lead`` later."""
+    return [
+        Neighbour(f"sc{link.sender + 1}", link.k_i, link.k_j, link.phase + phase_lead)
+        for link in scenario.topology.links
+        if link.receiver == i
     ]
-    if parts:
-        raise ScenarioError(
-            f"formation: {', '.join(parts)} act at control instants, which a continuous-time interconnection cannot "
-            "hold; fly the scenario with fsmctl.simulate, or pass continuous-time blocks (fsmctl.plugin.hardware's "
-            "star_tracker and rate_gyro with dt=0) as formation(..., sensors=...)"
+
+
+def _scenario_controllers(scenario: Scenario, phase_lead: float = 0.0) -> list[ParameterizedSystem]:
+    """The agents' controllers ``ctrl1..ctrln`` of :func:`formation` (a sampled loop reads the link weights of an
+    instant ``phase_lead`` later, as the compiled loop does)."""
+    law, c = scenario.law, scenario.controller
+    try:
+        rows = parameter_matrix(law, scenario)
+    except LawError as exc:
+        raise ScenarioError(str(exc)) from None
+    return [
+        law_controller(
+            law,
+            agent.J0_array,
+            parameters=law_parameter_values(law, rows[i]),
+            u_max=c.effective_torque_limit,
+            error_model=c.error_model,
+            neighbours=_agent_neighbours(scenario, i, phase_lead),
+            name=f"ctrl{i + 1}",
         )
+        for i, agent in enumerate(scenario.agents)
+    ]
 
 
 def initial_state(scenario: Scenario) -> np.ndarray:
