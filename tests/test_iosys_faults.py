@@ -442,13 +442,13 @@ def test_valid_states_give_bit_identical_results_to_the_unchecked_functions():
 @pytest.mark.parametrize(
     "make, key, closest",
     [
-        (lambda: fsmctl.spacecraft(np.eye(3), name="sc"), "J", "sc_J"),
+        (lambda: fsmctl.spacecraft(np.eye(3), name="sc"), "JJ", "J"),  # "J" is its local name
         (lambda: fsmctl.spacecraft(np.eye(3), name="sc"), "sc_j", "sc_J"),
         (_wheel_plant, "torque_limit", None),
         (
             lambda: law_controller("fsm", np.eye(3), name="ctrl"),
+            "umax",
             "u_max",
-            "ctrl_u_max",
         ),
         (lambda: law_controller("fsm", np.eye(3), name="ctrl"), "ctrl_C1", "ctrl_c1"),
     ],
@@ -478,7 +478,7 @@ def test_unknown_parameter_keys_of_a_system_raise(make, key, closest):
                 assert k in known
 
 
-@pytest.mark.parametrize("key, closest", [("C1", "c1"), ("u_max", None), ("torque_limit", None), ("J", None)])
+@pytest.mark.parametrize("key, closest", [("C1", "c1"), ("umax", None), ("torque_limit", None), ("j", None)])
 def test_unknown_parameter_keys_of_a_formation_raise(key, closest):
     s = fsmctl.paper_scenario("1").replace(controller={"torque_limit": float("inf")})  # c1 acts at t = 0
     loop = fsmctl.formation(s)
@@ -541,4 +541,7 @@ def test_fsmctl_system_inside_a_plain_interconnect_takes_every_key_as_python_con
         outlist=["sc.sigma"],
     )
     x0 = np.concatenate([quaternion_from_mrp([0.1, 0.0, 0.0]), np.zeros(3)])
-    assert np.array_equal(loop.dynamics(0.0, x0, [], params={"J": 1.0}), loop.dynamics(0.0, x0, []))
+    assert np.array_equal(loop.dynamics(0.0, x0, [], params={"tau_gain": 1.0}), loop.dynamics(0.0, x0, []))
+    # a local name of the one fsmctl system that has it is that system's parameter
+    J = np.diag([10.0, 20.0, 30.0])
+    assert np.array_equal(loop.dynamics(0.0, x0, [], params={"J": J}), loop.dynamics(0.0, x0, [], params={"sc_J": J}))

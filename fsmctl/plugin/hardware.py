@@ -36,12 +36,15 @@ from fsmctl.model.scenario import ActuatorSettings, ScenarioError, Sinusoid
 from fsmctl.plugin.iosys import (
     DEFAULT_NORMALIZATION_GAIN,
     ParameterizedSystem,
+    _factory_call,
+    _finish,
     _FlatCall,
     _inertia,
     _labels,
     _numbers,
     _scalar,
     _show,
+    _signal_names,
     _sinusoid,
     _system_name,
     _twelve,
@@ -163,6 +166,11 @@ def reaction_wheel_spacecraft(
     disturbance: Sinusoid | None = None,
     normalization_gain: float = DEFAULT_NORMALIZATION_GAIN,
     name: str | None = None,
+    inputs: Any = None,
+    outputs: Any = None,
+    states: Any = None,
+    params: Mapping[str, Any] | None = None,
+    dt: Any = 0,
 ) -> ParameterizedSystem:
     """A rigid hub with balanced reaction wheels (Schaub & Junkins eq 4.146) as a python-control system.
 
@@ -194,6 +202,14 @@ def reaction_wheel_spacecraft(
         ``k`` >= 0 (1/s) of the quaternion normalisation-drift control; it does not change the attitude.
     name : str, optional
         System name (no ``'.'``); default python-control's unique ``sys[<id>]``.
+
+    inputs, outputs, states : int, str or list of str, optional
+        New signal names (python-control's forms; their number must be the system's); default the names below.
+    params : mapping, optional
+        Initial parameter values, by local name (``"max_torque"``) or key, validated like the arguments (they win).
+    dt : 0 or None
+        python-control's timebase: this is a continuous-time system (``None``, unspecified, is taken as 0); a
+        discrete ``dt`` raises (sample the loop instead, the plug-in guide's "Sampled-data loops").
 
     Returns
     -------
@@ -239,6 +255,7 @@ def reaction_wheel_spacecraft(
     >>> bool(abs(200.0 * r.outputs[5, -1] + r.outputs[14, -1]) < 1e-12)  # the total momentum J omega + h is kept
     True
     """
+    call = _factory_call(reaction_wheel_spacecraft, locals())
     name = _system_name(name, "reaction_wheel_spacecraft")
     where = f"reaction_wheel_spacecraft {name!r}" if name else "reaction_wheel_spacecraft"
     J = _inertia(J, f"{where}: J")
@@ -306,23 +323,22 @@ def reaction_wheel_spacecraft(
         a = derived(p)
         return out(x, commands(u, a), p["axes"], p["spin_inertia"], a.wheel)
 
-    return ParameterizedSystem(
+    output_labels = (
+        _labels("sigma") + _labels("omega") + _labels("Omega", n) + _labels("tau") + _labels("h_wheels")
+    ) + _labels("wheel_torque", n)
+    system = ParameterizedSystem(
         "reaction_wheel_spacecraft",
         update,
         output,
         values,
         validators,
-        inputs=_labels("u_command") + _labels("d"),
-        outputs=_labels("sigma")
-        + _labels("omega")
-        + _labels("Omega", n)
-        + _labels("tau")
-        + _labels("h_wheels")
-        + _labels("wheel_torque", n),
-        states=_labels("q", 4) + _labels("omega") + _labels("Omega", n),
+        inputs=_signal_names(inputs, _labels("u_command") + _labels("d"), "inputs", where),
+        outputs=_signal_names(outputs, output_labels, "outputs", where),
+        states=_signal_names(states, _labels("q", 4) + _labels("omega") + _labels("Omega", n), "states", where),
         name=name,
         attitude=True,
     )
+    return _finish(system, call, params, dt)
 
 
 def reaction_wheel_state(plant: ct.NonlinearIOSystem, sigma0=(0.0, 0.0, 0.0), omega0=(0.0, 0.0, 0.0), Omega0=None):

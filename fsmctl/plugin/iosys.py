@@ -24,6 +24,22 @@ Parameter values passed explicitly (``params=`` of :func:`control.input_output_r
 addresses every system whose parameters carry that prefix (an explicit ``interconnect(..., params={"x_J": J})``
 sets ``J`` of every system made with ``name="x"``: python-control then does not merge the subsystems' params).
 
+Parameters also go by their local names, as in python-control's own examples: ``params={"J": J}`` given to a
+spacecraft (``dynamics``, ``output``, :func:`control.input_output_response`, :func:`control.linearize`, or its
+factory) sets its ``J``, and :attr:`ParameterizedSystem.local_params` reads and sets them by local name.  In an
+interconnection a local name is the parameter of the one fsmctl system that has it; when several have it (``J`` of
+``sc1..scn``) it is an error naming their keys, never a silent pick (a formation's bare law names, ``c1``, are the
+exception :class:`FormationSystem` documents).  Passing another system's ``params`` dict on (``sys_b.dynamics(...,
+params=sys_a.params)``) is an error that says so, distinct from two systems of one name in one interconnection.
+
+Pickling
+--------
+Every system made here can be pickled (:mod:`pickle`, :mod:`multiprocessing`, Dask): a system records the
+factory call that made it, the unpickled system is rebuilt by that call and gets back its name, signal names,
+current parameter values and owner tag, so an unpickled :func:`formation` (or another interconnection holding
+fsmctl systems, pickled by cloudpickle) stays consistent and evaluates bit for bit like the original.  An
+unpickled system is the same system (same tag): for an independent twin in one process use ``sys.copy(name)``.
+
 Attitude states
 ---------------
 A continuous-time system cannot jump its state, so MRPs cannot be shadow-switched inside
@@ -44,7 +60,7 @@ import difflib
 import math
 import re
 import uuid
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, MutableMapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -324,10 +340,10 @@ class ParameterKeyError(InputError):
     >>> from fsmctl.plugin.iosys import ParameterKeyError
     >>> sc = fsmctl.spacecraft(np.eye(3), name="sc")
     >>> try:
-    ...     sc.dynamics(0.0, [1, 0, 0, 0, 0, 0, 0], np.zeros(3), params={"J": np.eye(3)})
+    ...     sc.dynamics(0.0, [1, 0, 0, 0, 0, 0, 0], np.zeros(3), params={"j": np.eye(3)})
     ... except ParameterKeyError as exc:
     ...     print(exc)
-    spacecraft 'sc': unknown parameter 'J' (known: sc_J, sc_disturbance)
+    spacecraft 'sc': unknown parameter 'j' (known: J, sc_J, disturbance, sc_disturbance)
     """
 
 
@@ -382,6 +398,15 @@ class _KnownKeys:
         return iter(self._keys)
 
 
+class _Merged(dict):
+    """A copy of an fsmctl system's ``params`` (:meth:`_Params.copy`).
+
+    python-control's :class:`~control.InterconnectedSystem` hands each subsystem ``sys.params.copy()`` updated with
+    the interconnection's params: a ``_Merged`` dict is such a merged namespace, any other dict was given to the
+    system itself (``params=`` of ``dynamics``, ``input_output_response``, ...).
+    """
+
+
 class _Params(dict):
     """The ``params`` of an fsmctl system: the value of a key can be replaced, a new key is refused
     (:class:`ParameterKeyError`), since no part of the system would read it."""
@@ -393,6 +418,9 @@ class _Params(dict):
 
     def __reduce__(self):
         return (type(self), (dict(self), self._where, self._extra))
+
+    def copy(self) -> _Merged:
+        return _Merged(self)
 
     def _check(self, keys: Any) -> None:
         for key in keys:
@@ -423,6 +451,169 @@ class _Params(dict):
     def __ior__(self, other):
         self.update(other)
         return self
+
+
+def _owners_of(params: Mapping[str, Any], local: str) -> list[str]:
+    """The keys ``f"{prefix}_{local}"`` of every fsmctl system whose owner tag is in ``params`` and that has ``local``.
+
+    Every fsmctl system's parameters carry its owner tag, so the tags in a (merged) params dict list the fsmctl
+    systems present; the order is the dict's.
+    """
+    keys = []
+    for value in params.values():
+        if isinstance(value, _Owner):
+            key = f"{value.prefix}_{local}"
+            if key in params and key not in keys:
+                keys.append(key)
+    return keys
+
+
+def _ambiguous(where: str, local: str, keys: Sequence[str]) -> InputError:
+    return InputError(
+        f"{where}: parameter {local!r} given by its local name, which several fsmctl systems here have "
+        f"({', '.join(keys)}); give the key of the one you mean (a system of your own that stores a parameter "
+        f"{local!r} makes it ambiguous too: rename it)"
+    )
+
+
+def _foreign_params(where: str, owner: _Owner, what: str) -> InputError:
+    return InputError(
+        f"{where}: params= holds the parameters of another system ({owner!r}), such as another system's "
+        f"sys.params passed on; pass only the values to change, {what}"
+    )
+
+
+def _rebuild(factory: Callable[..., Any], arguments: Mapping[str, Any]) -> Any:
+    """Unpickling: the system the factory makes from the recorded arguments (its state is restored afterwards)."""
+    return factory(**arguments)
+
+
+def _factory_call(factory: Callable[..., Any], arguments: Mapping[str, Any]) -> tuple[Callable[..., Any], dict]:
+    """The call that rebuilds a system: the public factory and its arguments (a law as its folder, which
+    :func:`fsmctl.model.laws.resolve_law` reads again)."""
+    return factory, {k: (str(v.folder) if isinstance(v, LawCode) else v) for k, v in arguments.items()}
+
+
+def _timebase(dt: Any, static: bool, where: str) -> float | bool | None:
+    """python-control's ``dt`` for a continuous-time model (0, or None: unspecified) or a static map (any)."""
+    if dt is None:
+        return None if static else 0
+    if isinstance(dt, (bool, np.bool_)):
+        discrete = bool(dt)
+    elif (
+        _first_non_number(dt) is _OK and not isinstance(dt, (list, tuple, np.ndarray)) and math.isfinite(dt) and dt >= 0
+    ):
+        discrete = dt > 0
+    else:
+        raise ScenarioError(
+            f"{where}: dt: expected 0 (continuous time), None (unspecified), True or a positive sampling period, "
+            f"got {_show(dt)}"
+        )
+    if not discrete:
+        return 0
+    if static:
+        return True if dt is True else float(dt)
+    raise ScenarioError(
+        f"{where}: dt={dt!r}: this is a continuous-time system (dt=0, or None); to fly it with a discrete-time "
+        "controller or sensors, keep it continuous and sample the loop by the plug-in guide's route for sampled-data "
+        "loops"
+    )
+
+
+_PREFIX = {"inputs": "u", "outputs": "y", "states": "x"}
+"""python-control's default signal prefixes (``nlsys(..., inputs=3)`` names them ``u[0..2]``)."""
+
+
+def _signal_names(given: Any, default: list[str], what: str, where: str) -> list[str]:
+    """The signal names ``inputs=``, ``outputs=`` or ``states=`` give (python-control's forms), ``default`` if None."""
+    if given is None:
+        return default
+    n = len(default)
+    like = f"[{default[0]}, ..., {default[-1]}]" if n > 1 else f"[{default[0]}]" if n else "none"
+    if isinstance(given, (int, np.integer)) and not isinstance(given, (bool, np.bool_)):
+        labels = [f"{_PREFIX[what]}[{k}]" for k in range(int(given))]
+    elif isinstance(given, str):
+        labels = [given]
+    elif isinstance(given, Sequence) and all(isinstance(label, str) for label in given):
+        labels = list(given)
+    else:
+        raise ScenarioError(f"{where}: {what}: expected a list of {n} signal names, got {_show(given)}")
+    if len(labels) != n:
+        raise ScenarioError(f"{where}: {what}: expected {n} names (default {like}), got {len(labels)}")
+    bad = [label for label in labels if not label or "." in label]
+    if bad:
+        raise ScenarioError(f"{where}: {what}: a signal name must be non-empty and without '.', got {bad[0]!r}")
+    if len(set(labels)) != n:
+        twice = next(label for label in labels if labels.count(label) > 1)
+        raise ScenarioError(f"{where}: {what}: the name {twice!r} is given twice")
+    return labels
+
+
+def _finish(system: ParameterizedSystem, call: tuple, params: Any, dt: Any) -> ParameterizedSystem:
+    """A factory's last step: the timebase, the initial parameter values (``params=``) and the recorded call."""
+    system.dt = _timebase(dt, system._model_update is None, system._where)
+    if params is not None:
+        if not isinstance(params, Mapping):
+            raise ScenarioError(
+                f"{system._where}: params: expected a mapping of parameter names to values, got {_show(params)}"
+            )
+        for key, value in system._explicit(params).items():
+            if key != system._owner_key:
+                system.local_params[key[len(system._prefix) + 1 :]] = value
+    system._factory = call
+    return system
+
+
+class _LocalParams(MutableMapping):
+    """The live view ``sys.local_params`` of a :class:`ParameterizedSystem`'s parameters by local name."""
+
+    def __init__(self, system: ParameterizedSystem):
+        self._system = system
+
+    def __getitem__(self, local: str) -> Any:
+        keys = self._system._keys
+        if local not in keys:
+            raise KeyError(local)
+        return self._system.params[keys[local]]
+
+    def __setitem__(self, local: str, value: Any) -> None:
+        system = self._system
+        if local not in system._keys:
+            _unknown_keys({local: None}, system._locals, f"{system._where}: local_params")
+        key = system._keys[local]
+        checked = system._validators[local](value, f"{system._where}: parameter {local!r}")
+        if isinstance(checked, np.ndarray) and not isinstance(value, str) and np.shape(value) == checked.shape:
+            value = checked  # the read-only checked copy of an array, as the factories store them
+        elif isinstance(value, str):
+            value = value.lower()  # an option's name, as law_controller stores it
+        system.params[key] = value
+
+    def __delitem__(self, local: str) -> None:
+        raise TypeError(f"{self._system._where}: a parameter cannot be deleted (assign a new value)")
+
+    def __iter__(self):
+        return iter(self._system._keys)
+
+    def __len__(self) -> int:
+        return len(self._system._keys)
+
+    def __repr__(self) -> str:
+        return repr(dict(self))
+
+
+_PICKLED = (
+    "name",
+    "params",
+    "_prefix",
+    "_keys",
+    "_owner_key",
+    "_owner",
+    "input_index",
+    "output_index",
+    "state_index",
+    "dt",
+)
+"""What a pickle of a :class:`ParameterizedSystem` carries besides its factory call (the rest is rebuilt)."""
 
 
 _Model = Callable[[float, np.ndarray, np.ndarray, Mapping[str, Any]], np.ndarray]
@@ -464,7 +655,8 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
     fsmctl.errors.InputError
         On evaluation, when the owner tag in the params is another instance's: two systems made with one name
         were merged into one parameter namespace (give each a unique ``name``), or the params of another
-        system were passed explicitly.
+        system were passed explicitly (pass only the values to change); a local name that several fsmctl
+        systems of an interconnection have.
     fsmctl.model.scenario.ScenarioError
         On evaluation, when a parameter value is invalid (for example a non-finite inertia).
 
@@ -474,7 +666,8 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
     listed twice) re-keys the copy to its new name with a new owner tag, carrying the current values.
     ``copy.deepcopy(sys)`` and ``copy.copy(sys)`` give a twin with the same name and keys but its own tag, so
     twin and original in one interconnection raise; a deep copy of a container (an interconnection) keeps the
-    tags, so the copied container stays consistent.
+    tags, so the copied container stays consistent.  A pickle records the factory call: unpickling rebuilds the
+    system by it and restores its name, signal names, parameter values and tag (see the module docstring).
 
     Examples
     --------
@@ -625,9 +818,10 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
                     f"'{self._prefix}_*' parameters belong to); was sys.params replaced?"
                 )
             raise InputError(
-                f"{self._where}: the '{self._prefix}_*' parameters belong to another system ({owner!r}): two "
-                f"systems made with name={self._prefix!r} share one parameter namespace after interconnect; "
-                "give each fsmctl system a unique name (sys.copy() renames and re-keys automatically)"
+                f"{self._where}: the '{self._prefix}_*' parameters of this interconnection belong to another system "
+                f"({owner!r}): two systems made with name={self._prefix!r} are in one interconnection, which merges "
+                "their params into one namespace; give each fsmctl system a unique name (sys.copy(name) renames and "
+                "re-keys; if another system's params were passed to the interconnection, pass only the values to change)"
             )
         out = {}
         for local, key in self._keys.items():
@@ -646,11 +840,86 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
 
     def _update_params(self, params):
         # python-control calls this with the params given to this system (dynamics, output,
-        # input_output_response, ...), or, from an interconnection, with the merged params, which hold this
-        # system's owner tag (and every other subsystem's keys): only the former are checked for unknown keys
-        if params and self._owner_key not in params:
-            _unknown_keys(params, self.params, self._where)
+        # input_output_response, ...), or, from an interconnection, with the merged params (a copy of this
+        # system's params, _Merged, updated with every other subsystem's keys): only the former are checked for
+        # unknown keys and foreign tags; local names are taken in both
+        if params:
+            params = self._merged(params) if isinstance(params, _Merged) else self._explicit(params)
         super()._update_params(params)
+
+    def _explicit(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """Params given to this system itself: local names as keys, checked for foreign tags and unknown keys."""
+        for value in params.values():
+            if isinstance(value, _Owner) and value != self._owner:
+                raise _foreign_params(
+                    self._where, value, f"by local name ({', '.join(self._keys)}) or by this system's keys"
+                )
+        out = {}
+        for key, value in params.items():
+            if key in self._keys:
+                full = self._keys[key]
+                if full in params:
+                    raise InputError(f"{self._where}: parameter {key!r} given twice, as {key!r} and {full!r}")
+                out[full] = value
+            else:
+                out[key] = value
+        _unknown_keys(out, _KnownKeys(self.params, self._locals), self._where)
+        return out
+
+    def _merged(self, params: _Merged) -> _Merged:
+        """A merged namespace: a local name of this system (``"J"``) is this system's value when no other fsmctl
+        system here has that parameter, an error naming the candidates otherwise."""
+        present = [local for local in self._locals if local in params]
+        if not present:
+            return params
+        out = _Merged(params)
+        for local in present:
+            keys = _owners_of(params, local)
+            if len(keys) > 1:
+                raise _ambiguous(self._where, local, keys)
+            out[self._keys[local]] = params[local]
+        return out
+
+    # -- local names, pickling
+
+    @property
+    def local_params(self) -> MutableMapping[str, Any]:
+        """The system's parameters by local name (``"J"``), a live view of ``params`` (``"sc1_J"``).
+
+        Reading gives the stored value; assigning validates the value like the factory's argument and stores it
+        under the system's key (a new name raises :class:`ParameterKeyError`).  The same local names are taken
+        by ``params=`` of :func:`control.input_output_response`, ``dynamics``, ``output``, ``linearize``, ... of
+        this system, and of an interconnection in which no other fsmctl system has that parameter.
+
+        Examples
+        --------
+        >>> import numpy as np, fsmctl
+        >>> sc = fsmctl.spacecraft(np.eye(3))
+        >>> list(sc.local_params)
+        ['J', 'disturbance']
+        >>> sc.local_params["J"] = np.diag([1.0, 2.0, 3.0])
+        >>> sc.params[sc.param_key("J")].diagonal().tolist()
+        [1.0, 2.0, 3.0]
+        """
+        return _LocalParams(self)
+
+    def __reduce__(self):
+        call = getattr(self, "_factory", None)
+        if call is None:
+            raise TypeError(f"{self._where}: cannot be pickled: not made by an fsmctl factory")
+        return (_rebuild, call, {key: self.__dict__[key] for key in _PICKLED if key in self.__dict__})
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        # the factory rebuilt the model; restore its identity (name, keys, owner tag: an unpickled interconnection
+        # holding it stays consistent), its current values and its signal names
+        self.__dict__.update(state)
+        for key in self._keys.values():
+            value = self.params.get(key)
+            if isinstance(value, np.ndarray):
+                value.setflags(write=False)  # stored values are checked, read-only (NumPy unpickles them writeable)
+        self._current_params = self.params.copy()
+        self._seen = {}
+        self._last = (None, None)
 
     def _updfcn(self, t, x, u, params):
         if self._attitude and x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3] < _MIN_QUATERNION_NORM2:
@@ -681,6 +950,11 @@ def spacecraft(
     disturbance: Sinusoid | None = None,
     normalization_gain: float = DEFAULT_NORMALIZATION_GAIN,
     name: str | None = None,
+    inputs: Any = None,
+    outputs: Any = None,
+    states: Any = None,
+    params: Mapping[str, Any] | None = None,
+    dt: Any = 0,
 ) -> ParameterizedSystem:
     """A rigid spacecraft (Liang et al. 2012, eqs 3-4) as a python-control system, valid at every attitude.
 
@@ -697,6 +971,14 @@ def spacecraft(
         ``k`` >= 0 (1/s) of the normalisation-drift control; it does not change the attitude.
     name : str, optional
         System name (no ``'.'``); default python-control's unique ``sys[<id>]``.
+
+    inputs, outputs, states : int, str or list of str, optional
+        New signal names (python-control's forms; their number must be the system's); default the names below.
+    params : mapping, optional
+        Initial parameter values, by local name (``"J"``) or key, validated like the arguments (they win).
+    dt : 0 or None
+        python-control's timebase: this is a continuous-time system (``None``, unspecified, is taken as 0); a
+        discrete ``dt`` raises (sample the loop instead, the plug-in guide's "Sampled-data loops").
 
     Returns
     -------
@@ -734,6 +1016,7 @@ def spacecraft(
     >>> float(sc.dynamics(0.0, x0, [0, 0, 1.0], params={"sc_J": np.eye(3)})[6])  # J = I: 1 rad/s^2
     1.0
     """
+    call = _factory_call(spacecraft, locals())
     name = _system_name(name, "spacecraft")
     where = f"spacecraft {name!r}" if name else "spacecraft"
     J = _inertia(J, f"{where}: J")
@@ -749,18 +1032,19 @@ def spacecraft(
         "spacecraft_rhs",
     )
     out = _FlatCall(lambda x: [_mrp_of_quaternion(x[:4]), x[4:]], [(7, 1)], "spacecraft_out")
-    return ParameterizedSystem(
+    system = ParameterizedSystem(
         "spacecraft",
         lambda t, x, u, p: rhs(t, x, u, p["J"], p["disturbance"]),
         lambda t, x, u, p: out(x),
         {"J": J, "disturbance": d},
         {"J": _inertia, "disturbance": _twelve},
-        inputs=_labels("tau"),
-        outputs=_labels("sigma") + _labels("omega"),
-        states=_labels("q", 4) + _labels("omega"),
+        inputs=_signal_names(inputs, _labels("tau"), "inputs", where),
+        outputs=_signal_names(outputs, _labels("sigma") + _labels("omega"), "outputs", where),
+        states=_signal_names(states, _labels("q", 4) + _labels("omega"), "states", where),
         name=name,
         attitude=True,
     )
+    return _finish(system, call, params, dt)
 
 
 def reference_generator(
@@ -768,6 +1052,11 @@ def reference_generator(
     *,
     normalization_gain: float = DEFAULT_NORMALIZATION_GAIN,
     name: str | None = None,
+    inputs: Any = None,
+    outputs: Any = None,
+    states: Any = None,
+    params: Mapping[str, Any] | None = None,
+    dt: Any = 0,
 ) -> ParameterizedSystem:
     """Reference attitude driven by a sinusoidal ``omega_d(t)`` (Sec. 4), valid at every attitude.
 
@@ -779,6 +1068,14 @@ def reference_generator(
         ``k`` >= 0 (1/s) of the normalisation-drift control, as in :func:`spacecraft`.
     name : str, optional
         System name; default python-control's unique ``sys[<id>]``.
+
+    inputs, outputs, states : int, str or list of str, optional
+        New signal names (python-control's forms; their number must be the system's); default the names below.
+    params : mapping, optional
+        Initial parameter values, by local name (``"omega_d"``) or key, validated like the arguments (they win).
+    dt : 0 or None
+        python-control's timebase: this is a continuous-time system (``None``, unspecified, is taken as 0); a
+        discrete ``dt`` raises (sample the loop instead, the plug-in guide's "Sampled-data loops").
 
     Returns
     -------
@@ -794,6 +1091,7 @@ def reference_generator(
     >>> ref.output(0.0, quaternion_from_mrp([0.0, 0.0, 0.5]), []).round(12).tolist()[:6]
     [0.0, 0.0, 0.5, 0.0, 0.0, 0.1]
     """
+    call = _factory_call(reference_generator, locals())
     name = _system_name(name, "reference_generator")
     where = f"reference_generator {name!r}" if name else "reference_generator"
     p = _sinusoid(omega_d, f"{where}: omega_d")
@@ -805,23 +1103,26 @@ def reference_generator(
         "reference_rhs",
     )
 
-    def outputs(t, x, p):
+    def output_graph(t, x, p):
         sigma = _mrp_of_quaternion(x)
         return [sigma, *ref(t, sigma, p)[1:]]
 
-    out = _FlatCall(outputs, [(1, 1), (4, 1), (12, 1)], "reference_out")
-    return ParameterizedSystem(
+    out = _FlatCall(output_graph, [(1, 1), (4, 1), (12, 1)], "reference_out")
+    system = ParameterizedSystem(
         "reference_generator",
         lambda t, x, u, prm: rhs(t, x, prm["omega_d"]),
         lambda t, x, u, prm: out(t, x, prm["omega_d"]),
         {"omega_d": p},
         {"omega_d": _twelve},
-        inputs=[],
-        outputs=_labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot"),
-        states=_labels("q_d", 4),
+        inputs=_signal_names(inputs, [], "inputs", where),
+        outputs=_signal_names(
+            outputs, _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot"), "outputs", where
+        ),
+        states=_signal_names(states, _labels("q_d", 4), "states", where),
         name=name,
         attitude=True,
     )
+    return _finish(system, call, params, dt)
 
 
 @dataclass(frozen=True)
@@ -993,6 +1294,10 @@ def _controller(
     error_model: str,
     nbrs: tuple[Neighbour, ...],
     name: str | None,
+    factory: tuple,
+    signals: Mapping[str, Any],
+    params: Any,
+    dt: Any,
 ) -> ParameterizedSystem:
     """One agent's law (the contract of :mod:`fsmctl.symbolic.law`) as a python-control system."""
     where = f"{kind} {name!r}" if name else kind
@@ -1031,17 +1336,19 @@ def _controller(
         return call(t, u[:15], x, prm, p["J0"], k_sum[0], received[0], k_received_sum[0], p["u_max"])
 
     update = None if nz == 0 else (lambda t, x, u, p: evaluate(t, x, u, p)[3 + nb :])
-    return ParameterizedSystem(
+    states = _signal_names(signals["states"], law.state_labels() if nz else [], "states", where)
+    system = ParameterizedSystem(
         kind,
         update,
         lambda t, x, u, p: evaluate(t, x, u, p)[: 3 + nb],
         {"J0": J0, **scheme.values, "u_max": u_max},
         {"J0": _inertia, **scheme.validators, "u_max": _torque_limit},
-        inputs=inputs,
-        outputs=_labels("tau") + _labels(bname, nb),
+        inputs=_signal_names(signals["inputs"], inputs, "inputs", where),
+        outputs=_signal_names(signals["outputs"], _labels("tau") + _labels(bname, nb), "outputs", where),
         name=name,
-        **({"states": law.state_labels()} if nz else {}),
+        **({"states": states} if nz else {}),
     )
+    return _finish(system, factory, params, dt)
 
 
 def law_controller(
@@ -1053,6 +1360,11 @@ def law_controller(
     error_model: str = "paper",
     neighbours: Sequence[Neighbour] = (),
     name: str | None = None,
+    inputs: Any = None,
+    outputs: Any = None,
+    states: Any = None,
+    params: Mapping[str, Any] | None = None,
+    dt: Any = 0,
 ) -> ParameterizedSystem:
     """One agent's control law, any law (built-in, derived folder or derivation script), as a python-control system.
 
@@ -1081,6 +1393,15 @@ def law_controller(
     name : str, optional
         System name; default python-control's unique ``sys[<id>]``.
 
+    inputs, outputs, states : int, str or list of str, optional
+        New signal names (python-control's forms; their number must be the system's); default the names below.
+    params : mapping, optional
+        Initial parameter values, by local name (``"c1"``, ``"J0"``, ``"u_max"``) or key, validated like the
+        arguments (they win).
+    dt : 0, None, True or float
+        python-control's timebase.  A law with states is continuous time (``None`` is taken as 0, a discrete
+        ``dt`` raises); a static law (no states) is a memoryless map and takes any timebase (``None``:
+        unspecified, ``True`` or a sampling period: discrete).
     Returns
     -------
     ParameterizedSystem
@@ -1109,6 +1430,7 @@ def law_controller(
     >>> float(ctrl.params["c_c1"]), ctrl.params["c_singularity_fix"]
     (0.5, 'switch')
     """
+    call = _factory_call(law_controller, locals())
     name = _system_name(name, "law_controller")
     where = f"law_controller {name!r}" if name else "law_controller"
     law = resolve_law(law)
@@ -1124,7 +1446,8 @@ def law_controller(
     scheme = _law_scheme(law, parameters, where)
     u_max = _torque_limit(u_max, f"{where}: u_max")
     nbrs = _neighbours(neighbours, where)
-    return _controller("law_controller", law, J0, scheme, u_max, error_model, nbrs, name)
+    signals = {"inputs": inputs, "outputs": outputs, "states": states}
+    return _controller("law_controller", law, J0, scheme, u_max, error_model, nbrs, name, call, signals, params, dt)
 
 
 def _flown_parameters(
@@ -1157,6 +1480,11 @@ def fsm_controller(
     *,
     neighbours: Sequence[Neighbour] = (),
     name: str | None = None,
+    inputs: Any = None,
+    outputs: Any = None,
+    states: Any = None,
+    params: Mapping[str, Any] | None = None,
+    dt: Any = 0,
 ) -> ParameterizedSystem:
     """One agent's fast-sliding-mode controller (eqs 13, 16-19): :func:`law_controller` of the paper's law.
 
@@ -1175,6 +1503,15 @@ def fsm_controller(
     name : str, optional
         System name; default python-control's unique ``sys[<id>]``.
 
+    inputs, outputs, states : int, str or list of str, optional
+        New signal names (python-control's forms; their number must be the system's); default the names below.
+    params : mapping, optional
+        Initial parameter values, by local name (``"c1"``, ``"J0"``, ``"u_max"``) or key, validated like the
+        arguments (they win).
+    dt : 0, None, True or float
+        python-control's timebase.  A law with states is continuous time (``None`` is taken as 0, a discrete
+        ``dt`` raises); a static law (no states) is a memoryless map and takes any timebase (``None``:
+        unspecified, ``True`` or a sampling period: discrete).
     Returns
     -------
     ParameterizedSystem
@@ -1200,6 +1537,7 @@ def fsm_controller(
     >>> float(ctrl.params["ctrl1_u_max"]), float(ctrl.params["ctrl1_c1"]), ctrl.params["ctrl1_delta"].tolist()
     (2.0, 0.6, [0.005, 0.005, 0.005])
     """
+    call = _factory_call(fsm_controller, locals())
     name = _system_name(name, "fsm_controller")
     where = f"fsm_controller {name!r}" if name else "fsm_controller"
     J0 = _inertia(J0, f"{where}: J0")
@@ -1212,7 +1550,10 @@ def fsm_controller(
     parameters = _flown_parameters(law, controller, J0, delta, where)
     parameters["delta"] = delta  # the argument itself, as given (validated above)
     scheme = _law_scheme(law, parameters, where)
-    return _controller("fsm_controller", law, J0, scheme, u_max, controller.error_model, nbrs, name)
+    signals = {"inputs": inputs, "outputs": outputs, "states": states}
+    return _controller(
+        "fsm_controller", law, J0, scheme, u_max, controller.error_model, nbrs, name, call, signals, params, dt
+    )
 
 
 class FormationSystem(ct.InterconnectedSystem):
@@ -1225,7 +1566,9 @@ class FormationSystem(ct.InterconnectedSystem):
     checked by the path scenario files take (:meth:`fsmctl.model.laws.LawParameterInfo.values`, the law's
     declared ranges).  Bare names are read from the ``params`` given to this system itself
     (:func:`control.input_output_response`, :meth:`dynamics`, :meth:`output`); inside a larger interconnection,
-    use the prefixed keys.
+    use the prefixed keys.  Another local name (``"omega_d"``) is the parameter of the one subsystem that has it;
+    one that several subsystems have (``"J"``: ``sc1_J, ..., scn_J``) raises :class:`fsmctl.errors.InputError`
+    naming their keys.  A formation pickles (its subsystems are rebuilt by their factories).
 
     Parameters
     ----------
@@ -1260,7 +1603,6 @@ class FormationSystem(ct.InterconnectedSystem):
 
     law_parameters: tuple[str, ...] = ()
     controllers: tuple[str, ...] = ()
-    _tag_key: str = "reference_owner"
 
     def __init__(self, *args, **kwargs):
         """Made by :func:`formation` (the arguments are :class:`control.InterconnectedSystem`'s).
@@ -1275,16 +1617,45 @@ class FormationSystem(ct.InterconnectedSystem):
         super().__init__(*args, **kwargs)
 
     def _update_params(self, params):
-        if params and self._tag_key not in params:  # given to this system (not merged by an outer interconnection)
-            _unknown_keys(params, _KnownKeys(self.params, self.law_parameters), f"formation {self.name!r}")
-        if params:
-            bare = [k for k in params if k in self.law_parameters]
-            if bare:
-                params = dict(params)
-                for key in bare:
-                    for ctrl in self.controllers:
-                        params.setdefault(f"{ctrl}_{key}", params[key])
+        if params and not isinstance(params, _Merged):  # given to this system, not merged by an outer interconnection
+            params = self._explicit(params)
         super()._update_params(params)
+
+    def _explicit(self, params: Mapping[str, Any]) -> dict[str, Any]:
+        """Params given to the formation itself, by prefixed key: a bare law name set for every controller (a
+        prefixed key given with it wins), another local name for the one subsystem that has it (several: error)."""
+        where = f"formation {self.name!r}"
+        own = {sub._owner for sub in self.syslist if isinstance(sub, ParameterizedSystem)}
+        for value in params.values():
+            if isinstance(value, _Owner) and value not in own:
+                raise _foreign_params(where, value, "by bare law name (c1, ...) or by key (ctrl1_c1, sc2_J, ...)")
+        out, bare = {}, {}
+        for key, value in params.items():
+            if key in self.law_parameters:
+                bare[key] = value
+            elif key in self.params or key in out:
+                out[key] = value
+            else:
+                keys = _owners_of(self.params, key)
+                if len(keys) > 1:
+                    raise _ambiguous(where, key, keys)
+                if keys and keys[0] in params:
+                    raise InputError(f"{where}: parameter {key!r} given twice, as {key!r} and {keys[0]!r}")
+                out[keys[0] if keys else key] = value
+        _unknown_keys(out, _KnownKeys(self.params, self.law_parameters), where)
+        for key, value in bare.items():
+            for ctrl in self.controllers:
+                out.setdefault(f"{ctrl}_{key}", value)
+        return out
+
+    def _ic_update(self, t, x, u, params):
+        # python-control's InterconnectedSystem callbacks, as methods (its closures cannot be pickled)
+        self._update_params(params)
+        return self._rhs(t, x, u)
+
+    def _ic_output(self, t, x, u, params):
+        self._update_params(params)
+        return self._out(t, x, u)
 
 
 _BlockSpec = Any
@@ -1426,6 +1797,8 @@ def formation(
     sensors: _BlockSpec = None,
     normalization_gain: float = DEFAULT_NORMALIZATION_GAIN,
     name: str = "formation",
+    params: Mapping[str, Any] | None = None,
+    dt: Any = None,
 ) -> FormationSystem:
     """The closed-loop formation of a scenario, flying its law (``scenario.law``), assembled with :func:`control.interconnect`.
 
@@ -1462,6 +1835,14 @@ def formation(
         Quaternion normalisation-drift gain of the plants and the reference (see :func:`spacecraft`).
     name : str
         Name of the interconnected system.
+    params : mapping, optional
+        Initial parameter values, as ``params=`` of :func:`control.input_output_response` takes them: a law
+        parameter's bare name (every controller), a key (``"sc2_J"``, ``"ctrl1_c1"``) or the local name of the one
+        subsystem that has it (``"omega_d"``); validated like the factories' arguments, stored in ``params``.
+    dt : None, 0, True or float
+        python-control's timebase.  ``None`` (default): the scenario's, continuous time (0) unless
+        ``simulation.control_period = T > 0``, whose loop is discrete time with ``dt = T`` (the sampled-data loop
+        of :func:`fsmctl.plugin.sampled.sampled_formation`); a ``dt`` that is not the scenario's raises.
 
     Returns
     -------
@@ -1515,6 +1896,9 @@ def formation(
     """
     if not isinstance(scenario, Scenario):
         raise ScenarioError(f"formation: expected a Scenario, got {type(scenario).__name__}")
+    name = _system_name(name, "formation")
+    if name is None:
+        raise ScenarioError("formation: name must be a non-empty string without '.', got None")
     if scenario.simulation.control_period > 0:
         from fsmctl.plugin.sampled import sampled_formation  # it builds on this module
 
@@ -1524,7 +1908,13 @@ def formation(
                 "simulation.control_period > 0 is discrete time (fsmctl.plugin.sampled.sampled_formation): wire "
                 "discrete-time blocks into it by hand"
             )
-        return sampled_formation(scenario, normalization_gain=normalization_gain, name=name)
+        if dt not in (None, True) and dt != scenario.simulation.control_period:
+            raise ScenarioError(
+                f"formation: dt={dt!r}: the loop of this scenario is discrete time with dt = simulation.control_period "
+                f"= {scenario.simulation.control_period} (give None, True or that period)"
+            )
+        return sampled_formation(scenario, normalization_gain=normalization_gain, name=name, params=params)
+    _timebase(dt, False, "formation")  # continuous time: 0 or None
     n = scenario.n_agents
     law = scenario.law
     wheels = scenario.actuator.enabled
@@ -1599,19 +1989,36 @@ def formation(
         inputs=[],
         **ignored,
     )
-    return _as_formation(loop, scenario, name)
+    return _as_formation(loop, scenario, name, params)
 
 
-def _as_formation(loop: ct.InterconnectedSystem, scenario: Scenario, name: str) -> FormationSystem:
+def _as_formation(
+    loop: ct.InterconnectedSystem, scenario: Scenario, name: str, params: Mapping[str, Any] | None = None
+) -> FormationSystem:
     """``loop`` (the interconnection of ``scenario``'s reference, plants and ``ctrl<i>``) as a FormationSystem."""
     loop.__class__ = FormationSystem  # the same object, with bare law-parameter names in params
     loop.law_parameters = tuple(p.name for p in scenario.law.parameters)
     loop.controllers = tuple(f"ctrl{i}" for i in range(1, scenario.n_agents + 1))
     loop.scenario = scenario
-    loop._tag_key = loop.syslist[
-        0
-    ]._owner_key  # the reference's tag: present when an outer interconnection merged these
+    loop.updfcn, loop.outfcn = loop._ic_update, loop._ic_output
     loop.params = _Params(loop.params, f"formation {name!r}", loop.law_parameters)
+    if params is not None:
+        if not isinstance(params, Mapping):
+            raise ScenarioError(
+                f"formation: params: expected a mapping of parameter names to values, got {_show(params)}"
+            )
+        owners = {
+            key: (sub, local)
+            for sub in loop.syslist
+            if isinstance(sub, ParameterizedSystem)
+            for local, key in sub._keys.items()
+        }
+        for key, value in loop._explicit(params).items():
+            if key in owners:  # validated like the factory's argument, stored in the subsystem and the loop
+                sub, local = owners[key]
+                sub.local_params[local] = value
+                value = sub.params[key]
+            loop.params[key] = value
     return loop
 
 

@@ -404,6 +404,7 @@ def sampled_formation(
     *,
     normalization_gain: float | None = None,
     name: str = "formation",
+    params: Mapping[str, Any] | None = None,
 ) -> FormationSystem:
     """The sampled-data closed loop of a scenario with ``simulation.control_period = T > 0``, in discrete time.
 
@@ -426,6 +427,8 @@ def sampled_formation(
         Quaternion normalisation-drift gain of the plants and the reference (see :func:`fsmctl.spacecraft`).
     name : str
         Name of the interconnected system.
+    params : mapping, optional
+        Initial parameter values, as :func:`fsmctl.formation`'s ``params=`` (bare law names, full keys).
 
     Returns
     -------
@@ -492,4 +495,4 @@ def sampled_formation(
         name=name,
         check_unused=False,
     )
-    return _as_formation(sampled, scenario, name)
+    return _as_formation(sampled, scenario, name, params)
