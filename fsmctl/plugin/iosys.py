@@ -514,9 +514,9 @@ def _timebase(dt: Any, static: bool, where: str) -> float | bool | None:
     if static:
         return True if dt is True else float(dt)
     raise ScenarioError(
-        f"{where}: dt={dt!r}: this is a continuous-time system (dt=0, or None); to fly it with a discrete-time "
-        "controller or sensors, keep it continuous and sample the loop by the plug-in guide's route for sampled-data "
-        "loops"
+        f"{where}: dt={dt!r}: this is a continuous-time system (dt=0, or None); for a sampled-data loop use "
+        "fsmctl.plugin.sampled: zoh(system, dt) samples a plant or the reference, discrete_law_controller(..., dt=) "
+        "runs a law at its instants (the plug-in guide, 'Sampled-data loops')"
     )
 
 
