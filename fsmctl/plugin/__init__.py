@@ -9,7 +9,10 @@ What a user of this layer calls:
   :func:`fsm_controller` is the paper's, Liang et al. 2012, eqs 13-19) with its :class:`Neighbour` links, and
   :class:`ParameterizedSystem` (their parameter ownership);
 * the flight hardware (:mod:`fsmctl.plugin.hardware`): :func:`reaction_wheel_spacecraft`, :func:`star_tracker`,
-  :func:`rate_gyro`, :func:`link`.
+  :func:`rate_gyro`, :func:`link`;
+* exact linearization (:mod:`fsmctl.plugin.jacobians`): ``control.linearize`` of every fsmctl system is exact,
+  :func:`linearize` also for a plain ``control.interconnect``; :func:`mrp_linearization` and :func:`mrp_estimator`
+  for an LQR design in MRP coordinates; :class:`NonDifferentiableError` where no linearization exists.
 
 Everything loads on first use (SPEC 1 lazy loading), so ``import fsmctl.plugin`` does not import CasADi or
 python-control.
@@ -38,6 +41,7 @@ _ATTRS = {
         "ParameterKeyError",
     ],
     "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
+    "jacobians": ["linearize", "mrp_linearization", "mrp_estimator", "NonDifferentiableError"],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]
