@@ -108,6 +108,7 @@ __all__ = [
     "compiled_library",
     "casadi_function",
     "law_sx_function",
+    "model_sx_function",
     "backend",
     "compile_flags",
 ]
@@ -927,6 +928,43 @@ def casadi_function(name: str) -> ca.Function:
     if lib is not None:
         return ca.external(name, str(lib.path))
     _warn_fallback()
+    return ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
+
+
+@functools.cache
+def model_sx_function(name: str) -> ca.Function:
+    """A generated per-agent function of the model as its serialized CasADi ``SX`` graph.
+
+    What automatic differentiation needs (the compiled function of :func:`casadi_function` takes numbers only);
+    the same graph the C code was generated from.
+
+    Parameters
+    ----------
+    name : str
+        The function's name (see ``manifest()['functions']``).
+
+    Returns
+    -------
+    casadi.Function
+        The deserialized ``SXFunction``.
+
+    Raises
+    ------
+    KeyError
+        No generated function has that name.
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> from fsmctl.model.generated_code import model_sx_function
+    >>> f = model_sx_function("mrp_error")
+    >>> sigma = ca.SX.sym("sigma", 3)
+    >>> ca.jacobian(f(sigma, ca.DM.zeros(3)), sigma).shape
+    (3, 3)
+    """
+    names = [f["name"] for f in manifest()["functions"]]
+    if name not in names:
+        raise KeyError(f"no generated function {name!r}; available: {', '.join(names)}")
     return ca.Function.deserialize((generated_dir() / "casadi" / f"{name}.casadi").read_text())
 
 

@@ -31,7 +31,6 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.actuators import distribute, distribution_matrix, hub_inertia_problem, spin_inertia_matrix
 from fsmctl.model.attitude import _mrp_of_quaternion, _quaternion_rate, quaternion_from_mrp
-from fsmctl.model.generated_code import casadi_function
 from fsmctl.model.scenario import ActuatorSettings, ScenarioError, Sinusoid
 from fsmctl.plugin.iosys import (
     DEFAULT_NORMALIZATION_GAIN,
@@ -39,6 +38,7 @@ from fsmctl.plugin.iosys import (
     _factory_call,
     _finish,
     _FlatCall,
+    _Generated,
     _inertia,
     _labels,
     _numbers,
@@ -282,10 +282,10 @@ def reaction_wheel_spacecraft(
     derived = _WheelArray(where)
     derived(values)  # the hub-inertia check at construction
 
-    torque = casadi_function("wheel_torque")
-    accel = casadi_function("wheel_acceleration")
-    gyrostat = casadi_function("gyrostat_rhs")
-    dist = casadi_function("disturbance_torque")
+    torque = _Generated("wheel_torque")
+    accel = _Generated("wheel_acceleration")
+    gyrostat = _Generated("gyrostat_rhs")
+    dist = _Generated("disturbance_torque")
     zero3 = ca.DM.zeros(3, 1)  # gyrostat_rhs's sigma_dot is not used: the attitude is integrated as q
 
     def wheels(Om, uw, G, Js, W):
@@ -314,6 +314,34 @@ def reaction_wheel_spacecraft(
     def commands(u, a: _WheelArray) -> np.ndarray:
         return distribute(u[:3], a.pinv, a.max_torque)[0]
 
+    # the exact Jacobian: the distribution's rule as a graph (its derivative and switches), chained into the plant's
+    dist_graph = _FlatCall(lambda u, P, m: [_distribution_graph(u, P, m)], [(3, 1), (n, 3), (n, 1)], "wheel_dist")
+    state_names = _signal_names(states, _labels("q", 4) + _labels("omega") + _labels("Omega", n), "states", where)
+    wheel_labels = _labels("u_wheel", n)
+
+    def jacobian(t, x, u, p):
+        a = derived(p)
+        uw = commands(u, a)
+        (du,) = dist_graph.jacobian(u[:3], a.pinv, a.max_torque, wrt=(0,), labels=(_labels("u_command"),))
+        A, B_w, B_d = rhs.jacobian(
+            t,
+            x,
+            uw,
+            u[3:6],
+            p["disturbance"],
+            p["J"],
+            a.J_spin,
+            p["axes"],
+            p["spin_inertia"],
+            a.wheel,
+            wrt=(1, 2, 3),
+            labels=(state_names, wheel_labels, _labels("d")),
+        )
+        C, D_w = out.jacobian(
+            x, uw, p["axes"], p["spin_inertia"], a.wheel, wrt=(0, 1), labels=(state_names, wheel_labels)
+        )
+        return A, np.hstack([B_w @ du, B_d]), C, np.hstack([D_w @ du, np.zeros((C.shape[0], 3))])
+
     def update(t, x, u, p):
         a = derived(p)
         uw = commands(u, a)
@@ -326,6 +354,40 @@ def reaction_wheel_spacecraft(
     output_labels = (
         _labels("sigma") + _labels("omega") + _labels("Omega", n) + _labels("tau") + _labels("h_wheels")
     ) + _labels("wheel_torque", n)
+
+    # the MRP-state model (gyrostat_rhs's own kinematics) for fsmctl.plugin.mrp_linearization
+    def mrp_graph(t, x, uw, d, dp, J, J_spin, G, Js, W):
+        sigma, omega, Om = x[:3], x[3:6], x[6:]
+        _, net, h, tau_w = wheels(Om, uw, G, Js, W)
+        sigma_dot, omega_dot = gyrostat(sigma, omega, h, tau_w, d + dist(t, dp), J, J_spin)
+        Om_dot = ca.vertcat(*[accel(G[:, k], Js[k], net[k], omega_dot) for k in range(n)])
+        return [sigma_dot, omega_dot, Om_dot]
+
+    mrp_rhs = _FlatCall(
+        mrp_graph, [(1, 1), (6 + n, 1), (n, 1), (3, 1), (12, 1), (3, 3), (3, 3), *wheel_arrays], "wheel_mrp_rhs"
+    )
+    mrp_states = _labels("sigma") + _labels("omega") + _labels("Omega", n)
+
+    def mrp_jacobian(t, x, u, p):
+        a = derived(p)
+        uw = commands(u, a)
+        (du,) = dist_graph.jacobian(u[:3], a.pinv, a.max_torque, wrt=(0,), labels=(_labels("u_command"),))
+        A, B_w = mrp_rhs.jacobian(
+            t,
+            x,
+            uw,
+            u[3:6],
+            p["disturbance"],
+            p["J"],
+            a.J_spin,
+            p["axes"],
+            p["spin_inertia"],
+            a.wheel,
+            wrt=(1, 2),
+            labels=(mrp_states, wheel_labels),
+        )
+        return A, B_w @ du
+
     system = ParameterizedSystem(
         "reaction_wheel_spacecraft",
         update,
@@ -334,11 +396,23 @@ def reaction_wheel_spacecraft(
         validators,
         inputs=_signal_names(inputs, _labels("u_command") + _labels("d"), "inputs", where),
         outputs=_signal_names(outputs, output_labels, "outputs", where),
-        states=_signal_names(states, _labels("q", 4) + _labels("omega") + _labels("Omega", n), "states", where),
+        states=state_names,
         name=name,
         attitude=True,
+        jacobian=jacobian,
     )
+    system._mrp_model = (mrp_jacobian, mrp_states, _labels("u_command"), 6)
     return _finish(system, call, params, dt)
+
+
+def _distribution_graph(u, P, m):
+    """:func:`fsmctl.model.actuators.distribute`'s wheel torques as a CasADi graph (for its derivative):
+    ``u_w* = -P u``, divided by ``max(1, max_i |u_w*_i| / max_torque_i)``."""
+    uw = -ca.mtimes(P, u)
+    r = ca.DM(0.0)
+    for i in range(uw.shape[0]):
+        r = ca.fmax(r, ca.fabs(uw[i]) / m[i])
+    return uw / ca.fmax(1.0, r)
 
 
 def reaction_wheel_state(plant: ct.NonlinearIOSystem, sigma0=(0.0, 0.0, 0.0), omega0=(0.0, 0.0, 0.0), Omega0=None):
@@ -480,7 +554,7 @@ def _sensor(kind: str, name: str | None, noise_std=None, gyro=None, *, period, h
     timebase = _timebase(dt, period, where)
     held = timebase != period  # continuous or unspecified time: the latest sample at or before t
     common = {"seed": seed, "n_agents": agent + 1, "n_samples": Q, "period": period}
-    measure = casadi_function("sensor_measurement")
+    measure = _Generated("sensor_measurement")
     zero3 = np.zeros(3)
     if kind == "star_tracker":
         table = _noise(where, star_tracker_std=noise_std, **common)["dtheta"][:, agent].copy()

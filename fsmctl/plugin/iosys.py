@@ -70,7 +70,6 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.coupling import aggregate
-from fsmctl.model.generated_code import casadi_function
 from fsmctl.model.laws import (
     LawCode,
     LawError,
@@ -81,6 +80,14 @@ from fsmctl.model.laws import (
 )
 from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid, check_inertia
 from fsmctl.model.topology import Schedule, Topology, schedule_weight
+from fsmctl.plugin.jacobians import (
+    Derivatives,
+    Kink,
+    NonDifferentiableError,
+    _Generated,
+    interconnection_jacobians,
+    symbolic_graph,
+)
 
 __all__ = [
     "Neighbour",
@@ -254,28 +261,55 @@ class _FlatCall:
     """
 
     def __init__(self, build: Callable[..., Sequence], shapes: Sequence[tuple[int, int]], name: str):
-        sizes = [r * c for r, c in shapes]
-        z = ca.MX.sym("z", sum(sizes))
-        args, offset = [], 0
-        for (r, c), size in zip(shapes, sizes, strict=True):
-            args.append(ca.reshape(z[offset : offset + size], r, c))
-            offset += size
-        out = ca.vertcat(*[ca.vec(o) for o in build(*args)])
-        self._fn = ca.Function(name, [z], [out])
-        self._offsets = np.cumsum([0, *sizes])
+        self._build, self._shapes, self._name = build, list(shapes), name
+        self._sizes = [r * c for r, c in shapes]
+        self._fn = self._graph()
+        self._offsets = np.cumsum([0, *self._sizes])
         self._in = np.zeros(int(self._offsets[-1]))
-        self._out = np.zeros(out.numel())
+        self._out = np.zeros(self._fn.nnz_out(0))
         self._buffer, self._eval = self._fn.buffer()
         self._buffer.set_arg(0, memoryview(self._in))
         self._buffer.set_res(0, memoryview(self._out))
+        self._derivatives: dict[tuple[int, ...], Derivatives] = {}  # built at the first jacobian()
 
-    def __call__(self, *values) -> np.ndarray:
+    def _graph(self) -> ca.Function:
+        z = ca.MX.sym("z", sum(self._sizes))
+        args, offset = [], 0
+        for (r, c), size in zip(self._shapes, self._sizes, strict=True):
+            args.append(ca.reshape(z[offset : offset + size], r, c))
+            offset += size
+        out = ca.vertcat(*[ca.vec(o) for o in self._build(*args)])
+        return ca.Function(self._name, [z], [out])
+
+    def _stack(self, values) -> np.ndarray:
         o = self._offsets
         for k, v in enumerate(values):
             # column-major flattening (CasADi's layout); inertias are symmetric anyway
             self._in[o[k] : o[k + 1]] = np.ravel(v, order="F")
+        return self._in
+
+    def __call__(self, *values) -> np.ndarray:
+        self._stack(values)
         self._eval()
         return self._out.copy()
+
+    def jacobian(self, *values, wrt: Sequence[int], labels: Sequence[Sequence[str]]) -> list[np.ndarray]:
+        """The exact Jacobian blocks of the outputs with respect to the arguments ``wrt`` (vectors) at ``values``.
+
+        The graph is rebuilt once (per ``wrt``) on the ``SX`` graphs of the generated functions and differentiated
+        by CasADi; ``labels`` name each ``wrt`` argument's entries for messages.  Raises
+        :class:`fsmctl.plugin.jacobians.Kink` where the graph is not differentiable.
+        """
+        key = tuple(wrt)
+        if key not in self._derivatives:
+            entries = np.concatenate([np.arange(self._offsets[k], self._offsets[k + 1]) for k in key] or [[]])
+            names = [name for k, group in zip(key, labels, strict=True) for name in group]
+            if len(names) != entries.size:
+                names = [f"argument {k}[{j}]" for k in key for j in range(self._sizes[k])]
+            fn = symbolic_graph(self._graph)
+            self._derivatives[key] = Derivatives(fn.expand(), entries.astype(int), names)
+        jac = self._derivatives[key](self._stack(values).copy())
+        return np.split(jac, np.cumsum([self._sizes[k] for k in key])[:-1], axis=1)
 
 
 def _scalar_schedule(schedule: Schedule, phase: float) -> Callable[[float], float]:
@@ -647,6 +681,9 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
     attitude : bool, optional
         Whether the state starts with an attitude quaternion ``q``: a state whose ``q`` has (near-)zero norm, such
         as python-control's default ``X0 = 0``, is then refused with :class:`InvalidStateError`.
+    jacobian : callable, optional
+        ``jacobian(t, x, u, p) -> (A, B, C, D)``: the exact Jacobians of ``update`` and ``output`` (what
+        :meth:`linearize` returns); without it, :meth:`linearize` takes python-control's finite differences.
     **kwargs
         Passed to :class:`control.NonlinearIOSystem` (``inputs``, ``outputs``, ``states``, ...).
 
@@ -692,11 +729,13 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
         *,
         name: str | None = None,
         attitude: bool = False,
+        jacobian: Callable[..., tuple[np.ndarray, ...]] | None = None,
         **kwargs,
     ):
         self._kind = kind
         self._model_update = update
         self._model_output = output
+        self._model_jacobian = jacobian
         self._validators = dict(validators)
         self._attitude = attitude
         super().__init__(self._updfcn if update is not None else None, self._outfcn, name=name, **kwargs)
@@ -931,6 +970,93 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
             raise _invalid_quaternion(self._where, self._kind, x[:4])
         return self._model_output(t, x, u, self._resolve(params))
 
+    # -- linearization
+
+    def _jacobians(self, t: float, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``(A, B, C, D)`` at ``(t, x, u)`` with the current parameters (exact; see :meth:`linearize`)."""
+        x = np.asarray(x, dtype=float).reshape(-1)
+        u = np.asarray(u, dtype=float).reshape(-1)
+        if self._attitude and float(x[:4] @ x[:4]) < _MIN_QUATERNION_NORM2:
+            raise _invalid_quaternion(self._where, self._kind, x[:4])
+        try:
+            A, B, C, D = self._model_jacobian(float(t), x, u, self._resolve(self._current_params))
+        except Kink as exc:
+            raise NonDifferentiableError(
+                f"{self._where}: not differentiable at the operating point: {exc}; {self._kink_hint}"
+            ) from None
+        shapes = ((self.nstates, self.nstates), (self.nstates, self.ninputs))
+        shapes += ((self.noutputs, self.nstates), (self.noutputs, self.ninputs))
+        return tuple(np.asarray(m, dtype=float).reshape(s) for m, s in zip((A, B, C, D), shapes, strict=True))
+
+    _kink_hint = "linearize at another operating point"
+
+    def linearize(self, x0, u0=None, t=0, params=None, eps=1e-6, copy_names=False, **kwargs):
+        """The exact linearization at an operating point, as python-control's :func:`control.linearize` returns it.
+
+        The Jacobians are CasADi's automatic derivatives of the generated functions the callbacks evaluate
+        (:mod:`fsmctl.plugin.jacobians`), not finite differences.
+
+        Parameters
+        ----------
+        x0 : array_like or control.OperatingPoint
+            The state (or an operating point with its input).
+        u0 : array_like, optional
+            The input; 0 by default.
+        t : float
+            The time (the disturbance, the reference and the neighbours' weights depend on it).
+        params : dict, optional
+            Parameter values for this call, as for :meth:`dynamics` (unknown keys raise
+            :class:`ParameterKeyError`).
+        eps : float
+            Not used (python-control's finite-difference step; kept for its signature).
+        copy_names : bool
+            As python-control: copy the signal names, name the system ``<name>$linearized``.
+        **kwargs
+            ``name``, ``inputs``, ``outputs``, ``states`` of the returned system.
+
+        Returns
+        -------
+        control.StateSpace
+            ``A = df/dx``, ``B = df/du``, ``C = dh/dx``, ``D = dh/du`` at the point.
+
+        Raises
+        ------
+        NonDifferentiableError
+            The system is not differentiable there (a switch of its graph at the point, see
+            :mod:`fsmctl.plugin.jacobians`).
+        InvalidStateError
+            The state's quaternion has (near-)zero norm.
+
+        Examples
+        --------
+        >>> import numpy as np, fsmctl
+        >>> sc = fsmctl.spacecraft(np.diag([100.0, 150.0, 200.0]), name="sc")
+        >>> lin = sc.linearize([1, 0, 0, 0, 0, 0, 0], [0, 0, 0])
+        >>> lin.B[4:, :].diagonal().tolist()  # J^-1
+        [0.01, 0.006666666666666667, 0.005]
+        """
+        from control.nlsys import _process_vector_argument
+
+        if isinstance(x0, ct.OperatingPoint):
+            u0 = x0.inputs if u0 is None else u0
+            x0 = x0.states
+        elif u0 is None:
+            u0 = 0
+        if self._model_jacobian is None:
+            return super().linearize(x0, u0, t=t, params=params, eps=eps, copy_names=copy_names, **kwargs)
+        x0, _ = _process_vector_argument(x0, "x0", self.nstates)
+        u0, _ = _process_vector_argument(u0, "u0", self.ninputs)
+        self._update_params(params)
+        return _state_space(self, *self._jacobians(t, x0, u0), copy_names=copy_names, **kwargs)
+
+
+def _state_space(sys: ct.InputOutputSystem, A, B, C, D, *, copy_names: bool = False, **kwargs) -> ct.StateSpace:
+    """The :class:`control.StateSpace` python-control's ``linearize`` returns, with these matrices."""
+    lin = ct.StateSpace(A, B, C, D, sys.dt, remove_useless_states=False)
+    if copy_names:
+        lin._copy_names(sys, prefix_suffix_name="linearized")
+    return ct.StateSpace(lin, **kwargs)
+
 
 def _unchanged(value: Any, checked: Any) -> bool:
     """Whether a value seen before still holds what was validated (immutable, ours, or equal contents)."""
@@ -1023,8 +1149,8 @@ def spacecraft(
     d = np.zeros(12) if disturbance is None else _sinusoid(disturbance, f"{where}: disturbance")
     d.setflags(write=False)
     gain = _scalar(normalization_gain, f"{where}: normalization_gain", minimum=0.0)
-    plant = casadi_function("plant_rhs")
-    dist = casadi_function("disturbance_torque")
+    plant = _Generated("plant_rhs")
+    dist = _Generated("disturbance_torque")
     zero3 = ca.DM.zeros(3, 1)  # plant_rhs's sigma_dot is not used: the attitude is integrated as q
     rhs = _FlatCall(
         lambda t, x, u, J, d: [_quaternion_rate(x[:4], x[4:], gain), plant(zero3, x[4:], u + dist(t, d), J)[1]],
@@ -1032,18 +1158,49 @@ def spacecraft(
         "spacecraft_rhs",
     )
     out = _FlatCall(lambda x: [_mrp_of_quaternion(x[:4]), x[4:]], [(7, 1)], "spacecraft_out")
+    state_names = _signal_names(states, _labels("q", 4) + _labels("omega"), "states", where)
+    input_names = _signal_names(inputs, _labels("tau"), "inputs", where)
+
+    def jacobian(t, x, u, p):
+        A, B = rhs.jacobian(t, x, u, p["J"], p["disturbance"], wrt=(1, 2), labels=(state_names, input_names))
+        (C,) = out.jacobian(x, wrt=(0,), labels=(state_names,))
+        return A, B, C, np.zeros((6, 3))
+
+    # the MRP-state model (plant_rhs's own kinematics) for fsmctl.plugin.mrp_linearization
+    mrp_rhs = _FlatCall(
+        lambda t, sigma, omega, u, J, d: plant(sigma, omega, u + dist(t, d), J),
+        [(1, 1), (3, 1), (3, 1), (3, 1), (3, 3), (12, 1)],
+        "spacecraft_mrp_rhs",
+    )
+    mrp_states = _labels("sigma") + _labels("omega")
+
+    def mrp_jacobian(t, x, u, p):
+        d_sigma, d_omega, d_u = mrp_rhs.jacobian(
+            t,
+            x[:3],
+            x[3:6],
+            u,
+            p["J"],
+            p["disturbance"],
+            wrt=(1, 2, 3),
+            labels=(mrp_states[:3], mrp_states[3:], input_names),
+        )
+        return np.hstack([d_sigma, d_omega]), d_u
+
     system = ParameterizedSystem(
         "spacecraft",
         lambda t, x, u, p: rhs(t, x, u, p["J"], p["disturbance"]),
         lambda t, x, u, p: out(x),
         {"J": J, "disturbance": d},
         {"J": _inertia, "disturbance": _twelve},
-        inputs=_signal_names(inputs, _labels("tau"), "inputs", where),
+        inputs=input_names,
         outputs=_signal_names(outputs, _labels("sigma") + _labels("omega"), "outputs", where),
-        states=_signal_names(states, _labels("q", 4) + _labels("omega"), "states", where),
+        states=state_names,
         name=name,
         attitude=True,
+        jacobian=jacobian,
     )
+    system._mrp_model = (mrp_jacobian, mrp_states, _labels("tau"), 3)
     return _finish(system, call, params, dt)
 
 
@@ -1096,7 +1253,7 @@ def reference_generator(
     where = f"reference_generator {name!r}" if name else "reference_generator"
     p = _sinusoid(omega_d, f"{where}: omega_d")
     gain = _scalar(normalization_gain, f"{where}: normalization_gain", minimum=0.0)
-    ref = casadi_function("reference_rhs")
+    ref = _Generated("reference_rhs")
     rhs = _FlatCall(
         lambda t, x, p: [_quaternion_rate(x, ref(t, _mrp_of_quaternion(x), p)[1], gain)],
         [(1, 1), (4, 1), (12, 1)],
@@ -1108,6 +1265,13 @@ def reference_generator(
         return [sigma, *ref(t, sigma, p)[1:]]
 
     out = _FlatCall(output_graph, [(1, 1), (4, 1), (12, 1)], "reference_out")
+    state_names = _signal_names(states, _labels("q_d", 4), "states", where)
+
+    def jacobian(t, x, u, prm):
+        (A,) = rhs.jacobian(t, x, prm["omega_d"], wrt=(1,), labels=(state_names,))
+        (C,) = out.jacobian(t, x, prm["omega_d"], wrt=(1,), labels=(state_names,))
+        return A, np.zeros((4, 0)), C, np.zeros((9, 0))
+
     system = ParameterizedSystem(
         "reference_generator",
         lambda t, x, u, prm: rhs(t, x, prm["omega_d"]),
@@ -1118,9 +1282,10 @@ def reference_generator(
         outputs=_signal_names(
             outputs, _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot"), "outputs", where
         ),
-        states=_signal_names(states, _labels("q_d", 4), "states", where),
+        states=state_names,
         name=name,
         attitude=True,
+        jacobian=jacobian,
     )
     return _finish(system, call, params, dt)
 
@@ -1304,9 +1469,11 @@ def _controller(
     nz, nb, bname = law.n_states, law.n_broadcast, law.broadcast_name
     if bname == "tau":
         raise ScenarioError(f"{where}: the law's broadcast is named 'tau', the controller's torque output")
-    local = law.casadi(f"law_local_{error_model}")  # the contract's names (fsmctl.symbolic.law.contract_names)
-    control = law.casadi(f"law_control_{error_model}")
-    constants = law.casadi("law_constants")
+    local = _Generated(
+        f"law_local_{error_model}", law.folder
+    )  # the contract's names (fsmctl.symbolic.law.contract_names)
+    control = _Generated(f"law_control_{error_model}", law.folder)
+    constants = _Generated("law_constants", law.folder)
     k_i = [nb_.k_i for nb_ in nbrs]
     weights = [_scalar_schedule(nb_.k_j, nb_.phase) for nb_ in nbrs]
     inputs = _labels("sigma") + _labels("omega") + _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot")
@@ -1336,7 +1503,40 @@ def _controller(
         return call(t, u[:15], x, prm, p["J0"], k_sum[0], received[0], k_received_sum[0], p["u_max"])
 
     update = None if nz == 0 else (lambda t, x, u, p: evaluate(t, x, u, p)[3 + nb :])
+    m = len(nbrs)
     states = _signal_names(signals["states"], law.state_labels() if nz else [], "states", where)
+    basis = [np.zeros((nb, nb * m))] + [np.eye(nb, nb * m, nb * j) for j in range(m)]
+
+    def jacobian(t, x, u, p):
+        # the aggregation is linear in the broadcasts: d received / d [b_1 .. b_m] is the same rule applied to
+        # the unit broadcasts (the weights at t)
+        weight = aggregate(
+            basis, [w(t) for w in weights], [0] * m, range(1, m + 1), k_i, zero=lambda: np.zeros((nb, nb * m))
+        )[0][0]
+        received, k_sum, k_received_sum = aggregate(
+            [zero] + [u[15 + nb * j : 15 + nb * (j + 1)] for j in range(m)],
+            [w(t) for w in weights],
+            [0] * m,
+            range(1, m + 1),
+            k_i,
+            zero=lambda: zero,
+        )
+        d_y, d_z, d_received = call.jacobian(
+            t,
+            u[:15],
+            x,
+            scheme.pack(p),
+            p["J0"],
+            k_sum[0],
+            received[0],
+            k_received_sum[0],
+            p["u_max"],
+            wrt=(1, 2, 6),
+            labels=(inputs[:15], states, [f"received[{k}]" for k in range(nb)]),
+        )
+        d_u = np.hstack([d_y, d_received @ weight])
+        return d_z[3 + nb :], d_u[3 + nb :], d_z[: 3 + nb], d_u[: 3 + nb]
+
     system = ParameterizedSystem(
         kind,
         update,
@@ -1346,8 +1546,14 @@ def _controller(
         inputs=_signal_names(signals["inputs"], inputs, "inputs", where),
         outputs=_signal_names(signals["outputs"], _labels("tau") + _labels(bname, nb), "outputs", where),
         name=name,
+        jacobian=jacobian,
         **({"states": states} if nz else {}),
     )
+    if law.discontinuity is not None and law.discontinuity.smoothed_by:
+        system._kink_hint = (
+            f"linearize at another operating point (the law's {law.discontinuity.where} is smoothed by its "
+            f"parameter {law.discontinuity.smoothed_by!r} > 0)"
+        )
     return _finish(system, factory, params, dt)
 
 
@@ -1402,6 +1608,7 @@ def law_controller(
         python-control's timebase.  A law with states is continuous time (``None`` is taken as 0, a discrete
         ``dt`` raises); a static law (no states) is a memoryless map and takes any timebase (``None``:
         unspecified, ``True`` or a sampling period: discrete).
+
     Returns
     -------
     ParameterizedSystem
@@ -1512,6 +1719,7 @@ def fsm_controller(
         python-control's timebase.  A law with states is continuous time (``None`` is taken as 0, a discrete
         ``dt`` raises); a static law (no states) is a memoryless map and takes any timebase (``None``:
         unspecified, ``True`` or a sampling period: discrete).
+
     Returns
     -------
     ParameterizedSystem
@@ -1656,6 +1864,65 @@ class FormationSystem(ct.InterconnectedSystem):
     def _ic_output(self, t, x, u, params):
         self._update_params(params)
         return self._out(t, x, u)
+
+    def _jacobians(self, t: float, x: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+        return interconnection_jacobians(self, t, np.asarray(x, dtype=float), np.asarray(u, dtype=float), 1e-6)
+
+    def linearize(self, x0, u0=None, t=0, params=None, eps=1e-6, copy_names=False, **kwargs):
+        """The exact linearization of the closed loop at an operating point (python-control's ``linearize``).
+
+        The subsystems' exact Jacobians (:meth:`ParameterizedSystem.linearize`) composed through the
+        interconnection's maps; a linear actuator or sensor block enters by its matrices, any other nonlinear
+        block by python-control's finite differences with step ``eps``.  The neighbour aggregation is linear in the
+        broadcasts, with the weights at ``t``.
+
+        Parameters
+        ----------
+        x0 : array_like or control.OperatingPoint
+            The closed loop's state (:func:`initial_state` builds one).
+        u0 : array_like, optional
+            The input (a formation has none).
+        t : float
+            The time (the reference and the links' weights depend on it).
+        params : dict, optional
+            As for :meth:`dynamics`: prefixed keys, or a law parameter's bare name for every agent.
+        eps : float
+            Finite-difference step for nonlinear blocks that are not fsmctl systems.
+        copy_names : bool
+            As python-control.
+        **kwargs
+            ``name``, ``inputs``, ``outputs``, ``states`` of the returned system.
+
+        Returns
+        -------
+        control.StateSpace
+            The linearization.
+
+        Raises
+        ------
+        fsmctl.plugin.NonDifferentiableError
+            A subsystem is not differentiable at its operating point (named in the message).
+
+        Examples
+        --------
+        >>> import numpy as np, fsmctl
+        >>> s = fsmctl.paper_scenario("1")
+        >>> lin = fsmctl.formation(s).linearize(fsmctl.initial_state(s))
+        >>> lin.A.shape, bool(np.isfinite(lin.A).all())
+        ((46, 46), True)
+        """
+        from control.nlsys import _process_vector_argument
+
+        if isinstance(x0, ct.OperatingPoint):
+            u0 = x0.inputs if u0 is None else u0
+            x0 = x0.states
+        elif u0 is None:
+            u0 = 0
+        x0, _ = _process_vector_argument(x0, "x0", self.nstates)
+        u0, _ = _process_vector_argument(u0, "u0", self.ninputs)
+        self._update_params(params)
+        mats = interconnection_jacobians(self, float(t), x0, u0, eps)
+        return _state_space(self, *mats, copy_names=copy_names, **kwargs)
 
 
 _BlockSpec = Any
