@@ -183,6 +183,22 @@ def test_a_damaged_law_folder_is_refused_naming_the_file(folder, damage, named, 
     assert not (tmp_path / "run").exists()
 
 
+def test_an_edited_cached_derivation_is_derived_again(tmp_path, monkeypatch):
+    """A script's law is derived into the cache once; a cached folder edited since is not flown but derived again."""
+    monkeypatch.setenv("FSMCTL_CACHE_DIR", str(tmp_path / "cache"))
+    script = tmp_path / "my_law.py"
+    shutil.copyfile(MY_LAW, script)
+    resolve_law.cache_clear()
+    try:
+        cached = resolve_law(script).folder
+        _edit_law_json(cached, _default_40)
+        resolve_law.cache_clear()
+        again = resolve_law(script)
+        assert again.folder == cached and again.parameter("K").default == (4.0,) and _complete(cached)
+    finally:
+        resolve_law.cache_clear()
+
+
 def test_a_builtin_law_is_verified_by_the_same_path(tmp_path, monkeypatch):
     """The built-in folders pass the check every derived folder passes (no separate, weaker reading)."""
     root = tmp_path / "generated"

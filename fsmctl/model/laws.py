@@ -717,27 +717,39 @@ def derive_script(path: Path, out: Path | None = None) -> Path:
     path = Path(path)
     if out is None:
         target = _law_cache_root() / _script_key(path)
-        if target.is_dir():
-            try:
-                _read_law(target)
-                return target
-            except LawError:
-                pass  # an edited or incomplete cached folder: derived again below
+        if _verifies(target):
+            return target
     else:
         target = Path(out)
-    _restore_aside(target)
-    if out is not None and target.is_dir() and not (target / LAW_FILE).is_file() and any(target.iterdir()):
-        raise LawError(f"{target}: exists and is not a law folder; choose another --out")
+        _restore_aside(target)
+        if target.is_dir() and not (target / LAW_FILE).is_file() and any(target.iterdir()):
+            raise LawError(f"{target}: exists and is not a law folder; choose another --out")
     variants = load_derivation_script(path)
     target.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.new-", dir=target.parent))
     try:
         write_law(tmp, variants, source=path.name, generator=f"fsmctl derive {path.name}")
-        _put_in_place(tmp, target)
+        if out is None:  # the cache: another process may derive the same script at the same time
+            try:
+                os.rename(tmp, target)  # refused when the folder is there (and not empty)
+            except OSError:
+                if not _verifies(target):  # not another process's complete copy: a damaged one, replaced
+                    _put_in_place(tmp, target)
+        else:
+            _put_in_place(tmp, target)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return target
+
+
+def _verifies(folder: Path) -> bool:
+    """Whether ``folder`` is a complete law folder that passes the verification of :func:`resolve_law`."""
+    try:
+        _read_law(folder)
+    except LawError:
+        return False
+    return True
 
 
 def _asides(target: Path) -> list[Path]:
