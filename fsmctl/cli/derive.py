@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import shlex
 import sys
 import time
 from pathlib import Path
@@ -106,7 +107,7 @@ def run(args: argparse.Namespace) -> int:
     if args.check:
         if not target.exists():
             print(
-                f"fsmctl derive: {target} is missing; write it with: fsmctl derive {script} --out {target}",
+                f"fsmctl derive: {target} is missing; write it with: fsmctl derive {_q(script)} --out {_q(target)}",
                 file=sys.stderr,
             )
             return 1
@@ -116,7 +117,7 @@ def run(args: argparse.Namespace) -> int:
             return 0
         sys.stdout.write(report)
         print(
-            f"fsmctl derive: {target} is stale; regenerate it with: fsmctl derive {script} --out {target}",
+            f"fsmctl derive: {target} is stale; regenerate it with: fsmctl derive {_q(script)} --out {_q(target)}",
             file=sys.stderr,
         )
         return 1
@@ -129,8 +130,13 @@ def run(args: argparse.Namespace) -> int:
     print(f"generated in {written}:")
     for line in _manifest_lines(written):
         print(line)
-    print(f"wrote {written} ({time.perf_counter() - start:.1f} s); fly it with: fsmctl simulate --law {written}")
+    print(f"wrote {written} ({time.perf_counter() - start:.1f} s); fly it with: fsmctl simulate --law {_q(written)}")
     return 0
+
+
+def _q(path: Path) -> str:
+    """A path as a shell word (quoted when it holds spaces or other special characters), for commands printed."""
+    return shlex.quote(str(path))
 
 
 def _check_target(target: Path, law_file: str, *, checking: bool) -> None:

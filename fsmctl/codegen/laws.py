@@ -20,11 +20,14 @@ from __future__ import annotations
 
 import hashlib
 import importlib.util
+import os
 import sys
+import traceback
 from pathlib import Path
 
 from fsmctl.codegen.batched import UnsupportedInstructionError
 from fsmctl.codegen.casadi_bridge import UnsupportedExpressionError
+from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT
 from fsmctl.codegen.writer import GeneratedFunction, build_functions, check_generated, write_generated
 from fsmctl.symbolic.law import Law, LawDefinitionError, LawVariants, law_variants
 
@@ -35,9 +38,6 @@ __all__ = [
     "check_law",
     "load_derivation_script",
 ]
-
-LAW_FILE = "law.json"
-LAW_FORMAT = 1
 
 
 def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
@@ -231,7 +231,9 @@ def load_derivation_script(path: Path | str) -> LawVariants:
     Raises
     ------
     LawDefinitionError
-        The file is missing, is not Python, fails to import, or defines no ``law``.
+        The file is missing, is not Python, or defines no ``law``; or the script raises an exception or calls
+        ``sys.exit`` while it is imported or in ``law(error_model)`` (one line naming the script and the line).
+        A :class:`KeyboardInterrupt` propagates.
 
     Examples
     --------
@@ -251,6 +253,14 @@ def load_derivation_script(path: Path | str) -> LawVariants:
     Traceback (most recent call last):
     ...
     fsmctl.symbolic.law.LawDefinitionError: missing.py: no such derivation script
+
+    A script that exits ends neither the command nor the caller's interpreter:
+
+    >>> _ = open("quits.py", "w").write("import sys\\nsys.exit(0)\\n")
+    >>> load_derivation_script("quits.py")
+    Traceback (most recent call last):
+    ...
+    fsmctl.symbolic.law.LawDefinitionError: quits.py:2: importing the script called sys.exit(0); a derivation script defines law(error_model) and must not exit
     """
     path = Path(path)
     if not path.is_file():
@@ -270,8 +280,8 @@ def load_derivation_script(path: Path | str) -> LawVariants:
         raise
     except SyntaxError as exc:
         raise LawDefinitionError(f"{path}:{exc.lineno}: syntax error: {exc.msg}") from exc
-    except Exception as exc:
-        raise LawDefinitionError(f"{path}: importing the script failed: {type(exc).__name__}: {exc}") from exc
+    except (Exception, SystemExit) as exc:  # KeyboardInterrupt propagates (Ctrl-C: exit 130)
+        raise _script_failed(path, "importing the script", exc) from exc
     finally:
         sys.modules.pop(name, None)
     build = getattr(module, "law", None)
@@ -281,5 +291,25 @@ def load_derivation_script(path: Path | str) -> LawVariants:
         return law_variants(build, getattr(module, "EXTRA_FUNCTIONS", ()))
     except LawDefinitionError:
         raise
-    except Exception as exc:
-        raise LawDefinitionError(f"{path}: law(error_model) failed: {type(exc).__name__}: {exc}") from exc
+    except (Exception, SystemExit) as exc:
+        raise _script_failed(path, "law(error_model)", exc) from exc
+
+
+def _script_failed(path: Path, stage: str, exc: BaseException) -> LawDefinitionError:
+    """One line for an exception or an exit raised in a derivation script: the script, its line, what happened.
+
+    The line is that of the innermost frame of the script itself in the traceback (none if the script's code is not
+    on it).  A ``sys.exit`` becomes an error too: a script ends neither ``fsmctl`` nor the caller's interpreter.
+    """
+    line = None
+    script = os.path.realpath(path)
+    for frame, lineno in traceback.walk_tb(exc.__traceback__):
+        if os.path.realpath(frame.f_code.co_filename) == script:
+            line = lineno
+    where = f"{path}:{line}" if line is not None else f"{path}"
+    if isinstance(exc, SystemExit):
+        return LawDefinitionError(
+            f"{where}: {stage} called sys.exit({exc.code!r}); a derivation script defines law(error_model) and "
+            "must not exit"
+        )
+    return LawDefinitionError(f"{where}: {stage} failed: {type(exc).__name__}: {exc}")

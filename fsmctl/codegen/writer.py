@@ -34,11 +34,11 @@ import sympy as sp
 
 from fsmctl.codegen.batched import batched_header, batched_source, kernel_name
 from fsmctl.codegen.casadi_bridge import to_casadi_function
+from fsmctl.codegen.formats import MANIFEST_FORMAT
 from fsmctl.symbolic.functions import FunctionSpec
 
 __all__ = ["GeneratedFunction", "build_functions", "write_generated", "check_generated"]
 
-MANIFEST_FORMAT = 1
 BATCHED_SOURCE, BATCHED_HEADER = "batched.c", "batched.h"
 
 HEADER = """/*

@@ -3,7 +3,9 @@
 :func:`resolve_law` turns what a user names (``--law``, ``[controller] law = ...``) into a :class:`LawCode`:
 
 * a built-in name (``fsmctl laws`` lists them): ``generated/laws/<name>/``;
-* a folder written by ``fsmctl derive FILE.py --out DIR``: it holds ``law.json`` and the generated code;
+* a folder written by ``fsmctl derive FILE.py --out DIR``: it holds ``law.json`` and the generated code, and is
+  verified in full before use (every file against its sha256 in ``manifest.json``, nothing missing or added, the
+  format this fsmctl writes; the built-in folders too);
 * a derivation script ``FILE.py``: derived on first use into the cache (``$FSMCTL_CACHE_DIR/laws`` or
   ``~/.cache/fsmctl/laws``), keyed by the script's content and the SymPy/CasADi/fsmctl versions.
 
@@ -15,9 +17,11 @@ selects), checked against the law's declared ranges.
 from __future__ import annotations
 
 import functools
+import glob
 import hashlib
 import json
 import os
+import secrets
 import shutil
 import tempfile
 from collections.abc import Mapping
@@ -29,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from fsmctl import __version__
+from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, MANIFEST_FILE, MANIFEST_FORMAT
 from fsmctl.errors import InputError
 from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 from fsmctl.ranges import ParameterRange
@@ -50,7 +55,6 @@ __all__ = [
     "LawSwitchWarning",
 ]
 
-LAW_FILE = "law.json"
 CONTROLLER_KEYS = ("law", "torque_limit", "error_model", "enabled")
 """the ``[controller]`` keys every law shares (:class:`fsmctl.model.scenario.ControllerSettings`; checked there)"""
 AGENT_KEYS = ("J0", "delta_J", "sigma0", "omega0", "disturbance")
@@ -458,18 +462,124 @@ class LawCode:
         return law_casadi_function(self.folder, name)
 
 
-def _read_law(folder: Path) -> LawCode:
-    try:
-        meta = json.loads((folder / LAW_FILE).read_text("utf-8"))
-    except FileNotFoundError:
+def _manifest(folder: Path) -> dict:
+    """A law folder's parsed ``manifest.json``, checked for the fields the verification reads."""
+    path = folder / MANIFEST_FILE
+    if not path.is_file():
         raise LawError(
-            f"{folder}: not a law folder (no {LAW_FILE}; write one with `fsmctl derive FILE.py --out DIR`)"
-        ) from None
+            f"{path}: missing; the folder is incomplete: derive it again (`fsmctl derive FILE.py --out DIR`)"
+        )
+    try:
+        manifest = json.loads(path.read_text("utf-8"))
     except (OSError, ValueError) as exc:
-        raise LawError(f"{folder}/{LAW_FILE}: cannot be read ({exc})") from exc
-    for f in ("manifest.json",):
-        if not (folder / f).is_file():
-            raise LawError(f"{folder}: incomplete law folder ({f} missing); derive it again")
+        raise LawError(f"{path}: cannot be read ({exc}); derive the folder again") from exc
+    listed = manifest.get("sha256") if isinstance(manifest, dict) else None
+    if not isinstance(listed, dict) or not all(
+        isinstance(k, str) and isinstance(v, str) and len(v) == 64 for k, v in listed.items()
+    ):
+        raise LawError(f"{path}: corrupt (no sha256 table of the folder's files); derive the folder again")
+    _check_format(path, manifest.get("format"), MANIFEST_FORMAT)
+    return manifest
+
+
+def _check_format(path: Path, number: Any, expected: int) -> None:
+    """Refuse a file whose format number is not the one this fsmctl writes (older, newer or none)."""
+    if number == expected and not isinstance(number, bool):
+        return
+    again = "derive the law again with this fsmctl (`fsmctl derive FILE.py --out DIR`)"
+    if isinstance(number, int) and not isinstance(number, bool) and number > expected:
+        raise LawError(
+            f"{path}: format {number} is newer than this fsmctl {__version__} reads (format {expected}): "
+            f"{again}, or upgrade fsmctl"
+        )
+    what = f"format {number}" if isinstance(number, int) and not isinstance(number, bool) else "no format number"
+    raise LawError(f"{path}: {what}, older than this fsmctl {__version__} reads (format {expected}): {again}")
+
+
+def _verify_files(folder: Path, listed: Mapping[str, str]) -> None:
+    """Every file of the folder is listed in its manifest with its sha256, and every listed file is there."""
+    present = {
+        p.relative_to(folder).as_posix() for p in folder.rglob("*") if not p.is_dir() and p.name != MANIFEST_FILE
+    }
+    for rel in sorted(listed):
+        path = folder / rel
+        if rel not in present:
+            raise LawError(f"{path}: missing (listed in {MANIFEST_FILE}); the folder is incomplete: derive it again")
+        if hashlib.sha256(path.read_bytes()).hexdigest() != listed[rel]:
+            raise LawError(
+                f"{path}: does not match its sha256 in {MANIFEST_FILE} (edited or copied from another law?); "
+                "derive the folder again"
+            )
+    extra = sorted(present - set(listed))
+    if extra:
+        raise LawError(
+            f"{folder / extra[0]}: not listed in {MANIFEST_FILE} (a file added to the law folder); remove it or "
+            "derive the folder again"
+        )
+
+
+def _verified_metadata(folder: Path) -> tuple[dict, dict]:
+    """``(law.json, manifest.json)`` of a law folder verified in full: every file against the manifest's sha256."""
+    if not (folder / LAW_FILE).is_file():
+        raise LawError(f"{folder}: not a law folder (no {LAW_FILE}; write one with `fsmctl derive FILE.py --out DIR`)")
+    manifest = _manifest(folder)
+    try:
+        _verify_files(folder, manifest["sha256"])
+        meta = json.loads((folder / LAW_FILE).read_text("utf-8"))
+    except (OSError, ValueError) as exc:
+        if isinstance(exc, LawError):
+            raise
+        raise LawError(f"{folder}: cannot be read ({exc})") from exc
+    if not isinstance(meta, dict):
+        raise LawError(f"{folder / LAW_FILE}: not a law description (a JSON object); derive the folder again")
+    _check_format(folder / LAW_FILE, meta.get("format"), LAW_FORMAT)
+    return meta, manifest
+
+
+def _signature(manifest: dict, function: str, inputs: bool) -> dict[str, int]:
+    """The number of values of each input (or output) of a generated function, from the manifest."""
+    for f in manifest.get("functions", []):
+        if f["name"] == function:
+            return {io["name"]: int(np.prod(io["shape"])) for io in f["inputs" if inputs else "outputs"]}
+    raise KeyError(f"function {function}")
+
+
+def _check_sizes(law: LawCode, manifest: dict) -> None:
+    """The sizes ``law.json`` declares are those of the generated functions (what the engine will call)."""
+    local = _signature(manifest, "law_local_paper", inputs=False)
+    control = _signature(manifest, "law_control_paper", inputs=True)
+    declared = {
+        "broadcast size": (law.n_broadcast, local["broadcast"]),
+        "cache size": (law.n_cache, local["cache"]),
+        "parameter count": (law.n_params, control["params"]),
+        "constant count": (law.n_constants, control["constants"]),
+        "state count": (law.n_states, control["z"]),
+    }
+    for what, (said, generated) in declared.items():
+        if said != generated:
+            raise LawError(
+                f"{law.folder / LAW_FILE}: {what} {said} is not the generated functions' {generated}; derive the "
+                "folder again"
+            )
+
+
+def _read_law(folder: Path) -> LawCode:
+    """A law folder verified in full (:func:`_verified_metadata`), read into a :class:`LawCode`."""
+    meta, manifest = _verified_metadata(folder)
+    try:
+        law = _law_code(folder, meta)
+        _check_sizes(law, manifest)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        if isinstance(exc, LawError):
+            raise
+        what = f"no entry {exc}" if isinstance(exc, KeyError) else f"an entry cannot be read ({exc})"
+        raise LawError(
+            f"{folder / LAW_FILE}: {what}: written by another fsmctl version?; derive the folder again"
+        ) from exc
+    return law
+
+
+def _law_code(folder: Path, meta: dict) -> LawCode:
     params = tuple(
         LawParameterInfo(
             p["name"],
@@ -576,6 +686,13 @@ def _script_key(path: Path) -> str:
 def derive_script(path: Path, out: Path | None = None) -> Path:
     """Derive a script into ``out`` (default: the law cache, reused while the script is unchanged).
 
+    The folder is written beside ``out`` under a temporary name, then put in place by renames: ``out`` is at
+    every moment the previous complete folder or the complete new one.  An existing ``out`` is renamed aside
+    (``.<name>.old-*``), the new folder renamed in, and the old one deleted; an interruption between the two
+    renames puts the old folder back, and a process killed right there leaves it aside, where the next use of
+    ``out`` (:func:`resolve_law` or this function) restores it.  A cached folder that fails the verification
+    of :func:`resolve_law` (edited, incomplete) is derived again.
+
     Parameters
     ----------
     path : pathlib.Path
@@ -592,30 +709,79 @@ def derive_script(path: Path, out: Path | None = None) -> Path:
     ------
     LawError
         ``out`` exists and is not a law folder.
+    fsmctl.symbolic.law.LawDefinitionError
+        The script does not derive (:func:`fsmctl.codegen.laws.load_derivation_script`).
     """
     from fsmctl.codegen.laws import load_derivation_script, write_law
 
     path = Path(path)
     if out is None:
         target = _law_cache_root() / _script_key(path)
-        if (target / LAW_FILE).is_file() and (target / "manifest.json").is_file():
+        if _verifies(target):
             return target
     else:
         target = Path(out)
+        _restore_aside(target)
+        if target.is_dir() and not (target / LAW_FILE).is_file() and any(target.iterdir()):
+            raise LawError(f"{target}: exists and is not a law folder; choose another --out")
     variants = load_derivation_script(path)
     target.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.", dir=target.parent))
+    tmp = Path(tempfile.mkdtemp(prefix=f".{target.name}.new-", dir=target.parent))
     try:
         write_law(tmp, variants, source=path.name, generator=f"fsmctl derive {path.name}")
-        if target.exists():
-            if out is not None and not (target / LAW_FILE).is_file() and any(target.iterdir()):
-                raise LawError(f"{target}: exists and is not a law folder; choose another --out")
-            shutil.rmtree(target)
-        os.replace(tmp, target)
+        if out is None:  # the cache: another process may derive the same script at the same time
+            try:
+                os.rename(tmp, target)  # refused when the folder is there (and not empty)
+            except OSError:
+                if not _verifies(target):  # not another process's complete copy: a damaged one, replaced
+                    _put_in_place(tmp, target)
+        else:
+            _put_in_place(tmp, target)
     finally:
         if tmp.exists():
             shutil.rmtree(tmp, ignore_errors=True)
     return target
+
+
+def _verifies(folder: Path) -> bool:
+    """Whether ``folder`` is a complete law folder that passes the verification of :func:`resolve_law`."""
+    try:
+        _read_law(folder)
+    except LawError:
+        return False
+    return True
+
+
+def _asides(target: Path) -> list[Path]:
+    """The previous folders of ``target`` renamed aside by :func:`_put_in_place`, oldest first."""
+    if not target.parent.is_dir():
+        return []
+    found = [p for p in target.parent.glob(f".{glob.escape(target.name)}.old-*") if p.is_dir()]
+    return sorted(found, key=lambda p: p.stat().st_mtime)
+
+
+def _put_in_place(new: Path, target: Path) -> None:
+    """Rename the complete folder ``new`` to ``target``; an existing ``target`` is renamed aside, then deleted."""
+    if not target.exists():
+        os.rename(new, target)
+        return
+    aside = target.parent / f".{target.name}.old-{os.getpid()}-{secrets.token_hex(4)}"
+    os.rename(target, aside)
+    try:
+        os.rename(new, target)
+    except BaseException:  # Ctrl-C or a failure between the two renames: the old folder goes back
+        os.rename(aside, target)
+        raise
+    shutil.rmtree(aside, ignore_errors=True)
+
+
+def _restore_aside(target: Path) -> None:
+    """Finish a replacement a killed process left half done: restore the folder set aside, delete older ones."""
+    asides = _asides(target)
+    if asides and not target.exists():
+        os.rename(asides.pop(), target)
+    for aside in asides:
+        shutil.rmtree(aside, ignore_errors=True)
 
 
 @functools.cache
@@ -626,6 +792,8 @@ def _resolve(text: str, cwd: str) -> LawCode:
     path = Path(text).expanduser()
     if not path.is_absolute():
         path = Path(cwd) / path
+    if not path.exists():
+        _restore_aside(path)  # a replacement by `fsmctl derive --out` killed between its two renames
     if path.is_dir():
         return _read_law(path)
     if path.suffix == ".py":
@@ -655,7 +823,8 @@ def resolve_law(law: str | Path | LawCode | None) -> LawCode:
     Raises
     ------
     LawError
-        Unknown name or missing path.
+        Unknown name or missing path, or a law folder that fails its verification (a file edited, missing or added
+        since it was derived, a corrupt ``manifest.json``, another format): one line naming the file.
     fsmctl.symbolic.law.LawDefinitionError
         A script that does not import or breaks the law contract (both are :class:`~fsmctl.errors.InputError`).
 

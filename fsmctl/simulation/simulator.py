@@ -1438,37 +1438,62 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
 def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:
     """A law's loop rate at the initial state (1/s): ``a + sqrt(b)`` for the linearised ``omega_dot = J0^-1 u`` with
     ``a = ||J0^-1 du/domega||``, ``b = ||J0^-1 du/dsigma|| / 4`` (``G(0) = I/4``), the worst agent; finite
-    differences of the generated law with no neighbours (an estimate, for laws without a closed form here)."""
-    from fsmctl.model.generated_code import casadi_function
-
-    model = "exact" if p.error_model == 1 else "paper"
-    local, control = p.law.casadi(f"law_local_{model}"), p.law.casadi(f"law_control_{model}")
-    constants = p.law.casadi("law_constants")
-    _, wd, wdd = (
-        np.asarray(v, dtype=float).ravel() for v in casadi_function("reference_rhs")(0.0, p.x0[:3], p.ref_params)
-    )
+    differences of the generated law with no neighbours (an estimate, for laws without a closed form here; an agent
+    where they are not finite is left out, :func:`_check_law_at_start` refuses a law not finite there)."""
     worst = 0.0
     for i in range(p.n_agents):
         xi = p.x0[p.agent_slice(i)]
-        k = np.asarray(constants(p.params[i]), dtype=float).ravel()
-
-        def torque(x, i=i, k=k):
-            args = [0.0, x[0:3], x[3:6], x[6 : 6 + p.n_states], p.x0[:3], wd, wdd, p.J0[i], p.params[i], k]
-            _, cache = local(*args)
-            return np.asarray(control(*args, cache, 0.0, np.zeros(p.n_broadcast), 0.0, np.inf)[1], dtype=float).ravel()
-
-        base = torque(xi)
+        outputs = _law_outputs(p, i)
+        base = outputs(xi)["torque"]
         jac = np.zeros((3, 6))
         for c in range(6):
             dx = np.zeros_like(xi)
             dx[c] = h
-            jac[:, c] = (torque(xi + dx) - base) / h
+            jac[:, c] = (outputs(xi + dx)["torque"] - base) / h
+        if not np.all(np.isfinite(jac)):
+            continue
         Jinv = np.linalg.inv(p.J0[i])
         a = float(np.linalg.norm(Jinv @ jac[:, 3:6], 2))
         b = float(np.linalg.norm(Jinv @ jac[:, 0:3], 2)) / 4.0
-        if np.isfinite(a) and np.isfinite(b):
-            worst = max(worst, a + math.sqrt(b))
+        worst = max(worst, a + math.sqrt(b))
     return worst
+
+
+def _law_outputs(p: PackedProblem, i: int):
+    """``x -> {name: value}``: agent ``i``'s law at its state ``x`` (attitude, rate, law state) at ``t = 0``, alone
+    (no neighbours, no torque limit): its ``constants``, ``broadcast``, ``torque`` and ``law state derivative``."""
+    from fsmctl.model.generated_code import casadi_function
+
+    model = "exact" if p.error_model == 1 else "paper"
+    local, control = p.law.casadi(f"law_local_{model}"), p.law.casadi(f"law_control_{model}")
+    _, wd, wdd = (
+        np.asarray(v, dtype=float).ravel() for v in casadi_function("reference_rhs")(0.0, p.x0[:3], p.ref_params)
+    )
+    k = np.asarray(p.law.casadi("law_constants")(p.params[i]), dtype=float).ravel()
+
+    def outputs(x: np.ndarray) -> dict[str, np.ndarray]:
+        args = [0.0, x[0:3], x[3:6], x[6 : 6 + p.n_states], p.x0[:3], wd, wdd, p.J0[i], p.params[i], k]
+        broadcast, cache = local(*args)
+        _, u, z_dot = control(*args, cache, 0.0, np.zeros(p.n_broadcast), 0.0, np.inf)
+        flat = {"broadcast": broadcast, "torque": u, "law state derivative": z_dot}
+        return {"constants": k, **{name: np.asarray(v, dtype=float).ravel() for name, v in flat.items()}}
+
+    return outputs
+
+
+def _check_law_at_start(p: PackedProblem) -> None:
+    """Refuse a law that is not finite at an agent's initial state (NaN or inf): it would fly NaN."""
+    from fsmctl.model.laws import LawError
+
+    for i in range(p.n_agents):
+        for name, value in _law_outputs(p, i)(p.x0[p.agent_slice(i)]).items():
+            if not np.all(np.isfinite(value)):
+                shown = ", ".join(f"{v:g}" for v in value)
+                raise LawError(
+                    f"law {p.law.name!r}: its {name} is not finite at the initial state of agent {i + 1} "
+                    f"([{shown}]): the law is undefined there (a division by zero, or a root or log of a negative "
+                    "number?); fix the law or the initial state"
+                )
 
 
 def _skew(v: np.ndarray) -> np.ndarray:
@@ -1541,6 +1566,7 @@ def _prepare(scenario: Scenario) -> PackedProblem:
     check_noise_memory(scenario)
     p = pack(scenario)
     _check_integrator(p, scenario)
+    _check_law_at_start(p)
     _warn_step_size(scenario, p)
     return p
 
