@@ -36,7 +36,7 @@ _ATTRS = {
         "ResultFileError",
         "NotAResultError",
         "MissingScenarioError",
-        "LawChangedWarning",
+        "LawChangedError",
     ],
 }
 
