@@ -44,7 +44,7 @@ _ATTRS = {
         "ResultFileError",
         "NotAResultError",
         "MissingScenarioError",
-        "LawChangedWarning",
+        "LawChangedError",
     ],
 }
 

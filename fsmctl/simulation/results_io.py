@@ -3,9 +3,11 @@
 Every result file fsmctl writes embeds its **provenance** (:func:`provenance`, the one builder every writer
 calls: ``fsmctl simulate``, and the Monte Carlo and reproduction writers): the complete scenario as TOML text
 (:meth:`fsmctl.model.scenario.Scenario.to_toml`, self-contained: the flown case resolved), the case, the law
-(its name, and for a user's law its path and the sha256 of its generated ``manifest.json``), the versions of
-fsmctl, Python, NumPy, SymPy, CasADi, python-control and xarray, and the command line when one is given.
-:func:`scenario_from_result` reads the scenario back, so a result re-runs from itself::
+(its name, and for a user's law its absolute path and its content hash, the sha256 of its generated
+``manifest.json``: :func:`law_content_sha256`), the versions of fsmctl, Python, NumPy, SymPy, CasADi,
+python-control and xarray, and the command line when one is given.  :func:`scenario_from_result` reads the
+scenario back, so a result re-runs from itself (a user's law from its recorded absolute path, and only if its
+content hash is still the recorded one: else :class:`LawChangedError`)::
 
     fsmctl simulate --from runs/case1/result.nc
 
@@ -60,6 +62,7 @@ from fsmctl.errors import InputError
 if TYPE_CHECKING:  # pragma: no cover
     import xarray as xr
 
+    from fsmctl.model.laws import LawCode
     from fsmctl.model.scenario import Scenario
     from fsmctl.simulation.simulator import SimulationResult
 
@@ -70,7 +73,10 @@ __all__ = [
     "ResultFileError",
     "NotAResultError",
     "MissingScenarioError",
-    "LawChangedWarning",
+    "LawChangedError",
+    "law_content_sha256",
+    "problem_fingerprint",
+    "fingerprint_change",
     "provenance",
     "versions",
     "save_result",
@@ -134,15 +140,15 @@ class MissingScenarioError(ResultFileError):
     """
 
 
-class LawChangedWarning(UserWarning):
-    """A result's user law (script or folder) is no longer the one that was flown (its manifest's sha256 differs).
+class LawChangedError(ResultFileError):
+    """A result's user law (script or folder) is no longer the one that was flown: the law found now has another
+    content hash (:func:`law_content_sha256`) than the one the result records, so a re-run would fly another law.
 
-    Raised by :func:`scenario_from_result`, which still returns the scenario: the re-run flies the law as it
-    is now.
+    Raised by :func:`scenario_from_result` (``fsmctl simulate --from``: one line, exit 2).
 
     Examples
     --------
-    >>> issubclass(LawChangedWarning, UserWarning)
+    >>> issubclass(LawChangedError, ResultFileError)
     True
     """
 
@@ -185,6 +191,40 @@ def versions() -> dict[str, str]:
     return out
 
 
+def law_content_sha256(law: LawCode) -> str:
+    """The sha256 of a law's generated ``manifest.json``, which lists the sha256 of every file of its folder.
+
+    The law's content hash: two law folders with the same one fly the same law (same code, parameters, defaults
+    and declarations), wherever they are.
+
+    Parameters
+    ----------
+    law : LawCode
+        A resolved law (:func:`fsmctl.model.resolve_law`, :attr:`fsmctl.model.scenario.Scenario.law`).
+
+    Returns
+    -------
+    str
+        64 hex digits.
+
+    Raises
+    ------
+    ResultFileError
+        The manifest cannot be read.
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> len(law_content_sha256(resolve_law("pid")))
+    64
+    """
+    manifest = Path(law.folder) / "manifest.json"
+    try:
+        return hashlib.sha256(manifest.read_bytes()).hexdigest()
+    except OSError as exc:  # the folder was just resolved, so this is the machine refusing
+        raise ResultFileError(f"cannot read the law's manifest {manifest}: {exc.strerror or exc}") from None
+
+
 def _law_provenance(scenario: Scenario) -> dict[str, str]:
     law = scenario.law
     out = {"law": law.name, "law_builtin": "true" if law.builtin else "false"}
@@ -192,12 +232,91 @@ def _law_provenance(scenario: Scenario) -> dict[str, str]:
         given = Path(scenario.controller.law).expanduser()  # a script or a derived folder
         out["law_path"] = str(given.resolve()) if given.exists() else scenario.controller.law
         out["law_folder"] = str(law.folder)
-        manifest = Path(law.folder) / "manifest.json"
-        try:
-            out["law_manifest_sha256"] = hashlib.sha256(manifest.read_bytes()).hexdigest()
-        except OSError as exc:  # the folder was just resolved, so this is the machine refusing
-            raise ResultFileError(f"cannot read the law's manifest {manifest}: {exc.strerror or exc}") from None
+        out["law_manifest_sha256"] = law_content_sha256(law)
     return out
+
+
+def problem_fingerprint(scenario: Scenario, law: str | None = None) -> dict[str, str]:
+    """What the results of a study or campaign depend on besides its settings: recorded when it starts, checked
+    when it is resumed (:func:`fingerprint_change`).
+
+    ``fsmctl tune`` and ``fsmctl montecarlo`` record the settings they were given (file names, options); the
+    problem those name can change under them (a scenario file edited, a law script re-derived, another fsmctl).
+    Their trials or chunks must all come from one problem, so a resume whose fingerprint differs is refused.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario as flown (case selected, the settings' changes applied).
+    law : str, optional
+        The law flown instead of ``scenario.controller.law`` (``fsmctl tune --law``).
+
+    Returns
+    -------
+    dict of str to str
+        ``scenario_sha256`` (of :meth:`~fsmctl.model.scenario.Scenario.to_toml`, the complete scenario),
+        ``law`` (its name), ``law_sha256`` (:func:`law_content_sha256`) and ``fsmctl`` (the version, which decides
+        the generated code and the simulator).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> a = problem_fingerprint(fsmctl.paper_scenario("1"))
+    >>> sorted(a), a["law"]
+    (['fsmctl', 'law', 'law_sha256', 'scenario_sha256'], 'fsm')
+    >>> b = problem_fingerprint(fsmctl.paper_scenario("1").replace(controller={"torque_limit": 0.01}))
+    >>> fingerprint_change(a, b)
+    'the scenario changed (its content as flown: torque limits, agents, horizon, ...)'
+    """
+    from fsmctl import __version__
+    from fsmctl.model.laws import resolve_law
+
+    code = scenario.law if law is None else resolve_law(law)
+    return {
+        "scenario_sha256": hashlib.sha256(scenario.to_toml().encode("utf-8")).hexdigest(),
+        "law": code.name,
+        "law_sha256": law_content_sha256(code),
+        "fsmctl": __version__,
+    }
+
+
+def fingerprint_change(recorded: Mapping[str, Any] | None, now: Mapping[str, Any]) -> str | None:
+    """What differs between a recorded :func:`problem_fingerprint` and the current one, in words; None if nothing.
+
+    Parameters
+    ----------
+    recorded : mapping or None
+        The fingerprint recorded when the study or campaign started (None: it recorded none).
+    now : mapping
+        The current one.
+
+    Returns
+    -------
+    str or None
+        The first difference (fsmctl version, law, scenario), or None when they are the same.
+
+    Examples
+    --------
+    >>> fingerprint_change(None, {"fsmctl": "1.0"})
+    'it records no fingerprint of its problem (started by an older fsmctl)'
+    >>> fingerprint_change({"fsmctl": "0.9"}, {"fsmctl": "1.0"})
+    'fsmctl changed (0.9 then, 1.0 now)'
+    """
+    if not isinstance(recorded, Mapping) or not recorded:
+        return "it records no fingerprint of its problem (started by an older fsmctl)"
+    if recorded.get("fsmctl") != now.get("fsmctl"):
+        return f"fsmctl changed ({recorded.get('fsmctl')} then, {now.get('fsmctl')} now)"
+    if recorded.get("law") != now.get("law"):
+        return f"the law changed ({recorded.get('law')} then, {now.get('law')} now)"
+    if recorded.get("law_sha256") != now.get("law_sha256"):
+        then, current = str(recorded.get("law_sha256"))[:12], str(now.get("law_sha256"))[:12]
+        return f"the law {now.get('law')} changed (its code or declarations: sha256 {then}... then, {current}... now)"
+    if recorded.get("scenario_sha256") != now.get("scenario_sha256"):
+        return "the scenario changed (its content as flown: torque limits, agents, horizon, ...)"
+    if dict(recorded) != dict(now):
+        keys = sorted(k for k in {*recorded, *now} if recorded.get(k) != now.get(k))
+        return f"its fingerprint differs ({', '.join(keys)})"
+    return None
 
 
 def provenance(scenario: Scenario, *, command: Sequence[str] | str | None = None) -> dict[str, str]:
@@ -511,12 +630,17 @@ def _jsonable_attr(v: Any) -> Any:
 
 def _write_csv(ds: xr.Dataset, path: Path, single: bool) -> None:
     columns, blocks, layout = ["time_s"], [ds["time_s"].values[:, None]], {}
-    for name, var in ds.data_vars.items():
+    # the data variables, then the coordinates that are not a dimension's index: a law's states are the variable
+    # ``law_state`` along the dimension of the same name, which xarray keeps as a (non-index) coordinate
+    extra = [(k, ds[k].variable) for k in ds.coords if k not in ds.indexes]
+    for name, var in [*((k, v.variable) for k, v in ds.data_vars.items()), *extra]:
         entry = {
             "dims": list(var.dims),
             "shape": list(var.shape),
             "attrs": {k: _jsonable_attr(v) for k, v in var.attrs.items()},
         }
+        if name in ds.coords:
+            entry["coordinate"] = True
         if var.dims[:1] == ("time_s",):
             cols = csv_column_names(name, var.dims, var.shape, str(var.attrs.get("units", "1")))
             entry["columns"] = cols
@@ -526,7 +650,7 @@ def _write_csv(ds: xr.Dataset, path: Path, single: bool) -> None:
         else:
             entry["values"] = var.values.tolist()
         layout[name] = entry
-    coords = {k: ds[k].values.tolist() for k in ds.coords if k != "time_s"}
+    coords = {k: ds[k].values.tolist() for k in ds.coords if k != "time_s" and k in ds.indexes}
     if len(set(columns)) != len(columns):  # two variables would share a column name: never an ambiguous table
         twice = sorted({c for c in columns if columns.count(c) > 1})
         raise InputError(f"{path}: the CSV column names are not unique ({twice[:3]})")
@@ -607,7 +731,7 @@ def _read_csv(path: Path) -> xr.Dataset:
         raise NotAResultError(f"{path}: {table.shape[1]} values per row but {len(header)} columns in the header")
     index = {c: k for k, c in enumerate(header)}
     single = attrs.get("precision") == "float32"
-    variables = {}
+    variables, coord_variables = {}, {}
     try:
         for name, entry in layout.items():
             dims, shape = tuple(entry["dims"]), tuple(entry["shape"])
@@ -617,13 +741,18 @@ def _read_csv(path: Path) -> xr.Dataset:
                     data = data.astype(np.float32)
             else:
                 data = np.array(entry["values"], dtype=np.float64).reshape(shape)
-            variables[name] = xr.Variable(dims, data, entry.get("attrs", {}))
+            target = coord_variables if entry.get("coordinate") else variables
+            target[name] = xr.Variable(dims, data, entry.get("attrs", {}))
     except (KeyError, TypeError, ValueError) as exc:
         raise NotAResultError(f"{path}: the CSV does not match its layout line ({exc})") from None
-    coord_values = {"time_s": ("time_s", table[:, index["time_s"]], {"units": "s"})}
-    for k, v in coords.items():
-        coord_values[k] = (k, np.asarray(v, dtype=np.int32))
-    return xr.Dataset(variables, coords=coord_values, attrs=attrs)
+    coord_values: dict[str, Any] = {"time_s": ("time_s", table[:, index["time_s"]], {"units": "s"})}
+    try:
+        for k, v in coords.items():
+            coord_values[k] = (k, np.asarray(v, dtype=np.int32))
+        coord_values.update(coord_variables)
+        return xr.Dataset(variables, coords=coord_values, attrs=attrs)
+    except (TypeError, ValueError) as exc:
+        raise NotAResultError(f"{path}: the CSV does not match its coords and layout lines ({exc})") from None
 
 
 def load_result(path: str | Path) -> xr.Dataset:
@@ -697,6 +826,9 @@ def scenario_from_result(path: str | Path) -> Scenario:
     ------
     MissingScenarioError
         The result does not embed its scenario.
+    LawChangedError
+        The result was flown with a user law (script or folder, found at the absolute path it records, else at
+        the embedded path) whose content hash differs from the one it records.
     ResultFileError
         The embedded scenario is not valid TOML or not a valid scenario.
 
@@ -724,19 +856,23 @@ def scenario_from_result(path: str | Path) -> Scenario:
     except tomllib.TOMLDecodeError as exc:
         raise ResultFileError(f"{path}: the embedded scenario is not valid TOML ({exc})") from None
     case = attrs.get("case") or None
+    recorded = attrs.get("law_manifest_sha256")
+    law_path = attrs.get("law_path")
+    controller = data.get("controller")
+    if recorded and isinstance(law_path, str) and Path(law_path).is_absolute() and Path(law_path).exists():
+        if isinstance(controller, dict) and isinstance(controller.get("law"), str):
+            # the law where it was flown (its absolute path), not whatever sits at a relative path from here
+            controller["law"] = law_path
     try:
         scenario = scenario_from_dict(data, case=case, where=f"{path} (embedded scenario)")
     except ScenarioError as exc:
         raise ResultFileError(str(exc)) from None
-    recorded = attrs.get("law_manifest_sha256")
     if recorded:
-        now = _law_provenance(scenario).get("law_manifest_sha256")
+        now = law_content_sha256(scenario.law)
         if now != recorded:
-            warnings.warn(
-                f"{path}: the law {attrs.get('law_path', scenario.controller.law)} has changed since the result was "
-                f"written (manifest sha256 {recorded[:12]}... then, {str(now)[:12]}... now): a re-run flies the law "
-                "as it is now",
-                LawChangedWarning,
-                stacklevel=2,
+            raise LawChangedError(
+                f"{path}: the law {scenario.controller.law} is not the one this result was flown with (content "
+                f"sha256 {recorded[:12]}... recorded for {law_path or 'it'}, {now[:12]}... now): restore that law, "
+                "(a re-run would fly another law)"
             )
     return scenario

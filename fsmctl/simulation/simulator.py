@@ -21,9 +21,10 @@ Reliability guarantees of :func:`simulate` / :func:`simulate_packed`:
   refused with :class:`~fsmctl.errors.ResourceLimitError`; the relative attitude metric (eq 43) is computed
   in blocks of samples (:func:`fsmctl.simulation.metrics.streamed_raem_deg`), never as a ``T x n x n`` array;
 * the last output sample is the final state: ``time[-1] == t_final`` or :class:`SimulationError`;
-* Ctrl-C: while the compiled loop runs, SIGINT only sets a flag that the progress callback polls; the loop
-  stops at its next callback and :class:`KeyboardInterrupt` is raised from :func:`simulate_packed` (no
-  exception ever passes through the ctypes callback);
+* Ctrl-C and SIGTERM: while the compiled loop runs, SIGINT and SIGTERM only set a flag that the progress callback
+  polls; the loop stops at its next callback and the signal's own handler runs once C has returned
+  (:class:`KeyboardInterrupt` for SIGINT; ``fsmctl`` turns SIGTERM into exit 143), raised from
+  :func:`simulate_packed` (no exception ever passes through the ctypes callback);
 * step size: :class:`StepSizeWarning` when the fixed RK4 step is too coarse for the loop's fastest time
   constant or for the rotation per step (:func:`step_size_report`).
 """
@@ -362,54 +363,62 @@ class _CProblem:
         )
 
 
-class _DeferredSigint:
-    """Context manager: while the compiled loop runs, SIGINT only records itself.
+class _DeferredSignals:
+    """Context manager: while the compiled loop runs, ``SIGINT`` and ``SIGTERM`` only record themselves.
 
     Python runs signal handlers between bytecodes of the main thread, and while C runs the next bytecodes
-    are those of the progress callback: the default handler raises :class:`KeyboardInterrupt` inside the
-    ctypes callback, typically at its first line, before its ``try`` (or inside tqdm).  ctypes then prints
-    "Exception ignored on calling ctypes callback function" with the traceback, discards the exception and
-    hands C an undefined return value (observed: the loop stopped, the run was reported as "simulation
-    failed: aborted" and ``fsmctl simulate`` exited 1).  This handler raises nothing; the callback polls
-    :attr:`pending` and asks C to stop, and :meth:`deliver` runs the original handler (by default: raise
-    :class:`KeyboardInterrupt`) once C has returned.
+    are those of the progress callback: a handler that raises (the default ``SIGINT`` handler's
+    :class:`KeyboardInterrupt`, the command line's ``SIGTERM`` handler) raises inside the ctypes callback,
+    typically at its first line, before its ``try`` (or inside tqdm).  ctypes then prints "Exception ignored on
+    calling ctypes callback function" with the traceback, discards the exception and hands C an undefined
+    return value (observed: the loop stopped, the run was reported as "simulation failed: aborted" and
+    ``fsmctl simulate`` exited 1 instead of 130 or 143).  This handler raises nothing; the callback polls
+    :attr:`pending` and asks C to stop, and :meth:`deliver` runs the original handler of the signal that
+    arrived (``SIGINT`` by default: raise :class:`KeyboardInterrupt`; ``fsmctl``'s ``SIGTERM`` handler: exit
+    143) once C has returned.
 
     Installed only in the main thread (the only one that receives signals) and only over a Python-level
-    handler; a SIGINT that is ignored (``SIG_IGN``, e.g. in pool workers) or left to the OS stays so.
+    handler; a signal that is ignored (``SIG_IGN``, e.g. ``SIGINT`` in pool workers) or left to the OS
+    (``SIG_DFL``: ``SIGTERM`` outside the command line ends the process) stays so.
     """
+
+    SIGNALS = tuple(getattr(signal, n) for n in ("SIGINT", "SIGTERM") if hasattr(signal, n))
 
     def __init__(self):
         self.pending: tuple | None = None
-        self._previous = None
+        self._previous: dict = {}
 
     def _record(self, signum, frame):
-        self.pending = (signum, frame)
+        if self.pending is None:
+            self.pending = (signum, frame)
 
-    def __enter__(self) -> _DeferredSigint:
+    def __enter__(self) -> _DeferredSignals:
         if threading.current_thread() is threading.main_thread():
-            previous = signal.getsignal(signal.SIGINT)
-            if callable(previous):
-                try:
-                    signal.signal(signal.SIGINT, self._record)
-                except (ValueError, OSError):  # pragma: no cover - e.g. an embedded interpreter
-                    return self
-                self._previous = previous
+            for sig in self.SIGNALS:
+                previous = signal.getsignal(sig)
+                if callable(previous):
+                    try:
+                        signal.signal(sig, self._record)
+                    except (ValueError, OSError):  # pragma: no cover - e.g. an embedded interpreter
+                        continue
+                    self._previous[sig] = previous
         return self
 
     def __exit__(self, *exc) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
+        for sig, previous in self._previous.items():
+            signal.signal(sig, previous)
 
     def deliver(self) -> None:
-        """Run the handler that was deferred (after C returned); raises :class:`KeyboardInterrupt` by default."""
+        """Run the handler that was deferred (after C returned); :class:`KeyboardInterrupt` if it returns."""
         if self.pending is not None:
-            pending, self.pending = self.pending, None
-            if self._previous is not None:
-                self._previous(*pending)
-            raise KeyboardInterrupt
+            (signum, frame), self.pending = self.pending, None
+            previous = self._previous.get(signum)
+            if previous is not None:
+                previous(signum, frame)
+            raise KeyboardInterrupt  # the loop was stopped: the run is not complete
 
 
-def _progress_callback(total: int, enabled: bool, label: str, guard: _DeferredSigint | None = None, watch=None):
+def _progress_callback(total: int, enabled: bool, label: str, guard: _DeferredSignals | None = None, watch=None):
     """The ctypes progress callback; a nonzero return stops the loop.
 
     Nothing may escape a ctypes callback (ctypes would print it and carry on), so every exception is caught
@@ -1190,7 +1199,7 @@ def _fly(
                 return 1
             return 0
 
-    guard = _DeferredSigint()
+    guard = _DeferredSignals()
     started = _time.perf_counter()
     with guard:
         cb, state = _progress_callback(p.n_steps, progress, label, guard, watch_cb if watch else None)
@@ -1199,7 +1208,7 @@ def _fly(
         finally:
             if state["bar"] is not None:
                 state["bar"].close()
-    guard.deliver()  # a SIGINT during the loop: its handler runs now (KeyboardInterrupt by default)
+    guard.deliver()  # a SIGINT or SIGTERM during the loop: its handler runs now (KeyboardInterrupt by default)
     if state["error"] is not None:
         raise state["error"]
     if rc == 2 and state["interrupted"]:
@@ -1262,7 +1271,7 @@ def simulate_packed(
     :class:`SimulationError`) and the results must fit in memory (:func:`check_output_memory`, else
     :class:`~fsmctl.errors.ResourceLimitError`), on both backends.  After the run the last sample is checked
     to be at ``t0 + n_steps dt``.  SIGINT during the compiled loop stops it and raises
-    :class:`KeyboardInterrupt` here (see :class:`_DeferredSigint`).
+    :class:`KeyboardInterrupt` here (see :class:`_DeferredSignals`; SIGTERM: its handler, ``fsmctl``'s exits 143).
     """
     if kernels not in _KERNELS:
         raise ValueError(f"kernels must be one of {sorted(_KERNELS)}, got {kernels!r}")
@@ -1344,6 +1353,19 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
       large (``(J2 - J3)/J1 omega`` of Euler's equations).  ``omega_max`` is the largest initial body rate
       ``|omega_i(0)|`` or the reference's rate bound ``|omega_d|`` (amplitude + offset).
 
+    * ``wheel_friction = max_ik (c_v,k + c_c,k / b) m_ik`` (reaction wheels): a wheel's spin relative to the hub
+      obeys ``J_s Omega_dot = u_motor - c_v Omega - c_c sat(Omega / b) - J_s g^T omega_dot``
+      (:func:`fsmctl.symbolic.hardware.wheel_motor_torque`, Schaub & Junkins eq 4.146), and with the hub's reaction
+      ``omega_dot = -(J - J_spin)^-1 g u_net`` a friction torque ``f`` changes ``Omega`` at ``f m`` per second, with
+      ``m_ik = 1/J_s,k + g_k^T (J_i - J_spin,i)^-1 g_k``.  Inside the stiction band ``|Omega| < b`` the friction
+      ``(c_v + c_c / b) Omega`` is a decay at this rate, so ``dt * wheel_friction`` is judged like ``dt rho``
+      (:data:`MAX_STEP_RATE`): one step changes the speed by ``c_c m dt``, which must stay below half the band ``b``,
+      the wheel's speed scale of the friction (beyond it RK4 turns the decay into a growing oscillation: a wheel
+      whose friction creates energy).  With ``b = 0`` (``sgn``) the band is 0 and the friction of a wheel near rest
+      is never resolved by a fixed step: its speed jumps by ``2 c_c m dt`` at every crossing of 0
+      (``wheel_chatter``, rad/s; reported, not judged: sgn friction has no speed scale of its own; a band
+      ``b >= c_c m dt / MAX_STEP_RATE`` resolves it).
+
     ``rho = loop + gyroscopic`` bounds the spectral radius of the linearised right-hand side (a sum of
     the parts' norms).  RK4 is stable for ``dt rho < 2.78`` on the negative real axis and accurate to
     ``(dt rho)^5 / 120`` per step; ``dt rho <= 0.5`` (:data:`MAX_STEP_RATE`, ``dt`` at most half the fastest
@@ -1398,6 +1420,7 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
     gyroscopic = _gyroscopic_gain(J) * omega_max
     rho = loop + gyroscopic
     dt = p.dt
+    friction, chatter, m_worst, coulomb, viscous, band, spin = _wheel_friction_rate(p, J)
     problems = []
     if p.integrator == 0:  # rk4
         if dt * rho > MAX_STEP_RATE:
@@ -1420,6 +1443,15 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
                 f"dt = {dt:g} s turns a body by up to {omega_max * dt:.3g} rad per step (|omega| <= {omega_max:.3g} "
                 f"rad/s; bound {MAX_ROTATION_PER_STEP:g} rad): use dt <= {MAX_ROTATION_PER_STEP / omega_max:.2g} s"
             )
+        if dt * friction > MAX_STEP_RATE:
+            problems.append(
+                f"dt = {dt:g} s cannot resolve the reaction wheels' friction: it changes a wheel's speed at up to "
+                f"{friction:.3g} 1/s inside the stiction band (coulomb_friction {coulomb:.3g} N m over coulomb_band "
+                f"{band:g} rad/s, viscous_friction {viscous:.3g} N m s, spin inertia {spin:.3g} kg m^2; dt rate = "
+                f"{dt * friction:.3g} > {MAX_STEP_RATE:g}), and the wheel would gain energy from it: use dt <= "
+                f"{MAX_STEP_RATE / friction:.2g} s or a wider coulomb_band (>= {coulomb * m_worst * dt / MAX_STEP_RATE:.2g} "
+                "rad/s)"
+            )
     return {
         "dt": dt,
         "surface": surface,
@@ -1431,8 +1463,30 @@ def step_size_report(scenario: Scenario | PackedProblem) -> dict:
         "rho": rho,
         "omega_max": omega_max,
         "rotation_per_step": omega_max * dt,
+        "wheel_friction": friction,
+        "wheel_chatter": chatter,
         "problems": problems,
     }
+
+
+def _wheel_friction_rate(p: PackedProblem, J: np.ndarray) -> tuple[float, float, float, float, float, float, float]:
+    """``(rate, chatter, m, coulomb, viscous, band, J_s)`` of the worst wheel (see :func:`step_size_report`): the
+    friction's decay rate inside the stiction band (1/s), the speed jump ``2 c_c m dt`` of sgn friction (rad/s, only
+    for ``b = 0``), and that wheel's ``m = 1/J_s + g^T (J - J_spin)^-1 g`` and friction settings; zeros without
+    wheels."""
+    hw = p.hardware
+    worst = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    for i in range(hw.n_wheels and p.n_agents):
+        hub = np.linalg.inv(J[i] - hw.J_spin[i])
+        for k in range(hw.n_wheels):
+            g, Js = hw.wheel_axes[i, k], float(hw.wheel_Js[i, k])
+            _, viscous, coulomb, band = (float(x) for x in hw.wheel_params[i, k])
+            m = 1.0 / Js + float(g @ hub @ g)
+            rate = (viscous + (coulomb / band if band > 0 else 0.0)) * m
+            chatter = 2.0 * coulomb * m * p.dt if band == 0 else 0.0
+            if (rate, chatter) > worst[:2]:
+                worst = (rate, chatter, m, coulomb, viscous, band, Js)
+    return worst
 
 
 def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:

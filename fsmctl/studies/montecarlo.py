@@ -68,11 +68,15 @@ not at ``t_final`` is ``failed``, never ``ok``.
 
 Per-run seeds come from ``numpy.random.SeedSequence(seed).spawn(runs)``, so a seeded campaign
 gives the same runs (perturbations and noise seeds) whatever the number of workers, chunking or backend
-(process pool or Dask).
+(process pool or Dask); run ``k``'s seed is built for its chunk alone (``spawn_key`` ``(k,)``, the same
+sequence without spawning the other runs'), so nothing of the campaign grows with ``runs`` before it starts
+except what :func:`check_campaign_memory` checks against the available memory first.
 Runs are grouped in chunks; every finished chunk is written to ``OUT/chunks/chunk_NNNNN.nc`` at
 once, so an interrupted campaign resumes (``--resume``) with only the missing chunks.  The settings are
-in ``OUT/campaign.json`` and in every chunk file (attribute ``settings``): a resumed campaign must have
-the same ones, and a ``campaign.json`` that is damaged (cut short, not JSON) or missing is rebuilt from
+in ``OUT/campaign.json`` and in every chunk file (attribute ``settings``), with the fingerprint of the
+problem they name (``problem``: :func:`fsmctl.simulation.results_io.problem_fingerprint`, the base scenario as
+flown, the law's content hash, the fsmctl version): a resumed campaign must have the same ones (a scenario
+file or law changed since is refused, naming what changed), and a ``campaign.json`` that is damaged (cut short, not JSON) or missing is rebuilt from
 the chunk files when they all record this campaign's settings (a warning on the ``fsmctl`` logger names
 the file); otherwise the error says which settings the chunks record.
 
@@ -109,7 +113,7 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.errors import EnvironmentProblem, InputError
+from fsmctl.errors import EnvironmentProblem, InputError, ResourceLimitError
 from fsmctl.model.scenario import Agent, Scenario, Sinusoid, load_scenario
 from fsmctl.model.topology import Link, Topology
 from fsmctl.outputs import jsonable, temporary_files, write_json
@@ -128,6 +132,7 @@ __all__ = [
     "run_noise_seed",
     "random_processes",
     "check_campaign",
+    "check_campaign_memory",
     "campaign_base",
     "describe_campaign",
     "theorem1_factor_limit",
@@ -1257,8 +1262,10 @@ def _chunk_path(out: Path, c: int) -> Path:
     return out / "chunks" / f"chunk_{c:05d}.nc"
 
 
-def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int, noise_seeds: Sequence[int] | None = None):
-    """One chunk's runs as a dataset; ``noise_seeds[run]`` (every run's :func:`run_noise_seed`) gives ``noise_seed``."""
+def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int, seed: int | None = None):
+    """One chunk's runs as a dataset; with the campaign's ``seed``, every run's ``noise_seed`` (its
+    :func:`run_noise_seed`, drawn for this chunk's runs alone: ``SeedSequence(seed).spawn(runs)[run]`` without
+    spawning the others)."""
     import xarray as xr
 
     rows = sorted(rows, key=lambda r: r[0])
@@ -1276,10 +1283,11 @@ def _chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int, noise_
     for k in _PER_AGENT:
         arr = np.array([np.asarray(r[3][k], dtype=float) for r in rows]).reshape(len(rows), n_agents)
         data[k] = xr.Variable(("run", "agent"), arr, {"units": unit(k)})
-    if noise_seeds is not None:
+    if seed is not None:
+        root = np.random.SeedSequence(seed)
         data["noise_seed"] = xr.Variable(
             ("run",),
-            np.array([float(noise_seeds[r[0]]) for r in rows], dtype=float),
+            np.array([float(run_noise_seed(_child(root, r[0]))) for r in rows], dtype=float),
             {
                 "units": "1",
                 "long_name": "the run's simulation.seed (an integer below 2**53, exact in float64: NetCDF 3 has no int64)",
@@ -1299,7 +1307,8 @@ class _OutputFolder:
         self._created_dirs: list[Path] = []  # deepest first
         self._created_meta = False
 
-    def prepare(self, settings: CampaignSettings, resume: bool) -> None:
+    def prepare(self, ident: dict, resume: bool) -> None:
+        """Create ``OUT`` and write ``campaign.json`` (``ident``: :func:`_campaign_record`), or check a resumed one."""
         out = self.out
         if out.exists() and not out.is_dir():
             raise EnvironmentProblem(
@@ -1321,7 +1330,6 @@ class _OutputFolder:
                 exc.errno or errno.EIO, f"--out {out}: cannot create the output folder ({exc.strerror or exc})"
             ) from None
         meta = out / _CAMPAIGN_FILE
-        ident = jsonable(settings.identity())
         if meta.is_file():
             if not resume:
                 raise InputError(
@@ -1331,8 +1339,8 @@ class _OutputFolder:
             if damage is not None:
                 self._recover(meta, f"{meta} is damaged ({damage})", ident)
             elif old != ident:
-                diff = sorted(k for k in ident if old.get(k) != ident[k])
-                raise InputError(f"{out} holds a campaign with different settings ({', '.join(diff)}); cannot resume")
+                kind, detail = _difference(old, ident)
+                raise InputError(f"{out} holds a campaign {kind} ({detail}); cannot resume")
         elif any(self.chunks.glob("chunk_*.nc")):
             if not resume:
                 raise InputError(
@@ -1376,10 +1384,10 @@ class _OutputFolder:
         different = {k: v for k, v in recorded.items() if v != ident}
         if different:
             name, other = sorted(different.items())[0]
-            keys = sorted(k for k in {*ident, *other} if other.get(k) != ident.get(k))
+            kind, detail = _difference(other, ident)
             raise InputError(
-                f"{what}; cannot resume: the chunk files record a campaign with different settings ({name}: "
-                f"{', '.join(keys)}); resume with the settings they record, or {fix}"
+                f"{what}; cannot resume: the chunk files record a campaign {kind} ({name}: {detail}); resume with "
+                f"what they record, or {fix}"
             )
         if recorded:
             _log.warning("%s; rebuilt from the %d chunk files, which record these settings", what, len(recorded))
@@ -1416,6 +1424,26 @@ class _OutputFolder:
             except OSError:
                 break
         self._created_dirs = []
+
+
+def _campaign_record(settings: CampaignSettings, base: Scenario) -> dict:
+    """What ``campaign.json`` and every chunk file record: the settings and, under ``problem``, the fingerprint of
+    the problem they name (:func:`fsmctl.simulation.results_io.problem_fingerprint`: the base scenario as flown,
+    the law's content hash, the fsmctl version).  A resumed campaign must record the same."""
+    from fsmctl.simulation.results_io import problem_fingerprint
+
+    return {**jsonable(settings.identity()), "problem": problem_fingerprint(base)}
+
+
+def _difference(old: Mapping, ident: Mapping) -> tuple[str, str]:
+    """How a recorded campaign differs from this one: ``("with different settings", names)`` or ``("of another
+    problem", what changed)``."""
+    from fsmctl.simulation.results_io import fingerprint_change
+
+    keys = sorted(k for k in {*old, *ident} if k != "problem" and old.get(k) != ident.get(k))
+    if keys:
+        return "with different settings", ", ".join(keys)
+    return "of another problem", str(fingerprint_change(old.get("problem"), ident["problem"]))
 
 
 def _existing_chunk(path: Path, indices: Sequence[int]) -> bool:
@@ -1512,9 +1540,79 @@ class CampaignResult:
         ]
 
 
-def _chunks(settings: CampaignSettings) -> list[list[int]]:
-    n, c = settings.runs, settings.chunk_size
-    return [list(range(a, min(n, a + c))) for a in range(0, n, c)]
+def _n_chunks(settings: CampaignSettings) -> int:
+    return -(-settings.runs // settings.chunk_size)
+
+
+def _chunk_runs(settings: CampaignSettings, c: int) -> list[int]:
+    """The runs of chunk ``c``."""
+    start = c * settings.chunk_size
+    return list(range(start, min(settings.runs, start + settings.chunk_size)))
+
+
+RUN_RECORD_BYTES = 8 * (len(_SCALARS) + len(_FLAGS) + 1) + 2 * 64
+"""Bytes of one run in the merged dataset besides its per-agent values: the scalars, the flags and the noise
+seed (float64 or smaller) and the status and message strings (NumPy object arrays: a pointer and a short
+string each, counted as 64 bytes)"""
+
+CAMPAIGN_MEMORY_FACTOR = 4.0
+"""Peak memory of the merged campaign as a multiple of its dataset: the chunk files read back, their
+concatenation, the compressed NetCDF encoded in memory and the summary's copies"""
+
+
+def check_campaign_memory(settings: CampaignSettings, base: Scenario, *, available: int | None = None) -> int:
+    """Refuse (:class:`~fsmctl.errors.ResourceLimitError`) a campaign whose merged results would not fit in memory.
+
+    :func:`finish_campaign` holds every run's record at once (``montecarlo.nc`` and the summary): per run
+    :data:`RUN_RECORD_BYTES` plus 8 bytes per agent and per-agent statistic, times
+    :data:`CAMPAIGN_MEMORY_FACTOR`.  It is compared with ``available`` (default:
+    :func:`fsmctl.simulation.simulator.available_memory`; None: no check) before anything of the campaign is
+    drawn, flown or written, as ``fsmctl simulate`` checks a run's results (:func:`~fsmctl.simulation.simulator.
+    check_output_memory`).
+
+    Parameters
+    ----------
+    settings : CampaignSettings
+        The campaign (its ``runs``).
+    base : Scenario
+        The base scenario (its number of agents).
+    available : int, optional
+        Bytes available; default: what the machine has now.
+
+    Returns
+    -------
+    int
+        The estimate in bytes.
+
+    Raises
+    ------
+    fsmctl.errors.ResourceLimitError
+        The estimate exceeds ``available``.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import CampaignSettings
+    >>> from fsmctl.studies.montecarlo import campaign_base, check_campaign_memory
+    >>> settings, base = campaign_base(CampaignSettings(runs=10**9))
+    >>> try:
+    ...     check_campaign_memory(settings, base, available=16 * 10**9)
+    ... except ValueError as exc:
+    ...     print(str(exc).split(" but")[0])
+    montecarlo: the results of 1,000,000,000 runs would need ~1.86 TB of memory
+    """
+    from fsmctl.simulation.simulator import _fmt_bytes, available_memory
+
+    per_run = RUN_RECORD_BYTES + 8 * len(_PER_AGENT) * base.n_agents
+    needed = int(CAMPAIGN_MEMORY_FACTOR * per_run * settings.runs)
+    if available is None:
+        available = available_memory()
+    if available is not None and needed > available:
+        fit = max(0, int(available // (CAMPAIGN_MEMORY_FACTOR * per_run)))
+        raise ResourceLimitError(
+            f"montecarlo: the results of {settings.runs:,} runs would need ~{_fmt_bytes(needed)} of memory but only "
+            f"{_fmt_bytes(available)} is available: use --runs {fit:,} or fewer"
+        )
+    return needed
 
 
 def _progress(total: int, initial: int, enabled: bool | None):
@@ -1871,27 +1969,29 @@ def run_campaign(
         if base is None:
             settings, base = campaign_base(settings)
         check_campaign(settings, base)
-        noise_seeds = [run_noise_seed(q) for q in np.random.SeedSequence(settings.seed).spawn(settings.runs)]
+        check_campaign_memory(settings, base)
         if log is not None:
             for line in describe_campaign(settings, base):
                 log(line)
         client, own_client = _connect_dask(dask, dask_timeout) if dask is not None else (None, False)
         folder = _OutputFolder(out)
-        chunks = _chunks(settings)
+        n_chunks = _n_chunks(settings)
         try:
-            folder.prepare(settings, resume)
+            ident = _campaign_record(settings, base)
+            folder.prepare(ident, resume)
             todo, resumed = [], 0
-            for c, idx in enumerate(chunks):
+            for c in range(n_chunks):
+                idx = _chunk_runs(settings, c)
                 if resume and _existing_chunk(_chunk_path(out, c), idx):
                     resumed += 1
                 else:
                     todo.append((c, idx))
             bar = _progress(settings.runs, settings.runs - sum(len(i) for _, i in todo), progress)
 
-            recorded = json.dumps(jsonable(settings.identity()), allow_nan=False)  # what rebuilds campaign.json
+            recorded = json.dumps(ident, allow_nan=False)  # what rebuilds campaign.json
 
             def on_chunk(c: int, idx: Sequence[int], rows) -> None:
-                ds = _chunk_dataset(rows, base.n_agents, noise_seeds)
+                ds = _chunk_dataset(rows, base.n_agents, settings.seed)
                 ds.attrs["settings"] = recorded
                 with guard.deferred():  # an interrupt waits until the chunk file is complete
                     # an intermediate file: NetCDF-3, which the parent writes ~5x faster than compressed
@@ -1913,7 +2013,7 @@ def run_campaign(
             kept = folder.discard_if_empty()
             if isinstance(exc, CampaignInterrupted):
                 exc.detail = (
-                    f"{kept} of {len(chunks)} chunk files kept in {out}; --resume with the same options continues"
+                    f"{kept} of {n_chunks} chunk files kept in {out}; --resume with the same options continues"
                     if kept
                     else "nothing was written"
                 )
@@ -1966,13 +2066,13 @@ def finish_campaign(
 
     out = Path(out)
     parts = []
-    for c in range(len(_chunks(settings))):
+    for c in range(_n_chunks(settings)):
         with xr.open_dataset(_chunk_path(out, c)) as ds:
             parts.append(ds.load())
     ds = xr.concat(parts, dim="run")
     for var in ds.variables.values():
         var.encoding = {}  # string widths differ between chunks
-    ident = jsonable(settings.identity())
+    ident = _campaign_record(settings, base)  # as campaign.json and every chunk file record it
     # the base scenario, law, versions and command line (scenario_from_result re-runs the base scenario)
     ds.attrs.update(provenance(base, command=command))
     ds.attrs.update(

@@ -108,7 +108,13 @@ Dask cluster, and told in trial order.  So the same settings give the same trial
 its results in one write after: an interrupted study resumed (``resume=True``) flies the trials of the unfinished
 batch with the parameters already proposed and continues to ``budget`` trials exactly as an uninterrupted study
 would.  Raising the budget of a finished study continues it exactly when its former budget was a multiple of the
-batch size (else the last, partial batch was told before the trials that complete it were asked).
+batch size (else the last, partial batch was told before the trials that complete it were asked).  A study
+records its settings and the fingerprint of its problem (:func:`fsmctl.simulation.results_io.problem_fingerprint`:
+the scenario as flown, the law's content hash, the fsmctl version); a resume with other settings, or after the
+scenario file or the law changed, is refused (one line naming what changed), so its trials never mix two problems.
+The journal's lock (``study.log.lock``, held while a write is appended) records the process holding it; a lock
+left by a process that was killed (dead, or of unknown owner for :data:`STALE_LOCK_S`) is broken with a warning,
+a lock of a live process is waited for :data:`LOCK_WAIT_S` and then refused.
 Ctrl-C (``SIGINT``) or ``SIGTERM`` stop the workers (:func:`fsmctl.studies.parallel.interrupt_guard`) after the
 proposals or results being written, and :func:`tune` raises
 :class:`~fsmctl.studies.parallel.CampaignInterrupted` (exit code 130 or 143 for ``fsmctl tune``).
@@ -124,10 +130,14 @@ from __future__ import annotations
 import contextlib
 import csv
 import dataclasses
+import errno
 import json
+import logging
 import math
 import os
 import shlex
+import socket
+import stat
 import sys
 import time
 import warnings
@@ -138,7 +148,7 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.errors import InputError
+from fsmctl.errors import EnvironmentProblem, InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.model.topology import Link, Topology
@@ -1641,6 +1651,128 @@ def _write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scen
 # ----------------------------------------------------------------------------- the search
 
 
+LOCK_WAIT_S = 30.0
+"""seconds a lock on ``study.log`` held by a live process is waited for before the study is refused"""
+
+STALE_LOCK_S = 10.0
+"""a lock on ``study.log`` that names no process of this host (Optuna's own symlink lock, a lock from another host,
+or an unreadable one) is broken once it is this old: a write holds the lock for milliseconds"""
+
+_log = logging.getLogger(__name__)
+
+
+def _process_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # another user's process
+        return True
+    except OSError:
+        return True
+    return True
+
+
+class _JournalLock:
+    """The lock of ``study.log`` (an Optuna ``BaseJournalFileLock``): ``study.log.lock``, created exclusively and
+    holding ``<pid> <host>`` of its holder, always at the journal's absolute path.
+
+    Optuna's default lock is a symbolic link to the journal's path as given: for a relative ``--out`` it dangles
+    (``out/study.log`` seen from ``out/``), and a lock left by a killed process then made the next ``--resume``
+    spin at 100 % CPU without a word (the link's ``stat`` fails and the wait loop retries at once); for an absolute
+    one it waited a silent 31 s.  Here a lock whose holder is a dead process of this host is broken at once, one of
+    unknown holder once it is :data:`STALE_LOCK_S` old (both with a warning), and a live holder is waited for
+    :data:`LOCK_WAIT_S`, then :class:`~fsmctl.errors.InputError` names it.
+    """
+
+    def __init__(self, journal: Path):
+        self.path = Path(str(journal.absolute()) + ".lock")
+
+    def _holder(self) -> tuple[str | None, str | None]:
+        """``(None, None)`` while the lock is held by a live process (or is gone), else ``(None, why it is stale)``;
+        ``(holder, None)`` names a live holder."""
+        try:
+            st = os.lstat(self.path)
+        except FileNotFoundError:
+            return None, None
+        pid = host = None
+        if stat.S_ISREG(st.st_mode):
+            with contextlib.suppress(OSError, ValueError):
+                text = self.path.read_text(encoding="utf-8").split()
+                pid, host = int(text[0]), text[1]
+        if pid is not None and host == socket.gethostname():
+            if not _process_alive(pid):
+                return None, f"its holder, process {pid}, is no longer running"
+            return f"process {pid}", None
+        age = time.time() - st.st_mtime
+        if age > STALE_LOCK_S:
+            owner = f"process {pid} on {host}" if pid is not None else "no process of this host"
+            return None, f"it names {owner} and is {age:.0f} s old (a write holds it for milliseconds)"
+        return (f"process {pid} on {host}" if pid is not None else "an unknown process"), None
+
+    def acquire(self) -> bool:
+        """Create the lock (blocking); break a stale one; :class:`~fsmctl.errors.InputError` after
+        :data:`LOCK_WAIT_S` of a live holder."""
+        record = f"{os.getpid()} {socket.gethostname()}\n".encode()
+        deadline = time.monotonic() + LOCK_WAIT_S
+        while True:
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+            except FileExistsError:
+                pass
+            else:
+                try:
+                    os.write(fd, record)
+                finally:
+                    os.close(fd)
+                return True
+            holder, stale = self._holder()
+            if stale is not None:
+                _log.warning("tune: removed the stale lock %s: %s", self.path, stale)
+                with contextlib.suppress(FileNotFoundError):
+                    os.unlink(self.path)
+                continue
+            if holder is not None and time.monotonic() > deadline:
+                raise InputError(
+                    f"tune: {self.path} has been held by {holder} for over {LOCK_WAIT_S:g} s (another fsmctl tune on "
+                    "this study?): wait for it to end, or remove the lock if that process is not fsmctl"
+                )
+            time.sleep(0.01)
+
+    def release(self) -> None:
+        """Remove the lock."""
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(self.path)
+
+
+def _check_journal(path: Path) -> None:
+    """:class:`~fsmctl.errors.InputError` naming the file and line when ``study.log`` holds a line that is not a
+    journal record (a JSON object on a line of its own), instead of Optuna's ``JSONDecodeError``."""
+    try:
+        with open(path, "rb") as fh:
+            for number, line in enumerate(fh, start=1):
+                problem = None
+                if not line.endswith(b"\n"):
+                    problem = "it is cut short (no end of line)"
+                else:
+                    try:
+                        record = json.loads(line)
+                    except ValueError as exc:
+                        problem = f"not JSON: {exc}"
+                    else:
+                        if not isinstance(record, dict) or "op_code" not in record:
+                            problem = "not an Optuna journal operation"
+                if problem is not None:
+                    raise InputError(
+                        f"tune: {path}: line {number} is not a journal record ({problem}); the study's journal is "
+                        "damaged: restore it, or start afresh in another --out"
+                    )
+    except FileNotFoundError:
+        return
+    except OSError as exc:
+        raise EnvironmentProblem(exc.errno or errno.EIO, f"tune: cannot read {path}: {exc.strerror or exc}") from None
+
+
 class _BufferedJournal:
     """Optuna's journal file (``JournalFileBackend``) whose writes inside :meth:`buffered` are appended at once.
 
@@ -1652,10 +1784,12 @@ class _BufferedJournal:
     :meth:`fsmctl.studies.parallel.InterruptGuard.deferred`).  This process is the journal's only writer.
     """
 
-    def __init__(self, path: str):
+    def __init__(self, path: Path):
         from optuna.storages.journal import JournalFileBackend
 
-        self._file = JournalFileBackend(path)
+        path = Path(path).absolute()
+        _check_journal(path)
+        self._file = JournalFileBackend(str(path), lock_obj=_JournalLock(path))
         self._buffer: list[dict[str, Any]] = []
         self._on_disk: int | None = None
         """logs in the file (learnt at the first read; this process is its only writer)"""
@@ -1862,7 +1996,9 @@ def tune(
     Raises
     ------
     InputError
-        Bad settings, an existing study without ``resume``, a resumed study with other settings, an objective the
+        Bad settings, an existing study without ``resume``, a resumed study with other settings or of another
+        problem (:func:`~fsmctl.simulation.results_io.problem_fingerprint`: the scenario's content, the law's code,
+        the fsmctl version), a damaged ``study.log`` (a line that is not a journal record), an objective the
         scenario cannot measure (``wheel_momentum`` without wheels) or a constraint it cannot evaluate.
     fsmctl.errors.EnvironmentProblem
         ``out_dir`` cannot be written, or ``dask`` is not a reachable scheduler.
@@ -1889,6 +2025,7 @@ def tune(
     from optuna.storages import JournalStorage
 
     from fsmctl.outputs import output_folder
+    from fsmctl.simulation.results_io import fingerprint_change, problem_fingerprint
     from fsmctl.studies.montecarlo import DASK_TIMEOUT_S, _connect_dask
     from fsmctl.studies.parallel import CampaignInterrupted, check_workers, interrupt_guard
 
@@ -1908,6 +2045,7 @@ def tune(
     law = _portable_law(settings.law)
     _trial_scenario(base, law, space, {p.name: p.low for p in space})  # the law and its values fit the scenario
     members = _members(base, settings)
+    problem = problem_fingerprint(base, law)  # a resumed study must be of the same problem
     t_final, n_obj = base.simulation.t_final, len(settings.objectives)
     notes: list[str] = []
     theorem1: bool | None = None
@@ -1964,7 +2102,7 @@ def tune(
                 try:
                     with warnings.catch_warnings():
                         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-                        journal = _BufferedJournal(str(log))
+                        journal = _BufferedJournal(log)
                         storage = JournalStorage(journal)
                         study = optuna.create_study(
                             study_name=STUDY_NAME,
@@ -1973,6 +2111,7 @@ def tune(
                             load_if_exists=True,
                         )
                         identity = settings.identity()
+                        told_before = bool(study.get_trials(deepcopy=False))
                         if "settings" in study.user_attrs:
                             if study.user_attrs["settings"] != identity:
                                 old = study.user_attrs["settings"]
@@ -1983,6 +2122,15 @@ def tune(
                                 )
                         else:
                             study.set_user_attr("settings", identity)
+                        if "problem" in study.user_attrs or told_before:
+                            change = fingerprint_change(study.user_attrs.get("problem"), problem)
+                            if change is not None:
+                                raise InputError(
+                                    f"tune: the study in {out} was run on another problem: {change}; its trials "
+                                    "would mix two problems: start afresh in another --out"
+                                )
+                        else:
+                            study.set_user_attr("problem", problem)
                         told = sum(_counted(t) for t in study.get_trials(deepcopy=False))
                         pending = _pending(study, storage, space, told, batch, budget)
                         bar = None
