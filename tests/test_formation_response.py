@@ -23,9 +23,9 @@ from fsmctl.errors import InputError
 from fsmctl.model.laws import parameter_matrix, resolve_law
 from fsmctl.model.time_response import FormationResponse, agent_color, formation_response
 from fsmctl.model.topology import ring
+from fsmctl.plugin import FormationSystem
 from fsmctl.plugin.hardware import rate_gyro
 from fsmctl.plugin.iosys import (
-    FormationSystem,
     Neighbour,
     initial_state,
     law_controller,

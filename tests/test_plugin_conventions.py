@@ -264,7 +264,7 @@ def test_an_unpickled_formation_is_consistent_and_flies_bit_for_bit():
     assert np.array_equal(r.outputs, r_twin.outputs)
 
 
-def _sweep_point(loop: fsmctl.FormationSystem, x0: np.ndarray, c1: float) -> np.ndarray:
+def _sweep_point(loop: fsmctl.plugin.FormationSystem, x0: np.ndarray, c1: float) -> np.ndarray:
     return ct.input_output_response(
         loop, [0.0, 0.05], 0, x0, params={"c1": c1}, solve_ivp_kwargs={"max_step": 0.01}
     ).outputs[:, -1]

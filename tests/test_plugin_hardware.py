@@ -445,9 +445,10 @@ def test_formation_flies_wheels_like_the_compiled_loop():
     import fsmctl
     from fsmctl.plugin.iosys import initial_state, mrp_state
 
-    s = fsmctl.paper_scenario("1").replace(
-        controller={"law": "pid"}, actuator={"kind": "reaction_wheels", "spin_inertia": 0.159, "max_torque": 0.5}
-    )
+    with pytest.warns(fsmctl.model.laws.LawSwitchWarning, match="law 'pid' flown instead of 'fsm'"):
+        s = fsmctl.paper_scenario("1").replace(
+            controller={"law": "pid"}, actuator={"kind": "reaction_wheels", "spin_inertia": 0.159, "max_torque": 0.5}
+        )
     loop = fsmctl.formation(s)
     assert loop.nstates == 4 + 6 * (7 + 4) + 6 * 3  # quaternion, rate, 4 wheel speeds; 3 pid states
     T = np.linspace(0.0, 1.0, 101)

@@ -12,11 +12,12 @@ What a user of this layer calls:
   :func:`rate_gyro`, :func:`link`;
 * :func:`solver_options` (:mod:`fsmctl.plugin.solver`): the ``solve_ivp`` options of an accurate run;
 * sampled-data loops (:mod:`fsmctl.plugin.sampled`): :func:`zoh`, :func:`discrete_law_controller`,
-  :func:`discrete_fsm_controller`, :func:`sampled_formation` (what :func:`formation` builds for a scenario with
-  ``simulation.control_period > 0``);
-* exact linearization (:mod:`fsmctl.plugin.jacobians`): ``control.linearize`` of every fsmctl system is exact,
-  :func:`linearize` also for a plain ``control.interconnect``; :func:`mrp_linearization` and :func:`mrp_estimator`
-  for an LQR design in MRP coordinates; :class:`NonDifferentiableError` where no linearization exists.
+  :func:`discrete_fsm_controller`, and :func:`sampled_formation` (what :func:`formation` builds for a scenario
+  with ``simulation.control_period > 0``; both in :mod:`fsmctl.plugin.formation`);
+* exact linearization (:mod:`fsmctl.plugin.jacobians`, :mod:`fsmctl.plugin.linearization`): ``control.linearize``
+  of every fsmctl system is exact, :func:`linearize` also for a plain ``control.interconnect``;
+  :func:`mrp_linearization` and :func:`mrp_estimator` for an LQR design in MRP coordinates;
+  :class:`NonDifferentiableError` where no linearization exists.
 
 Their responses: :func:`fsmctl.formation_response` (a grouped ``plot()`` taking python-control's keywords) and
 :func:`fsmctl.attitude_error_angle` (the angle between two ``sigma`` outputs, which jump at 180 deg), at the top
@@ -32,8 +33,6 @@ import lazy_loader
 
 _ATTRS = {
     "iosys": [
-        "formation",
-        "FormationSystem",
         "initial_state",
         "mrp_state",
         "spacecraft",
@@ -48,10 +47,12 @@ _ATTRS = {
         "InvalidStateError",
         "ParameterKeyError",
     ],
-    "sampled": ["zoh", "discrete_law_controller", "discrete_fsm_controller", "sampled_formation"],
+    "formation": ["formation", "FormationSystem", "sampled_formation"],
+    "sampled": ["zoh", "discrete_law_controller", "discrete_fsm_controller"],
     "solver": ["solver_options"],
     "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
-    "jacobians": ["linearize", "mrp_linearization", "mrp_estimator", "NonDifferentiableError"],
+    "jacobians": ["NonDifferentiableError"],
+    "linearization": ["linearize", "mrp_linearization", "mrp_estimator"],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]

@@ -28,9 +28,8 @@ import control as ct
 import numpy as np
 
 from fsmctl.model.laws import LawCode
-from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError
+from fsmctl.model.scenario import ControllerSettings, ScenarioError
 from fsmctl.plugin.iosys import (
-    FormationSystem,
     Neighbour,
     ParameterizedSystem,
     _scalar,
@@ -40,7 +39,7 @@ from fsmctl.plugin.iosys import (
     law_controller,
 )
 
-__all__ = ["zoh", "discrete_law_controller", "discrete_fsm_controller", "sampled_formation"]
+__all__ = ["zoh", "discrete_law_controller", "discrete_fsm_controller"]
 
 _GRID_TOLERANCE = 1e-9
 """Relative tolerance of "``dt`` is a multiple of ``step``" (the scenario's grid rule is exact to rounding)."""
@@ -332,167 +331,3 @@ def discrete_fsm_controller(
     T = _period(dt, "discrete_fsm_controller")
     ctrl = fsm_controller(J0, controller, delta, neighbours=_led(neighbours, _INSTANT_LEAD * T), name=name)
     return _discrete(ctrl, T)
-
-
-# ----------------------------------------------------------------------------- the sampled formation
-
-
-def _flat_signals(syslist: Sequence[ct.InputOutputSystem], attr: str) -> list[str]:
-    """``"<system>.<signal>"`` for every input (``attr="input_labels"``) or output of the stacked subsystems."""
-    return [f"{sys.name}.{label}" for sys in syslist for label in getattr(sys, attr)]
-
-
-def _sampled_subsystem(sys: ct.InputOutputSystem, scenario: Scenario, T: float, h: float) -> ct.InputOutputSystem:
-    """The discrete-time twin of one subsystem of the continuous loop of ``scenario``."""
-    if sys.name.startswith("ctrl"):
-        i = int(sys.name[4:])
-        return _controllers(scenario, T, h)[i - 1]
-    if sys.name.startswith("sensor"):
-        return _sensor(sys, scenario, T)
-    return zoh(sys, T, step=h, name=sys.name)
-
-
-def _controllers(scenario: Scenario, T: float, h: float) -> list[ParameterizedSystem]:
-    """The agents' discrete laws, built like :func:`fsmctl.formation` builds them, weights read as the compiled
-    loop reads them at an instant (at the midpoint ``t_k + h / 2`` of its first RK4 step)."""
-    from fsmctl.plugin.iosys import _scenario_controllers
-
-    return [_discrete(c, T) for c in _scenario_controllers(scenario, phase_lead=h / 2)]
-
-
-def _sensor(sys: ct.InputOutputSystem, scenario: Scenario, T: float) -> ct.InputOutputSystem:
-    """The scenario's sensor block ``sensor<i>_<k>`` (held samples, continuous time) as a discrete-time twin."""
-    from fsmctl.plugin.hardware import rate_gyro, star_tracker
-
-    i = int(sys.name[6:].split("_")[0])
-    s = scenario.sensors
-    common = {
-        "horizon": scenario.simulation.t_final,
-        "seed": scenario.simulation.seed,
-        "agent": i - 1,
-        "name": sys.name,
-    }
-    if "sigma_measured[0]" in sys.output_labels:
-        return star_tracker(s.star_tracker.noise_std, T, **common)
-    g = s.gyro
-    return rate_gyro(g.angle_random_walk, g.rate_random_walk, g.bias, T, **common)
-
-
-def _scenario_sensors(scenario: Scenario) -> list[tuple[ct.InputOutputSystem, ...]] | None:
-    """Each agent's star tracker and rate gyro from ``scenario.sensors`` (continuous time, samples held)."""
-    from fsmctl.plugin.hardware import rate_gyro, star_tracker
-
-    s = scenario.sensors
-    if not s.enabled:
-        return None
-    T, sim = scenario.simulation.control_period, scenario.simulation
-    out = []
-    for i in range(scenario.n_agents):
-        common = {"horizon": sim.t_final, "seed": sim.seed, "agent": i, "dt": 0}
-        blocks = []
-        if s.star_tracker is not None:
-            blocks.append(star_tracker(s.star_tracker.noise_std, T, **common))
-        if s.gyro is not None:
-            g = s.gyro
-            blocks.append(rate_gyro(g.angle_random_walk, g.rate_random_walk, g.bias, T, **common))
-        out.append(tuple(blocks))
-    return out
-
-
-def sampled_formation(
-    scenario: Scenario,
-    *,
-    normalization_gain: float | None = None,
-    name: str = "formation",
-    params: Mapping[str, Any] | None = None,
-) -> FormationSystem:
-    """The sampled-data closed loop of a scenario with ``simulation.control_period = T > 0``, in discrete time.
-
-    :func:`fsmctl.formation` returns it for such a scenario.  Every block is discrete time with ``dt = T``:
-    the reference and the plants are :func:`zoh` samples of :func:`fsmctl.formation`'s continuous-time blocks
-    (RK4 at ``simulation.dt`` inside each period, the law's torque held: the compiled simulator's rule), the
-    controllers are :func:`discrete_law_controller` s (the law and its states at the instants), and the
-    scenario's star tracker and rate gyro (``[sensors]``) are :func:`fsmctl.plugin.hardware.star_tracker` and
-    :func:`~fsmctl.plugin.hardware.rate_gyro` with ``dt = T``, drawn from ``simulation.seed`` as
-    :func:`fsmctl.simulate` draws them.  Signals, states, parameters and their names are those of the
-    continuous-time :func:`fsmctl.formation` (states ``[initial_state(scenario), ...]``).
-
-    Parameters
-    ----------
-    scenario : Scenario
-        A formation with ``simulation.control_period > 0`` (a multiple of ``simulation.dt``).  Imperfect links
-        (``[links]``) are refused: wire :func:`fsmctl.plugin.hardware.link` blocks by hand, or fly the scenario
-        with :func:`fsmctl.simulate`.
-    normalization_gain : float, optional
-        Quaternion normalisation-drift gain of the plants and the reference (see :func:`fsmctl.spacecraft`).
-    name : str
-        Name of the interconnected system.
-    params : mapping, optional
-        Initial parameter values, as :func:`fsmctl.formation`'s ``params=`` (bare law names, full keys).
-
-    Returns
-    -------
-    FormationSystem
-        Discrete time, ``loop.dt == control_period``; run it with :func:`control.input_output_response` at the
-        instants ``T = np.arange(N + 1) * control_period`` (outputs at the instants, the applied torque of each
-        instant held until the next).
-
-    Raises
-    ------
-    fsmctl.ScenarioError
-        ``scenario`` not a Scenario, ``control_period = 0`` (use :func:`fsmctl.formation`), or imperfect links.
-
-    Examples
-    --------
-    >>> import control as ct, numpy as np, fsmctl
-    >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.5, "control_period": 0.1})
-    >>> loop = fsmctl.formation(s)  # control_period > 0: this function
-    >>> loop.dt, loop.nstates
-    (0.1, 46)
-    >>> r = ct.input_output_response(loop, np.arange(6) * 0.1, 0, fsmctl.initial_state(s))
-    >>> compiled = fsmctl.simulate(s.replace(simulation={"output_interval": 0.1}))
-    >>> sigma = [list(loop.output_labels).index(f"sc{i}_sigma[{k}]") for i in range(1, 7) for k in range(3)]
-    >>> bool(np.abs(r.outputs[sigma].T - compiled.sigma.reshape(6, -1)).max() < 1e-9)
-    True
-    """
-    from fsmctl.plugin.iosys import DEFAULT_NORMALIZATION_GAIN, _as_formation, formation
-
-    where = "sampled_formation"
-    if not isinstance(scenario, Scenario):
-        raise ScenarioError(f"{where}: expected a Scenario, got {type(scenario).__name__}")
-    sim = scenario.simulation
-    if not sim.control_period > 0:
-        raise ScenarioError(
-            f"{where}: simulation.control_period is 0 (continuous control): fsmctl.formation builds that loop"
-        )
-    if scenario.links_active:
-        raise ScenarioError(
-            f"{where}: imperfect links ([links]) are not part of the sampled loop: wire fsmctl.plugin.hardware.link "
-            "blocks between the controllers by hand, or fly the scenario with fsmctl.simulate"
-        )
-    T, h = sim.control_period, sim.dt
-    gain = DEFAULT_NORMALIZATION_GAIN if normalization_gain is None else normalization_gain
-    # the continuous-time loop gives the blocks and their wiring (one source of both); each block is then
-    # replaced by its discrete-time twin, with the same name and signals, and the wiring is made again
-    continuous = scenario.replace(simulation={"control_period": 0.0}, sensors={"star_tracker": None, "gyro": None})
-    loop = formation(continuous, sensors=_scenario_sensors(scenario), normalization_gain=gain, name=name)
-    syslist = [_sampled_subsystem(sys, scenario, T, h) for sys in loop.syslist]
-    inputs, outputs = _flat_signals(loop.syslist, "input_labels"), _flat_signals(loop.syslist, "output_labels")
-    connections = [
-        [inputs[r], *[outputs[c] for c in np.flatnonzero(loop.connect_map[r])]]
-        for r in range(len(inputs))
-        if loop.connect_map[r].any()
-    ]
-    stacked = outputs + inputs  # output_map reads the stacked subsystem outputs, then inputs
-    outlist = [stacked[int(np.flatnonzero(row)[0])] for row in loop.output_map]
-    sampled = ct.interconnect(
-        syslist,
-        connections=connections,
-        outlist=outlist,
-        outputs=list(loop.output_labels),
-        inputs=[],
-        dt=T,
-        name=name,
-        check_unused=False,
-    )
-    return _as_formation(sampled, scenario, name, params)
