@@ -42,6 +42,7 @@ from fsmctl.plugin.iosys import (
     _inertia,
     _labels,
     _numbers,
+    _rebuilt,
     _scalar,
     _show,
     _signal_names,
@@ -640,12 +641,14 @@ def star_tracker(
     >>> bool(np.allclose(4 * r.outputs.T, st.samples, rtol=1e-12, atol=0))  # at identity: dtheta / 4
     True
     """
+    call = _factory_call(star_tracker, locals())
     name = _system_name(name, "star_tracker")
     where = f"star_tracker {name!r}" if name else "star_tracker"
     std = _numbers(noise_std, (3,), "three real numbers", f"{where}: noise_std")
     if np.any(std < 0):
         raise ScenarioError(f"{where}: noise_std: must be >= 0, got {std.tolist()}")
-    return _sensor("star_tracker", name, noise_std=std, period=period, horizon=horizon, seed=seed, agent=agent, dt=dt)
+    sensor = _sensor("star_tracker", name, noise_std=std, period=period, horizon=horizon, seed=seed, agent=agent, dt=dt)
+    return _rebuilt(sensor, call)
 
 
 def rate_gyro(
@@ -697,13 +700,15 @@ def rate_gyro(
     >>> g.dt, g.output(0.7, [], [0.1, 0.0, 0.0]).round(12).tolist()  # continuous time: the sample of t = 0.5 held
     (0, [0.101, 0.0, 0.0])
     """
+    call = _factory_call(rate_gyro, locals())
     name = _system_name(name, "rate_gyro")
     where = f"rate_gyro {name!r}" if name else "rate_gyro"
     N = _scalar(angle_random_walk, f"{where}: angle_random_walk", minimum=0.0)
     K = _scalar(rate_random_walk, f"{where}: rate_random_walk", minimum=0.0)
     b0 = _numbers(bias, (3,), "three real numbers", f"{where}: bias")
     gyro = {"angle_random_walk": N, "rate_random_walk": K, "bias": np.array(b0)}
-    return _sensor("rate_gyro", name, gyro=gyro, period=period, horizon=horizon, seed=seed, agent=agent, dt=dt)
+    sensor = _sensor("rate_gyro", name, gyro=gyro, period=period, horizon=horizon, seed=seed, agent=agent, dt=dt)
+    return _rebuilt(sensor, call)
 
 
 # ----------------------------------------------------------------------------- communication link
@@ -778,6 +783,7 @@ def link(
     >>> r.outputs.round(12).tolist()  # the clock of 3 instants before (0.25 s: ceil(2.5) = 3), 0 before
     [0.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7]
     """
+    call = _factory_call(link, locals())  # first: the arguments only
     from fsmctl.model.problem import delay_instants
 
     name = _system_name(name, "link")
@@ -825,4 +831,4 @@ def link(
         name=name,
     )
     sys.lost = samples.table
-    return sys
+    return _rebuilt(sys, call)

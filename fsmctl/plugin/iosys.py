@@ -517,6 +517,43 @@ def _rebuild(factory: Callable[..., Any], arguments: Mapping[str, Any]) -> Any:
     return factory(**arguments)
 
 
+_REBUILT_STATE = ("name", "input_index", "output_index", "state_index", "dt", "params")
+"""What a pickle of a :class:`_Rebuilt` carries besides its factory call (the rest is rebuilt: a sensor's noise is
+drawn again, identically, from its seed)."""
+
+
+class _Rebuilt(ct.NonlinearIOSystem):
+    """A python-control ``nlsys`` made by an fsmctl function (a sensor, a link, a sampled system: callbacks that are
+    closures), pickled as the call that made it, so that multiprocessing and Dask can ship it; copies stay copies."""
+
+    _factory: tuple
+
+    def __reduce__(self):
+        return (_rebuild, self._factory, {k: self.__dict__[k] for k in _REBUILT_STATE if k in self.__dict__})
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    def __copy__(self) -> _Rebuilt:
+        new = type(self).__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
+    def __deepcopy__(self, memo: dict) -> _Rebuilt:
+        new = type(self).__new__(type(self))
+        memo[id(self)] = new
+        for key, value in self.__dict__.items():
+            new.__dict__[key] = copy.deepcopy(value, memo)
+        return new
+
+
+def _rebuilt(system: ct.NonlinearIOSystem, call: tuple) -> _Rebuilt:
+    """``system`` (made by the factory call ``call``) as a :class:`_Rebuilt`, which pickles."""
+    system.__class__ = _Rebuilt
+    system._factory = call
+    return system
+
+
 def _factory_call(factory: Callable[..., Any], arguments: Mapping[str, Any]) -> tuple[Callable[..., Any], dict]:
     """The call that rebuilds a system: the public factory and its arguments (a law as its folder, which
     :func:`fsmctl.model.laws.resolve_law` reads again)."""

@@ -32,6 +32,7 @@ from fsmctl.model.scenario import ControllerSettings, ScenarioError
 from fsmctl.plugin.iosys import (
     Neighbour,
     ParameterizedSystem,
+    _rebuilt,
     _scalar,
     _show,
     _system_name,
@@ -83,11 +84,14 @@ def _rk4(f, t: float, x: np.ndarray, dt: float, n: int) -> np.ndarray:
     return x
 
 
-def _parameterized_twin(sys: ParameterizedSystem, update, name: str | None, dt: float) -> ParameterizedSystem:
+def _parameterized_twin(
+    sys: ParameterizedSystem, update, name: str | None, dt: float, call: tuple
+) -> ParameterizedSystem:
     """A :class:`ParameterizedSystem` with ``sys``'s signals, parameters (values, validation, attitude check) and
-    output, the discrete-time ``update(t, x, u, p)`` and ``dt``."""
+    output, the discrete-time ``update(t, x, u, p)`` and ``dt``; pickled as ``call`` (the function and arguments
+    that made it)."""
     values = {local: sys.params[key] for local, key in sys._keys.items()}
-    return ParameterizedSystem(
+    twin = ParameterizedSystem(
         sys._kind,
         update,
         sys._model_output,
@@ -100,6 +104,8 @@ def _parameterized_twin(sys: ParameterizedSystem, update, name: str | None, dt: 
         **({"states": list(sys.state_labels)} if sys.nstates else {}),
         dt=dt,
     )
+    twin._factory = call
+    return twin
 
 
 def _default_name(sys: ct.InputOutputSystem) -> str:
@@ -162,6 +168,7 @@ def zoh(
     >>> sc.dynamics(0.0, x0, [0.0, 0.0, 1.0])[4:].round(12).tolist()
     [0.0, 0.0, 0.1]
     """
+    call = (zoh, {"sys": sys, "dt": dt, "step": step, "name": name})
     where = "zoh"
     if not isinstance(sys, ct.NonlinearIOSystem):
         raise ScenarioError(f"{where}: expected a python-control system, got {type(sys).__name__}")
@@ -181,14 +188,14 @@ def zoh(
         def update(t, x, u, p):
             return _rk4(lambda s, y: np.asarray(model(s, y, u, p), dtype=float), t, x, T, n)
 
-        return _parameterized_twin(sys, update, name, T)
+        return _parameterized_twin(sys, update, name, T, call)
 
     inner = sys.copy(name=sys.name, use_prefix_suffix=False)
 
     def generic_update(t, x, u, params):
         return _rk4(lambda s, y: inner.dynamics(s, y, u, params=params), t, x, T, n)
 
-    return ct.nlsys(
+    sampled = ct.nlsys(
         generic_update,
         lambda t, x, u, params: inner.output(t, x, u, params=params),
         inputs=list(sys.input_labels),
@@ -198,6 +205,7 @@ def zoh(
         dt=T,
         name=name,
     )
+    return _rebuilt(sampled, call)
 
 
 def _discrete(ctrl: ParameterizedSystem, T: float) -> ParameterizedSystem:
@@ -206,7 +214,7 @@ def _discrete(ctrl: ParameterizedSystem, T: float) -> ParameterizedSystem:
     the compiled loop's RK4 does with a held rate)."""
     rate = ctrl._model_update
     update = None if rate is None else (lambda t, x, u, p: np.asarray(x, dtype=float) + T * rate(t, x, u, p))
-    return _parameterized_twin(ctrl, update, ctrl.name, T)
+    return _parameterized_twin(ctrl, update, ctrl.name, T, (_discrete, {"ctrl": ctrl, "T": T}))
 
 
 def _led(neighbours: Any, lead: float) -> Any:
