@@ -91,6 +91,23 @@ def test_a_sliding_mode_law_linearizes_independently_of_the_step():
     assert np.allclose(fine.D, fd, rtol=1e-6, atol=1e-6 * np.abs(fd).max())
 
 
+def test_the_law_linearizes_at_its_equilibrium_on_a_nonzero_reference():
+    """sigma = sigma_d != 0, omega = omega_d: sigma_e is zero up to rounding (1e-17), and the |sigma_e| corner of the
+    near-zero form multiplies a factor that is zero there too: the law is smooth, its Jacobian the central
+    differences' (a fresh user's case: the paper's formation linearized about its own reference)."""
+    ctrl = _controller(0.05)
+    sigma_d, omega_d = np.array([-0.3, -0.4, 0.4]), np.array([0.01, 0.0, -0.01])
+    for omega in (np.zeros(3), omega_d):
+        u0 = np.r_[sigma_d, omega, sigma_d, omega, [0.0] * 3]
+        D = ctrl.linearize([], u0).D
+        # the near-zero form has sigma_e |sigma_e|-like terms: central differences converge to the slope only at
+        # O(h) (about 2e4 h here), so two steps show the convergence to D rather than a tolerance hiding it
+        coarse, fine = (_central(lambda u: ctrl.output(0.0, [], u), u0, h) for h in (1e-6, 1e-8))
+        scale = np.abs(D).max()
+        assert np.abs(fine - D).max() < 0.05 * np.abs(coarse - D).max() + 1e-9 * scale
+        assert np.allclose(D, fine, rtol=1e-4, atol=1e-4 * scale)
+
+
 def test_the_law_at_s_zero_without_boundary_layer_is_not_linearized():
     with pytest.raises(NonDifferentiableError, match=r"ctrl1.*sign\(a\) jumps.*'boundary_layer' > 0"):
         _controller(0.0).linearize([], np.zeros(15))

@@ -214,8 +214,13 @@ class Derivatives:
             s = self._switches[j]
             sides = self._side_function(int(j))  # the switch's result a free variable v, the others as they are
             if s.op in _SLOPE_SWITCHES:
-                # the two sides' Jacobians differ by (d out / d v) (grad a - grad b)^T (times 2 for fabs)
-                jumps = bool(np.any(np.array(sides(z0, v0[j])[2], dtype=float) != 0))
+                # the two sides' Jacobians differ by (d out / d v) (grad a - grad b)^T (times 2 for fabs): a corner
+                # matters when that difference is not rounding next to the Jacobian itself (|a| times a factor that
+                # is itself zero up to rounding, as at an equilibrium with sigma_d != 0, is smooth)
+                side = [np.array(m, dtype=float) for m in sides(z0, v0[j])]
+                jac, d_out = side[1].reshape(-1, len(self._wrt)), side[2].ravel()
+                jump = (2.0 if s.op == ca.OP_FABS else 1.0) * np.outer(d_out, grad[j])
+                jumps = not _close(jac, jac + jump)
                 what = _SLOPE_SWITCHES[s.op]
             else:
                 what, (lo, hi) = _VALUE_SWITCHES[s.op]
