@@ -119,7 +119,7 @@ def test_it_is_the_simulators_relative_angle():
     ("a", "b", "kwargs", "match"),
     [
         (np.zeros(4), np.zeros(3), {}, r"sigma_a has 4 components along axis -1, an MRP has 3"),
-        (np.zeros((3, 5)), np.zeros((3, 5)), {}, r"sigma_a has 5 components along axis -1"),
+        (np.zeros((3, 5)), np.zeros((3, 5)), {}, r"sigma_a has 5 components along axis -1.*pass axis=0"),
         (np.zeros((3, 5)), np.zeros((3, 4)), {"axis": 0}, r"the shapes \(3, 5\) and \(3, 4\) do not broadcast"),
         (np.zeros(3), [0.0, np.nan, 0.0], {}, r"sigma_b holds a value that is not finite"),
         (np.zeros(3), np.zeros(3), {"axis": 2}, r"sigma_a of shape \(3,\) has no axis 2"),

@@ -207,9 +207,11 @@ def attitude_error_angle(sigma_a, sigma_b, *, axis: int = -1, degrees: bool = Fa
                 f"attitude_error_angle: {name} of shape {x.shape} has no axis {axis!r} (MRP components)"
             ) from None
         if x.shape[-1] != 3:
+            rows = [k for k, size in enumerate(np.shape(value)) if size == 3]
+            hint = f"; its axis {rows[0]} has 3: pass axis={rows[0]} (python-control rows are (3, T))" if rows else ""
             raise InputError(
                 f"attitude_error_angle: {name} has {x.shape[-1]} components along axis {axis}, an MRP has 3 "
-                f"(shape {np.shape(value)})"
+                f"(shape {np.shape(value)}){hint}"
             )
         if not np.isfinite(x).all():
             raise InputError(f"attitude_error_angle: {name} holds a value that is not finite (NaN or inf)")
