@@ -183,6 +183,35 @@ def test_a_damaged_law_folder_is_refused_naming_the_file(folder, damage, named, 
     assert not (tmp_path / "run").exists()
 
 
+def test_a_result_whose_law_folder_was_edited_is_refused_naming_the_file(folder, tmp_path, capsys):
+    """--from re-reads the law where it was flown: an edited folder is the same one-line error, the key path and
+    the file apart (a fresh user saw 'controller./.../law.json: ...')."""
+    run = tmp_path / "run"
+    assert main(["simulate", "--law", str(folder), *SHORT, "--out", str(run)]) == 0
+    _edit_law_json(folder, _default_40)
+    capsys.readouterr()
+    (result,) = run.glob("*.nc")
+    assert main(["simulate", "--from", str(result), "--out", str(tmp_path / "again"), "--no-figures"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and f"controller: {folder / 'law.json'}: " in err, err
+
+
+def test_a_law_edited_within_one_session_is_read_again(folder, tmp_path):
+    """A notebook session that derives a folder again, or edits its script, gets the new law, never the first one
+    read (the cache of resolved laws is keyed by the files' modification times and sizes)."""
+    assert resolve_law(folder).parameter("K").default == (4.0,)
+    _edit_law_json(folder, _default_40)  # not resealed: the verification must run again
+    with pytest.raises(LawError, match="does not match its sha256"):
+        resolve_law(folder)
+    script = tmp_path / "my_law.py"
+    script.write_text(MY_LAW.read_text())
+    assert resolve_law(script).parameter("K").default == (4.0,)
+    text = script.read_text()
+    assert text.count('"K", 4.0') == 1, "the example's K default is written as '\"K\", 4.0'"
+    script.write_text(text.replace('"K", 4.0', '"K", 5.0'))
+    assert resolve_law(script).parameter("K").default == (5.0,)
+
+
 def test_an_edited_cached_derivation_is_derived_again(tmp_path, monkeypatch):
     """A script's law is derived into the cache once; a cached folder edited since is not flown but derived again."""
     monkeypatch.setenv("FSMCTL_CACHE_DIR", str(tmp_path / "cache"))
@@ -208,6 +237,7 @@ def test_a_builtin_law_is_verified_by_the_same_path(tmp_path, monkeypatch):
     try:
         assert list(laws_module.builtin_laws()) == ["fsm", "adaptive_fsm", "pid", "super_twisting"]
         _edit_law_json(root / "laws" / "pid", _swap_parameters)
+        resolve_law.cache_clear()  # package data: read and verified once per session, again after cache_clear
         with pytest.raises(LawError, match=r"pid/law\.json: does not match its sha256"):
             laws_module.builtin_laws()
     finally:

@@ -661,6 +661,13 @@ def builtin_laws() -> dict[str, LawCode]:
     >>> list(builtin_laws())
     ['fsm', 'adaptive_fsm', 'pid', 'super_twisting']
     """
+    return dict(_builtin_laws())
+
+
+@functools.cache
+def _builtin_laws() -> dict[str, LawCode]:
+    """The built-in laws, read and verified once per session (package data; :func:`resolve_law.cache_clear` reads
+    them again)."""
     root = generated_dir() / "laws"
     laws = [_read_law(p) for p in sorted(root.iterdir()) if (p / LAW_FILE).is_file()]
     return {law.name: law for law in sorted(laws, key=lambda law: (law.paper_theorems is None, law.name))}
@@ -784,9 +791,35 @@ def _restore_aside(target: Path) -> None:
         shutil.rmtree(aside, ignore_errors=True)
 
 
-@functools.cache
-def _resolve(text: str, cwd: str) -> LawCode:
-    laws = builtin_laws()
+def _stamp(text: str, cwd: str) -> tuple:
+    """What changes when a law's files change: name, modification time and size of every file of a folder, or of a
+    script (empty for a built-in name or a missing path).  Part of the cache key of :func:`_resolve`, so that a law
+    folder derived again or edited, or a script edited, within one session is read (and verified) again."""
+    if text in _builtin_laws():
+        return ()
+    path = Path(text).expanduser()
+    path = path if path.is_absolute() else Path(cwd) / path
+    try:
+        if not path.is_dir():
+            st = path.stat()
+            return ((str(path), st.st_mtime_ns, st.st_size),)
+        out, folders = [], [str(path)]
+        while folders:
+            with os.scandir(folders.pop()) as entries:
+                for entry in entries:
+                    if entry.is_dir(follow_symlinks=False):
+                        folders.append(entry.path)
+                    else:
+                        st = entry.stat()
+                        out.append((entry.path, st.st_mtime_ns, st.st_size))
+        return tuple(sorted(out))
+    except OSError:
+        return ()
+
+
+@functools.lru_cache(maxsize=256)
+def _resolve(text: str, cwd: str, stamp: tuple) -> LawCode:
+    laws = _builtin_laws()
     if text in laws:
         return laws[text]
     path = Path(text).expanduser()
@@ -839,14 +872,21 @@ def resolve_law(law: str | Path | LawCode | None) -> LawCode:
         return law
     text = "fsm" if law is None else str(law)
     try:
-        return _resolve(text, os.getcwd())
+        cwd = os.getcwd()
+        return _resolve(text, cwd, _stamp(text, cwd))
     except GeneratedCodeError as exc:
         raise LawError(str(exc)) from exc
     except OSError as exc:
         raise LawError(f"law {text!r}: {exc}") from exc
 
 
-resolve_law.cache_clear = _resolve.cache_clear  # type: ignore[attr-defined]
+def _cache_clear() -> None:
+    """Forget every law read (the built-in ones too): the next :func:`resolve_law` reads the files again."""
+    _resolve.cache_clear()
+    _builtin_laws.cache_clear()
+
+
+resolve_law.cache_clear = _cache_clear  # type: ignore[attr-defined]
 
 
 def written_keys(law: LawCode) -> tuple[str, ...]:

@@ -1920,7 +1920,10 @@ def _within(where: str, build, *args, **kwargs):
         return build(*args, **kwargs)
     except (ScenarioError, TopologyError) as exc:
         msg = str(exc)
-        raise ScenarioError(msg if msg.startswith(where) else f"{where}.{msg}") from None
+        if msg.startswith(where):
+            raise ScenarioError(msg) from None
+        # a message about a key ("law: ...") continues the key path; any other (a file's, "/x/law.json: ...") follows it
+        raise ScenarioError(f"{where}.{msg}" if _KEY_FIRST.match(msg) else f"{where}: {msg}") from None
 
 
 def _agent_from_table(d: Mapping, i: int, defaults: Mapping) -> Agent:
