@@ -70,7 +70,7 @@ def add_dask_options(parser: argparse.ArgumentParser | Any, *, what: str) -> Non
     what : str
         What runs on the cluster, e.g. "the campaign's chunks".
     """
-    from fsmctl.studies.montecarlo import DASK_TIMEOUT_S
+    from fsmctl.studies.campaign import DASK_TIMEOUT_S
 
     parser.add_argument(
         "--dask",

@@ -25,7 +25,6 @@ DASK_TIMEOUT_S = 10.0
 _DASK_HANDSHAKE_MAX_BYTES = 1 << 16  # a scheduler's handshake is ~60 bytes
 
 
-
 def _recv_exact(sock: socket.socket, n: int, deadline: float) -> bytes:
     buf = bytearray()
     while len(buf) < n:
