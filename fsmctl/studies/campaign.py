@@ -279,12 +279,25 @@ class Runner:
         self._bar = tqdm(total=total, initial=initial, unit=unit, desc=self.name, disable=not enabled, file=sys.stderr)
         return self._bar
 
-    def share(self, value: Any) -> Any:
-        """``value`` as tasks should receive it: scattered once to every Dask worker, itself elsewhere."""
+    def share(self, value: Any, *, broadcast: bool = True) -> Any:
+        """``value`` as tasks should receive it: scattered once to the Dask cluster, itself elsewhere.
+
+        Parameters
+        ----------
+        value : object
+            What many tasks receive (a study's context); sent once instead of once per task.
+        broadcast : bool, optional
+            Copy it to every Dask worker now (else a worker fetches it when a task needs it).
+
+        Returns
+        -------
+        object
+            A Dask future of it, or ``value`` itself (not on Dask, or None).
+        """
         self.start()
         if self.client is None or value is None:
             return value
-        return self.client.scatter(value, broadcast=True, hash=False)
+        return self.client.scatter([value], broadcast=broadcast, hash=False)[0]  # one object, even a sequence
 
     # ------------------------------------------------------------------ running
 

@@ -123,6 +123,8 @@ def tune(
     >>> sorted(p.name for p in result.paths)
     ['best.toml', 'pareto.csv', 'pareto.png', 'trials.csv', 'tune.json']
     """
+    import optuna  # noqa: F401  (loaded first: study.log follows the folder at once, as a reader polling it expects)
+
     from fsmctl.outputs import output_folder
     from fsmctl.studies.parallel import CampaignInterrupted, check_workers
 
@@ -311,7 +313,7 @@ class _Batches:
                 with runner.deferred(), journal.buffered():  # a batch is proposed whole (or resumed as proposed)
                     sampler = self._propose(study, indices, pending, sampler)
                 snapshot = pruner_snapshot(study.get_trials(deepcopy=False), start) if s.pruner != "none" else None
-                snapshot = runner.share(snapshot)
+                snapshot = runner.share(snapshot, broadcast=False) if snapshot else snapshot
                 tasks = [Task(j, evaluate_candidate, (ctx, pending[j][1], snapshot), lost=worker_died) for j in indices]
                 results = runner.run(tasks)
                 with runner.deferred(), journal.buffered():  # told whole, in trial order
