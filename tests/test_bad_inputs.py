@@ -546,8 +546,8 @@ def test_renamed_jobs_keyword_still_works_with_a_warning_and_workers_is_checked(
     with pytest.warns(FutureWarning, match=r"run_claims\(jobs=\.\.\.\) is deprecated: use workers="):
         old = run_claims(["lemma2-sqrt-sum"], ctx, jobs=1)
     assert [r.verdict for r in old] == [r.verdict for r in run_claims(["lemma2-sqrt-sum"], ctx, workers=1)]
-    with pytest.warns(FutureWarning, match="compare_surfaces"), pytest.raises(InputError, match="workers must be"):
-        compare_surfaces(fsmctl.paper_scenario("1"), jobs=0)  # the old name's value is the one checked
+    with pytest.raises(InputError, match="workers must be"):
+        compare_surfaces(fsmctl.paper_scenario("1"), workers=0)  # jobs= is gone (issue 26: no shims)
     with pytest.raises(InputError, match="workers must be a whole number >= 1"):
         reproduce("paper", tmp_path / "r", workers=0)
     assert not (tmp_path / "r").exists()

@@ -188,7 +188,7 @@ def test_former_spellings_are_hidden_faithful_aliases(parser):
         for a in sp._actions
         if isinstance(a, DeprecatedAlias) and a.option_strings == ["--jobs"]
     }
-    assert aliases == {"prove", "reproduce", "compare-surfaces"}
+    assert aliases == {"prove", "reproduce"}  # compare-surfaces: --workers only (no shim of its own)
 
 
 def test_a_former_spelling_works_with_one_notice(parser, capsys):

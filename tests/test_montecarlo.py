@@ -19,6 +19,8 @@ from scipy import stats
 import fsmctl
 from fsmctl.errors import InputError
 from fsmctl.studies import montecarlo as mc
+from fsmctl.studies.montecarlo import runs as mc_runs
+from fsmctl.studies.montecarlo import sampling as mc_sampling
 
 SHORT = {"t_final": 0.3, "chunk_size": 2, "output_interval": 0.05}
 
@@ -97,7 +99,7 @@ def test_inertia_perturbation_spd_realizable_and_bounded():
 
 def test_run_scenario_respects_bounds():
     s = mc.CampaignSettings(rate_bound=0.2, disturbance_scale=0.5, link_dropout=0.5)
-    base = mc._base_scenario(s)
+    base = mc.campaign_base(s)[1]
     sc = mc.sample_run_scenario(base, s, np.random.SeedSequence(5))
     assert sc.n_agents == base.n_agents
     for a, b in zip(sc.agents, base.agents, strict=True):
@@ -111,7 +113,7 @@ def test_run_scenario_respects_bounds():
 
 def test_run_scenario_attitude_bound():
     s = mc.CampaignSettings(attitude_bound_deg=10.0)
-    base = mc._base_scenario(s)
+    base = mc.campaign_base(s)[1]
     for k in range(5):
         sc = mc.sample_run_scenario(base, s, np.random.SeedSequence(k))
         angles = 4 * np.degrees(np.arctan(np.linalg.norm([a.sigma0 for a in sc.agents], axis=1)))
@@ -374,11 +376,11 @@ def test_vary_noise_keeps_everything_but_the_seed(hardware_base):
 
 def test_default_settings_change_nothing_but_the_seed_of_a_scenario_without_hardware():
     s = mc.CampaignSettings(rate_bound=0.2)
-    base = mc._base_scenario(s)
+    base = mc.campaign_base(s)[1]
     q = np.random.SeedSequence(5)
     run = mc.sample_run_scenario(base, s, q)
     assert (run.actuator, run.sensors, run.links) == (base.actuator, base.sensors, base.links)
-    assert mc._sample_hardware(base, s, run.topology, q) == {}
+    assert mc_sampling._sample_hardware(base, s, run.topology, q) == {}
     assert mc.random_processes(run) == []
     assert run.simulation == replace(base.simulation, seed=mc.run_noise_seed(q))
 
@@ -407,7 +409,7 @@ def test_hardware_ranges_are_applied(hardware_base):
         assert run.sensors.gyro.angle_random_walk == pytest.approx(factor * gyro.angle_random_walk, rel=1e-12)
         assert run.sensors.gyro.rate_random_walk == pytest.approx(factor * gyro.rate_random_walk, rel=1e-12)
         assert run.sensors.gyro.bias == gyro.bias and run.actuator == base.actuator
-        rec = mc._hardware_record(run, factor)
+        rec = mc_runs._hardware_record(run, factor)
         assert rec["link_delay_max_s"] == pytest.approx(delay[on].max()) and rec["sensor_noise_scale"] == factor
         scales.append(factor)
         delays.append(delay[on].tolist())
@@ -462,7 +464,7 @@ def test_hardware_ranges_need_the_scenario_section(kw, message):
     with pytest.raises(InputError, match=re.escape(message)):
         mc.campaign_base(_settings(**kw))
     with pytest.raises(InputError, match=re.escape(message)):  # also when the base is given (fsmctl montecarlo --law)
-        base = mc._base_scenario(_settings(control_period=kw.get("control_period")))
+        base = mc.campaign_base(_settings(control_period=kw.get("control_period")))[1]
         mc.sample_run_scenario(base, _settings(**kw), np.random.SeedSequence(0))
     # with a control period the link ranges are fine on the paper's scenario
     mc.campaign_base(_settings(control_period=0.05, link_delay=(0.0, 0.1), loss_probability=(0.0, 0.1)))
@@ -471,7 +473,7 @@ def test_hardware_ranges_need_the_scenario_section(kw, message):
 def quick_record(base, settings, index, seed):
     """A record without simulating (status ok): for the campaign bookkeeping."""
     mc.sample_run_scenario(base, settings, seed)
-    return mc._nan_record(base.n_agents)
+    return mc_runs.nan_record(base.n_agents)
 
 
 def test_campaign_json_and_dataset_record_the_hardware_settings(tmp_path):

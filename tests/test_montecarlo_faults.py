@@ -464,7 +464,7 @@ def test_damaged_campaign_json_without_chunks_starts_afresh(tmp_path, finished_c
 
 
 def test_scenario_without_cases_runs_and_settings_are_printed_and_stored(tmp_path):
-    text = (Path(mc.__file__).parents[1] / "scenarios" / "paper.toml").read_text()
+    text = (Path(mc.__file__).parents[2] / "scenarios" / "paper.toml").read_text()
     no_cases = tmp_path / "single.toml"
     no_cases.write_text(text[: text.index("[cases.")])
     out = tmp_path / "out"

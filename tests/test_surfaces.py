@@ -231,7 +231,6 @@ def test_cli_fast_writes_tables_and_figures(tmp_path, capsys):
         (["--t-final", "0"], "t_final must be > 0"),
         (["--scenario", "/nonexistent.toml"], "cannot read scenario file"),
         (["--case", "9"], "no case '9'"),
-        (["--jobs", "0"], "jobs must be >= 1"),
     ],
 )
 def test_cli_bad_input_exit_2(tmp_path, capsys, argv, message):

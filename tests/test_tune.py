@@ -27,8 +27,11 @@ from fsmctl.model.laws import resolve_law
 from fsmctl.model.scenario import load_scenario
 from fsmctl.simulation.metrics import aaem_deg, principal_angles, settling_time, steady_state_max
 from fsmctl.simulation.simulator import simulate
+from fsmctl.studies import campaign
 from fsmctl.studies.compare import run_metrics
 from fsmctl.studies.tune import TuneSettings, search_space, tune
+from fsmctl.studies.tune import evaluation as tune_eval
+from fsmctl.studies.tune import storage as tune_storage
 
 PID_RANGES = (("K", 5.0, 200.0), ("P", 10.0, 400.0))
 
@@ -121,7 +124,7 @@ def test_resumed_study_equals_one_run(unlimited, tmp_path):
 def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypatch):
     settings = _pid(unlimited, budget=5, t_final=10.0)
     tune(settings, tmp_path / "once")
-    real, calls = tune_module._fly, []
+    real, calls = tune_eval._fly, []
 
     def interrupted(scenarios, judge):
         calls.append(1)
@@ -129,13 +132,13 @@ def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypat
             raise KeyboardInterrupt
         return real(scenarios, judge)
 
-    monkeypatch.setattr(tune_module, "_fly", interrupted)
+    monkeypatch.setattr(tune_eval, "_fly", interrupted)
     with pytest.raises(KeyboardInterrupt):
         tune(settings, tmp_path / "cut")
     assert not (tmp_path / "cut" / "trials.csv").exists()
     # the batch was proposed before it was flown: its five trials wait in the journal with their parameters
     assert [t.state for t in _journal(tmp_path / "cut").trials] == [TrialState.RUNNING] * 5
-    monkeypatch.setattr(tune_module, "_fly", real)
+    monkeypatch.setattr(tune_eval, "_fly", real)
     tune(settings, tmp_path / "cut", resume=True)
     assert _rows(tmp_path / "cut" / "trials.csv") == _rows(tmp_path / "once" / "trials.csv")
     assert len(_journal(tmp_path / "cut").trials) == 5  # resumed as proposed, not proposed again
@@ -144,20 +147,20 @@ def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypat
 def test_interrupted_workers_resume_as_one_uninterrupted_run(unlimited, tmp_path, monkeypatch):
     settings = _pruned_pid(unlimited, budget=12)
     tune(settings, tmp_path / "once")
-    real, calls = tune_module._Evaluator.run, []
+    real, calls = campaign.Runner.run, []
 
-    def interrupted(self, tasks, snapshot, done):
+    def interrupted(self, tasks, **kwargs):
         calls.append(1)
         if len(calls) == 2:  # the second batch: proposed, not flown
             raise KeyboardInterrupt
-        return real(self, tasks, snapshot, done)
+        return real(self, tasks, **kwargs)
 
-    monkeypatch.setattr(tune_module._Evaluator, "run", interrupted)
+    monkeypatch.setattr(campaign.Runner, "run", interrupted)
     with pytest.raises(KeyboardInterrupt):
         tune(settings, tmp_path / "cut", workers=2)
     states = [t.state for t in _journal(tmp_path / "cut").trials]
     assert states.count(TrialState.RUNNING) == 4 and len(states) == 8
-    monkeypatch.setattr(tune_module._Evaluator, "run", real)
+    monkeypatch.setattr(campaign.Runner, "run", real)
     tune(settings, tmp_path / "cut", resume=True, workers=2)
     assert (tmp_path / "cut" / "trials.csv").read_text() == (tmp_path / "once" / "trials.csv").read_text()
 
@@ -200,14 +203,14 @@ def test_ctrl_c_exits_130_and_resume_matches(unlimited, tmp_path):
 
 def test_pruning_stops_hopeless_candidates_by_the_median_rule(unlimited, tmp_path, monkeypatch):
     settings = _pruned_pid(unlimited)
-    real, flights = tune_module._fly, []
+    real, flights = tune_eval._fly, []
 
     def watched(scenarios, judge):
         results = real(scenarios, judge)
         flights.append((judge.pruned_at, [r.stopped_at for r in results]))
         return results
 
-    monkeypatch.setattr(tune_module, "_fly", watched)
+    monkeypatch.setattr(tune_eval, "_fly", watched)
     result = tune(settings, tmp_path)
     # a pruned candidate's run was stopped by the simulator's monitor where the pruner decided, the others ran out
     assert len(flights) == 16 and all(stopped == [pruned_at] for pruned_at, stopped in flights)
@@ -244,7 +247,7 @@ def test_pruning_stops_hopeless_candidates_by_the_median_rule(unlimited, tmp_pat
     assert all(r["pruned_at [s]"] for r in rows if r["state"] == "pruned")
     # an intermediate value, computed independently: settling within [0, t_k], else T (2 + decades above the tolerance)
     t = next(u for u in trials if u.state == TrialState.COMPLETE and u.user_attrs["index"] == 1)
-    scenario = tune_module._trial_scenario(
+    scenario = tune_eval.trial_scenario(
         load_scenario(unlimited).replace(simulation={"t_final": 40.0}), "pid", search_space(settings), t.params
     )
     run = simulate(scenario, progress=False)
@@ -270,7 +273,7 @@ def test_frozen_snapshot_judges_as_a_study_holding_those_trials(name):
             values = {k: v for k, v in values.items() if k <= 3}
         told.append((n, state, values))
     candidate = [1.6 * (1 + 2 / k) for k in range(1, 10)]  # a level above the median
-    pruner = tune_module._make_pruner
+    pruner = tune_eval._make_pruner
     # reference: a real study through which the told trials ran one after the other, then the candidate
     study = optuna.create_study(pruner=pruner(name))
     attrs = {}
@@ -290,7 +293,7 @@ def test_frozen_snapshot_judges_as_a_study_holding_those_trials(name):
         trial.report(v, k)
         expected.append(trial.should_prune())
     snapshot = tuple((n, s.name, values, attrs[n]) for n, s, values in told)
-    view_pruner, frozen = pruner(name), tune_module._frozen_trials(snapshot)
+    view_pruner, frozen = pruner(name), tune_eval._frozen_trials(snapshot)
     got, own_attrs, reported = [], {}, {}
     for k, v in enumerate(candidate, 1):
         reported[k] = v
@@ -299,7 +302,7 @@ def test_frozen_snapshot_judges_as_a_study_holding_those_trials(name):
             distributions={}, user_attrs={}, system_attrs=dict(own_attrs), intermediate_values=dict(reported),
             trial_id=-1,
         )  # fmt: skip
-        got.append(view_pruner.prune(tune_module._FrozenStudy(frozen, probe), probe))
+        got.append(view_pruner.prune(tune_eval._FrozenStudy(frozen, probe), probe))
         own_attrs = dict(probe.system_attrs)
     assert got == expected and True in expected and False in expected
 
@@ -520,7 +523,7 @@ def test_the_journal_gains_a_batch_in_one_write(tmp_path):
     from optuna.storages import JournalStorage
 
     path = tmp_path / "study.log"
-    journal = tune_module._BufferedJournal(str(path))
+    journal = tune_storage.BufferedJournal(str(path))
     study = optuna.create_study(storage=JournalStorage(journal), study_name="s")
     size = path.stat().st_size
     with journal.buffered():

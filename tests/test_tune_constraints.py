@@ -20,6 +20,7 @@ from fsmctl.proofs.theorem2 import _reference_signals, delta_margin, reference_d
 from fsmctl.simulation.simulator import simulate
 from fsmctl.studies import tune as tn
 from fsmctl.studies.tune import TuneSettings, tune
+from fsmctl.studies.tune import evaluation as tune_eval
 
 
 def _independent_requirement(scenario, dt: float = 0.05) -> np.ndarray:
@@ -157,7 +158,7 @@ def test_torque_constraint_of_a_run_still_saturated_at_the_end(tmp_path):
     assert result.constraints == ("converged", "torque")
     base = load_scenario("paper", "1").replace(simulation={"t_final": 5.0})
     for t in result.trials:
-        run = simulate(tn._trial_scenario(base, "pid", tn.search_space(settings), t["params"]), progress=False)
+        run = simulate(tune_eval.trial_scenario(base, "pid", tn.search_space(settings), t["params"]), progress=False)
         last = run.time >= 5.0 - 2.0 - 1e-12  # unsettled: the steady window, the last 40 % of 5 s
         expected = np.abs(run.u_unsaturated[last]).max() - 2.0
         assert t["constraints"]["torque"] == pytest.approx(expected, rel=1e-12) and expected > 0
@@ -197,7 +198,9 @@ def test_wheel_momentum_must_stay_inside_the_capacity(wheels, tmp_path):
         result = tune(settings, tmp_path / name)
         base = load_scenario(path).replace(simulation={"t_final": 1.0})
         for t in result.trials:
-            run = simulate(tn._trial_scenario(base, "pid", tn.search_space(settings), t["params"]), progress=False)
+            run = simulate(
+                tune_eval.trial_scenario(base, "pid", tn.search_space(settings), t["params"]), progress=False
+            )
             speed = 30.0 if name == "small" else 3000.0
             expected = np.abs(run.wheel_speed).max() / speed - tn.WHEEL_CAPACITY_FRACTION
             assert t["constraints"]["wheels"] == pytest.approx(expected, rel=1e-12)

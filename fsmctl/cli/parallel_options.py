@@ -5,7 +5,7 @@ parallel (``prove``, ``reproduce``, ``compare-surfaces``, ``compare``, ``monteca
 ``--jobs`` of ``prove``, ``reproduce`` and ``compare-surfaces`` still works (:class:`fsmctl.cli.options.DeprecatedAlias`).
 ``--dask ADDRESS`` flies the runs on an existing Dask distributed scheduler instead (``montecarlo``, ``tune``),
 and ``--dask-timeout S`` bounds how long the scheduler gets to accept the connection and answer
-(:data:`fsmctl.studies.montecarlo.DASK_TIMEOUT_S` by default); an address that is not a Dask scheduler is one
+(:data:`fsmctl.studies.campaign.DASK_TIMEOUT_S` by default); an address that is not a Dask scheduler is one
 line on stderr, exit 2.
 """
 
@@ -70,7 +70,7 @@ def add_dask_options(parser: argparse.ArgumentParser | Any, *, what: str) -> Non
     what : str
         What runs on the cluster, e.g. "the campaign's chunks".
     """
-    from fsmctl.studies.montecarlo import DASK_TIMEOUT_S
+    from fsmctl.studies.campaign import DASK_TIMEOUT_S
 
     parser.add_argument(
         "--dask",

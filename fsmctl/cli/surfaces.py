@@ -60,7 +60,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="Theorem 3 target: every MRP component sigma_e,k within [-TAU, TAU] (default: 0.001)")  # fmt: skip
     p.add_argument("--metric-tolerance", type=float, default=0.03, metavar="DEG",
                    help="AAEM/RAEM settling tolerance in deg (default: 0.03)")  # fmt: skip
-    add_workers_option(p, default=2, what="worker processes flying the simulations", former_jobs=True)
+    add_workers_option(p, default=2, what="worker threads flying the variants")
     add_figures_option(p)
     p.set_defaults(func=run)
     return p

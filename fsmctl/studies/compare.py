@@ -41,12 +41,10 @@ from __future__ import annotations
 import csv
 import dataclasses
 import math
-import sys
 import time
 import tomllib
 import warnings
 from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -56,6 +54,7 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.laws import LawSwitchWarning, resolve_law, written_keys
 from fsmctl.model.scenario import Scenario
+from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.parallel import check_workers
 
 if TYPE_CHECKING:
@@ -874,7 +873,8 @@ def compare_laws(
     steady_window_s : float, optional
         Final window of the steady-state statistics (default: the last 40 % of the horizon, at most 40 s).
     workers : int
-        Runs simulated at the same time, in threads (the compiled loop releases the GIL); 1 runs them in turn.
+        Runs simulated at the same time, in threads of the campaign runner (:class:`fsmctl.studies.campaign.Runner`;
+        the compiled loop releases the GIL); 1 runs them in turn.
     progress : bool
         Show a progress bar over the runs.
     on_result : callable, optional
@@ -903,8 +903,6 @@ def compare_laws(
     >>> c.row("FSM (limit 2 N m)")["peak_torque_N_m"] <= 2.0 < c.row("FSM (no limit)")["peak_torque_N_m"]
     True
     """
-    from tqdm import tqdm
-
     from fsmctl.simulation.simulator import SimulationError, simulate
 
     tolerances = tuple(tolerances_deg)
@@ -943,22 +941,10 @@ def compare_laws(
         extra = on_result(run, result) if on_result is not None else None
         return {**row, "status": "ok", **metrics}, _series(result), extra
 
-    jobs = list(zip(runs, scenarios, strict=True))
-    bar = tqdm(total=len(jobs), desc="compare", disable=not progress, file=sys.stderr)
-    try:
-        if workers == 1 or len(jobs) == 1:
-            outcomes = []
-            for job in jobs:
-                outcomes.append(one(job))
-                bar.update()
-        else:
-            with ThreadPoolExecutor(max_workers=min(workers, len(jobs))) as pool:
-                outcomes = []
-                for out in pool.map(one, jobs):
-                    outcomes.append(out)
-                    bar.update()
-    finally:
-        bar.close()
+    tasks = [Task(run.label, one, ((run, scn),)) for run, scn in zip(runs, scenarios, strict=True)]
+    with Runner(workers=workers, threads=True, name="compare", interrupts=False) as runner:
+        runner.progress(len(tasks), unit="run", enabled=progress)
+        outcomes = runner.run(tasks)
     table, series, extras = [], {}, {}
     for run, (row, ser, extra) in zip(runs, outcomes, strict=True):
         table.append(row)

@@ -37,7 +37,6 @@ import math
 import sys
 import time
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -569,7 +568,6 @@ def compare_surfaces(
     workers: int = 2,
     scalar_check: bool = True,
     progress: bool | None = None,
-    jobs: int | None = None,
 ) -> SurfaceComparison:
     """Run the scenario with each sliding surface under each variant and measure Theorem 3's quantities.
 
@@ -590,13 +588,12 @@ def compare_surfaces(
     metric_tolerance_deg : float
         Tolerance of the AAEM/RAEM settling times (eqs 42-43).
     workers : int
-        Simulations run concurrently in threads (the compiled loop releases the GIL).
+        Variants simulated at the same time, in threads of the campaign runner
+        (:class:`fsmctl.studies.campaign.Runner`; the compiled loop releases the GIL).
     scalar_check : bool
         Also run the scalar Theorem 3 grid (:func:`fsmctl.studies.theorem3.scalar_settling_study`).
     progress : bool, optional
         tqdm progress bar (default: on a terminal).
-    jobs : int, optional
-        Former name of ``workers`` (deprecated: a ``FutureWarning``).
 
     Returns
     -------
@@ -623,10 +620,9 @@ def compare_surfaces(
     >>> all(r["control_effort_N_m_s"] > 0 for r in c.runs), len(c.agents)
     (True, 18)
     """
-    from tqdm import tqdm
-
-    from fsmctl.errors import InputError, renamed_keyword
+    from fsmctl.errors import InputError
     from fsmctl.simulation.simulator import SimulationError
+    from fsmctl.studies.campaign import Runner, Task
     from fsmctl.studies.compare import LawRun, compare_laws, default_steady_window
     from fsmctl.studies.parallel import check_workers
 
@@ -640,7 +636,6 @@ def compare_surfaces(
             f"sigma_tolerance = {sigma_tolerance:g} must exceed the Remark 6 band epsilon = {band:g} "
             "(inside the band the surface is linear and Theorem 3 does not apply)"
         )
-    workers = renamed_keyword("compare_surfaces", "jobs", "workers", jobs, workers)
     check_workers(workers, "compare_surfaces")
     sim = {}
     if fast:
@@ -671,10 +666,9 @@ def compare_surfaces(
             on_result=lambda run, result: _agent_rows(result, run.label, v, opts),
         )
 
-    with ThreadPoolExecutor(max_workers=workers) as pool:
-        comparisons = list(
-            tqdm(pool.map(one, variants), total=len(variants), desc="compare-surfaces", disable=not progress)
-        )
+    with Runner(workers=workers, threads=True, name="compare-surfaces", interrupts=False) as runner:
+        runner.progress(len(variants), unit="variant", enabled=progress)
+        comparisons = runner.run([Task(v.name, one, (v,)) for v in variants])
     runs, agents, series = [], [], {}
     for v, comp in zip(variants, comparisons, strict=True):
         if comp.failures:

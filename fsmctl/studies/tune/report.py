@@ -1,0 +1,364 @@
+"""A finished study's result and files: ``trials.csv``, ``pareto.csv``, ``pareto.png``, ``best.toml``, ``tune.json``."""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Mapping, Sequence
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fsmctl.model.scenario import Scenario
+from fsmctl.model.toml_writer import toml_table, toml_value
+from fsmctl.studies.tune.evaluation import coupling_scales
+from fsmctl.studies.tune.settings import CONSTRAINTS, OBJECTIVES, SearchParameter, TuneSettings
+
+# ----------------------------------------------------------------------------- result
+
+
+@dataclass
+class TuneResult:
+    """A finished (or resumed and finished) search: every trial, the feasible Pareto front and the chosen design.
+
+    Parameters
+    ----------
+    settings : TuneSettings
+        The settings that ran.
+    space : list of SearchParameter
+        The searched parameters (:func:`search_space`).
+    constraints : tuple of str
+        The constraints that were applied.
+    trials : list of dict
+        One dict per trial in order (``index``, ``state`` "complete" | "pruned" | "failed", ``feasible``,
+        ``params`` by name, ``objectives`` by name, ``constraints`` by name, ``pruned_at`` (s or None), ``error``).
+    pareto : list of int
+        Indices of the feasible non-dominated trials.
+    best : int or None
+        Index of the feasible trial with the smallest first objective (None: no feasible trial).
+    theorem1 : bool or None
+        Whether Theorem 1 holds for the scenario's own weights (None: not a condition of the law).
+    notes : list of str, optional
+        What the user must know (one line each).
+    paths : list of pathlib.Path, optional
+        The files written.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import TuneSettings
+    >>> from fsmctl.studies.tune import tune
+    >>> result = tune(TuneSettings(budget=2, batch=2, t_final=1.0, objectives=("peak_torque",), parameters=("c1",),
+    ...                            ranges={"c1": (0.1, 2.0)}, constraints=("converged",)), "tuned", progress=False)
+    >>> [t["state"] for t in result.trials], result.best  # 1 s is too short to converge: nothing feasible
+    (['complete', 'complete'], None)
+    >>> print(result.to_text().splitlines()[-1])
+    no feasible design found (widen the ranges, raise the budget or the horizon)
+    """
+
+    settings: TuneSettings
+    space: list[SearchParameter]
+    constraints: tuple[str, ...]
+    trials: list[dict]
+    pareto: list[int]
+    best: int | None
+    theorem1: bool | None
+    notes: list[str] = field(default_factory=list)
+    paths: list[Path] = field(default_factory=list)
+
+    def to_text(self) -> str:
+        """The summary ``fsmctl tune`` prints: counts, constraints, the best design (or why there is none), the notes.
+
+        Returns
+        -------
+        str
+            Lines of text.
+        """
+        s = self.settings
+        n_feasible = sum(t["feasible"] for t in self.trials)
+        n_pruned = sum(t["state"] == "pruned" for t in self.trials)
+        n_failed = sum(t["state"] == "failed" for t in self.trials)
+        lines = [
+            f"tune: law {s.law} on {s.scenario}" + (f" case {s.case}" if s.case else "") + f", {len(self.trials)} "
+            f"trials ({n_pruned} pruned, {n_failed} failed), {n_feasible} feasible, {len(self.pareto)} on the "
+            "Pareto front"
+        ]
+        lines.append("constraints: " + ", ".join(self.constraints))
+        if self.best is None:
+            lines.append("no feasible design found (widen the ranges, raise the budget or the horizon)")
+        else:
+            t = self.trials[self.best]
+            params = ", ".join(f"{p.name}={t['params'][p.name]:.6g} {p.unit}" for p in self.space)
+            objs = ", ".join(f"{k}={v:.6g} {OBJECTIVES[k][0]}" for k, v in t["objectives"].items())
+            lines.append(f"best: trial {self.best}: {params}; {objs}")
+        return "\n".join(lines + [f"note: {n}" for n in self.notes])
+
+
+def pareto_front(trials: Sequence[dict], objectives: Sequence[str]) -> list[int]:
+    pts = [(t["index"], [t["objectives"][k] for k in objectives]) for t in trials if t["feasible"]]
+    front = []
+    for i, a in pts:
+        dominated = any(
+            all(x <= y for x, y in zip(b, a, strict=True)) and any(x < y for x, y in zip(b, a, strict=True))
+            for _, b in pts
+        )
+        if not dominated:
+            front.append(i)
+    return front
+
+
+# ----------------------------------------------------------------------------- outputs
+
+
+def _columns(result: TuneResult) -> list[str]:
+    cols = ["trial", "state", "feasible"]
+    cols += [p.column for p in result.space]
+    cols += [f"{k} [{OBJECTIVES[k][0]}]" for k in result.settings.objectives]
+    cols += [f"constraint_{c} [{CONSTRAINTS[c][0]}]" for c in result.constraints]
+    return [*cols, "pruned_at [s]", "error"]
+
+
+def _row(result: TuneResult, t: dict) -> list:
+    row: list[Any] = [t["index"], t["state"], int(t["feasible"])]
+    row += [t["params"].get(p.name, "") for p in result.space]
+    row += [t["objectives"].get(k, "") for k in result.settings.objectives]
+    row += [t["constraints"].get(c, "") for c in result.constraints]
+    return [*row, "" if t["pruned_at"] is None else t["pruned_at"], t["error"]]
+
+
+def _write_csv(path: Path, result: TuneResult, indices: Sequence[int]) -> None:
+    from fsmctl.outputs import atomic_path
+
+    with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f)
+        w.writerow(_columns(result))
+        for i in indices:
+            w.writerow(_row(result, result.trials[i]))
+
+
+def _figure(result: TuneResult):
+    from matplotlib.figure import Figure
+
+    objs = result.settings.objectives
+    fig = Figure(figsize=(6.4, 4.8), layout="constrained")
+    ax = fig.add_subplot()
+
+    def xy(t: dict) -> tuple[float, float]:
+        if len(objs) == 1:
+            return float(t["index"]), t["objectives"][objs[0]]
+        return t["objectives"][objs[0]], t["objectives"][objs[1]]
+
+    done = [t for t in result.trials if t["state"] == "complete"]
+    for feasible, style in (
+        (False, dict(marker="x", color="0.6", label="infeasible")),
+        (True, dict(marker="o", color="C0", label="feasible")),
+    ):
+        pts = [xy(t) for t in done if t["feasible"] == feasible]
+        if pts:
+            ax.scatter(*zip(*pts, strict=True), s=18, **style)
+    front = sorted(xy(result.trials[i]) for i in result.pareto)
+    if front:
+        ax.plot(
+            *zip(*front, strict=True), color="C3", marker="o", drawstyle="steps-post", label="Pareto front (feasible)"
+        )
+    if result.best is not None:
+        ax.scatter(*xy(result.trials[result.best]), s=120, facecolor="none", edgecolor="k", label="chosen design")
+    if len(objs) == 1:
+        ax.set_xlabel("trial")
+        ax.set_ylabel(f"{objs[0]} [{OBJECTIVES[objs[0]][0]}]")
+    else:
+        ax.set_xlabel(f"{objs[0]} [{OBJECTIVES[objs[0]][0]}]")
+        ax.set_ylabel(f"{objs[1]} [{OBJECTIVES[objs[1]][0]}]")
+    s = result.settings
+    n_pruned = sum(t["state"] == "pruned" for t in result.trials)
+    ax.set_title(
+        f"fsmctl tune: {s.law} on {Path(s.scenario).name}"
+        + (f" case {s.case}" if s.case else "")
+        + (f" ({n_pruned} pruned trials not shown)" if n_pruned else ""),
+        fontsize=10,
+    )
+    if ax.has_data():
+        ax.legend(fontsize=8)
+    return fig
+
+
+def _merge(base: dict, over: Mapping) -> dict:
+    out = dict(base)
+    for k, v in over.items():
+        out[k] = _merge(out[k], v) if isinstance(v, Mapping) and isinstance(out.get(k), Mapping) else v
+    return out
+
+
+def _scaled_schedule(value: Any, factor: float) -> Any:
+    if isinstance(value, Mapping):
+        return {**value, "values": [factor * float(x) for x in value["values"]]}
+    return factor * float(value)
+
+
+def _topology_overlay(base: Scenario, scales: Mapping[str, float]) -> dict:
+    """The ``[topology]`` keys of the base scenario's table (its case's overrides applied) with the weights scaled as
+    :func:`scaled_topology` scales them."""
+    src = base.source
+    table = dict(src.get("topology", {}))
+    case = (src.get("cases") or {}).get(base.case) if base.case is not None else None
+    if isinstance(case, Mapping) and isinstance(case.get("topology"), Mapping):
+        table = _merge(table, case["topology"])
+    si, sj = scales.get("k_i_scale"), scales.get("k_j_scale")
+    out: dict[str, Any] = {}
+    if si is not None:
+        out["k_i"] = float(table.get("k_i", 0.0)) * si
+    if sj is not None:
+        key = "k_j" if "k_j" in table else "schedule"
+        out[key] = _scaled_schedule(table.get(key, 0.0), sj)
+    if "links" in table:
+        links = []
+        for item in table["links"]:
+            item = dict(item)
+            if si is not None and "k_i" in item:
+                item["k_i"] = float(item["k_i"]) * si
+            if sj is not None and "k_j" in item:
+                item["k_j"] = _scaled_schedule(item["k_j"], sj)
+            links.append(item)
+        out["links"] = links
+    return out
+
+
+def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence[str] = ()) -> str:
+    """``best.toml``: the base scenario (``extends``) with the chosen design, for ``fsmctl simulate --scenario``.
+
+    The design (``[controller]`` keys: the law, its tuned parameters; ``[topology]`` weights when the coupling
+    factors were searched; the horizon when ``t_final`` was set) goes where loading the file applies it last: the
+    table of the scenario's first case when it has cases (loading a file without ``--case`` selects its first case),
+    with the tuned case's own overrides copied there when the tuned case is another one; else the top-level tables.
+
+    Parameters
+    ----------
+    result : TuneResult
+        A search with a feasible trial (``result.best``).
+    base : Scenario
+        The tuned scenario (its source tables and cases).
+    comments : sequence of str, optional
+        More ``#`` comment lines for the header (:func:`tune` adds the versions and the command line).
+
+    Returns
+    -------
+    str
+        The TOML text.
+
+    Examples
+    --------
+    :func:`tune` writes it as ``best.toml``; loading that file flies the chosen design:
+
+    >>> import fsmctl
+    >>> from fsmctl.studies import TuneSettings
+    >>> from fsmctl.studies.tune import best_scenario_text, tune
+    >>> result = tune(TuneSettings(budget=2, batch=2, t_final=1.0, objectives=("peak_torque",), parameters=("c1",),
+    ...                            ranges={"c1": (0.1, 2.0)}, constraints=("theorem1",)), "tuned", progress=False)
+    >>> text = best_scenario_text(result, fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0}))
+    >>> text.splitlines()[3]
+    'extends = "paper"'
+    >>> best = fsmctl.load_scenario("tuned/best.toml")
+    >>> best.controller.parameters["c1"] == result.trials[result.best]["params"]["c1"], best.simulation.t_final
+    (True, 1.0)
+    """
+    from fsmctl.model.scenario import BUILTIN_SCENARIOS
+
+    s = result.settings
+    t = result.trials[result.best]
+    law = s.law
+    law_path = Path(law).expanduser()
+    if law.endswith(".py") or len(law_path.parts) > 1 or law_path.is_dir():
+        law = str(law_path.resolve())
+    controller: dict[str, Any] = {"law": law}
+    for p in result.space:
+        if not p.coupling:
+            controller[p.name] = p.scenario_value(t["params"][p.name])
+    overlay: dict[str, Any] = {"controller": controller}
+    scales = coupling_scales(result.space, t["params"])
+    if scales:
+        overlay["topology"] = _topology_overlay(base, scales)
+    if s.t_final is not None:
+        overlay["simulation"] = {
+            "t_final": base.simulation.t_final,
+            "output_interval": base.simulation.output_interval,
+        }
+    extends = s.scenario if s.scenario in BUILTIN_SCENARIOS else str(Path(s.scenario).expanduser().resolve())
+    cases = base.source.get("cases") or {}
+    summary = ", ".join(f"{p.name} = {t['params'][p.name]:.6g} {p.unit}" for p in result.space)
+    lines = [
+        f"# written by fsmctl tune: trial {t['index']} of {len(result.trials)}, law {s.law}, seed {s.seed}",
+        f"# {summary}",
+        *comments,
+        "# run it: fsmctl simulate --scenario best.toml",
+        f"extends = {toml_value(extends)}",
+        f"name = {toml_value(f'{base.name}-tuned')}",
+    ]
+    if cases and base.case is not None:
+        first = next(iter(cases))
+        own = {k: v for k, v in dict(cases[base.case]).items() if k != "description"} if base.case != first else {}
+        table = _merge(own, overlay)
+        table = {"description": f"case {base.case} of {base.name}, tuned by fsmctl tune ({summary})", **table}
+        toml_table(["cases", first], table, lines)
+    else:
+        lines.insert(4, f"description = {toml_value(f'{base.name}, tuned by fsmctl tune ({summary})')}")
+        toml_table([], overlay, lines)
+    return "\n".join(lines) + "\n"
+
+
+def _same_design(a: Scenario, b: Scenario) -> bool:
+    keys = ("agents", "reference", "topology", "controller", "simulation", "actuator", "sensors", "links")
+    return all(getattr(a, k) == getattr(b, k) for k in keys)
+
+
+def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scenario | None, extra: dict) -> None:
+    import optuna
+
+    from fsmctl.model.scenario import load_scenario
+    from fsmctl.outputs import atomic_path, write_json, write_text
+    from fsmctl.simulation.results_io import versions
+
+    paths = [out / "trials.csv", out / "pareto.csv", out / "pareto.png"]
+    _write_csv(paths[0], result, range(len(result.trials)))
+    _write_csv(paths[1], result, result.pareto)
+    fig = _figure(result)
+    with atomic_path(paths[2]) as tmp:
+        fig.savefig(tmp, format="png", dpi=120)
+    best: dict[str, Any] | None = None
+    if result.best is not None:
+        path = out / "best.toml"
+        provenance = [
+            f"# versions: {', '.join(f'{k} {v}' for k, v in versions().items())}, optuna {optuna.__version__}"
+        ]
+        if extra.get("command"):
+            provenance.append(f"# command: {extra['command']}")
+        write_text(path, best_scenario_text(result, base, comments=provenance))
+        paths.append(path)
+        verified = expected is not None and _same_design(load_scenario(path), expected)
+        if not verified:
+            result.notes.append(
+                f"{path} does not reproduce the chosen design exactly (the base scenario's agents or cases override "
+                "it); the design is in tune.json"
+            )
+        t = result.trials[result.best]
+        best = {**t, "scenario_file": "best.toml", "scenario_file_verified": verified}
+    payload = {
+        "settings": asdict(result.settings),
+        "versions": {**versions(), "optuna": optuna.__version__},
+        "scenario": base.label,
+        "horizon_s": base.simulation.t_final,
+        "torque_limit_N_m": base.controller.torque_limit,
+        "search_space": [asdict(p) for p in result.space],
+        "objectives": {
+            k: {"unit": OBJECTIVES[k][0], "description": OBJECTIVES[k][1]} for k in result.settings.objectives
+        },
+        "constraints": {c: {"unit": CONSTRAINTS[c][0], "description": CONSTRAINTS[c][1]} for c in result.constraints},
+        "theorem1_holds": result.theorem1,
+        **extra,
+        "trials": len(result.trials),
+        "pruned": sum(t["state"] == "pruned" for t in result.trials),
+        "failed": sum(t["state"] == "failed" for t in result.trials),
+        "feasible": sum(t["feasible"] for t in result.trials),
+        "pareto": result.pareto,
+        "best": best,
+        "notes": result.notes,
+    }
+    paths.append(write_json(out / "tune.json", payload))
+    result.paths = paths
