@@ -382,6 +382,21 @@ def test_coupling_factors_are_searched_for_fsm_and_written_to_best_toml(tmp_path
     assert json.loads((tmp_path / "tune.json").read_text())["best"]["scenario_file_verified"] is True
 
 
+def test_best_file_with_relative_paths_is_verified(tmp_path, monkeypatch):
+    """The tuning guide's own call, with paths relative to the working folder: best.toml writes them absolute, and
+    it flies the chosen design (a relative and an absolute path to one law script are one law)."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parent.parent
+    monkeypatch.chdir(root)
+    out = tmp_path / "tune"
+    argv = ["tune", "--scenario", "docs/examples/my_law.toml", "--law", "docs/examples/my_law.py"]
+    argv += ["--parameters", "K,P", "--range", "K=1,20", "--range", "P=2,60", "--objectives", "aaem_settling"]
+    argv += ["--budget", "3", "--seed", "0", "--out", str(out), "--no-progress"]
+    assert main(argv) == 0
+    assert json.loads((out / "tune.json").read_text())["best"]["scenario_file_verified"] is True
+
+
 def test_a_design_that_cannot_settle_is_infeasible(tmp_path):
     # the paper's 2 N m limit and a 5 s horizon: no gain settles, so every trial is infeasible and nothing is chosen
     result = tune(_pid("paper", t_final=5.0, budget=4, tolerance_deg=1.0), tmp_path)

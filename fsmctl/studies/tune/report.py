@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -304,8 +305,12 @@ def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence
 
 
 def _same_design(a: Scenario, b: Scenario) -> bool:
-    keys = ("agents", "reference", "topology", "controller", "simulation", "actuator", "sensors", "links")
-    return all(getattr(a, k) == getattr(b, k) for k in keys)
+    """Whether two scenarios fly the same design: equal sections, the law compared as the law read (a relative
+    and an absolute path to one script are one law)."""
+    keys = ("agents", "reference", "topology", "simulation", "actuator", "sensors", "links")
+    if not all(getattr(a, k) == getattr(b, k) for k in keys) or a.law.folder != b.law.folder:
+        return False
+    return dataclasses.replace(a.controller, law=b.controller.law) == b.controller
 
 
 def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scenario | None, extra: dict) -> None:
