@@ -2035,20 +2035,7 @@ def _scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = 
     cases = data.get("cases", {})
     if not isinstance(cases, Mapping):
         raise ScenarioError(f"{where}.cases: expected a table of named cases")
-    merged = dict(data)
-    if case is not None:
-        if not isinstance(case, str):
-            raise ScenarioError(f"case: expected a case name (string), got {case!r}")
-        if case not in cases:
-            raise ScenarioError(f"no case {case!r} (cases: {list(cases)})")
-        override = cases[case]
-        if not isinstance(override, Mapping):
-            raise ScenarioError(f"cases.{case}: expected a table")
-        override = {k: v for k, v in override.items() if k != "description"}
-        _unknown(override, TOP_KEYS, f"cases.{case}")
-        if "agents" in override:
-            raise ScenarioError(f"cases.{case}: cases cannot replace the agent list (override controller.* instead)")
-        merged = _deep_merge(_switched_tables(merged, override, f"cases.{case}"), override)
+    merged = dict(data) if case is None else _with_case(data, cases, case)
     for key in ("controller", "reference", "agents", "topology"):
         if key not in merged:
             raise ScenarioError(f"{key}: missing")
@@ -2082,6 +2069,44 @@ def _scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = 
         topology = Topology.from_mapping(merged["topology"], len(agents), where="topology")
     except TopologyError as exc:
         raise ScenarioError(str(exc)) from None
+    hardware = _hardware_settings(merged)
+    choices = merged.get("choices", {})
+    if not isinstance(choices, Mapping):
+        raise ScenarioError("choices: expected a table of strings")
+    return Scenario(
+        name=merged.get("name", "scenario"),
+        agents=agents,
+        reference=reference,
+        topology=topology,
+        controller=controller,
+        simulation=simulation,
+        **hardware,
+        case=case,
+        description=_description(merged, cases, case),
+        choices=choices,
+        cases=tuple(str(k) for k in cases),
+        source=dict(data),
+    )
+
+
+def _with_case(data: Mapping, cases: Mapping, case: str) -> dict:
+    """``data`` with ``cases.<case>`` merged over it (its ``description`` aside: :func:`_description` joins it)."""
+    if not isinstance(case, str):
+        raise ScenarioError(f"case: expected a case name (string), got {case!r}")
+    if case not in cases:
+        raise ScenarioError(f"no case {case!r} (cases: {list(cases)})")
+    override = cases[case]
+    if not isinstance(override, Mapping):
+        raise ScenarioError(f"cases.{case}: expected a table")
+    override = {k: v for k, v in override.items() if k != "description"}
+    _unknown(override, TOP_KEYS, f"cases.{case}")
+    if "agents" in override:
+        raise ScenarioError(f"cases.{case}: cases cannot replace the agent list (override controller.* instead)")
+    return _deep_merge(_switched_tables(dict(data), override, f"cases.{case}"), override)
+
+
+def _hardware_settings(merged: Mapping) -> dict[str, Any]:
+    """The ``actuator``, ``sensors`` and ``links`` tables as their settings classes."""
     hardware = {}
     for key, cls in (("actuator", ActuatorSettings), ("sensors", SensorSettings), ("links", LinkSettings)):
         table = merged.get(key, {})
@@ -2093,9 +2118,11 @@ def _scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = 
                     _unknown(table[sensor], [f.name for f in dataclasses.fields(sensor_cls)], f"sensors.{sensor}")
                     table[sensor] = _within(f"sensors.{sensor}", sensor_cls, **table[sensor])
         hardware[key] = _within(key, cls, **table)
-    choices = merged.get("choices", {})
-    if not isinstance(choices, Mapping):
-        raise ScenarioError("choices: expected a table of strings")
+    return hardware
+
+
+def _description(merged: Mapping, cases: Mapping, case: str | None) -> str:
+    """The scenario's description, followed by the case's own (``"... / case 2: ..."``)."""
     description = merged.get("description", "")
     if not isinstance(description, str):
         raise ScenarioError(f"description: expected a string, got {description!r}")
@@ -2104,20 +2131,7 @@ def _scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = 
         if not isinstance(case_description, str):
             raise ScenarioError(f"cases.{case}.description: expected a string, got {case_description!r}")
         description = f"{description} / case {case}: {case_description}".strip(" /")
-    return Scenario(
-        name=merged.get("name", "scenario"),
-        agents=agents,
-        reference=reference,
-        topology=topology,
-        controller=controller,
-        simulation=simulation,
-        **hardware,
-        case=case,
-        description=description,
-        choices=choices,
-        cases=tuple(str(k) for k in cases),
-        source=dict(data),
-    )
+    return description
 
 
 def _read_toml(path: Path) -> dict:

@@ -17,7 +17,6 @@ from typing import Any
 
 import control as ct
 import numpy as np
-from control.nlsys import _process_vector_argument
 
 from fsmctl.errors import InputError
 from fsmctl.model.laws import LawError, parameter_matrix
@@ -32,6 +31,7 @@ from fsmctl.plugin.iosys import (
     _KnownKeys,
     _labels,
     _Merged,
+    _operating_vector,
     _Owner,
     _owners_of,
     _Params,
@@ -203,8 +203,8 @@ class FormationSystem(ct.InterconnectedSystem):
             x0 = x0.states
         elif u0 is None:
             u0 = 0
-        x0, _ = _process_vector_argument(x0, "x0", self.nstates)
-        u0, _ = _process_vector_argument(u0, "u0", self.ninputs)
+        x0 = _operating_vector(x0, "x0", self.nstates)
+        u0 = _operating_vector(u0, "u0", self.ninputs)
         self._update_params(params)
         mats = interconnection_jacobians(self, float(t), x0, u0, eps)
         return _state_space(self, *mats, copy_names=copy_names, **kwargs)

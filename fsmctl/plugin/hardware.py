@@ -30,7 +30,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.actuators import distribute, distribution_matrix, hub_inertia_problem, spin_inertia_matrix
-from fsmctl.model.attitude import _mrp_of_quaternion, _quaternion_rate, quaternion_from_mrp
+from fsmctl.model.attitude import mrp_of_quaternion_expression, quaternion_from_mrp, quaternion_rate_expression
 from fsmctl.model.scenario import ActuatorSettings, ScenarioError, Sinusoid
 from fsmctl.plugin.iosys import (
     DEFAULT_NORMALIZATION_GAIN,
@@ -301,12 +301,12 @@ def reaction_wheel_spacecraft(
         _, net, h, tau_w = wheels(Om, uw, G, Js, W)
         omega_dot = gyrostat(zero3, omega, h, tau_w, d + dist(t, dp), J, J_spin)[1]
         Om_dot = ca.vertcat(*[accel(G[:, k], Js[k], net[k], omega_dot) for k in range(n)])
-        return [_quaternion_rate(q, omega, gain), omega_dot, Om_dot]
+        return [quaternion_rate_expression(q, omega, gain), omega_dot, Om_dot]
 
     def out_graph(x, uw, G, Js, W):
         q, omega, Om = x[:4], x[4:7], x[7:]
         motor, _, h, tau_w = wheels(Om, uw, G, Js, W)
-        return [_mrp_of_quaternion(q), omega, Om, -tau_w, h, motor]
+        return [mrp_of_quaternion_expression(q), omega, Om, -tau_w, h, motor]
 
     x_u, wheel_arrays = [(7 + n, 1), (n, 1)], [(3, n), (n, 1), (4, n)]
     rhs = _FlatCall(rhs_graph, [(1, 1), *x_u, (3, 1), (12, 1), (3, 3), (3, 3), *wheel_arrays], "reaction_wheel_rhs")

@@ -59,6 +59,7 @@ import copy
 import difflib
 import math
 import uuid
+import warnings
 from collections.abc import Callable, Mapping, MutableMapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -233,10 +234,10 @@ def _system_name(name: Any, kind: str) -> str | None:
 # ----------------------------------------------------------------------------- attitude kinematics
 # Euler parameters q = (q0, q1, q2, q3), scalar first, of the rotation N -> B; sigma = (q1, q2, q3) / (1 + q0).
 from fsmctl.model.attitude import (  # noqa: E402  (the conversions live in the model layer)
-    _mrp_of_quaternion,
-    _quaternion_rate,
     mrp_from_quaternion,
+    mrp_of_quaternion_expression,
     quaternion_from_mrp,
+    quaternion_rate_expression,
 )
 
 # ----------------------------------------------------------------------------- CasADi calls
@@ -1067,8 +1068,6 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
         >>> lin.B[4:, :].diagonal().tolist()  # J^-1
         [0.01, 0.006666666666666667, 0.005]
         """
-        from control.nlsys import _process_vector_argument
-
         if isinstance(x0, ct.OperatingPoint):
             u0 = x0.inputs if u0 is None else u0
             x0 = x0.states
@@ -1076,10 +1075,36 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
             u0 = 0
         if self._model_jacobian is None:
             return super().linearize(x0, u0, t=t, params=params, eps=eps, copy_names=copy_names, **kwargs)
-        x0, _ = _process_vector_argument(x0, "x0", self.nstates)
-        u0, _ = _process_vector_argument(u0, "u0", self.ninputs)
+        x0 = _operating_vector(x0, "x0", self.nstates)
+        u0 = _operating_vector(u0, "u0", self.ninputs)
         self._update_params(params)
         return _state_space(self, *self._jacobians(t, x0, u0), copy_names=copy_names, **kwargs)
+
+
+def _operating_vector(arg: Any, name: str, size: int) -> np.ndarray:
+    """An operating point's ``x0`` or ``u0`` as python-control's ``linearize`` reads it: a flat vector of ``size``.
+
+    Nested lists and arrays are flattened, a scalar (or None) fills the vector, a shorter vector is padded with
+    zeros (with python-control's ``UserWarning`` when its last value is not 0); any other length raises
+    python-control's ``ValueError``.
+    """
+    if arg is None:
+        return np.zeros(size)
+    if isinstance(arg, (tuple, list)):
+        val = np.array([x for v in arg for x in np.array(v).reshape(-1).tolist()])
+    elif np.isscalar(arg):
+        val = np.ones((size,)) * arg
+    else:
+        val = np.asarray(arg).reshape(-1)
+    if val.size < size:
+        if val.size and val[-1] != 0:
+            warnings.warn(f"{name} too short; padding with zeros", UserWarning, stacklevel=3)
+        val = np.hstack([val, np.zeros(size - val.size)])
+    if val.size != size:
+        raise ValueError(
+            f"inconsistent information to determine size of {name}; expected {size} values, received {val.size}"
+        )
+    return val
 
 
 def _state_space(sys: ct.InputOutputSystem, A, B, C, D, *, copy_names: bool = False, **kwargs) -> ct.StateSpace:
@@ -1185,11 +1210,14 @@ def spacecraft(
     dist = _Generated("disturbance_torque")
     zero3 = ca.DM.zeros(3, 1)  # plant_rhs's sigma_dot is not used: the attitude is integrated as q
     rhs = _FlatCall(
-        lambda t, x, u, J, d: [_quaternion_rate(x[:4], x[4:], gain), plant(zero3, x[4:], u + dist(t, d), J)[1]],
+        lambda t, x, u, J, d: [
+            quaternion_rate_expression(x[:4], x[4:], gain),
+            plant(zero3, x[4:], u + dist(t, d), J)[1],
+        ],
         [(1, 1), (7, 1), (3, 1), (3, 3), (12, 1)],
         "spacecraft_rhs",
     )
-    out = _FlatCall(lambda x: [_mrp_of_quaternion(x[:4]), x[4:]], [(7, 1)], "spacecraft_out")
+    out = _FlatCall(lambda x: [mrp_of_quaternion_expression(x[:4]), x[4:]], [(7, 1)], "spacecraft_out")
     state_names = _signal_names(states, _labels("q", 4) + _labels("omega"), "states", where)
     input_names = _signal_names(inputs, _labels("tau"), "inputs", where)
 
@@ -1287,13 +1315,13 @@ def reference_generator(
     gain = _scalar(normalization_gain, f"{where}: normalization_gain", minimum=0.0)
     ref = _Generated("reference_rhs")
     rhs = _FlatCall(
-        lambda t, x, p: [_quaternion_rate(x, ref(t, _mrp_of_quaternion(x), p)[1], gain)],
+        lambda t, x, p: [quaternion_rate_expression(x, ref(t, mrp_of_quaternion_expression(x), p)[1], gain)],
         [(1, 1), (4, 1), (12, 1)],
         "reference_rhs",
     )
 
     def output_graph(t, x, p):
-        sigma = _mrp_of_quaternion(x)
+        sigma = mrp_of_quaternion_expression(x)
         return [sigma, *ref(t, sigma, p)[1:]]
 
     out = _FlatCall(output_graph, [(1, 1), (4, 1), (12, 1)], "reference_out")
