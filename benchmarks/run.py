@@ -691,7 +691,8 @@ def laws_section(quick: bool, log) -> dict:
     import fsmctl
     from fsmctl.model.laws import builtin_laws
     from fsmctl.model.problem import pack
-    from fsmctl.simulation.simulator import SimulationError, _driver, simulate_packed
+    from fsmctl.simulation.driver import _driver
+    from fsmctl.simulation.simulator import SimulationError, simulate_packed
 
     sc = fsmctl.paper_scenario("1")  # 100 s at dt = 1 ms
     reps = 2 if quick else 5
@@ -756,7 +757,7 @@ def _pre_hardware_driver(log):
     import tempfile
 
     from fsmctl.model.generated_code import _compiler, _sources, compile_flags, default_law_dir, math_include_args
-    from fsmctl.simulation.simulator import _PROGRESS, _dp, _Output, _Problem
+    from fsmctl.simulation.driver import _PROGRESS, _dp, _Output, _Problem
 
     cc = _compiler()
     root = Path(__file__).resolve().parents[1]
@@ -796,7 +797,8 @@ def hardware_section(quick: bool, log) -> dict:
 
     import fsmctl
     from fsmctl.model.problem import pack
-    from fsmctl.simulation.simulator import _PROGRESS, _CProblem, _Output, _ptr, simulate_packed
+    from fsmctl.simulation.driver import _PROGRESS, _CProblem, _Output, _ptr
+    from fsmctl.simulation.simulator import simulate_packed
 
     hw = fsmctl.load_scenario("paper-hardware").replace(simulation={"t_final": 100.0})
     base = fsmctl.paper_scenario("1")

@@ -1,7 +1,7 @@
 """Quaternions and MRPs: the conversions between the plug-in's quaternion states and the model's MRPs.
 
 Used by the python-control plug-in (:mod:`fsmctl.plugin.iosys`, quaternion plant states) and by
-:meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`; written once, here, in CasADi.
+:meth:`fsmctl.simulation.result.SimulationResult.to_time_response`; written once, here, in CasADi.
 """
 
 from __future__ import annotations

@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl import __version__
+from fsmctl.version import __version__
 from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, MANIFEST_FILE, MANIFEST_FORMAT
 from fsmctl.errors import InputError
 from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir

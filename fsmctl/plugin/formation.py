@@ -408,7 +408,7 @@ def formation(
         compare two agents with :func:`fsmctl.attitude_error_angle`, not by differences),
         ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the torque applied to the body: the actuator block's ``tau``,
         the wheels' reaction, else the law's output; the output labels of
-        :meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
+        :meth:`fsmctl.simulation.result.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
         ``ctrl<i>_J0``, ``ctrl<i>_<law parameter>``, ... of the subsystems; pass ``params={"sc2_J": ...}`` to
         change one agent, ``params={"c1": ...}`` (a law parameter's bare name) to change every agent's.
 
