@@ -9,7 +9,7 @@ any code path:
   in its own module.
 * **private names**: a module may import a private name (``_name``, or anything from a private module
   ``fsmctl.x._y``) only from a module of its own package: ``fsmctl.plugin.formation`` may use
-  ``fsmctl.plugin.iosys._state_space`` (the plug-in's shared internals), but ``fsmctl.plugin.hardware`` may not use
+  ``fsmctl.plugin.system._state_space`` (the plug-in's shared internals), but ``fsmctl.plugin.hardware`` may not use
   ``fsmctl.model.attitude._anything``; what another package needs is public there.  ``from M import _x`` and
   ``m._x`` on an imported module ``m`` both count.  Ruff's PLC2701 (``pyproject.toml``) covers private names of
   other distributions (python-control's, ...); it treats ``fsmctl`` as one first-party package and lets these
@@ -166,7 +166,7 @@ def test_the_allow_list_is_current():
         ("from fsmctl.model import attitude\nattitude._x()\n", ["fsmctl.model.attitude._x"]),
         ("import fsmctl.model.attitude as a\na._x\n", ["fsmctl.model.attitude._x"]),
         ("from fsmctl import _PUBLIC_MODULES\n", ["fsmctl._PUBLIC_MODULES"]),
-        ("from fsmctl.plugin.iosys import _state_space\n", []),  # the plug-in's own package
+        ("from fsmctl.plugin.system import _state_space\n", []),  # the plug-in's own package
         ("from .iosys import _numbers\n", []),
         ("from fsmctl.model.attitude import mrp_from_quaternion\n", []),
         ("from control.nlsys import _private\n", []),  # another distribution: ruff's PLC2701

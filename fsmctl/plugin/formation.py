@@ -21,32 +21,29 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.laws import LawError, parameter_matrix
 from fsmctl.model.scenario import Scenario, ScenarioError
+from fsmctl.plugin.arguments import _labels, _show, _system_name, _timebase
 from fsmctl.plugin.hardware import rate_gyro, reaction_wheel_spacecraft, star_tracker
 from fsmctl.plugin.iosys import (
     DEFAULT_NORMALIZATION_GAIN,
     Neighbour,
-    ParameterizedSystem,
-    _ambiguous,
-    _foreign_params,
-    _KnownKeys,
-    _labels,
-    _Merged,
-    _operating_vector,
-    _Owner,
-    _owners_of,
-    _Params,
-    _show,
-    _state_space,
-    _system_name,
-    _timebase,
-    _unknown_keys,
     law_controller,
-    law_parameter_values,
     reference_generator,
     spacecraft,
 )
 from fsmctl.plugin.jacobians import interconnection_jacobians
+from fsmctl.plugin.parameters import (
+    _ambiguous,
+    _foreign_params,
+    _KnownKeys,
+    _Merged,
+    _Owner,
+    _owners_of,
+    _Params,
+    _unknown_keys,
+    law_parameter_values,
+)
 from fsmctl.plugin.sampled import _discrete, zoh
+from fsmctl.plugin.system import ParameterizedSystem, _operating_vector, _state_space
 
 __all__ = ["FormationSystem", "formation", "sampled_formation"]
 

@@ -32,17 +32,10 @@ from fsmctl.errors import InputError
 from fsmctl.model.actuators import distribute, distribution_matrix, hub_inertia_problem, spin_inertia_matrix
 from fsmctl.model.attitude import mrp_of_quaternion_expression, quaternion_from_mrp, quaternion_rate_expression
 from fsmctl.model.scenario import ActuatorSettings, ScenarioError, Sinusoid
-from fsmctl.plugin.iosys import (
-    DEFAULT_NORMALIZATION_GAIN,
-    ParameterizedSystem,
-    _factory_call,
-    _finish,
-    _FlatCall,
-    _Generated,
+from fsmctl.plugin.arguments import (
     _inertia,
     _labels,
     _numbers,
-    _rebuilt,
     _scalar,
     _show,
     _signal_names,
@@ -50,6 +43,10 @@ from fsmctl.plugin.iosys import (
     _system_name,
     _twelve,
 )
+from fsmctl.plugin.iosys import DEFAULT_NORMALIZATION_GAIN
+from fsmctl.plugin.jacobians import _Generated
+from fsmctl.plugin.parameters import _factory_call, _finish, _rebuilt
+from fsmctl.plugin.system import ParameterizedSystem, _FlatCall
 
 __all__ = [
     "reaction_wheel_spacecraft",

@@ -16,9 +16,10 @@ import control as ct
 import numpy as np
 
 from fsmctl.model.scenario import ScenarioError
+from fsmctl.plugin.arguments import _numbers
 from fsmctl.plugin.formation import FormationSystem
-from fsmctl.plugin.iosys import _numbers, _operating_vector, _state_space
 from fsmctl.plugin.jacobians import Kink, NonDifferentiableError, interconnection_jacobians
+from fsmctl.plugin.system import _operating_vector, _state_space
 
 __all__ = ["linearize", "mrp_linearization", "mrp_estimator"]
 
