@@ -32,11 +32,11 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.version import __version__
 from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, MANIFEST_FILE, MANIFEST_FORMAT
 from fsmctl.errors import InputError
 from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 from fsmctl.ranges import ParameterRange
+from fsmctl.version import __version__
 
 __all__ = [
     "LawCode",

@@ -33,8 +33,6 @@ import lazy_loader
 
 _ATTRS = {
     "iosys": [
-        "initial_state",
-        "mrp_state",
         "spacecraft",
         "reference_generator",
         "law_controller",
@@ -43,6 +41,7 @@ _ATTRS = {
         "quaternion_from_mrp",
         "mrp_from_quaternion",
     ],
+    "states": ["initial_state", "mrp_state"],
     "system": ["ParameterizedSystem"],
     "parameters": ["law_parameter_values", "InvalidStateError", "ParameterKeyError"],
     "formation": ["formation", "FormationSystem", "sampled_formation"],

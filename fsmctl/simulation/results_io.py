@@ -268,8 +268,8 @@ def problem_fingerprint(scenario: Scenario, law: str | None = None) -> dict[str,
     >>> fingerprint_change(a, b)
     'the scenario changed (its content as flown: torque limits, agents, horizon, ...)'
     """
-    from fsmctl.version import __version__
     from fsmctl.model.laws import resolve_law
+    from fsmctl.version import __version__
 
     code = scenario.law if law is None else resolve_law(law)
     return {
