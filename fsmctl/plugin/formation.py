@@ -22,7 +22,7 @@ from fsmctl.errors import InputError
 from fsmctl.model.laws import LawError, parameter_matrix
 from fsmctl.model.scenario import Scenario, ScenarioError
 from fsmctl.plugin.arguments import _labels, _show, _system_name, _timebase
-from fsmctl.plugin.hardware import rate_gyro, reaction_wheel_spacecraft, star_tracker
+from fsmctl.plugin.hardware import reaction_wheel_spacecraft
 from fsmctl.plugin.iosys import (
     DEFAULT_NORMALIZATION_GAIN,
     Neighbour,
@@ -43,6 +43,7 @@ from fsmctl.plugin.parameters import (
     law_parameter_values,
 )
 from fsmctl.plugin.sampled import _discrete, zoh
+from fsmctl.plugin.sensors import rate_gyro, star_tracker
 from fsmctl.plugin.system import ParameterizedSystem, _operating_vector, _state_space
 
 __all__ = ["FormationSystem", "formation", "sampled_formation"]

@@ -38,6 +38,10 @@ For such a law the report's notes point to ``fsmctl prove`` (the paper's own cla
 in a forked child with a time budget (:data:`SYMBOLIC_BUDGET`); numeric steps are seeded.
 
 Library code: raises :class:`fsmctl.model.laws.LawError` (an input error) for a law it cannot check.
+
+Size: one command's evidence, ``fsmctl prove --law``: the report type and the three checks (generated code
+against SymPy, the closed loop, the Lyapunov claim) share the sampled inputs, the symbolic budget and the
+report's kinds, and are read together when a check is added.
 """
 
 from __future__ import annotations

@@ -39,6 +39,9 @@ Formats (:func:`save_result`, also :meth:`fsmctl.simulation.result.SimulationRes
 :func:`load_result` reads either format; a file that is not an fsmctl result raises
 :class:`NotAResultError`, a result without the embedded scenario (written before it was embedded)
 :class:`MissingScenarioError` from :func:`scenario_from_result`; both are :class:`~fsmctl.errors.InputError`.
+
+Size: one file format, written and read here: the provenance, the NetCDF and CSV writers and the reader must
+agree on every attribute, column name and layout entry, so the three sides of the format live together.
 """
 
 from __future__ import annotations
