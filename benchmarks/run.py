@@ -691,7 +691,8 @@ def laws_section(quick: bool, log) -> dict:
     import fsmctl
     from fsmctl.model.laws import builtin_laws
     from fsmctl.model.problem import pack
-    from fsmctl.simulation.simulator import SimulationError, _driver, simulate_packed
+    from fsmctl.simulation.driver import _driver
+    from fsmctl.simulation.simulator import SimulationError, simulate_packed
 
     sc = fsmctl.paper_scenario("1")  # 100 s at dt = 1 ms
     reps = 2 if quick else 5
@@ -756,7 +757,7 @@ def _pre_hardware_driver(log):
     import tempfile
 
     from fsmctl.model.generated_code import _compiler, _sources, compile_flags, default_law_dir, math_include_args
-    from fsmctl.simulation.simulator import _PROGRESS, _dp, _Output, _Problem
+    from fsmctl.simulation.driver import _PROGRESS, _dp, _Output, _Problem
 
     cc = _compiler()
     root = Path(__file__).resolve().parents[1]
@@ -796,7 +797,8 @@ def hardware_section(quick: bool, log) -> dict:
 
     import fsmctl
     from fsmctl.model.problem import pack
-    from fsmctl.simulation.simulator import _PROGRESS, _CProblem, _Output, _ptr, simulate_packed
+    from fsmctl.simulation.driver import _PROGRESS, _CProblem, _Output, _ptr
+    from fsmctl.simulation.simulator import simulate_packed
 
     hw = fsmctl.load_scenario("paper-hardware").replace(simulation={"t_final": 100.0})
     base = fsmctl.paper_scenario("1")
@@ -1435,6 +1437,20 @@ def markdown(res: dict) -> str:
             + ", ".join(f"{k} ({when})" for k, when in res["measured"].items())
             + "."
         )
+    lines += _markdown_compare(res)
+    lines += _markdown_kernels(res)
+    lines += _markdown_laws(res)
+    lines += _markdown_hardware(res)
+    lines += _markdown_scale(res)
+    lines += _markdown_smooth_ring(res)
+    lines += _markdown_flops(res)
+    lines += _markdown_tools(res)
+    lines += _markdown_throughput_and_montecarlo(res)
+    return "\n".join(lines) + "\n"
+
+
+def _markdown_compare(res: dict) -> list[str]:
+    lines: list[str] = []
     c = res.get("compare")
     if c:
         lines += ["", "## Case 1, dt = 1 ms: compiled vs python-control vs Python RK4 loops", ""]
@@ -1560,6 +1576,11 @@ def markdown(res: dict) -> str:
                     + (f"{_f(d['final_state_error'])} ({d['steps']})" if d else "")
                     + " |"
                 )
+    return lines
+
+
+def _markdown_kernels(res: dict) -> list[str]:
+    lines: list[str] = []
     k = res.get("kernels")
     if k:
         lines += [
@@ -1584,6 +1605,11 @@ def markdown(res: dict) -> str:
             "",
             f"scalar / batched = {_f(k['scalar_over_batched_min'])} (min), {_f(k['scalar_over_batched_median'])} (median).",
         ]
+    return lines
+
+
+def _markdown_laws(res: dict) -> list[str]:
+    lines: list[str] = []
     lw = res.get("laws")
     if lw:
         lines += [
@@ -1609,6 +1635,11 @@ def markdown(res: dict) -> str:
                 f"{_f(sc_.get('c_loop_min_s'))} | {_f(e.get('scalar_over_batched_c_loop'))} | "
                 f"{'n/a' if eq is None else ('yes' if eq else 'NO')} |"
             )
+    return lines
+
+
+def _markdown_hardware(res: dict) -> list[str]:
+    lines: list[str] = []
     hw = res.get("hardware")
     if hw:
         lines += [
@@ -1636,6 +1667,11 @@ def markdown(res: dict) -> str:
                 "code adds nothing measurable when it is off); identical trajectories: "
                 f"{'yes' if hw['pre_hardware_trajectory_identical'] else 'NO'}."
             )
+    return lines
+
+
+def _markdown_scale(res: dict) -> list[str]:
+    lines: list[str] = []
     s = res.get("scale")
     if s:
         lines += [
@@ -1652,6 +1688,11 @@ def markdown(res: dict) -> str:
         for kind, t in s["topologies"].items():
             lines.append(f"* {kind}: exponent in n (24..{s['n'][-1]}) = {_f(t['exponent_in_n'])}, in links = {_f(t['exponent_in_links'])}"
                          + (f" (target <= 1.15: {'met' if t['exponent_in_n'] <= 1.15 else 'MISSED'})" if kind == "ring" else ""))  # fmt: skip
+    return lines
+
+
+def _markdown_smooth_ring(res: dict) -> list[str]:
+    lines: list[str] = []
     sr = res.get("smooth_ring")
     if sr:
         lines += [
@@ -1677,6 +1718,11 @@ def markdown(res: dict) -> str:
                 f"as accurate, {e['fastest_compiled_at_least_as_accurate']} (error {_f(e['compiled_error'])}): "
                 f"{_f(e['python_control_over_compiled'])}x"
             )
+    return lines
+
+
+def _markdown_flops(res: dict) -> list[str]:
+    lines: list[str] = []
     fl = res.get("flops")
     if fl:
         lines += [
@@ -1706,6 +1752,11 @@ def markdown(res: dict) -> str:
         ]
         for k, v in fl["per_function"].items():
             lines.append(f"| {k} | {v['instructions']} | {v['flops']} | {v['special']} | {v['other']} |")
+    return lines
+
+
+def _markdown_tools(res: dict) -> list[str]:
+    lines: list[str] = []
     lines += ["", "## Tool wall times", ""]
     for k, v in (res.get("subprocess") or {}).items():
         bar = v.get("bar_s")
@@ -1713,6 +1764,11 @@ def markdown(res: dict) -> str:
         lines.append(f"* `{k}`: {_f(v['wall_s'])} s (exit {v['exit_code']}{verdict})")
     if not res.get("subprocess"):
         lines.append("* skipped (--quick or not selected)")
+    return lines
+
+
+def _markdown_throughput_and_montecarlo(res: dict) -> list[str]:
+    lines: list[str] = []
     tp = res.get("throughput")
     if tp:
         lines += _throughput_markdown(tp)
@@ -1770,7 +1826,7 @@ def markdown(res: dict) -> str:
                     f"{floor:.3f} with "
                     f"the drawing and the record: ~{500 * floor:.0f} s for 1000 runs even with a free driver."
                 )
-    return "\n".join(lines) + "\n"
+    return lines
 
 
 def _throughput_markdown(tp: dict) -> list[str]:

@@ -25,8 +25,6 @@ from __future__ import annotations
 
 import lazy_loader
 
-__version__ = "0.1.0"
-
 from fsmctl.model.scenario import (
     ActuatorSettings,
     Agent,
@@ -44,6 +42,7 @@ from fsmctl.model.scenario import (
     paper_scenario,
 )
 from fsmctl.model.topology import Link, Schedule, Topology
+from fsmctl.version import __version__
 
 #: The modules whose ``__all__`` is the public API: the API reference (``docs/api/``) documents them and
 #: ``tests/test_api_docs.py`` checks that every name in them has complete numpydoc with a running example.
@@ -115,7 +114,9 @@ __all__ = [
 __getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
     __name__,
     submod_attrs={
-        "simulation.simulator": ["simulate", "simulate_many", "SimulationResult", "SimulationError", "StepSizeWarning"],
+        "simulation.simulator": ["simulate", "simulate_many"],
+        "simulation.result": ["SimulationResult"],
+        "simulation.failures": ["SimulationError", "StepSizeWarning"],
         "simulation.results_io": ["save_result", "load_result", "scenario_from_result"],
         "simulation.metrics": ["attitude_error_angle"],
         "plugin.iosys": [
@@ -124,10 +125,10 @@ __getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
             "law_controller",
             "Neighbour",
             "reference_generator",
-            "initial_state",
-            "mrp_state",
         ],
-        "plugin.hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
+        "plugin.states": ["initial_state", "mrp_state"],
+        "plugin.hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state"],
+        "plugin.sensors": ["star_tracker", "rate_gyro", "link"],
         "plugin.formation": ["formation"],
         "plugin.linearization": ["mrp_linearization", "mrp_estimator"],
         "model.time_response": ["FormationResponse", "formation_response", "agent_color"],

@@ -6,7 +6,11 @@ The rules are the contracts of ``.importlinter`` (import-linter, ``lint-imports 
   fsmctl.plugin`` (independent siblings) -> ``fsmctl.model`` -> ``fsmctl.codegen`` -> ``fsmctl.symbolic`` ->
   ``fsmctl.outputs`` -> ``fsmctl.errors``; an import may only go down (indirect chains included);
 * nothing but ``fsmctl.cli`` (and the ``fsmctl.__main__`` entry point) imports ``fsmctl.cli``;
-* ``fsmctl.symbolic`` is pure SymPy: it imports neither NumPy nor CasADi, even indirectly.
+* ``fsmctl.symbolic`` is pure SymPy: it imports neither NumPy nor CasADi, even indirectly;
+* the library never imports ``derive`` (the project's code generator, not installed: the built-in laws'
+  derivation scripts are read as files, :func:`fsmctl.model.generated_paths.builtin_law_scripts`);
+* inside ``fsmctl.simulation``, ``fsmctl.plugin`` and ``fsmctl.model`` the modules are layered as well (every
+  module placed, imports only downward), so that no import cycle hides in a function-local import.
 
 They are checked on the source, so a violation is found without running the code path.  A fixture copy of
 the package with planted violations shows that the check can fail.  The AST checks below add what an import
@@ -27,7 +31,15 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 PACKAGE = ROOT / "fsmctl"
 CONFIG = ROOT / ".importlinter"
-CONTRACTS = ("layers", "cli-only-at-the-top", "symbolic-is-pure-sympy")
+CONTRACTS = (
+    "layers",
+    "cli-only-at-the-top",
+    "no-derive",
+    "symbolic-is-pure-sympy",
+    "simulation-modules",
+    "plugin-modules",
+    "model-modules",
+)
 CLI_PACKAGE = "fsmctl.cli"
 ENTRY_POINTS = {"fsmctl.__main__"}
 
@@ -84,6 +96,23 @@ PLANTED = {
     "fsmctl/symbolic/_planted_numpy.py": (
         "import numpy as np\n",
         "fsmctl.symbolic._planted_numpy -> numpy",
+    ),
+    "fsmctl/proofs/_planted_derive.py": (
+        "def laws():\n    from derive.laws import BUILTIN_LAWS\n    return BUILTIN_LAWS\n",
+        "fsmctl.proofs._planted_derive -> derive.laws",
+    ),
+    # a cycle closed by a function-local import, inside each layered package
+    "fsmctl/simulation/failures.py": (
+        "def hint():\n    from fsmctl.simulation.simulator import simulate\n",
+        "fsmctl.simulation.failures -> fsmctl.simulation.simulator",
+    ),
+    "fsmctl/plugin/jacobians.py": (
+        "def f():\n    from fsmctl.plugin import iosys\n",
+        "fsmctl.plugin.jacobians -> fsmctl.plugin.iosys",
+    ),
+    "fsmctl/model/generated_paths.py": (
+        "def f():\n    from fsmctl.model.laws import resolve_law\n",
+        "fsmctl.model.generated_paths -> fsmctl.model.laws",
     ),
 }
 

@@ -29,6 +29,7 @@ import fsmctl
 from fsmctl.errors import InputError, ResourceLimitError
 from fsmctl.model.problem import output_buffer_bytes, pack
 from fsmctl.simulation import metrics, simulator
+from fsmctl.simulation import result as result_module
 from fsmctl.simulation.simulator import SimulationError, StepSizeWarning, simulate, simulate_packed, step_size_report
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -96,7 +97,7 @@ def test_run_metrics_against_rotations_and_without_the_pairwise_array(paper_case
     def forbidden(*args, **kwargs):
         raise AssertionError("the (T, n, n) relative-angle array was built")
 
-    monkeypatch.setattr(simulator, "relative_principal_angles", forbidden)
+    monkeypatch.setattr(result_module, "relative_principal_angles", forbidden)
     summary = r.summary()
     ds = r.to_dataset()
     np.testing.assert_allclose(r.raem_deg, _independent_raem_deg(r.sigma), rtol=1e-10, atol=1e-9)
@@ -170,7 +171,7 @@ def test_a_huge_horizon_is_refused_on_any_machine(paper_case1):
 
 def test_theta_relative_refuses_when_it_cannot_fit(paper_case1, monkeypatch):
     r = simulate(paper_case1.replace(simulation={"t_final": 0.5}), progress=False)
-    monkeypatch.setattr(simulator, "available_memory", lambda: 1000)
+    monkeypatch.setattr(result_module, "available_memory", lambda: 1000)
     with pytest.raises(ResourceLimitError, match="relative_angles_at"):
         r.theta_relative  # noqa: B018
     assert r.relative_angles_at(-1).shape == (6, 6)  # the cheap accessors still work

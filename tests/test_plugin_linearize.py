@@ -83,6 +83,30 @@ def test_linearize_keeps_python_control_conventions():
         sc.linearize(x0, [0, 0, 0], params={"Jx": np.eye(3)})
 
 
+@pytest.mark.parametrize("system", ["spacecraft", "formation"])
+def test_operating_points_are_read_as_python_control_reads_them(system):
+    """x0 and u0 as python-control's own linearize reads them, for a generated-Jacobian system and a formation:
+    nested lists flattened, a scalar filling the vector, a short vector padded with zeros (a warning when its last
+    value is not 0), a long one refused with python-control's ValueError naming the argument and both sizes."""
+    if system == "spacecraft":
+        sys = fsmctl.spacecraft(J, name="sc")
+    else:
+        sys = fsmctl.formation(fsmctl.paper_scenario("1").replace(controller={"boundary_layer": 0.05}))
+    x0 = np.asarray(fsmctl.initial_state(fsmctl.paper_scenario("1")) if system == "formation" else [1.0, *[0.0] * 6])
+    u0 = np.zeros(sys.ninputs)
+    reference = sys.linearize(x0, u0)
+    nested = sys.linearize([x0[:4].tolist(), x0[4:]], [u0[: sys.ninputs // 2], u0[sys.ninputs // 2 :]])
+    assert np.array_equal(nested.A, reference.A) and np.array_equal(nested.B, reference.B)
+    assert np.array_equal(sys.linearize(x0, 0).A, reference.A)  # a scalar u0 fills the inputs
+    if sys.ninputs:
+        with pytest.warns(UserWarning, match="u0 too short; padding with zeros"):
+            sys.linearize(x0, [1.0])
+    with pytest.raises(ValueError, match=rf"size of x0; expected {sys.nstates} values, received {sys.nstates + 1}"):
+        sys.linearize(np.r_[x0, 1.0], u0)
+    with pytest.raises(ValueError, match=rf"size of u0; expected {sys.ninputs} values, received {sys.ninputs + 2}"):
+        sys.linearize(x0, np.zeros(sys.ninputs + 2))
+
+
 def test_a_sliding_mode_law_linearizes_independently_of_the_step():
     ctrl = _controller(0.05)
     rough, fine = (ctrl.linearize([], U_SMOOTH, eps=eps) for eps in (1e-4, 1e-8))

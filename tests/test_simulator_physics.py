@@ -84,7 +84,7 @@ class CompiledRHS:
     """The driver's exported ``fsm_rhs`` (one evaluation of the formation right-hand side)."""
 
     def __init__(self, scenario):
-        from fsmctl.simulation.simulator import _CProblem, _driver, _ptr
+        from fsmctl.simulation.driver import _CProblem, _driver, _ptr
 
         self.dll = _driver()
         if self.dll is None:
@@ -113,7 +113,7 @@ def paper():
 
 
 def test_default_backend_is_the_compiled_generated_code(paper):
-    from fsmctl.simulation.simulator import _driver
+    from fsmctl.simulation.driver import _driver
 
     dll = _driver()
     if dll is None:

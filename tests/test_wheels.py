@@ -261,7 +261,7 @@ def test_fsm_rhs_reports_the_wheels_torque_on_the_body():
     factor), the same as a run records at t = 0, not the law's command."""
     import ctypes
 
-    from fsmctl.simulation.simulator import _CProblem, _ptr
+    from fsmctl.simulation.driver import _CProblem, _ptr
 
     s = fsmctl.paper_scenario("1").replace(
         simulation={"t_final": 0.01}, actuator={"kind": "reaction_wheels", "spin_inertia": 0.159, "max_torque": 0.2}

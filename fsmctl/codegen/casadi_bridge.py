@@ -29,6 +29,8 @@ so a subtree that occurs many times is translated once.
 
 from __future__ import annotations
 
+import functools
+import operator
 from collections.abc import Mapping, Sequence
 
 import casadi as ca
@@ -57,6 +59,38 @@ _UNARY = {
     sp.sign: ca.sign,
     sp.Abs: ca.fabs,
 }
+
+# n-ary SymPy nodes: CasADi's binary operation folded left over the arguments
+_FOLDS = (
+    (sp.Add, operator.add),
+    (sp.Mul, operator.mul),
+    (sp.Min, ca.fmin),
+    (sp.Max, ca.fmax),
+    (sp.And, ca.logic_and),
+    (sp.Or, ca.logic_or),
+)
+
+_RELATIONS = {
+    "<": operator.lt,
+    "<=": operator.le,
+    ">": operator.gt,
+    ">=": operator.ge,
+    "==": operator.eq,
+    "!=": operator.ne,
+}
+
+
+def _constant(e: sp.Basic) -> ca.SX | None:
+    """A Boolean or finite numeric constant as CasADi ``SX``; None for any other expression."""
+    if e is sp.true or e == sp.true:
+        return ca.SX(1)
+    if e is sp.false or e == sp.false:
+        return ca.SX(0)
+    if e.is_Number or e.is_NumberSymbol:
+        if e in (sp.oo, -sp.oo, sp.zoo, sp.nan):
+            raise UnsupportedExpressionError(f"non-finite constant {e}")
+        return ca.SX(float(e))
+    return None
 
 
 class SympyToCasadi:
@@ -89,37 +123,16 @@ class SympyToCasadi:
         t = self._translate
         if e.is_Symbol:
             raise UnsupportedExpressionError(f"free symbol {e} is not an input of the function")
-        if e is sp.true or e == sp.true:
-            return ca.SX(1)
-        if e is sp.false or e == sp.false:
-            return ca.SX(0)
-        if e.is_Number or e.is_NumberSymbol:
-            if e in (sp.oo, -sp.oo, sp.zoo, sp.nan):
-                raise UnsupportedExpressionError(f"non-finite constant {e}")
-            return ca.SX(float(e))
-        if isinstance(e, sp.Add):
-            terms = [t(a) for a in e.args]
-            acc = terms[0]
-            for x in terms[1:]:
-                acc = acc + x
-            return acc
-        if isinstance(e, sp.Mul):
-            factors = [t(a) for a in e.args]
-            acc = factors[0]
-            for x in factors[1:]:
-                acc = acc * x
-            return acc
+        constant = _constant(e)
+        if constant is not None:
+            return constant
+        for kind, op in _FOLDS:
+            if isinstance(e, kind):  # a left fold over the arguments, in SymPy's order
+                return functools.reduce(op, [t(a) for a in e.args])
         if isinstance(e, sp.Pow):
             return self._pow(e)
         if isinstance(e, sp.Piecewise):
             return self._piecewise(e)
-        if isinstance(e, (sp.Min, sp.Max)):
-            op = ca.fmin if isinstance(e, sp.Min) else ca.fmax
-            args = [t(a) for a in e.args]
-            acc = args[0]
-            for x in args[1:]:
-                acc = op(acc, x)
-            return acc
         if isinstance(e, sp.Mod):
             x, y = (t(a) for a in e.args)
             return x - y * ca.floor(x / y)
@@ -138,27 +151,7 @@ class SympyToCasadi:
             if isinstance(e, fn):
                 return op(t(e.args[0]))
         if isinstance(e, sp.core.relational.Relational):
-            a, b = t(e.lhs), t(e.rhs)
-            return {
-                "<": lambda: a < b,
-                "<=": lambda: a <= b,
-                ">": lambda: a > b,
-                ">=": lambda: a >= b,
-                "==": lambda: a == b,
-                "!=": lambda: a != b,
-            }[e.rel_op]()
-        if isinstance(e, sp.And):
-            args = [t(a) for a in e.args]
-            acc = args[0]
-            for x in args[1:]:
-                acc = ca.logic_and(acc, x)
-            return acc
-        if isinstance(e, sp.Or):
-            args = [t(a) for a in e.args]
-            acc = args[0]
-            for x in args[1:]:
-                acc = ca.logic_or(acc, x)
-            return acc
+            return _RELATIONS[e.rel_op](t(e.lhs), t(e.rhs))
         if isinstance(e, sp.Not):
             return ca.logic_not(t(e.args[0]))
         raise UnsupportedExpressionError(f"no CasADi translation for {type(e).__name__}: {e}")

@@ -1,7 +1,7 @@
 """Quaternions and MRPs: the conversions between the plug-in's quaternion states and the model's MRPs.
 
 Used by the python-control plug-in (:mod:`fsmctl.plugin.iosys`, quaternion plant states) and by
-:meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`; written once, here, in CasADi.
+:meth:`fsmctl.simulation.result.SimulationResult.to_time_response`; written once, here, in CasADi.
 """
 
 from __future__ import annotations
@@ -18,22 +18,57 @@ __all__ = ["quaternion_from_mrp", "mrp_from_quaternion"]
 # scipy.spatial.transform.Rotation and against the MRP kinematics of eq 3.
 
 
-def _quaternion_rate(q, omega, gain: float):
-    """``q_dot = 1/2 B(q) omega + gain (1 - q.q) q`` (Schaub & Junkins eq 3.104 plus drift control).
+def quaternion_rate_expression(q, omega, gain: float):
+    """``q_dot = 1/2 B(q) omega + gain (1 - q.q) q`` (Schaub & Junkins eq 3.104 plus drift control), in CasADi.
 
     ``B(q) omega = (-q_v . omega, q0 omega + q_v x omega)`` with the body rate ``omega`` in B.  The drift term
     is radial: it leaves ``q / |q|`` (the attitude) unchanged and drives ``|q|`` to 1 at the rate ``2 gain``.
+    The plug-in's quaternion plants (:mod:`fsmctl.plugin.iosys`, :mod:`fsmctl.plugin.hardware`) are built on it.
+
+    Parameters
+    ----------
+    q : casadi.SX or casadi.MX, shape (4,)
+        Euler parameters, scalar first.
+    omega : casadi.SX or casadi.MX, shape (3,)
+        Body rate (rad/s).
+    gain : float
+        Drift-control gain (1/s).
+
+    Returns
+    -------
+    casadi.SX or casadi.MX, shape (4,)
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> float(quaternion_rate_expression(ca.DM([1, 0, 0, 0]), ca.DM([0, 0, 2]), 1.0)[3])
+    1.0
     """
     q0, qv = q[0], q[1:4]
     rate = 0.5 * ca.vertcat(-ca.dot(qv, omega), q0 * omega + ca.cross(qv, omega))
     return rate + gain * (1 - ca.dot(q, q)) * q
 
 
-def _mrp_of_quaternion(q):
+def mrp_of_quaternion_expression(q):
     """The MRP of ``q / |q|`` in the shadow set: ``sign(q0) q_v / (|q| + |q0|)`` (``|sigma| <= 1``, no cancellation).
 
     ``q0 >= 0`` gives ``q_v / (1 + q0)`` (the principal rotation, ``phi <= 180 deg``); ``q0 < 0`` gives the shadow
-    MRP ``-q_v / (1 - q0)`` of the same attitude.
+    MRP ``-q_v / (1 - q0)`` of the same attitude.  The CasADi expression behind :func:`mrp_from_quaternion`.
+
+    Parameters
+    ----------
+    q : casadi.SX or casadi.MX, shape (4,)
+        Euler parameters of any non-zero norm, scalar first.
+
+    Returns
+    -------
+    casadi.SX or casadi.MX, shape (3,)
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> mrp_of_quaternion_expression(ca.DM([0, 0, 0, 2])).full().ravel().tolist()
+    [0.0, 0.0, 1.0]
     """
     q0, qv = q[0], q[1:4]
     sign = ca.if_else(q0 < 0, -1, 1)
@@ -50,7 +85,7 @@ def _quaternion_of_mrp(sigma):
 def _conversion(kind: str) -> ca.Function:
     if kind == "mrp":
         q = ca.SX.sym("q", 4)
-        return ca.Function("mrp_of_quaternion", [q], [_mrp_of_quaternion(q)])
+        return ca.Function("mrp_of_quaternion", [q], [mrp_of_quaternion_expression(q)])
     sigma = ca.SX.sym("sigma", 3)
     return ca.Function("quaternion_of_mrp", [sigma], [_quaternion_of_mrp(sigma)])
 

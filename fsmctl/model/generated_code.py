@@ -66,6 +66,10 @@ The cache is verified, repaired and never fatal:
 * **Concurrent builds** of one library are serialised by an exclusive ``flock`` on its cache folder
   (POSIX; where locking is unavailable, e.g. Windows or some network file systems, processes may
   compile the same library concurrently, and :func:`os.replace` still keeps every file whole).
+
+Size: one concept, from ``generated/`` to a loaded library: the cache key, the locked and atomic build, the
+recovery from builds a kill interrupted, and the loading share one cache layout and one lock protocol, and a
+change to any of them must be read against the others.
 """
 
 from __future__ import annotations

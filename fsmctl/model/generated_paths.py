@@ -9,7 +9,7 @@ import os
 from importlib import resources
 from pathlib import Path
 
-__all__ = ["GeneratedCodeError", "generated_dir", "cache_root"]
+__all__ = ["GeneratedCodeError", "generated_dir", "builtin_law_scripts", "cache_root"]
 
 
 class GeneratedCodeError(RuntimeError):
@@ -51,6 +51,38 @@ def generated_dir() -> Path:
     if not (path / "manifest.json").is_file():
         raise GeneratedCodeError(f"{path}/manifest.json not found; run `python -m derive` to generate code")
     return path
+
+
+def builtin_law_scripts() -> Path:
+    """The folder of the built-in laws' derivation scripts: ``derive/laws/`` of the source tree.
+
+    Installed as the package data ``fsmctl._builtin_laws`` (``pyproject.toml``), as ``generated/`` is
+    ``fsmctl._generated``: the library reads the scripts as files (:func:`fsmctl.codegen.laws.load_derivation_script`)
+    and never imports the ``derive`` package, which is not installed.
+
+    Returns
+    -------
+    pathlib.Path
+        The folder holding ``fsm.py``, ``pd.py``, ... (the ``source`` of each built-in law's ``law.json``).
+
+    Raises
+    ------
+    GeneratedCodeError
+        Neither the package data nor a source tree's ``derive/laws/`` is there.
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_paths import builtin_law_scripts
+    >>> (builtin_law_scripts() / "fsm.py").is_file()
+    True
+    """
+    try:
+        return Path(str(resources.files("fsmctl._builtin_laws")))
+    except ModuleNotFoundError:  # a source tree on sys.path, not installed
+        tree = Path(__file__).resolve().parents[2] / "derive" / "laws"
+    if not tree.is_dir():  # pragma: no cover - broken installation
+        raise GeneratedCodeError("the built-in laws' derivation scripts (fsmctl._builtin_laws) are not installed")
+    return tree
 
 
 def cache_root() -> Path:

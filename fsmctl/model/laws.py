@@ -12,6 +12,10 @@
 :func:`parameter_matrix` is the one place a scenario's values become a law's packed parameters
 (an agent's own value, else ``[controller]``'s, else the law's declared default; then the presets the scenario
 selects), checked against the law's declared ranges.
+
+Size: one concept, a control law at run time: resolving a name, folder or script to a verified
+:class:`LawCode` and reading its declarations (parameters, presets, ranges) into packed parameters; the folder
+format is read and checked in one place so that every caller sees the same law.
 """
 
 from __future__ import annotations
@@ -32,11 +36,11 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl import __version__
 from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, MANIFEST_FILE, MANIFEST_FORMAT
 from fsmctl.errors import InputError
 from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 from fsmctl.ranges import ParameterRange
+from fsmctl.version import __version__
 
 __all__ = [
     "LawCode",

@@ -147,6 +147,24 @@ def _title(group: str, signals: list[_Signal]) -> str:
 # ----------------------------------------------------------------------------- the response
 
 
+def _arranged(panels: list[_Panel], overlay_signals: bool, transpose: bool) -> list[_Panel]:
+    """The panels in drawing order: all outputs on one (and all inputs on another) when overlaid; inputs first
+    when transposed (python-control: inputs left of outputs)."""
+    if overlay_signals:
+        panels = [
+            _Panel(
+                kind,
+                "Outputs" if kind == "output" else "Inputs",
+                [s for p in panels if p.kind == kind for s in p.signals],
+            )
+            for kind in ("output", "input")
+            if any(p.kind == kind for p in panels)
+        ]
+    if transpose:
+        panels = [p for p in panels if p.kind == "input"] + [p for p in panels if p.kind == "output"]
+    return panels
+
+
 class FormationResponse(ct.TimeResponseData):
     """A formation's time response whose :meth:`plot` is readable: signals grouped, one colour per agent.
 
@@ -368,37 +386,10 @@ class FormationResponse(ct.TimeResponseData):
                 f"{where}: overlay_traces=True does not apply to a grouped plot of {ntraces} traces (colours are "
                 "the agents', line styles the components'): each trace has its own column"
             )
-        if plot_inputs is None:
-            plot_inputs = bool(self.plot_inputs) and self.ninputs > 0
-        elif isinstance(plot_inputs, str) and plot_inputs == "overlay":
-            raise InputError(
-                f"{where}: plot_inputs='overlay' does not apply to a grouped plot (inputs and outputs are different "
-                "groups); use plot_inputs=True"
-            )
-        elif not isinstance(plot_inputs, (bool, np.bool_)):
-            raise InputError(f"{where}: plot_inputs must be True, False, None or 'overlay', got {plot_inputs!r}")
-        elif plot_inputs and not self.ninputs:
-            raise InputError(f"{where}: plot_inputs=True, but the response has no inputs")
-        if not plot_outputs and not plot_inputs:
-            raise InputError(f"{where}: plot_inputs and plot_outputs are both False: nothing to plot")
-        if plot_outputs and not self.noutputs:
-            raise InputError(f"{where}: the response has no outputs")
-        if not plot_outputs and groups is not None:
-            raise InputError(f"{where}: groups= chooses output groups, and plot_outputs=False")
-
-        panels = self._panels(groups, max_axes, bool(plot_outputs), bool(plot_inputs), where)
-        if overlay_signals:
-            panels = [
-                _Panel(
-                    kind,
-                    "Outputs" if kind == "output" else "Inputs",
-                    [s for p in panels if p.kind == kind for s in p.signals],
-                )
-                for kind in ("output", "input")
-                if any(p.kind == kind for p in panels)
-            ]
-        if transpose:  # python-control: inputs left of outputs
-            panels = [p for p in panels if p.kind == "input"] + [p for p in panels if p.kind == "output"]
+        plot_inputs = self._inputs_shown(plot_inputs, plot_outputs, groups, where)
+        panels = _arranged(
+            self._panels(groups, max_axes, bool(plot_outputs), bool(plot_inputs), where), overlay_signals, transpose
+        )
         names = _per_trace(trace_labels, "trace_labels", ntraces, where)
         if names is None:
             names = list(self.trace_labels) if self.trace_labels else [f"Trace {j}" for j in range(ntraces)]
@@ -416,44 +407,9 @@ class FormationResponse(ct.TimeResponseData):
             raise InputError(f"{where}: rcParams: {_one_line(exc)}") from None
         try:
             fig, axes = _figure_axes(ax, shape, sharex, sharey, where)
-            y = np.asarray(self.y, dtype=float).reshape(self.noutputs, ntraces, -1)
-            u = np.asarray(self.u, dtype=float).reshape(self.ninputs, ntraces, -1) if plot_inputs else None
-            t = np.asarray(self.t, dtype=float)
-            lines = np.empty(shape, dtype=object)
-            for index in np.ndindex(shape):
-                lines[index] = []
-            agents: set[int] = set()
-            components: set[int] = set()
-            for trace in range(ntraces):
-                suffix = f", {run_names[trace]}" if run_names else ""
-                for position, panel in enumerate(panels):
-                    where_ax = (trace, position) if transpose else (position, trace)
-                    axis = axes[where_ax]
-                    data = y if panel.kind == "output" else u
-                    step = (
-                        panel.kind == "input"
-                        and add_initial_zero
-                        and self.trace_types is not None
-                        and trace < len(self.trace_types)
-                        and self.trace_types[trace] == "step"
-                    )
-                    x = np.concatenate([t[:1], t]) if step else t
-                    for n, sig in enumerate(panel.signals):
-                        values = data[sig.index, trace]
-                        if step:
-                            values = np.concatenate([[0.0], values])
-                        props = {} if fmt else _line_style(sig, n)
-                        props.update(kwargs)
-                        (line,) = axis.plot(x, values, *fmt, label=sig.label + suffix, **props)
-                        lines[where_ax].append(line)
-                        if sig.agent is not None:
-                            agents.add(sig.agent)
-                        if sig.component is not None and sig.agent is not None:
-                            components.add(sig.component)
-                    axis.set_title(panel.title, fontsize=10)
-                    axis.grid(True, alpha=0.3)
-                    if len(panel.signals) > 1 and all(sig.agent is None for sig in panel.signals):
-                        axis.legend(fontsize=8, loc="best")
+            lines, agents, components = self._draw(
+                axes, panels, shape, transpose, run_names, fmt, kwargs, bool(plot_inputs), add_initial_zero
+            )
             for col in range(shape[1]):
                 axes[-1, col].set_xlabel(time_label)
             if ntraces > 1:
@@ -472,6 +428,70 @@ class FormationResponse(ct.TimeResponseData):
         finally:
             context.__exit__(None, None, None)
         return ct.ControlPlot(lines, axes, fig, legend=legend)
+
+    def _inputs_shown(self, plot_inputs, plot_outputs, groups, where: str) -> bool:
+        """Whether the inputs are drawn (``plot_inputs`` checked against the response and the other keywords)."""
+        if plot_inputs is None:
+            plot_inputs = bool(self.plot_inputs) and self.ninputs > 0
+        elif isinstance(plot_inputs, str) and plot_inputs == "overlay":
+            raise InputError(
+                f"{where}: plot_inputs='overlay' does not apply to a grouped plot (inputs and outputs are different "
+                "groups); use plot_inputs=True"
+            )
+        elif not isinstance(plot_inputs, (bool, np.bool_)):
+            raise InputError(f"{where}: plot_inputs must be True, False, None or 'overlay', got {plot_inputs!r}")
+        elif plot_inputs and not self.ninputs:
+            raise InputError(f"{where}: plot_inputs=True, but the response has no inputs")
+        if not plot_outputs and not plot_inputs:
+            raise InputError(f"{where}: plot_inputs and plot_outputs are both False: nothing to plot")
+        if plot_outputs and not self.noutputs:
+            raise InputError(f"{where}: the response has no outputs")
+        if not plot_outputs and groups is not None:
+            raise InputError(f"{where}: groups= chooses output groups, and plot_outputs=False")
+        return plot_inputs
+
+    def _draw(self, axes, panels, shape, transpose, run_names, fmt, kwargs, plot_inputs: bool, add_initial_zero):
+        """Draw every panel of every trace: the lines (an array of ``shape``), the agents and components drawn."""
+        ntraces = max(1, self.ntraces)
+        y = np.asarray(self.y, dtype=float).reshape(self.noutputs, ntraces, -1)
+        u = np.asarray(self.u, dtype=float).reshape(self.ninputs, ntraces, -1) if plot_inputs else None
+        t = np.asarray(self.t, dtype=float)
+        lines = np.empty(shape, dtype=object)
+        for index in np.ndindex(shape):
+            lines[index] = []
+        agents: set[int] = set()
+        components: set[int] = set()
+        for trace in range(ntraces):
+            suffix = f", {run_names[trace]}" if run_names else ""
+            for position, panel in enumerate(panels):
+                where_ax = (trace, position) if transpose else (position, trace)
+                axis = axes[where_ax]
+                data = y if panel.kind == "output" else u
+                step = (
+                    panel.kind == "input"
+                    and add_initial_zero
+                    and self.trace_types is not None
+                    and trace < len(self.trace_types)
+                    and self.trace_types[trace] == "step"
+                )
+                x = np.concatenate([t[:1], t]) if step else t
+                for n, sig in enumerate(panel.signals):
+                    values = data[sig.index, trace]
+                    if step:
+                        values = np.concatenate([[0.0], values])
+                    props = {} if fmt else _line_style(sig, n)
+                    props.update(kwargs)
+                    (line,) = axis.plot(x, values, *fmt, label=sig.label + suffix, **props)
+                    lines[where_ax].append(line)
+                    if sig.agent is not None:
+                        agents.add(sig.agent)
+                    if sig.component is not None and sig.agent is not None:
+                        components.add(sig.component)
+                axis.set_title(panel.title, fontsize=10)
+                axis.grid(True, alpha=0.3)
+                if len(panel.signals) > 1 and all(sig.agent is None for sig in panel.signals):
+                    axis.legend(fontsize=8, loc="best")
+        return lines, agents, components
 
     def _panels(self, groups, max_axes, outputs: bool, inputs: bool, where: str) -> list[_Panel]:
         """The axes' contents: the chosen output groups, then every input group."""

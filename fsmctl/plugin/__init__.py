@@ -8,7 +8,7 @@ What a user of this layer calls:
 * its pieces, to wire by hand: :func:`spacecraft`, :func:`reference_generator`, :func:`law_controller` (any law;
   :func:`fsm_controller` is the paper's, Liang et al. 2012, eqs 13-19) with its :class:`Neighbour` links, and
   :class:`ParameterizedSystem` (their parameter ownership);
-* the flight hardware (:mod:`fsmctl.plugin.hardware`): :func:`reaction_wheel_spacecraft`, :func:`star_tracker`,
+* the flight hardware (:mod:`fsmctl.plugin.hardware`, :mod:`fsmctl.plugin.sensors`): :func:`reaction_wheel_spacecraft`, :func:`star_tracker`,
   :func:`rate_gyro`, :func:`link`;
 * :func:`solver_options` (:mod:`fsmctl.plugin.solver`): the ``solve_ivp`` options of an accurate run;
 * sampled-data loops (:mod:`fsmctl.plugin.sampled`): :func:`zoh`, :func:`discrete_law_controller`,
@@ -33,24 +33,22 @@ import lazy_loader
 
 _ATTRS = {
     "iosys": [
-        "initial_state",
-        "mrp_state",
         "spacecraft",
         "reference_generator",
         "law_controller",
         "fsm_controller",
-        "law_parameter_values",
         "Neighbour",
-        "ParameterizedSystem",
         "quaternion_from_mrp",
         "mrp_from_quaternion",
-        "InvalidStateError",
-        "ParameterKeyError",
     ],
+    "states": ["initial_state", "mrp_state"],
+    "system": ["ParameterizedSystem"],
+    "parameters": ["law_parameter_values", "InvalidStateError", "ParameterKeyError"],
     "formation": ["formation", "FormationSystem", "sampled_formation"],
     "sampled": ["zoh", "discrete_law_controller", "discrete_fsm_controller"],
     "solver": ["solver_options"],
-    "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state", "star_tracker", "rate_gyro", "link"],
+    "hardware": ["reaction_wheel_spacecraft", "reaction_wheel_state"],
+    "sensors": ["star_tracker", "rate_gyro", "link"],
     "jacobians": ["NonDifferentiableError"],
     "linearization": ["linearize", "mrp_linearization", "mrp_estimator"],
 }

@@ -17,36 +17,34 @@ from typing import Any
 
 import control as ct
 import numpy as np
-from control.nlsys import _process_vector_argument
 
 from fsmctl.errors import InputError
 from fsmctl.model.laws import LawError, parameter_matrix
 from fsmctl.model.scenario import Scenario, ScenarioError
-from fsmctl.plugin.hardware import rate_gyro, reaction_wheel_spacecraft, star_tracker
+from fsmctl.plugin.arguments import _labels, _show, _system_name, _timebase
+from fsmctl.plugin.hardware import reaction_wheel_spacecraft
 from fsmctl.plugin.iosys import (
     DEFAULT_NORMALIZATION_GAIN,
     Neighbour,
-    ParameterizedSystem,
-    _ambiguous,
-    _foreign_params,
-    _KnownKeys,
-    _labels,
-    _Merged,
-    _Owner,
-    _owners_of,
-    _Params,
-    _show,
-    _state_space,
-    _system_name,
-    _timebase,
-    _unknown_keys,
     law_controller,
-    law_parameter_values,
     reference_generator,
     spacecraft,
 )
 from fsmctl.plugin.jacobians import interconnection_jacobians
+from fsmctl.plugin.parameters import (
+    _ambiguous,
+    _foreign_params,
+    _KnownKeys,
+    _Merged,
+    _Owner,
+    _owners_of,
+    _Params,
+    _unknown_keys,
+    law_parameter_values,
+)
 from fsmctl.plugin.sampled import _discrete, zoh
+from fsmctl.plugin.sensors import rate_gyro, star_tracker
+from fsmctl.plugin.system import ParameterizedSystem, _operating_vector, _state_space
 
 __all__ = ["FormationSystem", "formation", "sampled_formation"]
 
@@ -203,8 +201,8 @@ class FormationSystem(ct.InterconnectedSystem):
             x0 = x0.states
         elif u0 is None:
             u0 = 0
-        x0, _ = _process_vector_argument(x0, "x0", self.nstates)
-        u0, _ = _process_vector_argument(u0, "u0", self.ninputs)
+        x0 = _operating_vector(x0, "x0", self.nstates)
+        u0 = _operating_vector(u0, "u0", self.ninputs)
         self._update_params(params)
         mats = interconnection_jacobians(self, float(t), x0, u0, eps)
         return _state_space(self, *mats, copy_names=copy_names, **kwargs)
@@ -408,7 +406,7 @@ def formation(
         compare two agents with :func:`fsmctl.attitude_error_angle`, not by differences),
         ``sc<i>_omega[k]``, ``sc<i>_tau[k]`` (the torque applied to the body: the actuator block's ``tau``,
         the wheels' reaction, else the law's output; the output labels of
-        :meth:`fsmctl.simulation.simulator.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
+        :meth:`fsmctl.simulation.result.SimulationResult.to_time_response`).  Parameters ``sc<i>_J``,
         ``ctrl<i>_J0``, ``ctrl<i>_<law parameter>``, ... of the subsystems; pass ``params={"sc2_J": ...}`` to
         change one agent, ``params={"c1": ...}`` (a law parameter's bare name) to change every agent's.
 

@@ -14,12 +14,12 @@ from typing import Any
 
 import control as ct
 import numpy as np
-from control.nlsys import _process_vector_argument
 
 from fsmctl.model.scenario import ScenarioError
+from fsmctl.plugin.arguments import _numbers
 from fsmctl.plugin.formation import FormationSystem
-from fsmctl.plugin.iosys import _numbers, _state_space
 from fsmctl.plugin.jacobians import Kink, NonDifferentiableError, interconnection_jacobians
+from fsmctl.plugin.system import _operating_vector, _state_space
 
 __all__ = ["linearize", "mrp_linearization", "mrp_estimator"]
 
@@ -84,8 +84,8 @@ def linearize(sys: Any, xeq: Any, ueq: Any = None, t: float = 0, params: Mapping
         ueq = 0
     eps = kw.pop("eps", 1e-6)
     copy_names = kw.pop("copy_names", False)
-    x0, _ = _process_vector_argument(xeq, "x0", sys.nstates)
-    u0, _ = _process_vector_argument(ueq, "u0", sys.ninputs)
+    x0 = _operating_vector(xeq, "x0", sys.nstates)
+    u0 = _operating_vector(ueq, "u0", sys.ninputs)
     sys._update_params(params)
     return _state_space(sys, *interconnection_jacobians(sys, float(t), x0, u0, eps), copy_names=copy_names, **kw)
 

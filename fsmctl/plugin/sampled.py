@@ -29,16 +29,10 @@ import numpy as np
 
 from fsmctl.model.laws import LawCode
 from fsmctl.model.scenario import ControllerSettings, ScenarioError
-from fsmctl.plugin.iosys import (
-    Neighbour,
-    ParameterizedSystem,
-    _rebuilt,
-    _scalar,
-    _show,
-    _system_name,
-    fsm_controller,
-    law_controller,
-)
+from fsmctl.plugin.arguments import _scalar, _show, _system_name
+from fsmctl.plugin.iosys import Neighbour, fsm_controller, law_controller
+from fsmctl.plugin.parameters import _rebuilt
+from fsmctl.plugin.system import ParameterizedSystem
 
 __all__ = ["zoh", "discrete_law_controller", "discrete_fsm_controller"]
 

@@ -5,7 +5,7 @@ equation numbers, a title and a check.  A check returns a :class:`ClaimResult`
 whose verdict is one of
 
 ``proved``
-    established symbolically (SymPy, on the model of :mod:`derive`);
+    established symbolically (SymPy, on the model of :mod:`fsmctl.symbolic`, the one ``python -m derive`` generates);
 ``numeric``
     only sampling could decide it; the detail says how many samples and over which ranges,
     and it is not a proof;
@@ -18,8 +18,11 @@ whose verdict is one of
 ``unproved`` marks a check that unexpectedly did not go through (a bug or a changed model);
 it makes ``fsmctl prove`` exit 1.
 
-Symbolic checks reuse :mod:`derive` (the model, the control law, the errata) and
+Symbolic checks reuse :mod:`fsmctl.symbolic` (the model, the control law) and :mod:`fsmctl.proofs.errata`, and
 never re-type the model.
+
+Size: one registry, the claims of the paper's Section 3: a :class:`Claim` per lemma, theorem and remark, each
+with its short check beside it, in the paper's order; a claim is added in one place, next to its neighbours.
 """
 
 from __future__ import annotations

@@ -38,11 +38,14 @@ For such a law the report's notes point to ``fsmctl prove`` (the paper's own cla
 in a forked child with a time budget (:data:`SYMBOLIC_BUDGET`); numeric steps are seeded.
 
 Library code: raises :class:`fsmctl.model.laws.LawError` (an input error) for a law it cannot check.
+
+Size: one command's evidence, ``fsmctl prove --law``: the report type and the three checks (generated code
+against SymPy, the closed loop, the Lyapunov claim) share the sampled inputs, the symbolic budget and the
+report's kinds, and are read together when a check is added.
 """
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 import multiprocessing
@@ -56,8 +59,9 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fsmctl.model.laws import LawCode, LawError, resolve_law
-from fsmctl.symbolic.law import Law, LawVariants, contract_names, law_variants
+from fsmctl.model.generated_paths import builtin_law_scripts
+from fsmctl.model.laws import LawCode, LawError, builtin_laws, resolve_law
+from fsmctl.symbolic.law import Law, LawVariants, contract_names
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_dot, mrp_G_inverse, skew
 
 __all__ = [
@@ -324,21 +328,14 @@ def _jsonable(x):
 # ----------------------------------------------------------------------------------------------- loading
 
 
-def _builtin_modules() -> tuple[str, ...]:
-    from derive.laws import BUILTIN_LAWS
-
-    return tuple(BUILTIN_LAWS)
-
-
 def _builtin_variants(name: str) -> LawVariants | None:
-    """The built-in law called ``name`` (by each module's ``law(...).name``), or None."""
-    modules = _builtin_modules()
-    for module_name in sorted(modules, key=lambda m: m != name):  # the module of the same name first
-        module = importlib.import_module(f"derive.laws.{module_name}")
-        variants = law_variants(module.law)
-        if variants.name == name:
-            return variants
-    return None
+    """The built-in law called ``name``, from its derivation script (its folder's ``source``), or None."""
+    from fsmctl.codegen.laws import load_derivation_script
+
+    law = builtin_laws().get(name)
+    if law is None:
+        return None
+    return load_derivation_script(builtin_law_scripts() / Path(law.source).name)
 
 
 def load_law_variants(spec: str) -> LawVariants:
@@ -384,7 +381,7 @@ def load_law_variants(spec: str) -> LawVariants:
         if not path.is_file():
             raise LawError(f"law {text!r}: no such derivation script")
         return load_derivation_script(path)
-    names = ", ".join(m for m in _builtin_modules())
+    names = ", ".join(builtin_laws())
     raise LawError(f"law {text!r}: not a built-in law ({names}), a derivation script (.py) or a derived law folder")
 
 

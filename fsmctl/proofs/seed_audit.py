@@ -21,6 +21,9 @@ corrected form as an argument, so that passing the printed form instead makes it
 
 Pure SymPy: no NumPy, no I/O (except ``python -m fsmctl.proofs.seed_audit [--check]``, which writes or
 compares ``docs/errata-audit.md``).
+
+Size: one audit, a row per printed equation of Sections 2-3: most of the length is the quoted print and its
+transcription (data), with the few checks the rows call; splitting the table would scatter one document.
 """
 
 from __future__ import annotations

@@ -16,15 +16,10 @@ from __future__ import annotations
 import lazy_loader
 
 _ATTRS = {
-    "simulator": [
-        "simulate",
-        "simulate_many",
-        "SimulationResult",
-        "SimulationError",
-        "StepSizeWarning",
-        "DiscontinuousControlWarning",
-        "step_size_report",
-    ],
+    "simulator": ["simulate", "simulate_many"],
+    "result": ["SimulationResult"],
+    "failures": ["SimulationError", "StepSizeWarning", "DiscontinuousControlWarning"],
+    "step_size": ["step_size_report"],
     "metrics": [
         "principal_angles",
         "relative_principal_angles",

@@ -35,6 +35,7 @@ import numpy as np
 from fsmctl.model.coupling import aggregate
 from fsmctl.model.generated_code import casadi_function
 from fsmctl.model.problem import PackedProblem
+from fsmctl.simulation.failures import SimulationError, singularity_fix_none
 
 __all__ = [
     "FormationFunctions",
@@ -423,16 +424,12 @@ class _Recorder:
 
 
 def _hint(p: PackedProblem) -> str:
-    from fsmctl.simulation.simulator import _singularity_fix_none
-
-    if _singularity_fix_none(p):
+    if singularity_fix_none(p):
         return " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
     return " (check inertias, gains and the step size)"
 
 
 def _fail(p: PackedProblem, what: str, t_bad: float, who: str, hint: bool = True):
-    from fsmctl.simulation.simulator import SimulationError
-
     raise SimulationError(f"simulation failed: {what} at t = {t_bad:.6g} s in {who}" + (_hint(p) if hint else ""))
 
 
@@ -536,8 +533,6 @@ def _run_rk4(f: FormationFunctions, bar):
 
 def _run_dopri(f: FormationFunctions, bar):
     """formation.c ``simulate_dopri``: step-size control, output and sample events, statistics per accepted step."""
-    from fsmctl.simulation.simulator import SimulationError
-
     p, n = f.p, f.n
     attempt = f.dopri_attempt()
     rec = _Recorder(f, p.n_outputs + 1)

@@ -11,10 +11,10 @@ content hash is still the recorded one: else :class:`LawChangedError`)::
 
     fsmctl simulate --from runs/case1/result.nc
 
-Formats (:func:`save_result`, also :meth:`fsmctl.simulation.simulator.SimulationResult.save`):
+Formats (:func:`save_result`, also :meth:`fsmctl.simulation.result.SimulationResult.save`):
 
 * **NetCDF** (``.nc``, NetCDF-4/HDF5 through ``h5netcdf``): the variables of
-  :meth:`~fsmctl.simulation.simulator.SimulationResult.to_dataset`, compressed (zlib level 4 with the byte
+  :meth:`~fsmctl.simulation.result.SimulationResult.to_dataset`, compressed (zlib level 4 with the byte
   shuffle filter); ``precision="float32"`` stores the time series (every variable along ``time_s`` except the
   time itself) in single precision, about half the size again.  The provenance is the file's global
   attributes.  A float64 file holds the run's arrays bit for bit.
@@ -39,6 +39,9 @@ Formats (:func:`save_result`, also :meth:`fsmctl.simulation.simulator.Simulation
 :func:`load_result` reads either format; a file that is not an fsmctl result raises
 :class:`NotAResultError`, a result without the embedded scenario (written before it was embedded)
 :class:`MissingScenarioError` from :func:`scenario_from_result`; both are :class:`~fsmctl.errors.InputError`.
+
+Size: one file format, written and read here: the provenance, the NetCDF and CSV writers and the reader must
+agree on every attribute, column name and layout entry, so the three sides of the format live together.
 """
 
 from __future__ import annotations
@@ -64,7 +67,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
     from fsmctl.model.laws import LawCode
     from fsmctl.model.scenario import Scenario
-    from fsmctl.simulation.simulator import SimulationResult
+    from fsmctl.simulation.result import SimulationResult
 
 __all__ = [
     "RESULT_FORMAT",
@@ -268,8 +271,8 @@ def problem_fingerprint(scenario: Scenario, law: str | None = None) -> dict[str,
     >>> fingerprint_change(a, b)
     'the scenario changed (its content as flown: torque limits, agents, horizon, ...)'
     """
-    from fsmctl import __version__
     from fsmctl.model.laws import resolve_law
+    from fsmctl.version import __version__
 
     code = scenario.law if law is None else resolve_law(law)
     return {

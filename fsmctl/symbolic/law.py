@@ -39,6 +39,10 @@ A derivation script is a Python file that defines ``law(error_model) -> Law``, b
 ``fsmctl derive FILE.py`` checks and generates it; ``fsmctl simulate --law FILE.py`` flies it.
 
 Pure SymPy: no NumPy, no I/O.
+
+Size: one public API, the :class:`LawBuilder` a derivation script writes against and the :class:`Law` it
+builds: every declaration (parameters, states, broadcast, presets, paper theorems, loop rates) is a method of
+the builder and is validated against the others when the law is built.
 """
 
 from __future__ import annotations

@@ -1,0 +1,617 @@
+"""The settings of a scenario, one frozen pydantic dataclass per table of the scenario file.
+
+:class:`Sinusoid`, :class:`Agent`, :class:`Reference`, :class:`ControllerSettings`, :class:`SimulationSettings`,
+:class:`ActuatorSettings`, :class:`StarTrackerSettings`, :class:`GyroSettings`, :class:`SensorSettings` and
+:class:`LinkSettings`; :class:`~fsmctl.model.scenario.Scenario` holds them.  Every class runs the validators of
+:mod:`fsmctl.model.scenario_values` however it is built (keywords, a TOML table, ``dataclasses.replace``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping, Sequence
+from typing import Annotated, Any
+
+import numpy as np
+from pydantic import BeforeValidator, model_validator
+
+from fsmctl.model.laws import (
+    CONTROLLER_KEYS,
+    LawError,
+    check_written_parameters,
+    resolve_law,
+)
+from fsmctl.model.scenario_values import (
+    ZERO3,
+    ActuatorKind,
+    Bool,
+    ErrorModel,
+    Integrator,
+    LawParameters,
+    Limits,
+    LinkTable,
+    Mat3,
+    Matrix3N,
+    Numbers,
+    Real,
+    ScenarioError,
+    Text,
+    TorqueLimit,
+    Vec3,
+    WheelLayout,
+    _count,
+    _doc,
+    _inertia_problem,
+    _is_multiple,
+    _law_parameters,
+    _lower,
+    _validated,
+)
+
+# ----------------------------------------------------------------------------- data classes
+
+
+@_validated
+class Sinusoid:
+    """``v_k(t) = amplitude_k cos(frequency_k t + phase_k) + offset_k``, k = 1..3.
+
+    Examples
+    --------
+    >>> from fsmctl import Sinusoid
+    >>> Sinusoid(amplitude=[0.1, 0, 0], frequency=[0.025, 0, 0]).bound().tolist()
+    [0.1, 0.0, 0.0]
+    """
+
+    amplitude: Vec3 = _doc(
+        "amplitude per axis (the unit of the signal: N m for torques, rad/s for rates)", default=ZERO3
+    )
+    frequency: Vec3 = _doc("angular frequency per axis", "rad/s", default=ZERO3)
+    phase: Vec3 = _doc("phase per axis (of the cosine)", "rad", default=ZERO3)
+    offset: Vec3 = _doc("constant offset per axis (the unit of the signal)", default=ZERO3)
+
+    def params(self) -> np.ndarray:
+        """Packed ``[amplitude, frequency, phase, offset]`` (the generated code's layout)."""
+        return np.array([*self.amplitude, *self.frequency, *self.phase, *self.offset], dtype=float)
+
+    def __call__(self, t) -> np.ndarray:
+        """Values at time(s) ``t``: shape ``(..., 3)``.
+
+        Evaluated by the generated ``disturbance_torque`` function (the same sinusoid layout), so the
+        formula exists once, in ``derive/``.
+        """
+        from fsmctl.model.casadi_eval import evaluate_mapped
+        from fsmctl.model.generated_code import casadi_function
+
+        t = np.asarray(t, dtype=float)
+        flat = t.reshape(-1)
+        if flat.size == 0:
+            return np.zeros((*t.shape, 3))
+        (values,) = evaluate_mapped(
+            casadi_function("disturbance_torque"), flat.size, [flat, self.params()], shared=(1,)
+        )
+        values = np.ascontiguousarray(values.T).T  # (m, 3) view of a (3, m) array, the layout callers always had
+        return values.reshape(*t.shape, 3)
+
+    def bound(self) -> np.ndarray:
+        """Componentwise bound ``|amplitude| + |offset|`` on ``|v_k(t)|``."""
+        return np.abs(self.amplitude) + np.abs(self.offset)
+
+    def rate_bound(self) -> np.ndarray:
+        """Componentwise bound ``|amplitude frequency|`` on ``|dv_k/dt|``."""
+        return np.abs(np.asarray(self.amplitude) * np.asarray(self.frequency))
+
+    @classmethod
+    def from_mapping(cls, d: Mapping, where: str = "sinusoid") -> Sinusoid:
+        """From a file table with ``amplitude``, ``frequency``, ``phase``, ``offset``, optional ``kind``.
+
+        ``kind = ["cos"|"sin", ...]`` per axis: a ``sin`` component ``a sin(w t + p)`` is stored as
+        ``a cos(w t + p - pi/2)``.
+
+        Parameters
+        ----------
+        d : Mapping
+            The table.
+        where : str
+            Key path used in error messages.
+
+        Returns
+        -------
+        Sinusoid
+            The validated sinusoid.
+        """
+        if not isinstance(d, Mapping):
+            raise ScenarioError(f"{where}: expected a table, got {d!r}")
+        d = dict(d)
+        kind = d.pop("kind", ["cos", "cos", "cos"])
+        if isinstance(kind, str) or not isinstance(kind, Sequence) or len(kind) != 3:
+            raise ScenarioError(f"{where}.kind: expected three of 'cos'/'sin', got {kind!r}")
+        kinds = [_lower(k) for k in kind]
+        for k, kd in enumerate(kinds):
+            if kd not in ("cos", "sin"):
+                raise ScenarioError(f"{where}.kind[{k}]: must be 'cos' or 'sin', got {kind[k]!r}")
+        try:
+            s = cls(**d)
+        except ScenarioError as exc:
+            raise ScenarioError(f"{where}.{exc}") from None
+        if "sin" in kinds:
+            phase = [p - (math.pi / 2 if kd == "sin" else 0.0) for p, kd in zip(s.phase, kinds, strict=True)]
+            s = dataclasses.replace(s, phase=tuple(phase))
+        return s
+
+
+@_validated
+class Agent:
+    """One spacecraft: inertia, initial state, disturbance and its own law parameters (Liang et al. 2012, eqs 9, 29).
+
+    Examples
+    --------
+    >>> from fsmctl import Agent
+    >>> a = Agent(J0=[[100.0, 0, 0], [0, 150.0, 0], [0, 0, 200.0]], delta_J=[[30.0, 0, 0], [0, 45.0, 0], [0, 0, 60.0]],
+    ...           sigma0=[0.3, 0.2, -0.3], omega0=[0.35, -0.13, 0.27])
+    >>> a.J_true.diagonal().tolist(), dict(a.parameters)
+    ([130.0, 195.0, 260.0], {})
+    """
+
+    J0: Mat3 = _doc("nominal inertia, used by the controller (symmetric positive definite)", "kg m^2")
+    delta_J: Mat3 = _doc("inertia perturbation: the plant has J = J0 + delta_J (eq 29)", "kg m^2")
+    sigma0: Vec3 = _doc("initial attitude (MRP, inertial to body)", "1")
+    omega0: Vec3 = _doc("initial body angular velocity", "rad/s")
+    parameters: Annotated[Any, BeforeValidator(_law_parameters)] = _doc(
+        "this agent's own values of law parameters, by name (in a TOML file: further [[agents]] keys, e.g. the "
+        "paper's switching gain delta = [0.005, 0.005, 0.005] of eq 18); they take precedence over [controller]'s",
+        default_factory=lambda: LawParameters(),
+    )
+    disturbance: Sinusoid = _doc("disturbance torque d_i(t)", "N m", default_factory=Sinusoid)
+
+    @model_validator(mode="after")
+    def _physics(self) -> Agent:
+        for where, J in (("J0", np.array(self.J0)), ("J0 + delta_J", np.array(self.J0) + np.array(self.delta_J))):
+            problem = _inertia_problem(J, where)
+            if problem:
+                raise ValueError(problem)
+        if np.linalg.norm(self.sigma0) > 1e6:
+            raise ValueError(f"sigma0: |sigma0| = {np.linalg.norm(self.sigma0):.3g} is beyond any attitude")
+        return self
+
+    @property
+    def J0_array(self) -> np.ndarray:
+        """(3, 3) kg m^2: the nominal inertia ``J0`` as an array (what the controller uses)."""
+        return np.array(self.J0)
+
+    @property
+    def J_true(self) -> np.ndarray:
+        """(3, 3) kg m^2: the plant's inertia ``J = J0 + delta_J`` (eq 29)."""
+        return np.array(self.J0) + np.array(self.delta_J)
+
+
+_AGENT_FIELDS = frozenset(f.name for f in dataclasses.fields(Agent))
+
+
+@_validated
+class Reference:
+    """Reference attitude ``sigma_d(0)`` and rate ``omega_d(t)`` (Sec. 4).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> ref = fsmctl.paper_scenario("1").reference
+    >>> ref.sigma0, ref.omega(0.0).round(6).tolist()
+    ((-0.3, -0.4, 0.4), [0.1, -0.0, -0.1])
+    """
+
+    sigma0: Vec3 = _doc("reference attitude at t = 0 (MRP)", "1")
+    omega: Sinusoid = _doc("reference body rate omega_d(t)", "rad/s")
+
+
+@_validated
+class ControllerSettings:
+    """What every law shares: the law, its written parameters, the torque limit, the error model, on/off.
+
+    ``law`` names a built-in law (``fsmctl laws``), a derivation script (``.py``) or a derived law folder; a
+    relative path in a scenario file is relative to the file's folder (elsewhere: to the current folder).
+    Every other ``[controller]`` key of a file (and every other key given to :meth:`Scenario.replace`) is a
+    parameter of the law, or the name of one of its preset groups (the paper's law: ``surface = "tsm"``), gathered
+    in ``parameters`` and checked against what the law declares (:func:`fsmctl.model.laws.parameter_matrix`).
+    A parameter nobody wrote takes the flown law's declared default; an agent's own value (``[[agents]]``) takes
+    precedence over ``[controller]``'s.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> c = fsmctl.paper_scenario("1").controller
+    >>> c.law, c.parameters["c1"], c.parameters["alpha"], c.torque_limit
+    ('fsm', 0.6, 0.7, 2.0)
+    >>> pid = fsmctl.paper_scenario("1").replace(controller={"law": "pid", "K": 10.0})
+    >>> dict(pid.controller.parameters)
+    {'K': 10.0}
+    """
+
+    law: Text = _doc(
+        "control law: a built-in name (fsmctl laws), a derivation script FILE.py or a derived folder", default="fsm"
+    )
+    parameters: Annotated[Any, BeforeValidator(_law_parameters)] = _doc(
+        "the law's parameters and preset choices as written, by name (in a TOML file: further [controller] keys, "
+        "e.g. c1 = 0.6 or K = 2.0); unwritten ones take the law's declared defaults",
+        default_factory=lambda: LawParameters(),
+    )
+    torque_limit: TorqueLimit = _doc('per-component torque bound; inf (or "inf") for none', "N m", default=math.inf)
+    error_model: ErrorModel = _doc(
+        "controller's error kinematics: 'paper' (eqs 7-8 as printed) or 'exact'", default="paper"
+    )
+    enabled: Bool = _doc(
+        "false: the torque is not applied (u = 0, open loop); the law is still evaluated and reported as "
+        "u_unsaturated (torque-free and disturbance-only runs)",
+        default=True,
+    )
+
+    @model_validator(mode="after")
+    def _declared(self) -> ControllerSettings:
+        for key in self.parameters:
+            if key in _CONTROLLER_FIELDS:
+                raise ValueError(f"parameters: {key!r} is a [controller] key of its own")
+        law = resolve_law(self.law)  # a law that cannot be found is a LawError
+        try:
+            check_written_parameters(law, self.parameters, "controller")
+        except LawError as exc:
+            raise ValueError(str(exc).removeprefix("controller.")) from None
+        return self
+
+    @property
+    def effective_torque_limit(self) -> float:
+        """Per-component bound the plant sees: ``torque_limit``, or 0 when the controller is disabled."""
+        return self.torque_limit if self.enabled else 0.0
+
+
+_CONTROLLER_FIELDS = frozenset(f.name for f in dataclasses.fields(ControllerSettings))
+if _CONTROLLER_FIELDS != {*CONTROLLER_KEYS, "parameters"}:  # checked at load: the two lists are one rule
+    raise ImportError("fsmctl.model.laws.CONTROLLER_KEYS does not list ControllerSettings' fields")
+
+
+@_validated
+class SimulationSettings:
+    """Horizon, integrator, step and output grid.
+
+    The grid rule: ``t_final``, ``output_interval`` and ``control_period`` are multiples of ``dt``, and
+    ``t_final`` is a multiple of ``output_interval``, so the last output sample is the state at ``t_final``.
+
+    Examples
+    --------
+    >>> from fsmctl import SimulationSettings
+    >>> sim = SimulationSettings(t_final=2.0, dt=0.01, output_interval=0.1, control_period=0.1)
+    >>> sim.n_steps, sim.output_every, sim.n_outputs, sim.hold_steps
+    (200, 10, 21, 10)
+    """
+
+    t_final: Real = _doc("horizon", "s", gt=0, default=100.0)
+    dt: Real = _doc("integration step (rk4) or initial step (dopri45)", "s", gt=0, default=1e-3)
+    integrator: Integrator = _doc(
+        "'rk4' (fixed step, default: sgn defeats adaptive steps) or 'dopri45' (adaptive)", default="rk4"
+    )
+    output_interval: Real = _doc(
+        "spacing of the output samples (a multiple of dt dividing t_final)", "s", gt=0, default=0.01
+    )
+    control_period: Real = _doc(
+        "0: continuous control; > 0: the law runs at the instants k control_period (a multiple of dt: the "
+        "integrator steps on them) and its torque is held in between (zero-order hold); sensors and imperfect "
+        "links need it",
+        "s",
+        ge=0,
+        default=0.0,
+    )
+    seed: Annotated[int, BeforeValidator(_count)] = _doc(
+        "seed of the run's random processes (sensor noise, packet loss); the same seed gives the same run", default=0
+    )
+    rtol: Real = _doc("relative tolerance (dopri45)", "1", gt=0, default=1e-8)
+    atol: Real = _doc("absolute tolerance (dopri45)", "1", gt=0, default=1e-10)
+
+    @model_validator(mode="after")
+    def _grid(self) -> SimulationSettings:
+        if self.dt > self.t_final:
+            raise ValueError(f"dt = {self.dt} exceeds t_final = {self.t_final}")
+        for name in ("t_final", "output_interval") + (("control_period",) if self.control_period > 0 else ()):
+            if not _is_multiple(getattr(self, name), self.dt):
+                raise ValueError(f"{name} = {getattr(self, name)} must be a multiple of dt = {self.dt}")
+        if not _is_multiple(self.t_final, self.output_interval):
+            raise ValueError(
+                f"t_final = {self.t_final} must be a multiple of output_interval = {self.output_interval} "
+                "(the output grid must end at t_final)"
+            )
+        return self
+
+    @property
+    def n_steps(self) -> int:
+        """Integration steps of ``dt`` to ``t_final`` (rk4)."""
+        return round(self.t_final / self.dt)
+
+    @property
+    def output_every(self) -> int:
+        """Steps between two output samples."""
+        return max(1, round(self.output_interval / self.dt))
+
+    @property
+    def n_outputs(self) -> int:
+        """Number of output samples, ``t = 0`` and ``t_final`` included."""
+        return self.n_steps // self.output_every + 1
+
+    @property
+    def hold_steps(self) -> int:
+        """Steps between two control instants (0: continuous control)."""
+        return round(self.control_period / self.dt) if self.control_period > 0 else 0
+
+
+@_validated
+class ActuatorSettings:
+    """How the law's torque reaches the body: an ideal torque source with a per-axis clip, or reaction wheels.
+
+    ``kind = "ideal"`` (default, the paper's actuator): the body receives the law's torque, clipped per axis by
+    ``controller.torque_limit``.  ``kind = "reaction_wheels"``: every spacecraft carries the same array of
+    balanced wheels (:mod:`fsmctl.symbolic.hardware`; the spacecraft inertia ``J0 + delta_J`` includes them).
+    At each control instant the law's torque command (clipped per axis by ``controller.torque_limit``) is
+    distributed to the wheels by the minimum-norm rule ``u_w = -pinv(G_s) u``; when a wheel's share exceeds
+    ``max_torque`` every wheel torque is scaled by the same factor, so the body torque keeps its direction
+    and one wheel sits at its limit.  Between instants the wheel torques are held; a wheel at ``max_speed``
+    is not driven further (its torque is 0 while the command would speed it up), and friction acts
+    continuously.
+
+    Examples
+    --------
+    >>> from fsmctl.model.scenario import ActuatorSettings
+    >>> ActuatorSettings(kind="reaction_wheels", layout="pyramid").spin_axes().shape
+    (3, 4)
+    """
+
+    kind: ActuatorKind = _doc("'ideal' (torque source, per-axis clip) or 'reaction_wheels'", default="ideal")
+    layout: WheelLayout = _doc(
+        "wheel spin axes: 'pyramid' (4 wheels at pyramid_angle from body z, azimuths 45, 135, 225, 315 deg), "
+        "'orthogonal' (3 wheels along body x, y, z) or 'custom' (axes)",
+        default="pyramid",
+    )
+    pyramid_angle: Real = _doc(
+        "angle between each spin axis and body z (pyramid); 54.7356 deg gives axes (+-1, +-1, 1)/sqrt(3)",
+        "deg",
+        gt=0,
+        lt=90,
+        default=54.735610317245346,
+    )
+    axes: Matrix3N | None = _doc(
+        "spin axes of layout = 'custom': a 3 x N matrix, one column per wheel (normalised), spanning 3-D",
+        "1",
+        default=None,
+    )
+    spin_inertia: Numbers = _doc("wheel spin-axis inertia J_s: one value, or one per wheel", "kg m^2", default=(0.01,))
+    max_torque: Limits = _doc("motor torque limit per wheel (inf: none)", "N m", default=(math.inf,))
+    max_speed: Limits = _doc(
+        "wheel speed limit relative to the hub (momentum limit J_s max_speed; inf: none)", "rad/s", default=(math.inf,)
+    )
+    viscous_friction: Numbers = _doc("viscous friction coefficient per wheel", "N m s", default=(0.0,))
+    coulomb_friction: Numbers = _doc("Coulomb friction torque per wheel", "N m", default=(0.0,))
+    coulomb_band: Real = _doc(
+        "speed below which the Coulomb torque is linear in the speed (stiction band; 0: sgn)",
+        "rad/s",
+        ge=0,
+        default=0.1,
+    )
+    initial_speed: Numbers = _doc("wheel speeds at t = 0: one value, or one per wheel", "rad/s", default=(0.0,))
+
+    @model_validator(mode="after")
+    def _wheels(self) -> ActuatorSettings:
+        if self.layout == "custom" and self.axes is None:
+            raise ValueError("axes: layout = 'custom' needs axes (a 3 x N matrix, one column per wheel)")
+        if self.layout != "custom" and self.axes is not None:
+            raise ValueError(f"axes: given with layout = {self.layout!r}; set layout = 'custom' to use them")
+        G = self._raw_axes()
+        norms = np.linalg.norm(G, axis=0)
+        if np.any(norms == 0):
+            raise ValueError(f"axes: wheel {int(np.argmin(norms)) + 1} has a zero spin axis")
+        if np.linalg.matrix_rank(G / norms, tol=1e-9) < 3:
+            raise ValueError(
+                "axes: the spin axes do not span 3-D, so some body torques cannot be produced (give at least "
+                "three axes that are not coplanar)"
+            )
+        n = G.shape[1]
+        for name in (
+            "spin_inertia",
+            "max_torque",
+            "max_speed",
+            "viscous_friction",
+            "coulomb_friction",
+            "initial_speed",
+        ):
+            v = getattr(self, name)
+            if len(v) not in (1, n):
+                raise ValueError(f"{name}: give one value or one per wheel ({n}), got {len(v)}")
+        for name in ("spin_inertia", "max_torque", "max_speed"):
+            if not all(x > 0 for x in getattr(self, name)):
+                raise ValueError(f"{name}: every value must be > 0, got {list(getattr(self, name))}")
+        for name in ("viscous_friction", "coulomb_friction"):
+            if not all(x >= 0 for x in getattr(self, name)):
+                raise ValueError(f"{name}: every value must be >= 0, got {list(getattr(self, name))}")
+        return self
+
+    def _raw_axes(self) -> np.ndarray:
+        if self.layout == "orthogonal":
+            return np.eye(3)
+        if self.layout == "pyramid":
+            b = math.radians(self.pyramid_angle)
+            az = np.radians([45.0, 135.0, 225.0, 315.0])
+            return np.array([math.sin(b) * np.cos(az), math.sin(b) * np.sin(az), np.full(4, math.cos(b))])
+        return np.array(self.axes, dtype=float)
+
+    @property
+    def enabled(self) -> bool:
+        """Whether the spacecraft fly reaction wheels (else the ideal torque source)."""
+        return self.kind == "reaction_wheels"
+
+    @property
+    def n_wheels(self) -> int:
+        """Wheels per spacecraft (0 for the ideal actuator)."""
+        return self._raw_axes().shape[1] if self.enabled else 0
+
+    def spin_axes(self) -> np.ndarray:
+        """``(3, N)`` unit spin axes ``G_s`` in the body frame, one column per wheel."""
+        G = self._raw_axes()
+        return G / np.linalg.norm(G, axis=0)
+
+    def spin_inertia_matrix(self) -> np.ndarray:
+        """``J_spin = sum_k J_s,k g_k g_k^T`` (3, 3) of the wheels (zero for the ideal actuator)."""
+        from fsmctl.model.actuators import spin_inertia_matrix
+
+        if not self.enabled:
+            return np.zeros((3, 3))
+        return spin_inertia_matrix(self.spin_axes(), self.per_wheel("spin_inertia"))
+
+    def per_wheel(self, name: str) -> np.ndarray:
+        """``(N,)`` values of a per-wheel setting (one value broadcast to every wheel).
+
+        Parameters
+        ----------
+        name : str
+            A per-wheel field (``"spin_inertia"``, ``"max_torque"``, ``"max_speed"``, ...).
+
+        Returns
+        -------
+        numpy.ndarray
+            One value per wheel.
+        """
+        v = np.array(getattr(self, name), dtype=float)
+        return np.broadcast_to(v, (self._raw_axes().shape[1],)).copy()
+
+
+@_validated
+class StarTrackerSettings:
+    """Attitude sensor: the measured attitude is the true one rotated by a small body-frame rotation
+    ``dtheta`` drawn at each control instant, independent, zero-mean Gaussian with per-axis standard
+    deviation ``noise_std`` (white noise in small-angle form; :func:`fsmctl.symbolic.hardware.star_tracker_measurement`).
+
+    Examples
+    --------
+    >>> from fsmctl import StarTrackerSettings
+    >>> StarTrackerSettings(noise_std=[2.424e-5, 2.424e-5, 4.848e-5]).noise_std
+    (2.424e-05, 2.424e-05, 4.848e-05)
+    """
+
+    noise_std: Vec3 = _doc("1-sigma of the measurement error about body x, y, z (5 arcsec = 2.424e-5 rad)", "rad")
+
+    @model_validator(mode="after")
+    def _positive(self) -> StarTrackerSettings:
+        if not all(x >= 0 for x in self.noise_std):
+            raise ValueError(f"noise_std: must be >= 0, got {list(self.noise_std)}")
+        return self
+
+
+@_validated
+class GyroSettings:
+    """Rate gyro: ``omega_measured = omega + b + eta_v`` with ``b_dot = eta_u`` (Farrenkopf's model, sampled at
+    the control instants; :mod:`fsmctl.model.noise`): angle random walk ``N`` (the density of eta_v), rate
+    random walk ``K`` (the density of eta_u: the bias drift) and a constant bias ``b_0``.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> gyro = fsmctl.load_scenario("paper-hardware").sensors.gyro
+    >>> gyro.angle_random_walk, gyro.bias
+    (4.363e-05, (4.848e-06, -4.848e-06, 2.424e-06))
+    """
+
+    angle_random_walk: Real = _doc(
+        "angle random walk N (0.1 deg/sqrt(h) = 2.909e-5 rad/sqrt(s))", "rad/s^0.5", ge=0, default=0.0
+    )
+    rate_random_walk: Real = _doc(
+        "rate random walk K: the bias's random walk (1 deg/h/sqrt(h) = 8.08e-8 rad/s^1.5)",
+        "rad/s^1.5",
+        ge=0,
+        default=0.0,
+    )
+    bias: Vec3 = _doc("constant bias b_0 about body x, y, z (1 deg/h = 4.848e-6 rad/s)", "rad/s", default=ZERO3)
+
+
+@_validated
+class SensorSettings:
+    """What the law sees.  Unset sensors are perfect; a configured sensor is sampled at the control instants
+    (``simulation.control_period > 0``), its noise drawn from ``simulation.seed``.  The metrics always see
+    the true state.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> fsmctl.paper_scenario("1").sensors.enabled, fsmctl.load_scenario("paper-hardware").sensors.enabled
+    (False, True)
+    """
+
+    star_tracker: StarTrackerSettings | None = _doc("attitude sensor (unset: the true attitude)", default=None)
+    gyro: GyroSettings | None = _doc("rate gyro (unset: the true rate)", default=None)
+
+    @property
+    def enabled(self) -> bool:
+        """Whether any sensor is configured (else the law sees the true state)."""
+        return self.star_tracker is not None or self.gyro is not None
+
+
+@_validated
+class LinkSettings:
+    """Imperfect communication links, applied at the control instants (``simulation.control_period > 0``).
+
+    * Delay: the receiver gets the neighbour's broadcast as it was ``delay`` seconds earlier (its value at the
+      latest control instant at or before ``t - delay``; before ``t = 0`` the broadcast's initial value,
+      the constant initial history of delay equations).
+    * Loss: at each control instant each link independently loses its packet with ``loss_probability``; the
+      receiver then holds the last value it received on that link.
+
+    ``delay_table`` / ``loss_table`` (n x n, row = receiver, column = sender, like ``topology.phase_table``)
+    set a value per link and override the scalars.
+
+    Examples
+    --------
+    >>> from fsmctl import LinkSettings
+    >>> links = LinkSettings(delay=0.1, loss_table=[[0.0, 0.05], [0.2, 0.0]])
+    >>> links.enabled, links.per_link([0, 1], [1, 0], "loss_probability").tolist()
+    (True, [0.05, 0.2])
+    """
+
+    delay: Real = _doc("transport delay of every link", "s", ge=0, default=0.0)
+    loss_probability: Real = _doc(
+        "probability that a link loses its packet at a control instant", "1", ge=0, le=1, default=0.0
+    )
+    delay_table: LinkTable | None = _doc(
+        "per-link delay, n x n (row receiver, column sender; entries without a link are ignored)", "s", default=None
+    )
+    loss_table: LinkTable | None = _doc(
+        "per-link loss probability, n x n (row receiver, column sender)", "1", default=None
+    )
+
+    @property
+    def enabled(self) -> bool:
+        """Whether any delay or loss is set (tables count only where a value is > 0)."""
+
+        def any_table(tab, floor):
+            return tab is not None and any(math.isfinite(x) and x > floor for row in tab for x in row)
+
+        return (
+            self.delay > 0
+            or self.loss_probability > 0
+            or any_table(self.delay_table, 0.0)
+            or any_table(self.loss_table, 0.0)
+        )
+
+    def per_link(self, receivers, senders, which: str) -> np.ndarray:
+        """Values of ``"delay"`` or ``"loss_probability"`` for the links ``receivers[e] <- senders[e]`` (0-based).
+
+        Parameters
+        ----------
+        receivers, senders : sequence of int
+            The links' agents, 0-based.
+        which : {"delay", "loss_probability"}
+            The setting.
+
+        Returns
+        -------
+        numpy.ndarray
+            One value per link (the table's entry, else the scalar).
+        """
+        table = self.delay_table if which == "delay" else self.loss_table
+        scalar = self.delay if which == "delay" else self.loss_probability
+        if table is None:
+            return np.full(len(receivers), scalar, dtype=float)
+        tab = np.array(table, dtype=float)
+        return np.array([tab[i, j] for i, j in zip(receivers, senders, strict=True)], dtype=float)

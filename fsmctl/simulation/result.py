@@ -1,0 +1,509 @@
+"""The result of one run: :class:`SimulationResult` (time series, metrics, conversions to files and to
+python-control).
+
+Made by :func:`fsmctl.simulation.simulator.simulate`; written and read by :mod:`fsmctl.simulation.results_io`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from fsmctl.errors import ResourceLimitError
+from fsmctl.model.generated_code import manifest
+from fsmctl.model.scenario import Scenario
+from fsmctl.outputs import atomic_path
+from fsmctl.simulation.memory import _fmt_bytes, available_memory
+from fsmctl.simulation.metrics import (
+    RAEM_WORKING_BYTES,
+    aaem_deg,
+    pair_angles,
+    principal_angles,
+    relative_angles_at,
+    relative_angles_bytes,
+    relative_principal_angles,
+    settling_time,
+    steady_state_max,
+    streamed_raem_deg,
+)
+from fsmctl.simulation.results_io import save_result
+
+# ----------------------------------------------------------------------------- results
+
+
+@dataclass
+class SimulationResult:
+    """Time series and statistics of one run.
+
+    Arrays (``T`` output samples, ``n`` agents): ``time`` (T,) s; ``sigma``,
+    ``sigma_e`` (T, n, 3) MRP; ``omega``, ``omega_e`` (T, n, 3) rad/s (the error of the true attitude and rate,
+    not of the measurements, in the kinematics of the scenario's ``controller.error_model``); ``broadcast`` (T, n, n_b): what each agent sends (for the paper's law the sliding
+    variable, also available as ``s``); ``z`` (T, n, n_z): the law's own states;
+    ``u``, ``u_unsaturated`` (T, n, 3) N m (applied and commanded; with reaction wheels ``u`` is their reaction
+    torque on the body); ``sigma_d`` (T, 3).  With reaction wheels: ``wheel_speed`` (T, n, N) rad/s relative to the
+    hub and ``wheel_torque`` (T, n, N) N m (motor torque after the speed limit); with sensors:
+    ``sigma_measured``, ``omega_measured`` (T, n, 3), what the law saw at the last control instant (the other
+    arrays are the truth).  Absent hardware gives ``None``.
+
+    Made by :func:`simulate`; the derived quantities (:attr:`theta_e`, :attr:`aaem_deg`, :attr:`raem_deg`,
+    :meth:`summary`) are computed on access, the conversions write files (:meth:`save`) or build an
+    :class:`xarray.Dataset` (:meth:`to_dataset`) or a python-control response (:meth:`to_time_response`).
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario that was flown.
+    time : numpy.ndarray, shape (T,)
+        Output times, s (``time[-1]`` is ``t_final``, or the stop time of a run a monitor stopped).
+    sigma, omega : numpy.ndarray, shape (T, n, 3)
+        Attitude (MRP, shadow set) and body rate (rad/s) of each agent.
+    sigma_e, omega_e : numpy.ndarray, shape (T, n, 3)
+        Attitude error (MRP) and rate error (rad/s), eqs 5-8, of the true attitude and rate (not of what the
+        sensors measured), in the error kinematics of the scenario's ``controller.error_model``:
+        ``omega_e = omega - omega_d`` (``"paper"``, eq 8 as printed) or ``omega - C(sigma_e) omega_d``
+        (``"exact"``), the error state the flown law variant is built on.
+    broadcast : numpy.ndarray, shape (T, n, n_b)
+        What each agent broadcasts (``s`` for the paper's law).
+    z : numpy.ndarray, shape (T, n, n_z)
+        The law's own states.
+    u, u_unsaturated : numpy.ndarray, shape (T, n, 3)
+        Applied and commanded torques, N m.
+    sigma_d : numpy.ndarray, shape (T, 3)
+        Reference attitude (MRP).
+    saturated_time : numpy.ndarray, shape (n,)
+        Time with at least one torque component saturated, s.
+    u_total_variation : numpy.ndarray, shape (n,)
+        Sum over the steps of ``|u(t_k) - u(t_k-1)|_1``, N m.
+    u_unsaturated_max : numpy.ndarray, shape (n,)
+        Largest commanded torque component, N m.
+    backend : str
+        ``"compiled"`` (the generated C, compiled on first use) or ``"casadi-vm"`` (the fallback without a C
+        compiler or with ``FSMCTL_NO_COMPILE=1``: the serialized CasADi functions).
+    wall_time : float
+        Seconds the run took.
+    steps_taken, steps_rejected : int
+        Integrator steps (dopri45 rejects some).
+    wheel_speed, wheel_torque : numpy.ndarray or None, shape (T, n, N)
+        Reaction-wheel speeds (rad/s, relative to the hub) and motor torques (N m); None without wheels.
+    sigma_measured, omega_measured : numpy.ndarray or None, shape (T, n, 3)
+        What the law saw through the sensors; None without sensors.
+    stopped_at : float or None
+        The stop time when a monitor stopped the run early; None when it completed.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.2}))
+    >>> r.sigma.shape, float(r.time[-1])
+    ((21, 6, 3), 0.2)
+    >>> round(float(r.aaem_deg[0]), 3), round(float(r.raem_deg[0]), 3)
+    (134.427, 114.1)
+    >>> r.backend  # "casadi-vm" on a machine without a C compiler
+    'compiled'
+    """
+
+    scenario: Scenario
+    time: np.ndarray
+    sigma: np.ndarray
+    omega: np.ndarray
+    sigma_e: np.ndarray
+    omega_e: np.ndarray
+    broadcast: np.ndarray
+    z: np.ndarray
+    u: np.ndarray
+    u_unsaturated: np.ndarray
+    sigma_d: np.ndarray
+    saturated_time: np.ndarray
+    """(n,) s with at least one torque component saturated"""
+    u_total_variation: np.ndarray
+    """(n,) N m: sum over steps of |u(t_k) - u(t_k-1)|_1"""
+    u_unsaturated_max: np.ndarray
+    backend: str
+    wall_time: float
+    steps_taken: int = 0
+    steps_rejected: int = 0
+    wheel_speed: np.ndarray | None = None
+    wheel_torque: np.ndarray | None = None
+    sigma_measured: np.ndarray | None = None
+    omega_measured: np.ndarray | None = None
+    stopped_at: float | None = None
+    """s: the time of the last sample when a monitor stopped the run early (``time[-1]``); None: the run completed"""
+    _cache: dict = field(default_factory=dict, repr=False, init=False)
+
+    @property
+    def wheel_momentum(self) -> np.ndarray | None:
+        """(T, n, N) N m s: each wheel's spin momentum relative to the hub, ``J_s Omega`` (None without wheels)."""
+        if self.wheel_speed is None:
+            return None
+        return self.wheel_speed * self.scenario.actuator.per_wheel("spin_inertia")
+
+    @property
+    def wheel_momentum_norm(self) -> np.ndarray | None:
+        """(T, n) N m s: magnitude of the wheel array's momentum vector ``|sum_k J_s,k Omega_k g_k|`` (body frame)."""
+        h = self.wheel_momentum
+        if h is None:
+            return None
+        return np.linalg.norm(h @ self.scenario.actuator.spin_axes().T, axis=-1)
+
+    @property
+    def n_agents(self) -> int:
+        """Number of agents ``n``."""
+        return self.sigma.shape[1]
+
+    @property
+    def law(self):
+        """The :class:`~fsmctl.model.laws.LawCode` that was flown."""
+        return self.scenario.law
+
+    @property
+    def s(self) -> np.ndarray:
+        """(T, n, 3) 1/s: the sliding variable of a sliding-mode law (its broadcast, when the law calls it ``s``)."""
+        if self.law.broadcast_name != "s":
+            raise AttributeError(
+                f"the law {self.law.name!r} broadcasts {self.law.broadcast_name!r}, not a sliding variable s"
+            )
+        return self.broadcast
+
+    @property
+    def theta_e(self) -> np.ndarray:
+        """(T, n) rad: principal angle of each agent's attitude error."""
+        if "theta_e" not in self._cache:
+            self._cache["theta_e"] = principal_angles(self.sigma_e)
+        return self._cache["theta_e"]
+
+    @property
+    def theta_relative(self) -> np.ndarray:
+        """(T, n, n) rad: principal angle between agents i and j at every output sample.
+
+        Costly: ``T n^2`` doubles (200 agents over 100 s at 0.01 s: 3.2 GB, twice that while it is
+        computed; :func:`fsmctl.simulation.metrics.relative_angles_bytes`), so it is computed on each access (cached
+        only below 64 MiB), refused with :class:`~fsmctl.errors.ResourceLimitError` when it would not fit
+        in the available memory, and used by nothing else here: :attr:`raem_deg` streams, and
+        :meth:`relative_angles_at` (one sample) and :meth:`pair_angles` (one pair) are cheap.
+        """
+        if "theta_ij" in self._cache:
+            return self._cache["theta_ij"]
+        T, n = self.sigma_e.shape[:2]
+        needed = relative_angles_bytes(T, n)
+        available = available_memory()
+        if available is not None and needed > available:
+            raise ResourceLimitError(
+                f"theta_relative ({T:,} samples x {n} x {n} agents) would need ~{_fmt_bytes(needed)} of memory "
+                f"but only {_fmt_bytes(available)} is available: use relative_angles_at(k), pair_angles(i, j) "
+                "or raem_deg (streamed)"
+            )
+        theta = relative_principal_angles(self.sigma_e)
+        if theta.nbytes <= RAEM_WORKING_BYTES:
+            self._cache["theta_ij"] = theta
+        return theta
+
+    def relative_angles_at(self, k: int) -> np.ndarray:
+        """(n, n) rad: the relative principal angles of every pair of agents at output sample ``k``.
+
+        Parameters
+        ----------
+        k : int
+            Output sample index.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``theta_ij`` at ``time[k]`` (the theta_ij of eq 43).
+        """
+        return relative_angles_at(self.sigma_e[k])
+
+    def pair_angles(self, i: int, j: int) -> np.ndarray:
+        """(T,) rad: the relative principal angle of agents ``i`` and ``j`` (0-based) over time.
+
+        Parameters
+        ----------
+        i, j : int
+            Agent indices, 0-based.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``theta_ij(t)`` at every output sample.
+        """
+        return pair_angles(self.sigma_e, i, j)
+
+    @property
+    def aaem_deg(self) -> np.ndarray:
+        """Absolute attitude error metric, eq 42 (deg)."""
+        return aaem_deg(self.theta_e)
+
+    @property
+    def raem_deg(self) -> np.ndarray:
+        """Relative attitude error metric, eq 43 (deg); streamed over blocks of samples (O(n^2) memory), cached."""
+        if "raem_deg" not in self._cache:
+            self._cache["raem_deg"] = streamed_raem_deg(self.sigma_e)
+        return self._cache["raem_deg"]
+
+    @property
+    def chattering_index(self) -> np.ndarray:
+        """(n,) N m/s: total variation of the applied torque per second of simulated time."""
+        span = float(self.time[-1] - self.time[0]) or 1.0
+        return self.u_total_variation / span
+
+    def summary(self, tolerances_deg=(1.0, 0.1, 0.05, 0.03, 0.01), steady_window: float = 40.0) -> dict:
+        """Settling times of AAEM/RAEM per tolerance, steady-state accuracy, torque statistics.
+
+        Parameters
+        ----------
+        tolerances_deg : sequence of float
+            Settling bands of AAEM and RAEM (eqs 42-43), deg.
+        steady_window : float
+            Length of the final window of the steady-state maxima, s.
+
+        Returns
+        -------
+        dict
+            JSON-ready values (see the keys), times in s, angles in deg, torques in N m.
+        """
+        t, a, r = self.time, self.aaem_deg, self.raem_deg
+        window = min(steady_window, float(t[-1] - t[0]))
+        return {
+            "scenario": self.scenario.label,
+            "backend": self.backend,
+            "wall_time_s": self.wall_time,
+            "aaem_initial_deg": float(a[0]),
+            "raem_initial_deg": float(r[0]),
+            "aaem_peak_deg": float(a.max()),
+            "raem_peak_deg": float(r.max()),
+            "aaem_settling_s": {f"{tol:g}": settling_time(t, a, tol) for tol in tolerances_deg},
+            "raem_settling_s": {f"{tol:g}": settling_time(t, r, tol) for tol in tolerances_deg},
+            "steady_window_s": window,
+            "aaem_steady_max_deg": steady_state_max(t, a, window),
+            "raem_steady_max_deg": steady_state_max(t, r, window),
+            "u_max_abs_N_m": float(np.abs(self.u).max()),
+            "u_unsaturated_max_N_m": float(self.u_unsaturated_max.max()),
+            "saturated_time_s": self.saturated_time.tolist(),
+            "last_saturation_s": self.last_saturation_time(),
+            "chattering_index_N_m_per_s": self.chattering_index.tolist(),
+            **(
+                {
+                    "wheel_speed_peak_rad_per_s": float(np.abs(self.wheel_speed).max()),
+                    "wheel_momentum_peak_N_m_s": float(self.wheel_momentum_norm.max()),
+                    "wheel_momentum_final_N_m_s": self.wheel_momentum_norm[-1].tolist(),
+                }
+                if self.wheel_speed is not None
+                else {}
+            ),
+        }
+
+    def last_saturation_time(self) -> float:
+        """Last output time at which any torque component was at the limit (NaN if never)."""
+        limit = self.scenario.controller.effective_torque_limit
+        if not math.isfinite(limit):
+            return float("nan")
+        hit = np.nonzero(np.any(np.abs(self.u_unsaturated) > limit, axis=(1, 2)))[0]
+        return float(self.time[hit[-1]]) if hit.size else float("nan")
+
+    # --- conversion -------------------------------------------------------------------
+    def to_dataset(self):
+        """An :class:`xarray.Dataset` with units in the variable names and attributes."""
+        import xarray as xr
+
+        n = self.n_agents
+        coords = {
+            "time_s": self.time,
+            "agent": np.arange(1, n + 1, dtype=np.int32),
+            "axis": np.arange(3, dtype=np.int32),
+        }
+        tna = ("time_s", "agent", "axis")
+
+        def var(data, dims, units, long_name):
+            return xr.Variable(dims, data, {"units": units, "long_name": long_name})
+
+        ds = xr.Dataset(
+            {
+                "sigma": var(self.sigma, tna, "1", "MRP attitude sigma_i (shadow set)"),
+                "omega_rad_per_s": var(self.omega, tna, "rad/s", "body angular velocity omega_i"),
+                "sigma_e": var(self.sigma_e, tna, "1", "MRP attitude error sigma_ei"),
+                "omega_e_rad_per_s": var(self.omega_e, tna, "rad/s", "angular velocity error omega_ei"),
+                f"broadcast_{self.law.broadcast_name}": var(
+                    self.broadcast,
+                    ("time_s", "agent", "broadcast_component"),
+                    self.law.broadcast_unit,
+                    f"what each agent broadcasts to its neighbours ({self.law.broadcast_name}, law {self.law.name})",
+                ),
+                **(
+                    {"law_state": var(self.z, ("time_s", "agent", "law_state"), "1", f"states of law {self.law.name}")}
+                    if self.z.shape[-1]
+                    else {}  # NetCDF 3 has no zero-length fixed dimension
+                ),
+                "u_N_m": var(self.u, tna, "N m", "applied control torque u_i"),
+                "u_unsaturated_N_m": var(self.u_unsaturated, tna, "N m", "commanded torque before saturation"),
+                "sigma_d": var(self.sigma_d, ("time_s", "axis"), "1", "reference MRP sigma_d"),
+                "theta_e_deg": var(
+                    np.degrees(self.theta_e), ("time_s", "agent"), "deg", "error principal angle theta_ei"
+                ),
+                "aaem_deg": var(self.aaem_deg, ("time_s",), "deg", "absolute attitude error metric (eq 42)"),
+                "raem_deg": var(self.raem_deg, ("time_s",), "deg", "relative attitude error metric (eq 43)"),
+                "saturated_time_s": var(self.saturated_time, ("agent",), "s", "time with a saturated component"),
+                "u_total_variation_N_m": var(self.u_total_variation, ("agent",), "N m", "total variation of u"),
+                "u_unsaturated_max_N_m": var(self.u_unsaturated_max, ("agent",), "N m", "max |commanded torque|"),
+                **self._hardware_variables(var),
+            },
+            coords=coords,
+        )
+        ds["time_s"].attrs["units"] = "s"
+        ds.attrs.update(
+            {
+                "title": f"fsmctl simulation: {self.scenario.label}",
+                "scenario": "\n".join(self.scenario.describe()),
+                "backend": self.backend,
+                "generated_code": ", ".join(f"{k} {v}" for k, v in manifest()["versions"].items()),
+                "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
+                "law": self.law.name,
+                "law_source": self.law.source,
+                "law_states": ", ".join(self.law.state_labels()),
+            }
+        )
+        return ds
+
+    def _hardware_variables(self, var) -> dict:
+        out = {}
+        if self.wheel_speed is not None:
+            tnw = ("time_s", "agent", "wheel")
+            out["wheel_speed_rad_per_s"] = var(self.wheel_speed, tnw, "rad/s", "wheel speed relative to the hub")
+            out["wheel_torque_N_m"] = var(self.wheel_torque, tnw, "N m", "wheel motor torque (after the speed limit)")
+            out["wheel_momentum_norm_N_m_s"] = var(
+                self.wheel_momentum_norm, ("time_s", "agent"), "N m s", "|wheel array momentum| (body frame)"
+            )
+        if self.sigma_measured is not None:
+            tna = ("time_s", "agent", "axis")
+            out["sigma_measured"] = var(self.sigma_measured, tna, "1", "attitude the law saw (star tracker)")
+            out["omega_measured_rad_per_s"] = var(self.omega_measured, tna, "rad/s", "rate the law saw (gyro)")
+        return out
+
+    def save(
+        self,
+        path: str | Path,
+        *,
+        format: str | None = None,
+        precision: str = "float64",
+        command=None,
+    ) -> Path:
+        """Write the run to a NetCDF (``.nc``) or CSV (``.csv``) file with its provenance, atomically.
+
+        The file embeds the scenario, the law and the versions (:func:`fsmctl.simulation.results_io.provenance`);
+        :func:`fsmctl.simulation.results_io.load_result` reads it back and
+        :func:`fsmctl.simulation.results_io.scenario_from_result` re-runs it.  ``.npz`` writes the dataset's
+        arrays with NumPy (no provenance).
+
+        Parameters
+        ----------
+        path : str or Path
+            Target file.
+        format : {None, "netcdf", "csv"}
+            None: from the suffix.
+        precision : {"float64", "float32"}
+            Storage of the time series (time stays float64).
+        command : sequence of str or str, optional
+            The command line, recorded in the file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
+        >>> r.save("run.csv").name
+        'run.csv'
+        >>> open("run.csv").readline()[:40]
+        'time_s,sigma_1_x,sigma_1_y,sigma_1_z,sig'
+        """
+        path = Path(path)
+        if format is None and path.suffix == ".npz":
+            with atomic_path(path) as tmp:
+                ds = self.to_dataset()
+                with open(tmp, "wb") as fh:  # a file object: np.savez would append ".npz" to the temporary name
+                    np.savez_compressed(fh, **{k: v.values for k, v in ds.variables.items()})
+            return path
+        return save_result(self, path, format=format, precision=precision, command=command)
+
+    def to_time_response(self, *, errors: bool = True):
+        """The run as a python-control time response: the formation's states and outputs, the errors and metrics.
+
+        States and the first ``9 n`` outputs are those of :func:`fsmctl.formation` (the python-control plug-in),
+        named alike: states ``reference_q_d[0..3]``, ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``; outputs
+        ``sc<i>_sigma[k]``, ``sc<i>_omega[k]`` (rad/s), ``sc<i>_tau[k]`` (N m).  With ``errors`` the outputs go on
+        with the error signals and the metrics: ``sc<i>_sigma_e[k]`` (the MRP attitude error sigma_ei, eqs 5-6),
+        ``sc<i>_theta_e_deg`` (its principal angle theta_ei, deg), ``aaem_deg`` and ``raem_deg`` (the absolute and
+        relative attitude error metrics, Liang et al. 2012, eqs 42-43, deg).
+
+        Parameters
+        ----------
+        errors : bool
+            Append the error signals and metrics (``4 n + 2`` outputs) to the plug-in's ``9 n``.
+
+        Returns
+        -------
+        control.TimeResponseData
+            A :class:`fsmctl.model.time_response.FormationResponse` where that class exists (its ``plot()`` groups
+            the signals: one axes per signal, one colour per agent), else a plain
+            :class:`control.TimeResponseData`; no inputs.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
+        >>> tr = r.to_time_response()
+        >>> tr.outputs.shape, tr.output_labels[-3:]
+        ((80, 11), ['sc6_theta_e_deg', 'aaem_deg', 'raem_deg'])
+        >>> round(float(tr.outputs[tr.output_labels.index("aaem_deg"), 0]), 3)
+        134.427
+        >>> r.to_time_response(errors=False).outputs.shape
+        (54, 11)
+        """
+        import control as ct
+
+        try:
+            from fsmctl.model.time_response import FormationResponse as response_class
+        except ImportError:
+            response_class = ct.TimeResponseData
+        n = self.n_agents
+        T = self.time.size
+        from fsmctl.model.attitude import quaternion_from_mrp
+
+        x = np.concatenate(
+            [quaternion_from_mrp(self.sigma_d).T]
+            + [np.concatenate([quaternion_from_mrp(self.sigma[:, i]).T, self.omega[:, i].T]) for i in range(n)]
+        )
+        y = np.concatenate([np.concatenate([self.sigma[:, i].T, self.omega[:, i].T, self.u[:, i].T]) for i in range(n)])
+        state_labels = [f"reference_q_d[{k}]" for k in range(4)] + [
+            f"sc{i + 1}_{v}[{k}]" for i in range(n) for v, m in (("q", 4), ("omega", 3)) for k in range(m)
+        ]
+        output_labels = [f"sc{i + 1}_{v}[{k}]" for i in range(n) for v in ("sigma", "omega", "tau") for k in range(3)]
+        if errors:
+            y = np.concatenate(
+                [
+                    y,
+                    self.sigma_e.transpose(1, 2, 0).reshape(3 * n, T),
+                    np.degrees(self.theta_e).T,
+                    self.aaem_deg[None, :],
+                    self.raem_deg[None, :],
+                ]
+            )
+            output_labels += [f"sc{i + 1}_sigma_e[{k}]" for i in range(n) for k in range(3)]
+            output_labels += [f"sc{i + 1}_theta_e_deg" for i in range(n)] + ["aaem_deg", "raem_deg"]
+        return response_class(
+            self.time,
+            y,
+            x,
+            np.zeros((0, T)),
+            output_labels=output_labels,
+            state_labels=state_labels,
+            input_labels=[],
+            sysname=f"formation ({self.scenario.label})",
+            title=f"fsmctl formation: {self.scenario.label}",
+            issiso=False,
+            plot_inputs=False,  # a closed formation has no inputs: plot() shows the outputs
+        )
