@@ -41,7 +41,24 @@ def available_memory() -> int | None:
     return avail
 
 
-def _fmt_bytes(x: float) -> str:
+def format_bytes(x: float) -> str:
+    """A byte count for messages, three significant digits (``1.5 GB``, ``300 kB``, ``12 B``).
+
+    Parameters
+    ----------
+    x : float
+        A number of bytes.
+
+    Returns
+    -------
+    str
+        The count with a decimal (SI) unit.
+
+    Examples
+    --------
+    >>> format_bytes(1.5e9), format_bytes(3e5), format_bytes(12)
+    ('1.5 GB', '300 kB', '12 B')
+    """
     for unit, scale in (("TB", 1e12), ("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
         if abs(x) >= scale:
             return f"{x / scale:.3g} {unit}"

@@ -16,7 +16,7 @@ from fsmctl.errors import ResourceLimitError
 from fsmctl.model.generated_code import manifest
 from fsmctl.model.scenario import Scenario
 from fsmctl.outputs import atomic_path
-from fsmctl.simulation.memory import _fmt_bytes, available_memory
+from fsmctl.simulation.memory import available_memory, format_bytes
 from fsmctl.simulation.metrics import (
     RAEM_WORKING_BYTES,
     aaem_deg,
@@ -191,8 +191,8 @@ class SimulationResult:
         available = available_memory()
         if available is not None and needed > available:
             raise ResourceLimitError(
-                f"theta_relative ({T:,} samples x {n} x {n} agents) would need ~{_fmt_bytes(needed)} of memory "
-                f"but only {_fmt_bytes(available)} is available: use relative_angles_at(k), pair_angles(i, j) "
+                f"theta_relative ({T:,} samples x {n} x {n} agents) would need ~{format_bytes(needed)} of memory "
+                f"but only {format_bytes(available)} is available: use relative_angles_at(k), pair_angles(i, j) "
                 "or raem_deg (streamed)"
             )
         theta = relative_principal_angles(self.sigma_e)

@@ -49,7 +49,7 @@ from fsmctl.simulation.failures import (
     StepSizeWarning,
     singularity_fix_none,
 )
-from fsmctl.simulation.memory import _fmt_bytes, available_memory
+from fsmctl.simulation.memory import available_memory, format_bytes
 from fsmctl.simulation.metrics import (
     RAEM_WORKING_BYTES,
 )
@@ -115,8 +115,8 @@ def check_output_memory(p: PackedProblem, *, available: int | None = None) -> in
         rows_fit = max(2, (available - RAEM_WORKING_BYTES) // per_row - 1)
         every_fit = max(p.output_every, -(-p.n_steps // max(1, rows_fit - 1)))
         raise ResourceLimitError(
-            f"this run's results would need ~{_fmt_bytes(needed)} of memory ({p.n_agents} agents x "
-            f"{p.n_outputs:,} output samples) but only {_fmt_bytes(available)} is available: raise "
+            f"this run's results would need ~{format_bytes(needed)} of memory ({p.n_agents} agents x "
+            f"{p.n_outputs:,} output samples) but only {format_bytes(available)} is available: raise "
             f"output_interval (now {dt_out:g} s; >= {every_fit * p.dt:.3g} s dividing t_final would fit) or shorten t_final "
             f"(now {t_final:g} s)"
         )
@@ -139,7 +139,7 @@ def check_noise_memory(scenario: Scenario, *, available: int | None = None) -> i
     if available is not None and needed > available:
         raise ResourceLimitError(
             f"the sensor noise and packet losses of this run ({instants:,} control instants) would need "
-            f"~{_fmt_bytes(needed)} of memory but only {_fmt_bytes(available)} is available: raise "
+            f"~{format_bytes(needed)} of memory but only {format_bytes(available)} is available: raise "
             f"simulation.control_period (now {sim.control_period:g} s) or shorten t_final"
         )
     return needed

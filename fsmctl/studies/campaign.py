@@ -51,6 +51,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fsmctl.errors import ResourceLimitError
+from fsmctl.simulation.memory import available_memory, format_bytes
 from fsmctl.studies.cluster import DASK_TIMEOUT_S, connect_dask
 from fsmctl.studies.parallel import (
     InterruptGuard,
@@ -151,13 +152,11 @@ def check_memory(what: str, needed: int, *, available: int | None = None, advice
     ...
     fsmctl.errors.ResourceLimitError: the results would need ~1 TB of memory but only 1 GB is available: fewer runs
     """
-    from fsmctl.simulation.simulator import _fmt_bytes, available_memory
-
     if available is None:
         available = available_memory()
     if available is not None and needed > available:
         raise ResourceLimitError(
-            f"{what} would need ~{_fmt_bytes(needed)} of memory but only {_fmt_bytes(available)} is available"
+            f"{what} would need ~{format_bytes(needed)} of memory but only {format_bytes(available)} is available"
             + (f": {advice}" if advice else "")
         )
     return needed
