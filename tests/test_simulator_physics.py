@@ -25,6 +25,7 @@ from scipy.spatial.transform import Rotation
 
 import fsmctl
 from fsmctl import Sinusoid, Topology
+from fsmctl.model.laws import LawError
 from fsmctl.model.problem import pack
 from fsmctl.simulation.simulator import DiscontinuousControlWarning, SimulationError
 
@@ -584,12 +585,13 @@ def test_no_nan_when_starting_exactly_on_the_reference(paper, fix, error_model):
 
 def test_singular_law_gives_a_clear_error_not_a_silent_torque(paper):
     """singularity_fix = 'none' (the law as printed) at sigma_e = 0: alpha|0|^(alpha-1) * 0 is NaN.  The
-    saturation fmin(u_max, fmax(-u_max, NaN)) would apply -u_max silently; the driver stops instead."""
+    saturation fmin(u_max, fmax(-u_max, NaN)) would apply -u_max silently; the run is refused before it starts,
+    naming the agent and the Remark 6 device (the law is undefined at the initial state: an input error)."""
     sd0 = paper.reference.sigma0
     wd0 = tuple(float(v) for v in paper.reference.omega(0.0))
     agents = [dataclasses.replace(a, sigma0=sd0, omega0=wd0) for a in paper.agents]
     s = with_agents(paper, agents, controller={"singularity_fix": "none"}, simulation={"t_final": 0.5})
-    with pytest.raises(SimulationError, match=r"non-finite torque command at t = 0 s in agent 1.*Remark 6"):
+    with pytest.raises(LawError, match=r"torque is not finite at the initial state of agent 1 .*Remark 6.*'switch'"):
         fsmctl.simulate(s)
 
 

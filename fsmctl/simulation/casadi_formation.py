@@ -35,7 +35,7 @@ import numpy as np
 from fsmctl.model.coupling import aggregate
 from fsmctl.model.generated_code import casadi_function
 from fsmctl.model.problem import PackedProblem
-from fsmctl.simulation.failures import SimulationError, singularity_fix_none
+from fsmctl.simulation.failures import SimulationError, nonfinite_hint
 
 __all__ = [
     "FormationFunctions",
@@ -423,14 +423,10 @@ class _Recorder:
         return {k: v[: self.written] for k, v in self.rows.items()}
 
 
-def _hint(p: PackedProblem) -> str:
-    if singularity_fix_none(p):
-        return " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
-    return " (check inertias, gains and the step size)"
-
-
 def _fail(p: PackedProblem, what: str, t_bad: float, who: str, hint: bool = True):
-    raise SimulationError(f"simulation failed: {what} at t = {t_bad:.6g} s in {who}" + (_hint(p) if hint else ""))
+    raise SimulationError(
+        f"simulation failed: {what} at t = {t_bad:.6g} s in {who}" + (nonfinite_hint(p) if hint else "")
+    )
 
 
 def _check_commands(p: PackedProblem, t_bad: float, commanded: np.ndarray) -> None:

@@ -62,3 +62,11 @@ def singularity_fix_none(p: PackedProblem) -> bool:
     fix = p.law.parameter(theorems.parameters["singularity_fix"])
     k = sum(q.size for q in p.law.parameters[: p.law.parameters.index(fix)])
     return bool(np.any(p.params[:, k] == fix.choices.index("none")))
+
+
+def nonfinite_hint(p: PackedProblem) -> str:
+    """What to do about a law output that is not finite, in parentheses after the message: the paper's law flown
+    without its Remark 6 device (:func:`singularity_fix_none`), else what to check."""
+    if singularity_fix_none(p):
+        return " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
+    return " (check inertias, gains and the step size)"

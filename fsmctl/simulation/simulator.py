@@ -47,7 +47,7 @@ from fsmctl.simulation.failures import (
     DiscontinuousControlWarning,
     SimulationError,
     StepSizeWarning,
-    singularity_fix_none,
+    nonfinite_hint,
 )
 from fsmctl.simulation.memory import available_memory, format_bytes
 from fsmctl.simulation.metrics import (
@@ -319,11 +319,7 @@ def _failure_message(p: PackedProblem, raw: dict) -> str:
     if rc in (1, 7):
         who = "the reference" if raw["fail_agent"] == -1 else f"agent {raw['fail_agent'] + 1}"
         detail += f" at t = {raw['fail_time']:.6g} s in {who}"
-        detail += (
-            " (the Remark 6 term alpha|sigma_e|^(alpha-1) is singular with singularity_fix = 'none'; use 'switch')"
-            if singularity_fix_none(p)
-            else " (check inertias, gains and the step size)"
-        )
+        detail += nonfinite_hint(p)
     elif rc == 5:
         d = p.law.discontinuity
         why = (

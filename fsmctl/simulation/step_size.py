@@ -13,7 +13,7 @@ import numpy as np
 
 from fsmctl.model.problem import PackedProblem, pack
 from fsmctl.model.scenario import Scenario
-from fsmctl.simulation.failures import StepSizeWarning
+from fsmctl.simulation.failures import StepSizeWarning, nonfinite_hint, singularity_fix_none
 
 # ----------------------------------------------------------------------------- step size
 
@@ -244,10 +244,14 @@ def _check_law_at_start(p: PackedProblem) -> None:
         for name, value in _law_outputs(p, i)(p.x0[p.agent_slice(i)]).items():
             if not np.all(np.isfinite(value)):
                 shown = ", ".join(f"{v:g}" for v in value)
+                why = (
+                    nonfinite_hint(p).strip()
+                    if singularity_fix_none(p)
+                    else "(a division by zero, or a root or log of a negative number?)"
+                )
                 raise LawError(
                     f"law {p.law.name!r}: its {name} is not finite at the initial state of agent {i + 1} "
-                    f"([{shown}]): the law is undefined there (a division by zero, or a root or log of a negative "
-                    "number?); fix the law or the initial state"
+                    f"([{shown}]): the law is undefined there {why}; fix the law or the initial state"
                 )
 
 
