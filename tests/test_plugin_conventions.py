@@ -307,3 +307,18 @@ def test_a_process_pool_sweep_gives_the_serial_numbers():
     for a, b in zip(serial, pooled, strict=True):
         assert np.array_equal(a, b)
     assert not np.array_equal(serial[0], serial[1])  # the gain acts
+
+
+def test_a_state_that_is_not_the_systems_warns_once_and_sample_system_names_the_route():
+    """python-control pads a short X0 with zeros: the MRP state [sigma, omega] of a design handed to the quaternion
+    plant flies q / |q|, another attitude.  A unit quaternion stays silent; ct.sample_system names fsmctl's zoh."""
+    sc = fsmctl.spacecraft(np.diag([100.0, 150.0, 200.0]), name="sc")
+    with pytest.warns(fsmctl.plugin.QuaternionNormWarning, match=r"\|q\| = 0.224, far from 1") as caught:
+        ct.input_output_response(sc, [0.0, 1.0], 0, [0.1, 0.2, 0.0, 0.0, 0.0, 0.0])
+    assert len(caught) == 1  # once per system, not once per solver step
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        x0 = np.concatenate([fsmctl.plugin.quaternion_from_mrp([0.1, 0.2, 0.0]), np.zeros(3)])
+        ct.input_output_response(fsmctl.spacecraft(np.eye(3), name="ok"), [0.0, 1.0], 0, x0)
+    with pytest.raises(InputError, match=r"fsmctl.plugin.zoh\(sys, 0.1, step=...\)"):
+        ct.sample_system(sc, 0.1)

@@ -42,7 +42,7 @@ _ATTRS = {
         "mrp_from_quaternion",
     ],
     "states": ["initial_state", "mrp_state"],
-    "system": ["ParameterizedSystem"],
+    "system": ["ParameterizedSystem", "QuaternionNormWarning"],
     "parameters": ["law_parameter_values", "InvalidStateError", "ParameterKeyError"],
     "formation": ["formation", "FormationSystem", "sampled_formation"],
     "sampled": ["zoh", "discrete_law_controller", "discrete_fsm_controller"],

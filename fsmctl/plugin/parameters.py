@@ -80,7 +80,7 @@ class ParameterKeyError(InputError):
     ...     sc.dynamics(0.0, [1, 0, 0, 0, 0, 0, 0], np.zeros(3), params={"j": np.eye(3)})
     ... except ParameterKeyError as exc:
     ...     print(exc)
-    spacecraft 'sc': unknown parameter 'j' (known: J, sc_J, disturbance, sc_disturbance)
+    spacecraft 'sc': unknown parameter 'j' (known, closest first: J, sc_J, disturbance, sc_disturbance)
     """
 
 
@@ -117,9 +117,14 @@ def _unknown_keys(params: Mapping[str, Any], known: Any, where: str) -> None:
                 return max(difflib.SequenceMatcher(None, text, part).ratio() for part in (k, k.split("_", 1)[-1]))
 
             order = sorted(listed, key=lambda k: -score(k))  # stable: ties keep the system's order
-            raise ParameterKeyError(
-                f"{where}: unknown parameter {key!r} (known: {', '.join(map(str, order)) or 'none'})"
-            )
+            shown = ", ".join(map(str, order[:_KNOWN_SHOWN])) or "none"
+            if len(order) > _KNOWN_SHOWN:
+                shown += f", ... ({len(order) - _KNOWN_SHOWN} more: the keys of the system's params)"
+            raise ParameterKeyError(f"{where}: unknown parameter {key!r} (known, closest first: {shown})")
+
+
+_KNOWN_SHOWN = 24
+"""How many known keys an unknown-parameter error lists (the closest first: every key of one system; a formation has about 70)."""
 
 
 class _KnownKeys:

@@ -112,6 +112,28 @@ class _FlatCall:
 _Model = Callable[[float, np.ndarray, np.ndarray, Mapping[str, Any]], np.ndarray]
 
 
+class QuaternionNormWarning(UserWarning):
+    """A state handed to an fsmctl system holds an attitude quaternion whose norm is far from 1 (``|q|`` outside
+    0.71 to 1.22): probably not the state meant, since python-control pads a short ``X0`` with zeros.  Shown once
+    per system.
+
+    Examples
+    --------
+    >>> import warnings, numpy as np, fsmctl
+    >>> sc = fsmctl.spacecraft(np.eye(3), name="sc")
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = sc.output(0.0, [0.1, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0])  # an MRP state given for q
+    >>> caught[0].category.__name__, str(caught[0].message)[:52]
+    ('QuaternionNormWarning', "spacecraft 'sc': the attitude quaternion q = [0.1, 0.2")
+    """
+
+
+_FAR_FROM_UNIT = 0.5
+"""``| |q|^2 - 1 |`` above which a state's quaternion is taken for a mistake (|q| outside [0.71, 1.22]; the
+normalisation-drift control keeps a flown ``|q|`` within 1e-6 of 1)."""
+
+
 class ParameterizedSystem(ct.NonlinearIOSystem):
     """A :class:`control.NonlinearIOSystem` whose parameters are owned by the instance (what the factories return).
 
@@ -419,15 +441,54 @@ class ParameterizedSystem(ct.NonlinearIOSystem):
         self._seen = {}
         self._last = (None, None)
 
-    def _updfcn(self, t, x, u, params):
-        if self._attitude and x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3] < _MIN_QUATERNION_NORM2:
+    def _check_state(self, x) -> None:
+        """Refuse ``q ~ 0`` (no rotation); warn once when ``|q|`` is far from 1: a state that is not this system's
+        (python-control pads a short ``X0`` with zeros; an MRP state ``[sigma, omega]`` given for ``[q, omega]``)."""
+        n2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3]
+        if n2 < _MIN_QUATERNION_NORM2:
             raise _invalid_quaternion(self._where, self._kind, x[:4])
+        if abs(n2 - 1.0) > _FAR_FROM_UNIT and not self.__dict__.get("_norm_warned"):
+            self._norm_warned = True
+            shown = ", ".join(f"{float(v):.3g}" for v in x[:4])
+            warnings.warn(
+                f"{self._where}: the attitude quaternion q = [{shown}] has |q| = {float(n2) ** 0.5:.3g}, far from 1: "
+                "the system flies q / |q|, which is probably not the attitude meant (a short X0 padded with zeros, "
+                "or an MRP state?); build states with quaternion_from_mrp or fsmctl.initial_state",
+                QuaternionNormWarning,
+                stacklevel=2,
+            )
+
+    def _updfcn(self, t, x, u, params):
+        if self._attitude:
+            self._check_state(x)
         return self._model_update(t, x, u, self._resolve(params))
 
     def _outfcn(self, t, x, u, params):
-        if self._attitude and x[0] * x[0] + x[1] * x[1] + x[2] * x[2] + x[3] * x[3] < _MIN_QUATERNION_NORM2:
-            raise _invalid_quaternion(self._where, self._kind, x[:4])
+        if self._attitude:
+            self._check_state(x)
         return self._model_output(t, x, u, self._resolve(params))
+
+    def sample(self, Ts, method=None, alpha=None, prewarp_frequency=None, name=None, copy_names=True, **kwargs):
+        """python-control's :func:`control.sample_system` of a nonlinear fsmctl system: refused with the route.
+
+        A nonlinear system has no exact discretization; :func:`fsmctl.plugin.sampled.zoh` samples it with a
+        zero-order hold (its state advanced by RK4 over the period, the compiled simulator's rule).
+
+        Parameters
+        ----------
+        Ts, method, alpha, prewarp_frequency, name, copy_names, **kwargs
+            Those of :func:`control.sample_system`.
+
+        Raises
+        ------
+        fsmctl.errors.InputError
+            Always, naming :func:`fsmctl.plugin.sampled.zoh` (or its linearization, for a linear design).
+        """
+        raise InputError(
+            f"{self._where}: control.sample_system needs a linear system; sample this nonlinear one with "
+            f"fsmctl.plugin.zoh(sys, {Ts!r}, step=...) (zero-order hold, RK4 over the period), or sample its "
+            "linearization (control.linearize / fsmctl.plugin.mrp_linearization)"
+        )
 
     # -- linearization
 
