@@ -124,7 +124,7 @@ class QuaternionNormWarning(UserWarning):
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
     ...     _ = sc.output(0.0, [0.1, 0.2, 0.0, 0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0])  # an MRP state given for q
-    >>> caught[0].category.__name__, str(caught[0].message)[:55]
+    >>> caught[0].category.__name__, str(caught[0].message)[:54]
     ('QuaternionNormWarning', "spacecraft 'sc': the attitude quaternion q = [0.1, 0.2")
     """
 
