@@ -20,17 +20,10 @@ import xarray as xr
 
 from fsmctl import paper_scenario
 from fsmctl.cli.main import main
-from fsmctl.studies.reproduce import (
-    DIFFERS,
-    IMPOSSIBLE,
-    REPRODUCED,
-    VERDICTS,
-    MomentumBound,
-    RunRecord,
-    angular_momentum_bound,
-    evaluate_claims,
-    run_plan,
-)
+from fsmctl.studies.claims import DIFFERS, IMPOSSIBLE, REPRODUCED, VERDICTS, evaluate_claims
+from fsmctl.studies.momentum import MomentumBound, angular_momentum_bound
+from fsmctl.studies.paper_runs import run_plan
+from fsmctl.studies.records import RunRecord
 
 CLAIM_IDS = [
     "settling_27s",
@@ -271,14 +264,15 @@ def test_claims_table_holds_every_claim_with_a_known_verdict(fast_reproduction):
 def test_fast_reproduce_explains_the_claims_not_reproduced(fast_reproduction):
     # fsmctl reproduce explains by default, --fast at its short horizon (fsmctl/studies/explain.py, tests/test_explain.py)
     from fsmctl.model.scenario import load_scenario
-    from fsmctl.studies.explain import ALREADY_REPRODUCED, EXPLAINED, FIGURE_CHECKS, NOT_EXPLAINED
+    from fsmctl.studies.explain_report import ALREADY_REPRODUCED, EXPLAINED, NOT_EXPLAINED
+    from fsmctl.studies.figure_checks import FIGURE_CHECKS
 
     _, out = fast_reproduction
     report = (out / "report.md").read_text()
     assert "## What would reproduce each claim" in report and "### Figure-level evidence" in report
     data = json.loads((out / "claims.json").read_text())
     explanations = {e["id"]: e for e in data["explanations"]}
-    assert list(explanations) == CLAIM_IDS + list(FIGURE_CHECKS)
+    assert list(explanations) == CLAIM_IDS + [f.id for f in FIGURE_CHECKS]
     verdicts = {c["id"]: c["verdict"] for c in data["claims"]}
     for cid in CLAIM_IDS:
         e = explanations[cid]
