@@ -21,7 +21,8 @@ import pytest
 from fsmctl.studies import explain_report as er
 from fsmctl.studies import explain_settings as es
 from fsmctl.studies import figure_checks as fc
-from fsmctl.studies.claims import DIFFERS, IMPOSSIBLE, ClaimVerdict, get_claim
+from fsmctl.studies.claim_types import DIFFERS, IMPOSSIBLE, ClaimVerdict
+from fsmctl.studies.claims import get_claim
 from fsmctl.studies.explain import explain
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
 from fsmctl.studies.paper_runs import run_plan, run_record, run_scenario

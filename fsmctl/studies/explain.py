@@ -50,7 +50,8 @@ from pathlib import Path
 
 from fsmctl.errors import InputError
 from fsmctl.outputs import write_text
-from fsmctl.studies.claims import ClaimVerdict, StudyClaim, claim_ids, get_claim
+from fsmctl.studies.claim_types import ClaimVerdict, StudyClaim
+from fsmctl.studies.claims import claim_ids, get_claim
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
 from fsmctl.studies.explain_report import ALREADY_REPRODUCED, EXPLAINED, NOT_EXPLAINED, Evidence, Explanation
 from fsmctl.studies.explain_runs import RUN_SPECS, CandidateRuns, Check, fly

@@ -17,7 +17,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from fsmctl.model.laws import LawSwitchWarning
-from fsmctl.studies.claims import CLAIMS, StudyClaim
+from fsmctl.studies.claim_types import StudyClaim
+from fsmctl.studies.claims import CLAIMS
 from fsmctl.studies.explain_settings import Candidate, Setting, candidate_source
 from fsmctl.studies.figure_checks import FigureCheck, figure_numbers
 from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG, RunSpec, run_plan, run_record, run_scenario

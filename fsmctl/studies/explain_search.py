@@ -45,6 +45,21 @@ class Axis:
 
     Grid values are tried in order of distance; a reproducing grid value brackets a threshold with the nearest tried
     value towards the default (which fails), and the bracket is bisected to the setting's resolution.
+
+    Parameters
+    ----------
+    check : Check
+        The check searched.
+    setting : Setting
+        The setting varied.
+    by_name : mapping name -> Setting
+        Every setting.
+    fixed : Candidate
+        The changes held (empty: a single change).
+
+    Examples
+    --------
+    See :func:`statement`.
     """
 
     def __init__(self, check: Check, setting: Setting, by_name: Mapping[str, Setting], fixed: Candidate):
@@ -154,6 +169,15 @@ class CheckSearch:
     The search stops when the nearest reproducing change found is no farther than any change not yet tried could
     be (its bracket bisected to the resolution), then tries the grid values beyond it on its axis (to say whether
     the claim keeps holding, ">= threshold").
+
+    Parameters
+    ----------
+    check : Check
+        The check.
+    axes : sequence of Axis
+        Its axes (:func:`single_axes`).
+    levels : sequence of float
+        The distance levels (:data:`LEVELS`).
     """
 
     def __init__(self, check: Check, axes: Sequence[Axis], levels: Sequence[float]):
@@ -231,7 +255,34 @@ class CheckSearch:
 
 
 def statement(axis: Axis) -> str:
-    """``"torque limit >= 47.7 N m (bisected to 0.1 N m; 47.6 N m does not)"``."""
+    """What reproduces the check on this axis: ``"torque limit >= 47.7 N m (bisected to 0.1 N m; 47.6 N m does not)"``.
+
+    Parameters
+    ----------
+    axis : Axis
+        A searched axis with a reproducing value (:meth:`Axis.best`).
+
+    Returns
+    -------
+    str
+        The threshold and how it was found, or the discrete choice.
+
+    Examples
+    --------
+    A threshold found between 47.6 and 47.7 N m (the verdicts recorded by hand here; the search flies them):
+
+    >>> import fsmctl
+    >>> from fsmctl.studies.claims import get_claim
+    >>> from fsmctl.studies.explain_runs import Check
+    >>> from fsmctl.studies.explain_settings import search_settings
+    >>> by_name = {s.name: s for s in search_settings(fsmctl.paper_scenario("1"))}
+    >>> check = Check("settling_27s", "settles in 27 s", get_claim("settling_27s"))
+    >>> axis = Axis(check, by_name["torque_limit"], by_name, Candidate())
+    >>> for value, ok in ((20.0, False), (50.0, True), (47.6, False), (47.7, True)):
+    ...     axis.record(value, ok)
+    >>> statement(axis)
+    'torque limit >= 47.7 N m (bisected to 0.1 N m; 47.6 N m does not; the values beyond were not all tried)'
+    """
     s, v = axis.setting, axis.best()
     fixed = axis.fixed.text(axis.by_name) + " and " if axis.fixed.changes else ""
     if not s.continuous:
@@ -258,22 +309,92 @@ def statement(axis: Axis) -> str:
 
 
 def rank(axis: Axis) -> tuple:
+    """The order of reproducing axes: single changes first, then by distance, by setting, by the changes held.
+
+    Parameters
+    ----------
+    axis : Axis
+        An axis with a reproducing value.
+
+    Returns
+    -------
+    tuple
+        The sort key.
+    """
     return (len(axis.fixed.changes), axis.d(axis.best()), _ORDER[axis.setting.name], axis.fixed.changes)
 
 
 def searched_ranges(settings: Sequence[Setting], check: Check) -> list[str]:
+    """What is searched for a check: each setting's range (the tolerance only for a check that reads it).
+
+    Parameters
+    ----------
+    settings : sequence of Setting
+        The settings searched.
+    check : Check
+        The check.
+
+    Returns
+    -------
+    list of str
+        :meth:`Setting.range_text` of each.
+    """
     return [s.range_text() for s in settings if not s.grading or check.uses_tolerance]
 
 
-def single_axes(check: Check, settings: Sequence[Setting], by_name) -> list[Axis]:
+def single_axes(check: Check, settings: Sequence[Setting], by_name: Mapping[str, Setting]) -> list[Axis]:
+    """The axes of single changes for a check: every setting (the tolerance only if it reads one), or only the
+    setting the check requires.
+
+    Parameters
+    ----------
+    check : Check
+        The check.
+    settings : sequence of Setting
+        The settings searched.
+    by_name : mapping name -> Setting
+        Every setting.
+
+    Returns
+    -------
+    list of Axis
+        One per setting varied.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.explain_runs import Check
+    >>> from fsmctl.studies.explain_settings import search_settings
+    >>> from fsmctl.studies.figure_checks import get_figure_check
+    >>> settings = search_settings(fsmctl.paper_scenario("1"))
+    >>> by_name = {s.name: s for s in settings}
+    >>> fig3 = get_figure_check("fig3_axis")
+    >>> [a.setting.name for a in single_axes(Check(fig3.id, fig3.text, fig3), settings, by_name)]
+    ['error_mrp']
+    """
     req = check.requires
     if req:
         return [Axis(check, by_name[req[0]], by_name, Candidate())] if req[0] in {s.name for s in settings} else []
     return [Axis(check, s, by_name, Candidate()) for s in settings if not s.grading or check.uses_tolerance]
 
 
-def pair_axes(check: Check, settings: Sequence[Setting], by_name) -> list[Axis]:
-    """A discrete choice held, every other setting varied (choices once per pair)."""
+def pair_axes(check: Check, settings: Sequence[Setting], by_name: Mapping[str, Setting]) -> list[Axis]:
+    """The axes of pairs: a discrete choice of :data:`PAIRED_CHOICES` held, every other setting varied.
+
+    Parameters
+    ----------
+    check : Check
+        The check.
+    settings : sequence of Setting
+        The settings searched.
+    by_name : mapping name -> Setting
+        Every setting.
+
+    Returns
+    -------
+    list of Axis
+        One per (choice held, setting varied); two discrete choices are paired once.
+    """
     req = check.requires
     out = []
     for held in settings:
@@ -290,9 +411,21 @@ def pair_axes(check: Check, settings: Sequence[Setting], by_name) -> list[Axis]:
 
 
 def drive(searches: Sequence[CheckSearch], runner: CandidateRuns, budget: int | None = None) -> int:
-    """Advance the searches round by round (each round's runs go to the pool together); returns the runs flown.
+    """Advance the searches round by round (each round's runs go to the pool together).
 
-    With a ``budget`` no search starts a new distance level once that many runs have been flown.
+    Parameters
+    ----------
+    searches : sequence of CheckSearch
+        The searches.
+    runner : CandidateRuns
+        Flies the runs.
+    budget : int, optional
+        No search starts a new distance level once that many runs have been flown.
+
+    Returns
+    -------
+    int
+        The runs flown.
     """
     start = runner.simulated
     while True:

@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -154,9 +155,10 @@ class FigureCheck:
     unit: str = "°"
     requires: tuple[str, str] | None = None
     why: str = ""
-    uses_tolerance: bool = False
+    uses_tolerance: ClassVar[bool] = False
     """no figure check reads a settling tolerance"""
-    later: tuple[str, str] | None = None
+    later: ClassVar[tuple[str, str] | None] = None
+    """no figure check has a longer run (:attr:`fsmctl.studies.claim_types.StudyClaim.later`)"""
 
     def decide(self, records: Runs, tolerance_deg: float = math.nan) -> bool | list[str]:
         """Whether the figure's interval holds the number, or the runs still needed (none once a bound is exceeded).

@@ -14,7 +14,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from fsmctl.outputs import atomic_path, write_json, write_text
-from fsmctl.studies.claims import PAPER_SETTLING_TIME_S, VERDICTS, ClaimVerdict
+from fsmctl.studies.claim_types import PAPER_SETTLING_TIME_S, VERDICTS, ClaimVerdict
 from fsmctl.studies.explain_report import markdown_section, text_lines
 from fsmctl.studies.momentum import MomentumBound
 from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG, STEADY_WINDOW_FRACTION
