@@ -568,7 +568,8 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
     Returns
     -------
     list of ClaimVerdict
-        One per claim of :data:`CLAIMS`, in the order of the paper's text; every verdict is one of :data:`VERDICTS`.
+        One per claim of :data:`CLAIMS`, in the order of the paper's text; every verdict is one of
+        :data:`~fsmctl.studies.claim_types.VERDICTS`.
 
     Examples
     --------

@@ -39,7 +39,7 @@ def scenario_fingerprint(scenario) -> str:
     Parameters
     ----------
     scenario : Scenario
-        The scenario (its :data:`FLOWN_SECTIONS`, as :meth:`Scenario.to_dict` writes them).
+        The scenario (its :data:`FLOWN_SECTIONS`, as :meth:`fsmctl.model.scenario.Scenario.to_dict` writes them).
 
     Returns
     -------
@@ -274,7 +274,7 @@ class RunRecord:
         series = self.aaem_deg if metric == "aaem" else self.raem_deg
         return settling_time(self.time, series, tolerance_deg)
 
-    def settled(self, tolerance_deg: float = 1.0) -> bool:
+    def settled(self, tolerance_deg: float) -> bool:
         """Whether both AAEM and RAEM settle to ``tolerance_deg`` within the horizon.
 
         Parameters
