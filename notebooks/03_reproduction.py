@@ -30,7 +30,8 @@ import numpy as np
 from IPython.display import Markdown, display
 
 from fsmctl.studies.figures import metric_figure, principal_angles_figure, torques_figure
-from fsmctl.studies.reproduce import format_claims, overlay_figures, reproduce
+from fsmctl.studies.report import format_claims
+from fsmctl.studies.reproduce import overlay_figures, reproduce
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
 OUT = Path(os.environ.get("FSMCTL_OUT") or "reproduction")  # in the working folder, as `fsmctl reproduce`

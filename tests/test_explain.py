@@ -18,17 +18,14 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from fsmctl.studies import explain as ex
+from fsmctl.studies import explain_report as er
+from fsmctl.studies import explain_settings as es
+from fsmctl.studies import figure_checks as fc
+from fsmctl.studies.claim_types import DIFFERS, IMPOSSIBLE, ClaimVerdict
+from fsmctl.studies.claims import get_claim
+from fsmctl.studies.explain import explain
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
-from fsmctl.studies.reproduce import (
-    DIFFERS,
-    IMPOSSIBLE,
-    ClaimVerdict,
-    claim_holds,
-    run_plan,
-    run_record,
-    run_scenario,
-)
+from fsmctl.studies.paper_runs import run_plan, run_record, run_scenario
 
 SPECS = {s.key: s for s in run_plan()}
 
@@ -55,7 +52,7 @@ def settling(tmp_path_factory):
     digest = _paper_digest()
     outs = [tmp_path_factory.mktemp(f"explain{k}") for k in range(2)]
     results = [
-        ex.explain(
+        explain(
             "paper",
             _claims("settling_27s", verdict=IMPOSSIBLE),
             out,
@@ -75,7 +72,7 @@ def settling(tmp_path_factory):
 def test_torque_limit_threshold_matches_independent_runs(settling):
     (result, _), _, _ = settling
     (e,) = result
-    assert e.status == ex.EXPLAINED and e.reproduced_if.startswith("torque limit >= ")
+    assert e.status == er.EXPLAINED and e.reproduced_if.startswith("torque limit >= ")
     threshold = float(e.reproduced_if.split(">= ")[1].split()[0])
     assert 2.0 < threshold < 1e5 and 0 < e.distance < 1
     assert "bisected to 0.1 N m" in e.reproduced_if
@@ -88,7 +85,7 @@ def test_torque_limit_threshold_matches_independent_runs(settling):
             controller={"torque_limit": u_max}, simulation={"t_final": 10.0, "output_interval": 0.05}
         )
         record = run_record(SPECS["case1"], scenario, _fly(scenario))
-        verdicts[round(u_max, 1)] = claim_holds("settling_27s", {"case1": record})
+        verdicts[round(u_max, 1)] = get_claim("settling_27s").holds({"case1": record}, 1.0)
     assert verdicts == {round(threshold - 0.1, 1): False, round(threshold, 1): True, round(threshold + 0.1, 1): True}
     assert f"{threshold - 0.1:g} N m does not" in e.reproduced_if
 
@@ -105,7 +102,7 @@ def test_evidence_file_reloads_and_reproduces_its_numbers(settling):
     scenario = run_scenario(str(path), SPECS["case1"], True)
     assert scenario.controller.torque_limit == threshold and scenario.simulation.t_final == 10.0
     record = run_record(SPECS["case1"], scenario, _fly(scenario))
-    assert claim_holds("settling_27s", {"case1": record})
+    assert get_claim("settling_27s").holds({"case1": record}, 1.0)
     for metric in ("aaem", "raem"):
         assert f"{metric.upper()} {record.settling(metric, 1.0):.2f} s" in e.numbers
     # the evidence also says what its Case 1 run does to the printed figures: Fig 4's ±2 N m axes cannot hold it
@@ -133,7 +130,7 @@ def test_default_scenario_is_untouched(settling):
 
 
 def test_no_setting_lists_the_ranges(tmp_path):
-    result = ex.explain(
+    result = explain(
         "paper",
         _claims("tracking_accuracy"),
         tmp_path,
@@ -144,25 +141,25 @@ def test_no_setting_lists_the_ranges(tmp_path):
         pair_budget_runs=0,
     )
     (e,) = result
-    assert e.status == ex.NOT_EXPLAINED and e.evidence is None
+    assert e.status == er.NOT_EXPLAINED and e.evidence is None
     assert any(s.startswith("alpha 0.51-0.99") and "linear grid of 10 values" in s for s in e.searched)
     assert any(s.startswith("error kinematics: exact") for s in e.searched)
-    md = "\n".join(ex.markdown_section(result, fast=True))
+    md = "\n".join(er.markdown_section(result, fast=True))
     row = next(line for line in md.splitlines() if line.startswith("| **tracking_accuracy**"))
-    assert f"**{ex.NOT_EXPLAINED}**" in row and "alpha 0.51-0.99" in row and "error kinematics: exact" in row
+    assert f"**{er.NOT_EXPLAINED}**" in row and "alpha 0.51-0.99" in row and "error kinematics: exact" in row
     assert not (tmp_path / "explain").exists()  # no evidence, no file
 
 
 def test_figure_axis_beyond_180_needs_the_unswitched_error_mrp(tmp_path):
     """Fig 3's 0-200° axis: in the shadow set θ <= 180°, so only the unswitched variant is flown for it."""
-    result = ex.explain(
+    result = explain(
         "paper", [], tmp_path, fast=True, checks=["fig3_axis", "fig4_axis"], progress=False, pair_budget_runs=0
     )
     fig3, fig4 = result
-    assert fig4.status == ex.ALREADY_REPRODUCED  # the paper's 2 N m limit is reached: Fig 4's ±2 N m axes
+    assert fig4.status == er.ALREADY_REPRODUCED  # the paper's 2 N m limit is reached: Fig 4's ±2 N m axes
     assert fig3.verdict == "does not fit" and "180.0°" in fig3.baseline
     assert fig3.searched[0].startswith("only with the error MRP: unswitched")
-    if fig3.status == ex.EXPLAINED:
+    if fig3.status == er.EXPLAINED:
         assert fig3.change == "error MRP: unswitched"
 
 
@@ -172,7 +169,7 @@ def test_figure_axis_beyond_180_needs_the_unswitched_error_mrp(tmp_path):
 def test_setting_distance_rounding_and_grid():
     from fsmctl import paper_scenario
 
-    settings = {s.name: s for s in ex.search_settings(paper_scenario("1"))}
+    settings = {s.name: s for s in es.search_settings(paper_scenario("1"))}
     assert list(settings) == [
         "torque_limit", "alpha", "delta", "boundary_layer", "error_model", "error_mrp", "integration", "tolerance",
     ]  # fmt: skip
@@ -193,10 +190,10 @@ def test_setting_distance_rounding_and_grid():
 
 
 def test_scenario_text_round_trips():
-    settings = {s.name: s for s in ex.search_settings(run_scenario("paper", SPECS["case1"], True))}
-    cand = ex.Candidate((("torque_limit", 47.7), ("integration", "rk4 dt = 0.005 s")))
-    data = ex.candidate_source("paper", cand, settings)
-    text = ex.scenario_text(data, ["a comment"])
+    settings = {s.name: s for s in es.search_settings(run_scenario("paper", SPECS["case1"], True))}
+    cand = es.Candidate((("torque_limit", 47.7), ("integration", "rk4 dt = 0.005 s")))
+    data = es.candidate_source("paper", cand, settings)
+    text = es.scenario_text(data, ["a comment"])
     assert text.startswith('# a comment\nextends = "paper"\n')
     assert tomllib.loads(text) == data
     assert cand.key() == "explain_torque_limit_47.7__integration_rk4_dt_0.005_s"
@@ -208,7 +205,7 @@ def test_unswitched_composition_is_the_shadow_of_the_switched_error():
     rng = np.random.default_rng(7)
     sigma = rng.uniform(-1, 1, (200, 3)) * 0.57
     sigma_d = rng.uniform(-1, 1, (200, 3)) * 0.57
-    unswitched = ex._compose(sigma, -sigma_d)
+    unswitched = fc._compose(sigma, -sigma_d)
     switched = np.array(
         [np.asarray(casadi_function("mrp_error")(s, d)).ravel() for s, d in zip(sigma, sigma_d, strict=True)]
     )
@@ -216,8 +213,8 @@ def test_unswitched_composition_is_the_shadow_of_the_switched_error():
     shadow = np.where(n2[:, None] > 1, -unswitched / n2[:, None], unswitched)
     assert np.allclose(shadow, switched, atol=1e-12)
     assert (n2 > 1).any() and (n2 < 1).any()  # both sets occur
-    theta = ex._angle_deg(unswitched)
-    assert np.allclose(np.where(n2 > 1, 360 - theta, theta), ex._angle_deg(switched))
+    theta = fc._angle_deg(unswitched)
+    assert np.allclose(np.where(n2 > 1, 360 - theta, theta), fc._angle_deg(switched))
 
 
 # ----------------------------------------------------------------------------- the law variant
@@ -240,7 +237,7 @@ def test_switched_twin_flies_bit_identically_to_the_builtin_law(tmp_path):
     for name in ("sigma", "omega", "u", "u_unsaturated", "broadcast"):
         assert np.array_equal(getattr(shadow, name), getattr(builtin, name)), name
     assert not np.array_equal(unswitched.u_unsaturated, builtin.u_unsaturated)  # the switch matters here
-    numbers = ex.figure_numbers(unswitched, unswitched=True)
+    numbers = fc.figure_numbers(unswitched, unswitched=True)
     assert numbers["error_mrp"] == "unswitched" and numbers["theta_plotted_peak_deg"] > 180.0
 
 
@@ -256,7 +253,7 @@ def test_a_run_that_fails_reproduces_nothing(tmp_path, monkeypatch):
         return real(scenario, **kw)
 
     monkeypatch.setattr(sim, "simulate", simulate)
-    (e,) = ex.explain(
+    (e,) = explain(
         "paper",
         _claims("settling_27s", verdict=IMPOSSIBLE),
         tmp_path,
@@ -265,4 +262,4 @@ def test_a_run_that_fails_reproduces_nothing(tmp_path, monkeypatch):
         checks=["settling_27s"],
         progress=False,
     )
-    assert e.status == ex.NOT_EXPLAINED and e.searched[0].startswith("torque limit 2-100000 N m")
+    assert e.status == er.NOT_EXPLAINED and e.searched[0].startswith("torque limit 2-100000 N m")

@@ -23,8 +23,8 @@ import pytest
 from matplotlib.colors import to_hex
 
 from fsmctl import paper_scenario, simulate
+from fsmctl import studies as R
 from fsmctl.studies import figures as F
-from fsmctl.studies import reproduce as R
 
 TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")  # matplotlib's tab10, agents 1-6
 

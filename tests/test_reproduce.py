@@ -20,17 +20,11 @@ import xarray as xr
 
 from fsmctl import paper_scenario
 from fsmctl.cli.main import main
-from fsmctl.studies.reproduce import (
-    DIFFERS,
-    IMPOSSIBLE,
-    REPRODUCED,
-    VERDICTS,
-    MomentumBound,
-    RunRecord,
-    angular_momentum_bound,
-    evaluate_claims,
-    run_plan,
-)
+from fsmctl.studies.claim_types import DIFFERS, IMPOSSIBLE, REPRODUCED, VERDICTS
+from fsmctl.studies.claims import evaluate_claims
+from fsmctl.studies.momentum import MomentumBound, angular_momentum_bound
+from fsmctl.studies.paper_runs import run_plan
+from fsmctl.studies.records import RunRecord
 
 CLAIM_IDS = [
     "settling_27s",
@@ -271,14 +265,15 @@ def test_claims_table_holds_every_claim_with_a_known_verdict(fast_reproduction):
 def test_fast_reproduce_explains_the_claims_not_reproduced(fast_reproduction):
     # fsmctl reproduce explains by default, --fast at its short horizon (fsmctl/studies/explain.py, tests/test_explain.py)
     from fsmctl.model.scenario import load_scenario
-    from fsmctl.studies.explain import ALREADY_REPRODUCED, EXPLAINED, FIGURE_CHECKS, NOT_EXPLAINED
+    from fsmctl.studies.explain_report import ALREADY_REPRODUCED, EXPLAINED, NOT_EXPLAINED
+    from fsmctl.studies.figure_checks import FIGURE_CHECKS
 
     _, out = fast_reproduction
     report = (out / "report.md").read_text()
     assert "## What would reproduce each claim" in report and "### Figure-level evidence" in report
     data = json.loads((out / "claims.json").read_text())
     explanations = {e["id"]: e for e in data["explanations"]}
-    assert list(explanations) == CLAIM_IDS + list(FIGURE_CHECKS)
+    assert list(explanations) == CLAIM_IDS + [f.id for f in FIGURE_CHECKS]
     verdicts = {c["id"]: c["verdict"] for c in data["claims"]}
     for cid in CLAIM_IDS:
         e = explanations[cid]
@@ -361,3 +356,63 @@ def test_reproduce_writes_only_under_its_working_folder(tmp_path, monkeypatch):
     left = [e for e in os.listdir(system_temp) if e.startswith("fsmctl-") and not e.startswith("fsmctl-build-")]
     assert left == []
     assert sorted(os.listdir(work)) == ["reproduction"]
+
+
+# ----------------------------------------------------------------------------- the registry and the run records
+
+
+def test_a_claim_is_one_registry_entry(monkeypatch):
+    """Adding a claim is adding one StudyClaim to CLAIMS: evaluate_claims grades it, get_claim finds it."""
+    import fsmctl.studies.claims as claims_module
+    from fsmctl.studies.claim_types import Outcome, StudyClaim
+
+    extra = StudyClaim(
+        "theta_in_shadow_set",
+        "every θ_ei stays within 180° (Case 1, limit {limit:g} N m)",
+        "Fig 3",
+        "<= 180°",
+        ("case1",),
+        holds=lambda R, tol: R["case1"].theta_e_peak_deg <= 180.0,
+        value=lambda g: f"{g['case1'].theta_e_peak_deg:g}°",
+        numbers=lambda R, tol: f"{R['case1'].theta_e_peak_deg:g}°",
+        grade=lambda g, ok: Outcome(REPRODUCED, "shadow set") if ok else Outcome(DIFFERS, "beyond 180°", "case1"),
+    )
+    monkeypatch.setattr(claims_module, "CLAIMS", (*claims_module.CLAIMS, extra))
+    recs = {spec.key: _record(spec.key, settle=20.0, steady=0.01) for spec in run_plan()}
+    rows = evaluate_claims(recs, _bounds(10.0))
+    assert [c.id for c in rows] == [*CLAIM_IDS, "theta_in_shadow_set"]
+    assert (rows[-1].claim, rows[-1].verdict, rows[-1].this_run_value) == (
+        "every θ_ei stays within 180° (Case 1, limit 2 N m)",
+        REPRODUCED,
+        "120°",
+    )
+    assert claims_module.get_claim("theta_in_shadow_set") is extra
+    assert extra.decide({}, 1.0) == ["case1"]  # the runs still to fly, in order
+
+
+def test_claim_stages_stop_early_and_ask_for_the_long_run_only_when_needed():
+    from fsmctl.studies.claims import get_claim
+
+    ordering, accuracy = get_claim("case3_ordering"), get_claim("case2_accuracy")
+    assert ordering.decide({}, 1.0) == ["case3c"]  # Case 3c is Case 1: flown first
+    assert ordering.decide({"case3c": _record("case3c")}, 1.0) is False  # not settled: no need for 3a, 3b
+    settled = {"case2": _record("case2", settle=50.0, steady=0.2)}
+    assert accuracy.decide(settled, 1.0) is True  # settled within its horizon: the long run is not read
+    assert accuracy.decide({"case2": _record("case2")}, 1.0) == ["case2_long"]
+
+
+def test_run_records_round_trip_through_claims_json_and_csv(fast_reproduction, tmp_path):
+    from fsmctl.outputs import jsonable
+    from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG
+    from fsmctl.studies.records import read_csv, write_csv
+
+    _, out = fast_reproduction
+    runs = json.loads((out / "claims.json").read_text())["runs"]
+    records = [RunRecord.from_json(key, entry, out) for key, entry in runs.items()]
+    assert all(r.time.size > 100 for r in records)  # the series come back from the NetCDF files
+    assert {r.key: jsonable(r.to_json(out, SETTLING_TOLERANCES_DEG)) for r in records} == runs
+    back = read_csv(write_csv(tmp_path / "runs.csv", records))
+    for a, b in zip(records, back, strict=True):
+        ra, rb = a.to_row(), b.to_row()
+        assert ra.keys() == rb.keys()
+        assert all(x == y or (x != x and y != y) for x, y in zip(ra.values(), rb.values(), strict=True))

@@ -12,7 +12,7 @@ import sys
 from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.options import add_figures_option, add_out_option, add_progress_option, add_scenario_option
 from fsmctl.cli.parallel_options import add_workers_option
-from fsmctl.studies.reproduce import FAST_T_FINAL_S
+from fsmctl.studies.paper_runs import FAST_T_FINAL_S
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
@@ -76,7 +76,8 @@ def run(args: argparse.Namespace) -> int:
         0 when the report was written; bad input raises :class:`fsmctl.errors.InputError` (exit 2).
     """
     from fsmctl.outputs import output_folder
-    from fsmctl.studies.reproduce import format_claims, reproduce
+    from fsmctl.studies.report import format_claims
+    from fsmctl.studies.reproduce import reproduce
 
     with output_folder(args.out):  # a run that fails before writing anything leaves no empty folder
         rep = reproduce(

@@ -3,8 +3,9 @@
 What a user of this layer calls:
 
 * reproduction of Liang et al. (2012), Section 4 (:mod:`fsmctl.studies.reproduce`: the function
-  ``fsmctl.studies.reproduce.reproduce``, its run plan, claims and verdicts) and what would reproduce each claim
-  (:mod:`fsmctl.studies.explain`: ``fsmctl.studies.explain.explain``, :class:`Explanation`);
+  ``fsmctl.studies.reproduce.reproduce``; its run plan :func:`run_plan`, the record of a run :class:`RunRecord`, the
+  claims registry :data:`CLAIMS` and :func:`evaluate_claims`, the report :class:`Reproduction`) and what would
+  reproduce each claim (:mod:`fsmctl.studies.explain`: ``fsmctl.studies.explain.explain``, :class:`Explanation`);
 * comparisons: laws on one scenario (:func:`compare_laws`), sliding surfaces (:func:`compare_surfaces`),
   Theorem 3's settling time (:func:`closed_form_settling_time`, :func:`scalar_settling_study`);
 * campaigns: Monte Carlo (:class:`CampaignSettings`, :func:`run_campaign`) and gain tuning
@@ -38,7 +39,8 @@ _ATTRS = {
     "parallel": ["CampaignInterrupted"],
     "hardware": ["momentum_budget", "WheelBudget", "torque_demand", "TorqueDemand", "momentum_envelope"],
     "tune": ["TuneSettings", "TuneResult", "SearchParameter", "search_space", "available_constraints"],
-    "explain": ["Explanation", "Evidence", "Setting", "markdown_section"],
+    "explain_report": ["Explanation", "Evidence", "markdown_section"],
+    "explain_settings": ["Setting"],
     "figures": [
         "MAX_AGENTS_DRAWN",
         "METRIC_EQUATIONS",
@@ -51,36 +53,31 @@ _ATTRS = {
         "simulation_figures",
         "save_figure",
     ],
-    "reproduce": [
-        "REPRODUCED",
-        "DIFFERS",
-        "IMPOSSIBLE",
-        "VERDICTS",
+    "paper_runs": [
         "PAPER_CASES",
         "SETTLING_TOLERANCES_DEG",
-        "PAPER_SETTLING_TIME_S",
-        "CLAIM_IDS",
-        "CLAIM_RUNS",
-        "CLAIM_USES_TOLERANCE",
         "RunSpec",
-        "RunRecord",
-        "MomentumBound",
-        "ClaimVerdict",
-        "Reproduction",
         "run_plan",
         "load_case",
         "run_scenario",
         "run_record",
         "execute_run",
-        "claim_holds",
-        "reference_trajectory",
-        "angular_momentum_bound",
-        "evaluate_claims",
-        "overlay_figures",
-        "write_outputs",
-        "to_markdown",
-        "format_claims",
     ],
+    "records": ["RunRecord", "scenario_fingerprint"],
+    "momentum": ["MomentumBound", "reference_trajectory", "angular_momentum_bound"],
+    "claim_types": [
+        "REPRODUCED",
+        "DIFFERS",
+        "IMPOSSIBLE",
+        "VERDICTS",
+        "PAPER_SETTLING_TIME_S",
+        "StudyClaim",
+        "ClaimVerdict",
+    ],
+    "claims": ["CLAIMS", "claim_ids", "get_claim", "evaluate_claims"],
+    "figure_checks": ["FIGURE_CHECKS", "FigureCheck"],
+    "reproduce": ["overlay_figures"],
+    "report": ["Reproduction", "write_outputs", "to_markdown", "format_claims"],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]

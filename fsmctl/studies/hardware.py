@@ -3,7 +3,7 @@
 :func:`momentum_budget` states, per spacecraft and independently of any control law, what the reaction wheels
 must do to bring it onto the reference: the momentum they must end up holding, whether the array can hold it
 (the array's momentum envelope along that direction, a linear programme), and the shortest time their torques
-allow (:func:`fsmctl.studies.reproduce.angular_momentum_bound`, which handles wheels).  :func:`hardware_study`
+allow (:func:`fsmctl.studies.momentum.angular_momentum_bound`, which handles wheels).  :func:`hardware_study`
 flies the built-in laws on a hardware scenario and tabulates the metrics (:func:`fsmctl.studies.compare.run_metrics`),
 including the wheels' peak momentum.
 """
@@ -17,7 +17,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
-from fsmctl.studies.reproduce import angular_momentum_bound, reference_trajectory
+from fsmctl.studies.momentum import angular_momentum_bound, reference_trajectory
 
 __all__ = [
     "WheelBudget",

@@ -1,0 +1,402 @@
+"""The runs of ``fsmctl reproduce``: the paper's Cases 1, 2, 3a-3c and the diagnostic runs, and how one is flown.
+
+:func:`run_plan` lists the runs (:class:`RunSpec`: a paper case plus overrides); :func:`run_scenario` builds the
+scenario a run flies from a source (``"paper"``, a scenario file or its mapping); :func:`execute_run` simulates it,
+saves its NetCDF file and single-run figures and returns its :class:`~fsmctl.studies.records.RunRecord`
+(:func:`run_record`).  The claims read these records (:mod:`fsmctl.studies.claims`).
+"""
+
+from __future__ import annotations
+
+import math
+import time as _time
+import warnings
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fsmctl.studies.records import RunRecord
+
+__all__ = [
+    "PAPER_CASES",
+    "SETTLING_TOLERANCES_DEG",
+    "STEADY_WINDOW_FRACTION",
+    "LONG_HORIZON_FACTOR",
+    "FAST_T_FINAL_S",
+    "FAST_OUTPUT_INTERVAL_S",
+    "DIAGNOSTIC_OUTPUT_INTERVAL_S",
+    "RunSpec",
+    "run_plan",
+    "load_case",
+    "run_scenario",
+    "run_record",
+    "execute_run",
+]
+
+PAPER_CASES = ("1", "2", "3a", "3b", "3c")
+SETTLING_TOLERANCES_DEG = (1.0, 0.1, 0.05, 0.03, 0.01)
+"""Tolerances (deg) of the settling times: the paper does not state the tolerance of its "27 s"."""
+STEADY_WINDOW_FRACTION = 0.4
+"""The steady-state accuracy is the maximum over the last 40 % of the horizon (40 s of 100 s)."""
+LONG_HORIZON_FACTOR = 3.0
+FAST_T_FINAL_S = 10.0
+FAST_OUTPUT_INTERVAL_S = 0.05
+DIAGNOSTIC_OUTPUT_INTERVAL_S = 0.02
+"""Output grid of the diagnostic runs (the paper cases keep the scenario's; the integration step is unchanged)."""
+
+# ----------------------------------------------------------------------------- the runs
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One simulation of the reproduction: a paper case plus overrides.
+
+    Parameters
+    ----------
+    key : str
+        File-safe name (``case1``, ``case1_no_torque_limit``, ...).
+    case : str
+        Paper case (``"1"``, ``"2"``, ``"3a"``, ``"3b"``, ``"3c"``).
+    title : str
+        Short human-readable name.
+    purpose : str
+        What the run shows.
+    controller : tuple of (name, value)
+        Overrides of :class:`~fsmctl.model.scenario.ControllerSettings`.
+    simulation : tuple of (name, value)
+        Overrides of :class:`~fsmctl.model.scenario.SimulationSettings`.
+    horizon_factor : float
+        Multiple of the scenario's ``t_final``.
+    figures : tuple of str
+        Single-run figures rendered by the worker: ``aaem``, ``raem``, ``theta_e``, ``torques``,
+        ``torques_commanded``.
+
+    Examples
+    --------
+    >>> spec = RunSpec("case1_no_torque_limit", "1", "Case 1, no torque limit", "the law without saturation",
+    ...                controller=(("torque_limit", float("inf")),))
+    >>> spec.overrides
+    'torque_limit=inf'
+    >>> RunSpec("case1_long", "1", "Case 1, long", "", horizon_factor=3.0).overrides
+    't_final x3'
+    """
+
+    key: str
+    case: str
+    title: str
+    purpose: str
+    controller: tuple[tuple[str, Any], ...] = ()
+    simulation: tuple[tuple[str, Any], ...] = ()
+    horizon_factor: float = 1.0
+    figures: tuple[str, ...] = ()
+
+    @property
+    def overrides(self) -> str:
+        """str: The overrides as ``name=value`` text (``"none"`` for the paper's settings)."""
+        items = [f"{k}={v}" for k, v in self.controller + self.simulation]
+        if self.horizon_factor != 1.0:
+            items.append(f"t_final x{self.horizon_factor:g}")
+        return ", ".join(items) or "none"
+
+
+def run_plan() -> tuple[RunSpec, ...]:
+    """The runs of ``fsmctl reproduce``: the five paper cases and the diagnostic runs.
+
+    Returns
+    -------
+    tuple of RunSpec
+        Cases 1, 2, 3a-3c (Liang et al. 2012, Sec. 4) as specified, then the diagnostics.
+
+    Examples
+    --------
+    >>> plan = run_plan()
+    >>> [spec.key for spec in plan[:5]]
+    ['case1', 'case2', 'case3a', 'case3b', 'case3c']
+    >>> plan[0].figures  # the single-run analogues of Figs 1-4
+    ('aaem', 'raem', 'theta_e', 'torques')
+    >>> len(plan), plan[-1].overrides
+    (14, 't_final x3')
+    """
+    inf = math.inf
+    return (
+        RunSpec(
+            "case1", "1", "Case 1", "the paper's main case (Figs 1-4)", figures=("aaem", "raem", "theta_e", "torques")
+        ),
+        RunSpec("case2", "2", "Case 2", "no coordination (Figs 5-7)", figures=("theta_e",)),
+        RunSpec("case3a", "3a", "Case 3a", "weights k^i = 2, k^j = 0.6 (Figs 8-9)"),
+        RunSpec("case3b", "3b", "Case 3b", "weights k^i = 4, k^j = 2.8 (Figs 8-9)"),
+        RunSpec("case3c", "3c", "Case 3c", "weights k^i = 8, k^j = 5 (Figs 8-9)"),
+        RunSpec(
+            "case1_exact_error_model",
+            "1",
+            "Case 1, exact error model",
+            "controller with the exact error kinematics instead of the paper's eqs 7-8",
+            controller=(("error_model", "exact"),),
+        ),
+        RunSpec(
+            "case1_no_torque_limit",
+            "1",
+            "Case 1, no torque limit",
+            "the same law without the 2 N m saturation",
+            controller=(("torque_limit", inf),),
+            figures=("torques_commanded",),
+        ),
+        RunSpec(
+            "case2_no_torque_limit",
+            "2",
+            "Case 2, no torque limit",
+            "Case 2 without the 2 N m saturation",
+            controller=(("torque_limit", inf),),
+        ),
+        RunSpec(
+            "case1_pure_sgn",
+            "1",
+            "Case 1, pure sgn",
+            "sgn(s) instead of the boundary layer (Remark 7)",
+            controller=(("boundary_layer", 0.0),),
+        ),
+        RunSpec(
+            "case3a_no_torque_limit",
+            "3a",
+            "Case 3a, no torque limit",
+            "weight ordering without saturation",
+            controller=(("torque_limit", inf),),
+        ),
+        RunSpec(
+            "case3b_no_torque_limit",
+            "3b",
+            "Case 3b, no torque limit",
+            "weight ordering without saturation",
+            controller=(("torque_limit", inf),),
+        ),
+        RunSpec(
+            "case3c_no_torque_limit",
+            "3c",
+            "Case 3c, no torque limit",
+            "weight ordering without saturation",
+            controller=(("torque_limit", inf),),
+        ),
+        RunSpec(
+            "case1_long",
+            "1",
+            "Case 1, long horizon",
+            "does Case 1 converge at all with the torque limit?",
+            horizon_factor=LONG_HORIZON_FACTOR,
+        ),
+        RunSpec(
+            "case2_long",
+            "2",
+            "Case 2, long horizon",
+            "when does Case 2 converge with the torque limit?",
+            horizon_factor=LONG_HORIZON_FACTOR,
+        ),
+    )
+
+
+def load_case(source: str | Mapping[str, Any], case: str):
+    """The scenario of one paper case from a source: ``"paper"``, a TOML file, or the mapping of a TOML file.
+
+    Parameters
+    ----------
+    source : str or mapping
+        ``"paper"``, a scenario TOML file, or a parsed TOML mapping (e.g. ``{"extends": "paper", "controller":
+        {...}}``: what an explanation's evidence file holds, :mod:`fsmctl.studies.explain`).
+    case : str
+        The case (``"1"``, ``"2"``, ``"3a"``, ...).
+
+    Returns
+    -------
+    Scenario
+        Validated.
+
+    Examples
+    --------
+    >>> load_case("paper", "3a").controller.torque_limit
+    2.0
+    >>> load_case({"extends": "paper", "controller": {"torque_limit": 5.0}}, "1").controller.torque_limit
+    5.0
+    """
+    from fsmctl.model.scenario import load_scenario, scenario_from_dict
+
+    if isinstance(source, Mapping):
+        return scenario_from_dict(dict(source), case=case, where="scenario")
+    return load_scenario(source, case=case)
+
+
+def _scenario_for(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
+    scenario = load_case(source, spec.case)
+    sim = dict(spec.simulation)
+    t_final = FAST_T_FINAL_S if fast else scenario.simulation.t_final
+    sim.setdefault("t_final", t_final * spec.horizon_factor)
+    if fast:
+        sim.setdefault("output_interval", max(FAST_OUTPUT_INTERVAL_S, scenario.simulation.output_interval))
+    elif spec.key not in _PAPER_RUNS:
+        # diagnostic runs: a coarser output grid (the loop step is unchanged) keeps the eq 43 pair metric cheap
+        coarse = DIAGNOSTIC_OUTPUT_INTERVAL_S * (2.5 if spec.horizon_factor > 1 else 1.0)
+        dt = float(sim.get("dt", scenario.simulation.dt))
+        sim.setdefault("output_interval", max(dt * max(1, round(coarse / dt)), scenario.simulation.output_interval))
+    return scenario.replace(controller=dict(spec.controller), simulation=sim)
+
+
+_PAPER_RUNS = tuple(f"case{c}" for c in PAPER_CASES)
+
+
+def run_scenario(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
+    """The scenario a :class:`RunSpec` flies: the case of ``source`` with the spec's overrides and horizon.
+
+    Parameters
+    ----------
+    source : str or mapping
+        As :func:`load_case`.
+    spec : RunSpec
+        The run.
+    fast : bool
+        Short horizon (``FAST_T_FINAL_S``) and coarser output.
+
+    Returns
+    -------
+    Scenario
+        Validated (the paper's J0_4 inertia warning is silenced: the report's inertia check covers it).
+
+    Examples
+    --------
+    >>> spec = run_plan()[-2]  # Case 1 on three times the horizon
+    >>> spec.key, run_scenario("paper", spec, fast=False).simulation.t_final
+    ('case1_long', 300.0)
+    >>> run_scenario("paper", spec, fast=True).simulation.t_final  # fast mode: 10 s, x3
+    30.0
+    """
+    from fsmctl.model.scenario import InertiaWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", InertiaWarning)  # reported in the report's inertia check instead
+        return _scenario_for(source, spec, fast)
+
+
+def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
+    """The :class:`~fsmctl.studies.records.RunRecord` of one simulated :class:`RunSpec` (eqs 42-43).
+
+    Parameters
+    ----------
+    spec : RunSpec
+        The run.
+    scenario : Scenario
+        What was flown (:func:`run_scenario`).
+    result : SimulationResult
+        Its simulation.
+    **fields
+        Further fields of the record (``netcdf``, ``figures``, ``wall_time_s``, ``metrics``, ...).
+
+    Returns
+    -------
+    RunRecord
+        The summary at :data:`SETTLING_TOLERANCES_DEG`; the steady window is the last
+        :data:`STEADY_WINDOW_FRACTION` of the scenario's own horizon (40 s of a long run too).
+
+    Examples
+    --------
+    >>> from fsmctl import simulate
+    >>> spec = run_plan()[1]
+    >>> scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 2.0})
+    >>> rec = run_record(spec, scenario, simulate(scenario, progress=False))
+    >>> rec.key, rec.steady_window_s, len(rec.theta_e0_deg)  # 40 % of 2 s; one angle per spacecraft
+    ('case2', 0.8, 6)
+    """
+    return RunRecord.from_result(
+        spec.key,
+        scenario,
+        result,
+        steady_window_s=STEADY_WINDOW_FRACTION * scenario.simulation.t_final / spec.horizon_factor,
+        tolerances_deg=SETTLING_TOLERANCES_DEG,
+        title=spec.title,
+        purpose=spec.purpose,
+        overrides=spec.overrides,
+        case=spec.case,
+        describe=scenario.describe(),
+        **fields,
+    )
+
+
+def execute_run(
+    source: str | Mapping[str, Any], spec: RunSpec, fast: bool, out_dir: str, command: str | None = None
+) -> RunRecord:
+    """Simulate one :class:`RunSpec`, save its NetCDF and single-run figures, return its :class:`RunRecord`.
+
+    Parameters
+    ----------
+    source : str or mapping
+        ``"paper"``, a scenario TOML file (Liang et al. 2012, Sec. 4 layout: cases 1, 2, 3a-3c) or its
+        parsed mapping (:func:`load_case`).
+    spec : RunSpec
+        The run.
+    fast : bool
+        Short horizon (``FAST_T_FINAL_S``) and coarser output, for tests.
+    out_dir : str
+        Output folder (``runs/`` and ``figures/`` below it).
+    command : str, optional
+        The command line, embedded in the run's NetCDF file with its scenario, law and versions.
+
+    Returns
+    -------
+    RunRecord
+        Summary, AAEM/RAEM series (eqs 42-43) and the written files.
+
+    Examples
+    --------
+    A short diagnostic run (Case 1 with pure sgn, no figures), written under ``out/``:
+
+    >>> spec = RunSpec("sgn", "1", "Case 1, pure sgn", "", controller=(("boundary_layer", 0.0),),
+    ...                simulation=(("t_final", 0.5),))
+    >>> rec = execute_run("paper", spec, False, "out")
+    >>> rec.netcdf, rec.figures, rec.t_final
+    ('out/runs/sgn.nc', [], 0.5)
+    """
+    import fsmctl.studies.figures as figs
+    from fsmctl.simulation.simulator import simulate
+
+    scenario = run_scenario(source, spec, fast)
+    started = _time.perf_counter()
+    result = simulate(scenario, progress=False)
+    out = Path(out_dir)
+    nc = result.save(out / "runs" / f"{spec.key}.nc", command=command)
+    theta_deg = np.degrees(result.theta_e)
+    written = []
+    title = f"{spec.title} ({scenario.label})"
+    builders: dict[str, Callable[[], Any]] = {
+        "aaem": lambda: figs.metric_figure(
+            result.time, result.aaem_deg, metric="AAEM", title=f"AAEM, {title}", tolerances_deg=(0.03,)
+        ),
+        "raem": lambda: figs.metric_figure(
+            result.time, result.raem_deg, metric="RAEM", title=f"RAEM, {title}", tolerances_deg=(0.01,)
+        ),
+        "theta_e": lambda: figs.principal_angles_figure(
+            result.time, theta_deg, title=f"error principal angles, {title}"
+        ),
+        "torques": lambda: figs.torques_figure(
+            result.time, result.u, scenario.controller.torque_limit, title=f"applied torques, {title}"
+        ),
+        "torques_commanded": lambda: figs.torques_figure(
+            result.time,
+            result.u_unsaturated,
+            scenario.controller.torque_limit,
+            title=f"commanded torques, {title} (the paper's limit is 2 N m)",
+        ),
+    }
+    for name in spec.figures:
+        stem = out / "figures" / f"{_FIGURE_PREFIX.get((spec.key, name), 'diag')}_{name}_{spec.key}"
+        written += [str(p) for p in figs.save_figure(builders[name](), stem)]
+    return run_record(
+        spec, scenario, result, netcdf=str(nc), figures=written, wall_time_s=_time.perf_counter() - started
+    )
+
+
+_FIGURE_PREFIX = {
+    ("case1", "aaem"): "fig01",
+    ("case1", "raem"): "fig02",
+    ("case1", "theta_e"): "fig03",
+    ("case1", "torques"): "fig04",
+    ("case2", "theta_e"): "fig07",
+}
