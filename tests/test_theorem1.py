@@ -161,11 +161,11 @@ def test_batched_configurations_and_lambda_min_equal_the_per_segment_computation
     """Random Monte Carlo topologies (period 8, random phases and weights): every segment between the exact
     switching instants (from the links' data) lies in one configuration with the exactly evaluated K_j there, and
     min_t lambda_min(sym L(t)) (eqs 25-27) is the minimum over those matrices, computed here one at a time."""
-    from fsmctl.studies import montecarlo as mc
+    from fsmctl.studies.montecarlo import CampaignSettings, sampling
 
     sc = paper_scenario("1")
     for seed in range(3):
-        topo = mc._random_topology(np.random.default_rng(seed), sc.topology, mc.CampaignSettings())
+        topo = sampling._random_topology(np.random.default_rng(seed), sc.topology, CampaignSettings())
         assert {link.k_j.period for link in topo.links} == {8.0}
         confs, _ = configurations(topo, sc.simulation.t_final)
         cuts = sorted({Fraction(0), Fraction(8)} | {(Fraction(b) - Fraction(link.phase)) % 8
