@@ -57,6 +57,7 @@ _PUBLIC_MODULES = (
     "fsmctl.studies",
     "fsmctl.errors",
     "fsmctl.outputs",
+    "fsmctl.policy",
 )
 
 __all__ = [

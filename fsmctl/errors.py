@@ -18,12 +18,7 @@ exception                           meaning                                     
 
 from __future__ import annotations
 
-import warnings
-from typing import TypeVar
-
-__all__ = ["FsmctlError", "InputError", "ResourceLimitError", "EnvironmentProblem", "renamed_keyword"]
-
-_T = TypeVar("_T")
+__all__ = ["FsmctlError", "InputError", "ResourceLimitError", "EnvironmentProblem"]
 
 
 class FsmctlError(Exception):
@@ -87,43 +82,3 @@ class EnvironmentProblem(FsmctlError, OSError):
     ...     print(exc.strerror)
     cannot write a-file/inside.txt: File exists
     """
-
-
-def renamed_keyword(function: str, old: str, new: str, old_value: _T | None, new_value: _T) -> _T:
-    """The value of a keyword argument that was renamed: the old name still works, with a ``FutureWarning``.
-
-    The one rule for renamed keywords of fsmctl's functions (``jobs=`` became ``workers=``, as the command line's
-    ``--jobs`` became ``--workers``): given under its old name (not None), the old value wins and the caller is
-    told the new name; otherwise the new value is returned unchanged.
-
-    Parameters
-    ----------
-    function : str
-        The function's name, for the warning.
-    old, new : str
-        The keyword's former and current names.
-    old_value : object or None
-        What the caller passed under the old name (None: nothing).
-    new_value : object
-        What the function received under the new name (or its default).
-
-    Returns
-    -------
-    object
-        ``old_value`` when given, else ``new_value``.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> renamed_keyword("reproduce", "jobs", "workers", None, 2)
-    2
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     value = renamed_keyword("reproduce", "jobs", "workers", 1, 2)
-    >>> value, str(caught[0].message)
-    (1, 'reproduce(jobs=...) is deprecated: use workers=... instead')
-    """
-    if old_value is None:
-        return new_value
-    warnings.warn(f"{function}({old}=...) is deprecated: use {new}=... instead", FutureWarning, stacklevel=3)
-    return old_value

@@ -422,7 +422,7 @@ CLI = [
     ),
     ("prove-unknown-claim", ["prove", "no-such-claim"], 2, r"unknown claim id"),
     ("prove-bad-region", ["prove", "--region-sigma", "2"], 2, r"region-sigma must be <= 1"),
-    ("reproduce-jobs-zero", ["reproduce", "--jobs", "0"], 2, r"--jobs must be >= 1"),
+    ("reproduce-no-jobs", ["reproduce", "--jobs", "2"], 2, r"unrecognized arguments: --jobs 2"),
     ("reproduce-workers-zero", ["reproduce", "--workers", "0"], 2, r"argument --workers: must be >= 1"),
     ("prove-negative-seed", ["prove", "--seed", "-1"], 2, r"argument --seed: must be >= 0"),
     (
@@ -536,18 +536,17 @@ def test_library_helpers_refuse_bad_input_with_input_error(tmp_path):
         explain("paper", [], tmp_path / "x", settings=["no_such_setting"])
 
 
-def test_renamed_jobs_keyword_still_works_with_a_warning_and_workers_is_checked(tmp_path):
-    """``jobs=`` became ``workers=`` (as the command line's --jobs became --workers): one rule, renamed_keyword."""
+def test_workers_is_the_one_keyword_and_is_checked(tmp_path):
+    """``workers=`` is the only spelling (0.x, issue 26: no ``jobs=`` shim) and a bad value is an InputError."""
     from fsmctl.proofs import ProofContext, run_claims
     from fsmctl.studies import compare_surfaces
     from fsmctl.studies.reproduce import reproduce
 
     ctx = ProofContext(fsmctl.paper_scenario("1"), n_random=10)
-    with pytest.warns(FutureWarning, match=r"run_claims\(jobs=\.\.\.\) is deprecated: use workers="):
-        old = run_claims(["lemma2-sqrt-sum"], ctx, jobs=1)
-    assert [r.verdict for r in old] == [r.verdict for r in run_claims(["lemma2-sqrt-sum"], ctx, workers=1)]
+    with pytest.raises(TypeError, match="unexpected keyword argument 'jobs'"):
+        run_claims(["lemma2-sqrt-sum"], ctx, jobs=1)
     with pytest.raises(InputError, match="workers must be"):
-        compare_surfaces(fsmctl.paper_scenario("1"), workers=0)  # jobs= is gone (issue 26: no shims)
+        compare_surfaces(fsmctl.paper_scenario("1"), workers=0)
     with pytest.raises(InputError, match="workers must be a whole number >= 1"):
         reproduce("paper", tmp_path / "r", workers=0)
     assert not (tmp_path / "r").exists()

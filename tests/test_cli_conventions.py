@@ -1,8 +1,11 @@
 """Conventions of the ``fsmctl`` command line, checked on the real parser (``fsmctl.cli.main.build_parser()``).
 
 * One concept, one option: a ``dest`` that several subcommands have must have the same option strings, metavar,
-  type, action and choices everywhere (a former spelling is a hidden :class:`~fsmctl.cli.options.DeprecatedAlias`
-  of the option, in the same parser, converting like it).
+  type, action and choices everywhere; an option has one spelling (0.x: no hidden former spelling such as
+  ``--jobs``).
+* One rule for the default of ``--workers``: every command leaves it to :func:`fsmctl.policy.default_workers`
+  (resolved when the command runs, so that ``--help`` and the documentation do not show one machine's CPUs) and
+  says so in the same words.
 * Help without raw placeholders: no ``%(``, ``{``, ``}``, ``TODO``, ``XXX`` and no empty help in an option's,
   a subcommand's or a description's text (epilogs may show TOML braces, but no ``%(``, ``TODO``, ``XXX``).
 * Every subcommand's epilog lists every exit code :func:`fsmctl.cli.main.main` can return (0, 1, 2, 130, 143),
@@ -24,8 +27,10 @@ import pytest
 
 import fsmctl.cli.main as cli_main
 from fsmctl.cli.exit_codes import MEANINGS
-from fsmctl.cli.options import DeprecatedAlias, HelpFormatter
+from fsmctl.cli.options import HelpFormatter
+from fsmctl.cli.parallel_options import WORKERS_DEFAULT_TEXT, chosen_workers
 from fsmctl.errors import InputError
+from fsmctl.policy import default_workers
 
 EXPECTED_CODES = [0, 1, 2, 130, 143]  # main(): success, failure/bug, input error, SIGINT, SIGTERM
 RAW = ("%(", "{", "}", "TODO", "XXX")
@@ -52,7 +57,7 @@ def option_conflicts(parser: argparse.ArgumentParser) -> list[str]:
     seen: dict[str, dict[tuple, list[str]]] = {}
     for name, sp in subcommands(parser).items():
         for action in sp._actions:
-            if isinstance(action, (argparse._HelpAction, DeprecatedAlias)):
+            if isinstance(action, argparse._HelpAction):
                 continue
             seen.setdefault(action.dest, {}).setdefault(_signature(action), []).append(name)
     return [
@@ -62,23 +67,23 @@ def option_conflicts(parser: argparse.ArgumentParser) -> list[str]:
     ]
 
 
-def alias_problems(parser: argparse.ArgumentParser) -> list[str]:
-    """Former spellings that are visible, or not a faithful alias of an option of their parser."""
+FORMER_SPELLINGS = ("--jobs",)  # renamed options: gone everywhere (0.x), not kept as hidden aliases
+
+
+def workers_problems(parser: argparse.ArgumentParser) -> list[str]:
+    """``--workers`` options whose default is not the one rule, and former spellings that are still accepted."""
     problems = []
     for name, sp in subcommands(parser).items():
-        for action in sp._actions:
-            if not isinstance(action, DeprecatedAlias):
-                continue
-            where = f"{name} {action.option_strings}"
-            if action.help is not argparse.SUPPRESS:
-                problems.append(f"{where}: shown in --help")
-            target = sp._option_string_actions.get(action.canonical)
-            if target is None or target.dest != action.dest or isinstance(target, DeprecatedAlias):
-                problems.append(f"{where}: {action.canonical} is not an option with dest {action.dest!r}")
-            elif action.convert is not target.type:
-                problems.append(f"{where}: converts unlike {action.canonical}")
-            if any(s in sp.format_help() for s in action.option_strings):
-                problems.append(f"{where}: appears in --help")
+        for spelling in FORMER_SPELLINGS:
+            if spelling in sp._option_string_actions:
+                problems.append(f"{name} {spelling}: a former spelling is still accepted")
+        action = sp._option_string_actions.get("--workers")
+        if action is None:
+            continue
+        if action.default is not None:
+            problems.append(f"{name} --workers: default {action.default!r}, not the one rule (None: default_workers)")
+        if not (action.help or "").endswith(f"(default: {WORKERS_DEFAULT_TEXT})"):
+            problems.append(f"{name} --workers: the help does not state the one rule")
     return problems
 
 
@@ -140,7 +145,8 @@ def _planted() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command")
     a = sub.add_parser("a", help="first", description="A.", epilog="exit codes:\n\n- 0: ok\n- 2: input")
     a.add_argument("--out", metavar="DIR", help="output folder (default: %(default)s)")
-    a.add_argument("--jobs", dest="workers", action=DeprecatedAlias, canonical="--workers", convert=int)
+    a.add_argument("--workers", type=int, default=2, help="workers (default: 2)")
+    a.add_argument("--jobs", type=int, help=argparse.SUPPRESS)
     b = sub.add_parser("b", help="", description="B {x}.")
     b.add_argument("--out", metavar="FOLDER", help="TODO")
     b.add_argument("--seed", type=int, help="seed")
@@ -152,7 +158,7 @@ def _planted() -> argparse.ArgumentParser:
 def test_the_checkers_catch_a_planted_parser():
     planted = _planted()
     assert {p.split(":")[0] for p in option_conflicts(planted)} == {"out", "seed"}
-    assert any("--workers is not an option" in p for p in alias_problems(planted))
+    assert sorted(p.split(":")[0] for p in workers_problems(planted)) == ["a --jobs", "a --workers", "a --workers"]
     found = placeholder_problems(planted)
     for needle in ("fsmctl b: summary: empty help", "b description: raw ['{', '}']", "a --out: raw ['%(']",
                    "b --out: raw ['TODO']"):  # fmt: skip
@@ -180,36 +186,34 @@ def test_the_shared_options_are_where_the_brief_says(parser):
         assert sub[name]._option_string_actions["--scenario"].metavar == "NAME|FILE.toml", name
 
 
-def test_former_spellings_are_hidden_faithful_aliases(parser):
-    assert alias_problems(parser) == []
-    aliases = {
-        name
-        for name, sp in subcommands(parser).items()
-        for a in sp._actions
-        if isinstance(a, DeprecatedAlias) and a.option_strings == ["--jobs"]
-    }
-    assert aliases == {"prove", "reproduce"}  # compare-surfaces: --workers only (no shim of its own)
+PARALLEL_COMMANDS = ("prove", "reproduce", "compare-surfaces", "compare", "montecarlo", "tune")
 
 
-def test_a_former_spelling_works_with_one_notice(parser, capsys):
-    args = cli_main.build_parser().parse_args(["reproduce", "--jobs", "3"])
-    assert args.workers == 3
+def test_every_workers_option_follows_the_one_rule(parser):
+    assert workers_problems(parser) == []
+    sub = subcommands(parser)
+    assert {name for name, sp in sub.items() if "--workers" in sp._option_string_actions} == set(PARALLEL_COMMANDS)
+
+
+@pytest.mark.parametrize("name", PARALLEL_COMMANDS)
+def test_the_workers_a_command_starts(name, parser, monkeypatch):
+    """Not given: one per CPU this process may use (the same for every command); given: that number."""
+    argv = [name, *MINIMAL_ARGV.get(name, [])]
+    assert chosen_workers(parser.parse_args(argv)) == default_workers()
+    assert chosen_workers(parser.parse_args([*argv, "--workers", "3"])) == 3
+    monkeypatch.setattr("fsmctl.cli.parallel_options.default_workers", lambda: 7)  # the rule is looked up at run time
+    assert chosen_workers(parser.parse_args(argv)) == 7
+
+
+@pytest.mark.parametrize("name", ["prove", "reproduce"])
+def test_the_former_jobs_spelling_is_gone(name, capsys, tmp_path):
+    """Exit 2, one line: ``--jobs`` is an unknown option like any other (0.x: no shim, no notice)."""
+    with pytest.raises(SystemExit) as exc:
+        cli_main.main([name, "--jobs", "2", "--out", str(tmp_path / "o")])
+    assert exc.value.code == 2
     err = capsys.readouterr().err
-    assert err.strip().splitlines() == ["fsmctl reproduce: --jobs is deprecated, use --workers"]
-    assert cli_main.build_parser().parse_args(["reproduce"]).workers == 2  # the alias leaves the default alone
-    assert capsys.readouterr().err == ""
-    for name in ("prove", "reproduce", "compare-surfaces"):
-        text = subcommands(parser)[name].format_help()
-        assert "deprecated" not in text and "--jobs" not in text, name
-
-
-@pytest.mark.parametrize(
-    ("value", "message"), [("0", "must be >= 1, got 0"), ("two", "expected an integer, got 'two'")]
-)
-def test_a_bad_value_of_a_former_spelling_is_one_line_naming_it(value, message, capsys, tmp_path):
-    """Exit 2 returned (not argparse's SystemExit), one line naming the spelling used, no deprecation notice."""
-    assert cli_main.main(["reproduce", "--jobs", value, "--out", str(tmp_path / "o")]) == 2
-    assert capsys.readouterr().err == f"fsmctl reproduce: error: --jobs {message}\n"
+    assert "unrecognized arguments: --jobs" in err and "deprecated" not in err
+    assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
 
 

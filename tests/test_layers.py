@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import ast
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -253,3 +254,125 @@ def test_the_ast_checker_sees_a_violation(source, expected):
     """The AST walk finds raises and subclasses in functions, through relative imports and aliases."""
     found = cli_type_uses(ast.parse(source), "fsmctl.proofs.claims", {"UsageError", "Terminated"})
     assert {what for _, what, _ in found} == expected, found
+
+
+# ----------------------------------------------------------------------------- policy constants (AST)
+
+POLICY_MODULE = "fsmctl.policy"
+STUDIES_PACKAGE = "fsmctl.studies"
+CONSTANT = re.compile(r"^_?[A-Z][A-Z0-9_]*$")
+# constants the command line may take from a study: the study's own vocabulary (what a campaign varies, the files
+# it writes), from which the command builds its options; a policy constant (a tolerance, a window, a default
+# horizon, a timeout, a batch size, a worker count) lives in fsmctl.policy instead
+CLI_STUDY_CONSTANTS_ALLOWED = {
+    "fsmctl.studies.montecarlo.SAMPLING_RANGES": "the campaign's sampling settings: one option each",
+    "fsmctl.studies.montecarlo.HARDWARE_RANGES": "the campaign's hardware settings: one option each",
+    "fsmctl.studies.montecarlo.VARY": "the campaign's --vary choices",
+    "fsmctl.studies.montecarlo.COMPLETE_MARKER": "the name of the file a finished campaign writes last",
+}
+
+
+def study_constants_used(tree: ast.AST, module: str) -> list[tuple[int, str]]:
+    """``(line, dotted name)`` of every constant (an UPPER_CASE name) of ``fsmctl.studies`` that ``tree`` imports
+    (``from fsmctl.studies.x import NAME``, relative or not) or reads as an attribute of an imported study module."""
+    bound = _bindings(tree, module)
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.ImportFrom):
+            for target in _bindings(node, module).values():
+                head, _, last = target.rpartition(".")
+                if (head == STUDIES_PACKAGE or head.startswith(STUDIES_PACKAGE + ".")) and CONSTANT.match(last):
+                    found.append((node.lineno, target))
+        elif isinstance(node, ast.Attribute) and CONSTANT.match(node.attr):
+            owner = _dotted(node.value)
+            if owner is None:
+                continue
+            head, _, rest = owner.partition(".")
+            full = bound.get(head, head) + (f".{rest}" if rest else "")
+            if full == STUDIES_PACKAGE or full.startswith(STUDIES_PACKAGE + "."):
+                found.append((node.lineno, f"{full}.{node.attr}"))
+    return found
+
+
+def policy_redefinitions(tree: ast.AST, policy: dict[str, object]) -> list[tuple[int, str]]:
+    """``(line, what)`` for every module-level name of ``policy`` that ``tree`` defines again (an assignment or a
+    ``def``), and every tuple literal equal to one of ``policy``'s tuples (a default spelled out again)."""
+    found = []
+    for node in getattr(tree, "body", []):
+        targets = []
+        if isinstance(node, ast.Assign):
+            targets = [t.id for t in node.targets if isinstance(t, ast.Name)]
+        elif isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+            targets = [node.target.id]
+        elif isinstance(node, (ast.FunctionDef, ast.ClassDef)):
+            targets = [node.name]
+        found += [(node.lineno, f"defines {name}") for name in targets if name in policy]
+    tuples = {value: name for name, value in policy.items() if isinstance(value, tuple)}
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Tuple):
+            try:
+                value = ast.literal_eval(node)
+            except ValueError:  # not a literal (a name inside)
+                continue
+            if all(isinstance(v, (int, float)) for v in value) and value in tuples:
+                found.append((node.lineno, f"spells out {tuples[value]} = {value!r}"))
+    return found
+
+
+def _policy() -> dict[str, object]:
+    import fsmctl.policy
+
+    return {name: getattr(fsmctl.policy, name) for name in fsmctl.policy.__all__}
+
+
+@pytest.mark.parametrize(
+    ("module", "path"),
+    [(m, p) for m, p in _modules() if m == CLI_PACKAGE or m.startswith(CLI_PACKAGE + ".")],
+    ids=lambda v: str(v),
+)
+def test_the_cli_takes_no_policy_constant_from_a_study(module, path):
+    """The command line reads its defaults and the numbers in its help from :mod:`fsmctl.policy`, never by importing
+    a study module for a constant (the study's vocabulary in :data:`CLI_STUDY_CONSTANTS_ALLOWED` aside)."""
+    used = study_constants_used(ast.parse(path.read_text()), module)
+    found = [(line, name) for line, name in used if name not in CLI_STUDY_CONSTANTS_ALLOWED]
+    assert not found, f"{path.relative_to(ROOT)}: " + "; ".join(f"line {n}: {name}" for n, name in found)
+
+
+@pytest.mark.parametrize(
+    ("module", "path"), [(m, p) for m, p in _modules() if m != POLICY_MODULE], ids=lambda v: str(v)
+)
+def test_every_policy_constant_has_one_home(module, path):
+    """No module defines a name of :mod:`fsmctl.policy` again or spells out one of its tuples: it imports them."""
+    found = policy_redefinitions(ast.parse(path.read_text()), _policy())
+    assert not found, f"{path.relative_to(ROOT)}: " + "; ".join(f"line {n}: {what}" for n, what in found)
+
+
+def test_the_policy_checkers_see_a_violation():
+    """The two AST walks above find what they look for: the checks can fail."""
+    cases = {
+        "from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG\n": [
+            "fsmctl.studies.paper_runs.SETTLING_TOLERANCES_DEG"
+        ],
+        "def f():\n    from ..studies.tune import BATCH\n": ["fsmctl.studies.tune.BATCH"],
+        "from fsmctl.studies import campaign\nx = campaign.DASK_TIMEOUT_S\n": [
+            "fsmctl.studies.campaign.DASK_TIMEOUT_S"
+        ],
+        "import fsmctl.studies.compare as c\nx = c.DEFAULT_TOLERANCES_DEG\n": [
+            "fsmctl.studies.compare.DEFAULT_TOLERANCES_DEG"
+        ],
+        "from fsmctl.studies.compare import compare_laws\nfrom fsmctl.policy import FAST_T_FINAL_S\n": [],
+    }
+    for source, expected in cases.items():
+        assert [name for _, name in study_constants_used(ast.parse(source), "fsmctl.cli.x")] == expected, source
+    policy = _policy()
+    planted = (
+        "STEADY_WINDOW_MAX_S = 40.0\n"
+        "def default_workers():\n    return 1\n"
+        "def summary(tolerances_deg=(1.0, 0.1, 0.05, 0.03, 0.01)):\n    pass\n"
+        "OK = (1.0, 0.1)\n"
+    )
+    assert [what.split(" =")[0] for _, what in policy_redefinitions(ast.parse(planted), policy)] == [
+        "defines STEADY_WINDOW_MAX_S",
+        "defines default_workers",
+        "spells out SETTLING_TOLERANCES_DEG",
+    ]

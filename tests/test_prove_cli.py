@@ -93,7 +93,6 @@ def test_case_option_on_a_user_file(capsys):
         (["--case", "7"], "no case '7'"),
         (["--region-omega", "nan"], "--region-omega must be a finite number"),
         (["--region-sigma", "2"], "--region-sigma must be <= 1"),
-        (["--jobs", "0"], "--jobs must be >= 1"),  # the former spelling of --workers
     ],
 )
 def test_input_errors_exit_2_with_one_line(capsys, argv, message):
@@ -102,6 +101,22 @@ def test_input_errors_exit_2_with_one_line(capsys, argv, message):
     assert message in err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
     assert out == ""
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--workers", "0"], "argument --workers: must be >= 1, got 0"),
+        (["--jobs", "2"], "unrecognized arguments: --jobs"),  # no hidden former spelling of --workers (0.x: no shims)
+    ],
+)
+def test_bad_options_exit_2_with_one_line(capsys, argv, message):
+    with pytest.raises(SystemExit) as exc:
+        main(["prove", *argv])
+    _, err = capsys.readouterr()
+    assert exc.value.code == 2
+    assert message in err and "deprecated" not in err
+    assert len(err.strip().splitlines()) == 1
 
 
 def _console_script() -> str | None:

@@ -209,7 +209,7 @@ def test_claims_impossible_and_differs_with_reasons():
 @pytest.fixture(scope="module")
 def fast_reproduction(tmp_path_factory):
     out = tmp_path_factory.mktemp("reproduction")
-    rc = main(["reproduce", "--fast", "--out", str(out), "--jobs", "2", "--no-progress"])
+    rc = main(["reproduce", "--fast", "--out", str(out), "--workers", "2", "--no-progress"])
     return rc, out
 
 
@@ -232,7 +232,7 @@ def test_fast_reproduce_exit_code_and_files(fast_reproduction):
         assert float(ds["time_s"][-1]) == pytest.approx(10.0)
         assert float(ds["aaem_deg"][-1]) < 0.03  # without the limit the law converges within the fast horizon
         # provenance: the command line, the scenario of this run (re-runnable), the versions
-        assert ds.attrs["command"] == f"fsmctl reproduce --fast --out {out} --jobs 2 --no-progress"
+        assert ds.attrs["command"] == f"fsmctl reproduce --fast --out {out} --workers 2 --no-progress"
         assert ds.attrs["version_fsmctl"] and "torque_limit = inf" in ds.attrs["scenario_toml"]
 
 
@@ -305,7 +305,8 @@ def test_reproduce_no_explain(tmp_path):
     ("argv", "needle"),
     [
         (["reproduce", "--bogus"], "unrecognized arguments"),
-        (["reproduce", "--jobs", "0"], "--jobs"),
+        (["reproduce", "--workers", "0"], "--workers"),
+        (["reproduce", "--jobs", "2"], "unrecognized arguments: --jobs"),
     ],
 )
 def test_reproduce_bad_options_exit_2(argv, needle, capsys, tmp_path):
@@ -403,7 +404,7 @@ def test_claim_stages_stop_early_and_ask_for_the_long_run_only_when_needed():
 
 def test_run_records_round_trip_through_claims_json_and_csv(fast_reproduction, tmp_path):
     from fsmctl.outputs import jsonable
-    from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG
+    from fsmctl.policy import SETTLING_TOLERANCES_DEG
     from fsmctl.studies.records import read_csv, write_csv
 
     _, out = fast_reproduction

@@ -41,9 +41,9 @@ from fsmctl.cli.options import (
 from fsmctl.cli.run_options import add_run_options, simulation_changes
 from fsmctl.cli.types import nonnegative_float
 from fsmctl.outputs import output_folder, write_json
-from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG
+from fsmctl.policy import SETTLING_TOLERANCES_DEG
 
-__all__ = ["add_parser", "run", "SETTLING_TOLERANCES_DEG", "EXIT_CODES"]
+__all__ = ["add_parser", "run", "EXIT_CODES"]
 
 EXIT_CODES = {
     0: "the run finished and its files were written",

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.options import (
+    STEADY_WINDOW_TEXT,
     add_case_option,
     add_dt_option,
     add_figures_option,
@@ -29,9 +30,10 @@ from fsmctl.cli.options import (
     add_t_final_option,
     add_torque_limit_option,
 )
-from fsmctl.cli.parallel_options import add_workers_option
+from fsmctl.cli.parallel_options import add_workers_option, chosen_workers
 from fsmctl.cli.run_options import add_run_options, simulation_changes
 from fsmctl.cli.types import positive_float
+from fsmctl.policy import COMPARISON_TOLERANCES_DEG
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
@@ -116,10 +118,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         type=_tolerances,
         default=None,
         metavar="DEG,...",
-        help="AAEM/RAEM settling tolerances in deg (default: 1,0.1,0.01)",
+        help=f"AAEM/RAEM settling tolerances in deg (default: {','.join(f'{t:g}' for t in COMPARISON_TOLERANCES_DEG)})",
     )
-    add_steady_window_option(g, None, "the last 40 percent of the horizon, at most 40 s")
-    add_workers_option(g, default=1, what="worker processes flying the runs")
+    add_steady_window_option(g, None, STEADY_WINDOW_TEXT)
+    add_workers_option(g, what="worker threads flying the runs")
     add_progress_option(g, "over the runs")
     p.set_defaults(func=run)
     return p
@@ -143,7 +145,6 @@ def run(args: argparse.Namespace) -> int:
     from fsmctl.model.scenario import load_scenario
     from fsmctl.outputs import output_folder
     from fsmctl.studies.compare import (
-        DEFAULT_TOLERANCES_DEG,
         LawRun,
         compare_laws,
         read_runs_file,
@@ -189,9 +190,9 @@ def run(args: argparse.Namespace) -> int:
         comparison = compare_laws(
             scenario,
             runs,
-            tolerances_deg=args.tolerances or DEFAULT_TOLERANCES_DEG,
+            tolerances_deg=args.tolerances or COMPARISON_TOLERANCES_DEG,
             steady_window_s=args.steady_window,
-            workers=args.workers,
+            workers=chosen_workers(args),
             progress=progress,
         )
         paths = comparison.save(out, figures=not args.no_figures)

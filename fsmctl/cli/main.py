@@ -58,7 +58,7 @@ import sys
 import warnings
 
 from fsmctl.cli.exit_codes import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, epilog
-from fsmctl.cli.options import HelpFormatter, InvalidValue
+from fsmctl.cli.options import HelpFormatter
 from fsmctl.errors import EnvironmentProblem, InputError
 
 __all__ = [
@@ -279,9 +279,6 @@ def _run(args: argparse.Namespace) -> int:
         _handler_pid = os.getpid()
         previous = signal.signal(signal.SIGTERM, _raise_terminated)
     try:
-        invalid = [v for v in vars(args).values() if isinstance(v, InvalidValue)]
-        if invalid:  # a bad value of a former spelling of an option (fsmctl.cli.options.DeprecatedAlias)
-            raise UsageError(str(invalid[0]))
         with warnings.catch_warnings():
             warnings.filterwarnings("once")
             warnings.showwarning = _warning_line  # one line on stderr, as the library's notices

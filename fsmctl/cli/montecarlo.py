@@ -37,7 +37,7 @@ from fsmctl.cli.options import (
     add_tolerance_deg_option,
     add_torque_limit_option,
 )
-from fsmctl.cli.parallel_options import add_dask_options, add_workers_option
+from fsmctl.cli.parallel_options import add_dask_options, add_workers_option, chosen_workers
 from fsmctl.cli.run_options import add_run_options
 from fsmctl.cli.types import finite_or_inf_float, number_range, positive_int
 from fsmctl.studies.montecarlo import (
@@ -95,7 +95,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     add_scenario_option(p, default=d.scenario)
     add_case_option(p)
     p.add_argument("--runs", type=positive_int, default=d.runs, metavar="N", help=f"number of runs (default: {d.runs})")
-    add_workers_option(p, default=None, what="local worker processes flying the chunks", default_text="all CPUs")
+    add_workers_option(p, what="local worker processes flying the chunks")
     add_seed_option(p, "the campaign; every run's perturbations and its noise seed (simulation.seed) derive from it")
     p.add_argument(
         "--vary",
@@ -210,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
         result = run_campaign(
             settings,
             args.out,
-            workers=args.workers,
+            workers=chosen_workers(args),
             dask=args.dask,
             resume=args.resume,
             progress=args.progress,

@@ -23,27 +23,24 @@ The other shared options live with their kind: ``--law``/``--set`` in :mod:`fsmc
 (finite numbers, ``inf`` spelled out) and judged by the layer that owns them (the scenario, the campaign, the
 study), whose one-line error names the key.
 
-:class:`HelpFormatter` lays out every ``--help`` (descriptions wrapped, indented epilog lines kept as lists);
-:class:`DeprecatedAlias` keeps a former spelling of an option working, hidden from ``--help``, with a one-line
-notice on stderr when it is used.
+:class:`HelpFormatter` lays out every ``--help`` (descriptions wrapped, indented epilog lines kept as lists).
+An option has one spelling (fsmctl is 0.x: a renamed option is renamed everywhere, with no hidden alias).
 """
 
 from __future__ import annotations
 
 import argparse
 import re
-import sys
 import textwrap
 from pathlib import Path
 from typing import Any
 
 from fsmctl.cli.types import finite_or_inf_float, nonnegative_int, torque_limit
+from fsmctl.policy import STEADY_WINDOW_FRACTION, STEADY_WINDOW_MAX_S
 
 __all__ = [
+    "STEADY_WINDOW_TEXT",
     "HelpFormatter",
-    "DeprecatedAlias",
-    "InvalidValue",
-    "add_deprecated_alias",
     "add_scenario_option",
     "add_case_option",
     "add_out_option",
@@ -57,6 +54,12 @@ __all__ = [
     "add_tolerance_deg_option",
     "add_seed_option",
 ]
+
+STEADY_WINDOW_TEXT = (
+    f"the last {100 * STEADY_WINDOW_FRACTION:g} percent of the horizon, at most {STEADY_WINDOW_MAX_S:g} s"
+)
+"""How a help states the default steady window (:func:`fsmctl.policy.default_steady_window`; no ``%``: argparse
+formats help texts)."""
 
 _TERM_GAP = re.compile(r"\s{2,}")
 
@@ -122,89 +125,6 @@ class HelpFormatter(argparse.HelpFormatter):
             flush()
             out.append("")
         return "\n".join(out).rstrip("\n")
-
-
-class InvalidValue:
-    """A bad value given to a former spelling (:class:`DeprecatedAlias`), reported by :func:`fsmctl.cli.main.main`.
-
-    The report is the one-line input error of a running command (exit 2, returned, not raised as ``SystemExit``),
-    without the deprecation notice: one line in all.
-
-    Parameters
-    ----------
-    option : str
-        The spelling used, e.g. ``--jobs``.
-    message : str
-        What is wrong with the value, e.g. "must be >= 1, got 0".
-    """
-
-    def __init__(self, option: str, message: str) -> None:
-        self.option = option
-        self.message = message
-
-    def __str__(self) -> str:
-        return f"{self.option} {self.message}"
-
-
-class DeprecatedAlias(argparse.Action):
-    """A former spelling of an option: hidden from ``--help``, converted like the option, noticed on stderr.
-
-    A value the option's type refuses becomes an :class:`InvalidValue` (no notice), which
-    :func:`fsmctl.cli.main.main` reports as one line naming the former spelling, exit 2.
-
-    Parameters
-    ----------
-    option_strings : list of str
-        The former spelling(s).
-    dest : str
-        The option's ``dest`` (the value lands where the option's would).
-    canonical : str
-        The option's current spelling, named in the notice.
-    convert : callable, optional
-        The option's ``type``.
-    **kwargs
-        Passed to :class:`argparse.Action` (``help`` is always suppressed, ``default`` left to the option).
-    """
-
-    def __init__(self, option_strings, dest, *, canonical: str, convert=None, **kwargs: Any) -> None:
-        kwargs["help"] = argparse.SUPPRESS
-        kwargs["default"] = argparse.SUPPRESS
-        super().__init__(option_strings, dest, **kwargs)
-        self.canonical = canonical
-        self.convert = convert
-
-    def __call__(self, parser, namespace, values, option_string=None) -> None:
-        value = values
-        if self.convert is not None:
-            try:
-                value = self.convert(values)
-            except (argparse.ArgumentTypeError, TypeError, ValueError) as exc:
-                setattr(namespace, self.dest, InvalidValue(option_string, str(exc)))
-                return
-        print(f"{parser.prog}: {option_string} is deprecated, use {self.canonical}", file=sys.stderr)
-        setattr(namespace, self.dest, value)
-
-
-def add_deprecated_alias(parser: argparse.ArgumentParser | Any, old: str, option: argparse.Action) -> None:
-    """Keep ``old`` working as a hidden spelling of ``option`` (see :class:`DeprecatedAlias`).
-
-    Parameters
-    ----------
-    parser : argparse.ArgumentParser or argument group
-        Where ``option`` was added.
-    old : str
-        The former spelling, e.g. ``"--jobs"``.
-    option : argparse.Action
-        The option as returned by ``add_argument``.
-    """
-    parser.add_argument(
-        old,
-        dest=option.dest,
-        action=DeprecatedAlias,
-        canonical=option.option_strings[0],
-        convert=option.type,
-        metavar=option.metavar,
-    )
 
 
 def add_scenario_option(

@@ -1,12 +1,13 @@
 """``--workers``, ``--dask`` and ``--dask-timeout``: where a command's runs are flown, defined once.
 
-``--workers N`` (an integer >= 1) is the number of local worker processes of every command that runs things in
-parallel (``prove``, ``reproduce``, ``compare-surfaces``, ``compare``, ``montecarlo``, ``tune``); the former
-``--jobs`` of ``prove``, ``reproduce`` and ``compare-surfaces`` still works (:class:`fsmctl.cli.options.DeprecatedAlias`).
-``--dask ADDRESS`` flies the runs on an existing Dask distributed scheduler instead (``montecarlo``, ``tune``),
-and ``--dask-timeout S`` bounds how long the scheduler gets to accept the connection and answer
-(:data:`fsmctl.studies.campaign.DASK_TIMEOUT_S` by default); an address that is not a Dask scheduler is one
-line on stderr, exit 2.
+``--workers N`` (an integer >= 1) is the number of local workers of every command that runs things in parallel
+(``prove``, ``reproduce``, ``compare-surfaces``, ``compare``, ``montecarlo``, ``tune``).  One rule for its default,
+whatever the command: one worker per CPU this process may use (:func:`fsmctl.policy.default_workers`, resolved when
+the command runs: :func:`chosen_workers`), and a study never starts more workers than it has tasks at once.  The
+worker count changes the speed only, never a result.  ``--dask ADDRESS`` flies the runs on an existing Dask
+distributed scheduler instead (``montecarlo``, ``tune``), and ``--dask-timeout S`` bounds how long the scheduler gets
+to accept the connection and answer (:data:`fsmctl.policy.DASK_TIMEOUT_S` by default); an address that is not a
+Dask scheduler is one line on stderr, exit 2.
 """
 
 from __future__ import annotations
@@ -14,50 +15,53 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from fsmctl.cli.options import add_deprecated_alias
 from fsmctl.cli.types import positive_float, positive_int
+from fsmctl.policy import DASK_TIMEOUT_S, default_workers
 
-__all__ = ["add_workers_option", "add_dask_options"]
+__all__ = ["WORKERS_DEFAULT_TEXT", "add_workers_option", "chosen_workers", "add_dask_options"]
+
+WORKERS_DEFAULT_TEXT = "one per CPU this process may use, at most one per task; the results do not depend on it"
+"""How every ``--workers`` help states its default (:func:`fsmctl.policy.default_workers`)."""
 
 
-def add_workers_option(
-    parser: argparse.ArgumentParser | Any,
-    *,
-    default: int | None,
-    what: str,
-    default_text: str | None = None,
-    former_jobs: bool = False,
-) -> argparse.Action:
-    """Add ``--workers N`` (``args.workers``), the number of local worker processes.
+def add_workers_option(parser: argparse.ArgumentParser | Any, *, what: str) -> argparse.Action:
+    """Add ``--workers N`` (``args.workers``; None when not given: see :func:`chosen_workers`).
 
     Parameters
     ----------
     parser : argparse.ArgumentParser or argument group
         Where the option goes.
-    default : int or None
-        The default (None: the command decides, e.g. all CPUs; say how in ``default_text``).
     what : str
         What the workers do, e.g. "local worker processes flying the runs".
-    default_text : str, optional
-        How the help states the default (default: the number).
-    former_jobs : bool
-        Also accept the former spelling ``--jobs`` (hidden, with a notice on stderr).
 
     Returns
     -------
     argparse.Action
         The option.
     """
-    action = parser.add_argument(
+    return parser.add_argument(
         "--workers",
         type=positive_int,
-        default=default,
+        default=None,  # resolved when the command runs, so that --help and the docs do not show this machine's CPUs
         metavar="N",
-        help=f"{what} (default: {default_text or default})",
+        help=f"{what} (default: {WORKERS_DEFAULT_TEXT})",
     )
-    if former_jobs:
-        add_deprecated_alias(parser, "--jobs", action)
-    return action
+
+
+def chosen_workers(args: argparse.Namespace) -> int:
+    """The number of workers a command starts: ``--workers N``, else :func:`fsmctl.policy.default_workers`.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options of a command with ``--workers``.
+
+    Returns
+    -------
+    int
+        A whole number >= 1.
+    """
+    return default_workers() if args.workers is None else args.workers
 
 
 def add_dask_options(parser: argparse.ArgumentParser | Any, *, what: str) -> None:
@@ -70,8 +74,6 @@ def add_dask_options(parser: argparse.ArgumentParser | Any, *, what: str) -> Non
     what : str
         What runs on the cluster, e.g. "the campaign's chunks".
     """
-    from fsmctl.studies.campaign import DASK_TIMEOUT_S
-
     parser.add_argument(
         "--dask",
         metavar="ADDRESS",

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.options import add_case_option, add_scenario_option, add_seed_option
-from fsmctl.cli.parallel_options import add_workers_option
+from fsmctl.cli.parallel_options import add_workers_option, chosen_workers
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
@@ -112,7 +112,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         default=None,
         help="with --law: the error kinematics of the checked variant (default: paper)",
     )
-    add_workers_option(p, default=2, what="worker processes of the symbolic checks, 1 = sequential", former_jobs=True)
+    add_workers_option(p, what="worker processes of the symbolic checks, 1 = sequential")
     p.set_defaults(func=run)
     return p
 
@@ -162,7 +162,7 @@ def run(args: argparse.Namespace) -> int:
     scenario = _load(args.scenario or "paper", args.case)
     ctx = ProofContext(scenario, Region(args.region_sigma, args.region_omega), args.samples, args.seed)
     ids = list(dict.fromkeys(args.claims))
-    results = run_claims(ids or None, ctx, workers=args.workers)
+    results = run_claims(ids or None, ctx, workers=chosen_workers(args))
     errata = None if ids else all_errata()  # the full check: every erratum of the paper, from the one registry
     if args.json:
         print(report.to_json(results, errata))

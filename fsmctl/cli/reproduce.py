@@ -11,8 +11,8 @@ import sys
 
 from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.options import add_figures_option, add_out_option, add_progress_option, add_scenario_option
-from fsmctl.cli.parallel_options import add_workers_option
-from fsmctl.studies.paper_runs import FAST_T_FINAL_S
+from fsmctl.cli.parallel_options import add_workers_option, chosen_workers
+from fsmctl.policy import FAST_T_FINAL_S
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
@@ -47,7 +47,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--fast", action="store_true", help=f"short horizon ({FAST_T_FINAL_S:g} s) for tests and quick looks"
     )
-    add_workers_option(p, default=2, what="worker processes flying the runs", former_jobs=True)
+    add_workers_option(p, what="worker processes flying the runs")
     add_figures_option(p)
     p.add_argument(
         "--explain",
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
             args.scenario,
             args.out,
             fast=args.fast,
-            workers=args.workers,
+            workers=chosen_workers(args),
             progress=args.progress,
             figures=not args.no_figures,
             log=print,

@@ -20,7 +20,8 @@ from fsmctl.cli.options import (
     add_scenario_option,
     add_t_final_option,
 )
-from fsmctl.cli.parallel_options import add_workers_option
+from fsmctl.cli.parallel_options import add_workers_option, chosen_workers
+from fsmctl.policy import SURFACE_METRIC_TOLERANCE, SURFACE_REACH_THRESHOLD, SURFACE_SIGMA_TOLERANCE
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
@@ -54,13 +55,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     add_out_option(p, "compare-surfaces")
     p.add_argument("--fast", action="store_true", help="10 s horizon at dt = 2 ms and a small scalar grid")
     add_t_final_option(p)
-    p.add_argument("--reach-threshold", type=float, default=1e-3, metavar="S",
-                   help="||s_i|| below which the surface counts as reached (default: 0.001)")  # fmt: skip
-    p.add_argument("--sigma-tolerance", type=float, default=1e-3, metavar="TAU",
-                   help="Theorem 3 target: every MRP component sigma_e,k within [-TAU, TAU] (default: 0.001)")  # fmt: skip
-    p.add_argument("--metric-tolerance", type=float, default=0.03, metavar="DEG",
-                   help="AAEM/RAEM settling tolerance in deg (default: 0.03)")  # fmt: skip
-    add_workers_option(p, default=2, what="worker threads flying the variants")
+    p.add_argument("--reach-threshold", type=float, default=SURFACE_REACH_THRESHOLD, metavar="S",
+                   help=f"||s_i|| below which the surface counts as reached (default: {SURFACE_REACH_THRESHOLD:g})")  # fmt: skip
+    p.add_argument("--sigma-tolerance", type=float, default=SURFACE_SIGMA_TOLERANCE, metavar="TAU",
+                   help="Theorem 3 target: every MRP component sigma_e,k within [-TAU, TAU] "
+                   f"(default: {SURFACE_SIGMA_TOLERANCE:g})")  # fmt: skip
+    p.add_argument("--metric-tolerance", type=float, default=SURFACE_METRIC_TOLERANCE, metavar="DEG",
+                   help=f"AAEM/RAEM settling tolerance in deg (default: {SURFACE_METRIC_TOLERANCE:g})")  # fmt: skip
+    add_workers_option(p, what="worker threads flying the variants")
     add_figures_option(p)
     p.set_defaults(func=run)
     return p
@@ -102,7 +104,7 @@ def _compare(args: argparse.Namespace, scenario) -> int:
         reach_threshold=args.reach_threshold,
         sigma_tolerance=args.sigma_tolerance,
         metric_tolerance_deg=args.metric_tolerance,
-        workers=args.workers,
+        workers=chosen_workers(args),
     )
     try:
         paths = comp.write(args.out, figures=not args.no_figures)

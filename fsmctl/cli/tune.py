@@ -13,7 +13,6 @@ by SIGINT (Ctrl-C), 143 terminated by SIGTERM; the journal keeps every told tria
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 from fsmctl.cli.exit_codes import epilog
@@ -26,9 +25,9 @@ from fsmctl.cli.options import (
     add_t_final_option,
     add_tolerance_deg_option,
 )
-from fsmctl.cli.parallel_options import add_dask_options, add_workers_option
+from fsmctl.cli.parallel_options import add_dask_options, add_workers_option, chosen_workers
 from fsmctl.cli.types import positive_int
-from fsmctl.studies.tune import BATCH
+from fsmctl.policy import STEADY_WINDOW_FRACTION, STEADY_WINDOW_MAX_S, TOLERANCE_DEG, TUNE_BATCH
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
@@ -39,10 +38,10 @@ EXIT_CODES = {
 }
 """What ``fsmctl tune``'s exit codes mean where they differ from :data:`fsmctl.cli.exit_codes.MEANINGS`."""
 
-EPILOG_TEXT = """objectives (all minimised; --objectives a,b,...; aggregated over the ensemble by --quantile):
+EPILOG_TEXT = f"""objectives (all minimised; --objectives a,b,...; aggregated over the ensemble by --quantile):
 
 - aaem_settling, raem_settling (s): settling time of AAEM (eq 42) / RAEM (eq 43) to --tolerance-deg; a run that never settles within the horizon T scores T * (2 + min(1, decades of its steady error above the tolerance))
-- aaem_steady, raem_steady (deg): max over the steady window (last 40 % of T, at most 40 s)
+- aaem_steady, raem_steady (deg): max over the steady window (last {100 * STEADY_WINDOW_FRACTION:g} % of T, at most {STEADY_WINDOW_MAX_S:g} s)
 - peak_torque, rms_torque (N m)
 - chattering (N m/s): total variation of u per second
 - wheel_momentum (N m s): peak wheel momentum (scenarios with reaction wheels)
@@ -171,7 +170,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         metavar="NAME=LOW,HIGH",
         help="search range of a parameter (within its declared range); repeatable",
     )
-    add_tolerance_deg_option(p, "settling tolerance of AAEM and RAEM", 1.0)
+    add_tolerance_deg_option(p, "settling tolerance of AAEM and RAEM", TOLERANCE_DEG)
     add_t_final_option(p)
     p.add_argument(
         "--constraints",
@@ -190,16 +189,11 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     p.add_argument(
         "--batch",
         type=positive_int,
-        default=BATCH,
+        default=TUNE_BATCH,
         metavar="B",
-        help=f"trials proposed, flown in parallel and told together; part of the study (default: {BATCH})",
+        help=f"trials proposed, flown in parallel and told together; part of the study (default: {TUNE_BATCH})",
     )
-    add_workers_option(
-        p,
-        default=None,
-        what="local worker processes flying a batch, 1 = in this process; the results do not depend on it",
-        default_text="all CPUs, at most --batch",
-    )
+    add_workers_option(p, what="local worker processes flying a batch, 1 = in this process")
     add_dask_options(p, what="the batches")
     add_out_option(p, "tune")
     p.add_argument("--resume", action="store_true", help="continue the study in DIR to --budget trials in total")
@@ -247,7 +241,7 @@ def run(args: argparse.Namespace) -> int:
             args.out,
             resume=args.resume,
             progress=args.progress,
-            workers=args.workers or os.cpu_count() or 1,
+            workers=chosen_workers(args),
             dask=args.dask,
             dask_timeout=args.dask_timeout,
             command=getattr(args, "argv", None) or ["fsmctl", *sys.argv[1:]],

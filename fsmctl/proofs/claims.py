@@ -37,7 +37,6 @@ import sympy as sp
 
 import fsmctl.proofs.theorem1 as t1
 import fsmctl.proofs.theorem2 as t2
-from fsmctl.errors import renamed_keyword
 from fsmctl.model.scenario import Scenario
 
 __all__ = [
@@ -1217,9 +1216,7 @@ def _run_ids(ids: list[str], ctx: ProofContext) -> list[ClaimResult]:
     return _run([get_claim(i) for i in ids], ctx)
 
 
-def run_claims(
-    ids: list[str] | None, ctx: ProofContext, *, workers: int = 1, jobs: int | None = None
-) -> list[ClaimResult]:
+def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int = 1) -> list[ClaimResult]:
     """Check the given claims (all when ``ids`` is empty or None) and time each one.
 
     Parameters
@@ -1231,8 +1228,6 @@ def run_claims(
     workers : int
         With ``workers > 1`` (and the ``fork`` start method available) the heavy symbolic
         claims run in one worker process while the others run here; results are identical.
-    jobs : int, optional
-        Former name of ``workers`` (deprecated: a ``FutureWarning``).
 
     Returns
     -------
@@ -1256,7 +1251,6 @@ def run_claims(
     >>> print(results[1].detail.splitlines()[2])
     eta exists: constant symmetric eta (the paper's form, non-strict): yes; time-varying symmetric eta(t): yes; ...
     """
-    workers = renamed_keyword("run_claims", "jobs", "workers", jobs, workers)
     claims = [get_claim(i) for i in ids] if ids else list(CLAIMS)
     heavy = [c for c in claims if c.heavy]
     light = [c for c in claims if not c.heavy]

@@ -16,6 +16,7 @@ from fsmctl.errors import ResourceLimitError
 from fsmctl.model.generated_code import manifest
 from fsmctl.model.scenario import Scenario
 from fsmctl.outputs import atomic_path
+from fsmctl.policy import SETTLING_TOLERANCES_DEG, STEADY_WINDOW_MAX_S
 from fsmctl.simulation.memory import available_memory, format_bytes
 from fsmctl.simulation.metrics import (
     RAEM_WORKING_BYTES,
@@ -248,15 +249,17 @@ class SimulationResult:
         span = float(self.time[-1] - self.time[0]) or 1.0
         return self.u_total_variation / span
 
-    def summary(self, tolerances_deg=(1.0, 0.1, 0.05, 0.03, 0.01), steady_window: float = 40.0) -> dict:
+    def summary(self, tolerances_deg=SETTLING_TOLERANCES_DEG, steady_window: float = STEADY_WINDOW_MAX_S) -> dict:
         """Settling times of AAEM/RAEM per tolerance, steady-state accuracy, torque statistics.
 
         Parameters
         ----------
         tolerances_deg : sequence of float
-            Settling bands of AAEM and RAEM (eqs 42-43), deg.
+            Settling bands of AAEM and RAEM (eqs 42-43), deg (default
+            :data:`fsmctl.policy.SETTLING_TOLERANCES_DEG`).
         steady_window : float
-            Length of the final window of the steady-state maxima, s.
+            Length of the final window of the steady-state maxima, s (default
+            :data:`fsmctl.policy.STEADY_WINDOW_MAX_S`; clipped to the horizon).
 
         Returns
         -------

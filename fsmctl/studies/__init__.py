@@ -55,7 +55,6 @@ _ATTRS = {
     ],
     "paper_runs": [
         "PAPER_CASES",
-        "SETTLING_TOLERANCES_DEG",
         "RunSpec",
         "run_plan",
         "load_case",

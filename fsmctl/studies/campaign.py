@@ -51,8 +51,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from fsmctl.errors import ResourceLimitError
+from fsmctl.policy import DASK_TIMEOUT_S
 from fsmctl.simulation.memory import available_memory, format_bytes
-from fsmctl.studies.cluster import DASK_TIMEOUT_S, connect_dask
+from fsmctl.studies.cluster import connect_dask
 from fsmctl.studies.parallel import (
     InterruptGuard,
     check_workers,
@@ -62,7 +63,7 @@ from fsmctl.studies.parallel import (
     worker_pool,
 )
 
-__all__ = ["DASK_TIMEOUT_S", "Task", "Runner", "check_memory"]
+__all__ = ["Task", "Runner", "check_memory"]
 
 WORKER_DIED = "the worker process died"
 """the message a task whose local worker died twice (and alone) is reported with"""

@@ -18,8 +18,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
+from fsmctl.policy import SETTLING_TOLERANCES_DEG
 from fsmctl.studies.momentum import MomentumBound
-from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG
 from fsmctl.studies.records import RunRecord
 
 __all__ = [

@@ -16,6 +16,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 
+from fsmctl.policy import SETTLING_TOLERANCES_DEG
 from fsmctl.studies.claim_types import (
     DIFFERS,
     IMPOSSIBLE,
@@ -27,7 +28,6 @@ from fsmctl.studies.claim_types import (
     StudyClaim,
 )
 from fsmctl.studies.momentum import MomentumBound
-from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG
 from fsmctl.studies.records import RunRecord
 
 __all__ = [

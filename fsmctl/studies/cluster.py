@@ -17,11 +17,10 @@ import time
 from typing import Any
 
 from fsmctl.errors import EnvironmentProblem, InputError
+from fsmctl.policy import DASK_TIMEOUT_S
 
-__all__ = ["DASK_TIMEOUT_S", "connect_dask"]
+__all__ = ["connect_dask"]
 
-DASK_TIMEOUT_S = 10.0
-"""default wait for a Dask scheduler to accept a connection and send its handshake"""
 _DASK_HANDSHAKE_MAX_BYTES = 1 << 16  # a scheduler's handshake is ~60 bytes
 
 

@@ -54,6 +54,7 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.laws import LawSwitchWarning, resolve_law, written_keys
 from fsmctl.model.scenario import Scenario
+from fsmctl.policy import COMPARISON_TOLERANCES_DEG, default_steady_window
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.parallel import check_workers
 
@@ -63,7 +64,6 @@ if TYPE_CHECKING:
     from fsmctl.simulation.simulator import SimulationResult
 
 __all__ = [
-    "DEFAULT_TOLERANCES_DEG",
     "LawRun",
     "Comparison",
     "compare_laws",
@@ -72,11 +72,7 @@ __all__ = [
     "with_and_without_limit",
     "read_runs_file",
     "metric_columns",
-    "default_steady_window",
 ]
-
-DEFAULT_TOLERANCES_DEG = (1.0, 0.1, 0.01)
-"""Settling tolerances of AAEM/RAEM (deg) unless told otherwise."""
 
 SERIES_POINTS = 2000
 """At most about this many samples of AAEM/RAEM per run are kept for the figure."""
@@ -387,28 +383,7 @@ def run_scenario(scenario: Scenario, run: LawRun) -> Scenario:
 # ----------------------------------------------------------------------------- metrics
 
 
-def default_steady_window(horizon_s: float) -> float:
-    """The steady-state window: the last 40 % of the horizon, at most 40 s (the paper's last 40 of 100 s).
-
-    Parameters
-    ----------
-    horizon_s : float
-        The horizon (s).
-
-    Returns
-    -------
-    float
-        The window's length (s).
-
-    Examples
-    --------
-    >>> default_steady_window(100.0), default_steady_window(10.0)
-    (40.0, 4.0)
-    """
-    return min(40.0, 0.4 * float(horizon_s))
-
-
-def metric_columns(tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG) -> list[tuple[str, str, str]]:
+def metric_columns(tolerances_deg: Sequence[float] = COMPARISON_TOLERANCES_DEG) -> list[tuple[str, str, str]]:
     """``(column, description, unit)`` of every metric :func:`run_metrics` returns, in table order.
 
     Parameters
@@ -455,7 +430,7 @@ def metric_columns(tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG) -> 
 def run_metrics(
     result: SimulationResult,
     *,
-    tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG,
+    tolerances_deg: Sequence[float] = COMPARISON_TOLERANCES_DEG,
     steady_window_s: float | None = None,
 ) -> dict[str, float]:
     """Every metric of one run (the columns of :func:`metric_columns`), from its simulation result.
@@ -472,7 +447,7 @@ def run_metrics(
     tolerances_deg : sequence of float
         AAEM/RAEM settling tolerances (deg).
     steady_window_s : float, optional
-        Length of the final window of the steady-state statistics (default :func:`default_steady_window`);
+        Length of the final window of the steady-state statistics (default :func:`fsmctl.policy.default_steady_window`);
         clipped to the horizon.
 
     Returns
@@ -853,7 +828,7 @@ def compare_laws(
     scenario: Scenario,
     laws: Sequence[LawRun | str | Path],
     *,
-    tolerances_deg: Sequence[float] = DEFAULT_TOLERANCES_DEG,
+    tolerances_deg: Sequence[float] = COMPARISON_TOLERANCES_DEG,
     steady_window_s: float | None = None,
     workers: int = 1,
     progress: bool = False,

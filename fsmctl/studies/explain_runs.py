@@ -17,11 +17,12 @@ from dataclasses import dataclass
 from typing import Any
 
 from fsmctl.model.laws import LawSwitchWarning
+from fsmctl.policy import SETTLING_TOLERANCES_DEG
 from fsmctl.studies.claim_types import StudyClaim
 from fsmctl.studies.claims import CLAIMS
 from fsmctl.studies.explain_settings import Candidate, Setting, candidate_source
 from fsmctl.studies.figure_checks import FigureCheck, figure_numbers
-from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG, RunSpec, run_plan, run_record, run_scenario
+from fsmctl.studies.paper_runs import RunSpec, run_plan, run_record, run_scenario
 from fsmctl.studies.records import RunRecord, scenario_fingerprint
 
 __all__ = ["RUN_SPECS", "Check", "CandidateRuns", "candidate_scenario", "simulate_candidate", "fly", "tolerance_of"]

@@ -16,8 +16,8 @@ from typing import Any
 import numpy as np
 
 from fsmctl.model.toml_writer import toml_table, toml_value
+from fsmctl.policy import FAST_OUTPUT_INTERVAL_S, FAST_T_FINAL_S, SETTLING_TOLERANCES_DEG
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
-from fsmctl.studies.paper_runs import FAST_OUTPUT_INTERVAL_S, FAST_T_FINAL_S, SETTLING_TOLERANCES_DEG
 
 __all__ = [
     "SETTING_ORDER",

@@ -18,15 +18,12 @@ from typing import Any
 
 import numpy as np
 
+from fsmctl.policy import FAST_OUTPUT_INTERVAL_S, FAST_T_FINAL_S, SETTLING_TOLERANCES_DEG, STEADY_WINDOW_FRACTION
 from fsmctl.studies.records import RunRecord
 
 __all__ = [
     "PAPER_CASES",
-    "SETTLING_TOLERANCES_DEG",
-    "STEADY_WINDOW_FRACTION",
     "LONG_HORIZON_FACTOR",
-    "FAST_T_FINAL_S",
-    "FAST_OUTPUT_INTERVAL_S",
     "DIAGNOSTIC_OUTPUT_INTERVAL_S",
     "RunSpec",
     "run_plan",
@@ -37,13 +34,7 @@ __all__ = [
 ]
 
 PAPER_CASES = ("1", "2", "3a", "3b", "3c")
-SETTLING_TOLERANCES_DEG = (1.0, 0.1, 0.05, 0.03, 0.01)
-"""Tolerances (deg) of the settling times: the paper does not state the tolerance of its "27 s"."""
-STEADY_WINDOW_FRACTION = 0.4
-"""The steady-state accuracy is the maximum over the last 40 % of the horizon (40 s of 100 s)."""
 LONG_HORIZON_FACTOR = 3.0
-FAST_T_FINAL_S = 10.0
-FAST_OUTPUT_INTERVAL_S = 0.05
 DIAGNOSTIC_OUTPUT_INTERVAL_S = 0.02
 """Output grid of the diagnostic runs (the paper cases keep the scenario's; the integration step is unchanged)."""
 
@@ -254,7 +245,7 @@ def run_scenario(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
     spec : RunSpec
         The run.
     fast : bool
-        Short horizon (``FAST_T_FINAL_S``) and coarser output.
+        Short horizon (:data:`fsmctl.policy.FAST_T_FINAL_S`) and coarser output.
 
     Returns
     -------
@@ -293,8 +284,8 @@ def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
     Returns
     -------
     RunRecord
-        The summary at :data:`SETTLING_TOLERANCES_DEG`; the steady window is the last
-        :data:`STEADY_WINDOW_FRACTION` of the scenario's own horizon (40 s of a long run too).
+        The summary at :data:`fsmctl.policy.SETTLING_TOLERANCES_DEG`; the steady window is the last
+        :data:`fsmctl.policy.STEADY_WINDOW_FRACTION` of the scenario's own horizon (40 s of a long run too).
 
     Examples
     --------
@@ -333,7 +324,7 @@ def execute_run(
     spec : RunSpec
         The run.
     fast : bool
-        Short horizon (``FAST_T_FINAL_S``) and coarser output, for tests.
+        Short horizon (:data:`fsmctl.policy.FAST_T_FINAL_S`) and coarser output, for tests.
     out_dir : str
         Output folder (``runs/`` and ``figures/`` below it).
     command : str, optional

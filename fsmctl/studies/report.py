@@ -14,10 +14,10 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from fsmctl.outputs import atomic_path, write_json, write_text
+from fsmctl.policy import SETTLING_TOLERANCES_DEG, STEADY_WINDOW_FRACTION
 from fsmctl.studies.claim_types import PAPER_SETTLING_TIME_S, VERDICTS, ClaimVerdict
 from fsmctl.studies.explain_report import markdown_section, text_lines
 from fsmctl.studies.momentum import MomentumBound
-from fsmctl.studies.paper_runs import SETTLING_TOLERANCES_DEG, STEADY_WINDOW_FRACTION
 from fsmctl.studies.records import RunRecord
 
 __all__ = ["Reproduction", "write_outputs", "to_markdown", "format_claims"]

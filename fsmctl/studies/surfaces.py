@@ -45,6 +45,12 @@ import numpy as np
 from fsmctl.model.scenario import Scenario, Sinusoid
 from fsmctl.model.topology import Topology
 from fsmctl.outputs import atomic_path, write_json
+from fsmctl.policy import (
+    SURFACE_METRIC_TOLERANCE,
+    SURFACE_REACH_THRESHOLD,
+    SURFACE_SIGMA_TOLERANCE,
+    default_steady_window,
+)
 
 __all__ = [
     "SURFACES",
@@ -562,9 +568,9 @@ def compare_surfaces(
     fast: bool = False,
     t_final: float | None = None,
     variants: Sequence[Variant] | None = None,
-    reach_threshold: float = 1e-3,
-    sigma_tolerance: float = 1e-3,
-    metric_tolerance_deg: float = 0.03,
+    reach_threshold: float = SURFACE_REACH_THRESHOLD,
+    sigma_tolerance: float = SURFACE_SIGMA_TOLERANCE,
+    metric_tolerance_deg: float = SURFACE_METRIC_TOLERANCE,
     workers: int = 2,
     scalar_check: bool = True,
     progress: bool | None = None,
@@ -623,7 +629,7 @@ def compare_surfaces(
     from fsmctl.errors import InputError
     from fsmctl.simulation.simulator import SimulationError
     from fsmctl.studies.campaign import Runner, Task
-    from fsmctl.studies.compare import LawRun, compare_laws, default_steady_window
+    from fsmctl.studies.compare import LawRun, compare_laws
     from fsmctl.studies.parallel import check_workers
 
     for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),

@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import functools
 import json
-import os
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
 from fsmctl.model.scenario import Scenario
-from fsmctl.studies.campaign import DASK_TIMEOUT_S, Runner, Task, check_memory
+from fsmctl.policy import DASK_TIMEOUT_S, default_workers
+from fsmctl.studies.campaign import Runner, Task, check_memory
 from fsmctl.studies.montecarlo.runs import FLAGS, PER_AGENT, SCALARS, RunFunction, nan_record, run_chunk
 from fsmctl.studies.montecarlo.settings import (
     STATUS_DIED,
@@ -127,7 +127,8 @@ def run_campaign(
         ``montecarlo.nc`` (all runs), ``summary.json``, ``histograms.png``/``.svg`` and, last,
         ``complete.json``.  Created if needed; removed again if the campaign ends before any chunk.
     workers : int, optional
-        Local worker processes (default: the number of CPUs); 1 runs in this process.
+        Local worker processes (default: :func:`fsmctl.policy.default_workers`), never more than the chunks to
+        run; 1 runs in this process.
     dask : str or distributed.Client, optional
         Address of (or a client to) an existing Dask distributed cluster; replaces the local pool.
         An address must be one that distributed accepts (a scheme of one of its comm backends: ``tcp``,
@@ -202,7 +203,7 @@ def run_campaign(
             ]
             resumed = total - len(todo)
             tasks = [chunk_task(base, settings, c, run_fn) for c in todo]
-            runner.workers = min(workers or os.cpu_count() or 1, max(1, len(todo)))
+            runner.workers = min(workers or default_workers(), max(1, len(todo)))
             runner.progress(settings.runs, initial=settings.runs - sum(t.weight for t in tasks), enabled=progress)
             recorded = json.dumps(ident, allow_nan=False)  # what rebuilds campaign.json
 

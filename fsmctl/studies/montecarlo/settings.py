@@ -12,6 +12,7 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario, load_scenario
 from fsmctl.model.topology import Topology
+from fsmctl.policy import TOLERANCE_DEG
 
 STATUS_OK, STATUS_FAILED, STATUS_DIED = "ok", "failed", "worker-died"
 TIMING_VARIABLES = ("wall_time_s", "cpu_time_s")
@@ -113,7 +114,7 @@ class CampaignSettings:
     """coarse output grid (only per-run summaries are kept; settling times resolved to it); lowered to
     the largest multiple of dt that divides t_final, so the last sample is at t_final"""
     torque_limit: float | None = None
-    tolerance_deg: float = 1.0
+    tolerance_deg: float = TOLERANCE_DEG
     """converged: AAEM and RAEM below this at the end and settled (eqs 42-43)"""
     steady_window: float = 20.0
     chunk_size: int = 10

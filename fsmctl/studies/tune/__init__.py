@@ -98,7 +98,7 @@ simulator batches the members (a step is decided once every member has reached i
 intermediate values are computed.
 
 Determinism, batches and parallel evaluation: trials are asked, evaluated and told in batches of
-``TuneSettings.batch`` (default :data:`BATCH`, part of the settings, independent of the workers): trial ``i`` (0-based)
+``TuneSettings.batch`` (default :data:`fsmctl.policy.TUNE_BATCH`, part of the settings, independent of the workers): trial ``i`` (0-based)
 belongs to batch ``i // batch``; its parameters are proposed by a sampler seeded from ``(seed, i)`` (``TPESampler`` for
 one objective, ``NSGAIISampler`` with a population of :data:`POPULATION` for several) that reads the trials told
 before the batch (and, as Optuna's constant liar, the batch's trials asked before it); the batch is then evaluated
@@ -137,7 +137,6 @@ from fsmctl.studies.tune.evaluation import scaled_topology, theorem1_constraint,
 from fsmctl.studies.tune.report import TuneResult, best_scenario_text
 from fsmctl.studies.tune.search import tune
 from fsmctl.studies.tune.settings import (
-    BATCH,
     CHECKPOINTS,
     CONSTRAINTS,
     COUPLING,
@@ -156,7 +155,6 @@ from fsmctl.studies.tune.settings import (
 from fsmctl.studies.tune.storage import LOCK_WAIT_S, STALE_LOCK_S, intermediate_values
 
 __all__ = [
-    "BATCH",
     "CHECKPOINTS",
     "CONSTRAINTS",
     "COUPLING",

@@ -11,6 +11,7 @@ import numpy as np
 
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import Link, Topology
+from fsmctl.policy import default_steady_window
 from fsmctl.studies.tune.settings import (
     CHECKPOINTS,
     HALVING_REDUCTION_FACTOR,
@@ -187,8 +188,6 @@ _METRIC = {
 
 
 def _steady_mask(time: np.ndarray) -> np.ndarray:
-    from fsmctl.studies.compare import default_steady_window
-
     window = min(default_steady_window(float(time[-1] - time[0])), float(time[-1] - time[0]))
     return time >= time[-1] - window - 1e-12  # the window of run_metrics and steady_state_max
 

@@ -17,7 +17,8 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
-from fsmctl.studies.campaign import DASK_TIMEOUT_S, Runner, Task
+from fsmctl.policy import DASK_TIMEOUT_S
+from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.tune.evaluation import (
     EvaluationContext,
     base_scenario,
@@ -85,7 +86,7 @@ def tune(
         Address of (or a client to) a Dask distributed scheduler, instead of the local workers (checked as
         ``fsmctl montecarlo --dask`` checks it).
     dask_timeout : float, optional
-        Seconds a Dask scheduler gets to accept the connection and answer (default: montecarlo's).
+        Seconds a Dask scheduler gets to accept the connection and answer (default: :data:`fsmctl.policy.DASK_TIMEOUT_S`).
     command : sequence of str or str, optional
         The command line that started the search (``sys.argv``), recorded in ``tune.json`` and as a comment in
         ``best.toml``, next to the versions (:func:`fsmctl.simulation.versions`).

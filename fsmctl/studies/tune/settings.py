@@ -13,6 +13,7 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import Topology
+from fsmctl.policy import TOLERANCE_DEG, TUNE_BATCH
 
 OBJECTIVES: dict[str, tuple[str, str]] = {
     "aaem_settling": ("s", "AAEM settling time to the tolerance"),
@@ -40,9 +41,6 @@ SIMULATED_CONSTRAINTS = ("converged", "torque", "wheels")
 
 PRUNERS = ("none", "median", "halving")
 """``--pruner`` choices (``auto``: ``median`` for one objective, ``none`` for several)"""
-
-BATCH = 8
-"""default batch size: trials asked, evaluated (in parallel) and told together"""
 
 CHECKPOINTS = 10
 """a pruned run is judged every ``T / CHECKPOINTS`` of simulated time (steps 1 .. CHECKPOINTS - 1)"""
@@ -140,11 +138,11 @@ class TuneSettings:
     ensemble: int = 1
     quantile: float = 1.0
     objectives: tuple[str, ...] = ("aaem_settling", "peak_torque")
-    tolerance_deg: float = 1.0
+    tolerance_deg: float = TOLERANCE_DEG
     t_final: float | None = None
     parameters: tuple[str, ...] = ()
     ranges: tuple[tuple[str, float, float], ...] = ()
-    batch: int = BATCH
+    batch: int = TUNE_BATCH
     pruner: str = "auto"
     constraints: tuple[str, ...] = ()
 

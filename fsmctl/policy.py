@@ -1,0 +1,157 @@
+"""fsmctl's policy constants and defaults: the one home of each, with its meaning and unit.
+
+A policy constant is a choice of fsmctl, not a number of the paper or of a scenario: the tolerances at which
+settling times are reported, the steady-state window, a study's default horizon, how long a Dask scheduler gets to
+answer, how many worker processes a command starts.  Each is defined here once and imported by every layer that
+uses it (the simulator's summary, the studies, the command line's defaults and help), so that changing one changes
+it everywhere.  Plain Python (no NumPy): the bottom layer, importable by every other.
+
+=================================  ============================  ======================================================
+name                               value                         meaning
+=================================  ============================  ======================================================
+:data:`SETTLING_TOLERANCES_DEG`    (1, 0.1, 0.05, 0.03, 0.01)    deg: the bands at which ``simulate`` and ``reproduce``
+                                                                 report the settling times of AAEM (eq 42) and RAEM
+                                                                 (eq 43); the paper does not state the tolerance of its
+                                                                 "27 s"
+:data:`COMPARISON_TOLERANCES_DEG`  (1, 0.1, 0.01)                deg: ``compare``'s settling bands
+:data:`TOLERANCE_DEG`              1                             deg: a campaign's AAEM/RAEM tolerance (``montecarlo``:
+                                                                 converged; ``tune``: settled)
+:data:`STEADY_WINDOW_FRACTION`     0.4                           the steady-state statistics are taken over the last
+                                                                 40 % of the horizon ...
+:data:`STEADY_WINDOW_MAX_S`        40                            s: ... and over at most 40 s (the paper's last 40 of
+                                                                 100 s; :func:`default_steady_window`)
+:data:`FAST_T_FINAL_S`             10                            s: the horizon of ``reproduce --fast``
+:data:`FAST_OUTPUT_INTERVAL_S`     0.05                          s: the output grid of ``reproduce --fast``
+:data:`SURFACE_REACH_THRESHOLD`    1e-3                          ``compare-surfaces``: the surface is reached when
+                                                                 ``||s_i||`` is below it
+:data:`SURFACE_SIGMA_TOLERANCE`    1e-3                          ``compare-surfaces``: settled when every
+                                                                 ``|sigma_ei,k|`` stays below it (dimensionless MRP)
+:data:`SURFACE_METRIC_TOLERANCE`   0.03                          deg: ``compare-surfaces``' AAEM/RAEM settling band
+:data:`TUNE_BATCH`                 8                             trials a tuning study proposes, flies and tells
+                                                                 together (part of the study: its trials depend on it)
+:data:`DASK_TIMEOUT_S`             10                            s: how long a Dask scheduler gets to accept the
+                                                                 connection and send its handshake
+=================================  ============================  ======================================================
+
+Workers: every command that runs things in parallel (``prove``, ``reproduce``, ``compare``, ``compare-surfaces``,
+``montecarlo``, ``tune``) starts, unless told ``--workers N``, one worker per CPU this process may run on
+(:func:`default_workers`), and a study never starts more workers than it has tasks at once.  The worker count
+changes the speed only: every study's results are the same bit for bit for any worker count.
+"""
+
+from __future__ import annotations
+
+import os
+
+__all__ = [
+    "SETTLING_TOLERANCES_DEG",
+    "COMPARISON_TOLERANCES_DEG",
+    "TOLERANCE_DEG",
+    "STEADY_WINDOW_FRACTION",
+    "STEADY_WINDOW_MAX_S",
+    "FAST_T_FINAL_S",
+    "FAST_OUTPUT_INTERVAL_S",
+    "SURFACE_REACH_THRESHOLD",
+    "SURFACE_SIGMA_TOLERANCE",
+    "SURFACE_METRIC_TOLERANCE",
+    "TUNE_BATCH",
+    "DASK_TIMEOUT_S",
+    "default_steady_window",
+    "default_workers",
+]
+
+SETTLING_TOLERANCES_DEG: tuple[float, ...] = (1.0, 0.1, 0.05, 0.03, 0.01)
+"""deg: tolerances of the reported settling times of AAEM and RAEM (eqs 42-43); the paper does not state the
+tolerance of its "27 s", so several are reported (``simulate``'s summary, ``reproduce``'s report and claims)."""
+
+COMPARISON_TOLERANCES_DEG: tuple[float, ...] = (1.0, 0.1, 0.01)
+"""deg: the settling tolerances of a law comparison (``compare``, :func:`fsmctl.studies.compare_laws`)."""
+
+TOLERANCE_DEG = 1.0
+"""deg: a campaign's AAEM/RAEM tolerance: converged below it (Monte Carlo), settled within it (tuning)."""
+
+STEADY_WINDOW_FRACTION = 0.4
+"""The steady-state statistics are taken over the last 40 % of the horizon (the paper's last 40 s of 100 s)."""
+
+STEADY_WINDOW_MAX_S = 40.0
+"""s: the longest steady-state window (40 % of the paper's 100 s horizon); :func:`default_steady_window`."""
+
+FAST_T_FINAL_S = 10.0
+"""s: the horizon of a fast reproduction (``fsmctl reproduce --fast``: tests and quick looks)."""
+
+FAST_OUTPUT_INTERVAL_S = 0.05
+"""s: the output grid of a fast reproduction (``fsmctl reproduce --fast``)."""
+
+SURFACE_REACH_THRESHOLD = 1e-3
+"""The norm ``||s_i||`` of agent i's sliding variable below which a sliding-surface comparison counts it as having
+reached its surface (``compare-surfaces``)."""
+
+SURFACE_SIGMA_TOLERANCE = 1e-3
+"""Dimensionless (MRP): a sliding-surface comparison's run has settled when every ``|sigma_ei,k|`` stays below it."""
+
+SURFACE_METRIC_TOLERANCE = 0.03
+"""deg: the AAEM/RAEM settling tolerance of a sliding-surface comparison (``compare-surfaces``)."""
+
+TUNE_BATCH = 8
+"""Trials a tuning study proposes, flies (in parallel) and tells together; part of the study: its trials depend on
+it, not on the number of workers."""
+
+DASK_TIMEOUT_S = 10.0
+"""s: how long a Dask scheduler gets to accept the connection and send its handshake (``--dask-timeout``)."""
+
+
+def default_steady_window(horizon_s: float) -> float:
+    """The steady-state window of a run: the last :data:`STEADY_WINDOW_FRACTION` of its horizon, at most
+    :data:`STEADY_WINDOW_MAX_S`.
+
+    Parameters
+    ----------
+    horizon_s : float
+        The run's horizon (s).
+
+    Returns
+    -------
+    float
+        The window's length (s).
+
+    Examples
+    --------
+    >>> from fsmctl.policy import default_steady_window
+    >>> default_steady_window(100.0), default_steady_window(10.0), default_steady_window(300.0)
+    (40.0, 4.0, 40.0)
+    """
+    return min(STEADY_WINDOW_MAX_S, STEADY_WINDOW_FRACTION * float(horizon_s))
+
+
+def default_workers(tasks: int | None = None) -> int:
+    """The default number of worker processes (or threads): one per CPU this process may run on, at most ``tasks``.
+
+    The CPUs this process may run on are ``os.process_cpu_count()`` (Python >= 3.13), else its CPU affinity
+    (``os.sched_getaffinity``, which a container's or a batch scheduler's CPU set restricts), else every CPU of the
+    machine (``os.cpu_count``); at least one.
+
+    Parameters
+    ----------
+    tasks : int, optional
+        The number of tasks that can run at once (a cap; at least one worker whatever it is).
+
+    Returns
+    -------
+    int
+        A whole number >= 1.
+
+    Examples
+    --------
+    >>> import os
+    >>> from fsmctl.policy import default_workers
+    >>> 1 <= default_workers() <= (os.cpu_count() or 1), default_workers(tasks=1), default_workers(tasks=0)
+    (True, 1, 1)
+    """
+    if hasattr(os, "process_cpu_count"):  # Python >= 3.13
+        cpus = os.process_cpu_count() or 1
+    elif hasattr(os, "sched_getaffinity"):  # Linux
+        cpus = len(os.sched_getaffinity(0))
+    else:
+        cpus = os.cpu_count() or 1
+    cpus = max(1, cpus)
+    return cpus if tasks is None else max(1, min(cpus, int(tasks)))
