@@ -31,6 +31,7 @@ from IPython.display import Markdown, display
 from fsmctl import paper_scenario
 from fsmctl.studies import surfaces as sf
 from fsmctl.studies import theorem3 as t3
+from fsmctl.studies.surface_figures import plot_agent_times, plot_error_metrics
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"
 
@@ -67,10 +68,10 @@ comparison = sf.compare_surfaces(paper_scenario("1"), fast=FAST, scalar_check=Fa
 print(comparison.table())
 
 # %%
-sf.plot_error_metrics(comparison)
+plot_error_metrics(comparison)
 
 # %%
-sf.plot_agent_times(comparison)
+plot_agent_times(comparison)
 
 # %% [markdown]
 # ## Remark 6 for TSM

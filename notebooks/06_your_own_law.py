@@ -80,7 +80,8 @@ from fsmctl.model.laws import builtin_laws, derive_script
 from fsmctl.model.time_response import agent_color
 from fsmctl.proofs.law_check import check_law
 from fsmctl.simulation.simulator import simulate
-from fsmctl.studies.compare import LawRun, compare_laws, with_and_without_limit
+from fsmctl.studies.compare import compare_laws
+from fsmctl.studies.compare_runs import LawRun, with_and_without_limit
 from fsmctl.studies.figures import COMPONENT_STYLES
 
 T_FINAL = 40.0 if FAST else 100.0
@@ -305,7 +306,8 @@ display(Markdown(comparison.to_markdown()))
 
 # %% [markdown]
 # `comparison.figure()` draws every run; here it is drawn twice, for the runs with the limit and for those
-# without (a `Comparison` is a dataclass: its `runs` and `table` can be filtered), so each figure stays readable.
+# without (a `Comparison` is a dataclass: its `runs` and their `records` can be filtered), so each figure stays
+# readable.
 
 # %%
 for tag in (f" (limit {limit:g} N m)", " (no limit)"):
@@ -313,7 +315,7 @@ for tag in (f" (limit {limit:g} N m)", " (no limit)"):
         comparison,
         scenario_label=comparison.scenario_label + tag,
         runs=[r for r in comparison.runs if r.label.endswith(tag)],
-        table=[r for r in comparison.table if r["label"].endswith(tag)],
+        records=[r for r in comparison.records if r.key.endswith(tag)],
     )
     display(part.figure())
 

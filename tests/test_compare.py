@@ -20,15 +20,8 @@ import pytest
 
 import fsmctl.cli.main as cli_main
 from fsmctl.errors import InputError
-from fsmctl.studies.compare import (
-    Comparison,
-    LawRun,
-    compare_laws,
-    metric_columns,
-    read_runs_file,
-    run_scenario,
-    with_and_without_limit,
-)
+from fsmctl.studies.compare import Comparison, compare_laws, metric_columns
+from fsmctl.studies.compare_runs import LawRun, read_runs_file, run_scenario, with_and_without_limit
 
 PD_LAW = """
 from fsmctl.symbolic.law import LawBuilder
@@ -126,6 +119,32 @@ def test_metrics_against_the_trajectory(pair):
         # the series kept for the figure: every sample (101 < 2000)
         np.testing.assert_array_equal(pair.series[row["label"]]["aaem_deg"], r.aaem_deg)
     assert kinds == {True, False}  # settled and not-settled cases both occur (the limited runs do not settle)
+
+
+def test_each_run_is_one_run_record_and_the_rows_are_made_from_them(pair, short, pd_law):
+    """A comparison keeps one fsmctl.studies.records.RunRecord per run (the record every study keeps of a flown
+    run): the run's law, limit, engine summary and series, and the metric columns of the tables; a run that fails
+    is a record with its reason and NaN metrics, and its row says so."""
+    from fsmctl.studies.records import RunRecord
+
+    assert [rec.key for rec in pair.records] == [r.label for r in pair.runs]
+    for rec, row in zip(pair.records, pair.table, strict=True):
+        result = pair.extras[rec.key]
+        assert isinstance(rec, RunRecord) and rec.ok and rec is pair.record(row["label"])
+        assert rec.metrics == {c: row[c] for c, _, _ in metric_columns()}  # the table's numbers are the record's
+        assert (rec.law, rec.torque_limit) == (row["law"], row["torque_limit_N_m"])
+        assert np.array_equal(rec.time, result.time) and np.array_equal(rec.aaem_deg, result.aaem_deg)
+        assert rec.steady_window_s == pair.settings["steady_window_s"] == 4.0
+        assert rec.settling("aaem", 1.0) == row["aaem_settling_1deg_s"] or math.isnan(row["aaem_settling_1deg_s"])
+    wild = LawRun("wild", str(pd_law), {"K": 1e9}, {"torque_limit": "inf"})  # diverges (test_cli_failed_run_exits_1)
+    with warnings.catch_warnings(record=True):
+        failed = compare_laws(short.replace(simulation={"t_final": 1.0}), [wild])
+    (rec,) = failed.records
+    (row,) = failed.table
+    assert not rec.ok and rec.error.startswith("simulation failed") and rec.law == "pd"
+    assert row["status"] == f"failed: {rec.error}" and failed.failures == [("wild", rec.error)]
+    assert row["torque_limit_N_m"] == math.inf
+    assert all(math.isnan(rec.metrics[c]) for c, _, _ in metric_columns())
 
 
 def test_with_and_without_the_limit(pair):

@@ -263,3 +263,38 @@ def test_a_run_that_fails_reproduces_nothing(tmp_path, monkeypatch):
         progress=False,
     )
     assert e.status == er.NOT_EXPLAINED and e.searched[0].startswith("torque limit 2-100000 N m")
+
+
+def test_a_run_whose_worker_keeps_dying_reproduces_nothing_and_the_runs_go_to_the_callers_runner(tmp_path):
+    """The explanations fly on the runner they are given (``fsmctl reproduce``'s), and a run whose worker process
+    keeps dying (what the campaign runner reports once its retries are spent: ``Task.failed``) is a failed run: it
+    reproduces nothing, and the search goes on to the other values."""
+    from fsmctl.studies.campaign import WORKER_DIED, Runner
+
+    flown = []
+
+    class DyingWorkers(Runner):
+        """Every run of a torque limit >= 50 N m kills its worker; the others fly here."""
+
+        def run(self, tasks, *, on_done=None):
+            flown.extend(tasks)
+            return [
+                t.failed(WORKER_DIED) if dict(t.args[1].changes).get("torque_limit", 0.0) >= 50.0 else t()
+                for t in tasks
+            ]
+
+    with DyingWorkers(workers=1, interrupts=False) as runner:
+        (e,) = explain(
+            "paper",
+            _claims("settling_27s", verdict=IMPOSSIBLE),
+            tmp_path,
+            fast=True,
+            settings=["torque_limit"],
+            checks=["settling_27s"],
+            runner=runner,
+            progress=False,
+        )
+    assert e.status == er.NOT_EXPLAINED and e.searched[0].startswith("torque limit 2-100000 N m")
+    assert any(dict(t.args[1].changes).get("torque_limit", 0.0) >= 50.0 for t in flown)  # they were tried
+    # identical scenarios fly once: no two tasks of a round share a scenario
+    assert len({t.key for t in flown}) == len(flown)

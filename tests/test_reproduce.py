@@ -359,6 +359,33 @@ def test_reproduce_writes_only_under_its_working_folder(tmp_path, monkeypatch):
     assert sorted(os.listdir(work)) == ["reproduction"]
 
 
+def test_reproduce_flies_its_runs_as_tasks_of_one_campaign_runner(tmp_path, monkeypatch):
+    """Every run of the plan but the reused ones (Case 3c is Case 1) is one task of one campaign runner with the
+    requested worker processes (which replaces a worker that dies and retries its task); the runs go nowhere else."""
+    import fsmctl.studies.reproduce as rp
+    from fsmctl.studies.campaign import Runner
+
+    runners = []
+
+    class Recording(Runner):
+        def __init__(self, **kw):
+            super().__init__(**kw)
+            self.tasks = []
+            runners.append(self)
+
+        def run(self, tasks, **kw):
+            self.tasks += list(tasks)
+            return super().run(tasks, **kw)
+
+    monkeypatch.setattr(rp, "Runner", Recording)
+    rep = rp.reproduce("paper", tmp_path, fast=True, workers=2, progress=False, figures=False)
+    (runner,) = runners
+    assert runner.backend == "processes"
+    flown = [t.key for t in runner.tasks]
+    assert sorted(flown) == sorted(k for k, r in rep.records.items() if not r.same_as)
+    assert rep.records["case3c"].same_as == "case1" and "case3c" not in flown
+
+
 # ----------------------------------------------------------------------------- the registry and the run records
 
 

@@ -15,9 +15,11 @@ any code path:
   other distributions (python-control's, ...); it treats ``fsmctl`` as one first-party package and lets these
   through, hence this test.  :data:`PRIVATE_IMPORTS_ALLOWED` lists the justified exceptions (none today).
 
-The one list of temporary exceptions is ruff's ``per-file-ignores`` in ``pyproject.toml``: a path that is exempt
-from C901 (cyclomatic complexity) there is exempt from both rules here too (issue 26: ``fsmctl/studies/``, until
-the studies are split), so an exception is added and removed in one place.
+No module of the library is exempt, from these rules or from ruff's C901 (cyclomatic complexity <= 20) and PLC2701:
+the temporary exemption of ``fsmctl/studies/`` (issue 26, while the studies were split into modules of one job
+each) is gone, and :func:`test_no_temporary_exception_remains` fails if ``pyproject.toml``'s ``per-file-ignores``
+exempts a library path from C901 or PLC2701 again.  A module that needs more room says why (``Size:``); a justified
+private import is listed in :data:`PRIVATE_IMPORTS_ALLOWED`.
 """
 
 from __future__ import annotations
@@ -37,16 +39,18 @@ SIZE_MARKER = "Size:"
 PRIVATE_IMPORTS_ALLOWED: dict[tuple[str, str], str] = {}
 
 
-def temporary_exceptions() -> list[str]:
-    """The path patterns ``pyproject.toml`` exempts from ruff's C901 (the temporary exceptions of these rules)."""
-    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
-    ignores = config["tool"]["ruff"]["lint"].get("per-file-ignores", {})
-    return [pattern for pattern, codes in ignores.items() if "C901" in codes]
+STRUCTURE_RULES = ("C901", "PLC2701")
+"""ruff's rules of the structure (complexity, private names of other distributions): no library path is exempt."""
 
 
-def exempt(path: Path, patterns: list[str]) -> bool:
-    rel = path.relative_to(ROOT).as_posix()
-    return any(fnmatch.fnmatch(rel, pattern) for pattern in patterns)
+def library_exemptions(ignores: dict[str, list[str]]) -> list[str]:
+    """The patterns of ruff's ``per-file-ignores`` that exempt a module of ``fsmctl/`` from a structure rule."""
+    modules = [p.relative_to(ROOT).as_posix() for p in PACKAGE.rglob("*.py") if "__pycache__" not in p.parts]
+    return [
+        pattern
+        for pattern, codes in ignores.items()
+        if set(codes) & set(STRUCTURE_RULES) and any(fnmatch.fnmatch(m, pattern) for m in modules)
+    ]
 
 
 def _module_name(path: Path) -> str:
@@ -54,8 +58,7 @@ def _module_name(path: Path) -> str:
 
 
 def _modules() -> list[Path]:
-    patterns = temporary_exceptions()
-    return [p for p in sorted(PACKAGE.rglob("*.py")) if "__pycache__" not in p.parts and not exempt(p, patterns)]
+    return [p for p in sorted(PACKAGE.rglob("*.py")) if "__pycache__" not in p.parts]
 
 
 # ----------------------------------------------------------------------------- size
@@ -186,9 +189,13 @@ def test_the_size_check_sees_a_violation():
     assert size_problem('"""Short."""\n' + "x = 1\n" * (MAX_LINES - 1), "m.py") is None
 
 
-def test_the_temporary_exceptions_are_the_studies_only():
-    """Issue 26: only fsmctl/studies/ is exempt, until the `runner` and `claims` branches split the studies."""
-    assert [p for p in temporary_exceptions() if p.startswith("fsmctl")] in ([], ["fsmctl/studies/**"])
-    if temporary_exceptions():
-        assert exempt(PACKAGE / "studies" / "tune.py", temporary_exceptions())
-        assert not exempt(PACKAGE / "simulation" / "simulator.py", temporary_exceptions())
+def test_no_temporary_exception_remains():
+    """Issue 26: the studies were split; no module of the library is exempt from C901 or PLC2701 (nor, therefore,
+    from this file's size and private-name rules, which check every module)."""
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    ignores = config["tool"]["ruff"]["lint"].get("per-file-ignores", {})
+    assert library_exemptions(ignores) == []
+    # the check sees an exemption of a library path, and lets the white-box tests' exemption through
+    assert library_exemptions({"fsmctl/studies/**": ["C901", "PLC2701"]}) == ["fsmctl/studies/**"]
+    assert library_exemptions({"fsmctl/studies/tune/*.py": ["PLC2701"]}) == ["fsmctl/studies/tune/*.py"]
+    assert library_exemptions({"tests/*.py": ["PLC2701"], "fsmctl/__init__.py": ["F822"]}) == []

@@ -25,6 +25,7 @@ from scipy.integrate import trapezoid
 import fsmctl
 from fsmctl.cli.main import main
 from fsmctl.studies import surfaces as sf
+from fsmctl.studies.surface_measures import SURFACES
 
 
 @pytest.fixture(scope="module")
@@ -149,8 +150,8 @@ def test_full_loop_runs_are_a_law_comparison(fast_comparison):
     the run rows carry its metrics (run_metrics) unchanged, and its series are the ones plotted."""
     assert set(fast_comparison.law_comparisons) == {"no-limit/nominal/coupled", "limit/uncertain/coupled"}
     for variant, comp in fast_comparison.law_comparisons.items():
-        assert [(r.label, r.law, r.parameters) for r in comp.runs] == [(s, "fsm", {"surface": s}) for s in sf.SURFACES]
-        for s in sf.SURFACES:
+        assert [(r.label, r.law, r.parameters) for r in comp.runs] == [(s, "fsm", {"surface": s}) for s in SURFACES]
+        for s in SURFACES:
             row, run = comp.row(s), fast_comparison.run_row(variant, s)
             assert row["law"] == "fsm" and row["status"] == "ok"
             for ours, theirs in (

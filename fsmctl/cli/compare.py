@@ -144,12 +144,8 @@ def run(args: argparse.Namespace) -> int:
     from fsmctl.errors import InputError as UsageError  # one line, exit 2
     from fsmctl.model.scenario import load_scenario
     from fsmctl.outputs import output_folder
-    from fsmctl.studies.compare import (
-        LawRun,
-        compare_laws,
-        read_runs_file,
-        with_and_without_limit,
-    )
+    from fsmctl.studies.compare import compare_laws
+    from fsmctl.studies.compare_runs import LawRun, read_runs_file, with_and_without_limit
 
     runs: list = []
     if args.laws is not None:

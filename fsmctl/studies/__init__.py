@@ -23,7 +23,8 @@ from __future__ import annotations
 import lazy_loader
 
 _ATTRS = {
-    "compare": ["compare_laws", "Comparison", "LawRun", "run_metrics", "metric_columns"],
+    "compare": ["compare_laws", "Comparison", "run_metrics", "metric_columns"],
+    "compare_runs": ["LawRun"],
     "surfaces": ["compare_surfaces", "SurfaceComparison", "Variant", "default_variants"],
     "theorem3": [
         "closed_form_settling_time",

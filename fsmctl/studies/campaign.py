@@ -255,28 +255,56 @@ class Runner:
         """An interrupt that arrives inside this block waits for its end (a file is not left half-written)."""
         return self.guard.deferred()
 
-    def progress(self, total: int, *, initial: int = 0, unit: str = "run", enabled: bool | None = None) -> Any:
+    def progress(
+        self,
+        total: int,
+        *,
+        initial: int = 0,
+        unit: str = "run",
+        enabled: bool | None = None,
+        desc: str | None = None,
+    ) -> Any:
         """Attach a progress bar (on stderr; default: when stderr is a terminal) that finished tasks advance.
+
+        A study of several stages (``fsmctl reproduce``: the runs, then the explanations) attaches one bar per
+        stage: attaching a bar closes the previous one.
 
         Parameters
         ----------
         total, initial : int
-            Units in all and already done (a resumed campaign).
+            Units in all and already done (a resumed campaign); a stage that learns of more work as it goes grows
+            the bar's ``total``.
         unit : str
             What a unit is.
         enabled : bool, optional
             Show it; default: when stderr is a terminal.
+        desc : str, optional
+            The bar's label; default: the runner's name.
 
         Returns
         -------
         tqdm.tqdm
-            The bar (closed with the runner).
+            The bar (closed with the runner, or when the next bar is attached).
+
+        Examples
+        --------
+        >>> from fsmctl.studies.campaign import Runner, Task
+        >>> with Runner(workers=1, name="demo") as runner:
+        ...     runs = runner.progress(2, enabled=False)
+        ...     _ = runner.run([Task(k, abs, (-k,)) for k in range(2)])
+        ...     overlays = runner.progress(1, unit="figure", enabled=False, desc="figures")
+        >>> runs.total, overlays.total
+        (2, 1)
         """
         from tqdm.auto import tqdm
 
         if enabled is None:
             enabled = sys.stderr.isatty()
-        self._bar = tqdm(total=total, initial=initial, unit=unit, desc=self.name, disable=not enabled, file=sys.stderr)
+        if self._bar is not None:
+            self._bar.close()
+        self._bar = tqdm(
+            total=total, initial=initial, unit=unit, desc=desc or self.name, disable=not enabled, file=sys.stderr
+        )
         return self._bar
 
     def share(self, value: Any, *, broadcast: bool = True) -> Any:

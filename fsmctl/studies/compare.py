@@ -1,6 +1,6 @@
 """Compare control laws, or settings of one law, on the same scenario (``fsmctl compare``).
 
-Each compared *run* is a :class:`LawRun`: a label, a law (a built-in name, a derivation script ``FILE.py``
+Each compared *run* is a :class:`~fsmctl.studies.compare_runs.LawRun` (:mod:`fsmctl.studies.compare_runs`): a label, a law (a built-in name, a derivation script ``FILE.py``
 or a derived folder, as for ``[controller] law``), values of the law's parameters and overrides of the
 scenario's ``[controller]`` (``torque_limit``, ``surface``, ``error_model``, ...).  The same law may be
 compared with itself under different settings: the paper's FSM against TSM and LSM (Liang, Sun & Wang 2012,
@@ -42,9 +42,7 @@ import csv
 import dataclasses
 import math
 import time
-import tomllib
-import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -52,11 +50,12 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from fsmctl.errors import InputError
-from fsmctl.model.laws import LawSwitchWarning, resolve_law, written_keys
 from fsmctl.model.scenario import Scenario
 from fsmctl.policy import COMPARISON_TOLERANCES_DEG, default_steady_window
 from fsmctl.studies.campaign import Runner, Task
+from fsmctl.studies.compare_runs import LawRun, as_runs, run_scenario
 from fsmctl.studies.parallel import check_workers
+from fsmctl.studies.records import RunRecord
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -64,13 +63,9 @@ if TYPE_CHECKING:
     from fsmctl.simulation.simulator import SimulationResult
 
 __all__ = [
-    "LawRun",
     "Comparison",
     "compare_laws",
     "run_metrics",
-    "run_scenario",
-    "with_and_without_limit",
-    "read_runs_file",
     "metric_columns",
 ]
 
@@ -78,306 +73,6 @@ SERIES_POINTS = 2000
 """At most about this many samples of AAEM/RAEM per run are kept for the figure."""
 
 _trapezoid = getattr(np, "trapezoid", None) or np.trapz  # noqa: NPY201 (NumPy < 2 has only trapz)
-
-
-# ----------------------------------------------------------------------------- runs
-
-
-@dataclass(frozen=True)
-class LawRun:
-    """One compared run: a label, a law, its parameters and overrides of the scenario's controller.
-
-    Parameters
-    ----------
-    label : str
-        Name of the run in the tables and figures (unique within a comparison).
-    law : str or Path
-        A built-in law name (``fsmctl laws``), a derivation script ``FILE.py`` or a derived law folder.
-    parameters : mapping
-        Values of the law's declared parameters or preset choices by name (e.g. ``{"c1": 0.6}`` or
-        ``{"surface": "tsm"}`` for ``fsm``, ``{"K": 2.0}``), each set for every agent.  Unset parameters keep the
-        scenario's written values that the law declares (the rule of :meth:`fsmctl.Scenario.replace` when the law
-        is switched), else the law's defaults.
-    controller : mapping
-        Overrides of the ``[controller]`` keys every law shares: ``torque_limit`` (N m, ``math.inf`` or ``"inf"``
-        for none), ``error_model``, ``enabled``.
-
-    Examples
-    --------
-    >>> LawRun("TSM", "fsm", {"surface": "tsm"}).describe()
-    'fsm: surface=tsm'
-    >>> LawRun.from_spec("derive/laws/pd.py").label
-    'pd'
-    """
-
-    label: str
-    law: str | Path = "fsm"
-    parameters: Mapping[str, Any] = field(default_factory=dict)
-    controller: Mapping[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self):
-        if not isinstance(self.label, str) or not self.label.strip():
-            raise InputError(f"run label must be a non-empty string, got {self.label!r}")
-        if not isinstance(self.law, (str, Path)) or not str(self.law).strip():
-            raise InputError(f"run {self.label!r}: law must be a name, a FILE.py or a folder, got {self.law!r}")
-        for name in ("parameters", "controller"):
-            value = getattr(self, name)
-            if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
-                raise InputError(f"run {self.label!r}: {name} must be a table of named values, got {value!r}")
-            object.__setattr__(self, name, dict(value))
-
-    @classmethod
-    def from_spec(cls, spec: str | Path) -> LawRun:
-        """A run of a law with the scenario's settings, labelled by the law (a script's or folder's name).
-
-        Parameters
-        ----------
-        spec : str or pathlib.Path
-            A built-in law name, a derivation script ``FILE.py`` or a derived law folder.
-
-        Returns
-        -------
-        LawRun
-            The run, without parameters or overrides.
-
-        Examples
-        --------
-        >>> from fsmctl.studies import LawRun
-        >>> LawRun.from_spec("fsm")
-        LawRun(label='fsm', law='fsm', parameters={}, controller={})
-        """
-        text = str(spec).strip()
-        path = Path(text)
-        label = path.stem if path.suffix == ".py" else (path.name or text)
-        return cls(label, text)
-
-    def settings_text(self) -> str:
-        """``key=value, ...``: the parameters, then the controller overrides (empty: the scenario's settings)."""
-        items = [*self.parameters.items(), *self.controller.items()]
-        return ", ".join(f"{k}={_value_text(v)}" for k, v in items)
-
-    def describe(self) -> str:
-        """``law: key=value, ...`` (see :meth:`settings_text`)."""
-        text = self.settings_text()
-        return f"{self.law}" + (f": {text}" if text else "")
-
-    def to_dict(self) -> dict:
-        """The run as JSON-able data (``label``, ``law``, ``parameters``, ``controller``).
-
-        Returns
-        -------
-        dict
-            The fields, the law as a string.
-        """
-        return {
-            "label": self.label,
-            "law": str(self.law),
-            "parameters": dict(self.parameters),
-            "controller": dict(self.controller),
-        }
-
-
-def _value_text(v: Any) -> str:
-    if isinstance(v, float):
-        return "inf" if math.isinf(v) and v > 0 else f"{v:g}"
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_value_text(x) for x in v) + "]"
-    return str(v)
-
-
-def _as_runs(laws: Sequence[LawRun | str | Path]) -> list[LawRun]:
-    if isinstance(laws, (str, Path, LawRun)):
-        laws = [laws]
-    runs = [x if isinstance(x, LawRun) else LawRun.from_spec(x) for x in laws]
-    if not runs:
-        raise InputError("no law to compare: give at least one law or run")
-    seen: set[str] = set()
-    for r in runs:
-        if r.label in seen:
-            raise InputError(f"two runs are labelled {r.label!r}: give each run its own label (a runs file)")
-        seen.add(r.label)
-    return runs
-
-
-def with_and_without_limit(laws: Sequence[LawRun | str | Path], torque_limit: float) -> list[LawRun]:
-    """Each run twice: with ``torque_limit`` (N m) and without a limit (the ``controller`` override set).
-
-    Parameters
-    ----------
-    laws : sequence of LawRun or str
-        The runs (or law specs).
-    torque_limit : float
-        The finite per-axis limit of the limited runs.
-
-    Returns
-    -------
-    list of LawRun
-        ``label (limit X N m)`` and ``label (no limit)`` for every run, in order.
-
-    Raises
-    ------
-    InputError
-        ``torque_limit`` is not a finite number > 0.
-
-    Examples
-    --------
-    >>> [r.label for r in with_and_without_limit(["fsm"], 2.0)]
-    ['fsm (limit 2 N m)', 'fsm (no limit)']
-    """
-    if not (isinstance(torque_limit, (int, float)) and math.isfinite(torque_limit) and torque_limit > 0):
-        raise InputError(
-            f"with and without the torque limit: the limit must be a finite number > 0, got {torque_limit!r} "
-            "(the scenario has none: give one)"
-        )
-    out = []
-    for r in _as_runs(laws):
-        for label, limit in (
-            (f"{r.label} (limit {torque_limit:g} N m)", float(torque_limit)),
-            (f"{r.label} (no limit)", math.inf),
-        ):
-            out.append(dataclasses.replace(r, label=label, controller={**r.controller, "torque_limit": limit}))
-    return out
-
-
-def read_runs_file(path: str | Path) -> list[LawRun]:
-    """The runs of a TOML file: a list of ``[[run]]`` tables with ``label``, ``law``, ``parameters``, ``controller``.
-
-    Only ``law`` is required (the label defaults to the law's name).  A relative law path is taken relative to
-    the file's folder when it exists there, else to the current directory::
-
-        [[run]]
-        label = "FSM"
-        law = "fsm"
-
-        [[run]]
-        label = "FSM, no limit"
-        law = "fsm"
-        controller = { torque_limit = "inf" }
-
-        [[run]]
-        label = "PD"
-        law = "pd.py"
-        parameters = { K = 2.0, P = 10.0 }
-
-    Parameters
-    ----------
-    path : str or pathlib.Path
-        The TOML file.
-
-    Returns
-    -------
-    list of LawRun
-        The runs, in the file's order.
-
-    Raises
-    ------
-    InputError
-        Unreadable file, not TOML, or a run that is not as above (one line naming the run and key).
-
-    Examples
-    --------
-    >>> import pathlib
-    >>> p = pathlib.Path("runs.toml")
-    >>> _ = p.write_text('[[run]]\\nlaw = "fsm"\\n[[run]]\\nlabel = "TSM"\\nlaw = "fsm"\\nparameters = {surface = "tsm"}\\n')
-    >>> [(r.label, r.parameters) for r in read_runs_file(p)]
-    [('fsm', {}), ('TSM', {'surface': 'tsm'})]
-    """
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text("utf-8"))
-    except FileNotFoundError:
-        raise InputError(f"cannot read runs file {path}: no such file") from None
-    except (OSError, UnicodeError) as exc:
-        raise InputError(f"cannot read runs file {path}: {getattr(exc, 'strerror', None) or exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"runs file {path}: not valid TOML ({exc})") from None
-    unknown = sorted(set(data) - {"run"})
-    if unknown:
-        raise InputError(f"runs file {path}: unknown key {unknown[0]!r} (expected [[run]] tables)")
-    items = data.get("run")
-    if not isinstance(items, list) or not items or not all(isinstance(d, dict) for d in items):
-        raise InputError(f"runs file {path}: expected one or more [[run]] tables")
-    runs = []
-    for k, d in enumerate(items, start=1):
-        where = f"runs file {path}, run {k}"
-        bad = sorted(set(d) - {"label", "law", "parameters", "controller"})
-        if bad:
-            raise InputError(f"{where}: unknown key {bad[0]!r} (known: label, law, parameters, controller)")
-        law = d.get("law")
-        if not isinstance(law, str) or not law.strip():
-            raise InputError(f"{where}: 'law' must be a law name, FILE.py or folder")
-        local = path.parent / law
-        if not Path(law).is_absolute() and (local.is_file() or local.is_dir()):
-            law = str(local)
-        label = d.get("label", LawRun.from_spec(law).label)
-        try:
-            runs.append(LawRun(label, law, d.get("parameters", {}), d.get("controller", {})))
-        except InputError as exc:
-            raise InputError(f"{where}: {exc}") from None
-    return runs
-
-
-def run_scenario(scenario: Scenario, run: LawRun) -> Scenario:
-    """The scenario a run flies: ``scenario.replace(controller={"law": ..., ...})``, validated.
-
-    The scenario's ``[controller]`` parameters that the run's law does not declare are dropped (they belong to
-    the scenario's own law); the run's ``parameters`` and ``controller`` overrides are applied on top.
-
-    Parameters
-    ----------
-    scenario : Scenario
-        The compared scenario.
-    run : LawRun
-        The run.
-
-    Returns
-    -------
-    Scenario
-        The scenario with the run's law, parameters and overrides.
-
-    Raises
-    ------
-    InputError
-        Unknown law (:class:`fsmctl.model.laws.LawError`), a parameter the law does not declare, or a value out
-        of range (the message starts with the run's label).
-
-    Examples
-    --------
-    >>> import fsmctl
-    >>> s = run_scenario(fsmctl.paper_scenario("1"), LawRun("TSM", "fsm", {"surface": "tsm"}, {"torque_limit": "inf"}))
-    >>> s.controller.parameters["surface"], s.controller.torque_limit
-    ('tsm', inf)
-    """
-    where = f"run {run.label!r}"
-    try:
-        law = resolve_law(run.law)
-    except InputError as exc:
-        raise InputError(f"{where}: {exc}") from None
-    declared = written_keys(law)
-    fixed = {"law", "parameters"}
-    known_controller = sorted(f.name for f in dataclasses.fields(type(scenario.controller)) if f.name not in fixed)
-    for key in run.controller:
-        if key not in known_controller:
-            raise InputError(f"{where}: controller has no setting {key!r} (known: {', '.join(known_controller)})")
-    for key in run.parameters:
-        if key not in declared:
-            names = ", ".join(p.name for p in law.parameters) or "none"
-            raise InputError(f"{where}: the law {law.name!r} has no parameter {key!r} (its parameters: {names})")
-    with warnings.catch_warnings():  # the documented rule: the written keys the run's law declares carry over
-        warnings.simplefilter("ignore", LawSwitchWarning)
-        try:
-            base = scenario.replace(controller={"law": str(run.law)})
-        except InputError as exc:
-            raise InputError(f"{where}: {exc}") from None
-    # a run's parameter is every agent's: the agents' own values of it give way
-    agents = [{k: None for k in run.parameters if k in a.parameters} for a in base.agents]
-    sections: dict[str, Any] = {"controller": {**run.parameters, **run.controller}}
-    if any(agents):
-        sections["agents"] = agents
-    try:
-        return base.replace(**sections)
-    except InputError as exc:
-        raise InputError(f"{where}: {exc}") from None
 
 
 # ----------------------------------------------------------------------------- metrics
@@ -516,7 +211,7 @@ def _fmt(v: Any, spec: str = ".4g") -> str:
 
 @dataclass
 class Comparison:
-    """The result of :func:`compare_laws`: one row per run, the AAEM/RAEM series, what the hook returned.
+    """The result of :func:`compare_laws`: one record per run, the AAEM/RAEM series, what the hook returned.
 
     Parameters
     ----------
@@ -526,10 +221,12 @@ class Comparison:
         Tolerances, steady window, horizon and step, the scenario's controller.
     runs : list of LawRun
         The runs, in order.
-    table : list of dict
-        One JSON-able row per run: ``label``, ``law`` (its name), ``spec`` (as given), ``settings`` (the run's
-        parameters and overrides), ``torque_limit_N_m`` (the run's limit; ``inf`` for none), ``status``
-        (``ok`` or ``failed: <reason>``), then the metric columns (:func:`metric_columns`).
+    records : list of RunRecord
+        One :class:`~fsmctl.studies.records.RunRecord` per run, in order (keyed by the run's label): its law, torque
+        limit, summary and series, the metric columns (:func:`run_metrics`) in :attr:`RunRecord.metrics
+        <fsmctl.studies.records.RunRecord.metrics>`; a run whose simulation failed has its reason in
+        :attr:`RunRecord.error <fsmctl.studies.records.RunRecord.error>` and NaN metrics.  :attr:`table` is their
+        rows.
     series : dict
         Label -> ``{"time_s", "aaem_deg", "raem_deg"}`` arrays (every sample up to ~2000 per run).
     extras : dict
@@ -547,8 +244,10 @@ class Comparison:
     >>> c = compare_laws(s, ["fsm", "pid"], tolerances_deg=(1.0,))
     >>> [(r["label"], r["status"]) for r in c.table]
     [('fsm', 'ok'), ('pid', 'ok')]
-    >>> c.tolerances_deg, c.row("fsm")["peak_torque_N_m"] > 0
+    >>> c.tolerances_deg, c.row("fsm")["peak_torque_N_m"] == c.record("fsm").metrics["peak_torque_N_m"] > 0
     ((1.0,), True)
+    >>> c.record("pid").law, c.record("pid").torque_limit
+    ('pid', 2.0)
     >>> [p.name for p in c.save("out", figures=False)]
     ['comparison.csv', 'comparison.json', 'comparison.md']
     """
@@ -556,7 +255,7 @@ class Comparison:
     scenario_label: str
     settings: dict
     runs: list[LawRun]
-    table: list[dict]
+    records: list[RunRecord] = field(repr=False)
     series: dict = field(default_factory=dict, repr=False)
     extras: dict = field(default_factory=dict, repr=False)
     wall_time_s: float = 0.0
@@ -565,6 +264,51 @@ class Comparison:
     def tolerances_deg(self) -> tuple[float, ...]:
         """The settling tolerances (deg) of the metric columns, in order."""
         return tuple(self.settings["tolerances_deg"])
+
+    @property
+    def table(self) -> list[dict]:
+        """One JSON-able row per run (the tables' rows, :meth:`columns`), made from :attr:`runs` and :attr:`records`.
+
+        ``label``, ``law`` (its name), ``spec`` (as given), ``settings`` (the run's parameters and overrides),
+        ``torque_limit_N_m`` (the run's limit; ``inf`` for none), ``status`` (``ok`` or ``failed: <reason>``), then
+        the metric columns (:func:`metric_columns`).
+        """
+        metrics = [c for c, _, _ in metric_columns(self.tolerances_deg)]
+        return [
+            {
+                "label": run.label,
+                "law": rec.law,
+                "spec": str(run.law),
+                "settings": run.settings_text(),
+                "torque_limit_N_m": float(rec.torque_limit),
+                "status": "ok" if rec.ok else f"failed: {rec.error}",
+                **{c: rec.metrics[c] for c in metrics},
+            }
+            for run, rec in zip(self.runs, self.records, strict=True)
+        ]
+
+    def record(self, label: str) -> RunRecord:
+        """The record of the run ``label``.
+
+        Parameters
+        ----------
+        label : str
+            The run's label.
+
+        Returns
+        -------
+        RunRecord
+            Its record (:attr:`records`).
+
+        Raises
+        ------
+        KeyError
+            No run has that label.
+        """
+        for rec in self.records:
+            if rec.key == label:
+                return rec
+        raise KeyError(label)
 
     def row(self, label: str) -> dict:
         """The row of the run ``label``.
@@ -592,7 +336,7 @@ class Comparison:
     @property
     def failures(self) -> list[tuple[str, str]]:
         """``(label, reason)`` of the runs whose simulation failed."""
-        return [(r["label"], r["status"].removeprefix("failed: ")) for r in self.table if r["status"] != "ok"]
+        return [(rec.key, rec.error) for rec in self.records if not rec.ok]
 
     def columns(self) -> list[tuple[str, str, str]]:
         """``(column, description, unit)`` of every column of :attr:`table`."""
@@ -819,6 +563,14 @@ def _log_if_wide(ax, values: np.ndarray) -> None:
         ax.set_yscale("log")
 
 
+def _failed_record(run: LawRun, scenario: Scenario, exc: Exception, tolerances: Sequence[float]) -> RunRecord:
+    """The record of a run whose simulation failed: the reason on one line, NaN metrics."""
+    reason = " ".join(str(exc).split()) or type(exc).__name__
+    nan = dict.fromkeys((c for c, _, _ in metric_columns(tolerances)), math.nan)
+    record = RunRecord.failed(run.label, reason, law=scenario.law.name, metrics=nan)
+    return dataclasses.replace(record, label=scenario.label, torque_limit=float(scenario.controller.torque_limit))
+
+
 def _series(result: SimulationResult) -> dict[str, np.ndarray]:
     step = max(1, len(result.time) // SERIES_POINTS)
     return {"time_s": result.time[::step], "aaem_deg": result.aaem_deg[::step], "raem_deg": result.raem_deg[::step]}
@@ -871,6 +623,7 @@ def compare_laws(
     --------
     >>> import fsmctl
     >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 2.0, "output_interval": 0.1})
+    >>> from fsmctl.studies.compare_runs import LawRun, with_and_without_limit
     >>> runs = [LawRun("FSM", "fsm"), LawRun("TSM", "fsm", {"surface": "tsm"})]
     >>> c = compare_laws(s, with_and_without_limit(runs, 2.0), tolerances_deg=(1.0,))
     >>> [r["label"] for r in c.table]
@@ -892,37 +645,38 @@ def compare_laws(
     ):
         raise InputError(f"steady window must be a finite number of seconds > 0, got {steady_window_s!r}")
     check_workers(workers, "compare_laws")
-    runs = _as_runs(laws)
+    runs = as_runs(laws)
     scenarios = [run_scenario(scenario, r) for r in runs]  # every input checked (and laws derived) first
     horizon = scenario.simulation.t_final
     window = default_steady_window(horizon) if steady_window_s is None else min(float(steady_window_s), horizon)
     start = time.perf_counter()
 
-    def one(job: tuple[LawRun, Scenario]) -> tuple[dict, dict | None, Any]:
+    def one(job: tuple[LawRun, Scenario]) -> tuple[RunRecord, dict | None, Any]:
         run, scn = job
-        row = {
-            "label": run.label,
-            "law": scn.law.name,
-            "spec": str(run.law),
-            "settings": run.settings_text(),
-            "torque_limit_N_m": float(scn.controller.torque_limit),
-        }
         try:
             result = simulate(scn, progress=False)
         except SimulationError as exc:
-            nan = dict.fromkeys((c for c, _, _ in metric_columns(tolerances)), math.nan)
-            return {**row, "status": f"failed: {' '.join(str(exc).split())}", **nan}, None, None
+            return _failed_record(run, scn, exc, tolerances), None, None
         metrics = run_metrics(result, tolerances_deg=tolerances, steady_window_s=window)
+        record = RunRecord.from_result(
+            run.label,
+            scn,
+            result,
+            steady_window_s=window,
+            tolerances_deg=tolerances,
+            metrics=metrics,
+            wall_time_s=metrics["wall_time_s"],
+        )
         extra = on_result(run, result) if on_result is not None else None
-        return {**row, "status": "ok", **metrics}, _series(result), extra
+        return record, _series(result), extra
 
     tasks = [Task(run.label, one, ((run, scn),)) for run, scn in zip(runs, scenarios, strict=True)]
     with Runner(workers=workers, threads=True, name="compare", interrupts=False) as runner:
         runner.progress(len(tasks), unit="run", enabled=progress)
         outcomes = runner.run(tasks)
-    table, series, extras = [], {}, {}
-    for run, (row, ser, extra) in zip(runs, outcomes, strict=True):
-        table.append(row)
+    records, series, extras = [], {}, {}
+    for run, (record, ser, extra) in zip(runs, outcomes, strict=True):
+        records.append(record)
         if ser is not None:
             series[run.label] = ser
         if on_result is not None and ser is not None:
@@ -944,7 +698,7 @@ def compare_laws(
         scenario_label=scenario.label,
         settings=settings,
         runs=runs,
-        table=table,
+        records=records,
         series=series,
         extras=extras,
         wall_time_s=time.perf_counter() - start,

@@ -29,7 +29,8 @@ is at most 180°).
 Runs.  Every candidate run is a run of :func:`fsmctl.studies.paper_runs.run_plan` (same key, case, horizon and
 output grid) flown on the candidate scenario: the base scenario with the change, as the mapping of a scenario file
 ``{"extends": <base>, <section>: {<key>: <value>}}``.  Identical scenarios are simulated once; a claim that fails on
-its first run does not fly the others; the runs of a round go to the caller's process pool together, and the result
+its first run does not fly the others; the runs of a round go to the campaign runner together
+(:class:`fsmctl.studies.campaign.Runner`: ``fsmctl reproduce``'s worker processes), and the result
 does not depend on the order in which they finish or on the number of workers.  The evidence of each explanation is
 written as a scenario file (``extends`` the base with just the change), re-loaded from that file and simulated
 again, and its numbers must equal the search's.
@@ -39,9 +40,7 @@ The default scenario is never changed: every explanation is a separate run.
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import shutil
-import sys
 import time as _time
 import warnings
 from collections.abc import Callable, Mapping, Sequence
@@ -50,6 +49,7 @@ from pathlib import Path
 
 from fsmctl.errors import InputError
 from fsmctl.outputs import write_text
+from fsmctl.studies.campaign import Runner
 from fsmctl.studies.claim_types import ClaimVerdict, StudyClaim
 from fsmctl.studies.claims import claim_ids, get_claim
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW, law_script
@@ -86,7 +86,7 @@ def explain(
     out_dir: str | Path,
     *,
     fast: bool = False,
-    executor: cf.Executor | None = None,
+    runner: Runner | None = None,
     progress: bool | None = None,
     log: Callable[[str], None] | None = None,
     settings: Sequence[str] | None = None,
@@ -106,10 +106,11 @@ def explain(
     fast : bool
         The short horizon of ``fsmctl reproduce --fast`` (the runs are those of
         :func:`~fsmctl.studies.paper_runs.run_plan` in fast mode).
-    executor : concurrent.futures.Executor, optional
-        Worker pool for the runs (None: run in this process).
+    runner : fsmctl.studies.campaign.Runner, optional
+        The campaign runner that flies the runs (``fsmctl reproduce``'s, with its worker processes); default: one
+        in this process.
     progress : bool, optional
-        tqdm bar over the runs (default: when stderr is a terminal).
+        Progress bar over the runs, attached to the runner (default: when stderr is a terminal).
     log : callable, optional
         Receives progress lines.
     settings : sequence of str, optional
@@ -135,28 +136,27 @@ def explain(
     --------
     fsmctl.studies.explain_report.Explanation : how to read the result (with an example).
     """
-    from tqdm.auto import tqdm
-
+    if runner is None:
+        with Runner(workers=1, name="explain", interrupts=False) as own:
+            return explain(
+                source, claims, out_dir, fast=fast, runner=own, progress=progress, log=log, settings=settings,
+                checks=checks, pair_budget_runs=pair_budget_runs,
+            )  # fmt: skip
     say = log or (lambda _line: None)
     started = _time.perf_counter()
     base, chosen, by_name = _settings(source, settings)
     order = {cid: i for i, cid in enumerate(claim_ids())}
     claims = sorted(claims, key=lambda c: order.get(c.id, len(order)))
     all_checks = [ch for ch in _checks(claims) if checks is None or ch.id in checks]
-    if progress is None:
-        progress = sys.stderr.isatty()
-    bar = tqdm(total=0, desc="explain", unit="run", disable=not progress, file=sys.stderr)
-    runner = CandidateRuns(base, by_name, fast, executor, bar)
-    try:
-        state = _search(all_checks, chosen, by_name, runner, pair_budget_runs, say)
-        evidence = _write_evidence(base, state, runner, by_name, Path(out_dir), fast)
-    finally:
-        bar.close()
+    bar = runner.progress(0, unit="run", enabled=progress, desc="explain")
+    runs = CandidateRuns(base, by_name, fast, runner, bar)
+    state = _search(all_checks, chosen, by_name, runs, pair_budget_runs, say)
+    evidence = _write_evidence(base, state, runs, by_name, Path(out_dir), fast)
+    bar.close()
     verdicts = {c.id: c.verdict for c in claims}
-    out = [_explanation(ch, verdicts.get(ch.id), state, evidence, runner, chosen, by_name) for ch in all_checks]
+    out = [_explanation(ch, verdicts.get(ch.id), state, evidence, runs, chosen, by_name) for ch in all_checks]
     say(
-        f"  explain: {runner.simulated} runs ({runner.cpu_s:.0f} s of simulation) in "
-        f"{_time.perf_counter() - started:.1f} s"
+        f"  explain: {runs.simulated} runs ({runs.cpu_s:.0f} s of simulation) in {_time.perf_counter() - started:.1f} s"
     )
     return out
 
@@ -333,7 +333,7 @@ def _write_evidence(base, state: _State, runner: CandidateRuns, settings, out: P
         write_text(path, scenario_text(data, _evidence_comments(cand, explains, keys[cand], settings, law_path, fast)))
         files[cand] = path
     tasks = {(c, k): (str(files[c]), c, RUN_SPECS[k], fast) for c in sorted(keys) for k in keys[c]}
-    reruns = fly(tasks, runner.executor, runner.bar)
+    reruns = fly(tasks, runner.runner, runner.bar)
     return {
         cand: _evidence(cand, keys[cand], files[cand].relative_to(out).as_posix(), reruns, runner, settings)
         for cand in sorted(keys)

@@ -3,21 +3,23 @@
 A :class:`Check` is a claim (:class:`~fsmctl.studies.claims.StudyClaim`) or a figure-level check
 (:class:`~fsmctl.studies.figure_checks.FigureCheck`) as the search sees it.  :class:`CandidateRuns` keeps every run
 flown for a candidate change (:class:`~fsmctl.studies.explain_settings.Candidate`), each a
-:class:`~fsmctl.studies.records.RunRecord`; identical scenarios share one run.  :func:`fly` is the one place that
-sends runs to the caller's process pool (the orchestration of ``fsmctl reproduce``'s explanations).
+:class:`~fsmctl.studies.records.RunRecord`; identical scenarios (the same
+:func:`~fsmctl.studies.records.scenario_fingerprint`) share one run.  :func:`fly` is the one place that sends runs to
+the campaign runner (:class:`fsmctl.studies.campaign.Runner`: ``fsmctl reproduce``'s worker processes).
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
 import time as _time
 import warnings
 from collections.abc import Hashable, Iterable, Mapping
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 from fsmctl.model.laws import LawSwitchWarning
 from fsmctl.policy import SETTLING_TOLERANCES_DEG
+from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.claim_types import StudyClaim
 from fsmctl.studies.claims import CLAIMS
 from fsmctl.studies.explain_settings import Candidate, Setting, candidate_source
@@ -179,36 +181,44 @@ def simulate_candidate(data: Mapping[str, Any] | str, candidate: Candidate, spec
     )
 
 
-def fly(tasks: Mapping[Hashable, tuple], executor: cf.Executor | None, bar) -> dict[Hashable, RunRecord]:
-    """Fly the tasks, on the caller's process pool if any: the orchestration of the explanations.
+def fly(tasks: Mapping[Hashable, tuple], runner: Runner, bar) -> dict[Hashable, RunRecord]:
+    """Fly the tasks on the campaign runner: the orchestration of the explanations.
+
+    A run whose worker process keeps dying (the runner retries it, then flies it alone) counts as a failed run
+    (:meth:`RunRecord.failed <fsmctl.studies.records.RunRecord.failed>`): it reproduces nothing, the search goes on.
 
     Parameters
     ----------
     tasks : mapping key -> arguments of :func:`simulate_candidate`
         The runs.
-    executor : concurrent.futures.Executor or None
-        Worker pool (None: fly them in this process).
+    runner : fsmctl.studies.campaign.Runner
+        The campaign runner (in this process, or its worker processes).
     bar : tqdm
-        Progress bar; its total grows by the number of tasks.
+        The runner's progress bar (:meth:`~fsmctl.studies.campaign.Runner.progress`); its total grows by the number
+        of tasks.
 
     Returns
     -------
     dict
-        Key -> the run's record (in the order they finished).
+        Key -> the run's record, in the order of ``tasks``.
+
+    Examples
+    --------
+    >>> from fsmctl.studies.campaign import Runner
+    >>> from fsmctl.studies.explain_settings import Candidate
+    >>> spec = RUN_SPECS["case1"]
+    >>> with Runner(workers=1) as runner:
+    ...     bar = runner.progress(0, enabled=False)
+    ...     done = fly({"base": ("paper", Candidate(), spec, True)}, runner, bar)
+    >>> done["base"].key, done["base"].t_final, bar.total
+    ('case1', 10.0, 1)
     """
     bar.total = (bar.total or 0) + len(tasks)
     bar.refresh()
-    done: dict[Hashable, RunRecord] = {}
-    if executor is None:
-        for key, args in tasks.items():
-            done[key] = simulate_candidate(*args)
-            bar.update(1)
-        return done
-    futures = {executor.submit(simulate_candidate, *args): key for key, args in tasks.items()}
-    for fut in cf.as_completed(futures):
-        done[futures[fut]] = fut.result()
-        bar.update(1)
-    return done
+    runs = [
+        Task(key, simulate_candidate, args, lost=partial(RunRecord.failed, args[2].key)) for key, args in tasks.items()
+    ]
+    return dict(zip(tasks, runner.run(runs), strict=True))
 
 
 class CandidateRuns:
@@ -222,15 +232,15 @@ class CandidateRuns:
         :func:`~fsmctl.studies.explain_settings.search_settings` by name.
     fast : bool
         The short horizon of ``fsmctl reproduce --fast``.
-    executor : concurrent.futures.Executor or None
-        Worker pool (None: fly in this process).
+    runner : fsmctl.studies.campaign.Runner
+        The campaign runner that flies them (:func:`fly`).
     bar : tqdm
-        Progress bar over the runs.
+        The runner's progress bar over the runs.
     """
 
-    def __init__(self, base: str, settings: Mapping[str, Setting], fast: bool, executor: cf.Executor | None, bar):
+    def __init__(self, base: str, settings: Mapping[str, Setting], fast: bool, runner: Runner, bar):
         self.base, self.settings, self.fast = base, settings, fast
-        self.executor, self.bar = executor, bar
+        self.runner, self.bar = runner, bar
         self.runs: dict[tuple[Candidate, str], RunRecord] = {}
         self._by_print: dict[str, RunRecord] = {}
         self.simulated = 0
@@ -258,7 +268,7 @@ class CandidateRuns:
             waiting.setdefault(fp, []).append((cand, key))
         if not jobs:
             return
-        done = fly(jobs, self.executor, self.bar)
+        done = fly(jobs, self.runner, self.bar)
         self.simulated += len(jobs)
         for fp, record in done.items():
             self.cpu_s += record.cpu_time_s

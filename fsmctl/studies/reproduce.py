@@ -23,14 +23,13 @@ section "What would reproduce each claim".  The default scenario is never change
 
 Writes ``DIR/report.md``, ``DIR/claims.csv``, ``DIR/claims.json`` (:mod:`fsmctl.studies.report`), one NetCDF per run
 (``DIR/runs/<run>.nc``) and the figures (``DIR/figures/*.png|svg``, analogues of Figs 1-9).
-Verdicts are results: the exit code is 0 whenever the report was written.  The process pool is set up in one place,
-:func:`_orchestrate`.
+Verdicts are results: the exit code is 0 whenever the report was written.  The runs, the overlay figures and the
+explanations' runs are tasks of one campaign runner (:class:`fsmctl.studies.campaign.Runner`, set up in
+:func:`_orchestrate`): ``workers`` processes, a worker that dies replaced and its task retried.
 """
 
 from __future__ import annotations
 
-import concurrent.futures as cf
-import contextlib
 import shlex
 import sys
 import time as _time
@@ -43,11 +42,12 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.outputs import environment_problem
+from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.claims import evaluate_claims
 from fsmctl.studies.explain import explain as explain_claims
 from fsmctl.studies.momentum import angular_momentum_bound
 from fsmctl.studies.paper_runs import PAPER_CASES, RunSpec, execute_run, run_plan, run_scenario
-from fsmctl.studies.parallel import check_workers, single_threaded_workers, stop_pool, worker_pool
+from fsmctl.studies.parallel import check_workers
 from fsmctl.studies.records import RunRecord, scenario_fingerprint
 from fsmctl.studies.report import Reproduction, write_outputs
 
@@ -318,27 +318,22 @@ class _Study:
 
 
 def _orchestrate(study: _Study, case1, workers: int):
-    """The orchestration of the reproduction: the process pool, the runs, the overlay figures, the explanations.
+    """The reproduction on the campaign runner: the runs, the overlay figures, the explanations.
 
-    Ctrl-C or an error cancels the queue and stops the workers; the environment is restored once the pool has
-    shut down.
+    One :class:`~fsmctl.studies.campaign.Runner` (its process pool when ``workers > 1``) flies the runs, draws the
+    overlay figures and the explanations' runs; a worker that dies is replaced and its task retried
+    (:class:`~fsmctl.studies.campaign.Runner`).  Ctrl-C (``KeyboardInterrupt``) or ``SIGTERM`` (the command line's
+    exception) leaves the runner, which cancels the queue and stops the workers; the exit code stays the command
+    line's (130, 143).
     """
-    from tqdm.auto import tqdm
-
     simulated, reuse = study.reuse()
-    total = len(simulated) + (len(_OVERLAYS) if study.figures else 0)
-    bar = tqdm(total=total, desc="reproduce", unit="task", disable=not study.progress, file=sys.stderr)
-    executor = None
-    worker_env = contextlib.ExitStack()
-    try:
-        if workers > 1:
-            # one BLAS thread per worker; the environment is restored once the pool has shut down
-            worker_env.enter_context(single_threaded_workers())
-            executor = worker_env.enter_context(worker_pool(workers))  # workers die with this process
-        records, bounds = _simulate_runs(study, simulated, case1, executor, bar)
+    with Runner(workers=workers, name="reproduce", interrupts=False) as runner:
+        total = len(simulated) + (len(_OVERLAYS) if study.figures else 0)
+        runner.progress(total, unit="task", enabled=study.progress)
+        bounds = angular_momentum_bound(case1)
+        records = _simulate_runs(study, simulated, runner)
         _reuse_records(records, reuse, study.plan)
-        files = _render_overlays(records, study.out, executor, bar) if study.figures else []
-        bar.close()
+        files = _render_overlays(records, study.out, runner) if study.figures else []
         records = {s.key: records[s.key] for s in study.plan}
         claims = evaluate_claims(records, bounds)
         explanations, explain_s = None, 0.0
@@ -349,38 +344,23 @@ def _orchestrate(study: _Study, case1, workers: int):
                 claims,
                 study.out,
                 fast=study.fast,
-                executor=executor,
+                runner=runner,
                 progress=study.progress,
                 log=study.log,
             )
             explain_s = _time.perf_counter() - explain_started
-    except BaseException:
-        if executor is not None:
-            stop_pool(executor)  # an error or Ctrl-C: cancel the queue and stop the workers now
-        raise
-    finally:
-        bar.close()
-        worker_env.close()
     return records, bounds, claims, files, explanations, explain_s
 
 
-def _simulate_runs(study: _Study, simulated: Sequence[RunSpec], case1, executor: cf.Executor | None, bar):
-    """Fly the runs (on the pool if any) and compute the momentum bound (while the workers simulate)."""
-    records: dict[str, RunRecord] = {}
+def _simulate_runs(study: _Study, simulated: Sequence[RunSpec], runner: Runner) -> dict[str, RunRecord]:
+    """Fly the runs (:func:`~fsmctl.studies.paper_runs.execute_run`: each writes its NetCDF file and figures)."""
     args = (study.fast, str(study.out), study.command)
-    if executor is None:
-        for spec in simulated:
-            records[spec.key] = execute_run(study.source, spec, *args)
-            bar.update(1)
-        return records, angular_momentum_bound(case1)
-    futures = {executor.submit(execute_run, study.source, spec, *args): spec for spec in simulated}
-    bounds = angular_momentum_bound(case1)  # while the workers simulate
-    for fut in cf.as_completed(futures):
-        rec = fut.result()
-        records[rec.key] = rec
-        bar.update(1)
+    tasks = [Task(spec.key, execute_run, (study.source, spec, *args)) for spec in simulated]
+
+    def done(_task: Task, rec: RunRecord) -> None:
         study.say(f"  run {rec.key}: {rec.wall_time_s:.1f} s")
-    return records, bounds
+
+    return {rec.key: rec for rec in runner.run(tasks, on_done=done)}
 
 
 def _reuse_records(records: dict[str, RunRecord], reuse: Mapping[str, tuple[str, Any]], plan: Sequence[RunSpec]):
@@ -403,16 +383,10 @@ def _reuse_records(records: dict[str, RunRecord], reuse: Mapping[str, tuple[str,
         )
 
 
-def _render_overlays(records: Mapping[str, RunRecord], out: Path, executor: cf.Executor | None, bar) -> list[str]:
-    """Write the overlay figures (on the pool if any); returns the files."""
-    files: list[str] = []
-    tasks = [(*_overlay_arguments(records, name), str(out / "figures" / name)) for name, *_ in _OVERLAYS]
-    if executor is None:
-        for task in tasks:
-            files += _render_overlay(*task)
-            bar.update(1)
-        return files
-    for fut in cf.as_completed([executor.submit(_render_overlay, *task) for task in tasks]):
-        files += fut.result()
-        bar.update(1)
-    return files
+def _render_overlays(records: Mapping[str, RunRecord], out: Path, runner: Runner) -> list[str]:
+    """Write the overlay figures (one task each); returns the files."""
+    tasks = [
+        Task(name, _render_overlay, (*_overlay_arguments(records, name), str(out / "figures" / name)))
+        for name, *_ in _OVERLAYS
+    ]
+    return [path for paths in runner.run(tasks) for path in paths]

@@ -21,7 +21,8 @@ and per run the settling of AAEM and RAEM (eqs 42-43) to a tolerance, their stea
 the peak commanded torque and the saturated time.  The full-loop runs are a law comparison
 (:func:`fsmctl.studies.compare.compare_laws`): per variant, three runs of the law ``fsm`` with
 ``surface = fsm``/``tsm``/``lsm``, whose run-level metrics are :func:`fsmctl.studies.compare.run_metrics`; the
-per-agent quantities above are measured on each run's result by the comparison's ``on_result`` hook.
+per-agent quantities above are measured on each run's result by the comparison's ``on_result`` hook
+(:mod:`fsmctl.studies.surface_measures`; the figures: :mod:`fsmctl.studies.surface_figures`).
 
 Remark 6 (the ``alpha |sigma_e|^(alpha-1)`` singularity) is handled for TSM exactly as for FSM:
 the generated code applies the scenario's ``singularity_fix`` (default ``switch``) to the term
@@ -40,8 +41,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-
 from fsmctl.model.scenario import Scenario, Sinusoid
 from fsmctl.model.topology import Topology
 from fsmctl.outputs import atomic_path, write_json
@@ -51,20 +50,18 @@ from fsmctl.policy import (
     SURFACE_SIGMA_TOLERANCE,
     default_steady_window,
 )
+from fsmctl.studies.surface_figures import plot_agent_times, plot_error_metrics
+from fsmctl.studies.surface_measures import SURFACES, _agent_rows, _run_row
 
 __all__ = [
-    "SURFACES",
     "Variant",
     "default_variants",
     "variant_scenario",
     "remark6_treatment",
     "SurfaceComparison",
     "compare_surfaces",
-    "plot_error_metrics",
-    "plot_agent_times",
 ]
 
-SURFACES = ("fsm", "tsm", "lsm")
 PAPER_TORQUE_LIMIT_N_M = 2.0
 
 
@@ -234,101 +231,6 @@ def remark6_treatment(scenario: Scenario) -> list[dict]:
             }
         )
     return out
-
-
-# ----------------------------------------------------------------------------- measurements
-
-
-_trapezoid = getattr(np, "trapezoid", None) or np.trapz  # noqa: NPY201 (NumPy < 2 has only trapz)
-
-
-def _first_time_below(time_s: np.ndarray, values: np.ndarray, threshold: float) -> float:
-    idx = np.nonzero(values <= threshold)[0]
-    return float(time_s[idx[0]]) if idx.size else math.nan
-
-
-def _settling(time_s: np.ndarray, values: np.ndarray, threshold: float) -> float:
-    from fsmctl.simulation.metrics import settling_time
-
-    return settling_time(time_s, values, threshold)
-
-
-def _predicted_sliding_time(surface: str, sigma_e: np.ndarray, tol: float, p: dict) -> float:
-    """Theorem 3 (eqs 34-36): time for every component to reach ``|x| <= tol`` on the ideal sliding mode.
-
-    ``p``: the agent's law parameters as flown (``c1``, ``c2``, ``alpha``; the surface's preset applied)."""
-    from fsmctl.studies.theorem3 import closed_form_settling_time
-
-    times = [
-        closed_form_settling_time(surface, float(x), tol, p["c1"], p["c2"], p["alpha"])
-        for x in sigma_e
-        if abs(float(x)) > tol
-    ]
-    return max(times, default=0.0)
-
-
-def _agent_rows(result, surface: str, variant: Variant, opts: dict) -> list[dict]:
-    """Per agent: reaching, settling and sliding-phase times, Theorem 3's prediction, effort, saturated time.
-
-    Called by :func:`fsmctl.studies.compare.compare_laws` with each finished run (its ``on_result`` hook)."""
-    t = result.time
-    flown = result.scenario.law_parameters()
-    s_norm = np.linalg.norm(result.s, axis=2)
-    sig_max = np.max(np.abs(result.sigma_e), axis=2)
-    abs_u = np.sum(np.abs(result.u), axis=2)
-    effort = _trapezoid(abs_u, t, axis=0)
-    agents = []
-    for i in range(result.n_agents):
-        reach = _first_time_below(t, s_norm[:, i], opts["reach_threshold"])
-        settle = _settling(t, sig_max[:, i], opts["sigma_tolerance"])
-        if math.isfinite(reach):
-            k = int(np.searchsorted(t, reach))
-            predicted = _predicted_sliding_time(surface, result.sigma_e[k, i], opts["sigma_tolerance"], flown[i])
-        else:
-            predicted = math.nan
-        agents.append(
-            {
-                "variant": variant.name,
-                "surface": surface,
-                "agent": i + 1,
-                "reaching_time_s": reach,
-                "settling_time_s": settle,
-                "sliding_phase_time_s": settle - reach,
-                "sliding_phase_theorem3_s": predicted,
-                "control_effort_N_m_s": float(effort[i]),
-                "saturated_time_s": float(result.saturated_time[i]),
-            }
-        )
-    return agents
-
-
-def _run_row(row: dict, agents: list[dict], surface: str, variant: Variant, t_final: float, opts: dict) -> dict:
-    """One run of the comparison: the metrics of :func:`fsmctl.studies.compare.run_metrics` (``row``) under this
-    module's names, and the means over the agents."""
-    tol = f"{opts['metric_tolerance_deg']:g}"
-    return {
-        "variant": variant.name,
-        "surface": surface,
-        "torque_limit": variant.torque_limit,
-        "uncertainty": variant.uncertainty,
-        "coupling": variant.coupling,
-        "t_final_s": float(t_final),
-        "aaem_settling_s": row[f"aaem_settling_{tol}deg_s"],
-        "raem_settling_s": row[f"raem_settling_{tol}deg_s"],
-        "aaem_steady_max_deg": row["aaem_steady_max_deg"],
-        "raem_steady_max_deg": row["raem_steady_max_deg"],
-        # the means are NaN (= not reached: infinitely slow for the verdicts) unless every agent gets there
-        "n_agents": len(agents),
-        "agents_reached": int(sum(math.isfinite(a["reaching_time_s"]) for a in agents)),
-        "agents_settled": int(sum(math.isfinite(a["settling_time_s"]) for a in agents)),
-        "mean_reaching_time_s": float(np.mean([a["reaching_time_s"] for a in agents])),
-        "mean_sliding_phase_time_s": float(np.mean([a["sliding_phase_time_s"] for a in agents])),
-        "mean_sliding_phase_theorem3_s": float(np.mean([a["sliding_phase_theorem3_s"] for a in agents])),
-        "control_effort_N_m_s": row["control_effort_N_m_s"],
-        "u_unsaturated_max_N_m": row["peak_commanded_torque_N_m"],
-        "max_saturated_time_s": row["saturated_time_max_s"],
-        "wall_time_s": row["wall_time_s"],
-    }
 
 
 def _faster(a: float, b: float) -> str:
@@ -681,7 +583,7 @@ def compare_surfaces(
             label, reason = comp.failures[0]
             raise SimulationError(f"compare-surfaces, {v.name}, {label}: {reason}")
         for s in SURFACES:
-            runs.append(_run_row(comp.row(s), comp.extras[s], s, v, base.simulation.t_final, opts))
+            runs.append(_run_row(comp.record(s), comp.extras[s], v, base.simulation.t_final, opts))
             agents += comp.extras[s]
             series[(v.name, s)] = comp.series[s]
     scalar = {}
@@ -712,116 +614,3 @@ def compare_surfaces(
         law_comparisons={v.name: c for v, c in zip(variants, comparisons, strict=True)},
     )
     return comp
-
-
-# ----------------------------------------------------------------------------- figures
-
-
-def plot_error_metrics(comparison: SurfaceComparison, metric: str = "aaem_deg"):
-    """AAEM (eq 42) or RAEM (eq 43) against time, one panel per variant, one line per surface.
-
-    Parameters
-    ----------
-    comparison : SurfaceComparison
-        The result of :func:`compare_surfaces`.
-    metric : {'aaem_deg', 'raem_deg'}, optional
-        The metric to plot.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Built without pyplot.
-
-    Examples
-    --------
-    >>> import fsmctl
-    >>> from fsmctl.studies import Variant, compare_surfaces
-    >>> from fsmctl.studies.surfaces import plot_error_metrics
-    >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
-    ...                      scalar_check=False, workers=1, progress=False)
-    >>> fig = plot_error_metrics(c, "raem_deg")
-    >>> len(fig.axes), len(fig.axes[0].lines) >= 3
-    (1, True)
-    """
-    from matplotlib.figure import Figure
-
-    variants = list(dict.fromkeys(v for v, _ in comparison.series))
-    ncol = min(4, len(variants))
-    nrow = math.ceil(len(variants) / ncol)
-    fig = Figure(figsize=(3.6 * ncol, 2.8 * nrow), layout="constrained")
-    axes = fig.subplots(nrow, ncol, squeeze=False, sharey=True)
-    for ax, v in zip(axes.flat, variants, strict=False):
-        for s in SURFACES:
-            ser = comparison.series[(v, s)]
-            ax.semilogy(ser["time_s"], np.maximum(ser[metric], 1e-8), label=s.upper(), lw=1)
-        ax.axhline(comparison.settings["metric_tolerance_deg"], color="k", lw=0.6, ls=":")
-        ax.set_title(v, fontsize=9)
-        ax.set_xlabel("t (s)")
-        ax.grid(True, alpha=0.3)
-    for ax in axes.flat[len(variants) :]:
-        ax.set_visible(False)
-    axes[0, 0].set_ylabel(f"{metric.split('_')[0].upper()} (deg)")
-    axes[0, 0].legend(fontsize=8)
-    fig.suptitle(f"{comparison.scenario_label}: {metric.split('_')[0].upper()} by sliding surface (Liang et al. 2012, eq "
-                 f"{'42' if metric == 'aaem_deg' else '43'})", fontsize=10)  # fmt: skip
-    return fig
-
-
-def plot_agent_times(comparison: SurfaceComparison, variant: str | None = None):
-    """Per agent: reaching time and sliding-phase time (measured and Theorem 3's prediction) for each surface.
-
-    ``variant`` defaults to the first variant in which every surface settles (else the first).
-
-    Parameters
-    ----------
-    comparison : SurfaceComparison
-        The result of :func:`compare_surfaces`.
-    variant : str or None, optional
-        The variant's name (:attr:`Variant.name`).
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-        Built without pyplot: reaching time, sliding-phase time (with Theorem 3's) and control effort per agent,
-        one bar per surface.
-
-    Examples
-    --------
-    >>> import fsmctl
-    >>> from fsmctl.studies import Variant, compare_surfaces
-    >>> from fsmctl.studies.surfaces import plot_agent_times
-    >>> c = compare_surfaces(fsmctl.paper_scenario("1"), t_final=1.0, variants=[Variant(True, True, True)],
-    ...                      scalar_check=False, workers=1, progress=False)
-    >>> [ax.get_ylabel().split()[0] for ax in plot_agent_times(c).axes]
-    ['reaching', 'sliding-phase', 'control']
-    """
-    from matplotlib.figure import Figure
-
-    if variant is None:
-        names = list(dict.fromkeys(r["variant"] for r in comparison.runs))
-        settled = [
-            v for v in names if all(math.isfinite(comparison.run_row(v, s)["aaem_settling_s"]) for s in SURFACES)
-        ]
-        variant = (settled or names)[0]
-    rows = [a for a in comparison.agents if a["variant"] == variant]
-    n = max(a["agent"] for a in rows)
-    fig = Figure(figsize=(10, 3.8), layout="constrained")
-    axes = fig.subplots(1, 3)
-    width = 0.27
-    x = np.arange(1, n + 1)
-    for k, s in enumerate(SURFACES):
-        r = sorted((a for a in rows if a["surface"] == s), key=lambda a: a["agent"])
-        axes[0].bar(x + (k - 1) * width, [a["reaching_time_s"] for a in r], width, label=s.upper())
-        axes[1].bar(x + (k - 1) * width, [a["sliding_phase_time_s"] for a in r], width, label=s.upper())
-        axes[1].plot(x + (k - 1) * width, [a["sliding_phase_theorem3_s"] for a in r], "k_", ms=9)
-        axes[2].bar(x + (k - 1) * width, [a["control_effort_N_m_s"] for a in r], width, label=s.upper())
-    axes[0].set_ylabel("reaching time (s)")
-    axes[1].set_ylabel("sliding-phase time (s); - = Theorem 3")
-    axes[2].set_ylabel(r"control effort $\int \sum_k |u_k| dt$ (N m s)")
-    for ax in axes:
-        ax.set_xlabel("agent")
-        ax.set_xticks(x)
-        ax.grid(True, axis="y", alpha=0.3)
-    axes[0].legend(fontsize=8)
-    fig.suptitle(f"{comparison.scenario_label}, {variant}", fontsize=10)
-    return fig

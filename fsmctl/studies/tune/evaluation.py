@@ -95,7 +95,7 @@ def coupling_scales(space: Sequence[SearchParameter], values: Mapping[str, float
 
 
 def trial_scenario(member: Scenario, law: str, space: Sequence[SearchParameter], values: Mapping) -> Scenario:
-    from fsmctl.studies.compare import LawRun, run_scenario
+    from fsmctl.studies.compare_runs import LawRun, run_scenario
 
     params = {p.name: p.scenario_value(values[p.name]) for p in space if not p.coupling}
     scenario = run_scenario(member, LawRun("tune", law, params))
