@@ -56,7 +56,7 @@ def tune(
     *,
     resume: bool = False,
     progress: bool | None = None,
-    workers: int = 1,
+    workers: int | None = None,
     dask: Any = None,
     dask_timeout: float | None = None,
     command: Sequence[str] | str | None = None,
@@ -79,9 +79,10 @@ def tune(
         Continue the study in ``out_dir`` (same settings) to ``settings.budget`` trials.
     progress : bool, optional
         Progress bar over the trials (default: when stderr is a terminal).
-    workers : int
+    workers : int, optional
         Local worker processes evaluating a batch's candidates (1: in this process; at most ``settings.batch`` are
-        used).  The results do not depend on it.
+        used).  Default: one per CPU, at most one per trial of a batch (:func:`fsmctl.policy.default_workers` of
+        ``settings.batch``).  The results do not depend on it.
     dask : str or distributed.Client, optional
         Address of (or a client to) a Dask distributed scheduler, instead of the local workers (checked as
         ``fsmctl montecarlo --dask`` checks it).
@@ -127,10 +128,10 @@ def tune(
     import optuna  # noqa: F401  (loaded first: study.log follows the folder at once, as a reader polling it expects)
 
     from fsmctl.outputs import output_folder
-    from fsmctl.studies.parallel import CampaignInterrupted, check_workers
+    from fsmctl.studies.parallel import CampaignInterrupted, resolve_workers
 
     settings.validate()
-    check_workers(workers, "tune")
+    workers = resolve_workers(workers, settings.batch, "tune")
     plan = _plan(settings, out_dir, command)
     out = Path(out_dir)
     timeout = DASK_TIMEOUT_S if dask_timeout is None else dask_timeout
