@@ -87,9 +87,7 @@ def test_the_default_is_default_workers_of_the_tasks(monkeypatch):
     monkeypatch.setattr("fsmctl.proofs.claims.default_workers", spy)
     s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.2, "output_interval": 0.1})
     assert [r["label"] for r in compare_laws(s, ["fsm", "pid"], tolerances_deg=(1.0,)).table] == ["fsm", "pid"]
-    assert [r.id for r in run_claims(["lemma2-sqrt-sum"], ProofContext(fsmctl.paper_scenario()))] == [
-        "lemma2-sqrt-sum"
-    ]
+    assert [r.id for r in run_claims(["lemma2-sqrt-sum"], ProofContext(fsmctl.paper_scenario()))] == ["lemma2-sqrt-sum"]
     assert asked == [2, 1]
 
 
