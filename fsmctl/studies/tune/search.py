@@ -32,6 +32,7 @@ from fsmctl.studies.tune.evaluation import (
 from fsmctl.studies.tune.report import TuneResult, pareto_front, write_outputs
 from fsmctl.studies.tune.settings import (
     CONSTRAINTS,
+    OBJECTIVES,
     STUDY_FILE,
     STUDY_NAME,
     TuneSettings,
@@ -183,8 +184,9 @@ def _plan(settings: TuneSettings, out_dir: str | Path, command: Sequence[str] | 
     base = base_scenario(settings)
     settings = dataclasses.replace(settings, case=base.case)
     space = search_space(settings, base)
-    if "wheel_momentum" in settings.objectives and not base.actuator.enabled:
-        raise InputError(f"tune: objective wheel_momentum needs a scenario with reaction wheels; {base.label} has none")
+    for name in settings.objectives:
+        if OBJECTIVES[name].needs_wheels and not base.actuator.enabled:
+            raise InputError(f"tune: objective {name} needs a scenario with reaction wheels; {base.label} has none")
     why = available_constraints(settings.law, base)
     for name in settings.constraints:
         if why[name]:
