@@ -35,8 +35,11 @@ name                               value                         meaning
 
 Workers: every command that runs things in parallel (``prove``, ``reproduce``, ``compare``, ``compare-surfaces``,
 ``montecarlo``, ``tune``) starts, unless told ``--workers N``, one worker per CPU this process may run on
-(:func:`default_workers`), and a study never starts more workers than it has tasks at once.  The worker count
-changes the speed only: every study's results are the same bit for bit for any worker count.
+(:func:`default_workers`), and a study never starts more workers than it has tasks at once.  The library's entry
+points (``run_claims``, ``reproduce``, ``compare_laws``, ``compare_surfaces``, ``run_campaign``, ``tune``) follow
+the same rule: ``workers=None``, their default, is :func:`default_workers` of their number of tasks
+(:func:`fsmctl.studies.parallel.resolve_workers`).  The worker count changes the speed only: every study's results
+are the same bit for bit for any worker count.
 """
 
 from __future__ import annotations

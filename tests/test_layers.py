@@ -9,8 +9,9 @@ The rules are the contracts of ``.importlinter`` (import-linter, ``lint-imports 
 * ``fsmctl.symbolic`` is pure SymPy: it imports neither NumPy nor CasADi, even indirectly;
 * the library never imports ``derive`` (the project's code generator, not installed: the built-in laws'
   derivation scripts are read as files, :func:`fsmctl.model.generated_paths.builtin_law_scripts`);
-* inside ``fsmctl.simulation``, ``fsmctl.plugin`` and ``fsmctl.model`` the modules are layered as well (every
-  module placed, imports only downward), so that no import cycle hides in a function-local import.
+* inside ``fsmctl.simulation``, ``fsmctl.plugin``, ``fsmctl.model`` and ``fsmctl.studies`` the modules are
+  layered as well (every module placed, imports only downward), so that no import cycle hides in a
+  function-local import.
 
 They are checked on the source, so a violation is found without running the code path.  A fixture copy of
 the package with planted violations shows that the check can fail.  The AST checks below add what an import
@@ -40,6 +41,7 @@ CONTRACTS = (
     "simulation-modules",
     "plugin-modules",
     "model-modules",
+    "studies-modules",
 )
 CLI_PACKAGE = "fsmctl.cli"
 ENTRY_POINTS = {"fsmctl.__main__"}
@@ -114,6 +116,10 @@ PLANTED = {
     "fsmctl/model/generated_paths.py": (
         "def f():\n    from fsmctl.model.laws import resolve_law\n",
         "fsmctl.model.generated_paths -> fsmctl.model.laws",
+    ),
+    "fsmctl/studies/campaign.py": (
+        "def f():\n    from fsmctl.studies.montecarlo import run\n",
+        "fsmctl.studies.campaign -> fsmctl.studies.montecarlo.run",
     ),
 }
 

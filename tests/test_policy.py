@@ -43,3 +43,63 @@ def test_every_policy_name_is_documented_in_the_module_table():
     for name in policy.__all__:
         if name.isupper():
             assert f":data:`{name}`" in doc, name
+
+
+# ----------------------------------------------------------------------------- the library's workers= defaults
+
+
+def _entry_points():
+    from fsmctl.proofs.claims import run_claims
+    from fsmctl.studies.compare import compare_laws
+    from fsmctl.studies.montecarlo.run import run_campaign
+    from fsmctl.studies.reproduce import reproduce
+    from fsmctl.studies.surfaces import compare_surfaces
+    from fsmctl.studies.tune.search import tune
+
+    return [run_claims, reproduce, compare_laws, compare_surfaces, run_campaign, tune]
+
+
+def test_every_library_entry_point_defaults_to_the_one_rule():
+    """``workers=None`` (one per CPU, at most one per task), stated the same way in each docstring."""
+    import inspect
+
+    for fn in _entry_points():
+        assert inspect.signature(fn).parameters["workers"].default is None, fn.__qualname__
+        doc = " ".join(fn.__doc__.split())
+        assert "Default: one per CPU, at most one per" in doc, fn.__qualname__
+        assert ":func:`fsmctl.policy.default_workers` of" in doc, fn.__qualname__
+        assert "The results do not depend on it." in doc, fn.__qualname__
+
+
+def test_the_default_is_default_workers_of_the_tasks(monkeypatch):
+    """compare_laws asks for one worker per run; run_claims for one per group of claims (here one group)."""
+    import fsmctl
+    from fsmctl.proofs import ProofContext, run_claims
+    from fsmctl.studies.compare import compare_laws
+
+    asked = []
+
+    def spy(tasks=None):
+        asked.append(tasks)
+        return 1
+
+    monkeypatch.setattr("fsmctl.studies.parallel.default_workers", spy)
+    monkeypatch.setattr("fsmctl.proofs.claims.default_workers", spy)
+    s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.2, "output_interval": 0.1})
+    assert [r["label"] for r in compare_laws(s, ["fsm", "pid"], tolerances_deg=(1.0,)).table] == ["fsm", "pid"]
+    assert [r.id for r in run_claims(["lemma2-sqrt-sum"], ProofContext(fsmctl.paper_scenario()))] == ["lemma2-sqrt-sum"]
+    assert asked == [2, 1]
+
+
+def test_an_explicit_worker_count_is_checked(tmp_path):
+    import fsmctl
+    from fsmctl.errors import InputError
+    from fsmctl.proofs import ProofContext, run_claims
+    from fsmctl.studies import CampaignSettings, run_campaign
+
+    with pytest.raises(InputError, match="run_claims: workers must be a whole number >= 1, got 0"):
+        run_claims(["lemma2-sqrt-sum"], ProofContext(fsmctl.paper_scenario()), workers=0)
+    settings = CampaignSettings(runs=2, seed=1, t_final=0.5, steady_window=0.2, chunk_size=2)
+    with pytest.raises(InputError, match="run_campaign: workers must be a whole number >= 1, got 0"):
+        run_campaign(settings, tmp_path / "mc", workers=0, progress=False, figures=False)
+    assert not (tmp_path / "mc").exists()

@@ -93,7 +93,7 @@ def test_same_seed_and_budget_give_identical_trials(unlimited, tmp_path):
 def test_workers_and_dask_give_the_same_trials_as_one_process(unlimited, tmp_path):
     # pruning on, so the pruner's decisions must not depend on where the candidates were flown either
     settings = _pruned_pid(unlimited)
-    one = tune(settings, tmp_path / "one")
+    one = tune(settings, tmp_path / "one", workers=1)
     two = tune(settings, tmp_path / "two", workers=2)
     assert (tmp_path / "one" / "trials.csv").read_text() == (tmp_path / "two" / "trials.csv").read_text()
     assert any(t["state"] == "pruned" for t in one.trials) and one.best == two.best
@@ -134,7 +134,7 @@ def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypat
 
     monkeypatch.setattr(tune_eval, "_fly", interrupted)
     with pytest.raises(KeyboardInterrupt):
-        tune(settings, tmp_path / "cut")
+        tune(settings, tmp_path / "cut", workers=1)  # in this process, where _fly is patched
     assert not (tmp_path / "cut" / "trials.csv").exists()
     # the batch was proposed before it was flown: its five trials wait in the journal with their parameters
     assert [t.state for t in _journal(tmp_path / "cut").trials] == [TrialState.RUNNING] * 5
@@ -211,7 +211,7 @@ def test_pruning_stops_hopeless_candidates_by_the_median_rule(unlimited, tmp_pat
         return results
 
     monkeypatch.setattr(tune_eval, "_fly", watched)
-    result = tune(settings, tmp_path)
+    result = tune(settings, tmp_path, workers=1)  # in this process, where _fly is patched
     # a pruned candidate's run was stopped by the simulator's monitor where the pruner decided, the others ran out
     assert len(flights) == 16 and all(stopped == [pruned_at] for pruned_at, stopped in flights)
     study = _journal(tmp_path)
@@ -554,3 +554,30 @@ def test_the_journal_gains_a_batch_in_one_write(tmp_path):
     again = optuna.load_study(study_name="s", storage=JournalStorage(JournalFileBackend(str(path))))
     assert [t.params["x"] for t in again.trials] == [t.value for t in again.trials]
     assert [t.state for t in again.trials] == [TrialState.COMPLETE] * 3
+
+
+def test_every_objective_is_one_entry_whose_checkpoint_score_ends_at_its_value():
+    """An objective is one :class:`Objective` of ``OBJECTIVES``: its unit, its run_metrics column, its pruning score.
+
+    At the last output sample the pruner's estimate (``partial``) is the complete run's value (the run_metrics
+    column; chattering's estimate sees the output samples only); checked on a scenario with reaction wheels, so
+    that every objective applies."""
+    from fsmctl.studies.tune import OBJECTIVES, Objective
+
+    scenario = load_scenario("paper-hardware").replace(simulation={"t_final": 1.0, "output_interval": 0.05})
+    result = simulate(scenario, progress=False)
+    metrics = run_metrics(result, tolerances_deg=(1.0,))
+    w = len(result.time)
+    u = np.asarray(result.u, dtype=float)
+    assert OBJECTIVES["peak_torque"].partial(result, w) == float(np.max(np.abs(u)))  # an independent oracle
+    for name, objective in OBJECTIVES.items():
+        assert isinstance(objective, Objective) and objective.unit, name
+        if objective.partial is not None and name != "chattering":
+            assert objective.partial(result, w) == pytest.approx(metrics[objective.metric], rel=1e-9), name
+        elif objective.partial is not None:  # the engine's total variation counts every step, not only the samples
+            assert 0 < objective.partial(result, w) and 0 < metrics[objective.metric], name
+        else:
+            assert objective.error in ("aaem", "raem"), name
+            assert objective.metric is None or objective.metric == f"{objective.error}_steady_max_deg", name
+    with pytest.raises(ValueError, match="not both"):
+        Objective("1", "both", "peak_torque_N_m", error="aaem", partial=OBJECTIVES["peak_torque"].partial)

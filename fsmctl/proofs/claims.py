@@ -37,7 +37,9 @@ import sympy as sp
 
 import fsmctl.proofs.theorem1 as t1
 import fsmctl.proofs.theorem2 as t2
+from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
+from fsmctl.policy import default_workers
 
 __all__ = [
     "CLAIMS",
@@ -1216,7 +1218,7 @@ def _run_ids(ids: list[str], ctx: ProofContext) -> list[ClaimResult]:
     return _run([get_claim(i) for i in ids], ctx)
 
 
-def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int = 1) -> list[ClaimResult]:
+def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int | None = None) -> list[ClaimResult]:
     """Check the given claims (all when ``ids`` is empty or None) and time each one.
 
     Parameters
@@ -1225,9 +1227,11 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int = 1) ->
         Claim ids (see :func:`claim_ids`); unknown ids raise KeyError.
     ctx : ProofContext
         The scenario and the sampling options.
-    workers : int
+    workers : int, optional
         With ``workers > 1`` (and the ``fork`` start method available) the heavy symbolic
-        claims run in one worker process while the others run here; results are identical.
+        claims run in one worker process while the others run here; 1 runs them all here.  Default: one per CPU,
+        at most one per group of claims that can run at once (:func:`fsmctl.policy.default_workers` of the number
+        of groups: 2 when heavy and light claims are asked for).  The results do not depend on it.
 
     Returns
     -------
@@ -1238,6 +1242,8 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int = 1) ->
     ------
     KeyError
         An unknown claim id.
+    fsmctl.errors.InputError
+        ``workers`` is neither ``None`` nor a whole number >= 1.
 
     Examples
     --------
@@ -1254,6 +1260,10 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int = 1) ->
     claims = [get_claim(i) for i in ids] if ids else list(CLAIMS)
     heavy = [c for c in claims if c.heavy]
     light = [c for c in claims if not c.heavy]
+    if workers is None:
+        workers = default_workers(2 if heavy and light else 1)
+    elif isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise InputError(f"run_claims: workers must be a whole number >= 1, got {workers!r}")
     results: dict[str, ClaimResult] = {}
     if workers > 1 and heavy and light:
         import multiprocessing as mp

@@ -54,7 +54,7 @@ from fsmctl.model.scenario import Scenario
 from fsmctl.policy import COMPARISON_TOLERANCES_DEG, default_steady_window
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.compare_runs import LawRun, as_runs, run_scenario
-from fsmctl.studies.parallel import check_workers
+from fsmctl.studies.parallel import resolve_workers
 from fsmctl.studies.records import RunRecord
 
 if TYPE_CHECKING:
@@ -582,7 +582,7 @@ def compare_laws(
     *,
     tolerances_deg: Sequence[float] = COMPARISON_TOLERANCES_DEG,
     steady_window_s: float | None = None,
-    workers: int = 1,
+    workers: int | None = None,
     progress: bool = False,
     on_result: Callable[[LawRun, SimulationResult], Any] | None = None,
 ) -> Comparison:
@@ -599,9 +599,10 @@ def compare_laws(
         AAEM/RAEM settling tolerances (deg), each > 0.
     steady_window_s : float, optional
         Final window of the steady-state statistics (default: the last 40 % of the horizon, at most 40 s).
-    workers : int
+    workers : int, optional
         Runs simulated at the same time, in threads of the campaign runner (:class:`fsmctl.studies.campaign.Runner`;
-        the compiled loop releases the GIL); 1 runs them in turn.
+        the compiled loop releases the GIL); 1 runs them in turn.  Default: one per CPU, at most one per run
+        (:func:`fsmctl.policy.default_workers` of the number of runs).  The results do not depend on it.
     progress : bool
         Show a progress bar over the runs.
     on_result : callable, optional
@@ -644,8 +645,8 @@ def compare_laws(
         isinstance(steady_window_s, (int, float)) and math.isfinite(steady_window_s) and steady_window_s > 0
     ):
         raise InputError(f"steady window must be a finite number of seconds > 0, got {steady_window_s!r}")
-    check_workers(workers, "compare_laws")
     runs = as_runs(laws)
+    workers = resolve_workers(workers, len(runs), "compare_laws")
     scenarios = [run_scenario(scenario, r) for r in runs]  # every input checked (and laws derived) first
     horizon = scenario.simulation.t_final
     window = default_steady_window(horizon) if steady_window_s is None else min(float(steady_window_s), horizon)

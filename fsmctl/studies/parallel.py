@@ -36,6 +36,7 @@ from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.context import BaseContext
 
 from fsmctl.errors import InputError
+from fsmctl.policy import default_workers
 
 __all__ = [
     "WORKER_THREAD_VARIABLES",
@@ -45,6 +46,7 @@ __all__ = [
     "check_workers",
     "interrupt_guard",
     "process_pool_context",
+    "resolve_workers",
     "single_threaded_workers",
     "stop_pool",
     "worker_lifeline",
@@ -95,6 +97,44 @@ def check_workers(workers: object, where: str) -> int:
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise InputError(f"{where}: workers must be a whole number >= 1, got {workers!r}")
     return workers
+
+
+def resolve_workers(workers: int | None, tasks: int, where: str) -> int:
+    """The worker count of a study's entry point: the one rule of every library ``workers=`` default.
+
+    Parameters
+    ----------
+    workers : int or None
+        What the caller passed: a whole number >= 1 (checked by :func:`check_workers`), or ``None``: one worker
+        per CPU this process may run on, at most one per task (:func:`fsmctl.policy.default_workers`).
+    tasks : int
+        The number of tasks the study can run at once (its runs, variants, claims, chunks, trials of a batch).
+    where : str
+        The function's name, for the message.
+
+    Returns
+    -------
+    int
+        A whole number >= 1.  It changes the speed only: a study's results are the same for any worker count.
+
+    Raises
+    ------
+    InputError
+        ``workers`` is neither ``None`` nor a whole number >= 1.
+
+    Examples
+    --------
+    >>> from fsmctl.policy import default_workers
+    >>> resolve_workers(3, 1, "reproduce"), resolve_workers(None, 1, "reproduce")
+    (3, 1)
+    >>> resolve_workers(None, 64, "reproduce") == default_workers(64)
+    True
+    >>> resolve_workers(0, 4, "tune")
+    Traceback (most recent call last):
+    ...
+    fsmctl.errors.InputError: tune: workers must be a whole number >= 1, got 0
+    """
+    return default_workers(tasks) if workers is None else check_workers(workers, where)
 
 
 def process_pool_context() -> BaseContext:

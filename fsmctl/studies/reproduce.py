@@ -47,7 +47,7 @@ from fsmctl.studies.claims import evaluate_claims
 from fsmctl.studies.explain import explain as explain_claims
 from fsmctl.studies.momentum import angular_momentum_bound
 from fsmctl.studies.paper_runs import PAPER_CASES, RunSpec, execute_run, run_plan, run_scenario
-from fsmctl.studies.parallel import check_workers
+from fsmctl.studies.parallel import resolve_workers
 from fsmctl.studies.records import RunRecord, scenario_fingerprint
 from fsmctl.studies.report import Reproduction, write_outputs
 
@@ -171,7 +171,7 @@ def reproduce(
     out_dir: str | Path = "reproduction",
     *,
     fast: bool = False,
-    workers: int = 2,
+    workers: int | None = None,
     progress: bool | None = None,
     figures: bool = True,
     log: Callable[[str], None] | None = None,
@@ -188,8 +188,9 @@ def reproduce(
         Output folder (created).
     fast : bool
         Short horizon (10 s; long runs 30 s) and coarser output: for tests and quick looks.
-    workers : int
-        Worker processes (1: run in this process).
+    workers : int, optional
+        Worker processes (1: in this process).  Default: one per CPU, at most one per run of the plan
+        (:func:`fsmctl.policy.default_workers` of the number of runs).  The results do not depend on it.
     progress : bool, optional
         tqdm bar over the runs; default: when stderr is a terminal.
     figures : bool
@@ -244,7 +245,7 @@ def reproduce(
     1.0
     """
     started = _time.perf_counter()
-    check_workers(workers, "reproduce")
+    workers = resolve_workers(workers, len(run_plan()), "reproduce")
     _check_source(source)
     if command is not None and not isinstance(command, str):
         command = shlex.join(str(c) for c in command)  # one picklable string for the workers

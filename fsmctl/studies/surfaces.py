@@ -473,7 +473,7 @@ def compare_surfaces(
     reach_threshold: float = SURFACE_REACH_THRESHOLD,
     sigma_tolerance: float = SURFACE_SIGMA_TOLERANCE,
     metric_tolerance_deg: float = SURFACE_METRIC_TOLERANCE,
-    workers: int = 2,
+    workers: int | None = None,
     scalar_check: bool = True,
     progress: bool | None = None,
 ) -> SurfaceComparison:
@@ -495,9 +495,11 @@ def compare_surfaces(
         Target ``tau`` of Theorem 3 for every ``|sigma_ei,k|`` (MRP); keep it above the Remark 6 band ``epsilon``.
     metric_tolerance_deg : float
         Tolerance of the AAEM/RAEM settling times (eqs 42-43).
-    workers : int
+    workers : int, optional
         Variants simulated at the same time, in threads of the campaign runner
-        (:class:`fsmctl.studies.campaign.Runner`; the compiled loop releases the GIL).
+        (:class:`fsmctl.studies.campaign.Runner`; the compiled loop releases the GIL); 1 runs them in turn.
+        Default: one per CPU, at most one per variant (:func:`fsmctl.policy.default_workers` of the number of
+        variants).  The results do not depend on it.
     scalar_check : bool
         Also run the scalar Theorem 3 grid (:func:`fsmctl.studies.theorem3.scalar_settling_study`).
     progress : bool, optional
@@ -532,7 +534,7 @@ def compare_surfaces(
     from fsmctl.simulation.simulator import SimulationError
     from fsmctl.studies.campaign import Runner, Task
     from fsmctl.studies.compare import LawRun, compare_laws
-    from fsmctl.studies.parallel import check_workers
+    from fsmctl.studies.parallel import resolve_workers
 
     for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),
                     ("metric_tolerance_deg", metric_tolerance_deg)):  # fmt: skip
@@ -544,7 +546,6 @@ def compare_surfaces(
             f"sigma_tolerance = {sigma_tolerance:g} must exceed the Remark 6 band epsilon = {band:g} "
             "(inside the band the surface is linear and Theorem 3 does not apply)"
         )
-    check_workers(workers, "compare_surfaces")
     sim = {}
     if fast:
         sim = {"t_final": 10.0, "dt": 0.002, "output_interval": 0.02}
@@ -554,6 +555,7 @@ def compare_surfaces(
         sim["t_final"] = float(t_final)
     base = scenario.replace(simulation=sim) if sim else scenario
     variants = list(default_variants() if variants is None else variants)
+    workers = resolve_workers(workers, len(variants), "compare_surfaces")
     opts = {
         "reach_threshold": reach_threshold,
         "sigma_tolerance": sigma_tolerance,
@@ -571,6 +573,7 @@ def compare_surfaces(
             runs,
             tolerances_deg=(metric_tolerance_deg,),
             steady_window_s=default_steady_window(base.simulation.t_final),
+            workers=1,  # the variants run in parallel, each one's three surfaces in turn
             on_result=lambda run, result: _agent_rows(result, run.label, v, opts),
         )
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from fsmctl.model.scenario import Scenario
-from fsmctl.policy import DASK_TIMEOUT_S, default_workers
+from fsmctl.policy import DASK_TIMEOUT_S
 from fsmctl.studies.campaign import Runner, Task, check_memory
 from fsmctl.studies.montecarlo.runs import FLAGS, PER_AGENT, SCALARS, RunFunction, nan_record, run_chunk
 from fsmctl.studies.montecarlo.settings import (
@@ -32,7 +32,7 @@ from fsmctl.studies.montecarlo.store import (
     n_chunks,
     write_dataset,
 )
-from fsmctl.studies.parallel import CampaignInterrupted
+from fsmctl.studies.parallel import CampaignInterrupted, check_workers, resolve_workers
 
 RUN_RECORD_BYTES = 8 * (len(SCALARS) + len(FLAGS) + 1) + 2 * 64
 """Bytes of one run in the merged dataset besides its per-agent values: the scalars, the flags and the noise
@@ -127,8 +127,9 @@ def run_campaign(
         ``montecarlo.nc`` (all runs), ``summary.json``, ``histograms.png``/``.svg`` and, last,
         ``complete.json``.  Created if needed; removed again if the campaign ends before any chunk.
     workers : int, optional
-        Local worker processes (default: :func:`fsmctl.policy.default_workers`), never more than the chunks to
-        run; 1 runs in this process.
+        Local worker processes (1: in this process), never more than the chunks to run.  Default: one per CPU, at
+        most one per chunk to run (:func:`fsmctl.policy.default_workers` of the number of chunks).  The results do
+        not depend on it.
     dask : str or distributed.Client, optional
         Address of (or a client to) an existing Dask distributed cluster; replaces the local pool.
         An address must be one that distributed accepts (a scheme of one of its comm backends: ``tcp``,
@@ -182,6 +183,8 @@ def run_campaign(
     ['campaign.json', 'chunks', 'complete.json', 'montecarlo.nc', 'summary.json']
     """
     settings.validate()
+    if workers is not None:
+        check_workers(workers, "run_campaign")
     t_start = time.perf_counter()
     out = Path(out_dir)
     with Runner(workers=1, dask=dask, dask_timeout=dask_timeout, name="montecarlo") as runner:
@@ -203,7 +206,7 @@ def run_campaign(
             ]
             resumed = total - len(todo)
             tasks = [chunk_task(base, settings, c, run_fn) for c in todo]
-            runner.workers = min(workers or default_workers(), max(1, len(todo)))
+            runner.workers = min(resolve_workers(workers, len(todo), "run_campaign"), max(1, len(todo)))
             runner.progress(settings.runs, initial=settings.runs - sum(t.weight for t in tasks), enabled=progress)
             recorded = json.dumps(ident, allow_nan=False)  # what rebuilds campaign.json
 

@@ -8,7 +8,7 @@ a quantile, subject to constraints (:data:`CONSTRAINTS`).  Hopeless candidates a
 pruner (:data:`PRUNERS`); candidates are evaluated in parallel (local processes or a Dask cluster) in batches whose
 results do not depend on how they were computed.
 
-Objectives (:data:`OBJECTIVES`, ``TuneSettings.objectives``):
+Objectives (:data:`OBJECTIVES`, one :class:`Objective` each; ``TuneSettings.objectives``):
 
 ==================  =======  ==========================================================================================
 name                unit     meaning (per run; :func:`fsmctl.studies.compare.run_metrics`)
@@ -145,6 +145,7 @@ from fsmctl.studies.tune.settings import (
     PRUNERS,
     STUDY_FILE,
     WHEEL_CAPACITY_FRACTION,
+    Objective,
     SearchParameter,
     TuneSettings,
     available_constraints,
@@ -165,6 +166,7 @@ __all__ = [
     "LOCK_WAIT_S",
     "STALE_LOCK_S",
     "WHEEL_CAPACITY_FRACTION",
+    "Objective",
     "SearchParameter",
     "TuneResult",
     "TuneSettings",

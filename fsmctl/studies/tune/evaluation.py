@@ -17,6 +17,7 @@ from fsmctl.studies.tune.settings import (
     HALVING_REDUCTION_FACTOR,
     MEDIAN_STARTUP_TRIALS,
     MEDIAN_WARMUP_STEPS,
+    OBJECTIVES,
     SIMULATED_CONSTRAINTS,
     WHEEL_CAPACITY_FRACTION,
     SearchParameter,
@@ -177,16 +178,6 @@ def _settling_scores(metrics: Mapping[str, float], t_final: float, tol: float) -
     return settle
 
 
-_METRIC = {
-    "aaem_steady": "aaem_steady_max_deg",
-    "raem_steady": "raem_steady_max_deg",
-    "peak_torque": "peak_torque_N_m",
-    "rms_torque": "rms_torque_N_m",
-    "chattering": "chattering_N_m_per_s",
-    "wheel_momentum": "peak_wheel_momentum_N_m_s",
-}
-
-
 def _steady_mask(time: np.ndarray) -> np.ndarray:
     window = min(default_steady_window(float(time[-1] - time[0])), float(time[-1] - time[0]))
     return time >= time[-1] - window - 1e-12  # the window of run_metrics and steady_state_max
@@ -261,7 +252,8 @@ def _run_scores(result, ctx: EvaluationContext) -> list[float]:
     t_final = float(result.scenario.simulation.t_final)
     metrics = run_metrics(result, tolerances_deg=(tol,))
     settle = _settling_scores(metrics, t_final, tol)
-    values = [settle[name[:4]] if name.endswith("_settling") else metrics[_METRIC[name]] for name in ctx.objectives]
+    objectives = [OBJECTIVES[name] for name in ctx.objectives]
+    values = [settle[o.error] if o.metric is None else metrics[o.metric] for o in objectives]
     extra = {"converged": lambda: max(settle.values()) - t_final}
     settled = [metrics[f"{w}_settling_{tol:g}deg_s"] for w in ("aaem", "raem")]
     extra["torque"] = lambda: torque_excess(result, max(settled) if all(map(math.isfinite, settled)) else math.nan)
@@ -302,37 +294,24 @@ class _Series:
         n = self._metric.size
         if w > n:
             new = np.asarray(sigma_e[n:w], dtype=float)
-            ext = aaem_deg(principal_angles(new)) if self.objective.startswith("aaem") else streamed_raem_deg(new)
+            aaem = OBJECTIVES[self.objective].error == "aaem"
+            ext = aaem_deg(principal_angles(new)) if aaem else streamed_raem_deg(new)
             self._metric = np.concatenate([self._metric, ext])
         return self._metric[:w]
 
     def score(self, result, w: int) -> float:
         from fsmctl.simulation.metrics import settling_time
 
+        objective = OBJECTIVES[self.objective]
+        if objective.error is None:
+            return objective.partial(result, w)
         t = np.asarray(result.time[:w], dtype=float)
-        span = float(t[-1] - t[0])
-        name = self.objective
-        if name.endswith(("_settling", "_steady")):
-            metric = self._error_metric(result.sigma_e, w)
-            steady = float(np.max(metric[_steady_mask(t)]))
-            if name.endswith("_steady"):
-                return steady
-            s = settling_time(t, metric, self.tol)
-            return s if math.isfinite(s) else progress_score(self.horizon, steady, self.tol)
-        if name == "wheel_momentum":
-            act = result.scenario.actuator
-            h = np.asarray(result.wheel_speed[:w], dtype=float) * act.per_wheel("spin_inertia")
-            return float(np.max(np.linalg.norm(h @ act.spin_axes().T, axis=-1)))
-        u = np.asarray(result.u[:w], dtype=float)
-        if name == "peak_torque":
-            return float(np.max(np.abs(u)))
-        if span <= 0:
-            return 0.0
-        if name == "rms_torque":
-            sq = np.sum(np.square(u), axis=(1, 2))
-            area = float(np.sum(0.5 * (sq[1:] + sq[:-1]) * np.diff(t)))
-            return math.sqrt(area / (u.shape[1] * span))
-        return float(np.sum(np.abs(np.diff(u, axis=0)))) / span  # chattering
+        metric = self._error_metric(result.sigma_e, w)
+        steady = float(np.max(metric[_steady_mask(t)]))
+        if objective.metric is not None:  # a steady maximum
+            return steady
+        s = settling_time(t, metric, self.tol)
+        return s if math.isfinite(s) else progress_score(self.horizon, steady, self.tol)
 
 
 def _make_pruner(name: str):

@@ -88,7 +88,7 @@ class TuneResult:
         else:
             t = self.trials[self.best]
             params = ", ".join(f"{p.name}={t['params'][p.name]:.6g} {p.unit}" for p in self.space)
-            objs = ", ".join(f"{k}={v:.6g} {OBJECTIVES[k][0]}" for k, v in t["objectives"].items())
+            objs = ", ".join(f"{k}={v:.6g} {OBJECTIVES[k].unit}" for k, v in t["objectives"].items())
             lines.append(f"best: trial {self.best}: {params}; {objs}")
         return "\n".join(lines + [f"note: {n}" for n in self.notes])
 
@@ -112,7 +112,7 @@ def pareto_front(trials: Sequence[dict], objectives: Sequence[str]) -> list[int]
 def _columns(result: TuneResult) -> list[str]:
     cols = ["trial", "state", "feasible"]
     cols += [p.column for p in result.space]
-    cols += [f"{k} [{OBJECTIVES[k][0]}]" for k in result.settings.objectives]
+    cols += [f"{k} [{OBJECTIVES[k].unit}]" for k in result.settings.objectives]
     cols += [f"constraint_{c} [{CONSTRAINTS[c][0]}]" for c in result.constraints]
     return [*cols, "pruned_at [s]", "error"]
 
@@ -164,10 +164,10 @@ def _figure(result: TuneResult):
         ax.scatter(*xy(result.trials[result.best]), s=120, facecolor="none", edgecolor="k", label="chosen design")
     if len(objs) == 1:
         ax.set_xlabel("trial")
-        ax.set_ylabel(f"{objs[0]} [{OBJECTIVES[objs[0]][0]}]")
+        ax.set_ylabel(f"{objs[0]} [{OBJECTIVES[objs[0]].unit}]")
     else:
-        ax.set_xlabel(f"{objs[0]} [{OBJECTIVES[objs[0]][0]}]")
-        ax.set_ylabel(f"{objs[1]} [{OBJECTIVES[objs[1]][0]}]")
+        ax.set_xlabel(f"{objs[0]} [{OBJECTIVES[objs[0]].unit}]")
+        ax.set_ylabel(f"{objs[1]} [{OBJECTIVES[objs[1]].unit}]")
     s = result.settings
     n_pruned = sum(t["state"] == "pruned" for t in result.trials)
     ax.set_title(
@@ -352,7 +352,8 @@ def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scena
         "torque_limit_N_m": base.controller.torque_limit,
         "search_space": [asdict(p) for p in result.space],
         "objectives": {
-            k: {"unit": OBJECTIVES[k][0], "description": OBJECTIVES[k][1]} for k in result.settings.objectives
+            k: {"unit": OBJECTIVES[k].unit, "description": OBJECTIVES[k].description}
+            for k in result.settings.objectives
         },
         "constraints": {c: {"unit": CONSTRAINTS[c][0], "description": CONSTRAINTS[c][1]} for c in result.constraints},
         "theorem1_holds": result.theorem1,

@@ -32,6 +32,7 @@ from fsmctl.studies.tune.evaluation import (
 from fsmctl.studies.tune.report import TuneResult, pareto_front, write_outputs
 from fsmctl.studies.tune.settings import (
     CONSTRAINTS,
+    OBJECTIVES,
     STUDY_FILE,
     STUDY_NAME,
     TuneSettings,
@@ -56,7 +57,7 @@ def tune(
     *,
     resume: bool = False,
     progress: bool | None = None,
-    workers: int = 1,
+    workers: int | None = None,
     dask: Any = None,
     dask_timeout: float | None = None,
     command: Sequence[str] | str | None = None,
@@ -79,9 +80,10 @@ def tune(
         Continue the study in ``out_dir`` (same settings) to ``settings.budget`` trials.
     progress : bool, optional
         Progress bar over the trials (default: when stderr is a terminal).
-    workers : int
+    workers : int, optional
         Local worker processes evaluating a batch's candidates (1: in this process; at most ``settings.batch`` are
-        used).  The results do not depend on it.
+        used).  Default: one per CPU, at most one per trial of a batch (:func:`fsmctl.policy.default_workers` of
+        ``settings.batch``).  The results do not depend on it.
     dask : str or distributed.Client, optional
         Address of (or a client to) a Dask distributed scheduler, instead of the local workers (checked as
         ``fsmctl montecarlo --dask`` checks it).
@@ -127,10 +129,10 @@ def tune(
     import optuna  # noqa: F401  (loaded first: study.log follows the folder at once, as a reader polling it expects)
 
     from fsmctl.outputs import output_folder
-    from fsmctl.studies.parallel import CampaignInterrupted, check_workers
+    from fsmctl.studies.parallel import CampaignInterrupted, resolve_workers
 
     settings.validate()
-    check_workers(workers, "tune")
+    workers = resolve_workers(workers, settings.batch, "tune")
     plan = _plan(settings, out_dir, command)
     out = Path(out_dir)
     timeout = DASK_TIMEOUT_S if dask_timeout is None else dask_timeout
@@ -182,8 +184,9 @@ def _plan(settings: TuneSettings, out_dir: str | Path, command: Sequence[str] | 
     base = base_scenario(settings)
     settings = dataclasses.replace(settings, case=base.case)
     space = search_space(settings, base)
-    if "wheel_momentum" in settings.objectives and not base.actuator.enabled:
-        raise InputError(f"tune: objective wheel_momentum needs a scenario with reaction wheels; {base.label} has none")
+    for name in settings.objectives:
+        if OBJECTIVES[name].needs_wheels and not base.actuator.enabled:
+            raise InputError(f"tune: objective {name} needs a scenario with reaction wheels; {base.label} has none")
     why = available_constraints(settings.law, base)
     for name in settings.constraints:
         if why[name]:

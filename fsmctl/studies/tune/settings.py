@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -15,17 +15,104 @@ from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import Topology
 from fsmctl.policy import TOLERANCE_DEG, TUNE_BATCH
 
-OBJECTIVES: dict[str, tuple[str, str]] = {
-    "aaem_settling": ("s", "AAEM settling time to the tolerance"),
-    "raem_settling": ("s", "RAEM settling time to the tolerance"),
-    "aaem_steady": ("deg", "AAEM max over the steady window"),
-    "raem_steady": ("deg", "RAEM max over the steady window"),
-    "peak_torque": ("N m", "peak applied |u_ik|"),
-    "rms_torque": ("N m", "RMS torque"),
-    "chattering": ("N m/s", "total variation of u per second"),
-    "wheel_momentum": ("N m s", "peak wheel angular momentum"),
+
+def _peak_torque(result: Any, w: int) -> float:
+    """Peak applied ``|u_ik|`` over the first ``w`` output samples (N m)."""
+    return float(np.max(np.abs(np.asarray(result.u[:w], dtype=float))))
+
+
+def _rms_torque(result: Any, w: int) -> float:
+    """RMS of the torque vector's norm over the first ``w`` samples (trapezoid rule; N m; 0 for one sample)."""
+    t = np.asarray(result.time[:w], dtype=float)
+    span = float(t[-1] - t[0])
+    if span <= 0:
+        return 0.0
+    u = np.asarray(result.u[:w], dtype=float)
+    sq = np.sum(np.square(u), axis=(1, 2))
+    area = float(np.sum(0.5 * (sq[1:] + sq[:-1]) * np.diff(t)))
+    return math.sqrt(area / (u.shape[1] * span))
+
+
+def _chattering(result: Any, w: int) -> float:
+    """Total variation of u per second over the first ``w`` samples (N m/s; 0 for one sample)."""
+    t = np.asarray(result.time[:w], dtype=float)
+    span = float(t[-1] - t[0])
+    if span <= 0:
+        return 0.0
+    return float(np.sum(np.abs(np.diff(np.asarray(result.u[:w], dtype=float), axis=0)))) / span
+
+
+def _wheel_momentum(result: Any, w: int) -> float:
+    """Peak wheel angular momentum (norm of an agent's wheel array, body frame) over the first ``w`` samples (N m s)."""
+    act = result.scenario.actuator
+    h = np.asarray(result.wheel_speed[:w], dtype=float) * act.per_wheel("spin_inertia")
+    return float(np.max(np.linalg.norm(h @ act.spin_axes().T, axis=-1)))
+
+
+@dataclass(frozen=True)
+class Objective:
+    """One objective of a tuning study (minimised): the one entry that declares and scores it.
+
+    Parameters
+    ----------
+    unit : str
+        Its unit (the trials table, the Pareto figure, ``tune.json``).
+    description : str
+        What it is (``fsmctl tune --help``, ``tune.json``).
+    metric : str, optional
+        The column of :func:`fsmctl.studies.compare.run_metrics` that is its value on a complete run; ``None``: the
+        settling time of ``error`` to the study's tolerance (a run that never settles scores
+        :func:`unsettled_score`).
+    error : {"aaem", "raem"}, optional
+        The error metric (eq 42 / eq 43) it is read from: a settling time (``metric`` None) or a steady maximum;
+        the pruner's estimate at a checkpoint is then computed from that metric's series.
+    partial : callable, optional
+        ``partial(result, w)``: its value from the first ``w`` output samples of a run (the pruner's estimate at a
+        checkpoint); for every objective without ``error``.
+    needs_wheels : bool
+        Only a scenario with reaction wheels can measure it (else :class:`~fsmctl.errors.InputError`).
+
+    Examples
+    --------
+    >>> from fsmctl.studies.tune import OBJECTIVES
+    >>> o = OBJECTIVES["rms_torque"]
+    >>> o.unit, o.metric, o.error is None and o.partial is not None
+    ('N m', 'rms_torque_N_m', True)
+    """
+
+    unit: str
+    description: str
+    metric: str | None = None
+    error: str | None = None
+    partial: Callable[[Any, int], float] | None = None
+    needs_wheels: bool = False
+
+    def __post_init__(self):
+        if self.error not in (None, "aaem", "raem"):
+            raise ValueError(f"an objective's error metric is aaem or raem, got {self.error!r}")
+        if (self.error is None) == (self.partial is None):
+            raise ValueError("an objective is read from an error metric (error) or has a partial score, not both")
+        if self.metric is None and self.error is None:
+            raise ValueError("an objective without an error metric needs its run_metrics column (metric)")
+
+
+OBJECTIVES: dict[str, Objective] = {
+    "aaem_settling": Objective("s", "AAEM settling time to the tolerance", error="aaem"),
+    "raem_settling": Objective("s", "RAEM settling time to the tolerance", error="raem"),
+    "aaem_steady": Objective("deg", "AAEM max over the steady window", "aaem_steady_max_deg", error="aaem"),
+    "raem_steady": Objective("deg", "RAEM max over the steady window", "raem_steady_max_deg", error="raem"),
+    "peak_torque": Objective("N m", "peak applied |u_ik|", "peak_torque_N_m", partial=_peak_torque),
+    "rms_torque": Objective("N m", "RMS torque", "rms_torque_N_m", partial=_rms_torque),
+    "chattering": Objective("N m/s", "total variation of u per second", "chattering_N_m_per_s", partial=_chattering),
+    "wheel_momentum": Objective(
+        "N m s",
+        "peak wheel angular momentum",
+        "peak_wheel_momentum_N_m_s",
+        partial=_wheel_momentum,
+        needs_wheels=True,
+    ),
 }
-"""objective name -> (unit, description); all are minimised"""
+"""objective name -> :class:`Objective` (unit, description, how a run is scored); all are minimised"""
 
 CONSTRAINTS: dict[str, tuple[str, str]] = {
     "converged": ("s", "max(AAEM, RAEM settling time) - horizon"),
