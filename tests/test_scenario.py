@@ -297,3 +297,16 @@ def test_unset_fsm_keys_take_the_laws_declared_defaults():
     row = parameter_matrix(law, bare)[0]
     assert list(row[:3]) == [declared["c1"], declared["c2"], declared["alpha"]]
     assert list(parameter_matrix(law, paper)[0][:3]) == [0.6, 0.8, 0.7]  # paper.toml's [controller]
+
+
+def test_a_changed_key_drops_the_reasons_that_name_it():
+    """[choices] explain the values flown: after `--set delta=...` the paper's reasons for delta and for the boundary
+    layer (which quotes phi/delta = 0.2 s) no longer hold and are dropped; the others stay (a fresh user's report)."""
+    paper = fsmctl.paper_scenario("1")
+    reasons = dict(paper.choices)
+    assert "delta" in reasons and "phi/delta" in reasons["boundary_layer"]
+    changed = paper.with_law(None, {"delta": [0.5, 0.5, 0.5]})
+    kept = dict(changed.choices)
+    assert "delta" not in kept and "boundary_layer" not in kept
+    assert kept == {k: v for k, v in reasons.items() if k not in ("delta", "boundary_layer")} and kept
+    assert dict(paper.replace(simulation={"t_final": 5.0}).choices) == reasons  # no law key written: all kept

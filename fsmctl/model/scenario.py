@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import field
@@ -131,6 +132,16 @@ def _choices(v: Any) -> tuple[tuple[str, str], ...]:
     if not all(isinstance(k, str) and isinstance(t, str) for k, t in pairs):
         raise ValueError("expected a table of strings")
     return pairs
+
+
+def _current_choices(choices: tuple[tuple[str, str], ...], changed: set[str]) -> tuple[tuple[str, str], ...]:
+    """The ``[choices]`` reasons that still explain the flown values once the keys ``changed`` are written again: a
+    reason about a changed key, or one that names a changed key in its text (the boundary layer's reason quotes
+    ``phi/delta``), is about values no longer flown and is dropped."""
+    if not changed:
+        return choices
+    named = re.compile(r"\b(" + "|".join(re.escape(k) for k in sorted(changed)) + r")\b")
+    return tuple((k, v) for k, v in choices if k not in changed and not named.search(v))
 
 
 @_validated
@@ -472,8 +483,9 @@ class Scenario:
         given = {k for k in asked if k not in _CONTROLLER_FIELDS} if isinstance(asked, Mapping) else set()
         if isinstance(agents, Sequence):
             given |= {k for a in agents if isinstance(a, Mapping) for k in a if k not in _AGENT_FIELDS}
-        if given & {k for k, _ in self.choices}:  # a choice's reason is about the value it replaces
-            changes["choices"] = tuple((k, v) for k, v in self.choices if k not in given)
+        kept = _current_choices(self.choices, given)
+        if kept != self.choices:
+            changes["choices"] = kept
         note = None
         if isinstance(asked, Mapping) and "parameters" not in asked:
             changes, note = _switch_law(self, changes, given=given)
