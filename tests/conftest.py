@@ -10,8 +10,9 @@ from hypothesis import settings
 
 # Property tests draw the same examples on every machine and every run (no random seed, no example database
 # carried between runs): what a fresh clone runs is what CI ran.  Explicit @settings keep this unless they say
-# otherwise (they inherit from the loaded profile).
-settings.register_profile("fsmctl", derandomize=True, database=None)
+# otherwise (they inherit from the loaded profile).  No deadline: the first example of a property test may load or
+# compile generated code (seconds on a fresh machine's empty cache), which says nothing about the property.
+settings.register_profile("fsmctl", derandomize=True, database=None, deadline=None)
 settings.load_profile("fsmctl")
 
 # The paper's J0_4 is a flat plate within rounding; nothing else should warn in tests.
