@@ -576,13 +576,9 @@ def evaluate_claims(records: Mapping[str, RunRecord], bounds: Sequence[MomentumB
     The verdicts on 1 s runs (the reproduction flies 100 s): the 27 s settling is impossible whatever the
     horizon, by the angular-momentum bound.
 
-    >>> from fsmctl import paper_scenario, simulate
+    >>> from fsmctl import paper_scenario
     >>> from fsmctl.studies.momentum import angular_momentum_bound
-    >>> from fsmctl.studies.paper_runs import run_plan, run_record, run_scenario
-    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
-    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
-    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
-    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> records = one_second_records()  # conftest.py: the plan's runs, 1 s each (shared)
     >>> claims = evaluate_claims(records, angular_momentum_bound(paper_scenario("1")))
     >>> [c.id for c in claims] == claim_ids()
     True

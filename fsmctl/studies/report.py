@@ -144,17 +144,7 @@ def write_outputs(rep: Reproduction) -> list[Path]:
     Examples
     --------
     >>> from pathlib import Path
-    >>> from fsmctl import paper_scenario, simulate
-    >>> from fsmctl.studies.claims import evaluate_claims
-    >>> from fsmctl.studies.momentum import angular_momentum_bound
-    >>> from fsmctl.studies.paper_runs import run_plan, run_record, run_scenario
-    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
-    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
-    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
-    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
-    >>> bounds = angular_momentum_bound(paper_scenario("1"))
-    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
-    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
     >>> [p.name for p in write_outputs(rep)]
     ['claims.csv', 'claims.json', 'report.md']
     >>> Path("out/claims.csv").read_text().splitlines()[1].split(",")[0]
@@ -205,18 +195,7 @@ def to_markdown(rep: Reproduction) -> str:
 
     Examples
     --------
-    >>> from pathlib import Path
-    >>> from fsmctl import paper_scenario, simulate
-    >>> from fsmctl.studies.claims import evaluate_claims
-    >>> from fsmctl.studies.momentum import angular_momentum_bound
-    >>> from fsmctl.studies.paper_runs import run_plan, run_record, run_scenario
-    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
-    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
-    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
-    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
-    >>> bounds = angular_momentum_bound(paper_scenario("1"))
-    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
-    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
     >>> text = to_markdown(rep)
     >>> [line for line in text.splitlines() if line.startswith("## ")][:3]
     ['## Claims', '## Angular-momentum bound (independent of the controller)', '## Initial numbers (Table 1 and the reference, t = 0)']
@@ -375,18 +354,7 @@ def format_claims(rep: Reproduction, width: int = 110) -> str:
 
     Examples
     --------
-    >>> from pathlib import Path
-    >>> from fsmctl import paper_scenario, simulate
-    >>> from fsmctl.studies.claims import evaluate_claims
-    >>> from fsmctl.studies.momentum import angular_momentum_bound
-    >>> from fsmctl.studies.paper_runs import run_plan, run_record, run_scenario
-    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
-    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
-    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
-    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
-    >>> bounds = angular_momentum_bound(paper_scenario("1"))
-    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
-    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
     >>> print(format_claims(rep).splitlines()[2])
     settling_27s         impossible (bound)
     """

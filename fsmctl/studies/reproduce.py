@@ -129,12 +129,7 @@ def overlay_figures(records: Mapping[str, RunRecord]) -> dict[str, Any]:
 
     Examples
     --------
-    >>> from fsmctl import simulate
-    >>> from fsmctl.studies.paper_runs import run_plan, run_record, run_scenario
-    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
-    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
-    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
-    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
+    >>> records = one_second_records()  # conftest.py: the plan's runs, 1 s each (shared; the reproduction flies 100 s)
     >>> figures = overlay_figures(records)
     >>> list(figures)[:4]
     ['fig05_aaem_case2_vs_case1', 'fig06_raem_case2_vs_case1', 'fig08_aaem_case3', 'fig09_raem_case3']
@@ -229,16 +224,7 @@ def reproduce(
     runs of its plan (the same :func:`~fsmctl.studies.paper_runs.run_plan`,
     :func:`~fsmctl.studies.paper_runs.run_record`, :func:`~fsmctl.studies.claims.evaluate_claims` it calls):
 
-    >>> from pathlib import Path
-    >>> from fsmctl import paper_scenario, simulate
-    >>> from fsmctl.studies.paper_runs import run_record
-    >>> def one_second(spec):  # a run of the plan, 1 s long (the reproduction flies 100 s)
-    ...     scenario = run_scenario("paper", spec, fast=True).replace(simulation={"t_final": 1.0})
-    ...     return run_record(spec, scenario, simulate(scenario, progress=False))
-    >>> records = {spec.key: one_second(spec) for spec in run_plan()}
-    >>> bounds = angular_momentum_bound(paper_scenario("1"))
-    >>> rep = Reproduction(Path("out"), True, ["paper case 1"], records, bounds, evaluate_claims(records, bounds),
-    ...                    inertia_check=[], files=[], wall_time_s=0.0)
+    >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
     >>> [(c.id, c.verdict) for c in rep.claims][:2]
     [('settling_27s', 'impossible (bound)'), ('tracking_accuracy', 'impossible (bound)')]
     >>> rep.records["case1"].t_final
