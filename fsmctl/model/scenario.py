@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import re
 import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import field
@@ -65,6 +64,7 @@ from fsmctl.model.scenario_files import (
     _agent_from_table,
     _builtin_data,
     _controller_changes,
+    _current_choices,
     _description,
     _hardware_settings,
     _laws_relative_to,
@@ -132,16 +132,6 @@ def _choices(v: Any) -> tuple[tuple[str, str], ...]:
     if not all(isinstance(k, str) and isinstance(t, str) for k, t in pairs):
         raise ValueError("expected a table of strings")
     return pairs
-
-
-def _current_choices(choices: tuple[tuple[str, str], ...], changed: set[str]) -> tuple[tuple[str, str], ...]:
-    """The ``[choices]`` reasons that still explain the flown values once the keys ``changed`` are written again: a
-    reason about a changed key, or one that names a changed key in its text (the boundary layer's reason quotes
-    ``phi/delta``), is about values no longer flown and is dropped."""
-    if not changed:
-        return choices
-    named = re.compile(r"\b(" + "|".join(re.escape(k) for k in sorted(changed)) + r")\b")
-    return tuple((k, v) for k, v in choices if k not in changed and not named.search(v))
 
 
 @_validated

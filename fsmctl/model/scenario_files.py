@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import re
 import sys
 import tomllib
 import warnings
@@ -157,9 +158,8 @@ def _switched_tables(base: dict, over: Mapping, where: str) -> dict:
     keys = set(carried_keys(old, new)) | mine
     out = copy.deepcopy(base)
     applied, ignored = _drop_from_table(out["controller"], {*_CONTROLLER_FIELDS, *AGENT_DEFAULT_KEYS, *mine}, keys)
-    if isinstance(out.get("choices"), dict):
-        for k in ignored:
-            out["choices"].pop(k, None)  # the reason of a value no longer flown
+    if isinstance(out.get("choices"), dict):  # the reasons of values no longer flown
+        out["choices"] = dict(_current_choices(tuple(out["choices"].items()), set(ignored)))
     agents = out.get("agents") if "agents" not in over and isinstance(out.get("agents"), list) else []
     for index, agent in enumerate(agents, start=1):
         if isinstance(agent, dict):
@@ -190,7 +190,7 @@ def _switch_law(scenario: Scenario, changes: dict[str, Any], given: set[str]) ->
     if not (applied or ignored):
         return changes, None
     out = dict(changes)
-    out["choices"] = tuple((k, v) for k, v in changes.get("choices", scenario.choices) if k not in written or k in keys)
+    out["choices"] = _current_choices(tuple(changes.get("choices", scenario.choices)), set(written) - keys)
     out["controller"] = {**controller, "parameters": {k: v for k, v in written.items() if k in keys}}
     out["agents"] = tuple(
         a
@@ -239,6 +239,16 @@ def _unknown(d: Mapping, known: Sequence[str], where: str) -> None:
     unknown = sorted(set(d) - set(known))
     if unknown:
         raise ScenarioError(f"{where}: unknown key(s) {unknown} (known: {sorted(known)})")
+
+
+def _current_choices(choices: tuple[tuple[str, str], ...], changed: set[str]) -> tuple[tuple[str, str], ...]:
+    """The ``[choices]`` reasons that still explain the flown values once the keys ``changed`` are written again: a
+    reason about a changed key, or one that names a changed key in its text (the boundary layer's reason quotes
+    ``phi/delta``), is about values no longer flown and is dropped."""
+    if not changed:
+        return choices
+    named = re.compile(r"\b(" + "|".join(re.escape(k) for k in sorted(changed)) + r")\b")
+    return tuple((k, v) for k, v in choices if k not in changed and not (isinstance(v, str) and named.search(v)))
 
 
 def _within(where: str, build, *args, **kwargs):
