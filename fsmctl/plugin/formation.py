@@ -196,16 +196,24 @@ class FormationSystem(ct.InterconnectedSystem):
         >>> lin.A.shape, bool(np.isfinite(lin.A).all())
         ((46, 46), True)
         """
-        if isinstance(x0, ct.OperatingPoint):
-            u0 = x0.inputs if u0 is None else u0
-            x0 = x0.states
-        elif u0 is None:
-            u0 = 0
-        x0 = _operating_vector(x0, "x0", self.nstates)
-        u0 = _operating_vector(u0, "u0", self.ninputs)
-        self._update_params(params)
-        mats = interconnection_jacobians(self, float(t), x0, u0, eps)
-        return _state_space(self, *mats, copy_names=copy_names, **kwargs)
+        return _linearize_interconnection(self, x0, u0, t, params, eps, copy_names, **kwargs)
+
+
+def _linearize_interconnection(
+    sys: ct.InterconnectedSystem, x0, u0=None, t=0, params=None, eps=1e-6, copy_names=False, **kwargs
+) -> ct.StateSpace:
+    """The exact linearization of any :class:`control.InterconnectedSystem` (python-control's ``linearize``
+    arguments): its subsystems' Jacobians composed through its maps (:func:`fsmctl.plugin.jacobians.
+    interconnection_jacobians`); :meth:`FormationSystem.linearize` and :func:`fsmctl.plugin.linearize` call it."""
+    if isinstance(x0, ct.OperatingPoint):
+        u0 = x0.inputs if u0 is None else u0
+        x0 = x0.states
+    elif u0 is None:
+        u0 = 0
+    x = _operating_vector(x0, "x0", sys.nstates)
+    u = _operating_vector(u0, "u0", sys.ninputs)
+    sys._update_params(params)
+    return _state_space(sys, *interconnection_jacobians(sys, float(t), x, u, eps), copy_names=copy_names, **kwargs)
 
 
 _BlockSpec = Any

@@ -17,9 +17,8 @@ import numpy as np
 
 from fsmctl.model.scenario import ScenarioError
 from fsmctl.plugin.arguments import _numbers
-from fsmctl.plugin.formation import FormationSystem
-from fsmctl.plugin.jacobians import Kink, NonDifferentiableError, interconnection_jacobians
-from fsmctl.plugin.system import _operating_vector, _state_space
+from fsmctl.plugin.formation import FormationSystem, _linearize_interconnection
+from fsmctl.plugin.jacobians import Kink, NonDifferentiableError
 
 __all__ = ["linearize", "mrp_linearization", "mrp_estimator"]
 
@@ -77,17 +76,7 @@ def linearize(sys: Any, xeq: Any, ueq: Any = None, t: float = 0, params: Mapping
     """
     if not isinstance(sys, ct.InterconnectedSystem) or isinstance(sys, FormationSystem):
         return ct.linearize(sys, xeq, ueq, t=t, params=params, **kw)
-    if isinstance(xeq, ct.OperatingPoint):
-        ueq = xeq.inputs if ueq is None else ueq
-        xeq = xeq.states
-    elif ueq is None:
-        ueq = 0
-    eps = kw.pop("eps", 1e-6)
-    copy_names = kw.pop("copy_names", False)
-    x0 = _operating_vector(xeq, "x0", sys.nstates)
-    u0 = _operating_vector(ueq, "u0", sys.ninputs)
-    sys._update_params(params)
-    return _state_space(sys, *interconnection_jacobians(sys, float(t), x0, u0, eps), copy_names=copy_names, **kw)
+    return _linearize_interconnection(sys, xeq, ueq, t, params, **kw)
 
 
 def _mrp_plant(plant: Any, where: str) -> tuple:
