@@ -229,8 +229,14 @@ def test_csv_columns_metadata_and_readers(short_run, tmp_path):
     }
     for column, values in expected.items():
         assert np.array_equal(df[column].to_numpy(), values), column  # shortest round-trip decimals: float64 exactly
-    table = np.genfromtxt(path, delimiter=",", names=True)
-    assert np.array_equal(table["omega_1_x_rad_s"], r.omega[:, 0, 0])
+    # the metadata first (comment lines), the header directly above the data: the first line says how many
+    lines = path.read_text(encoding="utf-8").splitlines()
+    comments = sum(1 for line in lines if line.startswith("#"))
+    assert all(line.startswith("#") for line in lines[:comments]) and lines[comments].split(",") == list(df.columns)
+    assert f"{comments} comment lines" in lines[0] and f"skip_header={comments}" in lines[0]
+    assert [float(x) for x in lines[comments + 1].split(",")] == df.iloc[0].tolist()
+    table = np.genfromtxt(path, delimiter=",", names=True, skip_header=comments)  # as the first line says
+    assert np.array_equal(table["omega_1_x_rad_s"], r.omega[:, 0, 0]) and table.size == r.time.size
     ds = load_result(path)
     assert ds.attrs["command"] == "fsmctl simulate --format csv"
     nc = load_result(r.save(tmp_path / "run.nc"))
@@ -293,10 +299,16 @@ def test_files_that_are_not_results(short_run, tmp_path):
         scenario_from_result(old)
     # a CSV whose layout line no longer matches its columns
     good = short_run.save(tmp_path / "run.csv").read_text().splitlines()
+    at = next(k for k, line in enumerate(good) if not line.startswith("#"))  # the header
     broken = tmp_path / "broken.csv"
-    broken.write_text("\n".join([good[0].replace("sigma_1_x", "renamed"), *good[1:]]) + "\n")
+    broken.write_text("\n".join([*good[:at], good[at].replace("sigma_1_x", "renamed"), *good[at + 1 :]]) + "\n")
     with pytest.raises(NotAResultError, match="layout"):
         load_result(broken)
+    # the layout of fsmctl before the metadata came first (the header, then the comment lines): one clear line
+    earlier = tmp_path / "earlier.csv"
+    earlier.write_text("\n".join([good[at], *good[1:at], *good[at + 1 :]]) + "\n")
+    with pytest.raises(NotAResultError, match="earlier fsmctl"):
+        load_result(earlier)
     for error in (NotAResultError, MissingScenarioError):
         assert issubclass(error, InputError)
 

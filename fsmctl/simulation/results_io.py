@@ -24,15 +24,18 @@ Formats (:func:`save_result`, also :meth:`fsmctl.simulation.result.SimulationRes
   ...), the agent number from 1, the component (``x``, ``y``, ``z`` for body axes; ``w1``, ``w2``, ... for
   wheels; ``0``, ``1``, ... for broadcast and law-state components), the unit last with spaces and slashes
   as ``_`` (``rad_s``, ``N_m``, ``deg``; none for dimensionless MRPs): ``time_s``, ``sigma_1_x``,
-  ``omega_1_x_rad_s``, ``u_1_x_N_m``, ``aaem_deg``.  The first line is the header; ``#`` comment lines
-  follow it, before the data: the provenance, one ``# key = <JSON value>`` per line (the scenario TOML is
-  one JSON string), the coordinates (``# coords = {...}``) and the layout that maps the columns back to the
-  NetCDF variables (``# layout = {...}``, with the per-agent statistics, which have no time axis).  The header
-  comes first because ``numpy.genfromtxt(..., names=True)`` takes its names from the first line even when it
-  is a comment; so ``pandas.read_csv(path, comment="#")``,
-  ``numpy.genfromtxt(path, delimiter=",", names=True)`` and ``numpy.loadtxt(path, delimiter=",", skiprows=1)``
-  all read the table.  Each value is the shortest decimal that reads back to the same double (the same single
-  for ``float32`` series), so :func:`load_result` gives back the same :class:`xarray.Dataset` as the NetCDF
+  ``omega_1_x_rad_s``, ``u_1_x_N_m``, ``aaem_deg``.  The metadata comes first, as ``#`` comment lines: a
+  first line that says how many there are and how to read the table (``# fsmctl result, CSV: K comment
+  lines ...``), then the
+  provenance, one ``# key = <JSON value>`` per line (the scenario TOML is one JSON string), the coordinates
+  (``# coords = {...}``) and the layout that maps the columns back to the NetCDF variables
+  (``# layout = {...}``, with the per-agent statistics, which have no time axis).  The header is the line
+  directly above the data, so ``pandas.read_csv(path, comment="#")`` reads the table, and so do
+  ``numpy.genfromtxt(path, delimiter=",", names=True, skip_header=K)`` and
+  ``numpy.loadtxt(path, delimiter=",", skiprows=K + 1)`` with ``K`` the number of comment lines the first
+  line states (NumPy takes its names from the first line even when it is a comment).  Each value is the
+  shortest decimal that reads back to the same double (the same single for ``float32`` series), so
+  :func:`load_result` gives back the same :class:`xarray.Dataset` as the NetCDF
   file; with pandas pass ``float_precision="round_trip"`` for the exact bits (its default parser may differ
   in the last digit).
 
@@ -96,6 +99,13 @@ PRECISIONS = ("float64", "float32")
 _SUFFIXES = {".nc": "netcdf", ".nc4": "netcdf", ".netcdf": "netcdf", ".csv": "csv"}
 _COMPRESSION = {"zlib": True, "complevel": 4, "shuffle": True}
 _AXES = ("x", "y", "z")
+_CSV_MARK = "# fsmctl result, CSV:"
+_CSV_FIRST_LINE = (
+    _CSV_MARK + " {k} comment lines (this one, then the metadata as '# key = JSON value'), then the header, then one "
+    'row per output time; read the table with pandas.read_csv(path, comment="#") or '
+    'numpy.genfromtxt(path, delimiter=",", names=True, skip_header={k})'
+)
+"""The first line of a CSV result: how many comment lines precede the header, and how to read the table."""
 
 
 class ResultFileError(InputError):
@@ -660,12 +670,12 @@ def _write_csv(ds: xr.Dataset, path: Path, single: bool) -> None:
     # NumPy's shortest decimal that reads back to the same double (or single, for float32 series): exact, and
     # no digits the data do not have
     text = np.concatenate([b.astype(str) for b in blocks], axis=1).tolist()
+    metadata = [f"# {key} = {json.dumps(_jsonable_attr(value))}" for key, value in ds.attrs.items()]
+    metadata += [f"# coords = {json.dumps(coords)}", f"# layout = {json.dumps(layout, allow_nan=True)}"]
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
+        fh.write(_CSV_FIRST_LINE.format(k=len(metadata) + 1) + "\n")  # the metadata first, the header above the data
+        fh.write("\n".join(metadata) + "\n")
         fh.write(",".join(columns) + "\n")
-        for key, value in ds.attrs.items():
-            fh.write(f"# {key} = {json.dumps(_jsonable_attr(value))}\n")
-        fh.write(f"# coords = {json.dumps(coords)}\n")
-        fh.write(f"# layout = {json.dumps(layout, allow_nan=True)}\n")
         fh.write("\n".join(",".join(row) for row in text) + "\n")
 
 
@@ -675,7 +685,7 @@ def _write_csv(ds: xr.Dataset, path: Path, single: bool) -> None:
 def _kind(path: Path) -> str:
     try:
         with open(path, "rb") as fh:
-            head = fh.read(8)
+            head = fh.read(len(_CSV_MARK))
     except IsADirectoryError:
         raise NotAResultError(f"{path}: is a directory, not a result file") from None
     except OSError as exc:
@@ -684,8 +694,13 @@ def _kind(path: Path) -> str:
         return "netcdf4"
     if head.startswith(b"CDF"):
         return "netcdf3"
-    if head.startswith(b"time_s"):
+    if head == _CSV_MARK.encode():
         return "csv"
+    if head.startswith(b"time_s,"):
+        raise NotAResultError(
+            f"{path}: a CSV result of an earlier fsmctl (the header first, then the metadata), which this version "
+            "does not read: write it again with this version"
+        )
     raise NotAResultError(f"{path}: not an fsmctl result file (neither NetCDF nor fsmctl's CSV)")
 
 
@@ -705,16 +720,18 @@ def _read_csv(path: Path) -> xr.Dataset:
     import xarray as xr
 
     attrs: dict[str, Any] = {}
+    header: list[str] = []
     skip = 1
     try:
         with open(path, encoding="utf-8") as fh:
-            header = fh.readline().rstrip("\n").split(",")
+            fh.readline()  # the first line: what the file is (checked by _kind)
             for line in fh:
-                if not line.startswith("# "):
-                    break
                 skip += 1
+                if not line.startswith("#"):
+                    header = line.rstrip("\n").split(",")
+                    break
                 key, sep, value = line[2:].rstrip("\n").partition(" = ")
-                if not sep:
+                if not line.startswith("# ") or not sep:
                     raise NotAResultError(f"{path}: line {skip} is not a '# key = value' metadata line")
                 try:
                     attrs[key] = json.loads(value)
@@ -725,7 +742,9 @@ def _read_csv(path: Path) -> xr.Dataset:
     _check_marker(attrs, path)
     layout, coords = attrs.pop("layout", None), attrs.pop("coords", None)
     if not isinstance(layout, Mapping) or not isinstance(coords, Mapping):
-        raise NotAResultError(f"{path}: an fsmctl CSV result needs its '# layout' and '# coords' lines and a header")
+        raise NotAResultError(f"{path}: an fsmctl CSV result needs its '# layout' and '# coords' lines")
+    if not header:
+        raise NotAResultError(f"{path}: no header line after the metadata")
     try:
         table = np.loadtxt(path, delimiter=",", skiprows=skip, ndmin=2, dtype=np.float64)
     except ValueError as exc:
