@@ -68,8 +68,9 @@ def _pruned_pid(scenario: str, **kw) -> TuneSettings:
 
 
 def _rows(path) -> list[dict]:
+    """The rows of trials.csv / pareto.csv (the ``#`` lines above the header say what the columns mean)."""
     with open(path, newline="", encoding="utf-8") as f:
-        return list(csv.DictReader(f))
+        return list(csv.DictReader(line for line in f if not line.startswith("#")))
 
 
 def _journal(folder):

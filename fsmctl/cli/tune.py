@@ -1,8 +1,9 @@
 """``fsmctl tune``: search a law's declared parameters for designs that work under the scenario's actuator limits.
 
 The library is :mod:`fsmctl.studies.tune` (:func:`~fsmctl.studies.tune.tune`); this module only reads the options,
-prints the outcome and names the files written to ``DIR`` (``study.log``, ``trials.csv``, ``pareto.csv``,
-``pareto.png``, ``best.toml``, ``tune.json``).  ``--workers`` and ``--dask`` choose where a batch's candidates are
+states first what it searches and why (:func:`~fsmctl.studies.tune.search_space_lines`, on stderr), prints the
+outcome and counts the files written to ``DIR`` (``TuneResult.paths``: ``study.log``, ``trials.csv``,
+``pareto.csv``, ``pareto.png``, ``best.toml`` when a design is feasible, ``tune.json``).  ``--workers`` and ``--dask`` choose where a batch's candidates are
 flown (the results do not depend on them); ``--batch``, ``--pruner`` and ``--constraints`` are part of the study.
 
 Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the search finished and the files were written
@@ -40,7 +41,7 @@ EXIT_CODES = {
 
 EPILOG_TEXT = f"""objectives (all minimised; --objectives a,b,...; aggregated over the ensemble by --quantile):
 
-- aaem_settling, raem_settling (s): settling time of AAEM (eq 42) / RAEM (eq 43) to --tolerance-deg; a run that never settles within the horizon T scores T * (2 + min(1, decades of its steady error above the tolerance))
+- aaem_settling, raem_settling (s): settling time of AAEM (eq 42) / RAEM (eq 43) to --tolerance-deg; a run that never settles within the horizon T scores T * (2 + min(1, decades of its steady error above the tolerance)), i.e. 2 T to 3 T: trials.csv leaves its settling time empty and gives the score in NAME_score, the summary says "not settled".
 - aaem_steady, raem_steady (deg): max over the steady window (last {100 * STEADY_WINDOW_FRACTION:g} % of T, at most {STEADY_WINDOW_MAX_S:g} s)
 - peak_torque, rms_torque (N m)
 - chattering (N m/s): total variation of u per second
@@ -54,8 +55,8 @@ constraints (--constraints a,b,...; default: every one that applies; a trial is 
 - torque (N m): scenarios with a torque limit: the largest commanded (unsaturated) torque component after the transient (from the later AAEM/RAEM settling time; the steady window if unsettled) minus the limit: saturating during the transient is allowed, needing more than the limit once converged is not
 - wheels (1): scenarios with reaction wheels and a max_speed: peak wheel momentum / (J_s max_speed) - 0.99
 
-search space: every tunable numeric parameter of the law (fsmctl laws lists them; --parameters chooses) within its
-declared range, and for the fsm law the coupling weights as two factors k_i_scale (on every k^i_ij) and k_j_scale
+search space (stated first, on stderr: each parameter, its range and where the range comes from): every tunable
+numeric parameter of the law (fsmctl laws lists them; --parameters chooses) within its declared range, and for the fsm law the coupling weights as two factors k_i_scale (on every k^i_ij) and k_j_scale
 (on every k^j_ij(t) value), default range 0.1..10; a side the law leaves unbounded needs --range NAME=LOW,HIGH.
 Ranges with LOW > 0 and HIGH/LOW >= 100 are searched log-uniformly; a vector parameter (delta) is one value for every
 axis and agent.  best.toml holds the scaled [topology] weights.
@@ -119,7 +120,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         help="search a law's parameters for designs that converge under the actuator limits (Optuna)",
         description="Search the law's declared tunable parameters within their ranges (Optuna: TPE for one "
         "objective, NSGA-II for several), scoring each candidate on the scenario or a seeded ensemble; write "
-        "DIR/trials.csv, pareto.csv, pareto.png, best.toml (a scenario file for fsmctl simulate) and tune.json.",
+        "DIR/study.log (the journal), trials.csv, pareto.csv, pareto.png, best.toml (a scenario file for fsmctl "
+        "simulate; when a design is feasible) and tune.json.",
         epilog=epilog(EXIT_CODES, text=EPILOG_TEXT),
     )
     add_scenario_option(p)
@@ -250,5 +252,5 @@ def run(args: argparse.Namespace) -> int:
         print(f"fsmctl tune: {exc}", file=sys.stderr, flush=True)
         return exc.exit_code
     print(result.to_text())
-    print(f"wrote {len(result.paths)} files to {args.out}", file=sys.stderr)
+    print(f"wrote {len(result.paths)} files to {args.out}", file=sys.stderr)  # every file written, study.log included
     return 0

@@ -26,7 +26,10 @@ name                unit     meaning (per run; :func:`fsmctl.studies.compare.run
 **Never settles**: a run whose metric does not settle within the horizon ``T`` scores
 ``T * (2 + min(1, max(0, log10(steady_max / tolerance_deg))))``: at least twice the horizon (so it is never mistaken
 for a settled run), growing by up to one more horizon with how many decades the steady error stays above the
-tolerance (so the sampler can still tell a near miss from a divergence).
+tolerance (so the sampler can still tell a near miss from a divergence).  That score is never shown as a settling
+time: ``trials.csv`` leaves the settling column empty and gives the score in ``<objective>_score``, its ``#`` lines
+state the rule, and the summary prints "not settled within T s (scored ... = ... x horizon)"
+(:meth:`TuneResult.objective_text`).
 
 Constraints (:data:`CONSTRAINTS`, ``TuneSettings.constraints``; Optuna's ``Trial.set_constraint``: a trial is
 feasible when every value is ``<= 0``; default: every constraint that can be evaluated for the law and scenario):
@@ -151,6 +154,7 @@ from fsmctl.studies.tune.settings import (
     available_constraints,
     progress_score,
     search_space,
+    search_space_lines,
     unsettled_score,
 )
 from fsmctl.studies.tune.storage import LOCK_WAIT_S, STALE_LOCK_S, intermediate_values
@@ -176,6 +180,7 @@ __all__ = [
     "progress_score",
     "scaled_topology",
     "search_space",
+    "search_space_lines",
     "theorem1_constraint",
     "torque_excess",
     "tune",

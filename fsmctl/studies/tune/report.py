@@ -12,7 +12,14 @@ from typing import Any
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.studies.tune.evaluation import coupling_scales
-from fsmctl.studies.tune.settings import CONSTRAINTS, OBJECTIVES, SearchParameter, TuneSettings
+from fsmctl.studies.tune.settings import (
+    CONSTRAINTS,
+    OBJECTIVES,
+    STUDY_FILE,
+    SearchParameter,
+    TuneSettings,
+    search_space_lines,
+)
 
 # ----------------------------------------------------------------------------- result
 
@@ -38,6 +45,9 @@ class TuneResult:
         Index of the feasible trial with the smallest first objective (None: no feasible trial).
     theorem1 : bool or None
         Whether Theorem 1 holds for the scenario's own weights (None: not a condition of the law).
+    horizon_s : float
+        The horizon ``T`` the candidates were flown over (s): a settling objective above it is the
+        never-settles score (:func:`~fsmctl.studies.tune.unsettled_score`, at least ``2 T``), not a settling time.
     notes : list of str, optional
         What the user must know (one line each).
     paths : list of pathlib.Path, optional
@@ -53,6 +63,8 @@ class TuneResult:
     (['complete', 'complete'], None)
     >>> print(result.to_text().splitlines()[-1])
     no feasible design found (widen the ranges, raise the budget or the horizon)
+    >>> sorted(p.name for p in result.paths)  # no feasible design: no best.toml
+    ['pareto.csv', 'pareto.png', 'study.log', 'trials.csv', 'tune.json']
     """
 
     settings: TuneSettings
@@ -62,6 +74,7 @@ class TuneResult:
     pareto: list[int]
     best: int | None
     theorem1: bool | None
+    horizon_s: float
     notes: list[str] = field(default_factory=list)
     paths: list[Path] = field(default_factory=list)
 
@@ -77,20 +90,105 @@ class TuneResult:
         n_feasible = sum(t["feasible"] for t in self.trials)
         n_pruned = sum(t["state"] == "pruned" for t in self.trials)
         n_failed = sum(t["state"] == "failed" for t in self.trials)
-        lines = [
+        head = (
             f"tune: law {s.law} on {s.scenario}" + (f" case {s.case}" if s.case else "") + f", {len(self.trials)} "
-            f"trials ({n_pruned} pruned, {n_failed} failed), {n_feasible} feasible, {len(self.pareto)} on the "
-            "Pareto front"
-        ]
-        lines.append("constraints: " + ", ".join(self.constraints))
+            f"trials ({n_pruned} pruned, {n_failed} failed), {n_feasible} feasible"
+        )
+        if len(s.objectives) > 1 and self.pareto:
+            head += ", " + _front_words(len(self.pareto))
+        lines = [head, search_space_lines(s, self.space)[0], "constraints: " + ", ".join(self.constraints)]
+        lines += self._unsettled_lines()
         if self.best is None:
             lines.append("no feasible design found (widen the ranges, raise the budget or the horizon)")
         else:
             t = self.trials[self.best]
             params = ", ".join(f"{p.name}={t['params'][p.name]:.6g} {p.unit}" for p in self.space)
-            objs = ", ".join(f"{k}={v:.6g} {OBJECTIVES[k].unit}" for k, v in t["objectives"].items())
+            objs = ", ".join(f"{k}={self.objective_text(k, v)}" for k, v in t["objectives"].items())
             lines.append(f"best: trial {self.best}: {params}; {objs}")
         return "\n".join(lines + [f"note: {n}" for n in self.notes])
+
+    def settled(self, objective: str, value: float) -> bool | None:
+        """Whether a settling objective's value is a settling time (True) or the never-settles score (False).
+
+        Parameters
+        ----------
+        objective : str
+            A name of :data:`~fsmctl.studies.tune.OBJECTIVES`.
+        value : float
+            Its value for a complete trial (aggregated over the ensemble).
+
+        Returns
+        -------
+        bool or None
+            ``value <= horizon_s`` for a settling objective (a settling time is within the horizon, the score of
+            a run that never settles is at least twice it); None for the other objectives.
+        """
+        if OBJECTIVES[objective].metric is not None:
+            return None
+        return bool(value <= self.horizon_s)
+
+    def objective_text(self, objective: str, value: float) -> str:
+        """One objective's value with its unit, and for a run that did not settle what it was scored.
+
+        Parameters
+        ----------
+        objective : str
+            A name of :data:`~fsmctl.studies.tune.OBJECTIVES`.
+        value : float
+            Its value for a complete trial.
+
+        Returns
+        -------
+        str
+            ``"72.6 s"``, or ``"not settled within 100 s (scored 263 s = 2.63 x horizon)"``.
+        """
+        if self.settled(objective, value) is False:
+            return (
+                f"not settled within {self.horizon_s:g} s (scored {value:.6g} s = {value / self.horizon_s:.3g} x "
+                "horizon)"
+            )
+        return f"{value:.6g} {OBJECTIVES[objective].unit}"
+
+    def _unsettled_lines(self) -> list[str]:
+        """How many complete trials did not settle, and how such a trial is scored (one line per objective)."""
+        done = [t for t in self.trials if t["state"] == "complete"]
+        lines = []
+        for name in self.settings.objectives:
+            n = sum(self.settled(name, t["objectives"][name]) is False for t in done)
+            if n:
+                rule = UNSETTLED_RULE.format(
+                    T=self.horizon_s, low=2 * self.horizon_s, high=3 * self.horizon_s, name=name
+                )
+                lines.append(f"{name}: {n} of {len(done)} complete trials {rule}")
+        return lines
+
+    def figure(self):
+        """The figure of ``pareto.png``: every complete trial, the feasible ones, the non-dominated ones, the choice.
+
+        One objective: the objective against the trial number (integer ticks); several: the first two objectives
+        against each other, with the Pareto front drawn as a staircase when it has two or more trials (one
+        non-dominated trial is a marker).  A settling objective's axis marks the horizon: a point beyond it did not
+        settle and shows its score.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            A figure not attached to pyplot.
+        """
+        return _figure(self)
+
+
+UNSETTLED_RULE = (
+    "not settled within the horizon T = {T:g} s: scored T * (2 + d), d = min(1, decades of the steady error above the "
+    "tolerance), i.e. {low:g} to {high:g} s; trials.csv leaves the settling time empty and gives the score in "
+    "{name}_score"
+)
+"""How a settling objective scores a run that never settles (:func:`~fsmctl.studies.tune.unsettled_score`), as the
+summary and ``trials.csv`` state it."""
+
+
+def _front_words(n: int) -> str:
+    return "one non-dominated trial" if n == 1 else f"{n} non-dominated trials (the Pareto front)"
 
 
 def pareto_front(trials: Sequence[dict], objectives: Sequence[str]) -> list[int]:
@@ -109,10 +207,19 @@ def pareto_front(trials: Sequence[dict], objectives: Sequence[str]) -> list[int]
 # ----------------------------------------------------------------------------- outputs
 
 
+def _objective_columns(result: TuneResult, name: str) -> list[str]:
+    """A settling objective has two columns (its settling time, empty when unsettled, and the value minimised)."""
+    unit = OBJECTIVES[name].unit
+    return (
+        [f"{name} [{unit}]"] if OBJECTIVES[name].metric is not None else [f"{name} [{unit}]", f"{name}_score [{unit}]"]
+    )
+
+
 def _columns(result: TuneResult) -> list[str]:
     cols = ["trial", "state", "feasible"]
     cols += [p.column for p in result.space]
-    cols += [f"{k} [{OBJECTIVES[k].unit}]" for k in result.settings.objectives]
+    for k in result.settings.objectives:
+        cols += _objective_columns(result, k)
     cols += [f"constraint_{c} [{CONSTRAINTS[c][0]}]" for c in result.constraints]
     return [*cols, "pruned_at [s]", "error"]
 
@@ -120,16 +227,49 @@ def _columns(result: TuneResult) -> list[str]:
 def _row(result: TuneResult, t: dict) -> list:
     row: list[Any] = [t["index"], t["state"], int(t["feasible"])]
     row += [t["params"].get(p.name, "") for p in result.space]
-    row += [t["objectives"].get(k, "") for k in result.settings.objectives]
+    for k in result.settings.objectives:
+        value = t["objectives"].get(k, "")
+        settled = None if value == "" else result.settled(k, value)
+        if OBJECTIVES[k].metric is None:
+            row.append(value if settled else "")  # a settling time, or empty: never the penalty
+        row.append(value)
     row += [t["constraints"].get(c, "") for c in result.constraints]
     return [*row, "" if t["pruned_at"] is None else t["pruned_at"], t["error"]]
+
+
+def _csv_comments(result: TuneResult) -> list[str]:
+    """What the columns of ``trials.csv`` / ``pareto.csv`` mean: the ``#`` lines above the header."""
+    s, T = result.settings, result.horizon_s
+    what = f"law {s.law} on {s.scenario}" + (f" case {s.case}" if s.case else "")
+    aggregate = "" if s.ensemble == 1 else f"; values over {s.ensemble} members aggregated by quantile {s.quantile:g}"
+    lines = [f"horizon T = {T:g} s, settling tolerance {s.tolerance_deg:g} deg{aggregate}"]
+    for k in s.objectives:
+        o = OBJECTIVES[k]
+        if o.metric is None:
+            lines.append(f"{k} [{o.unit}]: {o.description}; empty when it did not settle within T")
+            lines.append(
+                f"{k}_score [{o.unit}]: the value minimised: the settling time, or for a run that did not settle "
+                f"T * (2 + d), d = min(1, decades of the steady error above the tolerance): {2 * T:g} to {3 * T:g} s"
+            )
+        else:
+            lines.append(f"{k} [{o.unit}]: {o.description} (minimised)")
+    for c in result.constraints:
+        lines.append(f"constraint_{c} [{CONSTRAINTS[c][0]}]: {CONSTRAINTS[c][1]}")
+    lines.append("feasible: 1 when the trial is complete and every constraint is <= 0")
+    lines.append("state: complete, pruned (stopped at pruned_at [s] by the pruner) or failed (see error)")
+    first = (
+        f"fsmctl tune: trials of {what}; {len(lines) + 1} comment lines, then the header; read with "
+        'pandas.read_csv(path, comment="#")'
+    )
+    return [f"# {line}" for line in (first, *lines)]
 
 
 def _write_csv(path: Path, result: TuneResult, indices: Sequence[int]) -> None:
     from fsmctl.outputs import atomic_path
 
     with atomic_path(path) as tmp, open(tmp, "w", newline="", encoding="utf-8") as f:
-        w = csv.writer(f)
+        f.write("\n".join(_csv_comments(result)) + "\n")
+        w = csv.writer(f, lineterminator="\n")
         w.writerow(_columns(result))
         for i in indices:
             w.writerow(_row(result, result.trials[i]))
@@ -137,6 +277,7 @@ def _write_csv(path: Path, result: TuneResult, indices: Sequence[int]) -> None:
 
 def _figure(result: TuneResult):
     from matplotlib.figure import Figure
+    from matplotlib.ticker import MaxNLocator
 
     objs = result.settings.objectives
     fig = Figure(figsize=(6.4, 4.8), layout="constrained")
@@ -155,19 +296,39 @@ def _figure(result: TuneResult):
         pts = [xy(t) for t in done if t["feasible"] == feasible]
         if pts:
             ax.scatter(*zip(*pts, strict=True), s=18, **style)
-    front = sorted(xy(result.trials[i]) for i in result.pareto)
-    if front:
-        ax.plot(
-            *zip(*front, strict=True), color="C3", marker="o", drawstyle="steps-post", label="Pareto front (feasible)"
-        )
+    if len(objs) > 1:  # one objective has no front to draw: the chosen design is its best trial
+        front = sorted(xy(result.trials[i]) for i in result.pareto)
+        if len(front) > 1:
+            ax.plot(
+                *zip(*front, strict=True),
+                color="C3",
+                marker="o",
+                drawstyle="steps-post",
+                label=f"Pareto front ({len(front)} non-dominated feasible trials)",
+            )
+        elif front:
+            ax.scatter(*front[0], s=40, color="C3", zorder=3, label="the one non-dominated feasible trial")
     if result.best is not None:
         ax.scatter(*xy(result.trials[result.best]), s=120, facecolor="none", edgecolor="k", label="chosen design")
     if len(objs) == 1:
         ax.set_xlabel("trial")
-        ax.set_ylabel(f"{objs[0]} [{OBJECTIVES[objs[0]].unit}]")
+        ax.xaxis.set_major_locator(MaxNLocator(integer=True))
+        axes = {"y": objs[0]}
     else:
-        ax.set_xlabel(f"{objs[0]} [{OBJECTIVES[objs[0]].unit}]")
-        ax.set_ylabel(f"{objs[1]} [{OBJECTIVES[objs[1]].unit}]")
+        axes = {"x": objs[0], "y": objs[1]}
+    for side, name in axes.items():
+        label = f"{name} [{OBJECTIVES[name].unit}]"
+        if any(result.settled(name, t["objectives"][name]) is False for t in done):
+            label += " (beyond the horizon: not settled, penalty score)"
+            mark = ax.axhline if side == "y" else ax.axvline
+            mark(
+                result.horizon_s,
+                color="0.3",
+                linestyle=":",
+                linewidth=1,
+                label=f"horizon {result.horizon_s:g} s: beyond it not settled (scored 2-3 x horizon)",
+            )
+        (ax.set_ylabel if side == "y" else ax.set_xlabel)(label)
     s = result.settings
     n_pruned = sum(t["state"] == "pruned" for t in result.trials)
     ax.set_title(
@@ -320,11 +481,11 @@ def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scena
     from fsmctl.outputs import atomic_path, write_json, write_text
     from fsmctl.simulation.results_io import versions
 
-    paths = [out / "trials.csv", out / "pareto.csv", out / "pareto.png"]
-    _write_csv(paths[0], result, range(len(result.trials)))
-    _write_csv(paths[1], result, result.pareto)
-    fig = _figure(result)
-    with atomic_path(paths[2]) as tmp:
+    paths = [out / STUDY_FILE, out / "trials.csv", out / "pareto.csv", out / "pareto.png"]  # every file written
+    _write_csv(paths[1], result, range(len(result.trials)))
+    _write_csv(paths[2], result, result.pareto)
+    fig = result.figure()
+    with atomic_path(paths[3]) as tmp:
         fig.savefig(tmp, format="png", dpi=120)
     best: dict[str, Any] | None = None
     if result.best is not None:
@@ -363,6 +524,11 @@ def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scena
         "failed": sum(t["state"] == "failed" for t in result.trials),
         "feasible": sum(t["feasible"] for t in result.trials),
         "pareto": result.pareto,
+        "not_settled": {
+            k: UNSETTLED_RULE.format(T=result.horizon_s, low=2 * result.horizon_s, high=3 * result.horizon_s, name=k)
+            for k in result.settings.objectives
+            if OBJECTIVES[k].metric is None
+        },
         "best": best,
         "notes": result.notes,
     }

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import logging
 import os
 import shlex
 import sys
@@ -38,6 +39,7 @@ from fsmctl.studies.tune.settings import (
     TuneSettings,
     available_constraints,
     search_space,
+    search_space_lines,
 )
 from fsmctl.studies.tune.storage import (
     BufferedJournal,
@@ -49,6 +51,8 @@ from fsmctl.studies.tune.storage import (
     trial_sampler,
     trial_seed,
 )
+
+_log = logging.getLogger(__name__)
 
 
 def tune(
@@ -123,8 +127,8 @@ def tune(
     >>> result = tune(settings, "tuned", progress=False)
     >>> len(result.trials), result.best in result.pareto
     (4, True)
-    >>> sorted(p.name for p in result.paths)
-    ['best.toml', 'pareto.csv', 'pareto.png', 'trials.csv', 'tune.json']
+    >>> sorted(p.name for p in result.paths)  # every file written
+    ['best.toml', 'pareto.csv', 'pareto.png', 'study.log', 'trials.csv', 'tune.json']
     """
     import optuna  # noqa: F401  (loaded first: study.log follows the folder at once, as a reader polling it expects)
 
@@ -305,6 +309,8 @@ class _Batches:
         s = self.plan.settings
         with _quiet_optuna():
             journal, storage, study = _open_study(self.out, resume, self.plan)
+            for line in search_space_lines(s, self.plan.space):  # once the study is open: what is searched, and why
+                _log.info("tune: %s", line)
             self.told = sum(counted_trial(t) for t in study.get_trials(deepcopy=False))
             pending = pending_trials(study, storage, self.plan.space, self.told, s.batch, s.budget)
             show = sys.stderr.isatty() if progress is None else progress
@@ -349,7 +355,8 @@ def _result(plan: _Plan, trials: Sequence) -> TuneResult:
     pareto = pareto_front(rows, s.objectives)
     feasible = [r for r in rows if r["feasible"]]
     best = min(feasible, key=lambda r: (r["objectives"][s.objectives[0]], r["index"]))["index"] if feasible else None
-    return TuneResult(s, plan.space, plan.constraints, rows, pareto, best, plan.theorem1, plan.notes)
+    horizon = float(plan.base.simulation.t_final)
+    return TuneResult(s, plan.space, plan.constraints, rows, pareto, best, plan.theorem1, horizon, plan.notes)
 
 
 def declares_paper_theorems(law: str) -> bool:

@@ -478,6 +478,67 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
     return out
 
 
+def _range_words(p: SearchParameter, settings: TuneSettings) -> str:
+    """Where a searched parameter's range comes from."""
+    if p.name in {item[0] for item in settings.ranges}:
+        return "range given"
+    return "default range of the coupling factors" if p.coupling else "the law's declared range"
+
+
+def search_space_lines(settings: TuneSettings, space: list[SearchParameter]) -> list[str]:
+    """What a study searches and why, as ``fsmctl tune`` states it first: one summary line, then one per parameter.
+
+    The summary names every searched parameter and why it is searched: named in ``settings.parameters``, or (when
+    none are named) the law's tunable parameters and, for the paper's law on a scenario with coupling weights, the
+    coupling factors (:func:`search_space`).  Each parameter's line gives its range, where that range comes from
+    (given, the law's declared one, the coupling factors' default) and how it is sampled.
+
+    Parameters
+    ----------
+    settings : TuneSettings
+        The study's settings.
+    space : list of SearchParameter
+        Its search space (:func:`search_space` of ``settings``).
+
+    Returns
+    -------
+    list of str
+        The summary line, then one indented line per parameter.
+
+    Examples
+    --------
+    >>> from fsmctl.studies import TuneSettings, search_space
+    >>> from fsmctl.studies.tune import search_space_lines
+    >>> s = TuneSettings(parameters=("c1", "alpha"), ranges={"c1": (0.01, 2.0)})
+    >>> print("\\n".join(search_space_lines(s, search_space(s))))
+    searching 2 parameters: c1, alpha (named by --parameters)
+      c1: 0.01 .. 2 1/s, log-uniform (range given)
+      alpha: 0.5 .. 1 1, uniform (the law's declared range)
+    """
+    n = len(space)
+    names = [p.name for p in space]
+    if settings.parameters:
+        head = f"searching {n} parameter{'s' * (n != 1)}: {', '.join(names)} (named by --parameters)"
+    else:
+        law = [p.name for p in space if not p.coupling]
+        coupling = [p.name for p in space if p.coupling]
+        head = f"searching {n} parameter{'s' * (n != 1)}: {', '.join(law)} (every tunable parameter {settings.law} declares)"
+        if coupling:
+            head += (
+                f", {', '.join(coupling)} (factors on the coupling weights: {settings.law} declares it is the paper's "
+                "law and the scenario has coupling weights)"
+            )
+        head += "; --parameters not given: name the ones to search with --parameters"
+    lines = [head]
+    for p in space:
+        sampled = "log-uniform" if p.log else "uniform"
+        alike = f", one value for all {p.size} components" if p.size > 1 else ""
+        lines.append(
+            f"  {p.name}: {p.low:.6g} .. {p.high:.6g} {p.unit}, {sampled}{alike} ({_range_words(p, settings)})"
+        )
+    return lines
+
+
 def available_constraints(law: str, base: Scenario) -> dict[str, str]:
     """Every constraint of :data:`CONSTRAINTS` with why it cannot be evaluated for ``law`` on ``base`` ("" = it can).
 

@@ -1,0 +1,153 @@
+"""What ``fsmctl tune`` tells its reader (issue 27): the files it counts, what it searches and why, how a run that
+never settles is scored, and the figure (no one-point "front", integer trial ticks).  The search itself is in
+``tests/test_tune.py``; here one short study (1 s horizons, where nothing settles) and figures of hand-made
+results."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import math
+
+import pytest
+from matplotlib.ticker import MaxNLocator
+
+from fsmctl.cli.main import main
+from fsmctl.studies import TuneSettings, search_space
+from fsmctl.studies.tune import SearchParameter, TuneResult, search_space_lines, unsettled_score
+
+pd = pytest.importorskip("pandas")
+
+HORIZON = 1.0
+"""1 s: no design of the paper's Case 1 settles to the tolerance, so every settling objective is a penalty score"""
+
+
+@pytest.fixture(scope="module")
+def short_study(tmp_path_factory):
+    """``fsmctl tune`` on 1 s of Case 1: two objectives, c1 only, Theorem 1 as the only constraint (feasible)."""
+    out = tmp_path_factory.mktemp("tune") / "study"
+    argv = ["tune", "--law", "fsm", "--case", "1", "--t-final", str(HORIZON), "--budget", "3", "--batch", "3"]
+    argv += ["--objectives", "aaem_settling,peak_torque", "--parameters", "c1", "--range", "c1=0.1,2"]
+    argv += ["--constraints", "theorem1", "--workers", "1", "--no-progress", "--out", str(out)]
+    stdout, stderr = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(stdout), contextlib.redirect_stderr(stderr):
+        code = main(argv)
+    return code, out, stdout.getvalue(), stderr.getvalue()
+
+
+def test_the_count_of_files_written_is_the_files_in_the_folder(short_study):
+    code, out, _, err = short_study
+    files = sorted(p.name for p in out.iterdir())
+    assert code == 0 and "study.log" in files and "best.toml" in files, files
+    assert f"wrote {len(files)} files to {out}" in err, err
+
+
+def test_what_is_searched_is_stated_first(short_study):
+    _, _, stdout, err = short_study
+    lines = err.splitlines()
+    assert lines[0] == "fsmctl: tune: searching 1 parameter: c1 (named by --parameters)", lines[:2]
+    assert lines[1] == "fsmctl: tune: c1: 0.1 .. 2 1/s, uniform (range given)", lines[:2]
+    assert "searching 1 parameter: c1 (named by --parameters)" in stdout.splitlines()[1]
+
+
+def test_the_default_search_space_says_which_parameters_were_not_asked_for():
+    """The README's paper-law command names five ranges and no --parameters: alpha and the coupling factors are
+    searched too, and the statement says so, with where each range comes from."""
+    ranges = {
+        "c1": (0.01, 2),
+        "c2": (0.01, 2),
+        "delta": (5e-4, 0.05),
+        "boundary_layer": (5e-4, 1),
+        "epsilon": (1e-5, 1e-3),
+    }
+    settings = TuneSettings(law="fsm", ranges=ranges)
+    space = search_space(settings)
+    head, *rows = search_space_lines(settings, space)
+    assert head.startswith(f"searching {len(space)} parameters: c1, c2, alpha, boundary_layer, epsilon, delta ")
+    assert "every tunable parameter fsm declares" in head and "--parameters not given" in head
+    assert "k_i_scale, k_j_scale (factors on the coupling weights" in head
+    assert [row.split(":")[0].strip() for row in rows] == [p.name for p in space]
+    by_name = {row.split(":")[0].strip(): row for row in rows}
+    assert by_name["alpha"].endswith("(the law's declared range)") and "uniform" in by_name["alpha"]
+    assert by_name["k_i_scale"].endswith("(default range of the coupling factors)")
+    assert by_name["c1"].endswith("(range given)") and "0.01 .. 2 1/s" in by_name["c1"]
+    assert "one value for all 3 components" in by_name["delta"]
+
+
+def test_a_run_that_never_settles_has_no_settling_time_and_its_score_is_explained(short_study):
+    _, out, stdout, _ = short_study
+    table = pd.read_csv(out / "trials.csv", comment="#")
+    assert len(table) == 3 and table["trial"].tolist() == [0, 1, 2]
+    assert table["aaem_settling [s]"].isna().all()  # 1 s is too short: no settling time, never a fake one
+    scores = table["aaem_settling_score [s]"]
+    assert ((scores >= 2 * HORIZON) & (scores <= 3 * HORIZON)).all(), scores.tolist()
+    assert (table["peak_torque [N m]"] > 0).all()
+    comments = [line for line in (out / "trials.csv").read_text().splitlines() if line.startswith("#")]
+    assert f"{len(comments)} comment lines" in comments[0]
+    assert any(line.startswith("# aaem_settling_score [s]: the value minimised") for line in comments)
+    assert any("2 to 3 s" in line for line in comments)
+    assert pd.read_csv(out / "pareto.csv", comment="#").columns.tolist() == table.columns.tolist()
+    assert "aaem_settling: 3 of 3 complete trials not settled within the horizon T = 1 s" in stdout
+    best = next(line for line in stdout.splitlines() if line.startswith("best: "))
+    assert "aaem_settling=not settled within 1 s (scored " in best and " x horizon)" in best, best
+
+
+# ----------------------------------------------------------------------------- the figure, on hand-made results
+
+
+def _result(objectives: tuple[str, ...], values: list[tuple[float, ...]], pareto: list[int]) -> TuneResult:
+    settings = TuneSettings(law="pid", objectives=objectives, parameters=("K",), ranges={"K": (1.0, 2.0)})
+    space = [SearchParameter("K", "N m", 1.0, 2.0, False, 1)]
+    trials = [
+        {
+            "index": i,
+            "state": "complete",
+            "feasible": True,
+            "params": {"K": 1.5},
+            "objectives": dict(zip(objectives, v, strict=True)),
+            "constraints": {},
+            "pruned_at": None,
+            "error": "",
+        }
+        for i, v in enumerate(values)
+    ]
+    best = min(pareto, key=lambda i: values[i][0])
+    return TuneResult(settings, space, (), trials, pareto, best, None, 10.0)
+
+
+def _front_lines(ax) -> list:
+    return [line for line in ax.get_lines() if "Pareto" in line.get_label()]
+
+
+def test_one_objective_has_integer_trial_ticks_and_no_front():
+    result = _result(("peak_torque",), [(3.0,), (2.0,), (2.5,)], [1])
+    ax = result.figure().axes[0]
+    assert ax.get_xlabel() == "trial" and isinstance(ax.xaxis.get_major_locator(), MaxNLocator)
+    ticks = [t for t in ax.get_xticks() if ax.get_xlim()[0] <= t <= ax.get_xlim()[1]]
+    assert len(ticks) >= 2 and all(float(t).is_integer() for t in ticks), ticks
+    assert _front_lines(ax) == []
+    assert "non-dominated" not in result.to_text() and "Pareto" not in result.to_text()
+
+
+def test_a_front_of_one_trial_is_a_point_not_a_line():
+    result = _result(("peak_torque", "rms_torque"), [(1.0, 1.0), (2.0, 2.0), (3.0, 1.5)], [0])
+    ax = result.figure().axes[0]
+    assert _front_lines(ax) == []
+    labels = ax.get_legend_handles_labels()[1]
+    assert "the one non-dominated feasible trial" in labels, labels
+    assert "one non-dominated trial" in result.to_text().splitlines()[0]
+    two = _result(("peak_torque", "rms_torque"), [(1.0, 2.0), (2.0, 1.0), (3.0, 3.0)], [0, 1])
+    (front,) = _front_lines(two.figure().axes[0])
+    assert len(front.get_xdata()) == 2 and "2 non-dominated trials (the Pareto front)" in two.to_text()
+
+
+def test_the_horizon_is_marked_where_a_settling_objective_is_a_penalty():
+    unsettled = unsettled_score(10.0, 1.0, 0.1)  # a decade above the tolerance: 3 T
+    result = _result(("aaem_settling",), [(4.0,), (unsettled,), (6.0,)], [0])
+    ax = result.figure().axes[0]
+    marks = [line for line in ax.get_lines() if line.get_label().startswith("horizon 10 s")]
+    assert len(marks) == 1 and list(marks[0].get_ydata()) == [10.0, 10.0]
+    assert "not settled" in ax.get_ylabel()
+    assert result.settled("aaem_settling", 4.0) and not result.settled("aaem_settling", unsettled)
+    assert result.settled("peak_torque", 4.0) is None
+    assert math.isclose(unsettled, 30.0) and "scored 30 s = 3 x horizon" in result.objective_text("aaem_settling", 30.0)
