@@ -69,8 +69,12 @@ def test_every_subcommand_of_the_parser_gets_a_page_and_an_index_entry(parser):
     (sub,) = (a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
     extra = sub.add_parser("extra", help="an extra command", description="Does --extra-thing with DIR/<x>.toml.")
     extra.add_argument("--level", metavar="N", help="how much (default: 1)")
+    nested = extra.add_subparsers(dest="what", metavar="WHAT").add_parser("show", description="Shows --all of it.")
+    nested.add_argument("--depth", metavar="D", help="how deep")
     generated = pages(parser)
     assert set(generated) == {"index.md", *(f"{n}.md" for n in sub.choices)}
+    assert "## `fsmctl extra show`\n\nShows `--all` of it." in generated["extra.md"]
+    assert "- `--depth D`: how deep" in generated["extra.md"].split("## `fsmctl extra show`")[1]
     assert "- [`fsmctl extra`](extra.md): an extra command" in generated["index.md"]
     assert "Does `--extra-thing` with `DIR/<x>.toml`." in generated["extra.md"]
     assert "- `--level N`: how much (default: 1)" in generated["extra.md"]

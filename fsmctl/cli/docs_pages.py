@@ -245,11 +245,19 @@ def _epilog_parts(parser: argparse.ArgumentParser) -> tuple[str, list[str]]:
 
 
 def _exit_codes(lines: list[str]) -> list[str]:
+    if not lines:
+        return []
     out = ["## Exit codes", ""]
     for line in lines:
         code, _, meaning = line.partition(": ")
         out.append(f"- `{code}`: {markdown_text(meaning)}")
     return [*out, ""]
+
+
+def _nested(parser: argparse.ArgumentParser) -> dict[str, argparse.ArgumentParser]:
+    """A command's own subcommands (``fsmctl scenario show``), by name; empty for most commands."""
+    actions = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return dict(actions[0].choices) if actions else {}
 
 
 def _subcommands(parser: argparse.ArgumentParser) -> tuple[argparse._SubParsersAction, dict[str, str]]:
@@ -290,6 +298,10 @@ def command_page(name: str, parser: argparse.ArgumentParser, summary: str) -> st
         for block in _paragraphs(details):
             out += [block, ""]
     out += _exit_codes(codes)
+    for sub_name, sub in _nested(parser).items():  # a command with its own subcommands: one section each
+        out += [f"## `fsmctl {name} {sub_name}`", "", *_paragraphs(sub.description or ""), ""]
+        out += ["```text", _usage(sub), "```", ""]
+        out += [line.replace("## ", "### ", 1) if line.startswith("## ") else line for line in _options(sub)]
     out.append(
         f"This page is generated from the parser by `python -m fsmctl.cli.docs_pages`; `fsmctl {name} --help` "
         "prints the same."
