@@ -31,7 +31,7 @@ SPECS = {s.key: s for s in run_plan()}
 
 
 def _claims(*ids: str, verdict: str = DIFFERS) -> list[ClaimVerdict]:
-    return [ClaimVerdict(i, f"claim {i}", "", "", "", verdict, "", "") for i in ids]
+    return [ClaimVerdict(i, i, f"claim {i}", "", "", "", "", verdict, "", "") for i in ids]
 
 
 def _fly(scenario):
@@ -144,9 +144,12 @@ def test_no_setting_lists_the_ranges(tmp_path):
     assert e.status == er.NOT_EXPLAINED and e.evidence is None
     assert any(s.startswith("alpha 0.51-0.99") and "linear grid of 10 values" in s for s in e.searched)
     assert any(s.startswith("error kinematics: exact") for s in e.searched)
-    md = "\n".join(er.markdown_section(result, fast=True))
-    row = next(line for line in md.splitlines() if line.startswith("| **tracking_accuracy**"))
-    assert f"**{er.NOT_EXPLAINED}**" in row and "alpha 0.51-0.99" in row and "error kinematics: exact" in row
+    from fsmctl.studies.report_doc import plain
+
+    items = [plain(item) for item in er.evidence_items(e)]
+    assert items[0] == f"What would reproduce it: {er.NOT_EXPLAINED}"
+    assert "alpha 0.51-0.99" in items[1] and "error kinematics: exact" in items[1]
+    assert er.change_cell(e) == "none found"
     assert not (tmp_path / "explain").exists()  # no evidence, no file
 
 

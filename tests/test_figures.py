@@ -234,7 +234,10 @@ def test_report_lists_figures_in_the_paper_order(case1_run, tmp_path):
     bounds = [R.MomentumBound(i + 1, 2.0, 100.0, 100.0, 28.0, 30.0, 30.0, 0.01) for i in range(6)]
     rep = R.Reproduction(tmp_path, True, ["x"], records, bounds, R.evaluate_claims(records, bounds), [], files, 0.0)
     shown = [line for line in R.to_markdown(rep).splitlines() if line.startswith("![")]
-    stems = [line[2 : line.index("]")] for line in shown]
-    assert stems[:9] == paper  # Figs 1-9 first, in their order
+    stems = [line[line.index("](") + 2 : -1].removeprefix("figures/").removesuffix(".png") for line in shown]
+    assert sorted(stems) == sorted(paper + diagnostics)  # each figure shown once
+    cited = [s for s in paper if s[3:5] not in ("03", "07")]  # by the claims (Figs 1-2, 4, 5-6, 8-9), in order
+    assert stems[: len(cited)] == cited  # each with the first claim that cites it, in the claims' (the paper's) order
+    assert stems[len(cited) : 9] == ["fig03_theta_e_case1", "fig07_theta_e_case2"]  # then the others, in order
     assert sorted(stems[9:]) == sorted(diagnostics)  # then every diagnostic
     assert all(f"](figures/{stem}.png)" in line for stem, line in zip(stems, shown, strict=True))

@@ -218,7 +218,7 @@ def test_fast_reproduce_exit_code_and_files(fast_reproduction):
     rc, out = fast_reproduction
     assert rc == 0
     report = (out / "report.md").read_text()
-    for heading in ("## Claims", "## Angular-momentum bound", "## Runs", "## Settings and the choices"):
+    for heading in ("## Evidence per claim", "## Angular-momentum bound", "## Runs", "## Settings and the choices"):
         assert heading in report
     assert "choice alpha" in report and "Fast mode" in report
     for k in range(1, 10):
@@ -236,14 +236,21 @@ def test_fast_reproduce_exit_code_and_files(fast_reproduction):
         assert ds.attrs["version_fsmctl"] and "torque_limit = inf" in ds.attrs["scenario_toml"]
 
 
-def test_report_shows_the_figures_in_the_paper_order(fast_reproduction):
+def test_report_shows_each_figure_with_the_claim_that_cites_it(fast_reproduction):
     _, out = fast_reproduction
     report = (out / "report.md").read_text()
-    shown = [line[2 : line.index("]")] for line in report.splitlines() if line.startswith("![")]
-    paper = [stem for stem in shown if stem.startswith("fig")]
-    assert [int(stem[3:5]) for stem in paper] == list(range(1, 10))  # one of each of Figs 1-9, in order
-    assert shown[:9] == paper and len(shown) > 9  # the diagnostic figures after them
-    assert all((out / "figures" / f"{stem}.png").is_file() for stem in shown)
+    sections = report.split("\n### ")
+    shown = [line[line.index("](") + 2 : -1] for line in report.splitlines() if line.startswith("![")]
+    assert len(shown) == len(set(shown)) and all((out / f).is_file() for f in shown)  # each once, each written
+    paper = sorted(f for f in shown if f.startswith("figures/fig"))
+    assert [int(f[11:13]) for f in paper] == list(range(1, 10))  # one of each of Figs 1-9
+    settling = next(s for s in sections if s.startswith("settling_27s\n"))
+    assert "](figures/fig01_aaem_case1.png)" in settling and "](figures/fig02_raem_case1.png)" in settling
+    ordering = next(s for s in sections if s.startswith("case3_ordering\n"))
+    assert "](figures/fig08_aaem_case3.png)" in ordering and "](figures/fig09_raem_case3.png)" in ordering
+    theta = next(s for s in sections if s.startswith("fig3_axis\n"))  # cited by no claim: with its figure check
+    assert "](figures/fig03_theta_e_case1.png)" in theta
+    assert any(f.startswith("figures/diag_") for f in shown)  # the diagnostic figures at the end
 
 
 def test_claims_table_holds_every_claim_with_a_known_verdict(fast_reproduction):
@@ -270,7 +277,7 @@ def test_fast_reproduce_explains_the_claims_not_reproduced(fast_reproduction):
 
     _, out = fast_reproduction
     report = (out / "report.md").read_text()
-    assert "## What would reproduce each claim" in report and "### Figure-level evidence" in report
+    assert "## What would reproduce each claim" in report and "## Figure-level evidence" in report
     data = json.loads((out / "claims.json").read_text())
     explanations = {e["id"]: e for e in data["explanations"]}
     assert list(explanations) == CLAIM_IDS + [f.id for f in FIGURE_CHECKS]
@@ -280,8 +287,7 @@ def test_fast_reproduce_explains_the_claims_not_reproduced(fast_reproduction):
         assert e["verdict"] == verdicts[cid]
         assert e["status"] == (ALREADY_REPRODUCED if verdicts[cid] == REPRODUCED else e["status"])
         assert e["status"] in (EXPLAINED, NOT_EXPLAINED, ALREADY_REPRODUCED)
-        section = report.split("## What would reproduce each claim")[1]
-        row = next(line for line in section.splitlines() if line.startswith(f"| **{cid}**"))
+        row = report.split(f"\n### {cid}\n")[1].split("\n### ")[0]  # the claim's evidence
         if e["status"] == EXPLAINED:
             ev = e["evidence"]
             assert ev["rerun_identical"] and (out / ev["scenario_file"]).is_file()
@@ -404,6 +410,8 @@ def test_a_claim_is_one_registry_entry(monkeypatch):
         value=lambda g: f"{g['case1'].theta_e_peak_deg:g}°",
         numbers=lambda R, tol: f"{R['case1'].theta_e_peak_deg:g}°",
         grade=lambda g, ok: Outcome(REPRODUCED, "shadow set") if ok else Outcome(DIFFERS, "beyond 180°", "case1"),
+        title="Case 1 θ_ei in the shadow set",
+        short=lambda g: f"peak {g['case1'].theta_e_peak_deg:g}°",
     )
     monkeypatch.setattr(claims_module, "CLAIMS", (*claims_module.CLAIMS, extra))
     recs = {spec.key: _record(spec.key, settle=20.0, steady=0.01) for spec in run_plan()}

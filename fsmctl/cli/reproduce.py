@@ -95,5 +95,6 @@ def run(args: argparse.Namespace) -> int:
     print(format_claims(rep))
     print()
     explained = f"; explanations {rep.explain_wall_time_s:.1f} s" if rep.explanations is not None else ""
-    print(f"report: {rep.out_dir / 'report.md'} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s{explained})")
+    md, html = rep.out_dir / "report.md", rep.out_dir / "report.html"
+    print(f"report: {md} and {html} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s{explained})")
     return 0

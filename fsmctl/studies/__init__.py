@@ -40,7 +40,7 @@ _ATTRS = {
     "parallel": ["CampaignInterrupted"],
     "hardware": ["momentum_budget", "WheelBudget", "torque_demand", "TorqueDemand", "momentum_envelope"],
     "tune": ["TuneSettings", "TuneResult", "SearchParameter", "search_space", "available_constraints"],
-    "explain_report": ["Explanation", "Evidence", "markdown_section"],
+    "explain_report": ["Explanation", "Evidence"],
     "explain_settings": ["Setting"],
     "figures": [
         "MAX_AGENTS_DRAWN",
@@ -77,7 +77,7 @@ _ATTRS = {
     "claims": ["CLAIMS", "claim_ids", "get_claim", "evaluate_claims"],
     "figure_checks": ["FIGURE_CHECKS", "FigureCheck"],
     "reproduce": ["overlay_figures"],
-    "report": ["Reproduction", "write_outputs", "to_markdown", "format_claims"],
+    "report": ["Reproduction", "write_outputs", "to_markdown", "to_html", "format_claims"],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]

@@ -53,14 +53,18 @@ class ClaimVerdict:
     ----------
     id : str
         The claim's id (:func:`fsmctl.studies.claims.claim_ids`).
+    title : str
+        The claim in a few words (the report's summary table).
     claim : str
         What the paper states.
     figures : str
         The paper's figures that show it.
     paper_value : str
         The paper's number.
+    this_run_short : str
+        This reproduction's number in a few words (the report's summary table).
     this_run_value : str
-        This reproduction's number.
+        This reproduction's numbers in full.
     verdict : str
         ``"reproduced"``, ``"differs"`` or ``"impossible (bound)"``.
     reason : str
@@ -70,16 +74,20 @@ class ClaimVerdict:
 
     Examples
     --------
-    >>> c = ClaimVerdict("settling_27s", "settles in 27 s", "Figs 1-2", "27 s", "not settled", IMPOSSIBLE,
-    ...                  "the torque limit", "case1_no_torque_limit")
+    >>> c = ClaimVerdict("settling_27s", "Case 1 settling time", "settles in 27 s", "Figs 1-2", "27 s",
+    ...                  "not settled to 1° in 100 s", "not settled", IMPOSSIBLE, "the torque limit",
+    ...                  "case1_no_torque_limit")
     >>> c.verdict in VERDICTS
     True
     """
 
     id: str
+    title: str
     claim: str
     figures: str
     paper_value: str
+    this_run_short: str
+    """this run's number in a few words (the report's summary table)"""
     this_run_value: str
     verdict: str
     reason: str
@@ -179,11 +187,15 @@ class StudyClaim:
     holds : callable
         ``holds(records, tolerance_deg) -> bool``: the ``reproduced`` test.
     value : callable
-        ``value(grading) -> str``: this run's numbers in the claims table.
+        ``value(grading) -> str``: this run's numbers in full (the report's evidence).
     numbers : callable
         ``numbers(records, tolerance_deg) -> str``: the numbers an explanation shows (default and evidence run).
     grade : callable
         ``grade(grading, holds) -> Outcome``: the verdict rule, with the reason and the diagnostic runs.
+    title : str
+        The claim in a few words, for the report's summary table (``"Case 1 settling time"``).
+    short : callable
+        ``short(grading) -> str``: this run's number in a few words, for the summary table (tens of characters).
     uses_tolerance : bool
         What would reproduce it: whether the test reads a settling tolerance, so that the explanations also search
         the tolerance (a grading setting, no new runs).
@@ -216,6 +228,8 @@ class StudyClaim:
     value: Callable[[Grading], str]
     numbers: Callable[[Runs, float], str]
     grade: Callable[[Grading, bool], Outcome]
+    title: str
+    short: Callable[[Grading], str]
     uses_tolerance: bool = False
     stages: Callable[[Runs, float], list[str] | bool | None] | None = None
     later: tuple[str, str] | None = None
@@ -239,9 +253,11 @@ class StudyClaim:
         limit = grading["case1"].torque_limit
         return ClaimVerdict(
             self.id,
+            self.title,
             self.text.format(limit=limit),
             self.figures,
             self.paper_value,
+            self.short(grading),
             self.value(grading),
             outcome.verdict,
             outcome.reason,

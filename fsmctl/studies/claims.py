@@ -29,6 +29,7 @@ from fsmctl.studies.claim_types import (
 )
 from fsmctl.studies.momentum import MomentumBound
 from fsmctl.studies.records import RunRecord
+from fsmctl.studies.wording import duration_phrase, join_words
 
 __all__ = [
     "PAPER_TRACKING_ACCURACY_DEG",
@@ -72,6 +73,16 @@ def _d(x: float) -> str:
     return f"{x:.3g}°"
 
 
+def _short_s(x: float) -> str:
+    return f"{x:.1f} s" if math.isfinite(x) else "not settled"
+
+
+def _saturation_text(r: RunRecord) -> str:
+    """``"each agent saturated for the whole 100 s"``, ``"... for 12.0–26.7 s of 100 s"``, ``"never saturated"``."""
+    phrase = duration_phrase(r.saturated_time_s, r.t_final)
+    return "never saturated" if phrase == "never" else f"each agent saturated {phrase}"
+
+
 def _settling_text(r: RunRecord, metric: str) -> str:
     parts = [f"{tol:g}°: {_fmt_s(r.settling(metric, tol), r.t_final)}" for tol in SETTLING_TOLERANCES_DEG]
     return ", ".join(parts)
@@ -96,6 +107,14 @@ def _settling_holds(R: Runs, tol: float) -> bool:
 def _settling_value(g: Grading) -> str:
     c1 = g["case1"]
     return f"Case 1 AAEM settles at {_settling_text(c1, 'aaem')}; RAEM at {_settling_text(c1, 'raem')}"
+
+
+def _settling_short(g: Grading) -> str:
+    c1, tol = g["case1"], g.tolerance_deg
+    t_a, t_r = c1.settling("aaem", tol), c1.settling("raem", tol)
+    if not math.isfinite(t_a) and not math.isfinite(t_r):
+        return f"not settled to {tol:g}° in {c1.t_final:g} s"
+    return f"AAEM {_short_s(t_a)}, RAEM {_short_s(t_r)} (to {tol:g}°)"
 
 
 def _settling_numbers(R: Runs, tol: float) -> str:
@@ -145,6 +164,14 @@ def _accuracy_value(metric: str) -> Callable[[Grading], str]:
     return value
 
 
+def _accuracy_short(metric: str) -> Callable[[Grading], str]:
+    def short(g: Grading) -> str:
+        c1 = g["case1"]
+        return f"{_fmt_deg(_steady(c1, metric))} (max over the last {c1.steady_window_s:g} s)"
+
+    return short
+
+
 def _accuracy_numbers(metric: str) -> Callable[[Runs, float], str]:
     def numbers(R: Runs, tol: float) -> str:
         c1 = R["case1"]
@@ -167,10 +194,10 @@ def _accuracy_grade(metric: str, paper: float) -> Callable[[Grading, bool], Outc
                 f"steady window ({window_start:g} s)",
                 nl1.key,
             )
-        sat1, no_limit = c1.saturated_time_s, _steady(nl1, metric)
+        no_limit = _steady(nl1, metric)
         reason = (
-            f"Case 1 does not converge with the {c1.torque_limit:g} N m limit (agents saturated for "
-            f"{min(sat1):.0f}-{max(sat1):.0f} s of {c1.t_final:g} s). Without the limit: {_fmt_deg(no_limit)} "
+            f"Case 1 does not converge with the {c1.torque_limit:g} N m limit "
+            f"({_saturation_text(c1).replace('each agent', 'every agent')}). Without the limit: {_fmt_deg(no_limit)} "
             f"({'meets' if no_limit <= paper else 'misses'} {paper:g}°); exact error model: "
             f"{_fmt_deg(_steady(ex1, metric))}; pure sgn: {_fmt_deg(_steady(sgn1, metric))}. The cause is the torque "
             "limit" + ("" if no_limit <= paper else " and more (the no-limit run misses it too)")
@@ -191,6 +218,8 @@ def _accuracy_claim(cid: str, metric: str, paper: float, fig: str, name: str) ->
         value=_accuracy_value(metric),
         numbers=_accuracy_numbers(metric),
         grade=_accuracy_grade(metric, paper),
+        title=f"Case 1 {name.split(' (')[0]} accuracy ({metric.upper()})",
+        short=_accuracy_short(metric),
     )
 
 
@@ -205,20 +234,31 @@ def _saturation_holds(R: Runs, tol: float) -> bool:
 
 def _saturation_value(g: Grading) -> str:
     c1 = g["case1"]
-    sat1, last = c1.saturated_time_s, c1.last_saturation_s
+    last = c1.last_saturation_s
+    when = f", last at {_fmt_s(last)}" if math.isfinite(last) else ""
     return (
-        f"Case 1: torque saturated (any axis) for {min(sat1):.1f}-{max(sat1):.1f} s of {c1.t_final:g} s per agent, "
-        f"last at {_fmt_s(last) if math.isfinite(last) else 'never'}; peak commanded |u_k| {c1.commanded_peak_N_m:.4g} N m"
+        f"Case 1: {_saturation_text(c1)} (torque on any axis){when}; peak commanded |u_k| "
+        f"{c1.commanded_peak_N_m:.4g} N m"
     )
+
+
+def _saturation_short(g: Grading) -> str:
+    c1 = g["case1"]
+    last = c1.last_saturation_s
+    if not math.isfinite(last):
+        return "never saturated"
+    phrase = duration_phrase(c1.saturated_time_s, c1.t_final)
+    if phrase.startswith("for the whole"):
+        return f"saturated {phrase}"
+    return f"saturated until {last:.1f} s (of {c1.t_final:g} s)"
 
 
 def _saturation_numbers(R: Runs, tol: float) -> str:
     c1 = R["case1"]
-    last, sat = c1.last_saturation_s, c1.saturated_time_s
-    return (
-        f"Case 1 last saturation {'never' if not math.isfinite(last) else f'at {last:.2f} s'}, saturated "
-        f"{min(sat):.1f}-{max(sat):.1f} s per agent"
-    )
+    last = c1.last_saturation_s
+    if not math.isfinite(last):
+        return "Case 1 never saturated"
+    return f"Case 1 last saturation at {last:.2f} s, {_saturation_text(c1)}"
 
 
 def _saturation_grade(g: Grading, holds: bool) -> Outcome:
@@ -265,6 +305,11 @@ def _slower_value(g: Grading) -> str:
         f"{long1.t_final:g} s runs: Case 1 {_fmt_s(l1, long1.t_final)}, Case 2 {_fmt_s(l2, long2.t_final)}; "
         f"no torque limit: Case 1 {_fmt_s(n1, nl1.t_final)}, Case 2 {_fmt_s(n2, nl2.t_final)}"
     )
+
+
+def _slower_short(g: Grading) -> str:
+    s1, s2 = _aaem_settling(g, "case1", "case2")
+    return f"AAEM to {g.tolerance_deg:g}°: Case 1 {_short_s(s1)}, Case 2 {_short_s(s2)}"
 
 
 def _slower_numbers(R: Runs, tol: float) -> str:
@@ -325,6 +370,15 @@ def _case2_value(g: Grading) -> str:
         f"RAEM {_fmt_deg(c2.raem_steady_max_deg)}; settled at {g.tolerance_deg:g}°: "
         f"{'yes' if c2.settled(g.tolerance_deg) else 'no'}"
     )
+
+
+def _case2_short(g: Grading) -> str:
+    c2, long2, tol = g["case2"], g["case2_long"], g.tolerance_deg
+    run = c2 if c2.settled(tol) else long2 if long2.settled(tol) else None
+    if run is None:
+        return f"not settled to {tol:g}° in {long2.t_final:g} s"
+    errors = f"AAEM {_fmt_deg(run.aaem_steady_max_deg)}, RAEM {_fmt_deg(run.raem_steady_max_deg)}"
+    return errors if run is c2 else f"{errors} (after settling, {run.t_final:g} s run)"
 
 
 def _case2_numbers(R: Runs, tol: float) -> str:
@@ -402,6 +456,19 @@ def _ordering_value(g: Grading) -> str:
     return f"max over the last {c3[0].steady_window_s:g} s: {_ordering_table(c3, g.tolerance_deg)}"
 
 
+def _ordering_short(g: Grading) -> str:
+    tol = g.tolerance_deg
+    c3 = [g[k] for k in _CASE3]
+    unsettled = [r.title.split(",")[0] for r in c3 if not r.settled(tol)]
+    if len(unsettled) == len(c3):
+        return f"none settles to {tol:g}° in {c3[0].t_final:g} s"
+    if unsettled:
+        return f"not settled to {tol:g}°: {join_words(unsettled)}"
+    aaem = " / ".join(_fmt_deg(r.aaem_steady_max_deg) for r in c3)
+    raem = " / ".join(_fmt_deg(r.raem_steady_max_deg) for r in c3)
+    return f"3a / 3b / 3c: AAEM {aaem}; RAEM {raem}"
+
+
 def _ordering_numbers(R: Runs, tol: float) -> str:
     return "; ".join(
         f"Case {R[k].case if k != 'case3c' else '3c'}: AAEM {_d(R[k].aaem_steady_max_deg)}, RAEM "
@@ -445,6 +512,8 @@ CLAIMS: tuple[StudyClaim, ...] = (
         value=_settling_value,
         numbers=_settling_numbers,
         grade=_settling_grade,
+        title="Case 1 settling time",
+        short=_settling_short,
         uses_tolerance=True,
     ),
     _accuracy_claim("tracking_accuracy", "aaem", PAPER_TRACKING_ACCURACY_DEG, "Fig 1 inset", "tracking (AAEM, eq 42)"),
@@ -459,6 +528,8 @@ CLAIMS: tuple[StudyClaim, ...] = (
         value=_saturation_value,
         numbers=_saturation_numbers,
         grade=_saturation_grade,
+        title="Case 1 torque saturation",
+        short=_saturation_short,
     ),
     StudyClaim(
         "case2_slower",
@@ -470,6 +541,8 @@ CLAIMS: tuple[StudyClaim, ...] = (
         value=_slower_value,
         numbers=_slower_numbers,
         grade=_slower_grade,
+        title="Case 2 (no coordination) settles slower",
+        short=_slower_short,
         uses_tolerance=True,
     ),
     StudyClaim(
@@ -482,6 +555,8 @@ CLAIMS: tuple[StudyClaim, ...] = (
         value=_case2_value,
         numbers=_case2_numbers,
         grade=_case2_grade,
+        title="Case 2 residual errors",
+        short=_case2_short,
         uses_tolerance=True,
         stages=_case2_stages,
         later=("case2", "case2_long"),
@@ -496,6 +571,8 @@ CLAIMS: tuple[StudyClaim, ...] = (
         value=_ordering_value,
         numbers=_ordering_numbers,
         grade=_ordering_grade,
+        title="Cases 3a-3c: accuracy ordered by weight",
+        short=_ordering_short,
         uses_tolerance=True,
         stages=_ordering_stages,
     ),

@@ -204,8 +204,12 @@ class FigureCheck:
         lo, hi = self.interval
         unit = self.unit
         fmt = f"{value:.4g} {unit}" if unit != "°" else (f"{value:.1f}°" if value >= 1 else f"{value:.3g}°")
-        where = f"= {0.5 * (lo + hi):.4g} {unit}" if hi - lo < 1e-3 * hi else f"in ({lo:g}, {hi:g}]"
-        text = f"{self.what} {fmt} ({'' if lo < value <= hi else 'not '}{where})"
+        inside = lo < value <= hi
+        if hi - lo < 1e-3 * hi:  # a level, not an interval
+            where = f"{'=' if inside else '≠'} {0.5 * (lo + hi):.4g} {unit}"
+        else:
+            where = f"{'' if inside else 'not '}in ({lo:g}, {hi:g}]"
+        text = f"{self.what} {fmt} ({where})"
         if unit == "°" and "peak" in self.what:  # θ, AAEM, RAEM from the law's error MRP
             text += f", θ of the {error_mrp(records[self.runs[0]])} error MRP"
         return text
@@ -303,7 +307,8 @@ FIGURE_CHECKS: tuple[FigureCheck, ...] = (
         (0.0, 0.04),
     ),
 )
-"""Figure-level checks (Figs 1-9 as printed, ``../shared/seed``), in the order of the figures."""
+"""Figure-level checks (Figs 1-9 as printed in Liang, Sun & Wang 2012, Section 4: their axis ranges, ticks and insets,
+recorded here), in the order of the figures."""
 
 
 def get_figure_check(check_id: str) -> FigureCheck:

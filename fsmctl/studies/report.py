@@ -9,18 +9,60 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 import textwrap
+from collections import Counter
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from fsmctl.outputs import atomic_path, write_json, write_text
 from fsmctl.policy import SETTLING_TOLERANCES_DEG, STEADY_WINDOW_FRACTION
-from fsmctl.studies.claim_types import PAPER_SETTLING_TIME_S, VERDICTS, ClaimVerdict
-from fsmctl.studies.explain_report import markdown_section, text_lines
+from fsmctl.studies.claim_types import (
+    DIFFERS,
+    IMPOSSIBLE,
+    PAPER_SETTLING_TIME_S,
+    REPRODUCED,
+    VERDICTS,
+    ClaimVerdict,
+)
+from fsmctl.studies.explain_report import change_cell, evidence_items, method_blocks, text_lines
 from fsmctl.studies.momentum import MomentumBound
 from fsmctl.studies.records import RunRecord
+from fsmctl.studies.report_doc import (
+    Block,
+    Bullets,
+    Code,
+    Details,
+    Document,
+    Figure,
+    Figures,
+    Heading,
+    Paragraph,
+    Span,
+    Table,
+    Text,
+    code,
+    link,
+    render_html,
+    render_markdown,
+    strong,
+    verdict,
+)
+from fsmctl.studies.wording import count, value_range, verdict_count
 
-__all__ = ["Reproduction", "write_outputs", "to_markdown", "format_claims"]
+__all__ = [
+    "Reproduction",
+    "write_outputs",
+    "to_markdown",
+    "to_html",
+    "report_document",
+    "figure_numbers",
+    "format_claims",
+]
+
+FIGURE_VERDICTS = ("fits", "does not fit")
+"""The verdicts of a figure-level check (:data:`fsmctl.studies.figure_checks.FIGURE_CHECKS`)."""
 
 
 @dataclass
@@ -124,12 +166,13 @@ class Reproduction:
             return ds.load()
 
 
-def _md_escape(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
+def _relative(path: str | Path, out: Path) -> str:
+    p = Path(path)
+    return str(p.relative_to(out) if p.is_relative_to(out) else p)
 
 
 def write_outputs(rep: Reproduction) -> list[Path]:
-    """Write ``claims.csv``, ``claims.json`` and ``report.md`` into ``rep.out_dir``.
+    """Write ``claims.csv``, ``claims.json``, ``report.md`` and ``report.html`` into ``rep.out_dir``.
 
     Parameters
     ----------
@@ -139,19 +182,20 @@ def write_outputs(rep: Reproduction) -> list[Path]:
     Returns
     -------
     list of Path
-        The three files.
+        The four files (each written atomically; the reports last).
 
     Examples
     --------
     >>> from pathlib import Path
     >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
     >>> [p.name for p in write_outputs(rep)]
-    ['claims.csv', 'claims.json', 'report.md']
+    ['claims.csv', 'claims.json', 'report.md', 'report.html']
     >>> Path("out/claims.csv").read_text().splitlines()[1].split(",")[0]
     'settling_27s'
     """
     out = rep.out_dir
-    csv_path, json_path, md_path = out / "claims.csv", out / "claims.json", out / "report.md"
+    csv_path, json_path = out / "claims.csv", out / "claims.json"
+    md_path, html_path = out / "report.md", out / "report.html"
     fields = list(ClaimVerdict.__dataclass_fields__)
     with atomic_path(csv_path) as tmp, tmp.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=fields)
@@ -175,12 +219,14 @@ def write_outputs(rep: Reproduction) -> list[Path]:
         payload["explanations"] = [e.to_dict() for e in rep.explanations]
         payload["explain_wall_time_s"] = rep.explain_wall_time_s
     write_json(json_path, payload)
-    write_text(md_path, to_markdown(rep))
-    return [csv_path, json_path, md_path]
+    doc = report_document(rep)
+    write_text(md_path, render_markdown(doc))
+    write_text(html_path, render_html(doc, out))
+    return [csv_path, json_path, md_path, html_path]
 
 
 def to_markdown(rep: Reproduction) -> str:
-    """The reproduction report (Markdown).
+    """The reproduction report (Markdown), :func:`report_document` rendered.
 
     Parameters
     ----------
@@ -190,146 +236,412 @@ def to_markdown(rep: Reproduction) -> str:
     Returns
     -------
     str
-        Claims table, the angular-momentum bound per agent, the numbers of every run, the choices, and the
-        figures: the paper's Figs 1-9 in their order, then the diagnostic figures.
+        The verdict summary first (the counts, one short row per claim), then each claim's evidence with its
+        figures, the figure-level checks, how the explanations searched, the angular-momentum bound per agent, the
+        numbers of every run, the choices, and the figures not shown with a claim.
 
     Examples
     --------
     >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
-    >>> text = to_markdown(rep)
-    >>> [line for line in text.splitlines() if line.startswith("## ")][:3]
-    ['## Claims', '## Angular-momentum bound (independent of the controller)', '## Initial numbers (Table 1 and the reference, t = 0)']
+    >>> lines = to_markdown(rep).splitlines()
+    >>> lines[4]
+    '**7 claims:** **0 reproduced**, **3 differ**, **4 impossible (bound)**.'
+    >>> [line for line in lines if line.startswith("## ")][:3]
+    ['## Evidence per claim', '## Angular-momentum bound (independent of the controller)', '## Initial numbers (Table 1 and the reference, t = 0)']
     """
-    R = rep.records
-    c1 = R["case1"]
-    out = rep.out_dir
-    L: list[str] = []
-    L += [
-        "# Reproduction of Liang, Sun & Wang (2012), Section 4",
-        "",
-        f"`fsmctl reproduce`{' --fast' if rep.fast else ''}: {len(R)} runs in {rep.wall_time_s:.1f} s wall time"
-        + (f" (the explanations: {rep.explain_wall_time_s:.1f} s)." if rep.explanations is not None else ".")
-        + (" **Fast mode: short horizon, the verdicts are not those of the paper's 100 s runs.**" if rep.fast else ""),
-        "",
-        "Verdicts: `reproduced`; `differs` (the reason, with the diagnostic run that shows it); "
-        "`impossible (bound)` (no controller within the paper's torque limit can do it, by the bound below).",
-        "",
-        "## Claims",
-        "",
-        "| claim | figures | paper | this run | verdict | reason | diagnostic runs |",
-        "|---|---|---|---|---|---|---|",
-    ]
+    return render_markdown(report_document(rep))
+
+
+def to_html(rep: Reproduction) -> str:
+    """The reproduction report as one self-contained HTML page (the content of :func:`to_markdown`).
+
+    The figures are embedded (``data:`` URIs), the evidence of each claim is a collapsible ``<details>``; links to
+    the run files and scenario files stay relative to the report's folder.
+
+    Parameters
+    ----------
+    rep : Reproduction
+        From :func:`~fsmctl.studies.reproduce.reproduce`.
+
+    Returns
+    -------
+    str
+        The page.
+
+    Examples
+    --------
+    >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
+    >>> page = to_html(rep)
+    >>> page.startswith("<!DOCTYPE html>"), page.count('<details class="claim">')
+    (True, 7)
+    """
+    return render_html(report_document(rep), rep.out_dir)
+
+
+# ----------------------------------------------------------------------------- the document
+
+
+def report_document(rep: Reproduction) -> Document:
+    """The report's content, once, for :func:`to_markdown` and :func:`to_html`.
+
+    Parameters
+    ----------
+    rep : Reproduction
+        From :func:`~fsmctl.studies.reproduce.reproduce`.
+
+    Returns
+    -------
+    Document
+        Blocks of :mod:`fsmctl.studies.report_doc`.
+
+    Examples
+    --------
+    >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
+    >>> from fsmctl.studies.report_doc import plain
+    >>> doc = report_document(rep)
+    >>> doc.title
+    'Reproduction of Liang, Sun & Wang (2012), Section 4'
+    >>> [plain(cell) for cell in doc.blocks[2].rows[0]]
+    ['Case 1 settling time', '27 s (tolerance not stated)', 'not settled to 1° in 1 s', 'impossible (bound)']
+    """
+    explained = {e.id: e for e in rep.explanations or ()}
+    checks = [e for e in rep.explanations or () if e.id not in {c.id for c in rep.claims}]
+    figures = _FigureShelf(rep)
+    blocks: list[Block] = [*_summary_blocks(rep, explained, checks), Heading(2, "Evidence per claim")]
     for c in rep.claims:
-        L.append(
-            "| "
-            + " | ".join(
-                _md_escape(x)
-                for x in (
-                    f"**{c.id}**: {c.claim}",
-                    c.figures,
-                    c.paper_value,
-                    c.this_run_value,
-                    f"**{c.verdict}**",
-                    c.reason,
-                    c.diagnostic_runs or "-",
+        blocks += _claim_blocks(rep, c, explained.get(c.id), figures)
+    if checks:
+        blocks += [
+            Heading(2, "Figure-level evidence"),
+            Paragraph(
+                (
+                    "What the printed Figs 1-9 show (axis ranges, the saturation level, the insets), checked like the "
+                    "claims: which change makes the printed figure possible.",
                 )
-            )
-            + " |"
-        )
+            ),
+        ]
+        for e in checks:
+            blocks += _check_blocks(e, figures)
     if rep.explanations is not None:
-        L += ["", *markdown_section(rep.explanations, rep.fast)]
-        L.pop()
+        blocks += method_blocks(rep.explanations, rep.fast)
+    blocks += [*_bound_blocks(rep), *_initial_blocks(rep), *_run_blocks(rep), *_inertia_blocks(rep)]
+    blocks += [Heading(2, "Settings and the choices the paper leaves open"), Code(rep.scenario_lines)]
+    rest = figures.remaining()
+    if rest:
+        blocks += [
+            Heading(2, "More figures"),
+            Paragraph(("The diagnostic runs, and any of Figs 1-9 not shown with a claim above.",)),
+            Figures(rest),
+        ]
+    return Document(TITLE, blocks)
+
+
+TITLE = "Reproduction of Liang, Sun & Wang (2012), Section 4"
+
+_VERDICT_LEGEND = (
+    "Verdicts: ",
+    verdict(REPRODUCED),
+    " (this run shows what the paper states); ",
+    verdict(DIFFERS),
+    " (it does not; the evidence gives the reason and the diagnostic run that shows it); ",
+    verdict(IMPOSSIBLE),
+    " (no controller within the paper's torque limit can do it, by the angular-momentum bound below).",
+)
+
+
+def _counts(items: Sequence[str], kinds: Sequence[str]) -> list[str | Span]:
+    seen = Counter(items)
+    parts: list[str | Span] = []
+    for kind in kinds:
+        parts += [", " if parts else "", verdict(verdict_count(seen[kind], kind))]
+    return parts
+
+
+def _summary_blocks(rep: Reproduction, explained: dict, checks: list) -> list[Block]:
+    """The verdict counts and one short row per claim: what a reader takes in at a glance."""
+    line: list[str | Span] = [strong(f"{count(len(rep.claims), 'claim')}:"), " "]
+    line += [*_counts([c.verdict for c in rep.claims], VERDICTS), "."]
+    if checks:
+        line += [" ", strong(f"{count(len(checks), 'figure check')}:"), " "]
+        line += [*_counts([e.verdict for e in checks], FIGURE_VERDICTS), "."]
+    blocks: list[Block] = []
+    if rep.fast:
+        blocks.append(
+            Paragraph((strong("Fast mode: short horizon, the verdicts are not those of the paper's 100 s runs."),))
+        )
+    header = ["claim", "paper", "this run", "verdict"]
+    rows = [
+        [(link(c.title, f"#{c.id}"),), (c.paper_value,), (c.this_run_short,), (verdict(c.verdict),)] for c in rep.claims
+    ]
+    if rep.explanations is not None:
+        header.append("reproduces with")
+        for row, c in zip(rows, rep.claims, strict=True):
+            row.append((change_cell(explained.get(c.id)),))
+    command = f"fsmctl reproduce{' --fast' if rep.fast else ''}"
+    timing = f"{count(len(rep.records), 'run')} in {rep.wall_time_s:.1f} s wall time" + (
+        f" (the explanations: {rep.explain_wall_time_s:.1f} s)" if rep.explanations is not None else ""
+    )
+    blocks += [Paragraph(tuple(line)), Table(header, rows, "summary")]
+    if checks:
+        blocks.append(
+            Table(["printed figure", "this run", "verdict", "fits with"], [_check_row(e) for e in checks], "summary")
+        )
+    blocks += [
+        Paragraph((code(command), f": {timing}. Each claim's evidence follows, with its figures.")),
+        Paragraph(_VERDICT_LEGEND),
+    ]
+    return blocks
+
+
+def _check_row(e) -> list[Text]:
+    return [(link(e.claim, f"#{e.id}"),), (e.baseline,), (verdict(e.verdict),), (change_cell(e),)]
+
+
+class _FigureShelf:
+    """The report's figures, each shown once: with the first claim or check that cites it, the rest at the end."""
+
+    def __init__(self, rep: Reproduction) -> None:
+        pngs = [_relative(f, rep.out_dir) for f in rep.files if f.endswith(".png")]
+        self.left = _in_paper_order(pngs)
+
+    def take(self, cited: str) -> list[Figure]:
+        """The figures of the paper's figure numbers cited in ``cited`` (``"Figs 1-2"``) not shown yet."""
+        wanted = figure_numbers(cited)
+        taken = [f for f in self.left if _paper_number(f) in wanted]
+        self.left = [f for f in self.left if f not in taken]
+        return [Figure(f, _caption(f)) for f in taken]
+
+    def remaining(self) -> list[Figure]:
+        return [Figure(f, _caption(f)) for f in self.left]
+
+
+def figure_numbers(cited: str) -> list[int]:
+    """The paper's figure numbers a citation names: ``"Figs 1-2"`` -> ``[1, 2]``, ``"Fig 4: ..."`` -> ``[4]``.
+
+    Parameters
+    ----------
+    cited : str
+        Text that starts with, or contains, ``Fig N`` or ``Figs N-M`` (the first one counts).
+
+    Returns
+    -------
+    list of int
+        The numbers (empty when none is cited).
+
+    Examples
+    --------
+    >>> figure_numbers("Figs 5-6"), figure_numbers("Fig 1 inset"), figure_numbers("Figs 8-9 insets (0-0.04°)")
+    ([5, 6], [1], [8, 9])
+    >>> figure_numbers("the bound")
+    []
+    """
+    m = re.search(r"Figs? (\d+)(?:-(\d+))?", cited)
+    if m is None:
+        return []
+    first = int(m.group(1))
+    return list(range(first, int(m.group(2) or first) + 1))
+
+
+def _paper_number(path: str) -> int:
+    stem = Path(path).stem
+    return int(stem[3:5]) if stem.startswith("fig") and stem[3:5].isdigit() else 0
+
+
+def _caption(path: str) -> str:
+    n = _paper_number(path)
+    stem = Path(path).stem
+    return f"Fig {n} ({stem})" if n else stem
+
+
+def _runs_text(rep: Reproduction, keys: str) -> list[str | Span]:
+    parts: list[str | Span] = []
+    for key in (k.strip() for k in keys.split(",") if k.strip()):
+        parts.append(", " if parts else "")
+        r = rep.records.get(key)
+        parts.append(link(key, _relative(r.netcdf, rep.out_dir)) if r is not None and r.netcdf else code(key))
+    return parts
+
+
+def _claim_blocks(rep: Reproduction, c: ClaimVerdict, e, figures: _FigureShelf) -> list[Block]:
+    """One claim: what the paper states and the verdict (visible), its figures, its evidence (collapsible)."""
+    items: list[Text] = [(strong("This run"), f": {c.this_run_value}")]
+    if c.reason:
+        items.append((strong("Why"), f": {c.reason}"))
+    if c.diagnostic_runs:
+        items.append((strong("Diagnostic runs"), ": ", *_runs_text(rep, c.diagnostic_runs)))
+    if e is not None:
+        items += evidence_items(e)
+    shown = figures.take(c.figures)
+    return [
+        Heading(3, c.id, anchor=c.id),
+        Paragraph(
+            (
+                strong(f"{c.title}."),
+                f" The paper ({c.figures}): {c.claim}; {c.paper_value}. This run: {c.this_run_short}. Verdict: ",
+                verdict(c.verdict),
+                ".",
+            )
+        ),
+        *([Figures(shown)] if shown else []),
+        Details(("Evidence",), [Bullets(items)], "claim"),
+    ]
+
+
+def _check_blocks(e, figures: _FigureShelf) -> list[Block]:
+    shown = figures.take(e.claim)
+    return [
+        Heading(3, e.id, anchor=e.id),
+        Paragraph((f"The paper's {e.claim}. This run: {e.baseline}. Verdict: ", verdict(e.verdict), ".")),
+        *([Figures(shown)] if shown else []),
+        Details(("Evidence",), [Bullets(evidence_items(e))], "check"),
+    ]
+
+
+def _bound_blocks(rep: Reproduction) -> list[Block]:
     b0 = rep.bounds[0]
-    L += [
-        "",
-        "## Angular-momentum bound (independent of the controller)",
-        "",
-        "In the inertial frame N the angular momentum of spacecraft i is H = [BN]^T J ω with the true inertia "
-        "J = J0 + ΔJ (eq 29), and dH/dt = [BN]^T (u + d). With |u_k| ≤ u_max per body axis, "
-        "|dH/dt| ≤ √3 u_max + |d(t)|. Tracking the reference at time T means H(T) = H_d(T) = [DN]^T J ω_d(T) "
-        "(reference integrated open loop from σ_d(0), eq 3), so any settling time T satisfies "
-        "|H_d(T) − H(0)| ≤ √3 u_max T + ∫₀ᵀ |d| dt. The table gives the smallest such T (to the grid step "
-        f"{b0.grid_step_s:g} s, rounded down), without and with the disturbance helping at full magnitude, and the "
-        "naive |J ω(0)| / (√3 u_max). 'Settled' here means ω_i = ω_d in the body frame, which a metric that stays "
-        "within its tolerance requires up to a small residual rate.",
-        "",
-        "| agent | u_max (N m) | \\|H(0)\\| (N m s) | \\|H(0) − H_d(0)\\| (N m s) | naive (s) | bound, no disturbance (s) "
-        "| bound with disturbance (s) | vs 27 s |",
-        "|---|---|---|---|---|---|---|---|",
+    rows = [
+        [
+            (str(b.agent),),
+            (f"{b.torque_limit_N_m:g}",),
+            (f"{b.H0_N_m_s:.2f}",),
+            (f"{b.H0_minus_Hd0_N_m_s:.2f}",),
+            (f"{b.naive_time_s:.2f}",),
+            (f"{b.min_time_no_disturbance_s:.2f}",),
+            (f"{b.min_time_s:.2f}",),
+            ("exceeds" if b.min_time_s > PAPER_SETTLING_TIME_S else "below",),
+        ]
+        for b in rep.bounds
     ]
-    for b in rep.bounds:
-        flag = "exceeds" if b.min_time_s > PAPER_SETTLING_TIME_S else "below"
-        L.append(
-            f"| {b.agent} | {b.torque_limit_N_m:g} | {b.H0_N_m_s:.2f} | {b.H0_minus_Hd0_N_m_s:.2f} | "
-            f"{b.naive_time_s:.2f} | {b.min_time_no_disturbance_s:.2f} | {b.min_time_s:.2f} | {flag} |"
-        )
-    L += [
-        "",
-        "## Initial numbers (Table 1 and the reference, t = 0)",
-        "",
-        f"- AAEM(0) = {c1.summary['aaem_initial_deg']:.2f}°, RAEM(0) = {c1.summary['raem_initial_deg']:.2f}°; "
-        f"peaks over Case 1: AAEM {c1.summary['aaem_peak_deg']:.2f}°, RAEM {c1.summary['raem_peak_deg']:.2f}°, "
-        f"θ_ei {c1.theta_e_peak_deg:.2f}°.",
-        "- θ_ei(0) = " + ", ".join(f"{x:.2f}° (agent {i + 1})" for i, x in enumerate(c1.theta_e0_deg)) + ".",
-        "- The paper's figure axes reach AAEM ≈ 300°, RAEM ≈ 140°, θ_i ≈ 200°. Here θ_ei = 4 atan|σ_ei| with σ_ei "
-        "in the shadow set (|σ| ≤ 1), so θ_ei ≤ 180° and AAEM ≤ 180°; axes beyond 180° suggest the paper did not "
-        "switch its error MRPs to the shadow set (then θ ranges up to 360°).",
-        "",
-        "## Runs",
-        "",
-        f"Settling time to a tolerance: the first time after which the metric stays at or below it "
-        f"(`fsmctl.simulation.metrics.settling_time`); the paper does not state its tolerance, so {', '.join(f'{t:g}°' for t in SETTLING_TOLERANCES_DEG)} "
-        f"are reported. Steady-state accuracy: the maximum over the last {STEADY_WINDOW_FRACTION:.0%} of the horizon.",
-        "",
-        "| run | overrides | horizon (s) | AAEM settling (s) at "
-        + " / ".join(f"{t:g}°" for t in SETTLING_TOLERANCES_DEG)
-        + " | RAEM settling (s) | steady AAEM / RAEM (deg) | saturated time per agent (s) | last saturation (s) "
-        "| peak commanded (N m) | file |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+    return [
+        Heading(2, "Angular-momentum bound (independent of the controller)"),
+        Paragraph(
+            (
+                "In the inertial frame N the angular momentum of spacecraft i is H = [BN]^T J ω with the true inertia "
+                "J = J0 + ΔJ (eq 29), and dH/dt = [BN]^T (u + d). With |u_k| ≤ u_max per body axis, "
+                "|dH/dt| ≤ √3 u_max + |d(t)|. Tracking the reference at time T means H(T) = H_d(T) = [DN]^T J ω_d(T) "
+                "(reference integrated open loop from σ_d(0), eq 3), so any settling time T satisfies "
+                "|H_d(T) − H(0)| ≤ √3 u_max T + ∫₀ᵀ |d| dt. The table gives the smallest such T (to the grid step "
+                f"{b0.grid_step_s:g} s, rounded down), without and with the disturbance helping at full magnitude, and "
+                "the naive |J ω(0)| / (√3 u_max). 'Settled' here means ω_i = ω_d in the body frame, which a metric "
+                "that stays within its tolerance requires up to a small residual rate.",
+            )
+        ),
+        Table(
+            [
+                "agent",
+                "u_max (N m)",
+                "|H(0)| (N m s)",
+                "|H(0) − H_d(0)| (N m s)",
+                "naive (s)",
+                "bound, no disturbance (s)",
+                "bound with disturbance (s)",
+                f"vs {PAPER_SETTLING_TIME_S:g} s",
+            ],
+            rows,
+        ),
     ]
 
-    def sett(r: RunRecord, m: str) -> str:
-        return " / ".join(
-            "–" if not math.isfinite(x) else f"{x:.2f}" for x in (r.settling(m, t) for t in SETTLING_TOLERANCES_DEG)
-        )
 
-    for r in R.values():
-        sat = r.saturated_time_s
-        nc = Path(r.netcdf)
-        rel = nc.relative_to(out) if nc.is_relative_to(out) else nc
+def _initial_blocks(rep: Reproduction) -> list[Block]:
+    c1 = rep.records["case1"]
+    return [
+        Heading(2, "Initial numbers (Table 1 and the reference, t = 0)"),
+        Bullets(
+            [
+                (
+                    f"AAEM(0) = {c1.summary['aaem_initial_deg']:.2f}°, RAEM(0) = {c1.summary['raem_initial_deg']:.2f}°; "
+                    f"peaks over Case 1: AAEM {c1.summary['aaem_peak_deg']:.2f}°, RAEM "
+                    f"{c1.summary['raem_peak_deg']:.2f}°, θ_ei {c1.theta_e_peak_deg:.2f}°.",
+                ),
+                ("θ_ei(0) = " + ", ".join(f"{x:.2f}° (agent {i + 1})" for i, x in enumerate(c1.theta_e0_deg)) + ".",),
+                (
+                    "The paper's figure axes reach AAEM ≈ 300°, RAEM ≈ 140°, θ_i ≈ 200°. Here θ_ei = 4 atan|σ_ei| with "
+                    "σ_ei in the shadow set (|σ| ≤ 1), so θ_ei ≤ 180° and AAEM ≤ 180°; axes beyond 180° suggest the "
+                    "paper did not switch its error MRPs to the shadow set (then θ ranges up to 360°).",
+                ),
+            ]
+        ),
+    ]
+
+
+def _settling_cell(r: RunRecord, metric: str) -> str:
+    return " / ".join(
+        "–" if not math.isfinite(x) else f"{x:.2f}" for x in (r.settling(metric, t) for t in SETTLING_TOLERANCES_DEG)
+    )
+
+
+def _run_blocks(rep: Reproduction) -> list[Block]:
+    tolerances = " / ".join(f"{t:g}°" for t in SETTLING_TOLERANCES_DEG)
+    rows = []
+    for r in rep.records.values():
         last = r.last_saturation_s
         overrides = r.overrides + (f" (identical settings to {r.same_as}: not re-run)" if r.same_as else "")
-        L.append(
-            f"| {r.key} | {_md_escape(overrides)} | {r.t_final:g} | {sett(r, 'aaem')} | {sett(r, 'raem')} | "
-            f"{r.aaem_steady_max_deg:.3g} / {r.raem_steady_max_deg:.3g} | "
-            f"{min(sat):.1f}–{max(sat):.1f} | {'never' if not math.isfinite(last) else f'{last:.2f}'} | "
-            f"{r.commanded_peak_N_m:.4g} | [{rel}]({rel}) |"
+        rel = _relative(r.netcdf, rep.out_dir)
+        rows.append(
+            [
+                (r.key,),
+                (overrides,),
+                (f"{r.t_final:g}",),
+                (_settling_cell(r, "aaem"),),
+                (_settling_cell(r, "raem"),),
+                (f"{r.aaem_steady_max_deg:.3g} / {r.raem_steady_max_deg:.3g}",),
+                (value_range(r.saturated_time_s),),
+                ("never" if not math.isfinite(last) else f"{last:.2f}",),
+                (f"{r.commanded_peak_N_m:.4g}",),
+                (link(rel, rel),),
+            ]
         )
-    L += ["", "(– : not settled within the horizon.)", "", "## Inertia check", ""]
-    L += ["| agent | inertia | principal moments (kg m²) | J1 + J2 − J3 (kg m²) |", "|---|---|---|---|"]
+    return [
+        Heading(2, "Runs"),
+        Paragraph(
+            (
+                "Settling time to a tolerance: the first time after which the metric stays at or below it (",
+                code("fsmctl.simulation.metrics.settling_time"),
+                f"); the paper does not state its tolerance, so {', '.join(f'{t:g}°' for t in SETTLING_TOLERANCES_DEG)}"
+                f" are reported. Steady-state accuracy: the maximum over the last {STEADY_WINDOW_FRACTION:.0%} of the "
+                "horizon. Saturated time: per agent, one number when every agent's prints the same.",
+            )
+        ),
+        Table(
+            [
+                "run",
+                "overrides",
+                "horizon (s)",
+                f"AAEM settling (s) at {tolerances}",
+                "RAEM settling (s)",
+                "steady AAEM / RAEM (deg)",
+                "saturated time per agent (s)",
+                "last saturation (s)",
+                "peak commanded (N m)",
+                "file",
+            ],
+            rows,
+        ),
+        Paragraph(("(– : not settled within the horizon.)",)),
+    ]
+
+
+def _inertia_blocks(rep: Reproduction) -> list[Block]:
+    rows = []
     for row in rep.inertia_check:
-        m = ", ".join(f"{x:.4f}" for x in row["principal_moments_kg_m2"])
-        note = " (violates the rigid-body triangle inequality)" if row["J1_plus_J2_minus_J3_kg_m2"] < 0 else ""
-        L.append(f"| {row['agent']} | {row['inertia']} | {m} | {row['J1_plus_J2_minus_J3_kg_m2']:.3g}{note} |")
-    L += ["", "## Settings and the choices the paper leaves open", "", "```", *rep.scenario_lines, "```", ""]
-    figs = _in_paper_order(f for f in rep.files if f.endswith(".png"))
-    if figs:
-        L += ["## Figures", ""]
-        for f in figs:
-            p = Path(f)
-            rel = p.relative_to(out) if p.is_relative_to(out) else p
-            L += [f"![{p.stem}]({rel})", ""]
-    return "\n".join(L) + "\n"
+        moments = ", ".join(f"{x:.4f}" for x in row["principal_moments_kg_m2"])
+        gap = row["J1_plus_J2_minus_J3_kg_m2"]
+        note = " (violates the rigid-body triangle inequality)" if gap < 0 else ""
+        rows.append([(str(row["agent"]),), (row["inertia"],), (moments,), (f"{gap:.3g}{note}",)])
+    if not rows:
+        return []
+    return [
+        Heading(2, "Inertia check"),
+        Table(["agent", "inertia", "principal moments (kg m²)", "J1 + J2 − J3 (kg m²)"], rows),
+    ]
 
 
 def _in_paper_order(paths) -> list[str]:
     """Figure files in the paper's order: ``figNN_*`` by NN (Figs 1-9), then the others (diagnostics) by name."""
 
     def key(path: str) -> tuple[int, int, str]:
-        stem = Path(path).stem
-        if stem.startswith("fig") and stem[3:5].isdigit():
-            return (0, int(stem[3:5]), stem)
-        return (1, 0, stem)
+        n = _paper_number(path)
+        return (0, n, Path(path).stem) if n else (1, 0, Path(path).stem)
 
     return sorted(paths, key=key)
 
