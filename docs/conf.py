@@ -3,13 +3,23 @@
 Build (from the repository root; warnings are errors, as in CI)::
 
     pip install -e '.[docs]'
-    sphinx-build -W --keep-going -b html docs docs/_build/html
+    sphinx-build -W --keep-going -b html -d docs/_build/doctrees docs docs/_build/html
+
+(``-d``: Sphinx's pickled doctrees, ~10 MB, stay out of the published ``docs/_build/html``.)
 
 Generated at build time (gitignored, see ``docs/.gitignore``): the API pages of every module in
 ``fsmctl._PUBLIC_MODULES`` and their autosummary stubs (``docs/api/modules/``, ``docs/api/generated/``), and
 the gallery's copies of ``notebooks/*.py`` (``docs/gallery/generated/``), executed by myst-nb in fast mode
 (``FSMCTL_FAST=1``, as ``tests/test_notebooks.py`` runs them).  ``FSMCTL_DOCS_EXECUTE=off`` skips the
 execution while writing pages (never in CI).
+
+Intersphinx (links to Python, NumPy, SciPy, xarray, Matplotlib, python-control): ``FSMCTL_DOCS_INTERSPHINX``
+``auto`` (default) maps each project whose inventory answers within a few seconds and leaves the others out (a
+machine without internet, as CI's, builds without those links rather than failing under ``-W``); ``on`` maps all
+(a failed download is then a warning, an error under ``-W``: use it for a published build); ``off`` maps none.
+
+The landing page's figure and verdict table and the gallery's thumbnails are committed files written by
+``docs/make_landing.py`` from a full ``fsmctl reproduce`` and an executed build (see that script).
 """
 
 from __future__ import annotations
@@ -38,11 +48,13 @@ version = fsmctl.__version__
 extensions = [
     "sphinx.ext.autodoc",
     "sphinx.ext.autosummary",
+    "sphinx.ext.intersphinx",
     "sphinx.ext.mathjax",
     "numpydoc",
     "myst_nb",
     "sphinxarg.ext",
     "sphinx_copybutton",
+    "sphinx_design",
     "fsmctl_docs",
 ]
 
@@ -50,6 +62,8 @@ root_doc = "index"
 exclude_patterns = [
     "_build",
     "_ext",
+    "_includes",
+    "make_landing.py",
     "_templates",
     "conf.py",
     "examples/*.py",
@@ -58,6 +72,8 @@ exclude_patterns = [
     ".DS_Store",
 ]
 templates_path = ["_templates"]
+smartquotes = False  # "--from" must stay two hyphens: every command line on the site is copied and run
+default_role = "py:obj"  # `fsmctl.simulate` in a docstring links to its page (or to intersphinx)
 
 # ----------------------------------------------------------------------------- generated pages (one source each)
 
@@ -88,6 +104,8 @@ numpydoc_validation_exclude = {
 
 myst_enable_extensions = ["dollarmath", "amsmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
+myst_dmath_double_inline = True
+nb_render_markdown_format = "myst"  # display(Markdown(...)) outputs: $$ math and pipe tables, as in the pages
 nb_custom_formats = {".py": ["jupytext.reads", {"fmt": "py:percent"}]}
 nb_execution_mode = os.environ.get("FSMCTL_DOCS_EXECUTE", "force")
 nb_execution_timeout = 900
@@ -96,7 +114,22 @@ nb_execution_raise_on_error = True
 nb_execution_show_tb = True
 nb_merge_streams = True
 os.environ["FSMCTL_FAST"] = "1"  # the kernels inherit it: small grids, short horizons (tests/test_notebooks.py)
+# the kernels have no ipywidgets: tqdm.auto's "IProgress not found" warning (with this machine's paths) is not content
+os.environ["PYTHONWARNINGS"] = ",".join(filter(None, [os.environ.get("PYTHONWARNINGS"), "ignore:IProgress not found"]))
 os.environ.pop("MPLBACKEND", None)  # the notebooks' `%matplotlib inline` shows every figure as an image
+
+# ----------------------------------------------------------------------------- intersphinx
+
+INTERSPHINX = {
+    "python": "https://docs.python.org/3",
+    "numpy": "https://numpy.org/doc/stable",
+    "scipy": "https://docs.scipy.org/doc/scipy",
+    "xarray": "https://docs.xarray.dev/en/stable",
+    "matplotlib": "https://matplotlib.org/stable",
+    "control": "https://python-control.readthedocs.io/en/latest",
+}
+intersphinx_mapping = fsmctl_docs.intersphinx_mapping(INTERSPHINX, os.environ.get("FSMCTL_DOCS_INTERSPHINX", "auto"))
+intersphinx_timeout = 10
 
 # ----------------------------------------------------------------------------- HTML
 
@@ -106,8 +139,10 @@ html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
     "secondary_sidebar_items": ["page-toc"],
+    "header_links_before_dropdown": 6,  # the tutorial, findings, guide, gallery, API and commands in the top bar
 }
-html_static_path: list[str] = []
+html_static_path = ["_static"]
+html_css_files = ["fsmctl.css"]  # wide tables and long code lines scroll inside the page (docs/_ext/check_html.py)
 copybutton_prompt_text = r">>> |\.\.\. |\$ "
 copybutton_prompt_is_regexp = True
 

@@ -48,6 +48,12 @@ print("\n".join(rep.scenario_lines))
 # ## The claims of Section 4
 
 # %%
+if FAST:
+    display(
+        Markdown(
+            "**Fast mode (10 s horizons): these verdicts are not the reproduction's.** Run `fsmctl reproduce` (100 s) for the findings."
+        )
+    )
 rows = ["| claim | paper | this run | verdict | reason |", "|---|---|---|---|---|"]
 for c in rep.claims:
     cells = (c.claim, c.paper_value, c.this_run_value, f"**{c.verdict}**", c.reason or "-")

@@ -7,6 +7,9 @@ One source for each generated part:
   into ``docs/api/generated/``;
 * the gallery: the jupytext notebooks ``notebooks/*.py``, copied into ``docs/gallery/generated/`` (Sphinx reads only
   its source folder) and executed by myst-nb;
+* intersphinx: which projects' inventories the build maps (:func:`intersphinx_mapping`, offline-safe);
+* links from inline code to fsmctl's own names (:func:`link_code_names`): ``fsmctl.simulate`` written as code in
+  a page or docstring links to that name's API page;
 * the numpydoc checks: the same codes as ``tests/test_api_docs.py`` (``FUNCTION_CHECKS`` for functions and classes,
   ``METHOD_CHECKS`` for the members of public classes; ``tests/test_docs.py`` holds them equal).
 
@@ -123,14 +126,57 @@ def write_api_pages(out: Path = API_MODULES_DIR, stubs: Path | None = None) -> l
     return problems
 
 
+FAST_MODE = {
+    "01_derivation": "the errata list stops at the proof check's errata (the re-audit's are in the full run)",
+    "02_proof_check": "only the cheap claims, 300 random samples instead of 3000 and a 60-point feasibility grid",
+    "03_reproduction": '10 s horizons instead of the paper\'s 100 s, so the verdicts below ("not within 10 s") are '
+    "not the reproduction's",
+    "04_theorem3": "a small grid of initial errors and 10 s full-loop runs",
+    "05_robustness": "two values per parameter and 10 s horizons",
+    "06_your_own_law": "40 s horizons instead of 100 s",
+    "07_paper_on_hardware": "a 100 s horizon instead of 600 s and a 4-run campaign instead of 16",
+}
+"""What the gallery's fast mode (``FSMCTL_FAST=1``) shortens in each notebook: the banner on its page."""
+
+
+def fast_banner(name: str) -> str:
+    """The MyST admonition put under a gallery page's title: what fast mode changes, where the findings are."""
+    return "\n".join(
+        [
+            "```{admonition} Fast mode: not the findings",
+            ":class: warning",
+            "",
+            f"This page was executed when the site was built, in the test suite's fast mode (`FSMCTL_FAST=1`): "
+            f"{FAST_MODE[name]}. The full-horizon results are on {{doc}}`the findings page <../../findings>`; run "
+            "the notebook without `FSMCTL_FAST` (or `fsmctl reproduce`) for them.",
+            "```",
+        ]
+    )
+
+
+def _with_banner(source: str, name: str) -> str:
+    """``source`` (a jupytext py:percent notebook) with :func:`fast_banner` under its title (``# # ...``).
+
+    Raises ``ValueError`` for a notebook without a title line.
+    """
+    title = re.search(r"^# # .*\n", source, flags=re.MULTILINE)
+    if title is None:
+        raise ValueError(f"notebook {name} has no title line ('# # ...' in its first Markdown cell)")
+    banner = "#\n" + "".join(f"# {line}".rstrip() + "\n" for line in fast_banner(name).splitlines()) + "#\n"
+    return source[: title.end()] + banner + source[title.end() :]
+
+
 def copy_notebooks(out: Path = GALLERY_DIR) -> list[str]:
-    """Copy ``notebooks/*.py`` into ``out`` (replacing what was there); return their names (stems)."""
+    """Copy ``notebooks/*.py`` into ``out`` (replacing what was there), each with its fast-mode banner first.
+
+    Returns their names (stems).  Raises ``KeyError`` for a notebook without a :data:`FAST_MODE` entry.
+    """
     if out.exists():
         shutil.rmtree(out)
     out.mkdir(parents=True)
     names = []
     for path in sorted(NOTEBOOKS.glob("*.py")):
-        shutil.copyfile(path, out / path.name)
+        (out / path.name).write_text(_with_banner(path.read_text(encoding="utf-8"), path.stem), encoding="utf-8")
         names.append(path.stem)
     return names
 
@@ -185,7 +231,75 @@ def skip_data_members(app, what, name, obj, skip, options):
     return None
 
 
+def _reachable(url: str, timeout: float) -> bool:
+    import urllib.request
+
+    try:
+        with urllib.request.urlopen(f"{url}/objects.inv", timeout=timeout) as response:
+            return response.status == 200
+    except (OSError, ValueError):
+        return False
+
+
+def intersphinx_mapping(projects: dict[str, str], mode: str, timeout: float = 3.0) -> dict[str, tuple[str, None]]:
+    """``intersphinx_mapping`` for ``projects`` (name -> documentation URL) under ``FSMCTL_DOCS_INTERSPHINX``.
+
+    ``on``: every project (a failed download is then Sphinx's warning); ``off``: none; ``auto``: the projects whose
+    ``objects.inv`` answers within ``timeout`` seconds (probed in parallel), so that a machine without internet
+    builds without those links instead of failing under ``-W``.  Anything else is an error.
+    """
+    if mode == "on":
+        return {name: (url, None) for name, url in projects.items()}
+    if mode == "off":
+        return {}
+    if mode != "auto":
+        raise ValueError(f"FSMCTL_DOCS_INTERSPHINX must be auto, on or off, not {mode!r}")
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=len(projects) or 1) as pool:
+        up = dict(zip(projects, pool.map(lambda url: _reachable(url, timeout), projects.values()), strict=True))
+    missing = [name for name, ok in up.items() if not ok]
+    if missing:
+        print(f"fsmctl_docs: intersphinx inventories not reachable, built without their links: {', '.join(missing)}")
+    return {name: (url, None) for name, url in projects.items() if up[name]}
+
+
+_CODE_NAME = re.compile(r"~?[A-Za-z_][A-Za-z0-9_]*(?:\.[A-Za-z_][A-Za-z0-9_]*)*")
+
+
+def link_code_names(app, doctree, fromdocname: str) -> None:
+    """``doctree-resolved``: inline code naming a documented fsmctl object links to its page.
+
+    ``fsmctl.simulate``, ``fsmctl.simulate()`` or ``Scenario.replace`` (a name under ``fsmctl``) written as code
+    in a guide page or a docstring becomes a link; code inside a link, a signature or on the object's own page is
+    left alone, and so is anything that is not exactly one documented name.
+    """
+    from docutils import nodes
+    from sphinx import addnodes
+
+    objects = app.env.get_domain("py").objects
+    for literal in list(doctree.findall(nodes.literal)):
+        parent = literal.parent
+        if isinstance(parent, (nodes.reference, addnodes.pending_xref, addnodes.desc_signature, nodes.title)):
+            continue
+        text = literal.astext().strip()
+        name = text.removesuffix("()").lstrip("~")
+        if not _CODE_NAME.fullmatch(name):
+            continue
+        full = next((c for c in (name, f"fsmctl.{name}") if c.startswith("fsmctl") and c in objects), None)
+        if full is None:
+            continue
+        entry = objects[full]
+        if entry.docname == fromdocname:
+            continue
+        uri = app.builder.get_relative_uri(fromdocname, entry.docname) + "#" + entry.node_id
+        ref = nodes.reference("", "", internal=True, refuri=uri, reftitle=full)
+        literal.replace_self(ref)
+        ref.append(literal)
+
+
 def setup(app):
     app.connect("autodoc-process-docstring", check_members)
+    app.connect("doctree-resolved", link_code_names)
     app.connect("autodoc-skip-member", skip_data_members)
     return {"parallel_read_safe": True, "parallel_write_safe": True}

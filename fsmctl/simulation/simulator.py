@@ -474,13 +474,22 @@ def simulate(
     Returns
     -------
     SimulationResult
-        ``stopped_at`` is None for a completed run.
+        The run; ``stopped_at`` is None for a completed run.
 
-    Warns (:class:`StepSizeWarning`) before the run when the RK4 step is too coarse
-    (:func:`step_size_report`) and after it when the rotation per step actually reached exceeds
-    :data:`MAX_ROTATION_PER_STEP`.  Raises :class:`~fsmctl.errors.ResourceLimitError` when the results would
-    not fit in memory, :class:`SimulationError` when the run fails or its last sample is not at ``t_final``,
-    and :class:`KeyboardInterrupt` on Ctrl-C.
+    Raises
+    ------
+    ~fsmctl.errors.ResourceLimitError
+        When the results would not fit in memory.
+    SimulationError
+        When the run fails or its last sample is not at ``t_final``.
+    KeyboardInterrupt
+        On Ctrl-C.
+
+    Warns
+    -----
+    StepSizeWarning
+        Before the run when the RK4 step is too coarse (:func:`step_size_report`), and after it when the rotation
+        per step actually reached exceeds :data:`MAX_ROTATION_PER_STEP`.
 
     Examples
     --------
