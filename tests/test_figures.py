@@ -17,6 +17,7 @@ What is checked, each against an independent reason:
 from __future__ import annotations
 
 import random
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,6 +26,15 @@ from matplotlib.colors import to_hex
 from fsmctl import paper_scenario, simulate
 from fsmctl import studies as R
 from fsmctl.studies import figures as F
+from fsmctl.studies.figure_marks import paper_marks
+from fsmctl.studies.paper_statements import (
+    CASE2_TRACKING_ERROR,
+    RELATIVE_ACCURACY,
+    SETTLING_TIME,
+    TORQUE_BOUND,
+    TRACKING_ACCURACY,
+    printed_axes,
+)
 
 TAB10 = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b")  # matplotlib's tab10, agents 1-6
 
@@ -56,20 +66,24 @@ def plan_runs():
 # ----------------------------------------------------------------------------- one colour per agent
 
 
+def _agent_lines(ax) -> list:
+    """The agents' lines of a torque panel (not the limit lines, not the marks)."""
+    return [ln for ln in ax.lines if ln.get_label().startswith("u")]
+
+
 def test_an_agent_has_one_colour_in_every_figure_of_a_result(case1_run):
     figs = F.simulation_figures(case1_run)
     theta_lines = figs["theta_e"].axes[0].lines
     assert [ln.get_label() for ln in theta_lines] == [f"θ{i}" for i in range(1, 7)]
     torque_axes = figs["torques"].axes
-    assert [ax.get_ylabel() for ax in torque_axes] == [f"u{i} (N m)" for i in range(1, 7)]
-    for i in range(6):
-        assert to_hex(theta_lines[i].get_color()) == TAB10[i]
-        components = [ln for ln in torque_axes[i].lines if len(ln.get_xdata()) > 2]  # not the limit lines
-        assert len(components) == 3
-        assert {to_hex(ln.get_color()) for ln in components} == {TAB10[i]}  # same colour as in the theta figure
-        assert len({ln.get_linestyle() for ln in components}) == 3  # the axes differ by style
-        limits = [ln for ln in torque_axes[i].lines if len(ln.get_xdata()) == 2]
+    assert [ax.get_ylabel() for ax in torque_axes] == [f"(u_i)_{k} (N m)" for k in (1, 2, 3)]  # one per body axis
+    for ax in torque_axes:
+        agents = _agent_lines(ax)
+        assert [ln.get_label() for ln in agents] == [f"u{i}" for i in range(1, 7)]
+        assert [to_hex(ln.get_color()) for ln in agents] == list(TAB10)  # as in the theta figure
+        limits = [ln for ln in ax.lines if len(ln.get_xdata()) == 2]
         assert {to_hex(ln.get_color()) for ln in limits} == {"#000000"}
+    assert [to_hex(ln.get_color()) for ln in theta_lines] == list(TAB10)
     assert len(set(TAB10)) == 6
 
 
@@ -85,8 +99,9 @@ def test_agent_colours_of_a_subset_and_of_a_large_formation():
     u = np.zeros((20, 40, 3))
     u[:, 17] = 1.0
     torques = F.torques_figure(t, u, 2.0)
-    panel = next(ax for ax in torques.axes if ax.get_ylabel() == "u18 (N m)")
-    assert {to_hex(ln.get_color()) for ln in panel.lines if len(ln.get_xdata()) > 2} == {"#c7c7c7"}
+    for panel in torques.axes:
+        line18 = next(ln for ln in _agent_lines(panel) if ln.get_label() == "u18")
+        assert to_hex(line18.get_color()) == "#c7c7c7"
 
 
 def test_runs_of_an_overlay_do_not_take_agent_colours():
@@ -241,3 +256,206 @@ def test_report_lists_figures_in_the_paper_order(case1_run, tmp_path):
     assert stems[len(cited) : 9] == ["fig03_theta_e_case1", "fig07_theta_e_case2"]  # then the others, in order
     assert sorted(stems[9:]) == sorted(diagnostics)  # then every diagnostic
     assert all(f"](figures/{stem}.png)" in line for stem, line in zip(stems, shown, strict=True))
+
+
+# ----------------------------------------------------------------------------- the paper's figures as reproduce draws them
+# Built by the reproduction's own code paths (execute_run for Figs 1-4, overlay_figures for Figs 5-6, 8-9 and the
+# diagnostics) from 1 s runs; every expected number is read from the paper's registry (paper_statements).
+
+
+@pytest.fixture(scope="module")
+def one_second_figures(tmp_path_factory):
+    """The figures of ``fsmctl reproduce`` from the plan's runs flown for 1 s (Case 1 a little past the paper's
+    settling time, so that its mark lies in the run): stem -> Figure, and the records."""
+    import dataclasses
+
+    from fsmctl.studies.paper_runs import execute_run
+
+    out = tmp_path_factory.mktemp("reproduction")
+    captured = {}
+    monkeypatch = pytest.MonkeyPatch()
+    monkeypatch.setattr(F, "save_figure", lambda fig, stem, **kw: captured.setdefault(Path(stem).name, fig) and [])
+    records = {}
+    try:
+        for spec in R.run_plan():
+            t_final = SETTLING_TIME.value + 3.0 if spec.key == "case1" else 1.0
+            short = dataclasses.replace(spec, simulation=(*spec.simulation, ("t_final", t_final)))
+            records[spec.key] = execute_run("paper", short, True, out)
+    finally:
+        monkeypatch.undo()
+    captured.update(R.overlay_figures(records))
+    return captured, records
+
+
+def _zoom(fig):
+    insets = [inset for ax in fig.axes for inset in ax.child_axes]
+    return insets[0] if insets else fig.axes[1]
+
+
+@pytest.mark.parametrize(
+    ("stem", "figure"),
+    [
+        ("fig01_aaem_case1", 1),
+        ("fig02_raem_case1", 2),
+        ("fig05_aaem_case2_vs_case1", 5),
+        ("fig06_raem_case2_vs_case1", 6),
+        ("fig08_aaem_case3", 8),
+        ("fig09_raem_case3", 9),
+    ],
+)
+def test_the_insets_zoom_to_the_printed_inset_range_and_say_when_the_run_is_above(one_second_figures, stem, figure):
+    fig = one_second_figures[0][stem]
+    zoom = _zoom(fig)
+    assert zoom.get_ylim() == pytest.approx(printed_axes(figure).inset_ylim)  # the paper's inset, not autoscaled
+    assert zoom.get_xlim() == pytest.approx(fig.axes[0].get_xlim())  # the paper's insets span the whole run
+    # the 1 s runs lie far above 0.1°: the zoom says so, with the largest value it does not show
+    curves = [np.asarray(ln.get_ydata(), float) for ln in fig.axes[0].lines if ln.get_gid() is None]
+    top = max(float(np.nanmax(c)) for c in curves)
+    assert top > printed_axes(figure).inset_ylim[1]
+    notes = [t.get_text() for t in zoom.texts if "above" in t.get_text()]
+    assert len(notes) == 1 and f"max {top:.3g}°" in notes[0]
+
+
+def test_a_run_inside_the_inset_range_gets_no_note():
+    t = np.linspace(0.0, 100.0, 1001)
+    marks = paper_marks(1)
+    inside = F.metric_figure(t, 0.02 + 0.0 * t, metric="AAEM", marks=marks)
+    assert not [t for t in _zoom(inside).texts if "above" in t.get_text()]
+
+
+def _display_box(ax, y: float, line_px: float):
+    """The display box of a horizontal line at data ``y`` across ``ax``."""
+    from matplotlib.transforms import Bbox
+
+    _, py = ax.transData.transform((0.0, y))
+    return Bbox([[ax.bbox.x0, py - line_px], [ax.bbox.x1, py + line_px]])
+
+
+def test_fig4_has_a_panel_per_body_axis_and_its_legend_off_the_torque_limit(one_second_figures):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    from fsmctl.model.time_response import agent_color
+
+    fig = one_second_figures[0]["fig04_torques_case1"]
+    assert len(fig.axes) == 3
+    FigureCanvasAgg(fig).draw()
+    assert all(ax.get_legend() is None for ax in fig.axes)
+    (legend,) = fig.legends
+    box = legend.get_window_extent()
+    bound = TORQUE_BOUND.value
+    for ax in fig.axes:
+        assert [ln.get_color() for ln in _agent_lines(ax)] == [agent_color(i) for i in range(6)]
+        limits = [ln for ln in ax.lines if ln.get_gid() == "limit"]
+        assert sorted(float(ln.get_ydata()[0]) for ln in limits) == [-bound, bound]
+        assert all(TORQUE_BOUND.label in ln.get_label() for ln in limits)  # the paper's bound, labelled
+        for y in (-bound, bound):
+            assert not box.overlaps(_display_box(ax, y, 2.0)), "the legend covers a torque-limit line"
+    assert TORQUE_BOUND.label in [t.get_text() for t in legend.get_texts()][-1]
+
+
+def _hidden(ax, lines) -> list[str]:
+    """Legend lines fully covered by a later-drawn line: same samples within (later width - own width) / 2."""
+    hidden = []
+    for i, line in enumerate(lines):
+        pa = ax.transData.transform(np.asarray(line.get_xydata(), float))
+        for later in lines[i + 1 :]:
+            pb = ax.transData.transform(np.asarray(later.get_xydata(), float))
+            slack = (later.get_linewidth() - line.get_linewidth()) / 2 * ax.figure.dpi / 72
+            if (
+                pa.shape == pb.shape
+                and later.get_zorder() >= line.get_zorder()
+                and np.nanmax(np.abs(pa - pb)) <= slack + 1e-9
+            ):
+                hidden.append(line.get_label())
+    return hidden
+
+
+def test_every_run_of_the_no_limit_diagnostic_is_visible(one_second_figures):
+    figs, records = one_second_figures
+    assert np.array_equal(records["case1_no_torque_limit"].aaem_deg, records["case3c_no_torque_limit"].aaem_deg)
+    fig = figs["diag_aaem_no_torque_limit"]
+    fig.draw_without_rendering()
+    ax = fig.axes[0]
+    runs = [ln for ln in ax.lines if ln.get_gid() is None]
+    assert len(runs) == 5
+    assert _hidden(ax, runs) == []
+    # the legend says which runs coincide
+    case1 = next(t.get_text() for t in fig.legends[0].get_texts() if t.get_text().startswith("Case 1"))
+    assert records["case3c_no_torque_limit"].title in case1.split("under", 1)[1]
+
+
+def _marks(ax, label: str) -> list:
+    return [a for a in ax.get_children() if getattr(a, "get_label", lambda: "")() == label]
+
+
+def test_the_papers_stated_values_are_marked_with_their_labels(one_second_figures):
+    figs = one_second_figures[0]
+    for stem, accuracy in (("fig01_aaem_case1", TRACKING_ACCURACY), ("fig02_raem_case1", RELATIVE_ACCURACY)):
+        ax = figs[stem].axes[0]
+        (settling,) = _marks(ax, SETTLING_TIME.label)  # the 27 s line on the main axes
+        assert list(settling.get_xdata()) == [SETTLING_TIME.value] * 2
+        assert SETTLING_TIME.label in [t.get_text().strip() for t in ax.texts]
+        zoom = _zoom(figs[stem])
+        (band,) = _marks(zoom, accuracy.label)  # the accuracy band in the zoom
+        assert band.get_path().get_extents(band.get_transform()).y1 == pytest.approx(
+            zoom.transData.transform((0.0, accuracy.value))[1]
+        )
+        assert accuracy.label in [t.get_text().strip() for t in zoom.texts]
+    for stem, figure in (("fig01_aaem_case1", 1), ("fig03_theta_e_case1", 3), ("fig05_aaem_case2_vs_case1", 5),
+                         ("fig07_theta_e_case2", 7), ("fig09_raem_case3", 9)):  # fmt: skip
+        printed = printed_axes(figure)
+        (box,) = [p for p in figs[stem].axes[0].patches if printed.text in p.get_label()]
+        assert (box.get_x(), box.get_x() + box.get_width()) == printed.xlim
+        assert (box.get_y(), box.get_y() + box.get_height()) == printed.ylim
+    (level,) = _marks(_zoom(figs["fig05_aaem_case2_vs_case1"]), CASE2_TRACKING_ERROR.label)
+    assert list(level.get_ydata()) == [CASE2_TRACKING_ERROR.value] * 2
+    diag = figs["diag_aaem_no_torque_limit"].axes[0]  # log axes: the accuracy band is visible on the main axes
+    assert len(_marks(diag, TRACKING_ACCURACY.label)) == 1
+    commanded = figs["diag_torques_commanded_case1_no_torque_limit"].axes[0]
+    assert sorted(float(ln.get_ydata()[0]) for ln in _marks(commanded, TORQUE_BOUND.label)) == [-2.0, 2.0]
+
+
+def test_figures_of_surfaces_and_laws_use_no_agent_colour():
+    """Surfaces and laws are runs: an agent's colour (tab10) would say "agent i" to a reader of the other figures."""
+    from fsmctl.studies import Variant, compare_laws, compare_surfaces
+    from fsmctl.studies.surface_figures import plot_agent_times, plot_error_metrics
+
+    scenario = paper_scenario("1").replace(simulation={"t_final": 1.0, "output_interval": 0.1})
+    surfaces = compare_surfaces(scenario, t_final=1.0, variants=[Variant(True, True, True)], scalar_check=False,
+                                workers=1, progress=False)  # fmt: skip
+    lines = [ln for ln in plot_error_metrics(surfaces).axes[0].lines if len(ln.get_xdata()) > 2]
+    bars = [p for ax in plot_agent_times(surfaces).axes for p in ax.patches]
+    laws = compare_laws(scenario, ["fsm", "pid"]).figure()
+    law_lines = [ln for ln in laws.axes[0].lines if len(ln.get_xdata()) > 2]
+    assert len(lines) == 3 and len(law_lines) == 2 and bars
+    colours = {to_hex(ln.get_color()) for ln in lines + law_lines} | {to_hex(p.get_facecolor()) for p in bars}
+    assert len({to_hex(ln.get_color()) for ln in lines}) == 3
+    assert not colours & set(TAB10)
+
+
+# ----------------------------------------------------------------------------- the README's python-control example
+
+
+def _readme_python_example() -> list[str]:
+    text = (Path(__file__).resolve().parent.parent / "README.md").read_text(encoding="utf-8")
+    section = text.split("## Python (python-control)", 1)[1]
+    return section.split("```python\n", 1)[1].split("```", 1)[0].splitlines()
+
+
+def test_the_readme_example_saves_every_figure_it_plots(tmp_path, monkeypatch):
+    """Run as a script, the example leaves its figures as files: each ``.plot()`` is saved, and its first part (the
+    paper's Case 1, up to the first plot) runs here and writes the PNG it names."""
+    import matplotlib.pyplot as plt
+
+    lines = _readme_python_example()
+    plots = [line for line in lines if ".plot(" in line]
+    assert plots and all(".figure.savefig(" in line for line in plots), plots
+    first = next(i for i, line in enumerate(lines) if ".plot(" in line)
+    monkeypatch.chdir(tmp_path)
+    plt.close("all")
+    try:
+        exec(compile("\n".join(lines[: first + 1]), "README.md", "exec"), {})  # the README's own code
+    finally:
+        plt.close("all")
+    (name,) = [part.split('"')[1] for part in plots[0].split("savefig(")[1:]]
+    assert (tmp_path / name).read_bytes()[:4] == b"\x89PNG"

@@ -211,9 +211,11 @@ def test_figures_cap_the_per_agent_drawing():
     u = rng.uniform(-1.0, 1.0, (T, n, 3))
     u[:, 17] *= 2.0  # the agent with the largest RMS torque must be drawn
     fig = torques_figure(t, u, 2.0, title="run")
-    assert len(fig.axes) == MAX_AGENTS_DRAWN
-    labels = [ax.get_ylabel() for ax in fig.axes]
-    assert "u18 (N m)" in labels and labels[-1] == f"all {n} (N m)"
+    assert len(fig.axes) == 3  # one panel per body axis
+    for ax in fig.axes:
+        labels = [line.get_label() for line in ax.lines if line.get_gid() != "limit"]
+        assert len(labels) == MAX_AGENTS_DRAWN - 1 and "u18" in labels
+        assert [c.get_label() for c in ax.collections] == [f"min-max of all {n}"]
     assert f"11 of {n} agents drawn" in fig._suptitle.get_text()
     assert fig.get_size_inches()[1] < 15
     theta = rng.uniform(0.0, 10.0, (T, n))
@@ -224,7 +226,8 @@ def test_figures_cap_the_per_agent_drawing():
     assert "θ4" in [line.get_label() for line in ax.lines]
     assert f"12 of {n} spacecraft drawn" in ax.get_title()
     small = torques_figure(t, u[:, :5], 2.0)
-    assert len(small.axes) == 5  # small formations: one panel per agent, as before
+    assert [len([ln for ln in ax.lines if ln.get_gid() != "limit"]) for ax in small.axes] == [5, 5, 5]
+    assert all(len(ax.collections) == 0 for ax in small.axes)  # small formations: every agent drawn, no envelope
 
 
 # ----------------------------------------------------------------------------- the final state

@@ -171,15 +171,16 @@ def test_metric_figure_has_inset_of_the_last_part():
         metric_figure(t, t[:-1])
 
 
-def test_torques_figure_one_panel_per_agent_with_limits():
+def test_torques_figure_one_panel_per_body_axis_with_limits():
     from fsmctl.studies.figures import torques_figure
 
     t = np.linspace(0, 10, 101)
     u = np.clip(np.sin(t)[:, None, None] * np.arange(1, 7)[None, :, None] * np.ones(3), -2, 2)
     fig = torques_figure(t, u, 2.0)
-    assert len(fig.axes) == 6
-    for i, ax in enumerate(fig.axes):
-        assert ax.get_ylabel() == f"u{i + 1} (N m)"
+    assert len(fig.axes) == 3
+    for k, ax in enumerate(fig.axes):
+        assert ax.get_ylabel() == f"(u_i)_{k + 1} (N m)"
+        assert [ln.get_label() for ln in ax.get_lines()][:6] == [f"u{i}" for i in range(1, 7)]
         horizontal = [ln for ln in ax.get_lines() if np.ptp(ln.get_ydata()) == 0 and len(ln.get_ydata()) == 2]
         assert sorted(float(ln.get_ydata()[0]) for ln in horizontal) == [-2.0, 2.0]
         assert ax.get_ylim() == pytest.approx((-2.3, 2.3))

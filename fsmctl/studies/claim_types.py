@@ -20,6 +20,7 @@ from functools import cached_property
 
 from fsmctl.policy import SETTLING_TOLERANCES_DEG
 from fsmctl.studies.momentum import MomentumBound
+from fsmctl.studies.paper_statements import SETTLING_TIME
 from fsmctl.studies.records import RunRecord
 
 __all__ = [
@@ -39,8 +40,9 @@ DIFFERS = "differs"
 IMPOSSIBLE = "impossible (bound)"
 VERDICTS = (REPRODUCED, DIFFERS, IMPOSSIBLE)
 
-PAPER_SETTLING_TIME_S = 27.0
-"""The paper's settling time (s): the claims and the momentum bound compare with it."""
+PAPER_SETTLING_TIME_S = SETTLING_TIME.value
+"""The paper's settling time (s, :data:`fsmctl.studies.paper_statements.SETTLING_TIME`): the claims and the momentum
+bound compare with it."""
 
 Runs = Mapping[str, RunRecord]
 

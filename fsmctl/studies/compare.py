@@ -464,12 +464,14 @@ class Comparison:
         """
         from matplotlib.figure import Figure
 
+        from fsmctl.studies.figures import RUN_COLORS
+
         fig = Figure(figsize=(13, 7.5), layout="constrained")
         gs = fig.add_gridspec(2, 6)
         ax_a = fig.add_subplot(gs[0, :3])
         ax_r = fig.add_subplot(gs[0, 3:], sharex=ax_a)
         ax_s, ax_p, ax_c = (fig.add_subplot(gs[1, 2 * k : 2 * k + 2]) for k in range(3))
-        colors = [f"C{k % 10}" for k in range(len(self.table))]
+        colors = [RUN_COLORS[k % len(RUN_COLORS)] for k in range(len(self.table))]  # runs: never an agent's colour
         for row, color in zip(self.table, colors, strict=True):
             ser = self.series.get(row["label"])
             if ser is None:

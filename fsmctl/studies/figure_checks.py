@@ -4,7 +4,8 @@ Each :class:`FigureCheck` of :data:`FIGURE_CHECKS` reads one number of the runs 
 the steady maxima) and checks that it lies where the printed figure puts it: an autoscaled axis ends at the first tick
 above the data, so a peak lies in the top tick interval ``(top - tick, top]``; Fig 4's axes are ±2 N m and the text
 says the bound is reached; the insets span the whole 100 s, so their limits are set by hand and bound the final errors
-from above (Figs 1-2's insets, 0-0.04° and 0-0.02°, are the accuracy claims').  ``θ`` is the principal angle of the
+from above (Figs 1-2's insets are the accuracy claims').  The printed ranges are the records of
+:data:`fsmctl.studies.paper_statements.PRINTED_AXES`.  ``θ`` is the principal angle of the
 error MRP the law uses.  :mod:`fsmctl.studies.explain` searches the change that makes a check pass, like a claim's.
 """
 
@@ -19,6 +20,7 @@ from typing import ClassVar
 import numpy as np
 
 from fsmctl.studies.explain_laws import UNSWITCHED_LAW
+from fsmctl.studies.paper_statements import TORQUE_BOUND, printed_axes
 from fsmctl.studies.records import RunRecord
 
 __all__ = ["FigureCheck", "FIGURE_CHECKS", "figure_numbers", "get_figure_check", "error_mrp"]
@@ -226,85 +228,92 @@ def _steady(*keys: str) -> Callable[[Runs], float]:
 _SHADOW_AAEM = "in the shadow set every θ_ei <= 180°, so AAEM <= 180°"
 _UNSWITCHED = ("error_mrp", "unswitched")
 
+
+def _axis(figure: int, runs: str) -> str:
+    return f"Fig {figure}: {runs} plotted on a {printed_axes(figure).text}"
+
+
 FIGURE_CHECKS: tuple[FigureCheck, ...] = (
     FigureCheck(
         "fig1_axis",
-        "Fig 1: Case 1 AAEM plotted on a 0-300° axis (ticks every 50°)",
+        _axis(1, "Case 1 AAEM"),
         ("case1",),
         _peak("aaem_peak_deg", "case1"),
         "AAEM peak",
-        (250.0, 300.0),
+        printed_axes(1).top_interval,
         requires=_UNSWITCHED,
         why=_SHADOW_AAEM,
     ),
     FigureCheck(
         "fig2_axis",
-        "Fig 2: Case 1 RAEM plotted on a 0-140° axis (ticks every 20°)",
+        _axis(2, "Case 1 RAEM"),
         ("case1",),
         _peak("raem_peak_deg", "case1"),
         "RAEM peak",
-        (120.0, 140.0),
+        printed_axes(2).top_interval,
     ),
     FigureCheck(
         "fig3_axis",
-        "Fig 3: Case 1 θ_1-θ_4 plotted on a 0-200° axis (ticks every 20°)",
+        _axis(3, "Case 1 θ_1-θ_4"),
         ("case1",),
         _peak("theta_plotted_peak_deg", "case1"),
         "θ_1-4 peak",
-        (180.0, 200.0),
+        printed_axes(3).top_interval,
         requires=_UNSWITCHED,
         why="in the shadow set every θ_ei <= 180°",
     ),
     FigureCheck(
         "fig4_axis",
-        "Fig 4: applied torques plotted on ±2 N m axes, the bound reached",
+        f"Fig 4: applied torques plotted on {printed_axes(4).text}, the bound reached",
         ("case1",),
         _peak("u_peak_N_m", "case1"),
         "applied |u_k| peak",
-        (2.0 * (1 - 1e-6), 2.0 * (1 + 1e-6)),
+        (TORQUE_BOUND.value * (1 - 1e-6), TORQUE_BOUND.value * (1 + 1e-6)),
         unit="N m",
     ),
     FigureCheck(
         "fig5_axis",
-        "Fig 5: Case 2 AAEM plotted on a 0-300° axis (ticks every 50°)",
+        _axis(5, "Case 2 AAEM"),
         ("case2",),
         _peak("aaem_peak_deg", "case2"),
         "AAEM peak",
-        (250.0, 300.0),
+        printed_axes(5).top_interval,
         requires=_UNSWITCHED,
         why=_SHADOW_AAEM,
     ),
     FigureCheck(
         "fig6_axis",
-        "Fig 6: Case 2 RAEM plotted on a 0-140° axis (ticks every 20°)",
+        _axis(6, "Case 2 RAEM"),
         ("case2",),
         _peak("raem_peak_deg", "case2"),
         "RAEM peak",
-        (120.0, 140.0),
+        printed_axes(6).top_interval,
     ),
     FigureCheck(
         "fig7_axis",
-        "Fig 7: Case 2 θ_1-θ_4 plotted on a 0-160° axis (ticks every 20°)",
+        _axis(7, "Case 2 θ_1-θ_4"),
         ("case2",),
         _peak("theta_plotted_peak_deg", "case2"),
         "θ_1-4 peak",
-        (140.0, 160.0),
+        printed_axes(7).top_interval,
     ),
     FigureCheck(
         "fig5_6_insets",
-        "Figs 5-6 insets (0-0.1°): Case 2's AAEM and RAEM end within 0.1° in the 100 s",
+        f"Figs 5-6 insets ({printed_axes(5).inset_text}): Case 2's AAEM and RAEM end within "
+        f"{printed_axes(5).inset_ylim[1]:g}° in the 100 s",
         ("case2",),
         _steady("case2"),
         "max steady AAEM / RAEM",
-        (0.0, 0.1),
+        printed_axes(5).inset_ylim,
     ),
     FigureCheck(
         "fig8_9_insets",
-        "Figs 8-9 insets (0-0.04°): Cases 3a-3c's AAEM and RAEM end within 0.04° in the 100 s",
+        f"Figs 8-9 insets ({printed_axes(8).inset_text}): Cases 3a-3c's AAEM and RAEM end within "
+        f"{printed_axes(8).inset_ylim[1]:g}° in the 100 s",
         ("case3c", "case3a", "case3b"),
         _steady("case3c", "case3a", "case3b"),
         "max steady AAEM / RAEM",
-        (0.0, 0.04),
+        printed_axes(8).inset_ylim,
     ),
 )
 """Figure-level checks (Figs 1-9 as printed in Liang, Sun & Wang 2012, Section 4: their axis ranges, ticks and insets,

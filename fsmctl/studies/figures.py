@@ -19,13 +19,15 @@ Arrays use the layout of :class:`fsmctl.simulation.simulator.SimulationResult`: 
 metrics (T,) deg, ``theta_e_deg`` (T, n) deg, ``u`` (T, n, 3) N m.
 
 Colours: agent ``i`` (0-based) is drawn in :func:`fsmctl.model.time_response.agent_color` ``(i)`` in every figure
-(its ``theta_ei`` line, its torque panel), so an agent keeps its colour from one figure to the next; the three body
-axes of one agent's torque differ by line style.  Formation-level metrics are black, and the runs of an overlay use
-their own palette (:data:`RUN_COLORS`), which shares no colour with the agents'.
+(its ``theta_ei`` line, its torque line in each body axis' panel of Fig 4).  Formation-level metrics are black, and the
+runs of an overlay use their own palette (:data:`RUN_COLORS`), which shares no colour with the agents'; a run hidden
+under a later one (the same within the line width) is drawn wider beneath it and its legend entry says so.
 
-Zoomed insets (the paper's Figs 1-2, 5-6, 8-9 zoom on the last part of each metric) are placed where the main
-curves are not: the emptiest corner of the axes that holds the inset with its tick labels and title.  When no part
-of the axes is free the zoom becomes a separate panel below the main axes instead of hiding the curves.
+The paper's statements (:mod:`fsmctl.studies.figure_marks`: the 27 s settling time, the accuracy bands, the ±2 N m
+bound, the printed axes) are drawn as labelled reference marks when a builder gets ``marks``.  Zooms are placed where
+the main curves and the marks' labels are not (the emptiest corner that holds the inset with its labels), else as a
+panel below the axes; with ``marks.inset_ylim`` a zoom spans the whole run at the paper's printed inset range and says
+inside when the run lies above it.
 
 Large formations: per-agent drawing is capped at :data:`MAX_AGENTS_DRAWN` (12) agents.  Beyond that the
 figures draw the agents with the largest values individually (the title says which and how many of how
@@ -44,9 +46,19 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from fsmctl.model.time_response import agent_color
+from fsmctl.studies.figure_marks import (
+    ReferenceMarks,
+    draw_box,
+    draw_marks,
+    include_levels,
+    keep_coinciding_visible,
+    note_above_range,
+    span_text,
+)
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
+    from matplotlib.text import Text
 
     from fsmctl.simulation.simulator import SimulationResult
 
@@ -175,33 +187,60 @@ def _inset_is_clear(ax: Axes, inset: Axes, occupied: np.ndarray) -> bool:
 def _draw_zoom(
     zoom: Axes,
     curves: Sequence[tuple[np.ndarray, np.ndarray, str, str, str]],
-    start: float,
-    t_end: float,
+    span: tuple[float, float],
     tolerances: Sequence[float],
     small: bool,
+    marks: ReferenceMarks | None,
 ) -> None:
-    """Draw the ``t >= start`` part of every curve ``(time, values, color, linestyle, label)`` into ``zoom``."""
+    """Draw the part of every curve ``(time, values, color, linestyle, label)`` in the time ``span`` into ``zoom``.
+
+    The y range is the data's, or ``marks.inset_ylim`` (the printed inset's) when given: then a note inside the
+    zoom says when the runs lie above it.
+    """
+    start, t_end = span
     top, bottom = 0.0, 0.0
+    shown = []
     for time, values, color, style, label in curves:
         sel = time >= start
         if np.count_nonzero(sel) < 2:
             continue
         v = values[sel]
         zoom.plot(time[sel], v, color=color, ls=style, lw=0.8, label=label)
+        shown.append(v)
         finite = v[np.isfinite(v)]
         if finite.size:
             top, bottom = max(top, float(np.max(finite))), min(bottom, float(np.min(finite)))
     zoom.set_xlim(start, t_end)
-    zoom.set_ylim(bottom * 1.1, top * 1.1 if top > 0 else 1.0)
+    fixed = marks.inset_ylim if marks is not None else None
+    zoom.set_ylim(fixed if fixed is not None else (bottom * 1.1, top * 1.1 if top > 0 else 1.0))
     for tol in tolerances:
         zoom.axhline(tol, color="gray", ls=":", lw=0.8)
     zoom.grid(True, alpha=0.3)
+    draw_marks(zoom, marks, small=small)
+    if fixed is not None:
+        note_above_range(zoom, np.concatenate(shown), marks.unit)
+        what = f"zoom {span_text(*fixed, marks.unit)} (the paper's inset)"
+    else:
+        what = f"t ≥ {start:g} s" if small else f"zoom: t ≥ {start:g} s"
     if small:
-        zoom.set_title(f"t ≥ {start:g} s", fontsize=8)
+        zoom.set_title(what, fontsize=8)
         zoom.tick_params(labelsize=7)
     else:
-        zoom.set_title(f"zoom: t ≥ {start:g} s", fontsize=10)
+        zoom.set_title(what, fontsize=10)
         zoom.set_xlabel("time (s)")
+
+
+def _text_boxes(ax: Axes, texts: Sequence[Text]) -> list[tuple[float, float, float, float]]:
+    """The boxes ``(x0, y0, x1, y1)`` of ``texts`` in ``ax``'s axes fraction (after drawing)."""
+    if not texts:
+        return []
+    ax.figure.draw_without_rendering()
+    to_axes = ax.transAxes.inverted()
+    boxes = []
+    for text in texts:
+        b = text.get_window_extent().transformed(to_axes)
+        boxes.append((b.x0, b.y0, b.x1, b.y1))
+    return boxes
 
 
 def _add_zoom(
@@ -209,8 +248,11 @@ def _add_zoom(
     curves: Sequence[tuple[np.ndarray, np.ndarray, str, str, str]],
     start: float,
     tolerances: Sequence[float] = (),
+    marks: ReferenceMarks | None = None,
+    avoid: Sequence[Text] = (),
 ) -> Axes | None:
-    """A zoom on ``t >= start`` of ``curves``: an inset where the main curves are not, else a panel below ``ax``.
+    """A zoom on ``t >= start`` of ``curves``: an inset where the main curves (and the texts ``avoid``) are not,
+    else a panel below ``ax``.
 
     Returns the zoom's axes (``ax.child_axes[0]`` for an inset), or None when no curve has two samples after
     ``start``.
@@ -220,9 +262,12 @@ def _add_zoom(
     t_end = max(float(time[-1]) for time, *_ in curves)
     ax.autoscale_view()
     occupied = _occupancy(ax, [(time, values) for time, values, *_ in curves])
+    for x0, y0, x1, y1 in _text_boxes(ax, avoid):
+        (c0, c1), (r0, r1) = _cells(x0, x1), _cells(y0, y1)
+        occupied[c0:c1, r0:r1] = True
     for rect in _inset_candidates(occupied)[:3]:  # the first is nearly always clear; measure to be sure
         inset = ax.inset_axes(rect)
-        _draw_zoom(inset, curves, start, t_end, tolerances, small=True)
+        _draw_zoom(inset, curves, (start, t_end), tolerances, True, marks)
         if _inset_is_clear(ax, inset, occupied):
             return inset
         inset.remove()
@@ -233,7 +278,7 @@ def _add_zoom(
     zoom = fig.add_subplot(grid[1])
     width, height = fig.get_size_inches()
     fig.set_size_inches(width, height * 1.6)
-    _draw_zoom(zoom, curves, start, t_end, tolerances, small=False)
+    _draw_zoom(zoom, curves, (start, t_end), tolerances, False, marks)
     return zoom
 
 
@@ -267,6 +312,7 @@ def metric_figure(
     title: str | None = None,
     inset_start: float | None = None,
     tolerances_deg: Sequence[float] = (),
+    marks: ReferenceMarks | None = None,
 ) -> Figure:
     """A formation error metric against time with a zoom on its last part (Figs 1-2).
 
@@ -281,15 +327,21 @@ def metric_figure(
     title : str, optional
         Figure title.
     inset_start : float, optional
-        Start (s) of the zoom; default: the second half of the run. ``nan`` disables it.
+        Start (s) of the zoom; default: the second half of the run, or its start when ``marks`` fix the zoom's
+        y range (the paper's insets span the whole run). ``nan`` disables it.
     tolerances_deg : sequence of float
         Tolerance levels drawn as dotted lines in the zoom.
+    marks : ReferenceMarks, optional
+        Values to mark (:func:`fsmctl.studies.figure_marks.paper_marks`: the paper's Fig 1 or 2): stated times and
+        bands, the printed axes as a dashed box, and the zoom's y range (the printed inset's), with a note inside
+        the zoom when the run lies above it.
 
     Returns
     -------
     matplotlib.figure.Figure
         The metric in black on ``fig.axes[0]``.  The zoom is an inset (``fig.axes[0].child_axes[0]``) placed
-        where the curve is not, or, when no region of the axes is free, a second panel ``fig.axes[1]``.
+        where the curve and the marks' labels are not, or, when no region of the axes is free, a second panel
+        ``fig.axes[1]``.
 
     Raises
     ------
@@ -312,6 +364,19 @@ def metric_figure(
     (50.0, 100.0)
     >>> bool(inset.get_position().x0 > 0.3 and inset.get_position().y0 > 0.3)
     True
+
+    With the paper's Fig 1 marked: the zoom spans the whole run at the printed inset's 0-0.04°, with the 27 s
+    settling time and the 0.03° accuracy band; a run that stays above the range says so inside the zoom.
+
+    >>> from fsmctl.studies.figure_marks import ABOVE_RANGE_GID, paper_marks
+    >>> fig = metric_figure(t, 100.0 + 0 * t, metric="AAEM", marks=paper_marks(1))
+    >>> (inset,) = fig.axes[0].child_axes
+    >>> inset.get_xlim(), inset.get_ylim()
+    ((0.0, 100.0), (0.0, 0.04))
+    >>> (note,) = [text for text in inset.texts if text.get_gid() == ABOVE_RANGE_GID]
+    >>> print(note.get_text())
+    ↑ run always above this range
+    max 100°, min 100°
     """
     if metric not in METRIC_EQUATIONS:
         raise ValueError(f"metric must be one of {list(METRIC_EQUATIONS)}, got {metric!r}")
@@ -319,16 +384,28 @@ def metric_figure(
     fig = Figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
     ax.plot(time, metric_deg, color=_METRIC_COLOR, lw=1.0)
+    labels = draw_box(ax, marks)
     ax.set_xlabel("time (s)")
     ax.set_ylabel(f"{metric} (deg), {METRIC_EQUATIONS[metric]}")
     ax.set_xlim(float(time[0]), float(time[-1]))
     ax.set_ylim(bottom=0.0)
     ax.grid(True, alpha=0.3)
     ax.set_title(title or f"{metric} ({METRIC_EQUATIONS[metric]})")
-    start = 0.5 * (time[0] + time[-1]) if inset_start is None else inset_start
+    labels += draw_marks(ax, marks)
+    start = _zoom_start(time, inset_start, marks)
     if math.isfinite(start):
-        _add_zoom(ax, [(time, metric_deg, _METRIC_COLOR, "-", metric)], float(start), tolerances_deg)
+        _add_zoom(ax, [(time, metric_deg, _METRIC_COLOR, "-", metric)], start, tolerances_deg, marks, labels)
     return fig
+
+
+def _zoom_start(time: np.ndarray, inset_start: float | None, marks: ReferenceMarks | None) -> float:
+    """The zoom's start: given, else the run's start for a printed inset range (the paper's span the run), else
+    the second half."""
+    if inset_start is not None:
+        return float(inset_start)
+    if marks is not None and marks.inset_ylim is not None:
+        return float(time[0])
+    return float(0.5 * (time[0] + time[-1]))
 
 
 def principal_angles_figure(
@@ -338,6 +415,7 @@ def principal_angles_figure(
     agents: Sequence[int] | None = None,
     title: str | None = None,
     max_agents: int = MAX_AGENTS_DRAWN,
+    marks: ReferenceMarks | None = None,
 ) -> Figure:
     """Error principal angle ``theta_ei`` of each spacecraft against time (Figs 3 and 7).
 
@@ -354,6 +432,8 @@ def principal_angles_figure(
         Figure title; when not all agents are drawn a second line says which.
     max_agents : int
         Most agents drawn as individual lines by default; the legend lists at most this many.
+    marks : ReferenceMarks, optional
+        Values to mark (:func:`fsmctl.studies.figure_marks.paper_marks` of Fig 3 or 7: the printed axes as a box).
 
     Returns
     -------
@@ -397,13 +477,15 @@ def principal_angles_figure(
         ax.plot(time, mid, color="0.35", lw=1.0, ls="--", label="median")
     for a in chosen:
         ax.plot(time, theta_e_deg[:, a - 1], lw=1.0, color=agent_color(a - 1), label=f"θ{a}")
+    draw_box(ax, marks)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("θ_ei (deg), eq 2")
     ax.set_xlim(float(time[0]), float(time[-1]))
     ax.set_ylim(bottom=0.0)
     ax.grid(True, alpha=0.3)
+    draw_marks(ax, marks)
     if len(chosen) <= max_agents:
-        ax.legend(ncol=min(6, len(chosen) + 2 * summarised), fontsize=8, loc="upper right")
+        fig.legend(ncols=min(6, len(chosen) + 2 * summarised), fontsize=8, loc="outside lower center")
     title = title or "error principal angle of each spacecraft"
     if summarised:  # always said, also under a caller's title
         title += f"\n{len(chosen)} of {n} spacecraft drawn (largest θ_ei in the second half), band: all {n}"
@@ -419,9 +501,10 @@ def torques_figure(
     title: str | None = None,
     ylim: tuple[float, float] | None = None,
     rasterized: bool = True,
-    max_panels: int = MAX_AGENTS_DRAWN,
+    max_agents: int = MAX_AGENTS_DRAWN,
+    marks: ReferenceMarks | None = None,
 ) -> Figure:
-    """Control torques ``u_i`` of every spacecraft, one panel per agent, with the limit drawn (Fig 4).
+    """Control torques ``u_i``: one panel per body axis, one colour per spacecraft, the limit drawn (Fig 4).
 
     Parameters
     ----------
@@ -430,30 +513,31 @@ def torques_figure(
     u : (T, n, 3) array
         Applied (or commanded) torque per body axis, N m.
     torque_limit : float
-        Per-component bound ``|(u_i)_k| <= u_max`` (N m); drawn as dashed lines when finite.
+        Per-component bound ``|(u_i)_k| <= u_max`` (N m); drawn as labelled dashed lines ``±u_max`` when finite.
     title : str, optional
         Figure title; when not all agents are drawn a second line says which.
     ylim : (float, float), optional
         Common y range; default: 1.15 times the limit when finite, else the data range.
     rasterized : bool
         Rasterize the torque lines inside vector output (chattering torques make huge SVGs).
-    max_panels : int
-        Most panels (>= 2).  For ``n > max_panels`` agents the ``max_panels - 1`` agents with the largest RMS
-        torque get a panel each and the last panel is the envelope of all ``n`` agents (min-max band over
-        agents and axes, and the median of ``|u|``).
+    max_agents : int
+        Most agents drawn one by one (>= 2).  For ``n > max_agents`` agents the ``max_agents - 1`` agents with the
+        largest RMS torque are drawn, and every panel shows the envelope of all ``n`` agents (min-max band).
+    marks : ReferenceMarks, optional
+        Levels to mark (:func:`fsmctl.studies.figure_marks.torque_marks`: the paper's ±2 N m); a mark at
+        ``±torque_limit`` labels the limit's lines instead of drawing a line of its own.
 
     Returns
     -------
     matplotlib.figure.Figure
-        ``min(n, max_panels)`` axes (``fig.axes``): agent i in panel i, or the drawn agents in increasing
-        order followed by the envelope panel.  Agent ``i``'s three components are drawn in its colour
-        (:func:`~fsmctl.model.time_response.agent_color`), body axes 1-3 with the line styles
-        :data:`COMPONENT_STYLES`; the limits are black dashed lines.
+        Three axes sharing the time axis (``fig.axes``: body axes 1, 2, 3, top to bottom); agent ``i``'s line in
+        :func:`~fsmctl.model.time_response.agent_color` ``(i - 1)`` in each, labelled ``u1``, ``u2``, ...; the
+        limits black dashed; one figure legend (``fig.legends[0]``) beside the axes, off the data.
 
     Raises
     ------
     ValueError
-        If ``u`` is not ``(T, n, 3)`` for the ``T`` times, or ``max_panels < 2``.
+        If ``u`` is not ``(T, n, 3)`` for the ``T`` times, or ``max_agents < 2``.
 
     Examples
     --------
@@ -461,69 +545,63 @@ def torques_figure(
 
     >>> from fsmctl import paper_scenario, simulate
     >>> from fsmctl.model.time_response import agent_color
+    >>> from fsmctl.studies.figure_marks import torque_marks
     >>> run = simulate(paper_scenario("1").replace(simulation={"t_final": 1.0}), progress=False)
-    >>> fig = torques_figure(run.time, run.u, 2.0)
-    >>> len(fig.axes), fig.axes[1].get_ylabel()
-    (6, 'u2 (N m)')
-    >>> [(line.get_color() == agent_color(1), line.get_linestyle()) for line in fig.axes[1].lines[:3]]
-    [(True, '-'), (True, '--'), (True, ':')]
+    >>> fig = torques_figure(run.time, run.u, 2.0, marks=torque_marks())
+    >>> [ax.get_ylabel() for ax in fig.axes]
+    ['(u_i)_1 (N m)', '(u_i)_2 (N m)', '(u_i)_3 (N m)']
+    >>> [(line.get_label(), line.get_color() == agent_color(i)) for i, line in enumerate(fig.axes[1].lines[:2])]
+    [('u1', True), ('u2', True)]
+    >>> sorted({line.get_label() for line in fig.axes[0].lines if line.get_gid() == "limit"})
+    ['±u_max = 2 N m (paper: |u_k| ≤ 2 N m)']
     """
     time, u = _check_series(time, u, "u")
     if u.ndim != 3 or u.shape[2] != 3:
         raise ValueError(f"u must have shape (T, n, 3), got {u.shape}")
-    if max_panels < 2:
-        raise ValueError(f"max_panels must be >= 2, got {max_panels}")
+    if max_agents < 2:
+        raise ValueError(f"max_agents must be >= 2, got {max_agents}")
     n = u.shape[1]
-    summarised = n > max_panels
-    shown = _worst_agents(np.sqrt(np.mean(np.square(u), axis=(0, 2))), max_panels - 1) if summarised else range(n)
-    panels = len(shown) + summarised
-    cols = 2 if panels > 1 else 1
-    rows = math.ceil(panels / cols)
-    fig = Figure(figsize=(9.0, 2.1 * rows + 0.6), layout="constrained")
-    axes = fig.subplots(rows, cols, sharex=True, squeeze=False).ravel()
+    summarised = n > max_agents
+    shown = _worst_agents(np.sqrt(np.mean(np.square(u), axis=(0, 2))), max_agents - 1) if summarised else range(n)
+    fig = Figure(figsize=(9.0, 6.6), layout="constrained")
+    axes = fig.subplots(3, 1, sharex=True)
     finite = math.isfinite(torque_limit)
-    if ylim is None:
-        ylim = (-1.15 * torque_limit, 1.15 * torque_limit) if finite else None
-
-    def decorate(ax, ylabel):
-        if finite:
-            for sign in (-1, 1):
-                ax.axhline(sign * torque_limit, color="k", ls="--", lw=0.8)
+    if ylim is None and finite:
+        ylim = (-1.15 * torque_limit, 1.15 * torque_limit)
+    for k, ax in enumerate(axes):
+        if summarised:
+            band_lo, band_hi = _envelope(u[:, :, k])[::2]
+            ax.fill_between(time, band_lo, band_hi, color="0.85", lw=0, label=f"min-max of all {n}",
+                            rasterized=rasterized)  # fmt: skip
+        for i in shown:
+            ax.plot(time, u[:, i, k], lw=0.7, color=agent_color(i), label=f"u{i + 1}", rasterized=rasterized)
         if ylim is not None:
             ax.set_ylim(*ylim)
-        ax.set_ylabel(ylabel)
+        ax.set_ylabel(f"(u_i)_{k + 1} (N m)")
         ax.grid(True, alpha=0.3)
-        ax.legend(fontsize=7, ncol=3, loc="upper right")
-
-    for ax, i in zip(axes, shown, strict=False):
-        for k in range(3):
-            ax.plot(
-                time,
-                u[:, i, k],
-                lw=0.7,
-                color=agent_color(i),
-                ls=COMPONENT_STYLES[k],
-                label=f"u{i + 1},{k + 1}",
-                rasterized=rasterized,
-            )
-        decorate(ax, f"u{i + 1} (N m)")
-    if summarised:
-        ax = axes[len(shown)]
-        lo, _, hi = _envelope(u)
-        _, med, _ = _envelope(np.abs(u))
-        ax.fill_between(time, lo, hi, color="0.8", lw=0, label="min-max", rasterized=rasterized)
-        ax.plot(time, med, color="0.3", lw=0.6, label="median |u|", rasterized=rasterized)
-        decorate(ax, f"all {n} (N m)")
-    for ax in axes[panels:]:
-        fig.delaxes(ax)
-    for ax in axes[max(0, panels - cols) : panels]:
-        ax.set_xlabel("time (s)")
+        _torque_limits(ax, torque_limit, marks)
+    axes[-1].set_xlabel("time (s)")
+    axes[-1].set_xlim(float(time[0]), float(time[-1]))
+    entries = dict(zip(*reversed(axes[0].get_legend_handles_labels()), strict=True))  # label -> handle, once each
+    fig.legend(entries.values(), entries.keys(), loc="outside right upper", fontsize=8)
     limit = f"|u_k| ≤ {torque_limit:g} N m" if finite else "no torque limit"
     title = title or f"control torques ({limit})"
     if summarised:  # always said, also under a caller's title
-        title += f"\n{len(shown)} of {n} agents drawn (largest RMS torque); last panel: all {n}"
+        title += f"\n{len(shown)} of {n} agents drawn (largest RMS torque); band: all {n}"
     fig.suptitle(title)
     return fig
+
+
+def _torque_limits(ax: Axes, torque_limit: float, marks: ReferenceMarks | None) -> None:
+    """The ``±torque_limit`` lines (labelled, ``gid="limit"``) and the marks' levels, each labelled at its line."""
+    levels = list(marks.levels) if marks is not None else []
+    if math.isfinite(torque_limit):
+        same = [m for m in levels if abs(abs(m.value) - torque_limit) <= 1e-9 * torque_limit]
+        label = f"±u_max = {torque_limit:g} N m" + (f" ({same[0].label})" if same else "")
+        for sign in (1, -1):
+            ax.axhline(sign * torque_limit, color="k", ls="--", lw=0.8, gid="limit", label=label)
+        levels = [m for m in levels if m not in same]
+    draw_marks(ax, ReferenceMarks(levels=tuple(levels)) if levels else None)
 
 
 def overlay_figure(
@@ -533,6 +611,7 @@ def overlay_figure(
     title: str,
     inset_start: float | None = None,
     log: bool = False,
+    marks: ReferenceMarks | None = None,
 ) -> Figure:
     """Several runs of one quantity on common axes (Figs 5-6: Case 2 vs Case 1; Figs 8-9: Cases 3a-3c).
 
@@ -545,16 +624,22 @@ def overlay_figure(
     title : str
         Figure title.
     inset_start : float, optional
-        Start (s) of a zoom on the last part; default: none.
+        Start (s) of a zoom on the last part; default: none, or the runs' start when ``marks`` fix the zoom's y
+        range (the paper's insets span the whole run).
     log : bool
         Logarithmic y axis (values <= 0 are not drawn).
+    marks : ReferenceMarks, optional
+        Values to mark (:func:`fsmctl.studies.figure_marks.paper_marks`, :func:`~fsmctl.studies.figure_marks.metric_marks`):
+        stated times, levels and bands, the printed axes as a dashed box (linear axes), the zoom's y range.
 
     Returns
     -------
     matplotlib.figure.Figure
         One axes (``fig.axes[0]``) with one labelled line per run, run ``k`` in :data:`RUN_COLORS` ``[k]``
-        with its own line style; the legend is below the axes (it never hides a curve).  The zoom is an inset
-        (``fig.axes[0].child_axes[0]``) placed where the curves are not, or a second panel ``fig.axes[1]``.
+        with its own line style; the legend is below the axes (it never hides a curve).  A run whose curve
+        coincides with a later one within the line width (it would be hidden under it) is drawn wider beneath it,
+        and its legend entry says which run covers it.  The zoom is an inset (``fig.axes[0].child_axes[0]``)
+        placed where the curves are not, or a second panel ``fig.axes[1]``.
 
     Raises
     ------
@@ -575,33 +660,43 @@ def overlay_figure(
     ['Case 1', 'Case 2']
     >>> fig.axes[0].child_axes[0].get_xlim()
     (50.0, 100.0)
+
+    Two runs that coincide: the first is drawn wider beneath the second, and the legend says so.
+
+    >>> fig = overlay_figure({"a": (t, 90 * np.exp(-t / 4)), "b": (t, 90 * np.exp(-t / 4))}, ylabel="x",
+    ...                      title="same", log=True)
+    >>> [text.get_text() for text in fig.legends[0].get_texts()]
+    ['a (under b: the same within the line width)', 'b']
     """
     if not curves:
         raise ValueError("overlay_figure: no curves")
     fig = Figure(figsize=(7.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
     lines = []
-    t_start, t_end = math.inf, -math.inf
     for k, (label, (time, values)) in enumerate(curves.items()):
         time, values = _check_series(time, values, label)
         color, style = RUN_COLORS[k % len(RUN_COLORS)], _RUN_STYLES[(k // len(RUN_COLORS)) % len(_RUN_STYLES)]
         plot_values = np.where(values > 0, values, np.nan) if log else values
-        ax.plot(time, plot_values, lw=1.0, color=color, ls=style, label=label)
         lines.append((time, plot_values, color, style, label))
-        t_end = max(t_end, float(time[-1]))
-        t_start = min(t_start, float(time[0]))
+    drawn = [ax.plot(time, v, lw=1.0, color=c, ls=st, label=lab)[0] for time, v, c, st, lab in lines]
     if log:
         ax.set_yscale("log")
-    else:
+    labels = [] if log else draw_box(ax, marks)
+    if not log:
         ax.set_ylim(bottom=0.0)
-    ax.set_xlim(t_start, t_end)
+    ax.set_xlim(min(float(t[0]) for t, *_ in lines), max(float(t[-1]) for t, *_ in lines))
     ax.set_xlabel("time (s)")
     ax.set_ylabel(ylabel)
     ax.grid(True, alpha=0.3)
     ax.set_title(title)
-    fig.legend(fontsize=8, loc="outside lower center", ncols=min(len(lines), 3))
+    include_levels(ax, marks)
+    labels += draw_marks(ax, marks)
+    keep_coinciding_visible(ax, drawn)
+    fig.legend(handles=drawn, fontsize=8, loc="outside lower center", ncols=min(len(lines), 3))
+    if inset_start is None and marks is not None and marks.inset_ylim is not None and not log:
+        inset_start = min(float(t[0]) for t, *_ in lines)  # the paper's insets span the whole run
     if inset_start is not None and math.isfinite(inset_start):
-        _add_zoom(ax, lines, float(inset_start))
+        _add_zoom(ax, lines, float(inset_start), (), marks, labels)
     return fig
 
 
@@ -631,7 +726,7 @@ def simulation_figures(result: SimulationResult, *, tolerances_deg: Sequence[flo
     >>> sorted(figs)
     ['aaem', 'raem', 'theta_e', 'torques']
     >>> theta3 = figs["theta_e"].axes[0].lines[2]
-    >>> theta3.get_label(), theta3.get_color() == figs["torques"].axes[2].lines[0].get_color()
+    >>> theta3.get_label(), theta3.get_color() == figs["torques"].axes[0].lines[2].get_color()
     ('θ3', True)
     """
     label = result.scenario.label

@@ -356,38 +356,61 @@ def execute_run(
     theta_deg = np.degrees(result.theta_e)
     written = []
     title = f"{spec.title} ({scenario.label})"
+
+    def marks(name: str):
+        return _figure_marks(spec.key, name)
+
     builders: dict[str, Callable[[], Any]] = {
         "aaem": lambda: figs.metric_figure(
-            result.time, result.aaem_deg, metric="AAEM", title=f"AAEM, {title}", tolerances_deg=(0.03,)
+            result.time, result.aaem_deg, metric="AAEM", title=f"AAEM, {title}", marks=marks("aaem")
         ),
         "raem": lambda: figs.metric_figure(
-            result.time, result.raem_deg, metric="RAEM", title=f"RAEM, {title}", tolerances_deg=(0.01,)
+            result.time, result.raem_deg, metric="RAEM", title=f"RAEM, {title}", marks=marks("raem")
         ),
         "theta_e": lambda: figs.principal_angles_figure(
-            result.time, theta_deg, title=f"error principal angles, {title}"
+            result.time, theta_deg, title=f"error principal angles, {title}", marks=marks("theta_e")
         ),
         "torques": lambda: figs.torques_figure(
-            result.time, result.u, scenario.controller.torque_limit, title=f"applied torques, {title}"
+            result.time,
+            result.u,
+            scenario.controller.torque_limit,
+            title=f"applied torques, {title}",
+            marks=marks("torques"),
         ),
         "torques_commanded": lambda: figs.torques_figure(
             result.time,
             result.u_unsaturated,
             scenario.controller.torque_limit,
-            title=f"commanded torques, {title} (the paper's limit is 2 N m)",
+            title=f"commanded torques, {title}",
+            marks=marks("torques_commanded"),
         ),
     }
     for name in spec.figures:
-        stem = out / "figures" / f"{_FIGURE_PREFIX.get((spec.key, name), 'diag')}_{name}_{spec.key}"
+        number = _FIGURE_NUMBER.get((spec.key, name))
+        stem = out / "figures" / f"{f'fig{number:02d}' if number else 'diag'}_{name}_{spec.key}"
         written += [str(p) for p in figs.save_figure(builders[name](), stem)]
     return run_record(
         spec, scenario, result, netcdf=str(nc), figures=written, wall_time_s=_time.perf_counter() - started
     )
 
 
-_FIGURE_PREFIX = {
-    ("case1", "aaem"): "fig01",
-    ("case1", "raem"): "fig02",
-    ("case1", "theta_e"): "fig03",
-    ("case1", "torques"): "fig04",
-    ("case2", "theta_e"): "fig07",
+_FIGURE_NUMBER = {  # the paper's figure of a single-run figure (the others are diagnostics)
+    ("case1", "aaem"): 1,
+    ("case1", "raem"): 2,
+    ("case1", "theta_e"): 3,
+    ("case1", "torques"): 4,
+    ("case2", "theta_e"): 7,
 }
+
+
+def _figure_marks(key: str, name: str):
+    """The reference marks of a single-run figure: its paper figure's (:func:`~fsmctl.studies.figure_marks.paper_marks`),
+    else the paper's statements about its quantity (settling time and accuracy, the torque bound)."""
+    from fsmctl.studies.figure_marks import metric_marks, paper_marks, torque_marks
+
+    number = _FIGURE_NUMBER.get((key, name))
+    if number is not None:
+        return paper_marks(number)
+    if name in ("aaem", "raem"):
+        return metric_marks(name)
+    return torque_marks() if name.startswith("torques") else None

@@ -1,6 +1,8 @@
 """The figures of ``fsmctl compare-surfaces``: the error metrics by surface, and the per-agent times.
 
-Both read a :class:`~fsmctl.studies.surfaces.SurfaceComparison` and are built without pyplot.
+Both read a :class:`~fsmctl.studies.surfaces.SurfaceComparison` and are built without pyplot.  The surfaces are
+drawn in the colours of runs (:data:`fsmctl.studies.figures.RUN_COLORS`), never in an agent's
+(:func:`~fsmctl.model.time_response.agent_color`): in every fsmctl figure an agent's colour means that agent.
 """
 
 from __future__ import annotations
@@ -10,12 +12,15 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from fsmctl.studies.figures import RUN_COLORS
 from fsmctl.studies.surface_measures import SURFACES
 
 if TYPE_CHECKING:
     from fsmctl.studies.surfaces import SurfaceComparison
 
 __all__ = ["plot_error_metrics", "plot_agent_times"]
+
+_STYLES = ("-", "--", "-.")
 
 
 def plot_error_metrics(comparison: SurfaceComparison, metric: str = "aaem_deg"):
@@ -52,9 +57,10 @@ def plot_error_metrics(comparison: SurfaceComparison, metric: str = "aaem_deg"):
     fig = Figure(figsize=(3.6 * ncol, 2.8 * nrow), layout="constrained")
     axes = fig.subplots(nrow, ncol, squeeze=False, sharey=True)
     for ax, v in zip(axes.flat, variants, strict=False):
-        for s in SURFACES:
+        for k, s in enumerate(SURFACES):
             ser = comparison.series[(v, s)]
-            ax.semilogy(ser["time_s"], np.maximum(ser[metric], 1e-8), label=s.upper(), lw=1)
+            ax.semilogy(ser["time_s"], np.maximum(ser[metric], 1e-8), label=s.upper(), lw=1, color=RUN_COLORS[k],
+                        ls=_STYLES[k % len(_STYLES)])  # fmt: skip
         ax.axhline(comparison.settings["metric_tolerance_deg"], color="k", lw=0.6, ls=":")
         ax.set_title(v, fontsize=9)
         ax.set_xlabel("t (s)")
@@ -112,10 +118,11 @@ def plot_agent_times(comparison: SurfaceComparison, variant: str | None = None):
     x = np.arange(1, n + 1)
     for k, s in enumerate(SURFACES):
         r = sorted((a for a in rows if a["surface"] == s), key=lambda a: a["agent"])
-        axes[0].bar(x + (k - 1) * width, [a["reaching_time_s"] for a in r], width, label=s.upper())
-        axes[1].bar(x + (k - 1) * width, [a["sliding_phase_time_s"] for a in r], width, label=s.upper())
-        axes[1].plot(x + (k - 1) * width, [a["sliding_phase_theorem3_s"] for a in r], "k_", ms=9)
-        axes[2].bar(x + (k - 1) * width, [a["control_effort_N_m_s"] for a in r], width, label=s.upper())
+        bar = {"label": s.upper(), "color": RUN_COLORS[k]}
+        axes[0].bar(x + (k - 1) * width, [a["reaching_time_s"] for a in r], width, **bar)
+        axes[1].bar(x + (k - 1) * width, [a["sliding_phase_time_s"] for a in r], width, **bar)
+        axes[1].plot(x + (k - 1) * width, [a["sliding_phase_theorem3_s"] for a in r], "_", color="0.5", ms=9)
+        axes[2].bar(x + (k - 1) * width, [a["control_effort_N_m_s"] for a in r], width, **bar)
     axes[0].set_ylabel("reaching time (s)")
     axes[1].set_ylabel("sliding-phase time (s); - = Theorem 3")
     axes[2].set_ylabel(r"control effort $\int \sum_k |u_k| dt$ (N m s)")

@@ -1,0 +1,358 @@
+"""Reference marks on the figures: the paper's stated values drawn beside the reproduction, each with its label.
+
+A :class:`ReferenceMarks` says what a figure marks: vertical lines at stated times (the 27 s settling time),
+horizontal lines at stated levels (the ±2 N m torque bound, Case 2's errors), shaded accuracy bands (AAEM ≤ 0.03°,
+RAEM ≤ 0.01°), the printed axes as a dashed box, and the y range of the printed inset.  :func:`paper_marks` gives
+those of the paper's Figs 1-9, :func:`metric_marks` those of a diagnostic figure of AAEM or RAEM, and
+:func:`torque_marks` those of a torque figure; every number comes from :mod:`fsmctl.studies.paper_statements`.
+
+The builders of :mod:`fsmctl.studies.figures` draw them with the helpers here.  Every drawn mark is an artist with
+``gid`` :data:`REFERENCE_GID` and its label (``"paper: 27 s"``) as ``label``, and its label is written beside it as
+a text with ``gid`` :data:`LABEL_GID`, so that a reader sees the claim and the reproduction on one axes and a test
+can find each mark and its value.  :func:`keep_coinciding_visible` keeps every run of an overlay in view when two
+coincide (the paper's Case 3c and Case 1 without the torque limit are the same run).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from fsmctl.studies.paper_statements import (
+    CASE2_RELATIVE_ERROR,
+    CASE2_TRACKING_ERROR,
+    RELATIVE_ACCURACY,
+    SETTLING_TIME,
+    TORQUE_BOUND,
+    TRACKING_ACCURACY,
+    PaperStatement,
+    printed_axes,
+)
+
+if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from matplotlib.axes import Axes
+    from matplotlib.lines import Line2D
+    from matplotlib.text import Text
+
+__all__ = [
+    "REFERENCE_GID",
+    "LABEL_GID",
+    "ABOVE_RANGE_GID",
+    "REFERENCE_COLOR",
+    "Mark",
+    "ReferenceMarks",
+    "paper_marks",
+    "metric_marks",
+    "torque_marks",
+    "keep_coinciding_visible",
+]
+
+REFERENCE_GID = "reference"
+"""``gid`` of every drawn reference mark (line, band or box)."""
+LABEL_GID = "reference-label"
+"""``gid`` of the text that labels a reference mark."""
+ABOVE_RANGE_GID = "above-range"
+"""``gid`` of the note a zoom writes when the run lies above its fixed y range."""
+REFERENCE_COLOR = "#b2182b"
+"""The colour of the paper's marks (a dark red that is none of the agents' or runs' colours)."""
+_BAND_ALPHA = 0.15
+
+
+@dataclass(frozen=True)
+class Mark:
+    """One marked value and its label.
+
+    Parameters
+    ----------
+    value : float
+        Where the mark is (a time in s, or a value of the y axis).
+    label : str
+        What it says (``"paper: 27 s"``).
+    """
+
+    value: float
+    label: str
+
+    @classmethod
+    def of(cls, statement: PaperStatement, sign: float = 1.0) -> Mark:
+        """The mark of a paper statement (``sign=-1``: at minus its value, for a symmetric bound).
+
+        Parameters
+        ----------
+        statement : PaperStatement
+            The statement.
+        sign : float
+            ``1`` or ``-1``.
+
+        Returns
+        -------
+        Mark
+            At ``sign * statement.value``, labelled ``statement.label``.
+
+        Examples
+        --------
+        >>> Mark.of(SETTLING_TIME)
+        Mark(value=27.0, label='paper: 27 s')
+        """
+        return cls(sign * statement.value, statement.label)
+
+
+@dataclass(frozen=True)
+class ReferenceMarks:
+    """What a figure marks for comparison.
+
+    Parameters
+    ----------
+    times : tuple of Mark
+        Vertical lines (s), in the axes and in the zoom.
+    levels : tuple of Mark
+        Horizontal lines (y unit), wherever they lie inside the y range (in the zoom, on the main axes when they
+        are visible there: on a log axis, or more than 1 % of the y range above its bottom).
+    bands : tuple of Mark
+        Shaded bands from 0 to the value (an accuracy), like ``levels``.
+    box : (x0, x1, y0, y1), optional
+        The printed axes' ranges, drawn as a dashed box on the main axes (whose y range grows to hold it).
+    box_label : str
+        The box's label.
+    inset_ylim : (float, float), optional
+        The y range of the zoom (the printed inset's), which then spans the whole run as the paper's insets do.
+    unit : str
+        The unit of the y axis (for the zoom's note when the run lies above its range).
+
+    Examples
+    --------
+    >>> marks = paper_marks(1)
+    >>> [m.label for m in marks.times], [m.label for m in marks.bands], marks.inset_ylim
+    (['paper: 27 s'], ['paper: AAEM ≤ 0.03°'], (0.0, 0.04))
+    """
+
+    times: tuple[Mark, ...] = ()
+    levels: tuple[Mark, ...] = ()
+    bands: tuple[Mark, ...] = ()
+    box: tuple[float, float, float, float] | None = None
+    box_label: str = ""
+    inset_ylim: tuple[float, float] | None = None
+    unit: str = "°"
+
+
+_STATED = {  # the paper's Figs 1-9: what the text states about each (besides its printed axes)
+    1: {"times": (Mark.of(SETTLING_TIME),), "bands": (Mark.of(TRACKING_ACCURACY),)},
+    2: {"times": (Mark.of(SETTLING_TIME),), "bands": (Mark.of(RELATIVE_ACCURACY),)},
+    4: {"levels": (Mark.of(TORQUE_BOUND), Mark.of(TORQUE_BOUND, -1.0))},
+    5: {"levels": (Mark.of(CASE2_TRACKING_ERROR),)},
+    6: {"levels": (Mark.of(CASE2_RELATIVE_ERROR),)},
+}
+
+
+def paper_marks(figure: int) -> ReferenceMarks:
+    """The reference marks of the analogue of the paper's Fig ``figure``: its stated values and printed axes.
+
+    Parameters
+    ----------
+    figure : int
+        1-9.
+
+    Returns
+    -------
+    ReferenceMarks
+        Figs 1-2: the 27 s settling time and the accuracy band (AAEM ≤ 0.03°, RAEM ≤ 0.01°); Fig 4: the ±2 N m
+        bound; Figs 5-6: Case 2's stated errors; every figure but Fig 4 (whose printed axes are the bound): the
+        printed axes as a box; Figs 1-2, 5-6, 8-9: the printed inset's y range.
+
+    Raises
+    ------
+    KeyError
+        If the paper has no such figure.
+
+    Examples
+    --------
+    >>> paper_marks(4).levels[0]
+    Mark(value=2.0, label='paper: |u_k| ≤ 2 N m')
+    >>> paper_marks(8).box, paper_marks(8).inset_ylim
+    ((0.0, 100.0, 0.0, 300.0), (0.0, 0.04))
+    """
+    axes = printed_axes(figure)
+    box = None if figure == 4 else (*axes.xlim, *axes.ylim)
+    return ReferenceMarks(
+        **_STATED.get(figure, {}),
+        box=box,
+        box_label=f"paper's Fig {figure}: {axes.text}" if box else "",
+        inset_ylim=axes.inset_ylim,
+        unit=axes.unit,
+    )
+
+
+def metric_marks(metric: str) -> ReferenceMarks:
+    """The reference marks of a diagnostic figure of AAEM or RAEM: the 27 s settling time and the metric's accuracy.
+
+    Parameters
+    ----------
+    metric : {"aaem", "raem"}
+        The metric (case-insensitive).
+
+    Returns
+    -------
+    ReferenceMarks
+        The settling time and the stated accuracy of the metric as a band.
+
+    Raises
+    ------
+    ValueError
+        If ``metric`` is neither.
+
+    Examples
+    --------
+    >>> [m.label for m in metric_marks("raem").bands]
+    ['paper: RAEM ≤ 0.01°']
+    """
+    accuracy = {"aaem": TRACKING_ACCURACY, "raem": RELATIVE_ACCURACY}.get(metric.lower())
+    if accuracy is None:
+        raise ValueError(f"metric must be 'aaem' or 'raem', got {metric!r}")
+    return ReferenceMarks(times=(Mark.of(SETTLING_TIME),), bands=(Mark.of(accuracy),))
+
+
+def torque_marks() -> ReferenceMarks:
+    """The reference marks of a torque figure: the paper's bound ``|(u_i)_k| ≤ 2 N m`` at ±2 N m.
+
+    Returns
+    -------
+    ReferenceMarks
+        Two levels.
+
+    Examples
+    --------
+    >>> [m.value for m in torque_marks().levels]
+    [2.0, -2.0]
+    """
+    return ReferenceMarks(levels=paper_marks(4).levels, unit=printed_axes(4).unit)
+
+
+# ----------------------------------------------------------------------------- drawing
+
+
+def _label(ax: Axes, x: float, y: float, text: str, transform, **kw) -> Text:
+    style = {"fontsize": 7, "color": REFERENCE_COLOR, "gid": LABEL_GID, "clip_on": True,
+             "bbox": {"boxstyle": "square,pad=0.05", "fc": "white", "ec": "none", "alpha": 0.6}}  # fmt: skip
+    return ax.text(x, y, text, transform=transform, **(style | kw))
+
+
+def _visible(ax: Axes, value: float) -> bool:
+    """Whether a level lies inside the y range and, on a linear axis, 1 % of the range above its bottom."""
+    lo, hi = sorted(ax.get_ylim())
+    if not lo <= value <= hi:
+        return False
+    return ax.get_yscale() == "log" or value - lo > 0.01 * (hi - lo)
+
+
+def draw_box(ax: Axes, marks: ReferenceMarks | None) -> list[Text]:
+    """The printed axes as a dashed box on ``ax`` (before autoscaling: the y range grows to hold it).
+
+    Returns its label text (or nothing without a box).
+    """
+    if marks is None or marks.box is None:
+        return []
+    from matplotlib.patches import Rectangle
+
+    x0, x1, y0, y1 = marks.box
+    rect = Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=0.8, ec=REFERENCE_COLOR, alpha=0.7)
+    rect.set(gid=REFERENCE_GID, label=marks.box_label)
+    ax.add_patch(rect)
+    return [_label(ax, x0, y1, f" {marks.box_label}", ax.transData, va="bottom", ha="left")]
+
+
+def include_levels(ax: Axes, marks: ReferenceMarks | None) -> None:
+    """On a log axis, extend the y range down to show the positive levels and bands of ``marks`` (the accuracy a
+    run should reach is in view even when the run does not reach it)."""
+    values = [m.value for m in (*marks.levels, *marks.bands) if m.value > 0] if marks is not None else []
+    if values and ax.get_yscale() == "log":
+        lo, hi = ax.get_ylim()
+        ax.set_ylim(min(lo, 0.5 * min(values)), hi)
+
+
+def draw_marks(ax: Axes, marks: ReferenceMarks | None, *, small: bool = False) -> list[Text]:
+    """Draw the times, levels and bands of ``marks`` that are visible on ``ax`` (call after its limits are set).
+
+    Returns the label texts (a zoom placed later must not hide them).
+    """
+    if marks is None:
+        return []
+    texts: list[Text] = []
+    size = 6 if small else 7
+    written: set[str] = set()  # a symmetric pair of levels (±2 N m) is labelled once
+    for mark in marks.times:
+        if ax.get_xlim()[0] <= mark.value <= ax.get_xlim()[1]:
+            ax.axvline(mark.value, color=REFERENCE_COLOR, ls="-.", lw=0.9, gid=REFERENCE_GID, label=mark.label)
+            texts.append(_label(ax, mark.value, 0.03, f"{mark.label} ", ax.get_xaxis_transform(), va="bottom",
+                                ha="right", rotation=90, fontsize=size))  # fmt: skip
+    for mark in marks.bands:
+        if _visible(ax, mark.value):
+            ax.axhspan(0.0, mark.value, color=REFERENCE_COLOR, alpha=_BAND_ALPHA, lw=0, gid=REFERENCE_GID,
+                       label=mark.label)  # fmt: skip
+            texts.append(_label(ax, 0.99, mark.value, mark.label, ax.get_yaxis_transform(), ha="right", va="top",
+                                fontsize=size))  # fmt: skip
+    for mark in marks.levels:
+        if _visible(ax, mark.value):
+            ax.axhline(mark.value, color=REFERENCE_COLOR, ls=":", lw=1.0, gid=REFERENCE_GID, label=mark.label)
+            if mark.label in written:
+                continue
+            written.add(mark.label)
+            texts.append(_label(ax, 0.99, mark.value, mark.label, ax.get_yaxis_transform(), ha="right",
+                                va="bottom" if mark.value >= 0 else "top", fontsize=size))  # fmt: skip
+    return texts
+
+
+def note_above_range(zoom: Axes, values: np.ndarray, unit: str) -> Text | None:
+    """When ``values`` (the zoomed part of the runs) rise above ``zoom``'s fixed y range, say so inside it.
+
+    Returns the note (``gid`` :data:`ABOVE_RANGE_GID`), or None when every value lies inside the range.
+    """
+    finite = values[np.isfinite(values)]
+    top = zoom.get_ylim()[1]
+    if not finite.size or float(np.max(finite)) <= top:
+        return None
+    high, low = float(np.max(finite)), float(np.min(finite))
+    text = f"↑ run {'always' if low > top else 'partly'} above this range\nmax {high:.3g}{unit}"
+    if low > top:
+        text += f", min {low:.3g}{unit}"
+    box = {"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.9}
+    return zoom.text(0.02, 0.96, text, transform=zoom.transAxes, ha="left", va="top", fontsize=6.5, color="0.15",
+                     bbox=box, gid=ABOVE_RANGE_GID, zorder=5)  # fmt: skip
+
+
+def span_text(lo: float, hi: float, unit: str) -> str:
+    """``"0-0.04°"``: a y range in a title."""
+    sep = "" if unit == "°" else " "
+    return f"{lo:g}-{hi:g}{sep}{unit}" if math.isfinite(hi) else f"from {lo:g}{sep}{unit}"
+
+
+# ----------------------------------------------------------------------------- runs that coincide
+
+
+def _coincide(ax: Axes, a: Line2D, b: Line2D) -> bool:
+    """Whether two lines of ``ax`` on one time grid lie within one line width of each other everywhere (display)."""
+    (ta, ya), (tb, yb) = a.get_data(), b.get_data()
+    if len(ta) != len(tb) or not np.array_equal(ta, tb):
+        return False
+    pa = ax.transData.transform(np.column_stack([ta, ya]))
+    pb = ax.transData.transform(np.column_stack([tb, yb]))
+    both = np.all(np.isfinite(pa), axis=1) & np.all(np.isfinite(pb), axis=1)
+    if not both.any() or not np.array_equal(np.isfinite(pa[:, 1]), np.isfinite(pb[:, 1])):
+        return False
+    width_px = max(a.get_linewidth(), b.get_linewidth()) * ax.figure.dpi / 72.0
+    return float(np.max(np.abs(pa[both, 1] - pb[both, 1]))) <= width_px
+
+
+def keep_coinciding_visible(ax: Axes, lines: Sequence[Line2D]) -> None:
+    """A line covered by later ones (the same within the line width) is drawn wider, beneath them, and its label
+    says which lines cover it: every run listed in the legend stays visible."""
+    ax.figure.draw_without_rendering()  # the final layout: the display distances are those of the figure
+    for i, line in enumerate(lines):
+        covers = [later.get_label() for later in lines[i + 1 :] if _coincide(ax, line, later)]
+        if covers:
+            line.set(lw=line.get_linewidth() + 2.2 * len(covers), alpha=0.55, zorder=line.get_zorder() - 0.1 * len(covers),
+                     label=f"{line.get_label()} (under {', '.join(covers)}: the same within the line width)")  # fmt: skip
