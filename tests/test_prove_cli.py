@@ -107,7 +107,7 @@ def test_input_errors_exit_2_with_one_line(capsys, argv, message):
     ("argv", "message"),
     [
         (["--workers", "0"], "argument --workers: must be >= 1, got 0"),
-        (["--jobs", "2"], "unrecognized arguments: --jobs"),  # no hidden former spelling of --workers (0.x: no shims)
+        (["--jobs", "2"], "fsmctl prove: unknown option --jobs"),  # no hidden former --workers (0.x: no shims)
     ],
 )
 def test_bad_options_exit_2_with_one_line(capsys, argv, message):

@@ -60,6 +60,7 @@ import warnings
 from fsmctl.cli.exit_codes import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, epilog
 from fsmctl.cli.options import HelpFormatter
 from fsmctl.errors import EnvironmentProblem, InputError
+from fsmctl.suggest import did_you_mean
 
 __all__ = [
     "main",
@@ -100,13 +101,44 @@ class Terminated(BaseException):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit 2) and :class:`fsmctl.cli.options.HelpFormatter` for every ``--help``."""
+    """argparse with one-line errors (exit 2), "did you mean" for a misspelled subcommand or option
+    (:mod:`fsmctl.suggest`), and :class:`fsmctl.cli.options.HelpFormatter` for every ``--help``."""
 
     def __init__(self, *args, formatter_class=HelpFormatter, **kwargs):
         super().__init__(*args, formatter_class=formatter_class, **kwargs)
 
     def error(self, message):  # one line, exit 2 (argparse's default prints usage too)
         self.exit(EXIT_INPUT, f"{self.prog}: error: {message}\n")
+
+    def parse_args(self, args=None, namespace=None):  # the top-level parser: its subparsers parse_known_args
+        args = list(sys.argv[1:] if args is None else args)
+        commands = self._subcommands()
+        # the top-level options are flags: the first word that is not one is the subcommand
+        word = next((a for a in args if not a.startswith("-")), None)
+        if commands and word is not None and word not in commands:
+            hint = did_you_mean(word, commands)
+            self.exit(EXIT_INPUT, f"{self.prog}: unknown command {word!r}{f' ({hint})' if hint else ''}\n")
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            sub = commands.get(getattr(parsed, "command", None), self)
+            self.exit(EXIT_INPUT, f"{sub.prog}: {_unknown_argument(extras[0], sub)}\n")
+        return parsed
+
+    def _subcommands(self) -> dict[str, argparse.ArgumentParser]:
+        """The subcommands' parsers by name (empty for a parser without subcommands)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                return dict(action.choices)
+        return {}
+
+
+def _unknown_argument(word: str, parser: argparse.ArgumentParser) -> str:
+    """``unknown option --t-finall (did you mean --t-final?)``, or ``unexpected argument 'x'``."""
+    if not word.startswith("-"):
+        return f"unexpected argument {word!r}"
+    option = word.split("=", 1)[0]
+    hint = did_you_mean(option, [o for a in parser._actions for o in a.option_strings if o.startswith("--")])
+    return f"unknown option {option}{f' ({hint})' if hint else ''}"
 
 
 def build_parser() -> argparse.ArgumentParser:
