@@ -24,9 +24,10 @@ one means (:data:`~fsmctl.cli.exit_codes.MEANINGS`); every subcommand's ``--help
 command's own words where they differ (:func:`fsmctl.cli.exit_codes.epilog`).
 
 ====  =========================================================================================
-0     success (every claim as expected, the run finished, the files were written, the law
+0     success (every check as documented, the run finished, the files were written, the law
       folder is up to date)
-1     a claim (or a law check) fails, a simulation failed (non-finite state, ...), a law folder
+1     a check differs from the documented finding (``prove --strict``: fails; a law check fails),
+      a simulation failed (non-finite state, ...), a law folder
       is stale (``fsmctl derive --check``), or an internal error (one line; ``--debug`` shows
       the traceback)
 2     usage, input or environment error: a bad option or scenario file, an unknown law or a
