@@ -13,6 +13,7 @@ Subcommands live in their own modules, each exposing ``add_parser(subparsers)``
 ``fsmctl tune``               search a law's parameters under the actuator limits (:mod:`fsmctl.cli.tune`)
 ``fsmctl laws``               the built-in laws and their parameters (:mod:`fsmctl.cli.laws`)
 ``fsmctl derive``             check and generate a law from a derivation script (:mod:`fsmctl.cli.derive`)
+``fsmctl scenario show``      a scenario with every default and where each value came from (:mod:`fsmctl.cli.scenario`)
 ============================  ======================================================================
 
 The library below (:mod:`fsmctl.studies` and down) never imports this package; it raises
@@ -85,6 +86,7 @@ SUBCOMMAND_MODULES = (
     "fsmctl.cli.tune",
     "fsmctl.cli.laws",
     "fsmctl.cli.derive",
+    "fsmctl.cli.scenario",
 )
 """Modules of the subcommands, in the order ``fsmctl --help`` lists them; each has ``add_parser(subparsers)``
 (which sets ``func`` on its parser).  A module missing from a build is skipped."""
@@ -122,6 +124,8 @@ class _Parser(argparse.ArgumentParser):
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:
             sub = commands.get(getattr(parsed, "command", None), self)
+            while (inner := sub._subcommands()) and (chosen := getattr(parsed, sub._subcommand_dest(), None)):
+                sub = inner[chosen]  # fsmctl scenario show: the innermost subcommand's options
             self.exit(EXIT_INPUT, f"{sub.prog}: {_unknown_argument(extras[0], sub)}\n")
         return parsed
 
@@ -131,6 +135,10 @@ class _Parser(argparse.ArgumentParser):
             if isinstance(action, argparse._SubParsersAction):
                 return dict(action.choices)
         return {}
+
+    def _subcommand_dest(self) -> str:
+        """Where the chosen subcommand's name goes (``command``, ``scenario_command``)."""
+        return next(a.dest for a in self._actions if isinstance(a, argparse._SubParsersAction))
 
 
 def _unknown_argument(word: str, parser: argparse.ArgumentParser) -> str:
