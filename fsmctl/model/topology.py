@@ -363,7 +363,8 @@ class Link:
 
 @dataclass(frozen=True)
 class Topology:
-    """The directed, possibly time-varying communication graph of eq 19 (Liang et al. 2012; Assumption 1).
+    """The directed, possibly time-varying communication graph of eq 19 (Liang et al. 2012; Assumption 1); the
+    usual graphs: :func:`ring`, :func:`k_nearest`, :func:`all_to_all`, :func:`from_phase_table`.
 
     Parameters
     ----------
@@ -376,10 +377,6 @@ class Topology:
     ------
     TopologyError
         An invalid link (see the message).
-
-    See Also
-    --------
-    ring, k_nearest, all_to_all, from_phase_table : the usual graphs.
 
     Examples
     --------
@@ -577,17 +574,7 @@ class Topology:
         if "directed" in d and (not isinstance(directed, bool) or d.get("kind") != "ring"):
             raise TopologyError(f"{where}.directed: true or false, with kind = 'ring' only; got {directed!r}")
         if "kind" in d:
-            kind = d["kind"]
-            if kind == "ring":
-                return ring(n_agents, k_i, sched, directed=directed)
-            if kind == "all-to-all":
-                return all_to_all(n_agents, k_i, sched)
-            if kind == "k-nearest":
-                k = d.get("neighbours")
-                if not isinstance(k, int) or isinstance(k, bool):
-                    raise TopologyError(f"{where}.neighbours: an integer is required for kind = 'k-nearest'")
-                return k_nearest(n_agents, k, k_i, sched)
-            raise TopologyError(f"{where}.kind: must be 'ring', 'all-to-all' or 'k-nearest', got {kind!r}")
+            return _generated(d, n_agents, k_i, sched, where)
         raw = d["links"]
         if not isinstance(raw, Sequence) or isinstance(raw, str):
             raise TopologyError(f"{where}.links: expected an array of tables")
@@ -689,11 +676,23 @@ def _links(pairs: Iterable[tuple[int, int]], k_i: float, schedule: Schedule) -> 
     return tuple(Link(i, j, float(k_i), schedule) for i, j in pairs)
 
 
-def ring(n: int, k_i: float, k_j: Schedule | float, *, directed: bool = False) -> Topology:
-    """Ring: agent ``i`` receives from ``i-1`` and ``i+1`` (modulo ``n``); directed: from ``i-1`` only.
+def _generated(d: Mapping, n: int, k_i: float, sched: Schedule, where: str) -> Topology:
+    """``[topology] kind = ...``: a generated graph (``neighbours`` for ``k-nearest``, ``directed`` for ``ring``)."""
+    kind, k = d["kind"], d.get("neighbours")
+    if kind == "ring":
+        return ring(n, k_i, sched, directed=d.get("directed", False))
+    if kind == "all-to-all":
+        return all_to_all(n, k_i, sched)
+    if kind != "k-nearest":
+        raise TopologyError(f"{where}.kind: must be 'ring', 'all-to-all' or 'k-nearest', got {kind!r}")
+    if not isinstance(k, int) or isinstance(k, bool):
+        raise TopologyError(f"{where}.neighbours: an integer is required for kind = 'k-nearest'")
+    return k_nearest(n, k, k_i, sched)
 
-    A scenario file writes ``[topology] kind = "ring"`` (``directed = true``: the cycle 1 -> 2 -> ... -> n -> 1,
-    each agent receiving from the one before it).
+
+def ring(n: int, k_i: float, k_j: Schedule | float, *, directed: bool = False) -> Topology:
+    """Ring: agent ``i`` receives from ``i-1`` and ``i+1`` (modulo ``n``); directed: from ``i-1`` only (the cycle
+    1 -> 2 -> ... -> n -> 1: ``[topology] kind = "ring"``, ``directed = true``).
 
     Parameters
     ----------
