@@ -14,8 +14,8 @@ name                               value                         meaning
                                                                  (eq 43); the paper does not state the tolerance of its
                                                                  "27 s"
 :data:`COMPARISON_TOLERANCES_DEG`  (1, 0.1, 0.01)                deg: ``compare``'s settling bands
-:data:`TOLERANCE_DEG`              1                             deg: a campaign's AAEM/RAEM tolerance (``montecarlo``:
-                                                                 converged; ``tune``: settled)
+:data:`TOLERANCE_DEG`              1                             deg: the AAEM/RAEM tolerance of "converged"
+                                                                 (``simulate``, ``montecarlo``; ``tune``: settled)
 :data:`STEADY_WINDOW_FRACTION`     0.4                           the steady-state statistics are taken over the last
                                                                  40 % of the horizon ...
 :data:`STEADY_WINDOW_MAX_S`        40                            s: ... and over at most 40 s (the paper's last 40 of
@@ -32,6 +32,13 @@ name                               value                         meaning
 :data:`DASK_TIMEOUT_S`             10                            s: how long a Dask scheduler gets to accept the
                                                                  connection and send its handshake
 =================================  ============================  ======================================================
+
+Converged (:data:`CONVERGED_RULE`): a run has converged when AAEM and RAEM each stay at or below
+:data:`TOLERANCE_DEG` from some time until the end of the run (``simulate``'s first line, a Monte Carlo run's
+``converged``).  Steady (:func:`default_steady_window`, :func:`steady_window_text`): the steady-state figures of
+every command (``simulate``, ``compare``, ``compare-surfaces``, ``tune``, ``montecarlo``, ``reproduce``'s report) are
+taken over the last 40 % of the horizon, at most 40 s, unless a command is told ``--steady-window``; each output
+that prints one states its window.
 
 Workers: every command that runs things in parallel (``prove``, ``reproduce``, ``compare``, ``compare-surfaces``,
 ``montecarlo``, ``tune``) starts, unless told ``--workers N``, one worker per CPU this process may run on
@@ -50,6 +57,7 @@ __all__ = [
     "SETTLING_TOLERANCES_DEG",
     "COMPARISON_TOLERANCES_DEG",
     "TOLERANCE_DEG",
+    "CONVERGED_RULE",
     "STEADY_WINDOW_FRACTION",
     "STEADY_WINDOW_MAX_S",
     "FAST_T_FINAL_S",
@@ -60,6 +68,7 @@ __all__ = [
     "TUNE_BATCH",
     "DASK_TIMEOUT_S",
     "default_steady_window",
+    "steady_window_text",
     "default_workers",
 ]
 
@@ -71,7 +80,13 @@ COMPARISON_TOLERANCES_DEG: tuple[float, ...] = (1.0, 0.1, 0.01)
 """deg: the settling tolerances of a law comparison (``compare``, :func:`fsmctl.studies.compare_laws`)."""
 
 TOLERANCE_DEG = 1.0
-"""deg: a campaign's AAEM/RAEM tolerance: converged below it (Monte Carlo), settled within it (tuning)."""
+"""deg: the AAEM/RAEM tolerance of "converged" (:data:`CONVERGED_RULE`: ``simulate``, Monte Carlo's default), settled
+within it (tuning)."""
+
+CONVERGED_RULE = "AAEM and RAEM (eqs 42-43) stay at or below {tolerance} until the end of the run"
+"""What "converged" means, everywhere (:func:`fsmctl.simulation.metrics.converged`: each metric settles, i.e. stays
+at or below the tolerance from some time until the end), stated in the outputs: ``CONVERGED_RULE.format(tolerance=
+"1 deg")``."""
 
 STEADY_WINDOW_FRACTION = 0.4
 """The steady-state statistics are taken over the last 40 % of the horizon (the paper's last 40 s of 100 s)."""
@@ -124,6 +139,33 @@ def default_steady_window(horizon_s: float) -> float:
     (40.0, 4.0, 40.0)
     """
     return min(STEADY_WINDOW_MAX_S, STEADY_WINDOW_FRACTION * float(horizon_s))
+
+
+def steady_window_text(window_s: float, horizon_s: float) -> str:
+    """How an output states the window of a steady-state figure: its length and its share of the horizon.
+
+    Parameters
+    ----------
+    window_s : float
+        The window's length (s).
+    horizon_s : float
+        The run's horizon (s).
+
+    Returns
+    -------
+    str
+        ``"the last W s (P % of the H s horizon)"``.
+
+    Examples
+    --------
+    >>> from fsmctl.policy import default_steady_window, steady_window_text
+    >>> steady_window_text(default_steady_window(100.0), 100.0)
+    'the last 40 s (40 % of the 100 s horizon)'
+    >>> steady_window_text(default_steady_window(300.0), 300.0)
+    'the last 40 s (13.3 % of the 300 s horizon)'
+    """
+    share = 100.0 * float(window_s) / float(horizon_s) if horizon_s > 0 else 100.0
+    return f"the last {window_s:g} s ({share:.3g} % of the {horizon_s:g} s horizon)"
 
 
 def default_workers(tasks: int | None = None) -> int:

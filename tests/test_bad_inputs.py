@@ -422,7 +422,7 @@ CLI = [
     ),
     ("prove-unknown-claim", ["prove", "no-such-claim"], 2, r"unknown claim id"),
     ("prove-bad-region", ["prove", "--region-sigma", "2"], 2, r"region-sigma must be <= 1"),
-    ("reproduce-no-jobs", ["reproduce", "--jobs", "2"], 2, r"unrecognized arguments: --jobs 2"),
+    ("reproduce-no-jobs", ["reproduce", "--jobs", "2"], 2, r"^fsmctl reproduce: unknown option --jobs$"),
     ("reproduce-workers-zero", ["reproduce", "--workers", "0"], 2, r"argument --workers: must be >= 1"),
     ("prove-negative-seed", ["prove", "--seed", "-1"], 2, r"argument --seed: must be >= 0"),
     (
@@ -438,7 +438,7 @@ CLI = [
         2,
         r"cannot read scenario file",
     ),
-    ("unknown-command", ["fly"], 2, r"invalid choice"),
+    ("unknown-command", ["fly"], 2, r"^fsmctl: unknown command 'fly'$"),
 ]
 
 

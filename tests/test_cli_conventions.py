@@ -212,7 +212,7 @@ def test_the_former_jobs_spelling_is_gone(name, capsys, tmp_path):
         cli_main.main([name, "--jobs", "2", "--out", str(tmp_path / "o")])
     assert exc.value.code == 2
     err = capsys.readouterr().err
-    assert "unrecognized arguments: --jobs" in err and "deprecated" not in err
+    assert f"fsmctl {name}: unknown option --jobs" in err and "deprecated" not in err
     assert len(err.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
 

@@ -231,7 +231,7 @@ def test_the_command_line_check_can_fail():
     text = "```bash\nfsmctl simulate --no-such-option 1   # a comment\nfsmctl prove --list\n```\n"
     lines = _command_lines(text)
     assert lines == ["fsmctl simulate --no-such-option 1   # a comment", "fsmctl prove --list"]
-    assert "unrecognized arguments: --no-such-option" in _parse_error(lines[0])
+    assert "fsmctl simulate: unknown option --no-such-option" in _parse_error(lines[0])
     assert _parse_error(lines[1]) is None
     assert "invalid choice" in _parse_error("fsmctl simulate --integrator euler")
 

@@ -54,7 +54,9 @@ def test_every_claim_on_paper_case1(case1_results, claim_id):
     r = case1_results[claim_id]
     assert r.verdict == EXPECTED_CASE1[claim_id], r.detail
     assert r.equations and r.detail and r.seconds >= 0 and r.latex
-    assert r.expected == (r.verdict != C.FAILS)
+    assert r.holds == (r.verdict != C.FAILS)
+    # the registry records the documented finding: this table's verdict (written independently), found again
+    assert C.get_claim(claim_id).expected == r.documented == EXPECTED_CASE1[claim_id] and r.as_documented
     assert "FAILS]" not in r.detail and "UNEXPECTED" not in r.detail
 
 
@@ -88,7 +90,7 @@ def test_erratum_details_show_residual_and_correction(case1_results):
 
 def test_numeric_verdict_states_samples_and_ranges():
     r = run_claims(["theorem2-delta"], ProofContext(paper_scenario("1"), Region(0.0, 0.0), n_random=0))[0]
-    assert r.verdict == C.NUMERIC and r.expected
+    assert r.verdict == C.NUMERIC and r.holds
     assert "state samples per agent" in r.detail and "|sigma_e,k| <= 0" in r.detail and "not a proof" in r.detail
     traj = [max(a["reference_trajectory"]) for a in r.data["agents"]]
     assert max(traj) < 1e-3  # on the reference trajectory: well below the configured 0.005
@@ -98,7 +100,7 @@ def test_theorem1_fails_for_weak_gains():
     sc = paper_scenario("1")
     weak = sc.with_topology(sc.topology.scaled(k_i=2.0))
     r = run_claims(["theorem1-gains"], ProofContext(weak))[0]
-    assert r.verdict == C.FAILS and not r.expected
+    assert r.verdict == C.FAILS and not r.holds
     assert "FAILS pair 1-2" in r.detail and "smallest fix: raise k^i_12 to >= 5" in r.detail
     assert "lambda_min" in r.detail
 
@@ -115,7 +117,7 @@ def test_unexpected_failure_is_reported_as_unproved(monkeypatch):
         return Erratum(**{**e.to_dict(), "checked": False})
 
     out = C._erratum(broken)
-    assert out.verdict == C.UNPROVED and not out.expected
+    assert out.verdict == C.UNPROVED and not out.holds
     out = C._steps_outcome([(True, "a"), (False, "b")], "x")
     assert out.verdict == C.UNPROVED and "[FAILS] b" in out.lines[1]
 

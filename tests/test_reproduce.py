@@ -310,9 +310,9 @@ def test_reproduce_no_explain(tmp_path):
 @pytest.mark.parametrize(
     ("argv", "needle"),
     [
-        (["reproduce", "--bogus"], "unrecognized arguments"),
+        (["reproduce", "--bogus"], "fsmctl reproduce: unknown option --bogus"),
         (["reproduce", "--workers", "0"], "--workers"),
-        (["reproduce", "--jobs", "2"], "unrecognized arguments: --jobs"),
+        (["reproduce", "--jobs", "2"], "fsmctl reproduce: unknown option --jobs"),
     ],
 )
 def test_reproduce_bad_options_exit_2(argv, needle, capsys, tmp_path):

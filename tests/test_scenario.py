@@ -310,3 +310,51 @@ def test_a_changed_key_drops_the_reasons_that_name_it():
     assert "delta" not in kept and "boundary_layer" not in kept
     assert kept == {k: v for k, v in reasons.items() if k not in ("delta", "boundary_layer")} and kept
     assert dict(paper.replace(simulation={"t_final": 5.0}).choices) == reasons  # no law key written: all kept
+
+
+_THREE_AGENTS = """
+name = "three"
+[simulation]
+t_final = 1.0
+[controller]
+delta = [0.005, 0.005, 0.005]
+[reference]
+sigma0 = [0.0, 0.0, 0.0]
+omega = { amplitude = [0.0, 0.0, 0.0], frequency = [0.0, 0.0, 0.0], kind = ["cos", "cos", "cos"] }
+[[agents]]
+J0 = [[100.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 200.0]]
+sigma0 = [0.1, 0.0, 0.0]
+omega0 = [0.0, 0.0, 0.0]
+[[agents]]
+J0 = [[100.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 200.0]]
+sigma0 = [0.1, 0.0, 0.0]
+omega0 = [0.0, 0.0, 0.0]
+[[agents]]
+J0 = [[100.0, 0.0, 0.0], [0.0, 150.0, 0.0], [0.0, 0.0, 200.0]]
+sigma0 = [0.1, 0.0, 0.0]
+omega0 = [0.0, 0.0, 0.0]
+"""
+
+
+def test_a_directed_ring_is_the_hand_written_cycle(tmp_path):
+    """``kind = "ring"`` with ``directed = true`` is the three links 1 -> 2 -> 3 -> 1 written out by hand (agent i
+    receives from i-1), with the table's k_i and switching schedule on each; without it, both directions."""
+    schedule = "schedule = { period = 8.0, breakpoints = [0.0, 6.5], values = [5.0, 0.0] }"
+    by_hand = (
+        f"[topology]\nk_i = 8.0\n{schedule}\n"
+        "links = [{ receiver = 2, sender = 1 }, { receiver = 3, sender = 2 }, { receiver = 1, sender = 3 }]\n"
+    )
+    (tmp_path / "hand.toml").write_text(_THREE_AGENTS + by_hand)
+    (tmp_path / "ring.toml").write_text(
+        _THREE_AGENTS + f'[topology]\nk_i = 8.0\n{schedule}\nkind = "ring"\ndirected = true\n'
+    )
+    hand, ring = (load_scenario(tmp_path / f"{name}.toml").topology for name in ("hand", "ring"))
+    assert sorted((link.receiver, link.sender) for link in ring.links) == [(0, 2), (1, 0), (2, 1)]
+    assert np.array_equal(ring.k_i_matrix(), hand.k_i_matrix())
+    times = np.linspace(0.0, 20.0, 81)
+    assert np.array_equal(ring.k_j_matrices(times), hand.k_j_matrices(times))
+    (tmp_path / "both.toml").write_text(_THREE_AGENTS + f'[topology]\nk_i = 8.0\n{schedule}\nkind = "ring"\n')
+    assert load_scenario(tmp_path / "both.toml").topology.edge_count() == 6  # undirected: every pair both ways
+    (tmp_path / "bad.toml").write_text(_THREE_AGENTS + '[topology]\nk_i = 8.0\nkind = "all-to-all"\ndirected = true\n')
+    with pytest.raises(ScenarioError, match=r"topology\.directed: true or false, with kind = 'ring' only"):
+        load_scenario(tmp_path / "bad.toml")

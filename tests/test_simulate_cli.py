@@ -121,7 +121,7 @@ def test_simulate_prints_settings_choices_and_summary(tmp_path, capsys):
         (["simulate", "--dt", "0.3", "--t-final", "1"], "multiple of dt"),
         (["simulate", "--torque-limit", "-1"], "--torque-limit"),
         (["simulate", "--dt", "nan"], "--dt"),
-        (["simulate", "--bogus-option"], "unrecognized arguments"),
+        (["simulate", "--bogus-option"], "fsmctl simulate: unknown option --bogus-option"),
         (["simulate", "--error-model", "wrong"], "invalid choice"),
     ],
 )

@@ -2,9 +2,9 @@
 
 Writes ``DIR/<label>.nc`` (``--format netcdf``, the default: compressed NetCDF-4, units in the variable names and
 attributes) or ``DIR/<label>.csv`` (``--format csv``: one row per output time, one named column per signal with
-its unit), in double or, with ``--precision float32``, single precision; ``DIR/summary.json`` (settling times of
-AAEM eq 42 and RAEM eq 43, steady-state accuracy, torque statistics, the scenario's settings and documented
-choices) and, unless ``--no-figures``, ``DIR/<label>_{aaem,raem,theta_e,torques}.{png,svg}`` (analogues of
+its unit), in double or, with ``--precision float32``, single precision; ``DIR/summary.json`` (the result line,
+settling times of AAEM eq 42 and RAEM eq 43, steady-state accuracy, torque statistics, the scenario's settings and
+documented choices) and, unless ``--no-figures``, ``DIR/<label>_{aaem,raem,theta_e,torques}.{png,svg}`` (analogues of
 Figs 1-4).  Every result file embeds the full scenario, the law, the versions and the command line
 (:mod:`fsmctl.simulation.results_io`), so ``--from RESULT`` flies it again (instead of ``--scenario``/``--case``;
 the other options still override it, and the summary records them).
@@ -12,6 +12,11 @@ the other options still override it, and the summary records them).
 ``--law NAME|FILE.py|DIR`` flies another control law and ``--set KEY=VALUE`` sets its parameters
 (:mod:`fsmctl.cli.law_options`); ``--control-period SECONDS`` (0 = continuous) and ``--seed N`` (the run's noise
 seed) set the sampled control (:mod:`fsmctl.cli.run_options`); the summary records them all.
+
+The printed result starts with one line (:func:`convergence_line`): ``converged: AAEM <= 0.01 deg from 13.30 s on,
+...`` or ``not converged: AAEM 28.7 deg at t = 40 s``, "converged" as :data:`fsmctl.policy.CONVERGED_RULE` defines
+it at :data:`fsmctl.policy.TOLERANCE_DEG`; then the final values and the steady maxima over the window the policy
+gives (:func:`fsmctl.policy.default_steady_window`, stated with them: "the last 16 s (40 % of the 40 s horizon)").
 
 Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the run finished, 1 the simulation failed
 (non-finite state, ...), 2 usage or input error (one line on stderr).
@@ -41,9 +46,9 @@ from fsmctl.cli.options import (
 from fsmctl.cli.run_options import add_run_options, simulation_changes
 from fsmctl.cli.types import nonnegative_float
 from fsmctl.outputs import output_folder, write_json
-from fsmctl.policy import SETTLING_TOLERANCES_DEG
+from fsmctl.policy import CONVERGED_RULE, SETTLING_TOLERANCES_DEG, steady_window_text
 
-__all__ = ["add_parser", "run", "EXIT_CODES"]
+__all__ = ["add_parser", "run", "convergence_line", "EXIT_CODES"]
 
 EXIT_CODES = {
     0: "the run finished and its files were written",
@@ -227,6 +232,7 @@ def _write_summary(args, scenario, controller, simulation, summary, files, out: 
         "settings": scenario.describe(),
         "choices": dict(scenario.choices),
         "overrides": {"controller": controller, "simulation": simulation},
+        "result": convergence_line(summary),
         "settling_tolerances_deg": list(SETTLING_TOLERANCES_DEG),
         "summary": summary,
         "files": [str(Path(f).relative_to(out)) if Path(f).is_relative_to(out) else f for f in files],
@@ -237,16 +243,48 @@ def _write_summary(args, scenario, controller, simulation, summary, files, out: 
     return 0
 
 
+def convergence_line(summary: dict) -> str:
+    """``simulate``'s first line: converged (and from when, at the finest band each metric settles in) or not.
+
+    Parameters
+    ----------
+    summary : dict
+        :meth:`fsmctl.simulation.result.SimulationResult.summary` (its ``converged``, final values and settling
+        times at :data:`fsmctl.policy.SETTLING_TOLERANCES_DEG`).
+
+    Returns
+    -------
+    str
+        ``converged: AAEM <= B deg from T s on, RAEM <= B deg from T s on (...)`` or ``not converged: AAEM X deg at
+        t = T s (...)``, the definition (:data:`fsmctl.policy.CONVERGED_RULE`) in brackets.
+    """
+    tol = summary["convergence_tolerance_deg"]
+    rule = "converged: " + CONVERGED_RULE.format(tolerance=f"{tol:g} deg")
+    if summary["converged"]:
+        parts = []
+        for metric in ("aaem", "raem"):
+            settled = [(float(b), t) for b, t in summary[f"{metric}_settling_s"].items() if math.isfinite(t)]
+            band, since = min(settled)  # the finest band it settles in (1 deg at least: it converged)
+            parts.append(f"{metric.upper()} <= {band:g} deg from {since:.2f} s on")
+        return f"converged: {', '.join(parts)} ({rule})"
+    late = [m for m in ("aaem", "raem") if not math.isfinite(summary[f"{m}_settling_s"][f"{tol:g}"])]
+    values = ", ".join(f"{m.upper()} {summary[f'{m}_final_deg']:.4g} deg" for m in late)
+    return f"not converged: {values} at t = {summary['horizon_s']:g} s ({rule})"
+
+
 def _format_summary(summary: dict) -> str:
     def fmt_time(x: float) -> str:
         return "not settled" if not math.isfinite(x) else f"{x:.2f} s"
 
+    window = steady_window_text(summary["steady_window_s"], summary["horizon_s"])
     lines = [
-        f"{summary['scenario']}: {summary['backend']} backend, {summary['wall_time_s']:.2f} s",
-        f"  AAEM (eq 42): initial {summary['aaem_initial_deg']:.3f} deg, peak {summary['aaem_peak_deg']:.3f} deg, "
-        f"max over the last {summary['steady_window_s']:g} s {summary['aaem_steady_max_deg']:.4g} deg",
-        f"  RAEM (eq 43): initial {summary['raem_initial_deg']:.3f} deg, peak {summary['raem_peak_deg']:.3f} deg, "
-        f"max over the last {summary['steady_window_s']:g} s {summary['raem_steady_max_deg']:.4g} deg",
+        convergence_line(summary),
+        f"  final (t = {summary['horizon_s']:g} s): AAEM {summary['aaem_final_deg']:.4g} deg, "
+        f"RAEM {summary['raem_final_deg']:.4g} deg",
+        f"  steady: max over {window}: AAEM {summary['aaem_steady_max_deg']:.4g} deg, "
+        f"RAEM {summary['raem_steady_max_deg']:.4g} deg",
+        f"  AAEM (eq 42): initial {summary['aaem_initial_deg']:.3f} deg, peak {summary['aaem_peak_deg']:.3f} deg",
+        f"  RAEM (eq 43): initial {summary['raem_initial_deg']:.3f} deg, peak {summary['raem_peak_deg']:.3f} deg",
     ]
     for metric in ("aaem", "raem"):
         times = ", ".join(f"{tol} deg: {fmt_time(t)}" for tol, t in summary[f"{metric}_settling_s"].items())
@@ -258,4 +296,5 @@ def _format_summary(summary: dict) -> str:
         f"saturated {min(sat):.2f}-{max(sat):.2f} s per agent, last saturation "
         + ("never" if not math.isfinite(last) else f"{last:.2f} s")
     )
+    lines.append(f"  {summary['scenario']}: {summary['backend']} backend, {summary['wall_time_s']:.2f} s")
     return "\n".join(lines)

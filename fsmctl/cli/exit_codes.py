@@ -6,13 +6,21 @@ subcommand's own wording of it, so ``fsmctl X --help`` and the documentation pag
 (sphinx-argparse) say the same.  :func:`table` gives the same rows as data, for a documentation table.
 
 ====  =========================================================================================
-0     success (what success is depends on the command: the run finished, the report was written, ...)
-1     the command reports a failure (a claim fails, a simulation failed, a folder is stale), or an
-      internal error (one line; ``--debug`` shows the traceback)
+0     success (what success is depends on the command: the run finished, the report was written,
+      every check of ``fsmctl prove`` came out as documented, ...)
+1     the command reports a failure (a check of ``fsmctl prove`` differs from the documented finding,
+      or with ``--strict`` any check fails; a simulation failed; a folder is stale), or an internal
+      error (one line; ``--debug`` shows the traceback)
 2     usage, input or environment error: one line on stderr, never a traceback
 130   interrupted (SIGINT, Ctrl-C): finished outputs are kept, partial files are not written
 143   terminated (SIGTERM): as for 130
 ====  =========================================================================================
+
+The expected result: a command exits 0 when its result is the expected one.  For ``fsmctl prove`` that is the
+documented finding (the verdict each claim has on the paper's scenario, recorded with the claim:
+:attr:`fsmctl.proofs.claims.Claim.expected`), so Theorem 2's delta failing for the paper, a finding of the README,
+exits 0; ``--strict`` exits 1 on any failed check.  A user's law (``prove --law``) has no documented finding: any
+failed check exits 1.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ Subcommands live in their own modules, each exposing ``add_parser(subparsers)``
 ``fsmctl tune``               search a law's parameters under the actuator limits (:mod:`fsmctl.cli.tune`)
 ``fsmctl laws``               the built-in laws and their parameters (:mod:`fsmctl.cli.laws`)
 ``fsmctl derive``             check and generate a law from a derivation script (:mod:`fsmctl.cli.derive`)
+``fsmctl scenario show``      a scenario with every default and where each value came from (:mod:`fsmctl.cli.scenario`)
 ============================  ======================================================================
 
 The library below (:mod:`fsmctl.studies` and down) never imports this package; it raises
@@ -24,9 +25,10 @@ one means (:data:`~fsmctl.cli.exit_codes.MEANINGS`); every subcommand's ``--help
 command's own words where they differ (:func:`fsmctl.cli.exit_codes.epilog`).
 
 ====  =========================================================================================
-0     success (every claim as expected, the run finished, the files were written, the law
+0     success (every check as documented, the run finished, the files were written, the law
       folder is up to date)
-1     a claim (or a law check) fails, a simulation failed (non-finite state, ...), a law folder
+1     a check differs from the documented finding (``prove --strict``: fails; a law check fails),
+      a simulation failed (non-finite state, ...), a law folder
       is stale (``fsmctl derive --check``), or an internal error (one line; ``--debug`` shows
       the traceback)
 2     usage, input or environment error: a bad option or scenario file, an unknown law or a
@@ -60,6 +62,7 @@ import warnings
 from fsmctl.cli.exit_codes import EXIT_FAILED, EXIT_INPUT, EXIT_INTERRUPTED, EXIT_OK, EXIT_TERMINATED, epilog
 from fsmctl.cli.options import HelpFormatter
 from fsmctl.errors import EnvironmentProblem, InputError
+from fsmctl.suggest import did_you_mean
 
 __all__ = [
     "main",
@@ -83,6 +86,7 @@ SUBCOMMAND_MODULES = (
     "fsmctl.cli.tune",
     "fsmctl.cli.laws",
     "fsmctl.cli.derive",
+    "fsmctl.cli.scenario",
 )
 """Modules of the subcommands, in the order ``fsmctl --help`` lists them; each has ``add_parser(subparsers)``
 (which sets ``func`` on its parser).  A module missing from a build is skipped."""
@@ -100,13 +104,50 @@ class Terminated(BaseException):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (exit 2) and :class:`fsmctl.cli.options.HelpFormatter` for every ``--help``."""
+    """argparse with one-line errors (exit 2), "did you mean" for a misspelled subcommand or option
+    (:mod:`fsmctl.suggest`), and :class:`fsmctl.cli.options.HelpFormatter` for every ``--help``."""
 
     def __init__(self, *args, formatter_class=HelpFormatter, **kwargs):
         super().__init__(*args, formatter_class=formatter_class, **kwargs)
 
     def error(self, message):  # one line, exit 2 (argparse's default prints usage too)
         self.exit(EXIT_INPUT, f"{self.prog}: error: {message}\n")
+
+    def parse_args(self, args=None, namespace=None):  # the top-level parser: its subparsers parse_known_args
+        args = list(sys.argv[1:] if args is None else args)
+        commands = self._subcommands()
+        # the top-level options are flags: the first word that is not one is the subcommand
+        word = next((a for a in args if not a.startswith("-")), None)
+        if commands and word is not None and word not in commands:
+            hint = did_you_mean(word, commands)
+            self.exit(EXIT_INPUT, f"{self.prog}: unknown command {word!r}{f' ({hint})' if hint else ''}\n")
+        parsed, extras = self.parse_known_args(args, namespace)
+        if extras:
+            sub = commands.get(getattr(parsed, "command", None), self)
+            while (inner := sub._subcommands()) and (chosen := getattr(parsed, sub._subcommand_dest(), None)):
+                sub = inner[chosen]  # fsmctl scenario show: the innermost subcommand's options
+            self.exit(EXIT_INPUT, f"{sub.prog}: {_unknown_argument(extras[0], sub)}\n")
+        return parsed
+
+    def _subcommands(self) -> dict[str, argparse.ArgumentParser]:
+        """The subcommands' parsers by name (empty for a parser without subcommands)."""
+        for action in self._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                return dict(action.choices)
+        return {}
+
+    def _subcommand_dest(self) -> str:
+        """Where the chosen subcommand's name goes (``command``, ``scenario_command``)."""
+        return next(a.dest for a in self._actions if isinstance(a, argparse._SubParsersAction))
+
+
+def _unknown_argument(word: str, parser: argparse.ArgumentParser) -> str:
+    """``unknown option --t-finall (did you mean --t-final?)``, or ``unexpected argument 'x'``."""
+    if not word.startswith("-"):
+        return f"unexpected argument {word!r}"
+    option = word.split("=", 1)[0]
+    hint = did_you_mean(option, [o for a in parser._actions for o in a.option_strings if o.startswith("--")])
+    return f"unknown option {option}{f' ({hint})' if hint else ''}"
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -40,6 +40,7 @@ from fsmctl.cli.options import (
 from fsmctl.cli.parallel_options import add_dask_options, add_workers_option, chosen_workers
 from fsmctl.cli.run_options import add_run_options
 from fsmctl.cli.types import finite_or_inf_float, number_range, positive_int
+from fsmctl.policy import steady_window_text
 from fsmctl.studies.montecarlo import (
     COMPLETE_MARKER,
     HARDWARE_RANGES,
@@ -141,7 +142,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
             default=getattr(d, name),
             help=_help_text(text) + f" (default: {getattr(d, name)})",
         )
-    add_tolerance_deg_option(p, "convergence tolerance of AAEM and RAEM at t_final", d.tolerance_deg)
+    add_tolerance_deg_option(
+        p, "converged: AAEM and RAEM stay at or below it until the end of the run", d.tolerance_deg
+    )
     add_steady_window_option(p, d.steady_window)
     add_figures_option(p)
     add_progress_option(p, "over the runs")
@@ -268,9 +271,10 @@ def report_lines(result: CampaignResult) -> Iterable[str]:
         else f"Theorems 1-2: not applicable (they are the paper's law's conditions; the law {s['law']} does not "
         "declare it is eqs 13-19)"
     )
-    yield f"  converged (AAEM and RAEM < {s['tolerance_deg']:g} deg): {s['converged_fraction']:.1%}; {theorems}"
+    yield f"  converged (AAEM and RAEM stay <= {s['tolerance_deg']:g} deg until the end): {s['converged_fraction']:.1%}; {theorems}"
     yield f"  AAEM settling: {med('aaem_settling_s')} s ({st['aaem_settling_s']['nan']} never settled)"
-    yield f"  AAEM steady max: {med('aaem_steady_max_deg')} deg; max |u_unsat|: {med('u_unsaturated_max_N_m')} N m; saturation time: {med('saturated_time_max_s')} s"
+    window = steady_window_text(s["steady_window_s"], s["horizon_s"])
+    yield f"  AAEM steady max (over {window}): {med('aaem_steady_max_deg')} deg; max |u_unsat|: {med('u_unsaturated_max_N_m')} N m; saturation time: {med('saturated_time_max_s')} s"
     for f in s["failures"][:10]:
         yield f"  run {f['run']}: {f['status']}: {f['message']}"
     if len(s["failures"]) > 10:

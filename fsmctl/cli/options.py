@@ -311,10 +311,11 @@ def add_steady_window_option(
     default : float or None
         The default.
     default_text : str, optional
-        How the help states the default (default: the number).
+        How the help states the default (default: the number; for None, :data:`STEADY_WINDOW_TEXT`).
     """
     what = "final window of the steady-state statistics in s"
-    _scenario_number(parser, "--steady-window", "S", what, default, default_text)
+    text = default_text or (STEADY_WINDOW_TEXT if default is None else f"{default:g}")
+    _scenario_number(parser, "--steady-window", "S", what, default, text)
 
 
 def add_tolerance_deg_option(parser: argparse.ArgumentParser | Any, what: str, default: float) -> None:

@@ -28,7 +28,7 @@ import os
 import secrets
 import shutil
 import tempfile
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import MappingProxyType
@@ -40,6 +40,7 @@ from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, MANIFEST_FILE, MANIFEST
 from fsmctl.errors import InputError
 from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 from fsmctl.ranges import ParameterRange
+from fsmctl.suggest import did_you_mean
 from fsmctl.version import __version__
 
 __all__ = [
@@ -916,14 +917,15 @@ def written_keys(law: LawCode) -> tuple[str, ...]:
     return tuple(p.name for p in law.parameters) + tuple(g.name for g in law.presets)
 
 
-def _check_written(law: LawCode, written, where: str, own: str) -> None:
+def _check_written(law: LawCode, written, where: str, own: str, own_keys: Sequence[str]) -> None:
     unknown = [k for k in written if k not in written_keys(law)]
     if unknown:
         names = ", ".join(p.name for p in law.parameters) or "none"
         groups = "".join(f"; preset {g.name} = {' | '.join(g.options)}" for g in law.presets)
+        hint = did_you_mean(unknown[0], (*written_keys(law), *own_keys))  # fsmctl.suggest: the one rule
         raise LawError(
-            f"{where}.{unknown[0]}: unknown key: the law {law.name!r} has no parameter {unknown[0]!r} "
-            f"(its parameters: {names}{groups}) and {own}"
+            f"{where}.{unknown[0]}: unknown key: the law {law.name!r} has no parameter {unknown[0]!r}"
+            f"{': ' + hint if hint else ''} (its parameters: {names}{groups}) and {own} {', '.join(own_keys)}"
         )
 
 
@@ -989,7 +991,7 @@ def check_written_parameters(law: LawCode, written, where: str = "controller") -
     ...     print(exc)
     controller.K: must be > 0, got -1
     """
-    _check_written(law, written, where, f"[controller]'s own keys are {', '.join(CONTROLLER_KEYS)}")
+    _check_written(law, written, where, "[controller]'s own keys are", CONTROLLER_KEYS)
     for p in law.parameters:
         if p.name in written:
             p.values(written[p.name], f"{where}.{p.name}")
@@ -1062,11 +1064,11 @@ def parameter_matrix(law: LawCode, scenario) -> np.ndarray:
     array([0. , 0.8])
     """
     c = scenario.controller
-    _check_written(law, c.parameters, "controller", f"[controller]'s own keys are {', '.join(CONTROLLER_KEYS)}")
+    _check_written(law, c.parameters, "controller", "[controller]'s own keys are", CONTROLLER_KEYS)
     rows = []
     for index, agent in enumerate(scenario.agents, start=1):
         where = f"agents[{index}]"
-        _check_written(law, agent.parameters, where, f"an agent's own keys are {', '.join(AGENT_KEYS)}")
+        _check_written(law, agent.parameters, where, "an agent's own keys are", AGENT_KEYS)
         fixed = _preset_values(law, c, agent, where)
         row: list[float] = []
         for p in law.parameters:

@@ -43,6 +43,7 @@ from fsmctl.model.settings import (
     StarTrackerSettings,
 )
 from fsmctl.model.topology import TopologyError
+from fsmctl.suggest import did_you_mean
 
 if TYPE_CHECKING:  # pragma: no cover
     from fsmctl.model.scenario import Scenario
@@ -238,7 +239,8 @@ def _unknown(d: Mapping, known: Sequence[str], where: str) -> None:
         raise ScenarioError(f"{where}: expected a table, got {d!r}")
     unknown = sorted(set(d) - set(known))
     if unknown:
-        raise ScenarioError(f"{where}: unknown key(s) {unknown} (known: {sorted(known)})")
+        hint = did_you_mean(unknown[0], known)  # fsmctl.suggest: the one rule of suggestions
+        raise ScenarioError(f"{where}: unknown key(s) {unknown}{': ' + hint if hint else ''} (known: {sorted(known)})")
 
 
 def _current_choices(choices: tuple[tuple[str, str], ...], changed: set[str]) -> tuple[tuple[str, str], ...]:

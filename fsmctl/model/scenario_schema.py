@@ -183,6 +183,12 @@ def _topology_schema() -> dict:
             },
             "kind": {"enum": ["ring", "all-to-all", "k-nearest"], "description": "a generated graph"},
             "neighbours": {"type": "integer", "minimum": 1, "description": "k of kind = 'k-nearest'"},
+            "directed": {
+                "type": "boolean",
+                "default": False,
+                "description": "kind = 'ring' only: true = one way, agent i receives from agent i-1 (the cycle 1 -> "
+                "2 -> ... -> n -> 1, n links); false = both ways (2n links)",
+            },
         },
         "additionalProperties": False,
     }

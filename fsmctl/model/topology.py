@@ -1,14 +1,10 @@
 """Communication topology: constant ``k^i_ij`` and time-varying, directed ``k^j_ij(t)`` (eq 19, Remark 2).
 
-A :class:`Link` ``(i <- j)`` says that agent ``i`` receives ``s_j`` with weight
-``k^j_ij(t) = schedule(t + phase)`` and applies ``k^i_ij s_i`` to its own
-sliding variable.  Schedules are piecewise constant, optionally periodic, like
-Table 2 of the paper: ``k(t) = 5 if mod(t, 8) <= 6.5 else 0`` is
-``Schedule(breakpoints=(0, 6.5), values=(5, 0), period=8)``.
-
-Segments are left-closed: the paper's ``mod(t, 8) <= 6.5`` and this
-``[0, 6.5)`` differ only at isolated instants, which no integral (and no
-trajectory) can see.
+A :class:`Link` ``(i <- j)`` says that agent ``i`` receives ``s_j`` with weight ``k^j_ij(t) = schedule(t + phase)``
+and applies ``k^i_ij s_i`` to its own sliding variable.  Schedules are piecewise constant, optionally periodic, like
+Table 2 of the paper: ``k(t) = 5 if mod(t, 8) <= 6.5 else 0`` is ``Schedule(breakpoints=(0, 6.5), values=(5, 0),
+period=8)``.  Segments are left-closed: the paper's ``mod(t, 8) <= 6.5`` and this ``[0, 6.5)`` differ only at
+isolated instants, which no integral (and no trajectory) can see.
 """
 
 from __future__ import annotations
@@ -23,6 +19,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fsmctl.errors import InputError
+from fsmctl.suggest import did_you_mean
 
 __all__ = [
     "Link",
@@ -122,9 +119,8 @@ class Schedule:
     """Piecewise-constant link weight ``k^j_ij(t)`` (Liang et al. 2012, eq 19, Table 2): ``values[m]`` on
     ``[breakpoints[m], breakpoints[m+1])``.
 
-    With a ``period``, the argument is reduced modulo the period, breakpoints
-    start at 0 and lie in ``[0, period)``.  Without one, ``values[0]`` also holds
-    before ``breakpoints[0]`` and the last value holds forever.
+    With a ``period``, the argument is reduced modulo the period, breakpoints start at 0 and lie in
+    ``[0, period)``.  Without one, ``values[0]`` also holds before ``breakpoints[0]`` and the last value holds forever.
 
     Parameters
     ----------
@@ -367,7 +363,8 @@ class Link:
 
 @dataclass(frozen=True)
 class Topology:
-    """The directed, possibly time-varying communication graph of eq 19 (Liang et al. 2012; Assumption 1).
+    """The directed, possibly time-varying communication graph of eq 19 (Liang et al. 2012; Assumption 1); the
+    usual graphs: :func:`ring`, :func:`k_nearest`, :func:`all_to_all`, :func:`from_phase_table`.
 
     Parameters
     ----------
@@ -380,10 +377,6 @@ class Topology:
     ------
     TopologyError
         An invalid link (see the message).
-
-    See Also
-    --------
-    ring, k_nearest, all_to_all, from_phase_table : the usual graphs.
 
     Examples
     --------
@@ -537,11 +530,10 @@ class Topology:
     # --- construction ------------------------------------------------------------
     @classmethod
     def from_mapping(cls, d: Mapping, n_agents: int, where: str = "topology") -> Topology:
-        """From a TOML table: ``phase_table`` + ``schedule`` + ``k_i``, ``kind`` (``ring``, ``all-to-all``,
-        ``k-nearest`` with ``neighbours``), or an explicit ``links`` array.
-
-        ``links = [{receiver = 1, sender = 2, k_i = 8, phase = 0.0, k_j = <number or schedule table>}, ...]``
-        (1-based agents; ``k_i``, ``k_j``/``schedule`` default to the table-level values).
+        """From a TOML table: ``phase_table`` + ``schedule`` + ``k_i``, ``kind`` (``ring``, one way with ``directed =
+        true``; ``all-to-all``; ``k-nearest`` with ``neighbours``), or an explicit ``links = [{receiver = 1, sender =
+        2, k_i = 8, phase = 0.0, k_j = <number or schedule table>}, ...]`` (1-based agents; ``k_i``,
+        ``k_j``/``schedule`` default to the table-level values).
 
         Parameters
         ----------
@@ -564,11 +556,11 @@ class Topology:
         """
         if not isinstance(d, Mapping):
             raise TopologyError(f"{where}: expected a table")
-        unknown = set(d) - {"k_i", "schedule", "phase_table", "links", "kind", "k_j", "neighbours"}
+        known = ("k_i", "schedule", "phase_table", "links", "kind", "k_j", "neighbours", "directed")
+        unknown = sorted(set(d) - set(known))
         if unknown:
-            raise TopologyError(
-                f"{where}: unknown key(s) {sorted(unknown)} (known: k_i, schedule, phase_table, links, kind, k_j, neighbours)"
-            )
+            hint = did_you_mean(unknown[0], known)  # fsmctl.suggest: the one rule of suggestions
+            raise TopologyError(f"{where}: unknown key(s) {unknown}{hint and ': ' + hint} (known: {', '.join(known)})")
         k_i = _num(d.get("k_i", 0.0), f"{where}.k_i")
         if "schedule" in d and "k_j" in d:
             raise TopologyError(f"{where}: give either schedule or k_j, not both")
@@ -578,18 +570,11 @@ class Topology:
             raise TopologyError(f"{where}: give exactly one of phase_table, links or kind (got {given or 'none'})")
         if "phase_table" in d:
             return from_phase_table(d["phase_table"], n_agents, k_i, sched, where=f"{where}.phase_table")
+        directed = d.get("directed", False)
+        if "directed" in d and (not isinstance(directed, bool) or d.get("kind") != "ring"):
+            raise TopologyError(f"{where}.directed: true or false, with kind = 'ring' only; got {directed!r}")
         if "kind" in d:
-            kind = d["kind"]
-            if kind == "ring":
-                return ring(n_agents, k_i, sched)
-            if kind == "all-to-all":
-                return all_to_all(n_agents, k_i, sched)
-            if kind == "k-nearest":
-                k = d.get("neighbours")
-                if not isinstance(k, int) or isinstance(k, bool):
-                    raise TopologyError(f"{where}.neighbours: an integer is required for kind = 'k-nearest'")
-                return k_nearest(n_agents, k, k_i, sched)
-            raise TopologyError(f"{where}.kind: must be 'ring', 'all-to-all' or 'k-nearest', got {kind!r}")
+            return _generated(d, n_agents, k_i, sched, where)
         raw = d["links"]
         if not isinstance(raw, Sequence) or isinstance(raw, str):
             raise TopologyError(f"{where}.links: expected an array of tables")
@@ -627,8 +612,8 @@ class Topology:
 def from_phase_table(table, n_agents: int, k_i: float, schedule: Schedule, where: str = "phase_table") -> Topology:
     """Table 2 form (Liang et al. 2012): ``k^j_ij(t) = schedule(t + table[i][j])``; NaN means no link.
 
-    A phase is a time shift and may be any finite number; only NaN removes a link (a negative entry is a
-    shift like any other, never a silent way to drop a link).
+    A phase is a time shift and may be any finite number; only NaN removes a link (a negative entry is a shift like
+    any other, never a silent way to drop a link).
 
     Parameters
     ----------
@@ -691,8 +676,23 @@ def _links(pairs: Iterable[tuple[int, int]], k_i: float, schedule: Schedule) -> 
     return tuple(Link(i, j, float(k_i), schedule) for i, j in pairs)
 
 
-def ring(n: int, k_i: float, k_j: Schedule | float) -> Topology:
-    """Bidirectional ring: agent ``i`` receives from ``i-1`` and ``i+1`` (modulo ``n``).
+def _generated(d: Mapping, n: int, k_i: float, sched: Schedule, where: str) -> Topology:
+    """``[topology] kind = ...``: a generated graph (``neighbours`` for ``k-nearest``, ``directed`` for ``ring``)."""
+    kind, k = d["kind"], d.get("neighbours")
+    if kind == "ring":
+        return ring(n, k_i, sched, directed=d.get("directed", False))
+    if kind == "all-to-all":
+        return all_to_all(n, k_i, sched)
+    if kind != "k-nearest":
+        raise TopologyError(f"{where}.kind: must be 'ring', 'all-to-all' or 'k-nearest', got {kind!r}")
+    if not isinstance(k, int) or isinstance(k, bool):
+        raise TopologyError(f"{where}.neighbours: an integer is required for kind = 'k-nearest'")
+    return k_nearest(n, k, k_i, sched)
+
+
+def ring(n: int, k_i: float, k_j: Schedule | float, *, directed: bool = False) -> Topology:
+    """Ring: agent ``i`` receives from ``i-1`` and ``i+1`` (modulo ``n``); directed: from ``i-1`` only (the cycle
+    1 -> 2 -> ... -> n -> 1: ``[topology] kind = "ring"``, ``directed = true``).
 
     Parameters
     ----------
@@ -702,6 +702,8 @@ def ring(n: int, k_i: float, k_j: Schedule | float) -> Topology:
         ``k^i_ij`` of every link.
     k_j : Schedule or float
         ``k^j_ij(t)`` of every link (a number is a constant schedule).
+    directed : bool
+        One direction only: agent ``i`` receives from ``i-1`` (``n`` links instead of ``2n``).
 
     Returns
     -------
@@ -716,11 +718,16 @@ def ring(n: int, k_i: float, k_j: Schedule | float) -> Topology:
            [8., 0., 8., 0.],
            [0., 8., 0., 8.],
            [8., 0., 8., 0.]])
+    >>> ring(3, k_i=8.0, k_j=5.0, directed=True).k_i_matrix()  # 1 -> 2 -> 3 -> 1
+    array([[0., 0., 8.],
+           [8., 0., 0.],
+           [0., 8., 0.]])
     """
     s = k_j if isinstance(k_j, Schedule) else Schedule.constant(k_j)
     if n < 2:
         return Topology(n, ())
-    pairs = sorted({(i, (i + d) % n) for i in range(n) for d in (-1, 1) if (i + d) % n != i})
+    steps = (-1,) if directed else (-1, 1)
+    pairs = sorted({(i, (i + d) % n) for i in range(n) for d in steps if (i + d) % n != i})
     return Topology(n, _links(pairs, k_i, s))
 
 

@@ -10,7 +10,6 @@ that a system pickles, and rebuilds with new parameters, as the call that made i
 from __future__ import annotations
 
 import copy
-import difflib
 from collections.abc import Callable, Mapping, MutableMapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -27,6 +26,7 @@ from fsmctl.model.laws import (
 )
 from fsmctl.model.scenario import ScenarioError
 from fsmctl.plugin.arguments import _show, _timebase
+from fsmctl.suggest import ranked
 
 if TYPE_CHECKING:  # pragma: no cover
     from fsmctl.plugin.system import ParameterizedSystem
@@ -108,15 +108,7 @@ def _unknown_keys(params: Mapping[str, Any], known: Any, where: str) -> None:
     for key in params:
         if key not in known:
             listed = [k for k in known if not (isinstance(k, str) and k.endswith("_owner"))]
-            text = str(key).lower()
-
-            def score(
-                k: Any, text: str = text
-            ) -> float:  # the full key or its local part after the system prefix ("ctrl1_c1")
-                k = str(k).lower()
-                return max(difflib.SequenceMatcher(None, text, part).ratio() for part in (k, k.split("_", 1)[-1]))
-
-            order = sorted(listed, key=lambda k: -score(k))  # stable: ties keep the system's order
+            order = ranked(str(key), listed)  # closest first (fsmctl.suggest: the one rule of suggestions)
             shown = ", ".join(map(str, order[:_KNOWN_SHOWN])) or "none"
             if len(order) > _KNOWN_SHOWN:
                 shown += f", ... ({len(order) - _KNOWN_SHOWN} more: the keys of the system's params)"

@@ -53,6 +53,7 @@ __all__ = [
     "ClaimResult",
     "ProofContext",
     "claim_ids",
+    "documented_finding_applies",
     "get_claim",
     "run_claims",
 ]
@@ -86,8 +87,14 @@ class ClaimResult:
         Time the check took.
     latex : str, optional
         Display LaTeX of the statement that was checked (corrected where the paper is wrong).
-    expected : bool
+    holds : bool
         False when the outcome is a failure for the scenario or an unexpected result of the tool.
+    documented : str or None
+        The verdict the registry documents for this claim (:attr:`Claim.expected`); None for a claim that uses the
+        scenario when the scenario is not one of the paper's cases over Theorem 2's default region (no documented
+        finding: it is expected to hold).
+    as_documented : bool
+        The verdict is the documented one (or, without one, the claim holds).
     data : dict
         Machine-readable numbers (scenario checks).
 
@@ -96,8 +103,8 @@ class ClaimResult:
     >>> import fsmctl
     >>> from fsmctl.proofs import ProofContext, run_claims
     >>> results = run_claims(["lemma2-sqrt-sum", "theorem1-gains"], ProofContext(fsmctl.paper_scenario()))
-    >>> [(r.id, r.verdict, r.expected) for r in results]
-    [('lemma2-sqrt-sum', 'proved', True), ('theorem1-gains', 'proved', True)]
+    >>> [(r.id, r.verdict, r.holds, r.as_documented) for r in results]
+    [('lemma2-sqrt-sum', 'proved', True, True), ('theorem1-gains', 'proved', True, True)]
     >>> print(results[0].detail.splitlines()[0])
     [ok] with a_i = V_i^(1/2) >= 0 the claim is (sum a_i)^2 >= sum a_i^2 (both sides >= 0, sqrt is monotone)
     """
@@ -110,8 +117,12 @@ class ClaimResult:
     seconds: float
     latex: str | None = None
     """display LaTeX of the statement that was checked (corrected where the paper is wrong)"""
-    expected: bool = True
+    holds: bool = True
     """False when the outcome is a failure for the scenario or an unexpected result of the tool"""
+    documented: str | None = None
+    """the registry's documented verdict (:attr:`Claim.expected`) where it applies, else None (expected to hold)"""
+    as_documented: bool = True
+    """the verdict is the documented one (without one: the claim holds)"""
     data: dict = field(default_factory=dict)
     """machine-readable numbers (scenario checks)"""
 
@@ -155,7 +166,7 @@ class _Outcome:
     verdict: str
     lines: list[str]
     latex: str | None = None
-    expected: bool = True
+    holds: bool = True
     data: dict = field(default_factory=dict)
 
 
@@ -170,6 +181,9 @@ class Claim:
     uses_scenario: bool = False
     heavy: bool = False
     """several seconds of SymPy: run in a worker process when ``workers > 1``"""
+    expected: str = PROVED
+    """the documented finding (README, "What was found"): the verdict of the check on the paper's scenario (every
+    case of Section 4, Theorem 2's default region); an ``erratum`` and a ``fails for this scenario`` are findings"""
 
 
 def _mark(ok: bool) -> str:
@@ -181,7 +195,7 @@ def _steps_outcome(steps: list[tuple[bool, str]], latex: str, extra: list[str] |
     lines = [f"[{_mark(ok)}] {text}" for ok, text in steps] + (extra or [])
     if all(ok for ok, _ in steps):
         return _Outcome(PROVED, lines, latex)
-    return _Outcome(UNPROVED, [*lines, "UNEXPECTED: a step above could not be established"], latex, expected=False)
+    return _Outcome(UNPROVED, [*lines, "UNEXPECTED: a step above could not be established"], latex, holds=False)
 
 
 def _zero(expr) -> bool:
@@ -210,7 +224,7 @@ def _erratum(check: Callable, own_steps: list[tuple[bool, str]] | None = None, e
     latex = rf"\text{{printed: }} {e.as_printed_latex} \qquad \text{{correct: }} {e.correct_latex}"
     if ok:
         return _Outcome(ERRATUM, lines, latex, data={"erratum": e.id})
-    return _Outcome(UNPROVED, [*lines, "UNEXPECTED: the erratum could not be confirmed"], latex, expected=False)
+    return _Outcome(UNPROVED, [*lines, "UNEXPECTED: the erratum could not be confirmed"], latex, holds=False)
 
 
 # ----------------------------------------------------------------------------- Lemmas 1-2
@@ -679,7 +693,7 @@ def _theorem1_gains(ctx: ProofContext) -> _Outcome:
     )
     if an.holds:
         return _Outcome(PROVED, lines, latex, data=data)
-    return _Outcome(FAILS, lines, latex, expected=False, data=data)
+    return _Outcome(FAILS, lines, latex, holds=False, data=data)
 
 
 # ----------------------------------------------------------------------------- Theorem 2
@@ -925,7 +939,7 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
     )
     if res.ok:
         return _Outcome(NUMERIC, lines, latex, data=data)
-    return _Outcome(FAILS, lines, latex, expected=False, data=data)
+    return _Outcome(FAILS, lines, latex, holds=False, data=data)
 
 
 def _finite(v) -> list:
@@ -1112,15 +1126,28 @@ CLAIMS: tuple[Claim, ...] = (
         "error kinematics sigma_e_dot = G(sigma_e)(omega - omega_d)",
         _error_kinematics,
         heavy=True,
+        expected=ERRATUM,
     ),
-    Claim("lagrange-C", "9", "Coriolis-like matrix C of the Lagrange-like model", _lagrange_C),
+    Claim("lagrange-C", "9", "Coriolis-like matrix C of the Lagrange-like model", _lagrange_C, expected=ERRATUM),
     Claim("closed-loop", "9, 16-20", "closed loop (20) from the law (16-19) and the model (9)", _closed_loop),
-    Claim("fractional-power", "17, 20, 23", "the term c2 alpha sigma^(alpha-1) sigma_dot", _fractional_power),
-    Claim("vdot-i", "23-24", "V_i_dot and each inequality step of eq 24", _vdot_i),
+    Claim(
+        "fractional-power",
+        "17, 20, 23",
+        "the term c2 alpha sigma^(alpha-1) sigma_dot",
+        _fractional_power,
+        expected=ERRATUM,
+    ),
+    Claim("vdot-i", "23-24", "V_i_dot and each inequality step of eq 24", _vdot_i, expected=ERRATUM),
     Claim("zero-sum", "26", "the zero term sum eta_ij (s_i^T s_i - s_j^T s_j) and what it requires of eta", _zero_sum),
     Claim("complete-square", "27", "completing the square: kappa_ij, gamma_ij", _complete_square),
-    Claim("gamma-condition", "27, Theorem 1", "gamma_ij >= 0 <=> Theorem 1's k/eta conditions", _gamma_condition),
-    Claim("vdot-mu", "28", "V_dot <= -mu V^(1/2) and the value of mu", _vdot_mu, uses_scenario=True),
+    Claim(
+        "gamma-condition",
+        "27, Theorem 1",
+        "gamma_ij >= 0 <=> Theorem 1's k/eta conditions",
+        _gamma_condition,
+        expected=ERRATUM,
+    ),
+    Claim("vdot-mu", "28", "V_dot <= -mu V^(1/2) and the value of mu", _vdot_mu, uses_scenario=True, expected=ERRATUM),
     Claim(
         "theorem1-gains",
         "Theorem 1, 25-27",
@@ -1134,6 +1161,7 @@ CLAIMS: tuple[Claim, ...] = (
         "Theorem 2: the exact Delta_d and the delta condition",
         _theorem2_condition,
         heavy=True,
+        expected=ERRATUM,
     ),
     Claim(
         "theorem2-delta",
@@ -1141,6 +1169,7 @@ CLAIMS: tuple[Claim, ...] = (
         "Theorem 2: the delta_i the scenario needs vs the configured delta_i",
         _theorem2_delta,
         uses_scenario=True,
+        expected=FAILS,
     ),
     Claim("theorem3-closed-forms", "34-36", "settling times of FSM, TSM, LSM by integration", _theorem3_closed_forms),
     Claim("theorem3-fsm-vs-lsm", "37-38", "T_fsm < T_lsm for |x0| > tau > 0", _theorem3_lsm),
@@ -1151,6 +1180,7 @@ CLAIMS: tuple[Claim, ...] = (
         "undirected topology: k^i >= k^j with eta = k^i/2",
         _remark4,
         uses_scenario=True,
+        expected=ERRATUM,
     ),
     Claim("remark6-singular-term", "Remark 6", "the singular term vanishes on the surface, for which alpha", _remark6),
 )
@@ -1193,11 +1223,48 @@ def get_claim(claim_id: str) -> Claim:
     raise KeyError(claim_id)
 
 
+def documented_finding_applies(ctx: ProofContext) -> bool:
+    """Whether the registry's documented verdicts (:attr:`Claim.expected`) apply to the claims that use the scenario.
+
+    They do for the paper's scenario (any case of Section 4, as :func:`fsmctl.model.scenario.load_scenario` gives it)
+    over Theorem 2's default region; for any other scenario or region there is no documented finding and such a
+    claim is expected to hold.
+
+    Parameters
+    ----------
+    ctx : ProofContext
+        The scenario and the sampling options.
+
+    Returns
+    -------
+    bool
+        True for the paper's scenario (unchanged) and the default region.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.proofs import ProofContext, Region
+    >>> from fsmctl.proofs.claims import documented_finding_applies
+    >>> documented_finding_applies(ProofContext(fsmctl.paper_scenario("2")))
+    True
+    >>> documented_finding_applies(ProofContext(fsmctl.paper_scenario("1"), Region(sigma=0.0, omega=0.0)))
+    False
+    """
+    from fsmctl.model.scenario import load_scenario
+
+    sc = ctx.scenario
+    if ctx.region != t2.Region() or sc.case is None or sc.case not in load_scenario("paper").cases:
+        return False
+    return sc == load_scenario("paper", case=sc.case)
+
+
 def _run(claims: list[Claim], ctx: ProofContext) -> list[ClaimResult]:
     out = []
+    applies = documented_finding_applies(ctx)
     for c in claims:
         t0 = time.perf_counter()
         o = c.check(ctx)
+        documented = c.expected if applies or not c.uses_scenario else None
         out.append(
             ClaimResult(
                 id=c.id,
@@ -1207,7 +1274,9 @@ def _run(claims: list[Claim], ctx: ProofContext) -> list[ClaimResult]:
                 detail="\n".join(o.lines),
                 seconds=time.perf_counter() - t0,
                 latex=o.latex,
-                expected=o.expected,
+                holds=o.holds,
+                documented=documented,
+                as_documented=o.verdict == documented if documented is not None else o.holds,
                 data=o.data,
             )
         )

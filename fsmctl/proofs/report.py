@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     from fsmctl.proofs.errata import Erratum
 
 __all__ = [
+    "outcome",
     "errata_summary_line",
     "format_errata",
     "format_list",
@@ -144,17 +145,73 @@ def summary_line(results: Sequence[ClaimResult]) -> str:
     Returns
     -------
     str
-        ``N claims: a proved, b erratum, ... (t s of checks); ...`` naming the claims not as expected.
+        ``N claims: a proved, b erratum, ... (t s of checks); ...`` naming the claims that differ from the
+        documented finding (:attr:`fsmctl.proofs.claims.Claim.expected`) and the documented failures.
     """
     counts: dict[str, int] = {}
     for r in results:
         counts[r.verdict] = counts.get(r.verdict, 0) + 1
     parts = ", ".join(f"{n} {v}" for v, n in counts.items())
     total = sum(r.seconds for r in results)
-    bad = [r.id for r in results if not r.expected]
-    tail = f"; not as expected: {', '.join(bad)}" if bad else "; every claim as expected"
+    bad = [r.id for r in results if not r.as_documented]
+    known = [r.id for r in results if r.as_documented and not r.holds]
+    tail = f"; differ from the documented finding: {', '.join(bad)}" if bad else "; every claim as documented"
+    tail += f"; known failures (documented): {', '.join(known)}" if known else ""
     noun = "claim" if len(results) == 1 else "claims"
     return f"{len(results)} {noun}: {parts} ({total:.1f} s of checks){tail}"
+
+
+def outcome(results: Sequence[ClaimResult], errata: Sequence[Erratum] | None = None) -> dict:
+    """Whether the checks came out as documented, and the one line that says so (``fsmctl prove``'s first line).
+
+    A claim is as documented when its verdict is the registry's (:attr:`fsmctl.proofs.claims.Claim.expected`; a
+    claim without a documented finding when it holds); an erratum when it is confirmed.
+
+    Parameters
+    ----------
+    results : sequence of ClaimResult
+        Checked claims.
+    errata : sequence of Erratum, optional
+        The checked errata of the printed paper.
+
+    Returns
+    -------
+    dict
+        ``checks`` (claims + errata), ``as_documented`` (bool), ``differ`` (ids of the checks that differ from the
+        documented finding), ``known_failures`` (documented failures, found again), ``failing`` (every check that
+        fails or is not confirmed: ``--strict``), ``line``.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.proofs import ProofContext, run_claims
+    >>> results = run_claims(["lemma2-sqrt-sum", "theorem2-delta"], ProofContext(fsmctl.paper_scenario()), workers=1)
+    >>> o = outcome(results)
+    >>> o["as_documented"], o["failing"], o["line"]
+    (True, ['theorem2-delta'], 'all 2 checks as documented (1 known failure of the paper: theorem2-delta)')
+    """
+    errata = list(errata or ())
+    unconfirmed = [e.id for e in errata if not e.checked]
+    differ = [r.id for r in results if not r.as_documented] + unconfirmed
+    known = [r.id for r in results if r.as_documented and not r.holds]
+    n = len(results) + len(errata)
+    if differ:
+        shown = [f"{r.id} ({r.verdict}; documented: {r.documented or 'holds'})" for r in results if r.id in differ]
+        shown += [f"{e} (erratum not confirmed)" for e in unconfirmed]
+        line = f"{len(differ)} of {n} checks differ from the documented finding: {', '.join(shown)}"
+    else:
+        noun = "failure" if len(known) == 1 else "failures"
+        line = f"all {n} check{'s' if n != 1 else ''} as documented" + (
+            f" ({len(known)} known {noun} of the paper: {', '.join(known)})" if known else ""
+        )
+    return {
+        "checks": n,
+        "as_documented": not differ,
+        "differ": differ,
+        "known_failures": known,
+        "failing": [r.id for r in results if not r.holds] + unconfirmed,
+        "line": line,
+    }
 
 
 def format_table(
@@ -196,7 +253,7 @@ def format_table(
     ---...
     lemma2-sqrt-sum  11-12             proved   ...  Lemma 2: sum V_i^(1/2) >= (sum V_i)^(1/2)
     theorem1-gains   Theorem 1, 25-27  proved   ...  Theorem 1's conditions for the scenario's gains and topology
-    2 claims: 2 proved (... s of checks); every claim as expected
+    2 claims: 2 proved (... s of checks); every claim as documented
     """
     w = max([len(r.id) for r in results] + [5])
     e = max([len(r.equations) for r in results] + [3])
@@ -219,7 +276,7 @@ def format_table(
 
 
 def to_json(results: Sequence[ClaimResult], errata: Sequence[Erratum] | None = None) -> str:
-    """JSON object: ``{"claims": [...], "errata": [...]}``, one object per claim and per erratum.
+    """JSON object: ``{"outcome": {...}, "claims": [...], "errata": [...]}``, one object per claim and per erratum.
 
     Parameters
     ----------
@@ -233,7 +290,8 @@ def to_json(results: Sequence[ClaimResult], errata: Sequence[Erratum] | None = N
     -------
     str
         ``claims``: objects with ``id``, ``equations``, ``verdict``, ``detail``, ``seconds`` and also ``title``,
-        ``latex``, ``expected`` and ``data`` (the numbers of the scenario checks).  ``errata``: null, or objects
+        ``latex``, ``holds``, ``documented``, ``as_documented`` and ``data`` (the numbers of the scenario checks).
+        ``outcome``: :func:`outcome` (``as_documented``, ``line``, ...).  ``errata``: null, or objects
         with the fields of ``generated/errata.json`` (``id``, ``equation``, ``as_printed``, ``correct``,
         ``residual``, ``consequence``, the LaTeX, ``checked``) and ``claim``, the id of the claim that examines
         the erratum (null for those found by the re-audit of the printed text).
@@ -253,6 +311,7 @@ def to_json(results: Sequence[ClaimResult], errata: Sequence[Erratum] | None = N
     """
     claims = _claims_of(results)
     doc = {
+        "outcome": outcome(results, errata),
         "claims": [r.to_dict() for r in results],
         "errata": None if errata is None else [{**e.to_dict(), "claim": claims.get(e.id)} for e in errata],
     }

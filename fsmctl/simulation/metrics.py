@@ -42,6 +42,7 @@ __all__ = [
     "streamed_raem_deg",
     "settling_time",
     "steady_state_max",
+    "converged",
 ]
 
 RAEM_WORKING_BYTES = 64 * 2**20
@@ -425,3 +426,35 @@ def steady_state_max(time: np.ndarray, metric: np.ndarray, window: float) -> flo
     """``max metric`` over the final ``window`` seconds."""
     time = np.asarray(time)
     return float(np.max(np.asarray(metric)[time >= time[-1] - window - 1e-12]))
+
+
+def converged(time: np.ndarray, aaem: np.ndarray, raem: np.ndarray, tolerance_deg: float) -> bool:
+    """Whether a run has converged: AAEM and RAEM (eqs 42-43) each settle within ``tolerance_deg``.
+
+    The one definition (:data:`fsmctl.policy.CONVERGED_RULE`): each metric stays at or below the tolerance from some
+    time until the end of the run (:func:`settling_time` is finite for both); a NaN sample is not settled.
+
+    Parameters
+    ----------
+    time : numpy.ndarray, shape (T,)
+        Sample times, s.
+    aaem, raem : numpy.ndarray, shape (T,)
+        The metrics, deg.
+    tolerance_deg : float
+        The tolerance, deg (:data:`fsmctl.policy.TOLERANCE_DEG` for ``simulate`` and a default Monte Carlo campaign).
+
+    Returns
+    -------
+    bool
+        True when both have settled by the last sample.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> t = np.array([0.0, 1.0, 2.0])
+    >>> converged(t, np.array([5.0, 0.5, 0.2]), np.array([4.0, 2.0, 0.9]), 1.0)
+    True
+    >>> converged(t, np.array([5.0, 0.5, 0.2]), np.array([4.0, 0.5, 1.5]), 1.0)
+    False
+    """
+    return all(np.isfinite(settling_time(time, metric, tolerance_deg)) for metric in (aaem, raem))

@@ -16,11 +16,12 @@ from fsmctl.errors import ResourceLimitError
 from fsmctl.model.generated_code import manifest
 from fsmctl.model.scenario import Scenario
 from fsmctl.outputs import atomic_path
-from fsmctl.policy import SETTLING_TOLERANCES_DEG, STEADY_WINDOW_MAX_S
+from fsmctl.policy import SETTLING_TOLERANCES_DEG, TOLERANCE_DEG, default_steady_window
 from fsmctl.simulation.memory import available_memory, format_bytes
 from fsmctl.simulation.metrics import (
     RAEM_WORKING_BYTES,
     aaem_deg,
+    converged,
     pair_angles,
     principal_angles,
     relative_angles_at,
@@ -249,29 +250,46 @@ class SimulationResult:
         span = float(self.time[-1] - self.time[0]) or 1.0
         return self.u_total_variation / span
 
-    def summary(self, tolerances_deg=SETTLING_TOLERANCES_DEG, steady_window: float = STEADY_WINDOW_MAX_S) -> dict:
-        """Settling times of AAEM/RAEM per tolerance, steady-state accuracy, torque statistics.
+    def summary(self, tolerances_deg=SETTLING_TOLERANCES_DEG, steady_window: float | None = None) -> dict:
+        """Settling times of AAEM/RAEM per tolerance, final values, convergence, steady-state accuracy, torques.
 
         Parameters
         ----------
         tolerances_deg : sequence of float
             Settling bands of AAEM and RAEM (eqs 42-43), deg (default
             :data:`fsmctl.policy.SETTLING_TOLERANCES_DEG`).
-        steady_window : float
+        steady_window : float, optional
             Length of the final window of the steady-state maxima, s (default
-            :data:`fsmctl.policy.STEADY_WINDOW_MAX_S`; clipped to the horizon).
+            :func:`fsmctl.policy.default_steady_window` of the run's span: the last 40 % of it, at most 40 s;
+            clipped to the span).
 
         Returns
         -------
         dict
-            JSON-ready values (see the keys), times in s, angles in deg, torques in N m.
+            JSON-ready values (see the keys), times in s, angles in deg, torques in N m; ``converged`` is
+            :func:`fsmctl.simulation.metrics.converged` at ``convergence_tolerance_deg``
+            (:data:`fsmctl.policy.TOLERANCE_DEG`).
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.5}))
+        >>> s = r.summary()
+        >>> s["steady_window_s"], s["horizon_s"], s["converged"]  # 40 % of 0.5 s; far from the reference
+        (0.2, 0.5, False)
         """
         t, a, r = self.time, self.aaem_deg, self.raem_deg
-        window = min(steady_window, float(t[-1] - t[0]))
+        span = float(t[-1] - t[0])
+        window = min(default_steady_window(span) if steady_window is None else float(steady_window), span)
         return {
             "scenario": self.scenario.label,
             "backend": self.backend,
             "wall_time_s": self.wall_time,
+            "horizon_s": span,
+            "converged": converged(t, a, r, TOLERANCE_DEG),
+            "convergence_tolerance_deg": TOLERANCE_DEG,
+            "aaem_final_deg": float(a[-1]),
+            "raem_final_deg": float(r[-1]),
             "aaem_initial_deg": float(a[0]),
             "raem_initial_deg": float(r[0]),
             "aaem_peak_deg": float(a.max()),

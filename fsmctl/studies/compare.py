@@ -51,7 +51,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
-from fsmctl.policy import COMPARISON_TOLERANCES_DEG, default_steady_window
+from fsmctl.policy import COMPARISON_TOLERANCES_DEG, default_steady_window, steady_window_text
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.compare_runs import LawRun, as_runs, run_scenario
 from fsmctl.studies.parallel import resolve_workers
@@ -422,9 +422,8 @@ class Comparison:
         lines = [
             f"# Law comparison: {self.scenario_label}",
             "",
-            f"Horizon {self.settings['t_final_s']:g} s (dt {self.settings['dt_s']:g} s); steady statistics over the "
-            f"last {self.settings['steady_window_s']:g} s; settling = first time after which the metric stays "
-            "within the tolerance.",
+            f"Horizon {self.settings['t_final_s']:g} s (dt {self.settings['dt_s']:g} s); steady statistics over "
+            f"{self._window()}; settling = first time after which the metric stays within the tolerance.",
             "",
             "| " + " | ".join(esc(h) for h in header) + " |",
             "|" + "|".join(["---", "---"] + ["---:"] * len(self.table)) + "|",
@@ -443,8 +442,12 @@ class Comparison:
             lines.append("  ".join(cells).rstrip())
             if k == 0:
                 lines.append("  ".join("-" * w for w in widths))
-        lines.append(f"steady window: last {self.settings['steady_window_s']:g} s; wall time {self.wall_time_s:.1f} s")
+        lines.append(f"steady statistics over {self._window()}; wall time {self.wall_time_s:.1f} s")
         return "\n".join(lines)
+
+    def _window(self) -> str:
+        """The steady window as every output states it (:func:`fsmctl.policy.steady_window_text`)."""
+        return steady_window_text(self.settings["steady_window_s"], self.settings["t_final_s"])
 
     def figure(self) -> Figure:
         """AAEM (eq 42) and RAEM (eq 43) against time on log-y for every run, and bars of settling time (AAEM, per

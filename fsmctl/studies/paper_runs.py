@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.policy import FAST_OUTPUT_INTERVAL_S, FAST_T_FINAL_S, SETTLING_TOLERANCES_DEG, STEADY_WINDOW_FRACTION
+from fsmctl.policy import FAST_OUTPUT_INTERVAL_S, FAST_T_FINAL_S, SETTLING_TOLERANCES_DEG, default_steady_window
 from fsmctl.studies.records import RunRecord
 
 __all__ = [
@@ -284,8 +284,9 @@ def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
     Returns
     -------
     RunRecord
-        The summary at :data:`fsmctl.policy.SETTLING_TOLERANCES_DEG`; the steady window is the last
-        :data:`fsmctl.policy.STEADY_WINDOW_FRACTION` of the scenario's own horizon (40 s of a long run too).
+        The summary at :data:`fsmctl.policy.SETTLING_TOLERANCES_DEG`; the steady window is
+        :func:`fsmctl.policy.default_steady_window` of the run's nominal horizon (a long run's horizon divided by
+        its factor: 40 s of the 300 s runs too).
 
     Examples
     --------
@@ -300,7 +301,7 @@ def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
         spec.key,
         scenario,
         result,
-        steady_window_s=STEADY_WINDOW_FRACTION * scenario.simulation.t_final / spec.horizon_factor,
+        steady_window_s=default_steady_window(scenario.simulation.t_final / spec.horizon_factor),
         tolerances_deg=SETTLING_TOLERANCES_DEG,
         title=spec.title,
         purpose=spec.purpose,

@@ -140,7 +140,7 @@ def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.S
     """
     from fsmctl.proofs.theorem1 import analyze_topology
     from fsmctl.proofs.theorem2 import Region, delta_requirements
-    from fsmctl.simulation.metrics import principal_angles
+    from fsmctl.simulation.metrics import converged, principal_angles
 
     _check_final_sample(np.asarray(result.time), scenario.simulation.t_final)
     tol = settings.tolerance_deg
@@ -181,12 +181,7 @@ def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.S
         n_links=float(len(scenario.topology.links)),
         **_hardware_record(scenario, sampled_noise_scale(settings, seed)),
         **{k: summary[k] for k in ("wheel_speed_peak_rad_per_s", "wheel_momentum_peak_N_m_s") if k in summary},
-        converged=bool(
-            aaem[-1] < tol
-            and raem[-1] < tol
-            and math.isfinite(summary["aaem_settling_s"][f"{tol:g}"])
-            and math.isfinite(summary["raem_settling_s"][f"{tol:g}"])
-        ),
+        converged=converged(np.asarray(result.time), aaem, raem, tol),  # the one definition (policy.CONVERGED_RULE)
         theorem1_holds=bool(t1.holds) and paper_law,
         theorem2_at_reference_holds=bool(t2 is not None and t2.ok),
         saturated_time_s=np.asarray(result.saturated_time, dtype=float),

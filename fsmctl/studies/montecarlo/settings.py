@@ -12,7 +12,7 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario, load_scenario
 from fsmctl.model.topology import Topology
-from fsmctl.policy import TOLERANCE_DEG
+from fsmctl.policy import CONVERGED_RULE, TOLERANCE_DEG, default_steady_window, steady_window_text
 
 STATUS_OK, STATUS_FAILED, STATUS_DIED = "ok", "failed", "worker-died"
 TIMING_VARIABLES = ("wall_time_s", "cpu_time_s")
@@ -62,9 +62,11 @@ class CampaignSettings:
     torque_limit : float or None, optional
         Torque limit (N m); None: the scenario's.
     tolerance_deg : float, optional
-        Converged: AAEM and RAEM (eqs 42-43) below this at the end, and settled.
-    steady_window : float, optional
-        The final window (s) of the steady-state statistics.
+        Converged (:func:`fsmctl.simulation.metrics.converged`): AAEM and RAEM (eqs 42-43) each stay at or below
+        this from some time until the end of the run.
+    steady_window : float or None, optional
+        The final window (s) of the steady-state statistics; None: the policy's
+        (:func:`fsmctl.policy.default_steady_window` of the horizon: the last 40 % of it, at most 40 s).
     chunk_size : int, optional
         Runs per chunk file (the unit of resumption and of work sent to a worker).
     attitude_bound_deg : float, optional
@@ -115,8 +117,9 @@ class CampaignSettings:
     the largest multiple of dt that divides t_final, so the last sample is at t_final"""
     torque_limit: float | None = None
     tolerance_deg: float = TOLERANCE_DEG
-    """converged: AAEM and RAEM below this at the end and settled (eqs 42-43)"""
-    steady_window: float = 20.0
+    """converged: AAEM and RAEM each stay at or below this from some time until the end (eqs 42-43)"""
+    steady_window: float | None = None
+    """s; None: :func:`fsmctl.policy.default_steady_window` of the horizon (the last 40 %, at most 40 s)"""
     chunk_size: int = 10
     attitude_bound_deg: float = 180.0
     """principal angle bound of sigma_i(0); 180 = uniform over all of SO(3)"""
@@ -179,8 +182,9 @@ class CampaignSettings:
             ("coupling_high", self.coupling_high < 1e6, "finite"),
             ("output_interval", self.output_interval > 0, "> 0"),
             ("tolerance_deg", self.tolerance_deg > 0, "> 0"),
-            ("steady_window", self.steady_window > 0, "> 0"),
         ]
+        if self.steady_window is not None and not (self.steady_window > 0 and math.isfinite(self.steady_window)):
+            raise InputError(f"montecarlo: steady_window must be > 0, got {self.steady_window!r}")
         for name, ok, need in checks:
             value = getattr(self, name)
             if not ok or (isinstance(value, float) and not math.isfinite(value)):
@@ -545,8 +549,8 @@ def describe_campaign(settings: CampaignSettings, base: Scenario) -> list[str]:
         + f", {period} (--control-period), torque limit {torque:g} N m"
     )
     converged = (
-        f"  converged: AAEM and RAEM < {s.tolerance_deg:g} deg at t_final and settled; "
-        f"steady window {s.steady_window:g} s"
+        f"  converged: {CONVERGED_RULE.format(tolerance=f'{s.tolerance_deg:g} deg')}; steady statistics over "
+        f"{steady_window_text(campaign_steady_window(s, base), sim.t_final)}"
     )
     if s.vary == "noise":
         return [
@@ -592,3 +596,32 @@ def describe_campaign(settings: CampaignSettings, base: Scenario) -> list[str]:
 
 
 # ----------------------------------------------------------------------------- one run
+
+
+def campaign_steady_window(settings: CampaignSettings, base: Scenario) -> float:
+    """The steady window (s) of a campaign's runs: ``settings.steady_window``, or the policy's for the horizon.
+
+    Parameters
+    ----------
+    settings : CampaignSettings
+        The campaign.
+    base : Scenario
+        Its base scenario (:func:`campaign_base`): the horizon.
+
+    Returns
+    -------
+    float
+        :func:`fsmctl.policy.default_steady_window` of ``base.simulation.t_final`` when ``settings.steady_window``
+        is None, else that window clipped to the horizon (as every run's summary takes it).
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.studies.montecarlo import CampaignSettings
+    >>> from fsmctl.studies.montecarlo.settings import campaign_steady_window
+    >>> base = fsmctl.paper_scenario("1")
+    >>> campaign_steady_window(CampaignSettings(), base), campaign_steady_window(CampaignSettings(steady_window=5.0), base)
+    (40.0, 5.0)
+    """
+    horizon = base.simulation.t_final
+    return default_steady_window(horizon) if settings.steady_window is None else min(settings.steady_window, horizon)

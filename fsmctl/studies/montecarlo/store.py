@@ -28,6 +28,7 @@ from fsmctl.studies.montecarlo.settings import (
     STATUS_FAILED,
     STATUS_OK,
     CampaignSettings,
+    campaign_steady_window,
     child_seed,
     describe_campaign,
     random_processes,
@@ -416,6 +417,8 @@ def finish_campaign(
     summary["resumed_chunks"] = resumed
     summary["settings"] = ident
     summary["output_interval_s"] = base.simulation.output_interval
+    summary["horizon_s"] = base.simulation.t_final
+    summary["steady_window_s"] = campaign_steady_window(settings, base)
     summary["campaign"] = describe_campaign(settings, base)
     files = {"dataset": out / "montecarlo.nc", "summary": out / "summary.json"}
     if figures:
