@@ -60,6 +60,7 @@ __all__ = [
     "CONVERGED_RULE",
     "STEADY_WINDOW_FRACTION",
     "STEADY_WINDOW_MAX_S",
+    "STEADY_RULE",
     "FAST_T_FINAL_S",
     "FAST_OUTPUT_INTERVAL_S",
     "SURFACE_REACH_THRESHOLD",
@@ -93,6 +94,9 @@ STEADY_WINDOW_FRACTION = 0.4
 
 STEADY_WINDOW_MAX_S = 40.0
 """s: the longest steady-state window (40 % of the paper's 100 s horizon); :func:`default_steady_window`."""
+
+STEADY_RULE = f"the last {STEADY_WINDOW_FRACTION:.0%} of the horizon, at most {STEADY_WINDOW_MAX_S:g} s"
+"""The steady-state window in words, as every output that prints a steady figure states it."""
 
 FAST_T_FINAL_S = 10.0
 """s: the horizon of a fast reproduction (``fsmctl reproduce --fast``: tests and quick looks)."""

@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from fsmctl.outputs import atomic_path, write_json, write_text
-from fsmctl.policy import SETTLING_TOLERANCES_DEG, STEADY_WINDOW_FRACTION
+from fsmctl.policy import SETTLING_TOLERANCES_DEG, STEADY_RULE
 from fsmctl.studies.claim_types import (
     DIFFERS,
     IMPOSSIBLE,
@@ -598,8 +598,8 @@ def _run_blocks(rep: Reproduction) -> list[Block]:
                 "Settling time to a tolerance: the first time after which the metric stays at or below it (",
                 code("fsmctl.simulation.metrics.settling_time"),
                 f"); the paper does not state its tolerance, so {', '.join(f'{t:g}°' for t in SETTLING_TOLERANCES_DEG)}"
-                f" are reported. Steady-state accuracy: the maximum over the last {STEADY_WINDOW_FRACTION:.0%} of the "
-                "horizon. Saturated time: per agent, one number when every agent's prints the same.",
+                f" are reported. Steady-state accuracy: the maximum over {STEADY_RULE}."
+                " Saturated time: per agent, one number when every agent's prints the same.",
             )
         ),
         Table(
