@@ -412,6 +412,7 @@ def test_a_claim_is_one_registry_entry(monkeypatch):
         grade=lambda g, ok: Outcome(REPRODUCED, "shadow set") if ok else Outcome(DIFFERS, "beyond 180°", "case1"),
         title="Case 1 θ_ei in the shadow set",
         short=lambda g: f"peak {g['case1'].theta_e_peak_deg:g}°",
+        documented=REPRODUCED,
     )
     monkeypatch.setattr(claims_module, "CLAIMS", (*claims_module.CLAIMS, extra))
     recs = {spec.key: _record(spec.key, settle=20.0, steady=0.01) for spec in run_plan()}

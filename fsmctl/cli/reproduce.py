@@ -1,7 +1,9 @@
 """``fsmctl reproduce``: the Section 4 reproduction report (:mod:`fsmctl.studies.reproduce`) from the command line.
 
-Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the report was written (the verdicts are
-results, not failures), 2 usage or input error.
+Exit codes (:data:`EXIT_CODES`, :mod:`fsmctl.cli.exit_codes`): 0 the report was written and every verdict is the
+documented one (or no finding is documented for the run: another scenario, ``--fast``; with ``--strict``: every
+claim is reproduced), 1 a verdict differs from the documented finding (``--strict``: a claim is not reproduced),
+2 usage or input error.
 """
 
 from __future__ import annotations
@@ -16,7 +18,12 @@ from fsmctl.policy import FAST_T_FINAL_S
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
-EXIT_CODES = {0: "the report was written (its verdicts are results, not failures)"}
+EXIT_CODES = {
+    0: "the report was written and every verdict is the documented one (docs/findings.md), or no finding is "
+    "documented for this run (another scenario, --fast); with --strict: every claim is reproduced",
+    1: "the report was written and a verdict differs from the documented finding (with --strict: a claim is not "
+    "reproduced)",
+}
 """What ``fsmctl reproduce``'s exit code 0 means (the others: :data:`fsmctl.cli.exit_codes.MEANINGS`)."""
 
 
@@ -57,6 +64,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "reproduces it (separate runs written as scenario files in DIR/explain/; --fast: at the short horizon) "
         "(default: on)",
     )
+    p.add_argument(
+        "--strict",
+        action="store_true",
+        help="exit 1 unless every claim is reproduced (default: exit 1 only when a verdict differs from the "
+        "documented finding of the paper's scenario at its full horizon)",
+    )
     add_progress_option(p, "over the runs")
     p.set_defaults(func=run)
     return p
@@ -73,7 +86,8 @@ def run(args: argparse.Namespace) -> int:
     Returns
     -------
     int
-        0 when the report was written; bad input raises :class:`fsmctl.errors.InputError` (exit 2).
+        0 when the report was written and its verdicts are the documented ones (``--strict``: every claim is
+        reproduced), else 1; bad input raises :class:`fsmctl.errors.InputError` (exit 2).
     """
     from fsmctl.outputs import output_folder
     from fsmctl.studies.report import format_claims
@@ -97,4 +111,4 @@ def run(args: argparse.Namespace) -> int:
     explained = f"; explanations {rep.explain_wall_time_s:.1f} s" if rep.explanations is not None else ""
     md, html = rep.out_dir / "report.md", rep.out_dir / "report.html"
     print(f"report: {md} and {html} ({len(rep.records)} runs, {rep.wall_time_s:.1f} s{explained})")
-    return 0
+    return 0 if rep.as_expected(strict=args.strict) else 1

@@ -94,6 +94,8 @@ class ClaimVerdict:
     verdict: str
     reason: str
     diagnostic_runs: str
+    documented: str = ""
+    """the verdict documented for the paper's scenario at its full horizon (:attr:`StudyClaim.documented`)"""
 
 
 @dataclass(frozen=True)
@@ -198,6 +200,9 @@ class StudyClaim:
         The claim in a few words, for the report's summary table (``"Case 1 settling time"``).
     short : callable
         ``short(grading) -> str``: this run's number in a few words, for the summary table (tens of characters).
+    documented : str
+        The verdict documented for the paper's own scenario at its full horizon (``docs/findings.md``): what
+        ``fsmctl reproduce`` expects, so that its exit code says whether a run found what the documentation says.
     uses_tolerance : bool
         What would reproduce it: whether the test reads a settling tolerance, so that the explanations also search
         the tolerance (a grading setting, no new runs).
@@ -232,6 +237,7 @@ class StudyClaim:
     grade: Callable[[Grading, bool], Outcome]
     title: str
     short: Callable[[Grading], str]
+    documented: str
     uses_tolerance: bool = False
     stages: Callable[[Runs, float], list[str] | bool | None] | None = None
     later: tuple[str, str] | None = None
@@ -264,6 +270,7 @@ class StudyClaim:
             outcome.verdict,
             outcome.reason,
             outcome.diagnostic_runs,
+            self.documented,
         )
 
     def decide(self, records: Runs, tolerance_deg: float) -> bool | list[str]:

@@ -26,7 +26,8 @@ from fsmctl.studies.claim_types import (
     VERDICTS,
     ClaimVerdict,
 )
-from fsmctl.studies.explain_report import change_cell, evidence_items, method_blocks, text_lines
+from fsmctl.studies.explain_report import change_cell, evidence_items, method_blocks
+from fsmctl.studies.figure_checks import get_figure_check
 from fsmctl.studies.momentum import MomentumBound
 from fsmctl.studies.records import RunRecord
 from fsmctl.studies.report_doc import (
@@ -93,6 +94,9 @@ class Reproduction:
         :class:`fsmctl.studies.explain.Explanation` per claim and figure check (None: not searched).
     explain_wall_time_s : float
         Wall time of the explanations (s).
+    documented_applies : bool
+        Whether the documented findings apply (the paper's own scenario, unchanged, at its full horizon): then
+        :meth:`differences` compares every verdict with the documented one.
 
     Examples
     --------
@@ -128,6 +132,85 @@ class Reproduction:
     explanations: list | None = None
     """:class:`fsmctl.studies.explain.Explanation` per claim and figure check (None: not searched)"""
     explain_wall_time_s: float = 0.0
+    documented_applies: bool = False
+
+    def differences(self) -> list[str] | None:
+        """The verdicts that differ from the documented findings (``docs/findings.md``).
+
+        Returns
+        -------
+        list of str or None
+            One ``"id: verdict (documented: verdict)"`` per claim or figure check whose verdict is not the
+            documented one (:attr:`~fsmctl.studies.claim_types.StudyClaim.documented`,
+            :attr:`~fsmctl.studies.figure_checks.FigureCheck.documented_fits`); empty when every verdict is as
+            documented; None when no finding is documented for this run (another scenario, or ``fast``).
+
+        Examples
+        --------
+        >>> rep = one_second_reproduction()  # conftest.py: 1 s runs, so no documented finding applies
+        >>> rep.differences() is None
+        True
+        """
+        if not self.documented_applies:
+            return None
+        found = [f"{c.id}: {c.verdict} (documented: {c.documented})" for c in self.claims if c.verdict != c.documented]
+        claim_ids = {c.id for c in self.claims}
+        for e in self.explanations or ():
+            if e.id in claim_ids:
+                continue
+            documented = FIGURE_VERDICTS[0] if get_figure_check(e.id).documented_fits else FIGURE_VERDICTS[1]
+            if e.verdict != documented:
+                found.append(f"{e.id}: {e.verdict} (documented: {documented})")
+        return found
+
+    def as_expected(self, strict: bool = False) -> bool:
+        """Whether the result is the expected one: ``fsmctl reproduce``'s exit code 0.
+
+        Parameters
+        ----------
+        strict : bool
+            Expect every claim reproduced (default: expect the documented verdicts, where they apply).
+
+        Returns
+        -------
+        bool
+            ``strict``: every claim is reproduced; else no verdict differs from the documented finding (True when
+            none is documented for this run).
+
+        Examples
+        --------
+        >>> rep = one_second_reproduction()  # conftest.py: 1 s runs
+        >>> rep.as_expected(), rep.as_expected(strict=True)
+        (True, False)
+        """
+        if strict:
+            return all(c.verdict == REPRODUCED for c in self.claims)
+        return not self.differences()
+
+    def outcome_line(self) -> str:
+        """The result in one plain line: the verdict counts and whether they are the documented ones.
+
+        Returns
+        -------
+        str
+            E.g. ``"7 claims: 0 reproduced, 5 differ, 2 impossible (bound); every verdict as documented"``.
+
+        Examples
+        --------
+        >>> print(one_second_reproduction().outcome_line())  # doctest: +ELLIPSIS
+        7 claims: ...; no documented finding for this run (the documented ones are of the paper's scenario at ...)
+        """
+        seen = Counter(c.verdict for c in self.claims)
+        line = f"{count(len(self.claims), 'claim')}: " + ", ".join(verdict_count(seen[v], v) for v in VERDICTS)
+        differ = self.differences()
+        if differ is None:
+            return (
+                line + "; no documented finding for this run (the documented ones are of the paper's scenario at "
+                "its full horizon)"
+            )
+        if not differ:
+            return line + "; every verdict as documented"
+        return line + f"; {count(len(differ), 'verdict')} not as documented: " + "; ".join(differ)
 
     def claims_table(self) -> list[dict]:
         """The claims as a list of dicts (one per claim).
@@ -244,8 +327,8 @@ def to_markdown(rep: Reproduction) -> str:
     --------
     >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
     >>> lines = to_markdown(rep).splitlines()
-    >>> lines[4]
-    '**7 claims:** **0 reproduced**, **3 differ**, **4 impossible (bound)**.'
+    >>> print(lines[4])
+    **7 claims:** **0 reproduced**, **3 differ**, **4 impossible (bound)**. No documented finding applies to this run: ...
     >>> [line for line in lines if line.startswith("## ")][:3]
     ['## Evidence per claim', '## Angular-momentum bound (independent of the controller)', '## Initial numbers (Table 1 and the reference, t = 0)']
     """
@@ -381,6 +464,7 @@ def _summary_blocks(rep: Reproduction, explained: dict, checks: list) -> list[Bl
     timing = f"{count(len(rep.records), 'run')} in {rep.wall_time_s:.1f} s wall time" + (
         f" (the explanations: {rep.explain_wall_time_s:.1f} s)" if rep.explanations is not None else ""
     )
+    line += [" ", _documented_sentence(rep)]
     blocks += [Paragraph(tuple(line)), Table(header, rows, "summary")]
     if checks:
         blocks.append(
@@ -391,6 +475,18 @@ def _summary_blocks(rep: Reproduction, explained: dict, checks: list) -> list[Bl
         Paragraph(_VERDICT_LEGEND),
     ]
     return blocks
+
+
+def _documented_sentence(rep: Reproduction) -> str:
+    differ = rep.differences()
+    if differ is None:
+        return (
+            "No documented finding applies to this run: the documented verdicts (docs/findings.md) are those of the "
+            "paper's own scenario at its full horizon."
+        )
+    if not differ:
+        return "Every verdict is the one documented (docs/findings.md)."
+    return f"Not as documented (docs/findings.md): {'; '.join(differ)}."
 
 
 def _check_row(e) -> list[Text]:
@@ -650,47 +746,52 @@ def _in_paper_order(paths) -> list[str]:
 
 
 def format_claims(rep: Reproduction, width: int = 110) -> str:
-    """Plain-text claims table (id, verdict, this run's value).
+    """The plain-text result: one line with the verdict counts and whether they are the documented ones, then one
+    short row per claim and per figure check (the evidence is in ``report.md``).
 
     Parameters
     ----------
     rep : Reproduction
         From :func:`~fsmctl.studies.reproduce.reproduce`.
     width : int
-        Wrap width of the detail lines.
+        Wrap width of a row's text.
 
     Returns
     -------
     str
-        One line per claim, the values and reasons indented below.
+        :meth:`Reproduction.outcome_line`, then a table: claim, verdict, this run, what would reproduce it.
 
     Examples
     --------
     >>> rep = one_second_reproduction()  # conftest.py: the Reproduction example's 1 s runs (shared)
-    >>> print(format_claims(rep).splitlines()[2])
-    settling_27s         impossible (bound)
+    >>> print(format_claims(rep).splitlines()[4])  # doctest: +ELLIPSIS
+    settling_27s         impossible (bound)  not settled to 1° in 1 s
     """
-    w = max(len(c.id) for c in rep.claims)
-    lines = [f"{'claim':{w}}  verdict", f"{'-' * w}  {'-' * 20}"]
     explained = {e.id: e for e in rep.explanations or ()}
-    for c in rep.claims:
-        lines.append(f"{c.id:{w}}  {c.verdict}")
-        for label, text in (("paper", c.paper_value), ("this run", c.this_run_value), ("why", c.reason)):
-            if not text:
-                continue
-            lines += textwrap.wrap(
-                f"{label}: {text}", width, initial_indent=" " * (w + 2), subsequent_indent=" " * (w + 4)
+    claim_ids = {c.id for c in rep.claims}
+    checks = [e for e in rep.explanations or () if e.id not in claim_ids]
+    w = max(len(r) for r in [*claim_ids, *(e.id for e in checks)])
+    v = max(len(r) for r in [*(c.verdict for c in rep.claims), *(e.verdict for e in checks), "verdict"])
+    head = f"{'claim':{w}}  {'verdict':{v}}  this run" + ("  (reproduces with)" if rep.explanations is not None else "")
+    lines = [rep.outcome_line(), "", head, f"{'-' * w}  {'-' * v}  {'-' * 30}"]
+
+    def row(rid: str, verdict_text: str, this_run: str, e) -> None:
+        change = f"  ({change_cell(e)})" if rep.explanations is not None else ""
+        lines.extend(
+            textwrap.wrap(
+                f"{rid:{w}}  {verdict_text:{v}}  {this_run}{change}",
+                width,
+                subsequent_indent=" " * (w + v + 6),
+                break_long_words=False,
             )
-        if c.id in explained:
-            lines += text_lines(explained[c.id], w + 2, width)
-    figure_checks = [
-        e for e in rep.explanations or () if e.id not in explained or e.id not in {c.id for c in rep.claims}
-    ]
-    if figure_checks:
-        lines.append("figure-level checks (the printed axes and insets of Figs 1-9):")
-        for e in figure_checks:
-            lines.append(f"  {e.id}: {e.verdict}; {e.claim}")
-            lines += text_lines(e, 4, width)
+        )
+
+    for c in rep.claims:
+        row(c.id, c.verdict, c.this_run_short, explained.get(c.id))
+    if checks:
+        lines.append("figure checks (the printed axes and insets of Figs 1-9):")
+        for e in checks:
+            row(e.id, e.verdict, e.baseline, e)
     bounds = ", ".join(f"{b.agent}: {b.min_time_s:.1f} s" for b in rep.bounds)
     lines.append(f"angular-momentum bound on the settling time per agent: {bounds}")
     return "\n".join(lines)

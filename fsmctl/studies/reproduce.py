@@ -52,7 +52,7 @@ from fsmctl.studies.parallel import resolve_workers
 from fsmctl.studies.records import RunRecord, scenario_fingerprint
 from fsmctl.studies.report import Reproduction, write_outputs
 
-__all__ = ["reproduce", "overlay_figures"]
+__all__ = ["reproduce", "overlay_figures", "documented_findings_apply"]
 
 
 def _check_source(source: str) -> None:
@@ -65,6 +65,40 @@ def _check_source(source: str) -> None:
             f"scenario {source!r} lacks case(s) {', '.join(missing)}: fsmctl reproduce needs the paper's cases "
             f"{', '.join(PAPER_CASES)} (Sec. 4)"
         )
+
+
+def documented_findings_apply(source: str, fast: bool = False) -> bool:
+    """Whether the documented findings (``docs/findings.md``) apply to a reproduction of ``source``.
+
+    They do for the paper's own scenario, unchanged in every case, at its full horizon: then ``fsmctl reproduce``
+    compares each verdict with the documented one (:meth:`fsmctl.studies.report.Reproduction.differences`).
+
+    Parameters
+    ----------
+    source : str
+        ``"paper"`` or a scenario TOML file, as :func:`reproduce` takes it.
+    fast : bool
+        Whether the reproduction uses the short horizon (then no finding is documented).
+
+    Returns
+    -------
+    bool
+        True for the paper's scenario at its full horizon.
+
+    Examples
+    --------
+    >>> documented_findings_apply("paper"), documented_findings_apply("paper", fast=True)
+    (True, False)
+    """
+    from fsmctl.model.scenario import load_scenario
+
+    if fast:
+        return False
+    paper = load_scenario("paper")
+    base = load_scenario(source)
+    return set(base.cases) == set(paper.cases) and all(
+        load_scenario(source, case=c) == load_scenario("paper", case=c) for c in paper.cases
+    )
 
 
 def _inertia_check(scenario) -> list[dict]:
@@ -266,6 +300,7 @@ def reproduce(
         wall_time_s=0.0,
         explanations=explanations,
         explain_wall_time_s=explain_s,
+        documented_applies=documented_findings_apply(source, fast),
     )
     result.wall_time_s = _time.perf_counter() - started
     write_outputs(result)
