@@ -622,3 +622,16 @@ def test_run_record_does_not_hold_a_matrix_per_topology_configuration(tmp_path):
         tracemalloc.stop()
     assert math.isfinite(record["theorem1_lambda_min"])
     assert peak < dense, (peak, dense)  # before: 7.2 x dense (191 MB), now 0.2 x (5 MB)
+
+
+def test_cli_summary_when_no_run_settles_reads_plainly(tmp_path, capsys):
+    """Runs too short to settle: the settling line counts them, with no empty median ("no finite value s")."""
+    from fsmctl.cli.main import main
+
+    code = main(
+        ["montecarlo", "--runs", "2", "--t-final", "0.2", "--workers", "1", "--no-progress", "--out", str(tmp_path)]
+    )
+    out = capsys.readouterr().out
+    assert code == 0
+    line = next(x for x in out.splitlines() if "AAEM settling" in x)
+    assert line.strip() == "AAEM settling: 2 of 2 runs never settled"

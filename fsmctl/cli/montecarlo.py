@@ -272,7 +272,11 @@ def report_lines(result: CampaignResult) -> Iterable[str]:
         "declare it is eqs 13-19)"
     )
     yield f"  converged (AAEM and RAEM stay <= {s['tolerance_deg']:g} deg until the end): {s['converged_fraction']:.1%}; {theorems}"
-    yield f"  AAEM settling: {med('aaem_settling_s')} s ({st['aaem_settling_s']['nan']} never settled)"
+    settling = st["aaem_settling_s"]
+    never = f"{settling['nan']} of {s['ok']} runs never settled"
+    yield (
+        f"  AAEM settling: {med('aaem_settling_s')} s ({never})" if settling["finite"] else f"  AAEM settling: {never}"
+    )
     window = steady_window_text(s["steady_window_s"], s["horizon_s"])
     yield f"  AAEM steady max (over {window}): {med('aaem_steady_max_deg')} deg; max |u_unsat|: {med('u_unsaturated_max_N_m')} N m; saturation time: {med('saturated_time_max_s')} s"
     for f in s["failures"][:10]:
