@@ -348,3 +348,24 @@ def test_cli_bad_input_exits_2(cli, tmp_path, capsys, argv, message):
     assert code == 2
     assert message in stderr and stderr.count("\n") == 1 and "Traceback" not in stderr
     assert not out.exists()  # nothing written, no empty folder left
+
+
+def test_the_result_comes_first_in_one_plain_line():
+    """``fsmctl compare`` states first which runs converged (the one rule) and from when."""
+    import fsmctl
+    from fsmctl.studies import LawRun, compare_laws
+
+    s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 5.0, "output_interval": 0.05})
+    runs = [LawRun("limited", "fsm"), LawRun("unlimited", "fsm", controller={"torque_limit": float("inf")})]
+    comp = compare_laws(s, runs)
+    first = comp.to_text().splitlines()[0]
+    assert first.startswith("converged (AAEM, RAEM <= 1 deg to the end): ")
+    limited, unlimited = comp.table
+    assert f"{limited['label']}: not within 5 s" in first
+    at = unlimited["converged_at_s"]
+    assert 0.5 < at < 5.0 and f"{unlimited['label']} from {at:.2f} s" in first
+    run = s.replace(controller={"torque_limit": float("inf")})
+    result = fsmctl.simulate(run, progress=False)
+    from fsmctl.simulation.metrics import settling_time
+
+    assert at == max(settling_time(result.time, m, 1.0) for m in (result.aaem_deg, result.raem_deg))

@@ -18,6 +18,8 @@ torque accumulated at every integration step, the wall time).  The column names 
 =================================  ========================================================================
 column                             meaning
 =================================  ========================================================================
+``converged_at_s``                 converged (:data:`fsmctl.policy.CONVERGED_RULE`: AAEM and RAEM stay <= 1 deg
+                                   to the end) from this time on; NaN = not converged
 ``aaem_settling_<tol>deg_s``       first output time after which AAEM (eq 42) stays <= tol deg (the sample
                                    after the last one above it); NaN = not settled within the horizon
 ``raem_settling_<tol>deg_s``       the same for RAEM (eq 43)
@@ -51,7 +53,8 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
-from fsmctl.policy import COMPARISON_TOLERANCES_DEG, default_steady_window, steady_window_text
+from fsmctl.policy import COMPARISON_TOLERANCES_DEG, TOLERANCE_DEG, default_steady_window, steady_window_text
+from fsmctl.simulation.metrics import settling_time
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.compare_runs import LawRun, as_runs, run_scenario
 from fsmctl.studies.parallel import resolve_workers
@@ -95,9 +98,9 @@ def metric_columns(tolerances_deg: Sequence[float] = COMPARISON_TOLERANCES_DEG) 
     --------
     >>> from fsmctl.studies import metric_columns
     >>> [c for c, _, _ in metric_columns((1.0,))][:3]
-    ['aaem_settling_1deg_s', 'raem_settling_1deg_s', 'aaem_steady_mean_deg']
+    ['converged_at_s', 'aaem_settling_1deg_s', 'raem_settling_1deg_s']
     """
-    cols = []
+    cols = [("converged_at_s", f"converged (AAEM, RAEM <= {TOLERANCE_DEG:g} deg to the end) from", "s")]
     for tol in tolerances_deg:
         cols.append((f"aaem_settling_{tol:g}deg_s", f"AAEM settling to {tol:g} deg", "s"))
     for tol in tolerances_deg:
@@ -168,7 +171,10 @@ def run_metrics(
     n = u.shape[1]
     sq = np.sum(np.square(u), axis=(1, 2))  # sum_i |u_i|^2, (T,)
     abs_sum = np.sum(np.abs(u), axis=2)  # sum_k |u_ik|, (T, n)
-    out: dict[str, float] = {}
+    out: dict[str, float] = {"converged_at_s": math.nan}
+    if summary["converged"]:  # the one rule (fsmctl.simulation.metrics.converged): from the later settling time on
+        times = (settling_time(t, metric, TOLERANCE_DEG) for metric in (result.aaem_deg, result.raem_deg))
+        out["converged_at_s"] = max(times)
     for tol in tolerances_deg:
         out[f"aaem_settling_{tol:g}deg_s"] = summary["aaem_settling_s"][f"{tol:g}"]
     for tol in tolerances_deg:
@@ -402,10 +408,12 @@ class Comparison:
             cells = []
             for r in self.table:
                 v = r[col]
-                if "_settling_" in col and r["status"] == "ok" and math.isnan(v):
+                if col == "converged_at_s" and r["status"] == "ok" and math.isnan(v):
+                    cells.append("not converged")
+                elif "_settling_" in col and r["status"] == "ok" and math.isnan(v):
                     cells.append(settled_text)
                 else:
-                    cells.append(_fmt(v, ".2f" if "_settling_" in col else ".4g"))
+                    cells.append(_fmt(v, ".2f" if "_settling_" in col or col == "converged_at_s" else ".4g"))
             rows.append([desc, unit, *cells])
         return header, rows
 
@@ -435,7 +443,7 @@ class Comparison:
         """The table as aligned plain text (what ``fsmctl compare`` prints)."""
         header, rows = self._cells("not settled")
         widths = [max(len(x[k]) for x in [header, *rows]) for k in range(len(header))]
-        lines = [f"compare: {self.scenario_label}"]
+        lines = [self.outcome_line(), f"compare: {self.scenario_label}"]
         for k, row in enumerate([header, *rows]):
             cells = [row[0].ljust(widths[0]), row[1].ljust(widths[1])]
             cells += [c.rjust(w) for c, w in zip(row[2:], widths[2:], strict=True)]
@@ -444,6 +452,33 @@ class Comparison:
                 lines.append("  ".join("-" * w for w in widths))
         lines.append(f"steady statistics over {self._window()}; wall time {self.wall_time_s:.1f} s")
         return "\n".join(lines)
+
+    def outcome_line(self) -> str:
+        """The result in one plain line: which runs converged, and from when (:data:`fsmctl.policy.CONVERGED_RULE`).
+
+        Returns
+        -------
+        str
+            E.g. ``"converged (AAEM, RAEM <= 1 deg to the end): fsm from 2.67 s; pd: not within 100 s"``.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "output_interval": 0.1})
+        >>> compare_laws(s, ["fsm"]).outcome_line()
+        'converged (AAEM, RAEM <= 1 deg to the end): fsm: not within 1 s'
+        """
+        horizon = self.settings["t_final_s"]
+        parts = []
+        for r in self.table:
+            at = r.get("converged_at_s", math.nan)
+            if r["status"] != "ok":
+                parts.append(f"{r['label']}: {r['status']}")
+            elif math.isnan(at):
+                parts.append(f"{r['label']}: not within {horizon:g} s")
+            else:
+                parts.append(f"{r['label']} from {at:.2f} s")
+        return f"converged (AAEM, RAEM <= {TOLERANCE_DEG:g} deg to the end): " + "; ".join(parts)
 
     def _window(self) -> str:
         """The steady window as every output states it (:func:`fsmctl.policy.steady_window_text`)."""
