@@ -92,6 +92,15 @@ def test_ordering_in_the_ideal_loop(fast_comparison):
     assert sat["fsm_faster_than_tsm"] == "n/a"
 
 
+def test_the_result_comes_first_in_one_plain_line(fast_comparison):
+    """The printed table opens with Theorem 3's ordering counted over the variants (AAEM settling)."""
+    first = fast_comparison.table().splitlines()[0]
+    assert first == (
+        "Theorem 3's ordering (FSM settles AAEM before TSM and LSM, eqs 37-41): holds in 1 of 2 variants "
+        "(no-limit/nominal/coupled); undecided in 1 (not every surface settles)"
+    )
+
+
 @pytest.fixture(scope="module")
 def ideal_rerun(paper_case1, fast_comparison):
     """The FSM run of the ideal variant (no torque limit, dJ = 0, no disturbance, Table 2 coupling) built here and

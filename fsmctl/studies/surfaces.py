@@ -346,8 +346,31 @@ class SurfaceComparison:
                 )
         return out
 
+    def outcome_line(self) -> str:
+        """The result in one plain line: in how many variants FSM settles AAEM first (Theorem 3's ordering).
+
+        Returns
+        -------
+        str
+            ``"Theorem 3's ordering (FSM settles AAEM before TSM and LSM, eqs 37-41): holds in K of N variants
+            (...), fails in ..., undecided in ... (no surface settles)"``.
+        """
+        rows = [o for o in self.ordering() if o["metric"] == "aaem_settling_s"]
+        groups: dict[str, list[str]] = {"holds": [], "fails": [], "undecided": []}
+        for o in rows:
+            verdicts = (o["fsm_faster_than_tsm"], o["fsm_faster_than_lsm"])
+            key = "holds" if verdicts == ("yes", "yes") else "fails" if "no" in verdicts else "undecided"
+            groups[key].append(o["variant"])
+        parts = [f"holds in {len(groups['holds'])} of {len(rows)} variants"]
+        parts[0] += f" ({', '.join(groups['holds'])})" if groups["holds"] else ""
+        if groups["fails"]:
+            parts.append(f"fails in {len(groups['fails'])} ({', '.join(groups['fails'])})")
+        if groups["undecided"]:
+            parts.append(f"undecided in {len(groups['undecided'])} (not every surface settles)")
+        return "Theorem 3's ordering (FSM settles AAEM before TSM and LSM, eqs 37-41): " + "; ".join(parts)
+
     def table(self) -> str:
-        """Plain-text table: one line per run, then the ordering verdicts."""
+        """Plain-text table: first :meth:`outcome_line`, then one line per run, then the ordering verdicts."""
         tol = self.settings["metric_tolerance_deg"]
         head = (
             f"{'variant':<28} {'surf':<4} {'AAEM<' + format(tol, 'g') + 'deg':>11} {'RAEM<' + format(tol, 'g') + 'deg':>11} "
@@ -357,7 +380,7 @@ class SurfaceComparison:
             f"{'':<28} {'':<4} {'s':>11} {'s':>11} {'deg':>9} {'agents':>7} {'s':>7} {'s':>7} {'s':>8} {'N m s':>9} "
             f"{'s':>7}"
         )
-        lines = [f"compare-surfaces: {self.scenario_label}", head, units]
+        lines = [self.outcome_line(), f"compare-surfaces: {self.scenario_label}", head, units]
         for r in self.runs:
             lines.append(
                 f"{r['variant']:<28} {r['surface']:<4} {_fmt(r['aaem_settling_s']):>11} {_fmt(r['raem_settling_s']):>11} "
