@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 from IPython.display import Markdown, display
 
+from fsmctl.studies.figure_marks import paper_marks, torque_marks
 from fsmctl.studies.figures import metric_figure, principal_angles_figure, torques_figure
 from fsmctl.studies.report import format_claims
 from fsmctl.studies.reproduce import overlay_figures, reproduce
@@ -54,9 +55,9 @@ if FAST:
             "**Fast mode (10 s horizons): these verdicts are not the reproduction's.** Run `fsmctl reproduce` (100 s) for the findings."
         )
     )
-rows = ["| claim | paper | this run | verdict | reason |", "|---|---|---|---|---|"]
-for c in rep.claims:
-    cells = (c.claim, c.paper_value, c.this_run_value, f"**{c.verdict}**", c.reason or "-")
+rows = ["| claim | figures | paper | this run | verdict |", "|---|---|---|---|---|"]
+for c in rep.claims:  # one short row per claim, as the report's summary; the evidence in full below
+    cells = (c.title, c.figures, c.paper_value, c.this_run_short, f"**{c.verdict}**")
     rows.append("| " + " | ".join(x.replace("|", "\\|") for x in cells) + " |")
 display(Markdown("\n".join(rows)))
 print(format_claims(rep))
@@ -79,14 +80,27 @@ print("theta_e(0) per agent (deg):", np.round(c1.theta_e0_deg, 2))
 
 # %% [markdown]
 # ## Figs 1-4: Case 1 (AAEM eq 42, RAEM eq 43, error principal angles, torques)
+# Each figure marks what the paper states (`paper_marks`, as in the report): the 27 s settling time, the accuracy
+# bands (AAEM ≤ 0.03°, RAEM ≤ 0.01°), the ±2 N m bound and the printed axes as a dashed box, with the zoom at the
+# range of the paper's inset.
 
 # %%
 ds1 = rep.dataset("case1")
 t1 = ds1["time_s"].values
-display(metric_figure(t1, ds1["aaem_deg"].values, metric="AAEM", title="Fig 1 analogue: AAEM, Case 1"))
-display(metric_figure(t1, ds1["raem_deg"].values, metric="RAEM", title="Fig 2 analogue: RAEM, Case 1"))
-display(principal_angles_figure(t1, ds1["theta_e_deg"].values, title="Fig 3 analogue: θ_ei, Case 1"))
-display(torques_figure(t1, ds1["u_N_m"].values, c1.torque_limit, title="Fig 4 analogue: torques, Case 1"))
+display(
+    metric_figure(t1, ds1["aaem_deg"].values, metric="AAEM", title="Fig 1 analogue: AAEM, Case 1", marks=paper_marks(1))
+)
+display(
+    metric_figure(t1, ds1["raem_deg"].values, metric="RAEM", title="Fig 2 analogue: RAEM, Case 1", marks=paper_marks(2))
+)
+display(
+    principal_angles_figure(t1, ds1["theta_e_deg"].values, title="Fig 3 analogue: θ_ei, Case 1", marks=paper_marks(3))
+)
+display(
+    torques_figure(
+        t1, ds1["u_N_m"].values, c1.torque_limit, title="Fig 4 analogue: torques, Case 1", marks=paper_marks(4)
+    )
+)
 
 # %% [markdown]
 # ## Figs 5-9: Case 2 against Case 1, Cases 3a-3c, and the diagnostic runs
@@ -96,7 +110,11 @@ overlays = overlay_figures(rep.records)
 ds2 = rep.dataset("case2")
 display(overlays["fig05_aaem_case2_vs_case1"])
 display(overlays["fig06_raem_case2_vs_case1"])
-display(principal_angles_figure(ds2["time_s"].values, ds2["theta_e_deg"].values, title="Fig 7 analogue: θ_ei, Case 2"))
+display(
+    principal_angles_figure(
+        ds2["time_s"].values, ds2["theta_e_deg"].values, title="Fig 7 analogue: θ_ei, Case 2", marks=paper_marks(7)
+    )
+)
 display(overlays["fig08_aaem_case3"])
 display(overlays["fig09_raem_case3"])
 
@@ -110,7 +128,11 @@ for name in ("diag_aaem_case1_variants", "diag_aaem_no_torque_limit", "diag_aaem
 nl = rep.dataset("case1_no_torque_limit")
 display(
     torques_figure(
-        nl["time_s"].values, nl["u_unsaturated_N_m"].values, np.inf, title="commanded torques without the limit"
+        nl["time_s"].values,
+        nl["u_unsaturated_N_m"].values,
+        np.inf,
+        title="commanded torques without the limit",
+        marks=torque_marks(),
     )
 )
 assert all(c.verdict in ("reproduced", "differs", "impossible (bound)") for c in rep.claims)

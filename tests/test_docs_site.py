@@ -9,8 +9,9 @@
   installing it);
 * the site's own files: every public docstring's Returns section holds return values (not a paragraph), the API
   index lists every public module once, each gallery notebook gets its fast-mode banner and has a thumbnail, the
-  committed verdicts agree with themselves and with the claim registry, and the build commands keep the doctrees
-  out of the published folder and run the check.
+  committed verdicts agree with themselves and with the claim registry, the README summarizes the findings page
+  (its one home) without copying it, and the build commands keep the doctrees out of the published folder and run
+  the check.
 """
 
 from __future__ import annotations
@@ -325,6 +326,39 @@ def test_the_committed_verdicts_agree():
     assert f"**{len(rows)} claims**" in summary
     for page in ("index.md", "findings.md"):
         assert "```{include} _includes/verdicts-summary.md" in (DOCS / page).read_text(encoding="utf-8")
+
+
+def _readme_findings() -> str:
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    start = readme.index("## What was found\n")
+    return readme[start : readme.index("\n## ", start + 1)]
+
+
+def test_the_findings_have_one_home():
+    """README's "What was found" is a summary of docs/findings.md, not a second copy: a few paragraphs and the short
+    verdict table, its verdicts those of the committed table (in the registry's order), every number in it also on
+    the findings page, and a link to that page; nothing links to a README anchor of the findings."""
+    section = _readme_findings()
+    findings = (DOCS / "findings.md").read_text(encoding="utf-8")
+    assert "[docs/findings.md](docs/findings.md)" in section
+    assert len(section.splitlines()) <= 30 and section.count("\n|---") == 1  # one table, no errata or laws tables
+    rows = [r for r in section.splitlines() if r.startswith("| ") and not r.startswith("| claim |")]
+    committed = (DOCS / "_includes" / "verdicts-table.md").read_text(encoding="utf-8")
+    assert [r.rsplit("| **", 1)[1].rstrip("* |") for r in rows] == re.findall(
+        r"\| \*\*([^*]+)\*\* \|$", committed, re.M
+    )
+    missing = [
+        n
+        for n in re.findall(r"(?<![\w.])\d+(?:\.\d+)?", section)
+        if not re.search(rf"(?<![\d.]){re.escape(n)}(?![\d])", findings)
+    ]
+    assert not missing, f"numbers of README's summary not on docs/findings.md: {missing}"
+    linking = [
+        path.relative_to(ROOT)
+        for path in [ROOT / "README.md", *DOCS.rglob("*.md")]
+        if "_build" not in path.parts and re.search(r"#what-was-found", path.read_text(encoding="utf-8"), re.I)
+    ]
+    assert not linking, f"links to README's findings anchor: {linking}"
 
 
 def test_the_thumbnail_comes_from_the_first_figure(tmp_path):

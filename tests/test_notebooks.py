@@ -16,13 +16,14 @@ What is checked in the executed notebook, each against an independent reason:
 * nothing is left in the system temp folder: the kernel runs with a private ``TMPDIR``, which must hold no
   ``fsmctl-*`` entry afterwards (``fsmctl reproduce``'s default folder, notebook 03 and 07 write under their
   working folder);
-* 01: every erratum of the paper found in review (the list in the README, typed here) is shown as checked,
+* 01: every erratum of the paper found in review (the list in docs/findings.md, typed here) is shown as checked,
   and the single-axis ``E = J omega_d_dot + omega_d x J omega_d`` is the hand result ``(0, 0, J3 omega_d3_dot)``;
 * 02: the claims that are mathematical truths (Lemmas 1-2, eqs 26-27, Theorem 1 for Case 1, eqs 34-41) are
   printed as proved, and ``min_t lambda_min(sym L(t))`` is the hand value for L = k^i sum - K_j(0) with every
   Table 2 link on at t = 0 (all phases < 6.5): 40 - 5*5 = 15 for k^i = 8, 20 - 25 = -5 for k^i = 4;
 * 03: the printed |H(0)|, |H(0) - H_d(0)|, AAEM(0), RAEM(0) and theta_e(0) equal the values computed here from
-  Table 1 with the NumPy oracle (``tests/oracle_numpy.py``), and the 27 s claim is judged impossible;
+  Table 1 with the NumPy oracle (``tests/oracle_numpy.py``), the 27 s claim is judged impossible, the claims table
+  has one short row per claim, and every figure marks the paper's stated values (counted by the probe);
 * 04: the displayed closed forms are eqs 34-36 as typed here, the printed relative error is <= 1e-6, and the
   Remark 6 slopes are the hand values ``c1 + c2 (2 - alpha) eps^(alpha-1)`` (at 0) and
   ``c1 + c2 alpha eps^(alpha-1)`` (band edge) of the C^1 extension ``r1 x + r2 x|x|`` of ``sig(x)^alpha``;
@@ -215,10 +216,18 @@ def _check_reproduction(nb) -> list[str]:
     m = re.search(r"theta_e\(0\) per agent \(deg\): \[([^\]]*)\]", out)
     if not m or not np.allclose([float(x) for x in m.group(1).split()], np.degrees(theta), atol=0.006):
         problems.append(f"03: theta_e(0) should print as {np.round(np.degrees(theta), 2)}")
-    table = "\n".join(_markdown(nb))
-    row = next((r for r in table.splitlines() if "within 27 s" in r), "")
+    table = [r for r in "\n".join(_markdown(nb)).splitlines() if r.startswith("|")]
+    row = next((r for r in table if "| 27 s" in r), "")
     if "**impossible (bound)**" not in row:  # |H_d - H(0)| needs > 27 s at 2 N m per axis (tests/test_reproduce.py)
         problems.append("03: the 27 s settling claim is not judged impossible (bound)")
+    # the claims table reads at a glance: a header, a rule and one short row per claim (the evidence is printed below)
+    if len(table) != 2 + 7 or max(len(cell.strip()) for r in table for cell in r.split(" | ")) > 100:
+        problems.append(f"03: the claims table is not one short row per claim: {table}")
+    # every figure (Figs 1-9 analogues and the diagnostics) marks what the paper states beside the reproduction
+    made = sum(int(n) for n in re.findall(r"__figures_made__ (\d+)", out))
+    marked = sum(int(n) for n in re.findall(r"__figures_marked__ (\d+)", out))
+    if made < MIN_FIGURES["03_reproduction"] or marked != made:
+        problems.append(f"03: {marked} of the {made} figures mark the paper's stated values")
     return problems
 
 
@@ -400,19 +409,25 @@ _fsmctl_init = _fsmctl_mf.Figure.__init__
 
 def _fsmctl_count(self, *args, **kwargs):
     _fsmctl_init(self, *args, **kwargs)
-    _fsmctl_made.append(1)
+    _fsmctl_made.append(self)
+
+
+def _fsmctl_paper(artist):
+    return "paper" in str(artist.get_label())
 
 
 def _fsmctl_report(result):
     if _fsmctl_made:
         print(f"__figures_made__ {len(_fsmctl_made)}")
+        print(f"__figures_marked__ {sum(bool(f.findobj(_fsmctl_paper)) for f in _fsmctl_made)}")
         _fsmctl_made.clear()
 
 
 _fsmctl_mf.Figure.__init__ = _fsmctl_count
 _fsmctl_ip().events.register("post_run_cell", _fsmctl_report)
 """
-"""A first cell that counts the matplotlib figures each cell makes (printed at the cell's end)."""
+"""A first cell that counts the matplotlib figures each cell makes and those that mark the paper's statements (an
+artist labelled with "paper", as :mod:`fsmctl.studies.figure_marks` labels them), printed at the cell's end."""
 
 
 _PLOT_METHODS = frozenset(

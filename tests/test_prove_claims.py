@@ -65,7 +65,7 @@ def test_results_keep_registry_order(case1_results):
 
 
 def test_errata_claims_cover_every_erratum_of_the_paper(case1_results):
-    """The errata verdicts name exactly the eight misprints found in review (README's table, typed here)."""
+    """The errata verdicts name exactly the eight misprints found in review (the table of docs/findings.md, typed here)."""
     used = {r.data.get("erratum") for r in case1_results.values() if r.verdict == C.ERRATUM}
     assert used == {
         "eq7-8-error-rate",

@@ -59,7 +59,7 @@ def test_report_markdown_with_latex(capsys, tmp_path):
 
 
 def test_theorem2_default_region_fails_for_paper_delta_as_documented(capsys):
-    """The documented finding: exit 0 (the check found what the README says); --strict: exit 1 (it fails)."""
+    """The documented finding: exit 0 (the check found what docs/findings.md says); --strict: exit 1 (it fails)."""
     code, out, _ = _run(capsys, "theorem2-delta", "--samples", "100")
     assert code == 0
     assert out.splitlines()[0] == "all 1 check as documented (1 known failure of the paper: theorem2-delta)"
@@ -68,7 +68,7 @@ def test_theorem2_default_region_fails_for_paper_delta_as_documented(capsys):
 
 
 def test_the_full_check_of_the_paper_is_as_documented_and_strict_fails(capsys):
-    """The README's finding (8 errata, Theorem 2's delta fails for the paper) is the expected result: exit 0, said
+    """The documented finding (docs/findings.md: 8 errata, Theorem 2's delta fails for the paper) is the expected result: exit 0, said
     on the first line; --strict exits 1 on the failed check; --json carries the same outcome."""
     code, out, _ = _run(capsys, "--samples", "200")
     assert code == 0

@@ -98,7 +98,7 @@ def test_momentum_bound_numbers_of_the_paper(bounds):
     assert bounds[1].H0_N_m_s == pytest.approx(H2, rel=1e-12)
     assert bounds[1].naive_time_s == pytest.approx(H2 / (math.sqrt(3) * 2.0), rel=1e-12)
     # with the reference's momentum and the disturbance helping, the agents the hand bound puts above the paper's
-    # 27 s (README: 1, 2, 5, 6) are those fsmctl reports, and the largest bound is the hand value (agent 5)
+    # 27 s (docs/findings.md: 1, 2, 5, 6) are those fsmctl reports, and the largest bound is the hand value (agent 5)
     hand = {agent: _hand_bound(agent)[2] for agent in range(1, 7)}
     assert sorted(a for a, t in hand.items() if t > 27.0) == [1, 2, 5, 6]
     assert sorted(b.agent for b in bounds if b.min_time_s > 27.0) == [1, 2, 5, 6]

@@ -18,7 +18,7 @@ subcommand's own wording of it, so ``fsmctl X --help`` and the documentation pag
 
 The expected result: a command exits 0 when its result is the expected one.  For ``fsmctl prove`` that is the
 documented finding (the verdict each claim has on the paper's scenario, recorded with the claim:
-:attr:`fsmctl.proofs.claims.Claim.expected`), so Theorem 2's delta failing for the paper, a finding of the README,
+:attr:`fsmctl.proofs.claims.Claim.expected`), so Theorem 2's delta failing for the paper, a finding (``docs/findings.md``),
 exits 0; ``--strict`` exits 1 on any failed check.  A user's law (``prove --law``) has no documented finding: any
 failed check exits 1.
 """

@@ -182,7 +182,7 @@ class Claim:
     heavy: bool = False
     """several seconds of SymPy: run in a worker process when ``workers > 1``"""
     expected: str = PROVED
-    """the documented finding (README, "What was found"): the verdict of the check on the paper's scenario (every
+    """the documented finding (``docs/findings.md``): the verdict of the check on the paper's scenario (every
     case of Section 4, Theorem 2's default region); an ``erratum`` and a ``fails for this scenario`` are findings"""
 
 
