@@ -20,6 +20,8 @@ name                               value                         meaning
                                                                  40 % of the horizon ...
 :data:`STEADY_WINDOW_MAX_S`        40                            s: ... and over at most 40 s (the paper's last 40 of
                                                                  100 s; :func:`default_steady_window`)
+:data:`STEADY_RULE`                (text)                        the steady-state window in words, as every output
+                                                                 states it: "the last 40 % of the horizon, at most 40 s"
 :data:`FAST_T_FINAL_S`             10                            s: the horizon of ``reproduce --fast``
 :data:`FAST_OUTPUT_INTERVAL_S`     0.05                          s: the output grid of ``reproduce --fast``
 :data:`SURFACE_REACH_THRESHOLD`    1e-3                          ``compare-surfaces``: the surface is reached when

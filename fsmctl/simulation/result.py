@@ -438,8 +438,9 @@ class SimulationResult:
         >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.1}))
         >>> r.save("run.csv").name
         'run.csv'
-        >>> open("run.csv").readline()[:40]
-        'time_s,sigma_1_x,sigma_1_y,sigma_1_z,sig'
+        >>> import pandas
+        >>> list(pandas.read_csv("run.csv", comment="#").columns[:4])  # the metadata first, as # lines
+        ['time_s', 'sigma_1_x', 'sigma_1_y', 'sigma_1_z']
         """
         path = Path(path)
         if format is None and path.suffix == ".npz":
