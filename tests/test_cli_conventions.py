@@ -367,3 +367,23 @@ def test_help_formatter_wraps_paragraphs_and_keeps_lists():
         "       onto a second line of the help",
         "  term  a definition continued here",
     ]
+
+
+def test_a_resource_warning_during_a_command_is_not_the_users(monkeypatch, capsys):
+    """An unclosed file collected during a command (pytest's or a library's) is not printed as an fsmctl warning,
+    while a library's own warning still is, once, as one line."""
+    import warnings
+
+    import fsmctl.cli.laws as laws_command
+    from fsmctl.cli.main import main
+
+    def run(args):
+        warnings.warn("unclosed file <_io.TextIOWrapper name=22>", ResourceWarning, stacklevel=1)
+        warnings.warn("a notice for the user", UserWarning, stacklevel=1)
+        return 0
+
+    monkeypatch.setattr(laws_command, "run", run)
+    assert main(["laws"]) == 0
+    err = capsys.readouterr().err
+    assert "ResourceWarning" not in err
+    assert err.count("fsmctl: warning: UserWarning: a notice for the user") == 1

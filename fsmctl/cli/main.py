@@ -322,6 +322,8 @@ def _run(args: argparse.Namespace) -> int:
     try:
         with warnings.catch_warnings():
             warnings.filterwarnings("once")
+            # an unclosed file or socket collected during the command is the developer's notice, not the user's
+            warnings.filterwarnings("ignore", category=ResourceWarning)
             warnings.showwarning = _warning_line  # one line on stderr, as the library's notices
             code = int(args.func(args) or 0)
         try:

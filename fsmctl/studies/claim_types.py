@@ -73,6 +73,8 @@ class ClaimVerdict:
         Why, when not reproduced.
     diagnostic_runs : str
         The runs of :func:`~fsmctl.studies.paper_runs.run_plan` that show the reason.
+    documented : str
+        The verdict documented for the paper's own scenario at its full horizon (:attr:`StudyClaim.documented`).
 
     Examples
     --------
