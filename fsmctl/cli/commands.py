@@ -244,7 +244,7 @@ def _write_summary(args, scenario, controller, simulation, summary, files, out: 
 
 
 def convergence_line(summary: dict) -> str:
-    """``simulate``'s first line: converged (and from when, at the finest band each metric settles in) or not.
+    """``simulate``'s first line: converged (from when) or not, by the one rule (:data:`fsmctl.policy.CONVERGED_RULE`).
 
     Parameters
     ----------
@@ -255,34 +255,68 @@ def convergence_line(summary: dict) -> str:
     Returns
     -------
     str
-        ``converged: AAEM <= B deg from T s on, RAEM <= B deg from T s on (...)`` or ``not converged: AAEM X deg at
-        t = T s (...)``, the definition (:data:`fsmctl.policy.CONVERGED_RULE`) in brackets.
+        ``converged: AAEM and RAEM stay <= 1 deg from T s on (finest: AAEM <= B deg from T s, ...)`` or
+        ``not converged within H s: AAEM X deg, RAEM Y deg at the end (converged = ...)``.
     """
     tol = summary["convergence_tolerance_deg"]
-    rule = "converged: " + CONVERGED_RULE.format(tolerance=f"{tol:g} deg")
     if summary["converged"]:
-        parts = []
-        for metric in ("aaem", "raem"):
-            settled = [(float(b), t) for b, t in summary[f"{metric}_settling_s"].items() if math.isfinite(t)]
-            band, since = min(settled)  # the finest band it settles in (1 deg at least: it converged)
-            parts.append(f"{metric.upper()} <= {band:g} deg from {since:.2f} s on")
-        return f"converged: {', '.join(parts)} ({rule})"
-    late = [m for m in ("aaem", "raem") if not math.isfinite(summary[f"{m}_settling_s"][f"{tol:g}"])]
-    values = ", ".join(f"{m.upper()} {summary[f'{m}_final_deg']:.4g} deg" for m in late)
-    return f"not converged: {values} at t = {summary['horizon_s']:g} s ({rule})"
+        since = max(summary[f"{m}_settling_s"][f"{tol:g}"] for m in ("aaem", "raem"))
+        finest = [f"{m.upper()} <= {band:g} deg from {t:.2f} s" for m, (band, t) in _finest_bands(summary).items()]
+        return f"converged: AAEM and RAEM stay <= {tol:g} deg from {since:.2f} s on (finest: {', '.join(finest)})"
+    values = ", ".join(f"{m.upper()} {summary[f'{m}_final_deg']:.4g} deg" for m in ("aaem", "raem"))
+    rule = CONVERGED_RULE.format(tolerance=f"{tol:g} deg")
+    return f"not converged within {summary['horizon_s']:g} s: {values} at the end (converged = {rule})"
+
+
+def _finest_bands(summary: dict) -> dict[str, tuple[float, float]]:
+    """Per metric, the finest settling band it reaches and from when (metrics that reach none are left out)."""
+    out = {}
+    for metric in ("aaem", "raem"):
+        settled = [(float(b), t) for b, t in summary[f"{metric}_settling_s"].items() if math.isfinite(t)]
+        if settled:
+            out[metric] = min(settled)
+    return out
+
+
+def steady_line(summary: dict) -> str:
+    """``simulate``'s steady-state line: the maxima over the one window, and whether the window holds a transient.
+
+    Parameters
+    ----------
+    summary : dict
+        :meth:`fsmctl.simulation.result.SimulationResult.summary`.
+
+    Returns
+    -------
+    str
+        ``steady: max over the last W s (...): AAEM X deg, RAEM Y deg`` and, when the window starts before the run
+        has settled to its finest band, a note that the maxima include the transient.
+    """
+    window = steady_window_text(summary["steady_window_s"], summary["horizon_s"])
+    line = (
+        f"steady: max over {window}: AAEM {summary['aaem_steady_max_deg']:.4g} deg, "
+        f"RAEM {summary['raem_steady_max_deg']:.4g} deg"
+    )
+    start = summary["horizon_s"] - summary["steady_window_s"]
+    if not summary["converged"]:
+        return line + " (not converged: the window holds no steady state)"
+    settled = max(t for _, t in _finest_bands(summary).values())
+    if start < settled:
+        return (
+            line + f" (the window starts at {start:g} s, before the run settles at {settled:.2f} s: transient included)"
+        )
+    return line
 
 
 def _format_summary(summary: dict) -> str:
     def fmt_time(x: float) -> str:
         return "not settled" if not math.isfinite(x) else f"{x:.2f} s"
 
-    window = steady_window_text(summary["steady_window_s"], summary["horizon_s"])
     lines = [
         convergence_line(summary),
         f"  final (t = {summary['horizon_s']:g} s): AAEM {summary['aaem_final_deg']:.4g} deg, "
         f"RAEM {summary['raem_final_deg']:.4g} deg",
-        f"  steady: max over {window}: AAEM {summary['aaem_steady_max_deg']:.4g} deg, "
-        f"RAEM {summary['raem_steady_max_deg']:.4g} deg",
+        f"  {steady_line(summary)}",
         f"  AAEM (eq 42): initial {summary['aaem_initial_deg']:.3f} deg, peak {summary['aaem_peak_deg']:.3f} deg",
         f"  RAEM (eq 43): initial {summary['raem_initial_deg']:.3f} deg, peak {summary['raem_peak_deg']:.3f} deg",
     ]
