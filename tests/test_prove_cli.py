@@ -78,6 +78,8 @@ def test_the_full_check_of_the_paper_is_as_documented_and_strict_fails(capsys):
     assert code == 1
     assert (outcome["as_documented"], outcome["differ"], outcome["failing"]) == (True, [], ["theorem2-delta"])
     assert outcome["checks"] == 35 and outcome["known_failures"] == ["theorem2-delta"]
+    code, out, err = _run(capsys, "theorem2-delta", "--samples", "200", "--strict", "--workers", "1")
+    assert code == 1 and err.strip().splitlines()[-1] == "--strict: exit 1: 1 check not passing (theorem2-delta)"
 
 
 def test_a_check_that_differs_from_the_documented_finding_exits_1(capsys, monkeypatch):

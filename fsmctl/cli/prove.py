@@ -199,6 +199,10 @@ def run(args: argparse.Namespace) -> int:
         if not args.json:
             print(f"report written to {args.report}", file=sys.stderr)
     if args.strict:
+        if result["failing"] and not args.json:
+            failing = result["failing"]
+            print(f"--strict: exit 1: {len(failing)} check{'s' if len(failing) != 1 else ''} not passing "
+                  f"({', '.join(failing)})", file=sys.stderr)  # fmt: skip
         return 1 if result["failing"] else 0
     return 0 if result["as_documented"] else 1
 
