@@ -453,3 +453,24 @@ def test_run_records_round_trip_through_claims_json_and_csv(fast_reproduction, t
         ra, rb = a.to_row(), b.to_row()
         assert ra.keys() == rb.keys()
         assert all(x == y or (x != x and y != y) for x, y in zip(ra.values(), rb.values(), strict=True))
+
+
+def test_case2_slower_short_row_shows_the_order_on_the_long_runs():
+    """Neither case settles within 100 s: the summary row reads the 300 s runs (the trial read "not settled" twice
+    as inconclusive, though the verdict rests on Case 2 settling first on the long horizon)."""
+    recs = {spec.key: _record(spec.key, settle=None) for spec in run_plan()}
+    recs["case1_long"] = _record("case1_long", settle=None, t_final=300.0)
+    recs["case2_long"] = _record("case2_long", settle=195.5, t_final=300.0)
+    row = next(c for c in evaluate_claims(recs, _bounds(10.0)) if c.id == "case2_slower")
+    assert row.verdict == DIFFERS
+    assert row.this_run_short == "AAEM to 1° in 300 s: Case 1 not settled, Case 2 195.5 s"
+
+
+def test_a_figure_check_number_never_prints_as_its_open_bound():
+    """179.99998° printed as "180.0°" beside "not in (180, 200]" read as a rounding bug to a new user."""
+    from fsmctl.studies.figure_checks import FigureCheck
+
+    check = FigureCheck("x", "a printed axis", ("case1",), lambda R: 179.99998, "max θ", (180.0, 200.0), False)
+    assert check.numbers({"case1": None}) == "max θ 179.99998° (not in (180, 200])"
+    check = FigureCheck("y", "a printed axis", ("case1",), lambda R: 150.04, "max θ", (140.0, 160.0), False)
+    assert check.numbers({"case1": None}) == "max θ 150.0° (in (140, 160])"

@@ -317,7 +317,12 @@ def _slower_value(g: Grading) -> str:
 
 def _slower_short(g: Grading) -> str:
     s1, s2 = _aaem_settling(g, "case1", "case2")
-    return f"AAEM to {g.tolerance_deg:g}°: Case 1 {_short_s(s1)}, Case 2 {_short_s(s2)}"
+    if math.isfinite(s1) or math.isfinite(s2):
+        return f"AAEM to {g.tolerance_deg:g}°: Case 1 {_short_s(s1)}, Case 2 {_short_s(s2)}"
+    l1, l2 = _aaem_settling(g, "case1_long", "case2_long")  # neither within the horizon: the order on the long runs
+    return (
+        f"AAEM to {g.tolerance_deg:g}° in {g['case1_long'].t_final:g} s: Case 1 {_short_s(l1)}, Case 2 {_short_s(l2)}"
+    )
 
 
 def _slower_numbers(R: Runs, tol: float) -> str:

@@ -210,15 +210,17 @@ class FigureCheck:
         lo, hi = self.interval
         unit = self.unit
         fmt = f"{value:.4g} {unit}" if unit != "°" else (f"{value:.1f}°" if value >= 1 else f"{value:.3g}°")
+        if float(fmt.rstrip(" °" + unit)) in (lo, hi) and value not in (lo, hi):  # 179.97 is not "180.0"
+            digits = next((p for p in range(4, 17) if float(f"{value:.{p}g}") not in (lo, hi)), 17)
+            fmt = f"{value:.{digits}g}{'°' if unit == '°' else ' ' + unit}"
         inside = lo < value <= hi
         if hi - lo < 1e-3 * hi:  # a level, not an interval
             where = f"{'=' if inside else '≠'} {0.5 * (lo + hi):.4g} {unit}"
         else:
             where = f"{'' if inside else 'not '}in ({lo:g}, {hi:g}]"
-        text = f"{self.what} {fmt} ({where})"
         if unit == "°" and "peak" in self.what:  # θ, AAEM, RAEM from the law's error MRP
-            text += f", θ of the {error_mrp(records[self.runs[0]])} error MRP"
-        return text
+            where += f"; θ from the {error_mrp(records[self.runs[0]])} error MRP"
+        return f"{self.what} {fmt} ({where})"
 
 
 def _peak(key: str, run: str) -> Callable[[Runs], float]:
