@@ -41,6 +41,14 @@ def _cli(argv, capsys) -> tuple[int, str]:
         (["simulate", "--zzzzzz"], "fsmctl simulate: unknown option --zzzzzz"),
         (["simulat", "--case", "1"], "fsmctl: unknown command 'simulat' (did you mean simulate?)"),
         (["--quiet", "montecarol"], "fsmctl: unknown command 'montecarol' (did you mean montecarlo?)"),
+        (["scenario", "shw", "paper"], "fsmctl scenario: unknown command 'shw' (did you mean show?)"),
+        # an abbreviation is a misspelling, not the option it starts (argparse's allow_abbrev)
+        (["simulate", "--scenari", "paper"], "fsmctl simulate: unknown option --scenari (did you mean --scenario?)"),
+        (
+            ["simulate", "--law", "fsmm"],
+            "fsmctl simulate: error: law 'fsmm': not a built-in law (did you mean fsm or adaptive_fsm?; the built-in "
+            "laws: fsm, adaptive_fsm, pid, super_twisting), a derivation script (.py) or a derived law folder",
+        ),
     ],
 )
 def test_a_misspelled_option_or_command_gets_one_line_with_a_suggestion(argv, line, capsys):

@@ -108,6 +108,7 @@ class _Parser(argparse.ArgumentParser):
     (:mod:`fsmctl.suggest`), and :class:`fsmctl.cli.options.HelpFormatter` for every ``--help``."""
 
     def __init__(self, *args, formatter_class=HelpFormatter, **kwargs):
+        kwargs.setdefault("allow_abbrev", False)  # --scenari is a misspelling, not --scenario
         super().__init__(*args, formatter_class=formatter_class, **kwargs)
 
     def error(self, message):  # one line, exit 2 (argparse's default prints usage too)
@@ -115,19 +116,30 @@ class _Parser(argparse.ArgumentParser):
 
     def parse_args(self, args=None, namespace=None):  # the top-level parser: its subparsers parse_known_args
         args = list(sys.argv[1:] if args is None else args)
-        commands = self._subcommands()
-        # the top-level options are flags: the first word that is not one is the subcommand
-        word = next((a for a in args if not a.startswith("-")), None)
-        if commands and word is not None and word not in commands:
-            hint = did_you_mean(word, commands)
-            self.exit(EXIT_INPUT, f"{self.prog}: unknown command {word!r}{f' ({hint})' if hint else ''}\n")
+        self._check_subcommands(args)
         parsed, extras = self.parse_known_args(args, namespace)
         if extras:
-            sub = commands.get(getattr(parsed, "command", None), self)
+            sub = self._subcommands().get(getattr(parsed, "command", None), self)
             while (inner := sub._subcommands()) and (chosen := getattr(parsed, sub._subcommand_dest(), None)):
                 sub = inner[chosen]  # fsmctl scenario show: the innermost subcommand's options
             self.exit(EXIT_INPUT, f"{sub.prog}: {_unknown_argument(extras[0], sub)}\n")
         return parsed
+
+    def _check_subcommands(self, args: list[str]) -> None:
+        """A misspelled subcommand, at any depth (``fsmctl simulat``, ``fsmctl scenario shw``): one line, exit 2.
+
+        The top-level options are flags, and a command with subcommands takes no positional argument before its
+        subcommand: at each level the first word that is not an option names the subcommand."""
+        parser, rest = self, args
+        while commands := parser._subcommands():
+            at = next((i for i, a in enumerate(rest) if not a.startswith("-")), None)
+            if at is None:
+                return
+            word = rest[at]
+            if word not in commands:
+                hint = did_you_mean(word, commands)
+                self.exit(EXIT_INPUT, f"{parser.prog}: unknown command {word!r}{f' ({hint})' if hint else ''}\n")
+            parser, rest = commands[word], rest[at + 1 :]
 
     def _subcommands(self) -> dict[str, argparse.ArgumentParser]:
         """The subcommands' parsers by name (empty for a parser without subcommands)."""

@@ -79,6 +79,32 @@ class LawError(InputError):
     law 'no-such-law'
     """
 
+    @classmethod
+    def unknown(cls, text: str, names) -> LawError:
+        """The error for a law that is none of the built-in ones, a script or a folder, with "did you mean".
+
+        Parameters
+        ----------
+        text : str
+            What was given.
+        names : iterable of str
+            The built-in laws' names.
+
+        Returns
+        -------
+        LawError
+            ``law 'fsmm': not a built-in law (did you mean fsm?; fsm, ...), a derivation script (.py) or ...``.
+
+        Examples
+        --------
+        >>> print(LawError.unknown("fsmm", ["fsm", "pid"]))
+        law 'fsmm': not a built-in law (did you mean fsm?; the built-in laws: fsm, pid), a derivation script (.py) or a derived law folder
+        """
+        names = list(names)
+        hint = did_you_mean(text, names)
+        known = f"{hint}; the built-in laws: {', '.join(names)}" if hint else ", ".join(names)
+        return cls(f"law {text!r}: not a built-in law ({known}), a derivation script (.py) or a derived law folder")
+
 
 class LawSwitchWarning(UserWarning):
     """Another law is flown on a scenario: which of the keys written for its own law apply, which are ignored.
@@ -838,9 +864,7 @@ def _resolve(text: str, cwd: str, stamp: tuple) -> LawCode:
         if not path.is_file():
             raise LawError(f"law {text!r}: no such derivation script ({path})")
         return _read_law(derive_script(path))
-    raise LawError(
-        f"law {text!r}: not a built-in law ({', '.join(laws)}), a derivation script (.py) or a derived law folder"
-    )
+    raise LawError.unknown(text, laws)
 
 
 def resolve_law(law: str | Path | LawCode | None) -> LawCode:

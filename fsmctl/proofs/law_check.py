@@ -381,8 +381,7 @@ def load_law_variants(spec: str) -> LawVariants:
         if not path.is_file():
             raise LawError(f"law {text!r}: no such derivation script")
         return load_derivation_script(path)
-    names = ", ".join(builtin_laws())
-    raise LawError(f"law {text!r}: not a built-in law ({names}), a derivation script (.py) or a derived law folder")
+    raise LawError.unknown(text, builtin_laws())
 
 
 # ----------------------------------------------------------------------------------------------- helpers
