@@ -279,7 +279,13 @@ def reproduce(
     case1 = run_scenario(source, RunSpec("case1", "1", "Case 1", ""), False)
     plan = [s if figures else replace(s, figures=()) for s in run_plan()]
     say = log or (lambda _line: None)
-    say("\n".join(case1.describe()))
+    described = case1.describe()
+    choices = [line for line in described if line.lstrip().startswith("choice ")]
+    say("\n".join(line for line in described if line not in choices))
+    if choices:  # their reasons are paragraphs: the report holds them ("Settings and the choices ...")
+        say(
+            f"  choices the paper leaves open: {len(choices)} ({', '.join(c.split()[1].rstrip(':') for c in choices)}), their reasons in the report"
+        )
     study = _Study(
         source, plan, fast, out, command, figures, explain, sys.stderr.isatty() if progress is None else progress, log
     )
