@@ -474,3 +474,64 @@ def test_a_figure_check_number_never_prints_as_its_open_bound():
     assert check.numbers({"case1": None}) == "max θ 179.99998° (not in (180, 200])"
     check = FigureCheck("y", "a printed axis", ("case1",), lambda R: 150.04, "max θ", (140.0, 160.0), False)
     assert check.numbers({"case1": None}) == "max θ 150.0° (in (140, 160])"
+
+
+# ----------------------------------------------------------------------------- what a run changes
+
+
+def _changed_settings(case, flown) -> set[str]:
+    """The controller and simulation fields (and law parameters) whose values differ, compared field by field."""
+    import dataclasses
+
+    names = set()
+    for section in ("controller", "simulation"):
+        a, b = getattr(case, section), getattr(flown, section)
+        for f in dataclasses.fields(a):
+            x, y = getattr(a, f.name), getattr(b, f.name)
+            if f.name == "parameters":  # the law's parameters: by name
+                names |= {k for k in dict(x).keys() | dict(y).keys() if dict(x).get(k) != dict(y).get(k)}
+            elif x != y:
+                names.add(f.name)
+    return names
+
+
+@pytest.mark.parametrize("fast", [False, True])
+def test_every_run_record_names_every_setting_its_run_changes(fast):
+    """The report's "overrides" column: every setting the flown scenario changes in its case, the diagnostic runs'
+    coarser output grid included (it listed only ``torque_limit=inf`` for ``case1_no_torque_limit``, flown at
+    ``output_interval = 0.02``), and nothing else."""
+    from fsmctl import simulate
+    from fsmctl.studies.paper_runs import load_case, run_record, run_scenario
+
+    spec = {s.key: s for s in run_plan()}["case1_no_torque_limit"]
+    flown = run_scenario("paper", spec, fast=fast).replace(simulation={"t_final": 0.2})
+    case = load_case("paper", "1")
+    record = run_record(spec, flown, simulate(flown, progress=False))
+    named = {item.split("=")[0] for item in record.overrides.split(", ")}
+    assert named == _changed_settings(case, flown) == {"t_final", "output_interval", "torque_limit"}
+    assert f"output_interval={flown.simulation.output_interval:g}" in record.overrides
+
+
+def test_run_overrides_of_the_plan_describe_each_run():
+    """Each run of the plan, as the report lists it: the setting names are exactly the changed fields."""
+    from fsmctl.studies.paper_runs import load_case, run_overrides, run_scenario
+
+    for spec in run_plan():
+        text = run_overrides("paper", spec, fast=False)
+        changed = _changed_settings(load_case("paper", spec.case), run_scenario("paper", spec, fast=False))
+        assert (set() if text == "none" else {i.split("=")[0] for i in text.split(", ")}) == changed, spec.key
+
+
+def test_the_run_count_says_how_many_runs_were_flown(tmp_path):
+    """The report's and the CLI's count: 14 runs listed, two of them Case 1's settings (not flown again)."""
+    from dataclasses import replace
+
+    from fsmctl.studies.report import Reproduction
+
+    recs = {spec.key: _record(spec.key, settle=20.0) for spec in run_plan()}
+    for key in ("case3c", "case3c_no_torque_limit"):
+        recs[key] = replace(recs[key], same_as="case1")
+    rep = Reproduction(tmp_path, False, [], recs, _bounds(10.0), [], inertia_check=[], files=[], wall_time_s=1.0)
+    assert rep.run_count == "14 runs (12 flown, 2 the same as another)"
+    recs = {k: replace(r, same_as="") for k, r in recs.items()}
+    assert replace(rep, records=recs).run_count == "14 runs"

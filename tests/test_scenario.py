@@ -358,3 +358,41 @@ def test_a_directed_ring_is_the_hand_written_cycle(tmp_path):
     (tmp_path / "bad.toml").write_text(_THREE_AGENTS + '[topology]\nk_i = 8.0\nkind = "all-to-all"\ndirected = true\n')
     with pytest.raises(ScenarioError, match=r"topology\.directed: true or false, with kind = 'ring' only"):
         load_scenario(tmp_path / "bad.toml")
+
+
+@pytest.mark.parametrize(
+    ("topology", "warned"),
+    [
+        ('kind = "ring"\n', True),  # no weight written: 0 by default, no coordination
+        ('kind = "ring"\nk_i = 0.0\n', True),  # k_j still the default
+        ("links = [{receiver = 1, sender = 2}, {receiver = 2, sender = 1, k_i = 0.0, k_j = 0.0}]\n", True),
+        ('kind = "ring"\nk_i = 0.0\nk_j = 0.0\n', False),  # written: uncoupled on purpose (as Case 2)
+        ('kind = "ring"\nk_i = 1.0\n', False),  # coordinating
+        ('kind = "ring"\nk_j = 0.5\n', False),
+    ],
+)
+def test_links_left_at_the_default_zero_weights_are_warned_about(tmp_path, topology, warned):
+    import warnings
+
+    from fsmctl.model import UncoupledTopologyWarning
+
+    (tmp_path / "s.toml").write_text(_THREE_AGENTS + "[topology]\n" + topology)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scenario = load_scenario(tmp_path / "s.toml")
+    mine = [w for w in caught if w.category is UncoupledTopologyWarning]
+    assert len(mine) == int(warned)
+    if warned:
+        assert str(mine[0].message).startswith("topology: every link has k_i = k_j = 0: the agents do not coordinate")
+        assert mine[0].filename == __file__  # points at the caller's line
+        assert not scenario.topology.k_i_matrix().any() and not scenario.topology.k_j_matrix(0.0).any()
+
+
+def test_the_paper_case_2_writes_its_zero_weights_and_is_not_warned_about():
+    import warnings
+
+    from fsmctl.model import UncoupledTopologyWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UncoupledTopologyWarning)
+        assert not fsmctl.paper_scenario("2").topology.k_i_matrix().any()

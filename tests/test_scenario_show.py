@@ -66,3 +66,36 @@ def test_an_invalid_scenario_is_the_one_line_error_of_every_command(tmp_path, ca
     assert main(["scenario", "show", str(path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("fsmctl scenario: error: ") and "did you mean t_final?" in err and "\n" not in err
+
+
+@pytest.mark.parametrize(
+    ("case", "weights"),
+    [("1", "k_i 8, k_j 0..5"), ("2", "all weights 0: no coordination"), ("3a", "k_i 2, k_j 0..0.6")],
+)
+def test_the_topology_line_gives_the_range_of_the_weights(case, weights, capsys):
+    """The one-line topology summary differs between the cases (Case 2 zeroes every weight; it printed Case 1's
+    line) and points to ``--json``, which lists every link; the ranges are checked against the JSON's links."""
+    assert main(["scenario", "show", "paper", "--case", case, "--json"]) == 0
+    links = json.loads(capsys.readouterr().out)["file"]["topology"]["links"]
+    k_i = [link["k_i"] for link in links]
+    k_j = [v for link in links for v in link["k_j"]["values"]]
+    if max(map(abs, k_i + k_j)) == 0:
+        assert weights == "all weights 0: no coordination"
+    else:
+        assert weights == f"k_i {min(k_i):g}..{max(k_i):g}".replace("8..8", "8").replace("2..2", "2") + (
+            f", k_j {min(k_j):g}..{max(k_j):g}"
+        )
+    assert main(["scenario", "show", "paper", "--case", case]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.lstrip().startswith("topology "))
+    assert f"{len(links)} directed links among 6 agents, {weights} (--json lists every link)" in line
+    assert "the JSON" not in line
+
+
+def test_floats_are_listed_without_binary_noise_but_every_real_difference_shows(capsys):
+    """``0.45`` (stored as 0.44999999999999996 after the case arithmetic) prints as 0.45; a value 1e-14 away from
+    0.45 still prints differently."""
+    assert main(["scenario", "show", "paper", "--case", "1", "--set", "c1=0.45000000000001"]) == 0
+    out = capsys.readouterr().out
+    assert "0.44999999999999996" not in out
+    assert "  agents[2].delta_J          = [[36.0, 0.45, 0.3], [0.45, 48.0, 0.3], [0.3, 0.3, 57.0]]  (file)" in out
+    assert "  controller.c1              = 0.45000000000001  (--set)" in out

@@ -294,3 +294,31 @@ def test_dopri45_counts_wheel_saturation_at_each_step_start_like_rk4():
     with pytest.warns(simulator.DiscontinuousControlWarning):
         dopri = fsmctl.simulate(s.replace(simulation={"integrator": "dopri45"}))
     assert abs(dopri.saturated_time[0] - rk4.saturated_time[0]) < 0.01
+
+
+def test_last_saturation_counts_a_wheel_at_its_torque_limit():
+    """``docs/examples/wheels_and_sensors.toml``: the commands stay inside ``torque_limit`` (0.2 N m) but one wheel of
+    agent 1 sits at its 0.1 N m limit for the first two control periods.  Independently of the summary's rule: the
+    output times at which a recorded motor torque is at its limit (output grid = control grid here) are the
+    saturated ones, their count times the control period is the engine's ``saturated_time``, and the last of them is
+    the summary's ``last_saturation_s`` (the summary said ``never`` before it counted the wheels)."""
+    sc = fsmctl.load_scenario("docs/examples/wheels_and_sensors.toml").replace(simulation={"t_final": 2.0})
+    r = fsmctl.simulate(sc)
+    assert float(np.abs(r.u_unsaturated).max()) < sc.controller.torque_limit  # the clip never acts
+    max_torque = sc.actuator.per_wheel("max_torque")
+    at_limit = np.isclose(np.abs(r.wheel_torque), max_torque, rtol=1e-12, atol=0.0).any(axis=2)  # (T, n)
+    period = sc.simulation.control_period
+    assert period == sc.simulation.output_interval
+    np.testing.assert_allclose(at_limit[:-1].sum(axis=0) * period, r.saturated_time, atol=1e-9)
+    hits = np.nonzero(at_limit.any(axis=1))[0]
+    assert hits.size > 0
+    assert r.summary()["last_saturation_s"] == pytest.approx(float(r.time[hits[-1]]), abs=1e-12)
+    np.testing.assert_array_equal(r.saturated, at_limit)
+
+
+def test_last_saturation_counts_a_wheel_at_its_speed_limit():
+    """A wheel held at its speed limit from about 5.2 s to the end (no torque limit): the last saturation is the
+    last output time, where the wheel's recorded torque is 0 and its speed at the limit."""
+    r = fsmctl.simulate(_spin(10.0, torque_z=0.2, Js=0.05, max_speed=20.0))
+    assert abs(r.wheel_speed[-1, 0, 2]) >= 20.0 and r.wheel_torque[-1, 0, 2] == 0.0
+    assert r.summary()["last_saturation_s"] == float(r.time[-1])

@@ -26,6 +26,7 @@ _ATTRS = {
         "Scenario",
         "ScenarioError",
         "InertiaWarning",
+        "UncoupledTopologyWarning",
         "Agent",
         "Sinusoid",
         "Reference",

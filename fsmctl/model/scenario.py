@@ -78,7 +78,15 @@ from fsmctl.model.scenario_files import (
     _within,
     _written_parameters,
 )
-from fsmctl.model.scenario_values import InertiaWarning, ScenarioError, Text, _strict_str, _validated, check_inertia
+from fsmctl.model.scenario_values import (
+    InertiaWarning,
+    ScenarioError,
+    Text,
+    UncoupledTopologyWarning,
+    _strict_str,
+    _validated,
+    check_inertia,
+)
 from fsmctl.model.settings import (
     _AGENT_FIELDS,
     _CONTROLLER_FIELDS,
@@ -98,6 +106,7 @@ from fsmctl.model.topology import Topology, TopologyError
 __all__ = [
     "ScenarioError",
     "InertiaWarning",
+    "UncoupledTopologyWarning",
     "Sinusoid",
     "Agent",
     "Reference",
@@ -115,6 +124,19 @@ __all__ = [
     "check_inertia",
     "BUILTIN_SCENARIOS",
 ]
+
+
+def _weights_defaulted(table: Mapping[str, Any]) -> bool:
+    """Whether some link of a ``[topology]`` table takes ``k_i`` or ``k_j`` from the default (0), not from a key."""
+    k_i, k_j = "k_i" in table, "schedule" in table or "k_j" in table
+    links = table.get("links")
+    if isinstance(links, Sequence) and not isinstance(links, str):
+        return any(not (k_i or "k_i" in item) or not (k_j or "k_j" in item) for item in links)
+    return not (k_i and k_j)
+
+
+def _link_weights(topology: Topology) -> list[float]:
+    return [w for link in topology.links for w in (link.k_i, *link.k_j.values)]
 
 
 def _is_topology(v: Any) -> Topology:
@@ -751,6 +773,13 @@ def _scenario_from_dict(data: Mapping, case: str | None = None, *, where: str = 
         topology = Topology.from_mapping(merged["topology"], len(agents), where="topology")
     except TopologyError as exc:
         raise ScenarioError(str(exc)) from None
+    if topology.links and _weights_defaulted(merged["topology"]) and not any(_link_weights(topology)):
+        warnings.warn(
+            "topology: every link has k_i = k_j = 0: the agents do not coordinate (write k_i and k_j in [topology];"
+            " write them as 0 to fly an uncoupled formation without this warning)",
+            UncoupledTopologyWarning,
+            stacklevel=_outside(),
+        )
     hardware = _hardware_settings(merged)
     choices = merged.get("choices", {})
     if not isinstance(choices, Mapping):

@@ -112,11 +112,22 @@ class ShownScenario:
 
 
 def _text(value: Any) -> str:
+    """A value as the listing prints it: floats to 15 significant digits (``0.44999999999999996`` is ``0.45``; two
+    floats that differ in the first 15 digits still print differently), strings quoted, lists element by element."""
     if isinstance(value, float):
-        return repr(value)
+        return _number(value)
     if isinstance(value, str):
         return repr(value)
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(_text(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{k!r}: {_text(v)}" for k, v in value.items()) + "}"
     return str(value)
+
+
+def _number(x: float) -> str:
+    text = f"{x:.15g}"
+    return text if any(c in text for c in ".eni") else text + ".0"  # 100.0 stays a float, inf and nan as they are
 
 
 def _has(table: Any, path: Sequence[str]) -> bool:
@@ -263,8 +274,29 @@ def _agent_values(full: Mapping[str, Any], written: _Written) -> list[ShownValue
 
 
 def _topology_text(scenario: Scenario) -> str:
+    """``30 directed links among 6 agents, k_i 0..8, k_j 0..5 (--json lists every link)``: the range of the
+    weights over every link and, for ``k_j``, over its schedule; ``all weights 0: no coordination`` when they
+    vanish."""
     topo = scenario.topology
-    return f"{len(topo.links)} directed links among {topo.n_agents} agents (every link: the JSON's file.topology)"
+    head = f"{len(topo.links)} directed links among {topo.n_agents} agents"
+    if not topo.links:
+        return head
+    k_i = [float(link.k_i) for link in topo.links]
+    k_j = [float(v) for link in topo.links for v in link.k_j.values]
+    if not any(k_i) and not any(k_j):
+        weights = "all weights 0: no coordination"
+    else:
+        weights = ", ".join(f"{name} {_span(values)}" for name, values in (("k_i", k_i), ("k_j", k_j)))
+    return f"{head}, {weights} (--json lists every link)"
+
+
+def _span(values: list[float]) -> str:
+    lo, hi = min(values), max(values)
+    return _short(lo) if lo == hi else f"{_short(lo)}..{_short(hi)}"
+
+
+def _short(x: float) -> str:
+    return f"{x:.15g}"
 
 
 def _plain(value: Any) -> Any:

@@ -45,6 +45,27 @@ class ScenarioError(InputError):
     """
 
 
+class UncoupledTopologyWarning(UserWarning):
+    """A topology declares links but leaves every weight at its default 0: the agents do not coordinate.
+
+    Said when no weight is written for some link (``[topology] kind = "ring"`` without ``k_i`` and ``k_j``); a file
+    that writes the zeros (the paper's Case 2) means them and is not warned about.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> import fsmctl
+    >>> from fsmctl.model.scenario import scenario_from_dict
+    >>> d = fsmctl.paper_scenario("1").to_dict()
+    >>> d["topology"] = {"kind": "ring"}
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = scenario_from_dict(d)
+    >>> [str(w.message) for w in caught if w.category is UncoupledTopologyWarning][0][:56]
+    'topology: every link has k_i = k_j = 0: the agents do no'
+    """
+
+
 class InertiaWarning(UserWarning):
     """An inertia matrix is positive definite but not physically realizable (J1 + J2 < J3).
 

@@ -6,7 +6,6 @@ Made by :func:`fsmctl.simulation.simulator.simulate`; written and read by :mod:`
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -315,12 +314,45 @@ class SimulationResult:
             ),
         }
 
-    def last_saturation_time(self) -> float:
-        """Last output time at which any torque component was at the limit (NaN if never)."""
+    @property
+    def saturated(self) -> np.ndarray:
+        """(T, n) bool: the agent's actuator saturated at each output time, by the rule that adds to
+        :attr:`saturated_time` (``fsmctl/csrc/formation.c``, ``accumulate``).
+
+        Saturated: a commanded torque component beyond ``controller.torque_limit``; with reaction wheels also a
+        wheel at its torque limit (the distribution of the clipped command, :func:`fsmctl.model.distribute`,
+        scales the wheel torques down) or at its speed limit (``|Omega| >= max_speed`` while commanded further).
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.2}))
+        >>> r.saturated.shape, bool(r.saturated[0].all())
+        ((21, 6), True)
+        """
+        if "saturated" in self._cache:
+            return self._cache["saturated"]
+        from fsmctl.model.actuators import distribute, distribution_matrix
+
         limit = self.scenario.controller.effective_torque_limit
-        if not math.isfinite(limit):
-            return float("nan")
-        hit = np.nonzero(np.any(np.abs(self.u_unsaturated) > limit, axis=(1, 2)))[0]
+        flags = np.any(np.abs(self.u_unsaturated) > limit, axis=2)
+        act = self.scenario.actuator
+        if act.enabled and self.wheel_speed is not None:
+            pinv = distribution_matrix(act.spin_axes())
+            max_torque, max_speed = act.per_wheel("max_torque"), act.per_wheel("max_speed")
+            command = np.clip(self.u_unsaturated, -limit, limit)  # the law's applied torque (its saturation)
+            for k, i in np.ndindex(*flags.shape):
+                if flags[k, i]:
+                    continue
+                u_w, scale = distribute(command[k, i], pinv, max_torque)
+                speed = self.wheel_speed[k, i]
+                flags[k, i] = scale > 1.0 or bool(np.any((np.abs(speed) >= max_speed) & (u_w * speed > 0)))
+        self._cache["saturated"] = flags
+        return flags
+
+    def last_saturation_time(self) -> float:
+        """Last output time at which some agent's actuator was saturated (:attr:`saturated`; NaN if never)."""
+        hit = np.nonzero(self.saturated.any(axis=1))[0]
         return float(self.time[hit[-1]]) if hit.size else float("nan")
 
     # --- conversion -------------------------------------------------------------------

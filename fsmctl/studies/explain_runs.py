@@ -174,6 +174,7 @@ def simulate_candidate(data: Mapping[str, Any] | str, candidate: Candidate, spec
         spec,
         scenario,
         result,
+        source=data,
         wall_time_s=wall,
         cpu_time_s=_time.process_time() - cpu,
         metrics=peaks,

@@ -29,6 +29,8 @@ __all__ = [
     "run_plan",
     "load_case",
     "run_scenario",
+    "scenario_overrides",
+    "run_overrides",
     "run_record",
     "execute_run",
 ]
@@ -69,10 +71,10 @@ class RunSpec:
     --------
     >>> spec = RunSpec("case1_no_torque_limit", "1", "Case 1, no torque limit", "the law without saturation",
     ...                controller=(("torque_limit", float("inf")),))
-    >>> spec.overrides
-    'torque_limit=inf'
-    >>> RunSpec("case1_long", "1", "Case 1, long", "", horizon_factor=3.0).overrides
-    't_final x3'
+    >>> spec.controller
+    (('torque_limit', inf),)
+
+    What the run changes in its case, the diagnostic runs' output grid included, is :func:`run_overrides`.
     """
 
     key: str
@@ -83,14 +85,6 @@ class RunSpec:
     simulation: tuple[tuple[str, Any], ...] = ()
     horizon_factor: float = 1.0
     figures: tuple[str, ...] = ()
-
-    @property
-    def overrides(self) -> str:
-        """str: The overrides as ``name=value`` text (``"none"`` for the paper's settings)."""
-        items = [f"{k}={v}" for k, v in self.controller + self.simulation]
-        if self.horizon_factor != 1.0:
-            items.append(f"t_final x{self.horizon_factor:g}")
-        return ", ".join(items) or "none"
 
 
 def run_plan() -> tuple[RunSpec, ...]:
@@ -108,8 +102,8 @@ def run_plan() -> tuple[RunSpec, ...]:
     ['case1', 'case2', 'case3a', 'case3b', 'case3c']
     >>> plan[0].figures  # the single-run analogues of Figs 1-4
     ('aaem', 'raem', 'theta_e', 'torques')
-    >>> len(plan), plan[-1].overrides
-    (14, 't_final x3')
+    >>> len(plan), plan[-1].key, plan[-1].horizon_factor
+    (14, 'case2_long', 3.0)
     """
     inf = math.inf
     return (
@@ -267,7 +261,95 @@ def run_scenario(source: str | Mapping[str, Any], spec: RunSpec, fast: bool):
         return _scenario_for(source, spec, fast)
 
 
-def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
+def _flat(value: Any, path: tuple = ()) -> dict[tuple, Any]:
+    if isinstance(value, Mapping):
+        return {k: v for key, item in value.items() for k, v in _flat(item, (*path, key)).items()}
+    if isinstance(value, list) and value and all(isinstance(v, Mapping) for v in value):
+        return {k: v for i, item in enumerate(value) for k, v in _flat(item, (*path, i + 1)).items()}
+    return {path: value}
+
+
+def _value_text(value: Any) -> str:
+    if isinstance(value, float):
+        return f"{value:.15g}"
+    if isinstance(value, list):
+        return "[" + ", ".join(_value_text(v) for v in value) + "]"
+    return str(value)
+
+
+def scenario_overrides(case, flown) -> str:
+    """What a flown scenario changes in its case: ``name=value`` of every differing setting (one rule for every run).
+
+    The settings are those that decide the run (:data:`~fsmctl.studies.records.FLOWN_SECTIONS`, as
+    :meth:`~fsmctl.model.scenario.Scenario.to_dict` spells them out); a setting is named by its key, or by its
+    path below the section (``agents.2.sigma0``) where the key alone is ambiguous.  Floats are written with 15
+    significant digits (``repr``'s noise dropped, a real difference kept).
+
+    Parameters
+    ----------
+    case : Scenario
+        The case as its source gives it (:func:`load_case`).
+    flown : Scenario
+        The scenario the run flies (:func:`run_scenario`).
+
+    Returns
+    -------
+    str
+        ``"torque_limit=inf, output_interval=0.02"``; ``"none"`` when nothing differs.
+
+    Examples
+    --------
+    >>> case = load_case("paper", "1")
+    >>> scenario_overrides(case, case.replace(controller={"torque_limit": float("inf")}, simulation={"t_final": 300.0}))
+    't_final=300, torque_limit=inf'
+    >>> scenario_overrides(case, case)
+    'none'
+    """
+    from fsmctl.studies.records import FLOWN_SECTIONS
+
+    a, b = case.to_dict(), flown.to_dict()
+    before = _flat({k: a.get(k) for k in FLOWN_SECTIONS})
+    after = _flat({k: b.get(k) for k in FLOWN_SECTIONS})
+    changed = [p for p in after if p not in before or before[p] != after[p]]
+    changed += [p for p in before if p not in after]
+    leaves = [str(p[-1]) for p in changed]
+
+    def name(p: tuple) -> str:
+        return str(p[-1]) if leaves.count(str(p[-1])) == 1 else ".".join(str(k) for k in p[1:])
+
+    return ", ".join(f"{name(p)}={_value_text(after.get(p, '(unset)'))}" for p in changed) or "none"
+
+
+def run_overrides(source: str | Mapping[str, Any], spec: RunSpec, fast: bool) -> str:
+    """The settings a run changes in its case: :func:`scenario_overrides` of :func:`load_case` and
+    :func:`run_scenario`.
+
+    Parameters
+    ----------
+    source, spec, fast
+        As :func:`run_scenario`.
+
+    Returns
+    -------
+    str
+        ``name=value, ...`` (``"none"``: the case as the source gives it).
+
+    Examples
+    --------
+    The diagnostic runs are recorded on a coarser output grid:
+
+    >>> plan = {spec.key: spec for spec in run_plan()}
+    >>> run_overrides("paper", plan["case1_no_torque_limit"], fast=False)
+    'output_interval=0.02, torque_limit=inf'
+    >>> run_overrides("paper", plan["case1"], fast=False)
+    'none'
+    """
+    return scenario_overrides(load_case(source, spec.case), run_scenario(source, spec, fast))
+
+
+def run_record(
+    spec: RunSpec, scenario, result, *, source: str | Mapping[str, Any] = "paper", **fields: Any
+) -> RunRecord:
     """The :class:`~fsmctl.studies.records.RunRecord` of one simulated :class:`RunSpec` (eqs 42-43).
 
     Parameters
@@ -278,6 +360,9 @@ def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
         What was flown (:func:`run_scenario`).
     result : SimulationResult
         Its simulation.
+    source : str or mapping
+        The source of the case (as :func:`run_scenario`); the record's ``overrides`` are what ``scenario`` changes
+        in that case (:func:`scenario_overrides`).
     **fields
         Further fields of the record (``netcdf``, ``figures``, ``wall_time_s``, ``metrics``, ...).
 
@@ -296,6 +381,8 @@ def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
     >>> rec = run_record(spec, scenario, simulate(scenario, progress=False))
     >>> rec.key, rec.steady_window_s, len(rec.theta_e0_deg)  # 40 % of 2 s; one angle per spacecraft
     ('case2', 0.8, 6)
+    >>> rec.overrides
+    't_final=2, output_interval=0.05'
     """
     return RunRecord.from_result(
         spec.key,
@@ -305,7 +392,7 @@ def run_record(spec: RunSpec, scenario, result, **fields: Any) -> RunRecord:
         tolerances_deg=SETTLING_TOLERANCES_DEG,
         title=spec.title,
         purpose=spec.purpose,
-        overrides=spec.overrides,
+        overrides=scenario_overrides(load_case(source, spec.case), scenario),
         case=spec.case,
         describe=scenario.describe(),
         **fields,
@@ -391,7 +478,13 @@ def execute_run(
         stem = out / "figures" / f"{f'fig{number:02d}' if number else 'diag'}_{name}_{spec.key}"
         written += [str(p) for p in figs.save_figure(builders[name](), stem)]
     return run_record(
-        spec, scenario, result, netcdf=str(nc), figures=written, wall_time_s=_time.perf_counter() - started
+        spec,
+        scenario,
+        result,
+        source=source,
+        netcdf=str(nc),
+        figures=written,
+        wall_time_s=_time.perf_counter() - started,
     )
 
 

@@ -134,6 +134,25 @@ class Reproduction:
     explain_wall_time_s: float = 0.0
     documented_applies: bool = False
 
+    @property
+    def run_count(self) -> str:
+        """str: How many runs the report lists and how many were flown (a run with the settings of an earlier one
+        reuses its result, :attr:`~fsmctl.studies.records.RunRecord.same_as`).
+
+        Examples
+        --------
+        >>> from dataclasses import replace
+        >>> rep = one_second_reproduction()  # conftest.py: the 1 s runs, each flown
+        >>> rep.run_count
+        '14 runs'
+        >>> rep.records["case3c"] = replace(rep.records["case3c"], same_as="case1")
+        >>> rep.run_count
+        '14 runs (13 flown, 1 the same as another)'
+        """
+        reused = sum(1 for r in self.records.values() if r.same_as)
+        total = count(len(self.records), "run")
+        return f"{total} ({len(self.records) - reused} flown, {reused} the same as another)" if reused else total
+
     def differences(self) -> list[str] | None:
         """The verdicts that differ from the documented findings (``docs/findings.md``).
 
@@ -461,7 +480,7 @@ def _summary_blocks(rep: Reproduction, explained: dict, checks: list) -> list[Bl
         for row, c in zip(rows, rep.claims, strict=True):
             row.append((change_cell(explained.get(c.id)),))
     command = f"fsmctl reproduce{' --fast' if rep.fast else ''}"
-    timing = f"{count(len(rep.records), 'run')} in {rep.wall_time_s:.1f} s wall time" + (
+    timing = f"{rep.run_count} in {rep.wall_time_s:.1f} s wall time" + (
         f" (the explanations: {rep.explain_wall_time_s:.1f} s)" if rep.explanations is not None else ""
     )
     line += [" ", _documented_sentence(rep)]

@@ -47,7 +47,15 @@ from fsmctl.studies.claims import evaluate_claims
 from fsmctl.studies.explain import explain as explain_claims
 from fsmctl.studies.figure_marks import metric_marks, paper_marks
 from fsmctl.studies.momentum import angular_momentum_bound
-from fsmctl.studies.paper_runs import PAPER_CASES, RunSpec, execute_run, run_plan, run_scenario
+from fsmctl.studies.paper_runs import (
+    PAPER_CASES,
+    RunSpec,
+    execute_run,
+    load_case,
+    run_plan,
+    run_scenario,
+    scenario_overrides,
+)
 from fsmctl.studies.parallel import resolve_workers
 from fsmctl.studies.records import RunRecord, scenario_fingerprint
 from fsmctl.studies.report import Reproduction, write_outputs
@@ -362,7 +370,7 @@ def _orchestrate(study: _Study, case1, workers: int):
         runner.progress(total, unit="task", enabled=study.progress)
         bounds = angular_momentum_bound(case1)
         records = _simulate_runs(study, simulated, runner)
-        _reuse_records(records, reuse, study.plan)
+        _reuse_records(records, reuse, study.plan, study.source)
         files = _render_overlays(records, study.out, runner) if study.figures else []
         records = {s.key: records[s.key] for s in study.plan}
         claims = evaluate_claims(records, bounds)
@@ -393,7 +401,12 @@ def _simulate_runs(study: _Study, simulated: Sequence[RunSpec], runner: Runner) 
     return {rec.key: rec for rec in runner.run(tasks, on_done=done)}
 
 
-def _reuse_records(records: dict[str, RunRecord], reuse: Mapping[str, tuple[str, Any]], plan: Sequence[RunSpec]):
+def _reuse_records(
+    records: dict[str, RunRecord],
+    reuse: Mapping[str, tuple[str, Any]],
+    plan: Sequence[RunSpec],
+    source: str | Mapping[str, Any],
+):
     """The records of the runs identical to an earlier one: its results under their own names."""
     by_key = {s.key: s for s in plan}
     for key, (original, scenario) in reuse.items():
@@ -403,7 +416,7 @@ def _reuse_records(records: dict[str, RunRecord], reuse: Mapping[str, tuple[str,
             key=key,
             title=spec.title,
             purpose=spec.purpose,
-            overrides=spec.overrides,
+            overrides=scenario_overrides(load_case(source, spec.case), scenario),
             case=spec.case,
             label=scenario.label,
             describe=scenario.describe(),
