@@ -31,7 +31,7 @@ from IPython.display import Markdown, display
 
 from fsmctl.studies.figure_marks import paper_marks, torque_marks
 from fsmctl.studies.figures import metric_figure, principal_angles_figure, torques_figure
-from fsmctl.studies.report import format_claims
+from fsmctl.studies.report_text import format_claims
 from fsmctl.studies.reproduce import overlay_figures, reproduce
 
 FAST = os.environ.get("FSMCTL_FAST") == "1"

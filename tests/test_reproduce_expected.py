@@ -16,7 +16,8 @@ from fsmctl.cli.main import main
 from fsmctl.studies.claim_types import DIFFERS, IMPOSSIBLE, REPRODUCED
 from fsmctl.studies.claims import CLAIMS
 from fsmctl.studies.figure_checks import FIGURE_CHECKS
-from fsmctl.studies.report import Reproduction, format_claims
+from fsmctl.studies.report import Reproduction
+from fsmctl.studies.report_text import format_claims
 
 
 def _reproduction(verdicts: dict[str, str], *, applies: bool = True, figures: dict[str, str] | None = None):

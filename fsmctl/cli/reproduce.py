@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         reproduced), else 1; bad input raises :class:`fsmctl.errors.InputError` (exit 2).
     """
     from fsmctl.outputs import output_folder
-    from fsmctl.studies.report import format_claims
+    from fsmctl.studies.report_text import format_claims
     from fsmctl.studies.reproduce import reproduce
 
     with output_folder(args.out):  # a run that fails before writing anything leaves no empty folder

@@ -77,7 +77,8 @@ _ATTRS = {
     "claims": ["CLAIMS", "claim_ids", "get_claim", "evaluate_claims"],
     "figure_checks": ["FIGURE_CHECKS", "FigureCheck"],
     "reproduce": ["overlay_figures"],
-    "report": ["Reproduction", "write_outputs", "to_markdown", "to_html", "format_claims"],
+    "report": ["Reproduction", "write_outputs", "to_markdown", "to_html"],
+    "report_text": ["format_claims"],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]

@@ -259,8 +259,9 @@ def reproduce(
     Examples
     --------
     The whole reproduction takes about 1.5 minutes on 2 cores, its fast mode (10 s horizon, no explanations)
-    a few seconds; neither runs here:
+    10-25 s; neither runs here:
 
+    >>> from fsmctl.studies.report_text import format_claims
     >>> rep = reproduce("paper", "reproduction", fast=True, figures=False)  # doctest: +SKIP
     >>> print(format_claims(rep))  # doctest: +SKIP
 
