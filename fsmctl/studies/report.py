@@ -498,6 +498,7 @@ class _FigureShelf:
 
     def __init__(self, rep: Reproduction) -> None:
         pngs = [_relative(f, rep.out_dir) for f in rep.files if f.endswith(".png")]
+        self.out_dir = Path(rep.out_dir)
         self.left = _in_paper_order(pngs)
 
     def take(self, cited: str) -> list[Figure]:
@@ -505,10 +506,10 @@ class _FigureShelf:
         wanted = figure_numbers(cited)
         taken = [f for f in self.left if _paper_number(f) in wanted]
         self.left = [f for f in self.left if f not in taken]
-        return [Figure(f, _caption(f)) for f in taken]
+        return [Figure(f, _caption(f, self.out_dir)) for f in taken]
 
     def remaining(self) -> list[Figure]:
-        return [Figure(f, _caption(f)) for f in self.left]
+        return [Figure(f, _caption(f, self.out_dir)) for f in self.left]
 
 
 def figure_numbers(cited: str) -> list[int]:
@@ -543,10 +544,22 @@ def _paper_number(path: str) -> int:
     return int(stem[3:5]) if stem.startswith("fig") and stem[3:5].isdigit() else 0
 
 
-def _caption(path: str) -> str:
+def _caption(path: str, out_dir: Path) -> str:
+    """``"Fig 1: <what it shows>"``: the caption :func:`~fsmctl.studies.figures.save_figure` stored in the PNG
+    (the figure's own titles and marks), else the file's stem."""
+    from PIL import Image
+
+    from fsmctl.studies.figures import CAPTION_KEY
+
     n = _paper_number(path)
     stem = Path(path).stem
-    return f"Fig {n} ({stem})" if n else stem
+    try:
+        with Image.open(out_dir / path) as png:
+            shows = str(getattr(png, "text", {}).get(CAPTION_KEY, ""))
+    except OSError:  # missing or unreadable: the report still lists it
+        shows = ""
+    name = f"Fig {n}" if n else stem
+    return f"{name}: {shows}" if shows else (f"Fig {n} ({stem})" if n else stem)
 
 
 def _runs_text(rep: Reproduction, keys: str) -> list[str | Span]:
