@@ -27,7 +27,14 @@ from matplotlib.colors import to_hex
 from fsmctl import paper_scenario, simulate
 from fsmctl import studies as R
 from fsmctl.studies import figures as F
-from fsmctl.studies.figure_marks import ABOVE_RANGE_GID, LABEL_GID, REFERENCE_GID, paper_marks
+from fsmctl.studies.figure_marks import (
+    ABOVE_RANGE_GID,
+    LABEL_GID,
+    REFERENCE_GID,
+    TAIL_GID,
+    figure_caption,
+    paper_marks,
+)
 from fsmctl.studies.paper_statements import (
     CASE2_TRACKING_ERROR,
     RELATIVE_ACCURACY,
@@ -540,7 +547,7 @@ def test_commanded_torques_without_a_limit_show_their_transient():
     fig.canvas.draw()
     peak_px = fig.axes[0].transData.transform((0.0, 2.4e4))[1] - fig.axes[0].transData.transform((0.0, 2.0))[1]
     assert peak_px > 0.5 * fig.axes[0].bbox.height / 2  # the peak is not squashed onto the level
-    (note,) = [text.get_text() for text in fig.axes[0].texts if text.get_gid() == F.TAIL_GID]
+    (note,) = [text.get_text() for text in fig.axes[0].texts if text.get_gid() == TAIL_GID]
     assert f"t > {settled:.3g} s" in note and "< 2 N m" in note
     # with a finite limit the whole run is shown
     assert F.torques_figure(t, np.clip(u, -2, 2), 2.0, marks=torque_marks()).axes[0].get_xlim() == (0.0, 100.0)
@@ -560,7 +567,7 @@ def test_the_report_captions_say_what_each_figure_shows(case1_run, tmp_path):
     rep = R.Reproduction(tmp_path, True, ["x"], records, bounds, R.evaluate_claims(records, bounds), [], files, 0.0)
     shown = {line[line.index("](") + 2 : -1]: line[2 : line.index("](")]
              for line in R.to_markdown(rep).splitlines() if line.startswith("![")}  # fmt: skip
-    assert shown["figures/fig01_aaem_case1.png"] == f"Fig 1: {F.figure_caption(fig1)}"
-    assert shown["figures/diag_aaem_long_horizon.png"] == f"diag_aaem_long_horizon: {F.figure_caption(long)}"
-    caption = F.figure_caption(fig1)
+    assert shown["figures/fig01_aaem_case1.png"] == f"Fig 1: {figure_caption(fig1)}"
+    assert shown["figures/diag_aaem_long_horizon.png"] == f"diag_aaem_long_horizon: {figure_caption(long)}"
+    caption = figure_caption(fig1)
     assert caption.startswith("AAEM, Case 1") and TRACKING_ACCURACY.label.removeprefix("paper: ") in caption

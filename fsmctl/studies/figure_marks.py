@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -36,6 +37,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.text import Text
 
@@ -51,6 +53,11 @@ __all__ = [
     "torque_marks",
     "keep_coinciding_visible",
     "text_box",
+    "TAIL_GID",
+    "zoom_on_transient",
+    "CAPTION_KEY",
+    "figure_caption",
+    "read_caption",
 ]
 
 REFERENCE_GID = "reference"
@@ -408,6 +415,138 @@ def span_text(lo: float, hi: float, unit: str) -> str:
     """``"0-0.04°"``: a y range in a title."""
     sep = "" if unit == "°" else " "
     return f"{lo:g}-{hi:g}{sep}{unit}" if math.isfinite(hi) else f"from {lo:g}{sep}{unit}"
+
+
+TAIL_GID = "small-tail"
+"""``gid`` of the note of a torque figure whose time axis ends before the run: the torques after it are small."""
+
+
+def zoom_on_transient(axes: Sequence[Axes], time: np.ndarray, u: np.ndarray, marks: ReferenceMarks | None) -> None:
+    """Without a torque limit: end the time axis at 3 times the time after which every ``|(u_i)_k|`` stays below
+    the marks' level (the paper's 2 N m), when that is under a third of the run, and say so in the top panel;
+    torques of more than 100 times the level get a symmetric-log y axis, linear within ``±level``.
+
+    A commanded torque of 1e4 N m that decays in 3 s is otherwise a line at the start of a 100 s axis.
+
+    Parameters
+    ----------
+    axes : sequence of Axes
+        The panels of a torque figure (sharing the time axis; the note goes to the first).
+    time : (T,) array
+        Time (s).
+    u : (T, n, 3) array
+        The torques (N m).
+    marks : ReferenceMarks, optional
+        Their levels set the threshold (none: nothing changes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from matplotlib.figure import Figure
+    >>> t = np.linspace(0.0, 100.0, 1001)
+    >>> u = 1e4 * np.exp(-t / 0.2)[:, None, None] * np.ones((1, 1, 3))  # below 2 N m after 1.8 s
+    >>> ax = Figure().add_subplot()
+    >>> zoom_on_transient([ax], t, u, torque_marks())
+    >>> round(ax.get_xlim()[1], 6), ax.get_yscale(), [text.get_text() for text in ax.texts]
+    (5.4, 'symlog', ['t > 1.8 s (to 100 s): |(u_i)_k| < 2 N m'])
+    """
+    level = max((abs(m.value) for m in marks.levels), default=0.0) if marks is not None else 0.0
+    if level <= 0.0:
+        return
+    peak = np.max(np.abs(u), axis=(1, 2))
+    above = np.flatnonzero(~(peak < level))  # NaN counts as above
+    if above.size == 0 or above[-1] + 1 >= time.size:
+        return
+    t0, t_end = float(time[0]), float(time[-1])
+    settled = float(time[above[-1] + 1])
+    end = t0 + 3.0 * (settled - t0)
+    if end >= t0 + (t_end - t0) / 3.0:
+        return
+    axes[-1].set_xlim(t0, end)
+    if float(np.nanmax(peak)) > 100.0 * level:  # decades above the level: linear within it, logarithmic beyond
+        for ax in axes:
+            ax.set_yscale("symlog", linthresh=level)
+    unit = marks.unit if marks is not None else "N m"
+    axes[0].text(0.99, 0.96, f"t > {settled:.3g} s (to {t_end:g} s): |(u_i)_k| < {level:g} {unit}",
+                 transform=axes[0].transAxes, ha="right", va="top", fontsize=8, gid=TAIL_GID,
+                 bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.9})  # fmt: skip
+
+
+CAPTION_KEY = "Description"
+"""The metadata key under which :func:`fsmctl.studies.figures.save_figure` stores :func:`figure_caption` in the PNG and the SVG."""
+
+
+def figure_caption(fig: Figure) -> str:
+    """What a figure shows, in one line: its title, its zoom's, and the paper's values it marks.
+
+    The caption is read from the figure itself (its titles and the labels of its reference marks,
+    :data:`REFERENCE_GID`), so that a report's caption and the figure say the same.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        A figure of :mod:`fsmctl.studies.figures`.
+
+    Returns
+    -------
+    str
+        ``"<title>; inset: <zoom title>. The paper's marks: <mark>, <mark>"`` (the parts a figure has).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.studies.figures import metric_figure
+    >>> t = np.linspace(0.0, 100.0, 1001)
+    >>> print(figure_caption(metric_figure(t, 0.02 + 0 * t, title="AAEM, Case 1", marks=paper_marks(1))))
+    AAEM, Case 1; inset: zoom 0-0.04° (the paper's inset). The paper's marks: Fig 1: 0-300° axis (ticks every 50°), 27 s, Case 1 AAEM < 0.03°
+    """
+    suptitle = fig.get_suptitle()
+    main = [ax for ax in fig.axes if ax.get_title()]
+    title = suptitle or (main[0].get_title() if main else "")
+    parts = [" ".join(title.split("\n")[0].split())] if title else []
+    insets = [inset.get_title() for ax in fig.axes for inset in ax.child_axes if inset.get_title()]
+    insets += [ax.get_title() for ax in main[1:] if not suptitle]
+    parts += [f"inset: {text}" for text in insets[:1]]
+    labels: list[str] = []
+    for axes in [*fig.axes, *(inset for ax in fig.axes for inset in ax.child_axes)]:
+        for artist in axes.get_children():
+            label = artist.get_label() if artist.get_gid() == REFERENCE_GID else ""
+            label = label.removeprefix("paper: ").removeprefix("paper's ")
+            if label and label not in labels:
+                labels.append(label)
+    caption = "; ".join(parts)
+    return caption + (f". The paper's marks: {', '.join(labels)}" if labels else "")
+
+
+def read_caption(png: str | Path) -> str:
+    """The caption :func:`fsmctl.studies.figures.save_figure` stored in a PNG (:data:`CAPTION_KEY`), or ``""``.
+
+    Parameters
+    ----------
+    png : str or Path
+        A PNG file.
+
+    Returns
+    -------
+    str
+        :func:`figure_caption` of the saved figure; ``""`` when the file is missing, unreadable or has none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.studies.figures import metric_figure, save_figure
+    >>> t = np.linspace(0.0, 10.0, 101)
+    >>> png, _ = save_figure(metric_figure(t, 50 * np.exp(-t), title="AAEM, a test"), "figures/aaem")
+    >>> read_caption(png), read_caption("figures/none.png")
+    ('AAEM, a test; inset: t ≥ 5 s', '')
+    """
+    from PIL import Image
+
+    try:
+        with Image.open(png) as image:
+            return str(getattr(image, "text", {}).get(CAPTION_KEY, ""))
+    except OSError:
+        return ""
 
 
 # ----------------------------------------------------------------------------- runs that coincide

@@ -47,13 +47,16 @@ from matplotlib.figure import Figure
 
 from fsmctl.model.time_response import agent_color
 from fsmctl.studies.figure_marks import (
+    CAPTION_KEY,
     ReferenceMarks,
     draw_box,
     draw_marks,
+    figure_caption,
     include_levels,
     keep_coinciding_visible,
     note_above_range,
     span_text,
+    zoom_on_transient,
 )
 
 if TYPE_CHECKING:
@@ -72,8 +75,6 @@ __all__ = [
     "torques_figure",
     "overlay_figure",
     "simulation_figures",
-    "figure_caption",
-    "CAPTION_KEY",
     "save_figure",
 ]
 
@@ -584,7 +585,7 @@ def torques_figure(
     axes[-1].set_xlabel("time (s)")
     axes[-1].set_xlim(float(time[0]), float(time[-1]))
     if not finite:
-        _zoom_on_transient(axes, time, u, marks)
+        zoom_on_transient(axes, time, u, marks)
     entries = dict(zip(*reversed(axes[0].get_legend_handles_labels()), strict=True))  # label -> handle, once each
     fig.legend(entries.values(), entries.keys(), loc="outside right upper", fontsize=8)
     limit = f"|u_k| ≤ {torque_limit:g} N m" if finite else "no torque limit"
@@ -593,39 +594,6 @@ def torques_figure(
         title += f"\n{len(shown)} of {n} agents drawn (largest RMS torque); band: all {n}"
     fig.suptitle(title)
     return fig
-
-
-TAIL_GID = "small-tail"
-"""``gid`` of the note of a torque figure whose time axis ends before the run: the torques after it are small."""
-
-
-def _zoom_on_transient(axes: Sequence[Axes], time: np.ndarray, u: np.ndarray, marks: ReferenceMarks | None) -> None:
-    """Without a torque limit: end the time axis at 3 times the time after which every ``|(u_i)_k|`` stays below
-    the marks' level (the paper's 2 N m), when that is under a third of the run, and say so in the top panel;
-    torques of more than 100 times the level get a symmetric-log y axis, linear within ``±level``.
-
-    A commanded torque of 1e4 N m that decays in 3 s is otherwise a line at the start of a 100 s axis.
-    """
-    level = max((abs(m.value) for m in marks.levels), default=0.0) if marks is not None else 0.0
-    if level <= 0.0:
-        return
-    peak = np.max(np.abs(u), axis=(1, 2))
-    above = np.flatnonzero(~(peak < level))  # NaN counts as above
-    if above.size == 0 or above[-1] + 1 >= time.size:
-        return
-    t0, t_end = float(time[0]), float(time[-1])
-    settled = float(time[above[-1] + 1])
-    end = t0 + 3.0 * (settled - t0)
-    if end >= t0 + (t_end - t0) / 3.0:
-        return
-    axes[-1].set_xlim(t0, end)
-    if float(np.nanmax(peak)) > 100.0 * level:  # decades above the level: linear within it, logarithmic beyond
-        for ax in axes:
-            ax.set_yscale("symlog", linthresh=level)
-    unit = marks.unit if marks is not None else "N m"
-    axes[0].text(0.99, 0.96, f"t > {settled:.3g} s (to {t_end:g} s): |(u_i)_k| < {level:g} {unit}",
-                 transform=axes[0].transAxes, ha="right", va="top", fontsize=8, gid=TAIL_GID,
-                 bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.9})  # fmt: skip
 
 
 def _torque_limits(ax: Axes, torque_limit: float, marks: ReferenceMarks | None) -> None:
@@ -777,58 +745,11 @@ def simulation_figures(result: SimulationResult, *, tolerances_deg: Sequence[flo
     }
 
 
-CAPTION_KEY = "Description"
-"""The metadata key under which :func:`save_figure` stores :func:`figure_caption` in the PNG and the SVG."""
-
-
-def figure_caption(fig: Figure) -> str:
-    """What a figure shows, in one line: its title, its zoom's, and the paper's values it marks.
-
-    The caption is read from the figure itself (its titles and the labels of its reference marks,
-    :data:`fsmctl.studies.figure_marks.REFERENCE_GID`), so that a report's caption and the figure say the same.
-
-    Parameters
-    ----------
-    fig : matplotlib.figure.Figure
-        A figure of this module's builders.
-
-    Returns
-    -------
-    str
-        ``"<title>; inset: <zoom title>. The paper's marks: <mark>, <mark>"`` (the parts a figure has).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from fsmctl.studies.figure_marks import paper_marks
-    >>> t = np.linspace(0.0, 100.0, 1001)
-    >>> print(figure_caption(metric_figure(t, 0.02 + 0 * t, title="AAEM, Case 1", marks=paper_marks(1))))
-    AAEM, Case 1; inset: zoom 0-0.04° (the paper's inset). The paper's marks: Fig 1: 0-300° axis (ticks every 50°), 27 s, Case 1 AAEM < 0.03°
-    """
-    from fsmctl.studies.figure_marks import REFERENCE_GID
-
-    suptitle = fig.get_suptitle()
-    main = [ax for ax in fig.axes if ax.get_title()]
-    title = suptitle or (main[0].get_title() if main else "")
-    parts = [" ".join(title.split("\n")[0].split())] if title else []
-    insets = [inset.get_title() for ax in fig.axes for inset in ax.child_axes if inset.get_title()]
-    insets += [ax.get_title() for ax in main[1:] if not suptitle]
-    parts += [f"inset: {text}" for text in insets[:1]]
-    labels: list[str] = []
-    for axes in [*fig.axes, *(inset for ax in fig.axes for inset in ax.child_axes)]:
-        for artist in axes.get_children():
-            label = artist.get_label() if artist.get_gid() == REFERENCE_GID else ""
-            label = label.removeprefix("paper: ").removeprefix("paper's ")
-            if label and label not in labels:
-                labels.append(label)
-    caption = "; ".join(parts)
-    return caption + (f". The paper's marks: {', '.join(labels)}" if labels else "")
-
-
 def save_figure(fig: Figure, stem: str | Path, *, dpi: int = 130) -> list[Path]:
     """Write ``fig`` as ``stem.png`` and ``stem.svg`` (parent folders are created), each atomically.
 
-    Both files carry :func:`figure_caption` as metadata (:data:`CAPTION_KEY`), which a report shows as the caption.
+    Both files carry :func:`~fsmctl.studies.figure_marks.figure_caption` as metadata
+    (:data:`~fsmctl.studies.figure_marks.CAPTION_KEY`), which a report shows as the caption.
 
     Parameters
     ----------

@@ -545,21 +545,10 @@ def _paper_number(path: str) -> int:
 
 
 def _caption(path: str, out_dir: Path) -> str:
-    """``"Fig 1: <what it shows>"``: the caption :func:`~fsmctl.studies.figures.save_figure` stored in the PNG
-    (the figure's own titles and marks), else the file's stem."""
-    from PIL import Image
+    from fsmctl.studies.figure_marks import read_caption  # what the figure shows, as saved with it
 
-    from fsmctl.studies.figures import CAPTION_KEY
-
-    n = _paper_number(path)
-    stem = Path(path).stem
-    try:
-        with Image.open(out_dir / path) as png:
-            shows = str(getattr(png, "text", {}).get(CAPTION_KEY, ""))
-    except OSError:  # missing or unreadable: the report still lists it
-        shows = ""
-    name = f"Fig {n}" if n else stem
-    return f"{name}: {shows}" if shows else (f"Fig {n} ({stem})" if n else stem)
+    n, stem, shows = _paper_number(path), Path(path).stem, read_caption(out_dir / path)
+    return (f"Fig {n}: {shows}" if n else f"{stem}: {shows}") if shows else (f"Fig {n} ({stem})" if n else stem)
 
 
 def _runs_text(rep: Reproduction, keys: str) -> list[str | Span]:
