@@ -16,6 +16,7 @@ What is checked, each against an independent reason:
 
 from __future__ import annotations
 
+import math
 import random
 from pathlib import Path
 
@@ -26,7 +27,14 @@ from matplotlib.colors import to_hex
 from fsmctl import paper_scenario, simulate
 from fsmctl import studies as R
 from fsmctl.studies import figures as F
-from fsmctl.studies.figure_marks import paper_marks
+from fsmctl.studies.figure_marks import (
+    ABOVE_RANGE_GID,
+    LABEL_GID,
+    REFERENCE_GID,
+    TAIL_GID,
+    figure_caption,
+    paper_marks,
+)
 from fsmctl.studies.paper_statements import (
     CASE2_TRACKING_ERROR,
     RELATIVE_ACCURACY,
@@ -314,6 +322,15 @@ def test_the_insets_zoom_to_the_printed_inset_range_and_say_when_the_run_is_abov
     assert top > printed_axes(figure).inset_ylim[1]
     notes = [t.get_text() for t in zoom.texts if "above" in t.get_text()]
     assert len(notes) == 1 and f"max {top:.3g}°" in notes[0]
+    # each run's line gives that run's own values (a note never pairs one run's max with another's min)
+    runs = [ln for ln in fig.axes[0].lines if ln.get_gid() is None]
+    if len(runs) > 1:
+        for line in runs:
+            values = np.asarray(line.get_ydata(), float)
+            (own,) = [
+                row for row in notes[0].splitlines() if row.startswith(f"{line.get_label().split(' (under')[0]}:")
+            ]
+            assert f"max {np.nanmax(values):.3g}°" in own
 
 
 def test_a_run_inside_the_inset_range_gets_no_note():
@@ -459,3 +476,98 @@ def test_the_readme_example_saves_every_figure_it_plots(tmp_path, monkeypatch):
         plt.close("all")
     (name,) = [part.split('"')[1] for part in plots[0].split("savefig(")[1:]]
     assert (tmp_path / name).read_bytes()[:4] == b"\x89PNG"
+
+
+# ----------------------------------------------------------------------------- what a reader of the figures sees
+
+
+def test_the_inset_note_of_an_overlay_gives_each_runs_own_values():
+    """Fig 5's note said "max 166°, min 57.9°": Case 1's maximum with Case 2's minimum."""
+    t = np.linspace(0.0, 100.0, 1001)
+    case2 = 154.0 - 96.1 * t / 100.0  # 154° down to 57.9°
+    case1 = 124.5 + 41.5 * np.sin(t / 7.0)  # 83° to 166°
+    fig = F.overlay_figure({"Case 2": (t, case2), "Case 1": (t, case1)}, ylabel="AAEM", title="Fig 5",
+                           marks=paper_marks(5))  # fmt: skip
+    (note,) = [text.get_text() for text in _zoom(fig).texts if text.get_gid() == ABOVE_RANGE_GID]
+    rows = {row.split(":")[0]: row for row in note.splitlines()[1:]}
+    assert set(rows) == {"Case 1", "Case 2"}
+    for label, values in (("Case 1", case1), ("Case 2", case2)):
+        assert f"max {values.max():.3g}°" in rows[label] and f"min {values.min():.3g}°" in rows[label]
+
+
+def test_the_fig1_inset_note_covers_no_label_and_uses_the_papers_relation():
+    from fsmctl.studies.claims import get_claim
+    from fsmctl.studies.figure_marks import text_box
+
+    t = np.linspace(0.0, 100.0, 1001)
+    fig = F.metric_figure(t, 120.0 + 20.0 * np.sin(t / 5.0), title="AAEM, Case 1", marks=paper_marks(1))
+    (zoom,) = fig.axes[0].child_axes  # an inset, as in the reproduction's Fig 1
+    fig.canvas.draw()
+    (note,) = [text for text in zoom.texts if text.get_gid() == ABOVE_RANGE_GID]
+    labels = [text for text in zoom.texts if text.get_gid() == LABEL_GID]
+    assert TRACKING_ACCURACY.label in [text.get_text() for text in labels]
+    clearance = 1.0 * fig.dpi / 72.0  # at least 1 pt between the note's box and every label's
+    for label in labels:
+        assert not text_box(note).padded(clearance).overlaps(text_box(label)), label.get_text()
+    # the band's label lies inside the band, clear of its edge (the grid line at 0.03°)
+    (band,) = [text for text in labels if text.get_text() == TRACKING_ACCURACY.label]
+    edge = zoom.transData.transform((0.0, TRACKING_ACCURACY.value))[1]
+    assert text_box(band).y1 < edge
+    # the paper's relation, as the claims state it: "< 0.03°"
+    assert f"{TRACKING_ACCURACY.relation} {TRACKING_ACCURACY.text}" == get_claim("tracking_accuracy").paper_value
+
+
+def test_the_accuracy_band_of_a_diagnostic_says_whose_accuracy_it_is():
+    """The long-horizon figure shaded "AAEM ≤ 0.03°" over Case 2: the band is the paper's Case 1 accuracy."""
+    from fsmctl.studies.figure_marks import metric_marks
+
+    t = np.linspace(0.0, 300.0, 301)
+    fig = F.overlay_figure({"Case 1": (t, 100.0 + 0 * t), "Case 2": (t, 100.0 * np.exp(-t / 30.0))}, ylabel="AAEM",
+                           title="long horizon", log=True, marks=metric_marks("aaem"))  # fmt: skip
+    ax = fig.axes[0]
+    (band,) = [a for a in ax.patches if a.get_gid() == REFERENCE_GID]
+    assert band.get_label().startswith("paper: Case 1 AAEM")
+    assert band.get_label() in [text.get_text() for text in ax.texts]
+
+
+def test_commanded_torques_without_a_limit_show_their_transient():
+    """A 2.4e4 N m peak that decays within 3 s was a line at the start of a 100 s axis."""
+    from fsmctl.studies.figure_marks import torque_marks
+
+    t = np.linspace(0.0, 100.0, 10001)
+    u = np.zeros((t.size, 2, 3))
+    u[:, 0, 0] = 2.4e4 * np.exp(-t / 0.2)  # falls below 2 N m at 0.2 ln(1.2e4) = 1.88 s
+    u[:, 1, 2] = -1.0 + 0.0 * t
+    fig = F.torques_figure(t, u, math.inf, marks=torque_marks())
+    settled = float(t[np.flatnonzero(np.abs(u).max(axis=(1, 2)) >= 2.0)[-1] + 1])
+    lo, hi = fig.axes[0].get_xlim()
+    assert lo == 0.0 and 2.0 * settled < hi < 10.0
+    # the peak is drawn inside the y range, and the 2 N m level too (a symmetric-log axis holds both)
+    assert fig.axes[0].get_ylim()[1] >= 2.4e4 and fig.axes[0].get_yscale() == "symlog"
+    fig.canvas.draw()
+    peak_px = fig.axes[0].transData.transform((0.0, 2.4e4))[1] - fig.axes[0].transData.transform((0.0, 2.0))[1]
+    assert peak_px > 0.5 * fig.axes[0].bbox.height / 2  # the peak is not squashed onto the level
+    (note,) = [text.get_text() for text in fig.axes[0].texts if text.get_gid() == TAIL_GID]
+    assert f"t > {settled:.3g} s" in note and "< 2 N m" in note
+    # with a finite limit the whole run is shown
+    assert F.torques_figure(t, np.clip(u, -2, 2), 2.0, marks=torque_marks()).axes[0].get_xlim() == (0.0, 100.0)
+
+
+def test_the_report_captions_say_what_each_figure_shows(case1_run, tmp_path):
+    from fsmctl.studies.figure_marks import metric_marks
+
+    records = {s.key: R.run_record(s, case1_run.scenario, case1_run) for s in R.run_plan()}
+    t = case1_run.time
+    fig1 = F.metric_figure(t, case1_run.aaem_deg, title="AAEM, Case 1", marks=paper_marks(1))
+    long = F.overlay_figure({"Case 1": (t, case1_run.aaem_deg)}, ylabel="AAEM", title="long horizon", log=True,
+                            marks=metric_marks("aaem"))  # fmt: skip
+    files = [str(p) for p in F.save_figure(fig1, tmp_path / "figures" / "fig01_aaem_case1")]
+    files += [str(p) for p in F.save_figure(long, tmp_path / "figures" / "diag_aaem_long_horizon")]
+    bounds = [R.MomentumBound(i + 1, 2.0, 100.0, 100.0, 28.0, 30.0, 30.0, 0.01) for i in range(6)]
+    rep = R.Reproduction(tmp_path, True, ["x"], records, bounds, R.evaluate_claims(records, bounds), [], files, 0.0)
+    shown = {line[line.index("](") + 2 : -1]: line[2 : line.index("](")]
+             for line in R.to_markdown(rep).splitlines() if line.startswith("![")}  # fmt: skip
+    assert shown["figures/fig01_aaem_case1.png"] == f"Fig 1: {figure_caption(fig1)}"
+    assert shown["figures/diag_aaem_long_horizon.png"] == f"diag_aaem_long_horizon: {figure_caption(long)}"
+    caption = figure_caption(fig1)
+    assert caption.startswith("AAEM, Case 1") and TRACKING_ACCURACY.label.removeprefix("paper: ") in caption

@@ -12,6 +12,7 @@ import signal
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import optuna
@@ -429,7 +430,7 @@ def test_ensemble_quantile(unlimited, tmp_path):
         ({"quantile": 1.5}, "quantile must be in"),
         ({"parameters": ("K", "nope")}, "has no parameter 'nope'"),
         ({"law": "no-such-law"}, "not a built-in law"),
-        ({"parameters": ("K",), "ranges": ()}, "no declared upper bound"),
+        ({"parameters": ("K",), "ranges": ()}, r"no declared range to search for K \(no upper bound"),
         ({"ranges": (("K", -1.0, 5.0), ("P", 10.0, 400.0))}, "range of K: must be > 0"),
         ({"tolerance_deg": 0.0}, "tolerance_deg must be"),
         ({"batch": 0}, "batch must be"),
@@ -458,7 +459,7 @@ def test_cli(unlimited, tmp_path, capsys):
         (["--budget", "0"], "--budget: must be >= 1"),
         (["--quantile", "1.5"], "--quantile: must be in [0, 1]"),
         (["--range", "K=5"], "expected NAME=LOW,HIGH"),
-        (["--parameters", "K"], "no declared upper bound"),
+        (["--parameters", "K"], "no declared range to search for K (no upper bound"),
         (["--parameters", "K,P", "--range", "K=1,2", "--range", "P=1,2", "--workers", "0"], "--workers: must be >= 1"),
         (["--parameters", "K,P", "--batch", "0"], "--batch: must be >= 1"),
         (["--parameters", "K,P", "--pruner", "often"], "--pruner: invalid choice"),
@@ -490,6 +491,10 @@ def test_cli(unlimited, tmp_path, capsys):
     header = (out / "best.toml").read_text().split("extends")[0]
     assert "# versions: fsmctl " in header and f"# command: {record['command']}" in header
     assert load_scenario(out / "best.toml").controller.law == "pid"
+    # the tuned scenario is named relative to best.toml's folder (both lie under pytest's temporary folder)
+    (extends,) = [line for line in (out / "best.toml").read_text().splitlines() if line.startswith("extends = ")]
+    target = extends.removeprefix("extends = ").strip('"')
+    assert not Path(target).is_absolute() and (out / target).resolve() == Path(unlimited).resolve(), extends
 
 
 def test_help_documents_every_option_objective_and_constraint(capsys):

@@ -151,3 +151,80 @@ def test_the_horizon_is_marked_where_a_settling_objective_is_a_penalty():
     assert result.settled("aaem_settling", 4.0) and not result.settled("aaem_settling", unsettled)
     assert result.settled("peak_torque", 4.0) is None
     assert math.isclose(unsettled, 30.0) and "scored 30 s = 3 x horizon" in result.objective_text("aaem_settling", 30.0)
+
+
+# ----------------------------------------------------------------------------- what the lines and best.toml say
+
+
+def test_every_missing_range_is_named_in_one_message():
+    """A first run refused c1, then (after --range c1=...) c2, then boundary_layer: one message names them all."""
+    from fsmctl.errors import InputError
+
+    with pytest.raises(InputError) as info:
+        search_space(TuneSettings(law="fsm", parameters=("c1", "alpha", "c2", "boundary_layer")))
+    message = str(info.value)
+    assert "\n" not in message
+    for name in ("c1", "c2", "boundary_layer"):
+        assert f"{name} (no upper bound" in message and f"--range {name}=LOW,HIGH" in message
+    assert "alpha" not in message  # declared on both sides: searched, not missing
+
+
+def _one_trial(settings: TuneSettings, space: list[SearchParameter], params: dict) -> TuneResult:
+    trial = {"index": 0, "state": "complete", "feasible": True, "params": params,
+             "objectives": {name: 1.0 for name in settings.objectives}, "constraints": {}, "pruned_at": None,
+             "error": ""}  # fmt: skip
+    return TuneResult(settings, space, (), [trial], [0], 0, None, 10.0)
+
+
+def test_a_dimensionless_parameter_is_printed_without_a_unit():
+    """``alpha: 0.5 .. 1 1`` and ``alpha=0.534771 1`` read like typos: unit "1" is not printed."""
+    from fsmctl import paper_scenario
+    from fsmctl.studies.tune import best_scenario_text
+
+    settings = TuneSettings(law="fsm", parameters=("c1", "alpha"), ranges={"c1": (0.1, 2.0)})
+    space = search_space(settings)
+    assert [p.unit for p in space] == ["1/s", "1"]
+    rows = search_space_lines(settings, space)[1:]
+    assert rows == [
+        "  c1: 0.1 .. 2 1/s, uniform (range given)",
+        "  alpha: 0.5 .. 1, uniform (the law's declared range)",
+    ]
+    result = _one_trial(settings, space, {"c1": 0.25, "alpha": 0.534771})
+    (best,) = [line for line in result.to_text().splitlines() if line.startswith("best: ")]
+    assert "c1=0.25 1/s, alpha=0.534771;" in best, best
+    summary = best_scenario_text(result, paper_scenario("1")).splitlines()[1]
+    assert summary == "# c1 = 0.25 1/s, alpha = 0.534771", summary
+
+
+def test_best_toml_names_its_scenario_and_law_relative_to_its_folder(tmp_path):
+    import shutil
+
+    from fsmctl import load_scenario
+    from fsmctl.model.toml_writer import toml_value
+    from fsmctl.studies.tune import best_scenario_text
+
+    project = tmp_path / "project"
+    scenario = project / "scenarios" / "base.toml"
+    scenario.parent.mkdir(parents=True)
+    scenario.write_text('extends = "paper"\nname = "base"\n')
+    out = project / "runs" / "tuned"
+    out.mkdir(parents=True)
+    settings = TuneSettings(scenario=str(scenario), law="fsm", parameters=("c1",), ranges={"c1": (0.1, 2.0)})
+    result = _one_trial(settings, search_space(settings), {"c1": 0.25})
+    text = best_scenario_text(result, load_scenario(scenario), folder=out)
+    assert 'extends = "../../scenarios/base.toml"' in text.splitlines()
+    (out / "best.toml").write_text(text)
+    assert (out / "../../scenarios/base.toml").resolve() == scenario.resolve()  # the same file
+    assert load_scenario(out / "best.toml").controller.parameters["c1"] == 0.25
+    moved = tmp_path / "moved"
+    shutil.move(project, moved)  # the study's folder moves with the scenario: best.toml still flies the design
+    assert load_scenario(moved / "runs" / "tuned" / "best.toml").controller.parameters["c1"] == 0.25
+    # a law script is named relative to the folder too; with no common folder but the root, paths stay absolute
+    script = project / "laws" / "my_law.py"
+    law = TuneSettings(scenario=str(scenario), law=str(script), parameters=("K",), ranges={"K": (1.0, 2.0)})
+    space = [SearchParameter("K", "N m", 1.0, 2.0, False, 1)]
+    lines = best_scenario_text(_one_trial(law, space, {"K": 1.5}), load_scenario(moved / "scenarios" / "base.toml"),
+                               folder=out).splitlines()  # fmt: skip
+    assert 'law = "../../laws/my_law.py"' in lines
+    rooted = best_scenario_text(result, load_scenario(moved / "scenarios" / "base.toml"), folder="/").splitlines()
+    assert f"extends = {toml_value(str(scenario.resolve()))}" in rooted

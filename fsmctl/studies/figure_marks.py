@@ -1,8 +1,8 @@
 """Reference marks on the figures: the paper's stated values drawn beside the reproduction, each with its label.
 
 A :class:`ReferenceMarks` says what a figure marks: vertical lines at stated times (the 27 s settling time),
-horizontal lines at stated levels (the ±2 N m torque bound, Case 2's errors), shaded accuracy bands (AAEM ≤ 0.03°,
-RAEM ≤ 0.01°), the printed axes as a dashed box, and the y range of the printed inset.  :func:`paper_marks` gives
+horizontal lines at stated levels (the ±2 N m torque bound, Case 2's errors), shaded accuracy bands (Case 1's
+AAEM < 0.03°, RAEM < 0.01°), the printed axes as a dashed box, and the y range of the printed inset.  :func:`paper_marks` gives
 those of the paper's Figs 1-9, :func:`metric_marks` those of a diagnostic figure of AAEM or RAEM, and
 :func:`torque_marks` those of a torque figure; every number comes from :mod:`fsmctl.studies.paper_statements`.
 
@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -36,6 +37,7 @@ if TYPE_CHECKING:
     from collections.abc import Sequence
 
     from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
     from matplotlib.text import Text
 
@@ -50,6 +52,12 @@ __all__ = [
     "metric_marks",
     "torque_marks",
     "keep_coinciding_visible",
+    "text_box",
+    "TAIL_GID",
+    "zoom_on_transient",
+    "CAPTION_KEY",
+    "figure_caption",
+    "read_caption",
 ]
 
 REFERENCE_GID = "reference"
@@ -128,7 +136,7 @@ class ReferenceMarks:
     --------
     >>> marks = paper_marks(1)
     >>> [m.label for m in marks.times], [m.label for m in marks.bands], marks.inset_ylim
-    (['paper: 27 s'], ['paper: AAEM ≤ 0.03°'], (0.0, 0.04))
+    (['paper: 27 s'], ['paper: Case 1 AAEM < 0.03°'], (0.0, 0.04))
     """
 
     times: tuple[Mark, ...] = ()
@@ -160,7 +168,7 @@ def paper_marks(figure: int) -> ReferenceMarks:
     Returns
     -------
     ReferenceMarks
-        Figs 1-2: the 27 s settling time and the accuracy band (AAEM ≤ 0.03°, RAEM ≤ 0.01°); Fig 4: the ±2 N m
+        Figs 1-2: the 27 s settling time and the accuracy band (Case 1's AAEM < 0.03°, RAEM < 0.01°); Fig 4: the ±2 N m
         bound; Figs 5-6: Case 2's stated errors; every figure but Fig 4 (whose printed axes are the bound): the
         printed axes as a box; Figs 1-2, 5-6, 8-9: the printed inset's y range.
 
@@ -208,7 +216,7 @@ def metric_marks(metric: str) -> ReferenceMarks:
     Examples
     --------
     >>> [m.label for m in metric_marks("raem").bands]
-    ['paper: RAEM ≤ 0.01°']
+    ['paper: Case 1 RAEM < 0.01°']
     """
     accuracy = {"aaem": TRACKING_ACCURACY, "raem": RELATIVE_ACCURACY}.get(metric.lower())
     if accuracy is None:
@@ -281,6 +289,8 @@ def draw_marks(ax: Axes, marks: ReferenceMarks | None, *, small: bool = False) -
     """
     if marks is None:
         return []
+    from matplotlib.transforms import offset_copy
+
     texts: list[Text] = []
     size = 6 if small else 7
     written: set[str] = set()  # a symmetric pair of levels (±2 N m) is labelled once
@@ -293,8 +303,8 @@ def draw_marks(ax: Axes, marks: ReferenceMarks | None, *, small: bool = False) -
         if _visible(ax, mark.value):
             ax.axhspan(0.0, mark.value, color=REFERENCE_COLOR, alpha=_BAND_ALPHA, lw=0, gid=REFERENCE_GID,
                        label=mark.label)  # fmt: skip
-            texts.append(_label(ax, 0.99, mark.value, mark.label, ax.get_yaxis_transform(), ha="right", va="top",
-                                fontsize=size))  # fmt: skip
+            below = offset_copy(ax.get_yaxis_transform(), fig=ax.figure, y=-2.0, units="points")  # off the edge
+            texts.append(_label(ax, 0.99, mark.value, mark.label, below, ha="right", va="top", fontsize=size))
     for mark in marks.levels:
         if _visible(ax, mark.value):
             ax.axhline(mark.value, color=REFERENCE_COLOR, ls=":", lw=1.0, gid=REFERENCE_GID, label=mark.label)
@@ -306,28 +316,237 @@ def draw_marks(ax: Axes, marks: ReferenceMarks | None, *, small: bool = False) -
     return texts
 
 
-def note_above_range(zoom: Axes, values: np.ndarray, unit: str) -> Text | None:
-    """When ``values`` (the zoomed part of the runs) rise above ``zoom``'s fixed y range, say so inside it.
+def note_above_range(
+    zoom: Axes, runs: Sequence[tuple[str, np.ndarray]], unit: str, avoid: Sequence[Text] = ()
+) -> Text | None:
+    """When a run (the zoomed part of its values) rises above ``zoom``'s fixed y range, say so inside it, per run.
+
+    ``runs`` are ``(label, values)`` pairs.  One run: one line, ``"↑ always above: max 166°, min 83.3°"``;
+    several: one line per run above the range, with its own largest (and, when always above,
+    smallest) value, so that no number mixes two runs.  The note goes to the first corner of the zoom (top left,
+    top right, bottom left, bottom right) where it covers none of the texts ``avoid`` (the marks' labels), else
+    where it covers the least of them.
 
     Returns the note (``gid`` :data:`ABOVE_RANGE_GID`), or None when every value lies inside the range.
     """
-    finite = values[np.isfinite(values)]
     top = zoom.get_ylim()[1]
-    if not finite.size or float(np.max(finite)) <= top:
+    lines = []
+    for label, values in runs:
+        finite = np.asarray(values, float)[np.isfinite(values)]
+        if not finite.size or float(np.max(finite)) <= top:
+            continue
+        high, low = float(np.max(finite)), float(np.min(finite))
+        always = low > top
+        lines.append((label, always, f"max {high:.3g}{unit}" + (f", min {low:.3g}{unit}" if always else "")))
+    if not lines:
         return None
-    high, low = float(np.max(finite)), float(np.min(finite))
-    text = f"↑ run {'always' if low > top else 'partly'} above this range\nmax {high:.3g}{unit}"
-    if low > top:
-        text += f", min {low:.3g}{unit}"
+    if len(runs) == 1:
+        _, always, values_text = lines[0]
+        text = f"↑ {'always' if always else 'partly'} above: {values_text}"  # one short line: room for the labels
+    else:
+        text = "↑ above this range:\n" + "\n".join(
+            f"{label}: {'always' if always else 'partly'}, {values_text}" for label, always, values_text in lines
+        )
     box = {"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.9}
-    return zoom.text(0.02, 0.96, text, transform=zoom.transAxes, ha="left", va="top", fontsize=6.5, color="0.15",
+    note = zoom.text(0.02, 0.96, text, transform=zoom.transAxes, ha="left", va="top", fontsize=6.5, color="0.15",
                      bbox=box, gid=ABOVE_RANGE_GID, zorder=5)  # fmt: skip
+    if avoid:
+        _place_clear_of(note, avoid)
+    return note
+
+
+def _place_clear_of(note: Text, avoid: Sequence[Text]) -> None:
+    """Move ``note`` (axes fraction) to the first corner where its box overlaps none of ``avoid``, else the least."""
+    corners = ((0.02, 0.96, "left", "top"), (0.98, 0.96, "right", "top"), (0.02, 0.04, "left", "bottom"),
+               (0.98, 0.04, "right", "bottom"))  # fmt: skip
+    best = None
+    for x, y, ha, va in corners:
+        note.set(x=x, y=y, ha=ha, va=va)
+        covered = sum(_overlap_area(note, other) for other in avoid)
+        if best is None or covered < best[0]:
+            best = (covered, x, y, ha, va)
+        if covered == 0.0:
+            return
+    _, x, y, ha, va = best
+    note.set(x=x, y=y, ha=ha, va=va)
+
+
+def text_box(text: Text):
+    """The display box of a drawn ``text``, with its background box (``bbox``) when it has one.
+
+    Parameters
+    ----------
+    text : matplotlib.text.Text
+        A text of a figure.
+
+    Returns
+    -------
+    matplotlib.transforms.Bbox
+        In display units, after drawing the figure.
+
+    Examples
+    --------
+    >>> from matplotlib.figure import Figure
+    >>> ax = Figure().add_subplot()
+    >>> small, boxed = ax.text(0.5, 0.5, "a"), ax.text(0.5, 0.5, "a", bbox={"pad": 5})
+    >>> bool(text_box(boxed).width > text_box(small).width)
+    True
+    """
+    fig = text.get_figure(root=True)
+    fig.draw_without_rendering()
+    patch = text.get_bbox_patch()
+    box = text.get_window_extent()
+    if patch is not None:
+        from matplotlib.transforms import Bbox
+
+        box = Bbox.union([box, patch.get_window_extent()])
+    return box
+
+
+def _overlap_area(a: Text, b: Text) -> float:
+    """The display area where the box of ``a``, widened by 2 points, and the box of ``b`` overlap (0: they do not)."""
+    p, q = text_box(a).padded(2.0 * a.get_figure(root=True).dpi / 72.0), text_box(b)
+    w = min(p.x1, q.x1) - max(p.x0, q.x0)
+    h = min(p.y1, q.y1) - max(p.y0, q.y0)
+    return max(w, 0.0) * max(h, 0.0)
 
 
 def span_text(lo: float, hi: float, unit: str) -> str:
     """``"0-0.04°"``: a y range in a title."""
     sep = "" if unit == "°" else " "
     return f"{lo:g}-{hi:g}{sep}{unit}" if math.isfinite(hi) else f"from {lo:g}{sep}{unit}"
+
+
+TAIL_GID = "small-tail"
+"""``gid`` of the note of a torque figure whose time axis ends before the run: the torques after it are small."""
+
+
+def zoom_on_transient(axes: Sequence[Axes], time: np.ndarray, u: np.ndarray, marks: ReferenceMarks | None) -> None:
+    """Without a torque limit: end the time axis at 3 times the time after which every ``|(u_i)_k|`` stays below
+    the marks' level (the paper's 2 N m), when that is under a third of the run, and say so in the top panel;
+    torques of more than 100 times the level get a symmetric-log y axis, linear within ``±level``.
+
+    A commanded torque of 1e4 N m that decays in 3 s is otherwise a line at the start of a 100 s axis.
+
+    Parameters
+    ----------
+    axes : sequence of Axes
+        The panels of a torque figure (sharing the time axis; the note goes to the first).
+    time : (T,) array
+        Time (s).
+    u : (T, n, 3) array
+        The torques (N m).
+    marks : ReferenceMarks, optional
+        Their levels set the threshold (none: nothing changes).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from matplotlib.figure import Figure
+    >>> t = np.linspace(0.0, 100.0, 1001)
+    >>> u = 1e4 * np.exp(-t / 0.2)[:, None, None] * np.ones((1, 1, 3))  # below 2 N m after 1.8 s
+    >>> ax = Figure().add_subplot()
+    >>> zoom_on_transient([ax], t, u, torque_marks())
+    >>> round(ax.get_xlim()[1], 6), ax.get_yscale(), [text.get_text() for text in ax.texts]
+    (5.4, 'symlog', ['t > 1.8 s (to 100 s): |(u_i)_k| < 2 N m'])
+    """
+    level = max((abs(m.value) for m in marks.levels), default=0.0) if marks is not None else 0.0
+    if level <= 0.0:
+        return
+    peak = np.max(np.abs(u), axis=(1, 2))
+    above = np.flatnonzero(~(peak < level))  # NaN counts as above
+    if above.size == 0 or above[-1] + 1 >= time.size:
+        return
+    t0, t_end = float(time[0]), float(time[-1])
+    settled = float(time[above[-1] + 1])
+    end = t0 + 3.0 * (settled - t0)
+    if end >= t0 + (t_end - t0) / 3.0:
+        return
+    axes[-1].set_xlim(t0, end)
+    if float(np.nanmax(peak)) > 100.0 * level:  # decades above the level: linear within it, logarithmic beyond
+        for ax in axes:
+            ax.set_yscale("symlog", linthresh=level)
+    unit = marks.unit if marks is not None else "N m"
+    axes[0].text(0.99, 0.96, f"t > {settled:.3g} s (to {t_end:g} s): |(u_i)_k| < {level:g} {unit}",
+                 transform=axes[0].transAxes, ha="right", va="top", fontsize=8, gid=TAIL_GID,
+                 bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.5", "alpha": 0.9})  # fmt: skip
+
+
+CAPTION_KEY = "Description"
+"""The metadata key under which :func:`fsmctl.studies.figures.save_figure` stores :func:`figure_caption` in the PNG and the SVG."""
+
+
+def figure_caption(fig: Figure) -> str:
+    """What a figure shows, in one line: its title, its zoom's, and the paper's values it marks.
+
+    The caption is read from the figure itself (its titles and the labels of its reference marks,
+    :data:`REFERENCE_GID`), so that a report's caption and the figure say the same.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        A figure of :mod:`fsmctl.studies.figures`.
+
+    Returns
+    -------
+    str
+        ``"<title>; inset: <zoom title>. The paper's marks: <mark>, <mark>"`` (the parts a figure has).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.studies.figures import metric_figure
+    >>> t = np.linspace(0.0, 100.0, 1001)
+    >>> print(figure_caption(metric_figure(t, 0.02 + 0 * t, title="AAEM, Case 1", marks=paper_marks(1))))
+    AAEM, Case 1; inset: zoom 0-0.04° (the paper's inset). The paper's marks: Fig 1: 0-300° axis (ticks every 50°), 27 s, Case 1 AAEM < 0.03°
+    """
+    suptitle = fig.get_suptitle()
+    main = [ax for ax in fig.axes if ax.get_title()]
+    title = suptitle or (main[0].get_title() if main else "")
+    parts = [" ".join(title.split("\n")[0].split())] if title else []
+    insets = [inset.get_title() for ax in fig.axes for inset in ax.child_axes if inset.get_title()]
+    insets += [ax.get_title() for ax in main[1:] if not suptitle]
+    parts += [f"inset: {text}" for text in insets[:1]]
+    labels: list[str] = []
+    for axes in [*fig.axes, *(inset for ax in fig.axes for inset in ax.child_axes)]:
+        for artist in axes.get_children():
+            label = artist.get_label() if artist.get_gid() == REFERENCE_GID else ""
+            label = label.removeprefix("paper: ").removeprefix("paper's ")
+            if label and label not in labels:
+                labels.append(label)
+    caption = "; ".join(parts)
+    return caption + (f". The paper's marks: {', '.join(labels)}" if labels else "")
+
+
+def read_caption(png: str | Path) -> str:
+    """The caption :func:`fsmctl.studies.figures.save_figure` stored in a PNG (:data:`CAPTION_KEY`), or ``""``.
+
+    Parameters
+    ----------
+    png : str or Path
+        A PNG file.
+
+    Returns
+    -------
+    str
+        :func:`figure_caption` of the saved figure; ``""`` when the file is missing, unreadable or has none.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.studies.figures import metric_figure, save_figure
+    >>> t = np.linspace(0.0, 10.0, 101)
+    >>> png, _ = save_figure(metric_figure(t, 50 * np.exp(-t), title="AAEM, a test"), "figures/aaem")
+    >>> read_caption(png), read_caption("figures/none.png")
+    ('AAEM, a test; inset: t ≥ 5 s', '')
+    """
+    from PIL import Image
+
+    try:
+        with Image.open(png) as image:
+            return str(getattr(image, "text", {}).get(CAPTION_KEY, ""))
+    except OSError:
+        return ""
 
 
 # ----------------------------------------------------------------------------- runs that coincide

@@ -47,13 +47,16 @@ from matplotlib.figure import Figure
 
 from fsmctl.model.time_response import agent_color
 from fsmctl.studies.figure_marks import (
+    CAPTION_KEY,
     ReferenceMarks,
     draw_box,
     draw_marks,
+    figure_caption,
     include_levels,
     keep_coinciding_visible,
     note_above_range,
     span_text,
+    zoom_on_transient,
 )
 
 if TYPE_CHECKING:
@@ -206,7 +209,7 @@ def _draw_zoom(
             continue
         v = values[sel]
         zoom.plot(time[sel], v, color=color, ls=style, lw=0.8, label=label)
-        shown.append(v)
+        shown.append((label, v))
         finite = v[np.isfinite(v)]
         if finite.size:
             top, bottom = max(top, float(np.max(finite))), min(bottom, float(np.min(finite)))
@@ -216,9 +219,9 @@ def _draw_zoom(
     for tol in tolerances:
         zoom.axhline(tol, color="gray", ls=":", lw=0.8)
     zoom.grid(True, alpha=0.3)
-    draw_marks(zoom, marks, small=small)
+    labels = draw_marks(zoom, marks, small=small)
     if fixed is not None:
-        note_above_range(zoom, np.concatenate(shown), marks.unit)
+        note_above_range(zoom, shown, marks.unit, avoid=labels)
         what = f"zoom {span_text(*fixed, marks.unit)} (the paper's inset)"
     else:
         what = f"t ≥ {start:g} s" if small else f"zoom: t ≥ {start:g} s"
@@ -375,8 +378,7 @@ def metric_figure(
     ((0.0, 100.0), (0.0, 0.04))
     >>> (note,) = [text for text in inset.texts if text.get_gid() == ABOVE_RANGE_GID]
     >>> print(note.get_text())
-    ↑ run always above this range
-    max 100°, min 100°
+    ↑ always above: max 100°, min 100°
     """
     if metric not in METRIC_EQUATIONS:
         raise ValueError(f"metric must be one of {list(METRIC_EQUATIONS)}, got {metric!r}")
@@ -582,6 +584,8 @@ def torques_figure(
         _torque_limits(ax, torque_limit, marks)
     axes[-1].set_xlabel("time (s)")
     axes[-1].set_xlim(float(time[0]), float(time[-1]))
+    if not finite:
+        zoom_on_transient(axes, time, u, marks)
     entries = dict(zip(*reversed(axes[0].get_legend_handles_labels()), strict=True))  # label -> handle, once each
     fig.legend(entries.values(), entries.keys(), loc="outside right upper", fontsize=8)
     limit = f"|u_k| ≤ {torque_limit:g} N m" if finite else "no torque limit"
@@ -744,6 +748,9 @@ def simulation_figures(result: SimulationResult, *, tolerances_deg: Sequence[flo
 def save_figure(fig: Figure, stem: str | Path, *, dpi: int = 130) -> list[Path]:
     """Write ``fig`` as ``stem.png`` and ``stem.svg`` (parent folders are created), each atomically.
 
+    Both files carry :func:`~fsmctl.studies.figure_marks.figure_caption` as metadata
+    (:data:`~fsmctl.studies.figure_marks.CAPTION_KEY`), which a report shows as the caption.
+
     Parameters
     ----------
     fig : matplotlib.figure.Figure
@@ -771,10 +778,11 @@ def save_figure(fig: Figure, stem: str | Path, *, dpi: int = 130) -> list[Path]:
     from fsmctl.outputs import atomic_path
 
     stem = Path(stem)
+    caption = figure_caption(fig)
     paths = []
     for suffix in (".png", ".svg"):
         path = stem.with_name(stem.name + suffix)
         with atomic_path(path) as tmp:  # written whole or not at all
-            fig.savefig(tmp, dpi=dpi, format=suffix[1:])
+            fig.savefig(tmp, dpi=dpi, format=suffix[1:], metadata={CAPTION_KEY: caption})
         paths.append(path)
     return paths

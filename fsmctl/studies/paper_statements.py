@@ -49,7 +49,7 @@ class PaperStatement:
     Examples
     --------
     >>> TRACKING_ACCURACY.value, TRACKING_ACCURACY.label
-    (0.03, 'paper: AAEM ≤ 0.03°')
+    (0.03, 'paper: Case 1 AAEM < 0.03°')
     >>> SETTLING_TIME.label
     'paper: 27 s'
     """
@@ -67,7 +67,7 @@ class PaperStatement:
 
     @property
     def label(self) -> str:
-        """The label of a reference mark: ``"paper: "`` and the statement (``"paper: AAEM ≤ 0.03°"``)."""
+        """The label of a reference mark: ``"paper: "`` and the statement (``"paper: Case 1 AAEM < 0.03°"``)."""
         return f"paper: {self.quantity} {self.relation} {self.text}" if self.relation else f"paper: {self.text}"
 
 
@@ -75,10 +75,10 @@ SETTLING_TIME = PaperStatement(
     "settling time", 27.0, "s", "", "Sec. 4, Figs 1-2: 'both fall to the tolerance in 27 s' (tolerance not stated)"
 )
 TRACKING_ACCURACY = PaperStatement(
-    "AAEM", 0.03, "°", "≤", "Sec. 4, Fig 1: 'the attitude tracking accuracy is higher than 0.03°'"
+    "Case 1 AAEM", 0.03, "°", "<", "Sec. 4, Fig 1: 'the attitude tracking accuracy is higher than 0.03°'"
 )
 RELATIVE_ACCURACY = PaperStatement(
-    "RAEM", 0.01, "°", "≤", "Sec. 4, Fig 2: 'the relative attitude control accuracy is able to reach 0.01°'"
+    "Case 1 RAEM", 0.01, "°", "<", "Sec. 4, Fig 2: 'the relative attitude control accuracy is able to reach 0.01°'"
 )
 CASE2_TRACKING_ERROR = PaperStatement(
     "Case 2 AAEM", 0.05, "°", ">", "Sec. 4, Fig 5: 'the tracking error is larger than 0.05°'"

@@ -515,6 +515,7 @@ class _FigureShelf:
 
     def __init__(self, rep: Reproduction) -> None:
         pngs = [_relative(f, rep.out_dir) for f in rep.files if f.endswith(".png")]
+        self.out_dir = Path(rep.out_dir)
         self.left = _in_paper_order(pngs)
 
     def take(self, cited: str) -> list[Figure]:
@@ -522,10 +523,10 @@ class _FigureShelf:
         wanted = figure_numbers(cited)
         taken = [f for f in self.left if _paper_number(f) in wanted]
         self.left = [f for f in self.left if f not in taken]
-        return [Figure(f, _caption(f)) for f in taken]
+        return [Figure(f, _caption(f, self.out_dir)) for f in taken]
 
     def remaining(self) -> list[Figure]:
-        return [Figure(f, _caption(f)) for f in self.left]
+        return [Figure(f, _caption(f, self.out_dir)) for f in self.left]
 
 
 def figure_numbers(cited: str) -> list[int]:
@@ -560,10 +561,11 @@ def _paper_number(path: str) -> int:
     return int(stem[3:5]) if stem.startswith("fig") and stem[3:5].isdigit() else 0
 
 
-def _caption(path: str) -> str:
-    n = _paper_number(path)
-    stem = Path(path).stem
-    return f"Fig {n} ({stem})" if n else stem
+def _caption(path: str, out_dir: Path) -> str:
+    from fsmctl.studies.figure_marks import read_caption  # what the figure shows, as saved with it
+
+    n, stem, shows = _paper_number(path), Path(path).stem, read_caption(out_dir / path)
+    return (f"Fig {n}: {shows}" if n else f"{stem}: {shows}") if shows else (f"Fig {n} ({stem})" if n else stem)
 
 
 def _runs_text(rep: Reproduction, keys: str) -> list[str | Span]:

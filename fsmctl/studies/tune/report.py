@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import csv
 import dataclasses
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -102,7 +103,7 @@ class TuneResult:
             lines.append("no feasible design found (widen the ranges, raise the budget or the horizon)")
         else:
             t = self.trials[self.best]
-            params = ", ".join(f"{p.name}={t['params'][p.name]:.6g} {p.unit}" for p in self.space)
+            params = ", ".join(f"{p.name}={p.quantity(t['params'][p.name])}" for p in self.space)
             objs = ", ".join(f"{k}={self.objective_text(k, v)}" for k, v in t["objectives"].items())
             lines.append(f"best: trial {self.best}: {params}; {objs}")
         return "\n".join(lines + [f"note: {n}" for n in self.notes])
@@ -383,7 +384,22 @@ def _topology_overlay(base: Scenario, scales: Mapping[str, float]) -> dict:
     return out
 
 
-def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence[str] = ()) -> str:
+def _path_from(target: str, folder: Path | None) -> str:
+    """``target`` (a file) as ``best.toml`` in ``folder`` names it: relative to ``folder`` when both lie under a
+    common folder other than the file system's root (the output moves with the scenario), else absolute."""
+    path = Path(target).expanduser().resolve()
+    if folder is None:
+        return str(path)
+    folder = Path(folder).expanduser().resolve()
+    common = Path(os.path.commonpath([path, folder]))
+    if common == Path(common.anchor):
+        return str(path)
+    return Path(os.path.relpath(path, folder)).as_posix()
+
+
+def best_scenario_text(
+    result: TuneResult, base: Scenario, *, comments: Sequence[str] = (), folder: str | Path | None = None
+) -> str:
     """``best.toml``: the base scenario (``extends``) with the chosen design, for ``fsmctl simulate --scenario``.
 
     The design (``[controller]`` keys: the law, its tuned parameters; ``[topology]`` weights when the coupling
@@ -399,6 +415,10 @@ def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence
         The tuned scenario (its source tables and cases).
     comments : sequence of str, optional
         More ``#`` comment lines for the header (:func:`tune` adds the versions and the command line).
+    folder : str or Path, optional
+        The folder the text is written to: the scenario file it ``extends`` and a law script are named relative to
+        it when they share a folder other than the root (so the study's folder can move with them), else by
+        absolute path (also without ``folder``).
 
     Returns
     -------
@@ -428,7 +448,7 @@ def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence
     law = s.law
     law_path = Path(law).expanduser()
     if law.endswith(".py") or len(law_path.parts) > 1 or law_path.is_dir():
-        law = str(law_path.resolve())
+        law = _path_from(law, Path(folder) if folder is not None else None)
     controller: dict[str, Any] = {"law": law}
     for p in result.space:
         if not p.coupling:
@@ -442,9 +462,9 @@ def best_scenario_text(result: TuneResult, base: Scenario, *, comments: Sequence
             "t_final": base.simulation.t_final,
             "output_interval": base.simulation.output_interval,
         }
-    extends = s.scenario if s.scenario in BUILTIN_SCENARIOS else str(Path(s.scenario).expanduser().resolve())
+    extends = s.scenario if s.scenario in BUILTIN_SCENARIOS else _path_from(s.scenario, folder)
     cases = base.source.get("cases") or {}
-    summary = ", ".join(f"{p.name} = {t['params'][p.name]:.6g} {p.unit}" for p in result.space)
+    summary = ", ".join(f"{p.name} = {p.quantity(t['params'][p.name])}" for p in result.space)
     lines = [
         f"# written by fsmctl tune: trial {t['index']} of {len(result.trials)}, law {s.law}, seed {s.seed}",
         f"# {summary}",
@@ -495,7 +515,7 @@ def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scena
         ]
         if extra.get("command"):
             provenance.append(f"# command: {extra['command']}")
-        write_text(path, best_scenario_text(result, base, comments=provenance))
+        write_text(path, best_scenario_text(result, base, comments=provenance, folder=out))
         paths.append(path)
         verified = expected is not None and _same_design(load_scenario(path), expected)
         if not verified:

@@ -348,6 +348,29 @@ class SearchParameter:
     size: int
     coupling: bool = False
 
+    def quantity(self, value: float) -> str:
+        """``value`` with the parameter's unit, as ``fsmctl tune`` prints it (no unit when dimensionless).
+
+        Parameters
+        ----------
+        value : float
+            A value of the parameter.
+
+        Returns
+        -------
+        str
+            ``"0.5 1/s"``; ``"0.5"`` for a parameter of unit ``"1"`` or ``""``.
+
+        Examples
+        --------
+        >>> from fsmctl.studies import SearchParameter
+        >>> SearchParameter("c1", "1/s", 0.1, 2.0, False, 1).quantity(0.5)
+        '0.5 1/s'
+        >>> SearchParameter("alpha", "1", 0.5, 1.0, False, 1).quantity(0.534771)
+        '0.534771'
+        """
+        return f"{value:.6g}" + (f" {self.unit}" if self.unit not in DIMENSIONLESS else "")
+
     @property
     def column(self) -> str:
         """``name [unit]``: the parameter's column in ``trials.csv``."""
@@ -367,6 +390,10 @@ class SearchParameter:
             ``value`` for a scalar parameter, ``[value] * size`` for a vector.
         """
         return float(value) if self.size == 1 else [float(value)] * self.size
+
+
+DIMENSIONLESS = ("1", "")
+"""Units of a dimensionless parameter: printed without a unit (``alpha=0.53``, not ``alpha=0.53 1``)."""
 
 
 def _ranges(settings: TuneSettings) -> dict[str, tuple[float, float]]:
@@ -410,7 +437,7 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
     ------
     InputError
         Unknown law or parameter, a parameter with options or not tunable, an override outside the declared range,
-        or a side left unbounded by both the law and ``ranges``.
+        or a side left unbounded by both the law and ``ranges`` (every such parameter named in one message).
 
     Examples
     --------
@@ -445,6 +472,7 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
             f"tune: a range is given for {extra[0]!r}, which is not searched (parameters: {', '.join(names)})"
         )
     out = []
+    unbounded = []  # (name, declared range) of the parameters whose range is missing: named together
     for name in names:
         if name in COUPLING:
             low, high = given.get(name, COUPLING_RANGE)
@@ -465,16 +493,20 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
                     raise InputError(f"tune: range of {name}: {why} (declared range: {p.range_text()})")
         else:
             if p.minimum is None or p.maximum is None:
-                raise InputError(
-                    f"tune: {name} has no declared {'upper' if p.maximum is None else 'lower'} bound "
-                    f"({p.range_text()}); give its range, e.g. --range {name}=LOW,HIGH"
-                )
+                side = "upper" if p.maximum is None else "lower"
+                unbounded.append((name, f"no {side} bound: {p.range_text()}"))
+                continue
             low = float(np.nextafter(p.minimum, math.inf)) if p.exclusive_minimum else float(p.minimum)
             high = float(np.nextafter(p.maximum, -math.inf)) if p.exclusive_maximum else float(p.maximum)
             if not low < high:
                 raise InputError(f"tune: {name}: the declared range {p.range_text()} is a single value")
         log = low > 0 and high / low >= LOG_RATIO
         out.append(SearchParameter(name, p.unit, low, high, log, p.size))
+    if unbounded:
+        missing = ", ".join(f"{name} ({why})" for name, why in unbounded)
+        options = " ".join(f"--range {name}=LOW,HIGH" for name, _ in unbounded)
+        them = "their ranges" if len(unbounded) > 1 else "its range"
+        raise InputError(f"tune: no declared range to search for {missing}; give {them}: {options}")
     return out
 
 
@@ -513,7 +545,7 @@ def search_space_lines(settings: TuneSettings, space: list[SearchParameter]) -> 
     >>> print("\\n".join(search_space_lines(s, search_space(s))))
     searching 2 parameters: c1, alpha (named by --parameters)
       c1: 0.01 .. 2 1/s, log-uniform (range given)
-      alpha: 0.5 .. 1 1, uniform (the law's declared range)
+      alpha: 0.5 .. 1, uniform (the law's declared range)
     """
     n = len(space)
     names = [p.name for p in space]
@@ -533,9 +565,8 @@ def search_space_lines(settings: TuneSettings, space: list[SearchParameter]) -> 
     for p in space:
         sampled = "log-uniform" if p.log else "uniform"
         alike = f", one value for all {p.size} components" if p.size > 1 else ""
-        lines.append(
-            f"  {p.name}: {p.low:.6g} .. {p.high:.6g} {p.unit}, {sampled}{alike} ({_range_words(p, settings)})"
-        )
+        span = f"{p.low:.6g} .. {p.quantity(p.high)}"
+        lines.append(f"  {p.name}: {span}, {sampled}{alike} ({_range_words(p, settings)})")
     return lines
 
 
