@@ -302,3 +302,21 @@ def test_a_run_whose_worker_keeps_dying_reproduces_nothing_and_the_runs_go_to_th
     assert any(dict(t.args[1].changes).get("torque_limit", 0.0) >= 50.0 for t in flown)  # they were tried
     # identical scenarios fly once: no two tasks of a round share a scenario
     assert len({t.key for t in flown}) == len(flown)
+
+
+def test_a_candidate_that_flies_the_unswitched_law_warns_nothing():
+    """The error-MRP candidate switches the law on purpose: flying and recording it emits no LawSwitchWarning (a user
+    saw 79 of them on stderr from one `fsmctl reproduce --fast`)."""
+    import fsmctl
+    from fsmctl.model.laws import LawSwitchWarning
+    from fsmctl.studies.explain_runs import simulate_candidate
+
+    settings = {s.name: s for s in es.search_settings(fsmctl.paper_scenario("1"))}
+    candidate = es.Candidate((("error_mrp", "unswitched"),))
+    data = es.candidate_source("paper", candidate, settings)
+    spec = next(s for s in run_plan() if s.key == "case1")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        record = simulate_candidate({**data, "simulation": {"t_final": 0.2}}, candidate, spec, fast=True)
+    assert record.law == "fsm_unswitched"
+    assert not [w for w in caught if issubclass(w.category, LawSwitchWarning)], [str(w.message) for w in caught]
