@@ -10,6 +10,7 @@ that is the whole run, so a run that had converged printed its initial error as 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -112,3 +113,16 @@ def test_compare_states_its_window(capsys, tmp_path):
     comparison = compare_laws(UNLIMITED.replace(simulation={"t_final": 2.0}), ["fsm"], tolerances_deg=(1.0,))
     assert "steady statistics over the last 0.8 s (40 % of the 2 s horizon)" in comparison.to_text()
     assert "steady statistics over the last 0.8 s (40 % of the 2 s horizon)" in comparison.to_markdown()
+
+
+def test_the_torque_line_says_what_each_saturation_figure_counts(tmp_path, capsys):
+    """The saturated time is counted at every step, the last saturation at the output samples: the line says so, so
+    "0.20 s saturated, last at 0.10 s" (a wheel at its limit between two samples) does not read as a contradiction."""
+    example = Path(__file__).parents[1] / "docs" / "examples" / "wheels_and_sensors.toml"
+    argv = ["simulate", "--scenario", str(example), "--t-final", "1", "--no-figures", "--out", str(tmp_path / "w")]
+    assert main(argv) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("  torque: "))
+    summary = json.loads((tmp_path / "w" / "summary.json").read_text())["summary"]
+    sat = summary["saturated_time_s"]
+    assert f"saturated for {min(sat):.2f}–{max(sat):.2f} s of 1 s (per agent, every step)" in line
+    assert line.endswith(f"last at the output sample t = {summary['last_saturation_s']:.2f} s")

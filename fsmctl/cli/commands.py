@@ -47,6 +47,7 @@ from fsmctl.cli.run_options import add_run_options, simulation_changes
 from fsmctl.cli.types import nonnegative_float
 from fsmctl.outputs import output_folder, write_json
 from fsmctl.policy import CONVERGED_RULE, SETTLING_TOLERANCES_DEG, steady_window_text
+from fsmctl.studies.wording import duration_phrase
 
 __all__ = ["add_parser", "run", "convergence_line", "EXIT_CODES"]
 
@@ -327,8 +328,8 @@ def _format_summary(summary: dict) -> str:
     last = summary["last_saturation_s"]
     lines.append(
         f"  torque: max applied {summary['u_max_abs_N_m']:.4g} N m, max commanded {summary['u_unsaturated_max_N_m']:.4g} N m, "
-        f"saturated {min(sat):.2f}-{max(sat):.2f} s per agent, last saturation "
-        + ("never" if not math.isfinite(last) else f"{last:.2f} s")
+        f"saturated {duration_phrase(sat, summary['horizon_s'], digits=2)} (per agent, every step), "
+        + ("never at an output sample" if not math.isfinite(last) else f"last at the output sample t = {last:.2f} s")
     )
     lines.append(f"  {summary['scenario']}: {summary['backend']} backend, {summary['wall_time_s']:.2f} s")
     return "\n".join(lines)
