@@ -570,20 +570,20 @@ class LinkSettings:
     * Delay: the receiver gets the neighbour's broadcast as it was ``delay`` seconds earlier (its value at the
       latest control instant at or before ``t - delay``; before ``t = 0`` the broadcast's initial value,
       the constant initial history of delay equations).
-    * Loss: a lost packet leaves the receiver holding the last value it received on that link.  Two models
-      (``loss_model``, :mod:`fsmctl.model.noise`):
-
-      - ``"bernoulli"`` (default): at each control instant each link independently loses its packet with
-        ``loss_probability``;
-      - ``"gilbert_elliott"``: bursty losses.  Each link is a good/bad Markov chain stepped at the control
-        instants (``good_to_bad`` = p, ``bad_to_good`` = r), losing a packet with ``loss_good`` (1 - k, default 0)
-        in the good state and ``loss_bad`` (1 - h, default 1) in the bad one; it starts in its stationary
-        distribution, so the loss rate is ``(r loss_good + p loss_bad) / (p + r)`` throughout (mean burst
-        ``1 / r`` for Gilbert's channel: :func:`fsmctl.model.noise.gilbert_elliott_statistics`).
+    * Loss, ``loss_model = "bernoulli"`` (default): at each control instant each link independently loses its
+      packet with ``loss_probability``; the receiver then holds the last value it received on that link.
+    * Loss, ``loss_model = "gilbert_elliott"``: bursty losses (Gilbert 1960, Elliott 1963).  Each link is a
+      good/bad Markov chain stepped at the control instants (``good_to_bad`` = p, ``bad_to_good`` = r, both
+      needed), losing the packet with ``loss_good`` (1 - k, default 0) in the good state and ``loss_bad``
+      (1 - h, default 1) in the bad one; it starts in its stationary distribution, so the loss rate is
+      ``(r loss_good + p loss_bad) / (p + r)`` at every instant (Gilbert's channel, loss_good = 0 and
+      loss_bad = 1: ``p / (p + r)``, mean burst ``1 / r`` instants;
+      :func:`fsmctl.model.noise.gilbert_elliott_statistics`).  A lost packet is held as above.
 
     ``<key>_table`` (n x n, row = receiver, column = sender, like ``topology.phase_table``; ``loss_table`` for
     ``loss_probability``) sets a value per link and overrides the scalar ``<key>``.  The keys of the model not
-    chosen are refused.
+    chosen are refused; the losses are drawn from ``simulation.seed``, one stream per link
+    (:mod:`fsmctl.model.noise`).
 
     Examples
     --------
@@ -615,7 +615,8 @@ class LinkSettings:
         default="bernoulli",
     )
     good_to_bad: Real | None = _doc(
-        "loss_model = 'gilbert_elliott': p, probability of moving from the good to the bad state at a control instant",
+        "loss_model = 'gilbert_elliott': p, probability of moving from the good to the bad state at a control "
+        "instant (needed with that model, or good_to_bad_table)",
         "1",
         ge=0,
         le=1,
@@ -623,7 +624,7 @@ class LinkSettings:
     )
     bad_to_good: Real | None = _doc(
         "loss_model = 'gilbert_elliott': r, probability of moving from the bad to the good state at a control instant "
-        "(mean bad period 1/r instants)",
+        "(mean bad period 1/r instants; needed with that model, or bad_to_good_table)",
         "1",
         ge=0,
         le=1,
