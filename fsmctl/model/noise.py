@@ -362,6 +362,11 @@ def hardware_noise(
         ``"dtheta"`` (Q, n_agents, 3) rad and ``"gyro_error"`` (Q, n_agents, 3) rad/s, float64; ``"lost"``
         (Q, n_links) uint8, 1 = lost.  C-contiguous; zeros for a disabled process.
 
+    Raises
+    ------
+    ValueError
+        A count, period or parameter out of its range (one line naming it), or both loss models given.
+
     Examples
     --------
     >>> noise = hardware_noise(0, 2, 5, 0.1, star_tracker_std=[1e-4, 1e-4, 2e-4], loss_probability=[0.0, 1.0])
