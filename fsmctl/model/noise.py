@@ -81,6 +81,7 @@ import numpy as np
 __all__ = [
     "hardware_noise",
     "gilbert_elliott_statistics",
+    "gilbert_elliott_problem",
     "noise_bytes",
     "allan_deviation",
     "random_walk_coefficients",
