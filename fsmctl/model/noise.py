@@ -23,7 +23,10 @@ Each child seeds its own ``numpy.random.default_rng`` (PCG64), which then draws,
 * star tracker: ``standard_normal((Q, 3))``, scaled per axis by ``noise_std``;
 * rate gyro: ``standard_normal((Q, 2, 3))``: ``[q, 0]`` is ``N_u`` (bias random walk), ``[q, 1]`` is ``N_v``
   (white rate noise) of instant ``q``;
-* packet loss: ``random(Q)``; the packet is lost when the uniform draw is ``< p_e``.
+* packet loss, Bernoulli model: ``random(Q)``; the packet is lost when the uniform draw is ``< p_e``;
+* packet loss, Gilbert-Elliott model: ``random((Q, 2))``: ``[q, 0]`` moves the channel's state (at ``q = 0`` it
+  draws the initial state: bad when ``< p / (p + r)``, the stationary distribution), ``[q, 1]`` decides the loss
+  in that state (lost when ``< loss_bad`` in the bad state, ``< loss_good`` in the good one).
 
 Consequences (held by ``tests/test_noise.py``): the stream of agent ``i`` (link ``e``) does not change when
 ``n_agents`` (``n_links``) grows, nor when another sensor is enabled or disabled, nor when the parameters of
@@ -52,9 +55,19 @@ Models
   variance of ``error`` is ``sigma_A^2(tau) = N^2 / tau + K^2 tau / 3`` for ``tau = m T`` (IEEE Std 952-1997,
   Annex C; El-Sheimy, Hou & Niu, "Analysis and modeling of inertial sensors using Allan variance", IEEE Trans.
   Instrum. Meas. 57(1), 2008).
-* Packet loss: independent Bernoulli(``p_e``) per link and control instant (the Gilbert-Elliott channel with a
-  single state; e.g. Hespanha, Naghshtabrizi & Xu, "A survey of recent results in networked control systems",
-  Proc. IEEE 95(1), 2007).
+* Packet loss, ``bernoulli``: independent Bernoulli(``p_e``) per link and control instant (the Gilbert-Elliott
+  channel with a single state; e.g. Hespanha, Naghshtabrizi & Xu, "A survey of recent results in networked
+  control systems", Proc. IEEE 95(1), 2007).
+* Packet loss, ``gilbert_elliott``: bursty losses.  Each link is a two-state Markov chain, good ``G`` and bad
+  ``B``, stepped once per control instant: ``P(G -> B) = p`` (``good_to_bad``), ``P(B -> G) = r``
+  (``bad_to_good``); in state ``G`` the packet is lost with probability ``loss_good`` (``1 - k`` in the
+  literature), in ``B`` with ``loss_bad`` (``1 - h``), independently given the state.  The initial state is drawn
+  from the chain's stationary distribution ``pi_B = p / (p + r)``, so the process is stationary from ``q = 0``:
+  its loss rate is ``pi_G loss_good + pi_B loss_bad = (r loss_good + p loss_bad) / (p + r)`` at every instant.
+  With ``loss_good = 0``, ``loss_bad = 1`` (Gilbert's channel) the losses are the bad periods, geometric of mean
+  ``1 / r`` (E. N. Gilbert, "Capacity of a burst-noise channel", Bell Syst. Tech. J. 39(5), 1960; E. O. Elliott,
+  "Estimates of error rates for codes on burst-noise channels", Bell Syst. Tech. J. 42(5), 1963; the general
+  burst length is :func:`gilbert_elliott_statistics`).
 """
 
 from __future__ import annotations
@@ -65,12 +78,23 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["hardware_noise", "noise_bytes", "allan_deviation", "random_walk_coefficients", "STREAMS"]
+__all__ = [
+    "hardware_noise",
+    "gilbert_elliott_statistics",
+    "gilbert_elliott_problem",
+    "noise_bytes",
+    "allan_deviation",
+    "random_walk_coefficients",
+    "STREAMS",
+    "GILBERT_ELLIOTT_KEYS",
+]
 
 STREAMS = {"star_tracker": 0, "gyro": 1, "links": 2}
 """Index of each process among ``SeedSequence(seed).spawn(3)`` (the first level of the stream layout)."""
 
 _GYRO_KEYS = ("angle_random_walk", "rate_random_walk", "bias")
+GILBERT_ELLIOTT_KEYS = ("good_to_bad", "bad_to_good", "loss_good", "loss_bad")
+"""The parameters of the Gilbert-Elliott loss model: ``p``, ``r``, ``1 - k`` and ``1 - h`` (probabilities)."""
 _SCRATCH = 4  # (Q + 1, 3) float64 arrays alive at once while one agent's gyro error is generated (see noise_bytes)
 
 
@@ -129,6 +153,56 @@ def _loss_probabilities(p) -> np.ndarray:
     return v
 
 
+def gilbert_elliott_problem(good_to_bad: float, bad_to_good: float, loss_good: float, loss_bad: float) -> str:
+    """Why Gilbert-Elliott parameters are invalid (``""``: valid): each a probability, ``p + r > 0``.
+
+    The one check of the model's parameters (the scenario's links, :func:`hardware_noise` and the python-control
+    link all call it).
+
+    Parameters
+    ----------
+    good_to_bad, bad_to_good, loss_good, loss_bad : float
+        ``p``, ``r``, ``1 - k``, ``1 - h``.
+
+    Returns
+    -------
+    str
+        One line naming the first bad parameter, or ``""``.
+
+    Examples
+    --------
+    >>> gilbert_elliott_problem(0.0, 0.0, 0.0, 1.0)
+    'good_to_bad + bad_to_good: must be > 0 (p + r = 0 leaves the initial state undefined), got 0 + 0'
+    """
+    values = dict(zip(GILBERT_ELLIOTT_KEYS, (good_to_bad, bad_to_good, loss_good, loss_bad), strict=True))
+    for key, value in values.items():
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not 0 <= float(value) <= 1:
+            return f"{key}: must be a probability in [0, 1], got {value!r}"
+    if good_to_bad + bad_to_good <= 0:
+        return (
+            "good_to_bad + bad_to_good: must be > 0 (p + r = 0 leaves the initial state undefined), "
+            f"got {good_to_bad:g} + {bad_to_good:g}"
+        )
+    return ""
+
+
+def _gilbert_elliott_parameters(ge) -> np.ndarray:
+    """The ``(n_links, 4)`` parameters ``[p, r, loss_good, loss_bad]`` of a ``gilbert_elliott`` mapping."""
+    if not isinstance(ge, Mapping):
+        raise ValueError(f"gilbert_elliott: expected a mapping with keys {list(GILBERT_ELLIOTT_KEYS)}")
+    if set(ge) != set(GILBERT_ELLIOTT_KEYS):
+        raise ValueError(f"gilbert_elliott: expected the keys {list(GILBERT_ELLIOTT_KEYS)}, got {sorted(ge)}")
+    columns = [_vector(f"gilbert_elliott.{k}", ge[k], shape=None, nonnegative=False) for k in GILBERT_ELLIOTT_KEYS]
+    if len({c.size for c in columns}) != 1:
+        raise ValueError(f"gilbert_elliott: one value per link in each key, got sizes {[c.size for c in columns]}")
+    params = np.stack(columns, axis=1) if columns[0].size else np.zeros((0, 4))
+    for e, row in enumerate(params):
+        problem = gilbert_elliott_problem(*map(float, row))
+        if problem:
+            raise ValueError(f"gilbert_elliott, link {e}: {problem}")
+    return params
+
+
 # ----------------------------------------------------------------------------- the processes
 
 
@@ -165,6 +239,89 @@ def _losses(rng: np.random.Generator, p: float, out: np.ndarray) -> None:
     np.less(rng.random(out.shape[0]), p, out=out, casting="unsafe")
 
 
+def _gilbert_elliott_losses(rng: np.random.Generator, params: np.ndarray, out: np.ndarray) -> None:
+    """One link's ``(Q,)`` Gilbert-Elliott losses into ``out`` (uint8), from ``random((Q, 2))``.
+
+    The state recursion is vectorised: with ``u = draws[q, 0]`` (``q >= 1``) the next state is *bad* whatever the
+    state when ``r <= u < p``, *good* when ``p <= u < r``, the other state when ``u < min(p, r)`` and the same
+    state when ``u >= max(p, r)``; so the state is the value of the latest reset (``q = 0`` included: the
+    stationary draw) flipped once per flip since.
+    """
+    p, r, loss_good, loss_bad = params
+    draws = rng.random((out.shape[0], 2))
+    u = draws[:, 0]
+    to_bad = u < p  # from the good state
+    to_good = u < r  # from the bad state
+    reset = to_bad != to_good  # the next state does not depend on the previous one
+    reset[0] = True
+    value = to_bad.copy()  # the state a reset sets (True: bad)
+    value[0] = u[0] < p / (p + r)  # the initial state, from the stationary distribution
+    flip = to_bad & to_good
+    flip[0] = False
+    flips = np.cumsum(flip, dtype=np.int64)
+    last = np.maximum.accumulate(np.where(reset, np.arange(u.size), 0))
+    bad = value[last] ^ ((flips - flips[last]) % 2).astype(bool)
+    np.less(draws[:, 1], np.where(bad, loss_bad, loss_good), out=out, casting="unsafe")
+
+
+def gilbert_elliott_statistics(
+    good_to_bad: float, bad_to_good: float, loss_good: float = 0.0, loss_bad: float = 1.0
+) -> dict[str, float]:
+    """Stationary loss rate and mean loss-burst length of a Gilbert-Elliott channel.
+
+    With ``p`` = ``good_to_bad``, ``r`` = ``bad_to_good``, ``e_G`` = ``loss_good`` and ``e_B`` = ``loss_bad``
+    the chain ``(state, lost)`` is stationary from its first instant (:mod:`fsmctl.model.noise`), with
+
+    * ``pi_B = p / (p + r)``, loss rate ``P(lost) = (r e_G + p e_B) / (p + r)``;
+    * ``P(lost at q+1 | lost at q) = [pi_G e_G ((1-p) e_G + p e_B) + pi_B e_B (r e_G + (1-r) e_B)] / P(lost)``;
+    * mean burst length (a burst: consecutive lost packets, ended by a delivered one): the number of losses per
+      burst in a long record, ``P(lost) / (P(lost) - P(lost at q and q+1)) = 1 / (1 - P(lost at q+1 | lost at q))``
+      (each burst ends with exactly one pair (lost, delivered); the chain is ergodic).  For Gilbert's channel
+      (``e_G = 0``, ``e_B = 1``) the bursts are the bad periods: geometric, mean ``1 / r``; with ``e_G > 0`` or
+      ``e_B < 1`` they are not geometric, but this is still their mean.
+
+    Parameters
+    ----------
+    good_to_bad, bad_to_good : float
+        Transition probabilities ``p`` (good to bad) and ``r`` (bad to good) per control instant, ``p + r > 0``.
+    loss_good, loss_bad : float, optional
+        Loss probabilities in the good (``1 - k``, default 0) and bad (``1 - h``, default 1) states.
+
+    Returns
+    -------
+    dict
+        ``"bad_fraction"`` ``pi_B``, ``"loss_rate"``, ``"loss_after_loss"`` and ``"mean_burst"`` (``inf`` when
+        every packet is lost; ``nan`` when none is).
+
+    Raises
+    ------
+    ValueError
+        Parameters that are not probabilities, or ``p + r = 0``.
+
+    Examples
+    --------
+    >>> s = gilbert_elliott_statistics(0.01, 0.25)  # Gilbert's channel
+    >>> round(s["loss_rate"], 6), round(s["mean_burst"], 6)  # p / (p + r), 1 / r
+    (0.038462, 4.0)
+    """
+    problem = gilbert_elliott_problem(good_to_bad, bad_to_good, loss_good, loss_bad)
+    if problem:
+        raise ValueError(problem)
+    p, r, eg, eb = float(good_to_bad), float(bad_to_good), float(loss_good), float(loss_bad)
+    pi_b = p / (p + r)
+    pi_g = 1.0 - pi_b
+    rate = pi_g * eg + pi_b * eb
+    both = pi_g * eg * ((1 - p) * eg + p * eb) + pi_b * eb * (r * eg + (1 - r) * eb)
+    after = both / rate if rate > 0 else math.nan
+    if rate == 0:
+        burst = math.nan
+    elif after >= 1:
+        burst = math.inf
+    else:
+        burst = 1.0 / (1.0 - after)
+    return {"bad_fraction": pi_b, "loss_rate": rate, "loss_after_loss": after, "mean_burst": burst}
+
+
 def hardware_noise(
     seed: int,
     n_agents: int,
@@ -174,6 +331,7 @@ def hardware_noise(
     star_tracker_std=None,
     gyro: Mapping | None = None,
     loss_probability=None,
+    gilbert_elliott: Mapping | None = None,
 ) -> dict[str, np.ndarray]:
     """The sensor noise and packet losses of a run, at its ``n_samples`` control instants.
 
@@ -193,7 +351,11 @@ def hardware_noise(
         Rate gyro: ``angle_random_walk`` ``N`` (rad/s^0.5), ``rate_random_walk`` ``K`` (rad/s^1.5), ``bias``
         ``b_0`` (3,) rad/s (missing keys: 0); unset: no error.
     loss_probability : array_like (n_links,), optional
-        Per-link probability of losing the packet at a control instant (in [0, 1]); unset: no link.
+        Bernoulli loss model: per-link probability of losing the packet at a control instant (in [0, 1]).
+    gilbert_elliott : mapping, optional
+        Gilbert-Elliott loss model (instead of ``loss_probability``): keys ``good_to_bad`` (``p``),
+        ``bad_to_good`` (``r``), ``loss_good`` (``1 - k``) and ``loss_bad`` (``1 - h``), each an array_like
+        ``(n_links,)`` of probabilities, ``p + r > 0`` per link.  Neither given: no link.
 
     Returns
     -------
@@ -201,11 +363,19 @@ def hardware_noise(
         ``"dtheta"`` (Q, n_agents, 3) rad and ``"gyro_error"`` (Q, n_agents, 3) rad/s, float64; ``"lost"``
         (Q, n_links) uint8, 1 = lost.  C-contiguous; zeros for a disabled process.
 
+    Raises
+    ------
+    ValueError
+        A count, period or parameter out of its range (one line naming it), or both loss models given.
+
     Examples
     --------
     >>> noise = hardware_noise(0, 2, 5, 0.1, star_tracker_std=[1e-4, 1e-4, 2e-4], loss_probability=[0.0, 1.0])
     >>> noise["dtheta"].shape, noise["gyro_error"].any(), noise["lost"].tolist()[0]
     ((5, 2, 3), False, [0, 1])
+    >>> ge = {"good_to_bad": [0.15], "bad_to_good": [0.3], "loss_good": [0.0], "loss_bad": [1.0]}
+    >>> hardware_noise(1, 1, 16, 0.1, gilbert_elliott=ge)["lost"][:, 0].tolist()  # a burst of 8 losses
+    [0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 0, 0, 0]
     """
     seed = _count("seed", seed, 0)
     n = _count("n_agents", n_agents, 1)
@@ -213,19 +383,26 @@ def hardware_noise(
     T = _real("period", period, positive=True)
     std = None if star_tracker_std is None else _vector("star_tracker_std", star_tracker_std)
     gyro_params = None if gyro is None else _gyro_parameters(gyro)
+    if loss_probability is not None and gilbert_elliott is not None:
+        raise ValueError("loss_probability, gilbert_elliott: give one loss model, not both")
     p = np.zeros(0) if loss_probability is None else _loss_probabilities(loss_probability)
+    ge = np.zeros((0, 4)) if gilbert_elliott is None else _gilbert_elliott_parameters(gilbert_elliott)
+    n_links = max(p.size, ge.shape[0])
 
     dtheta = np.zeros((Q, n, 3))
     gyro_error = np.zeros((Q, n, 3))
-    lost = np.zeros((Q, p.size), dtype=np.uint8)
+    lost = np.zeros((Q, n_links), dtype=np.uint8)
     if std is not None:
         for i, child in enumerate(_children(seed, "star_tracker", n)):
             _star_tracker(np.random.default_rng(child), std, dtheta[:, i])
     if gyro_params is not None:
         for i, child in enumerate(_children(seed, "gyro", n)):
             _gyro(np.random.default_rng(child), *gyro_params, T, gyro_error[:, i])
-    for e, child in enumerate(_children(seed, "links", p.size)):
-        _losses(np.random.default_rng(child), p[e], lost[:, e])
+    for e, child in enumerate(_children(seed, "links", n_links)):
+        if gilbert_elliott is None:
+            _losses(np.random.default_rng(child), p[e], lost[:, e])
+        else:
+            _gilbert_elliott_losses(np.random.default_rng(child), ge[e], lost[:, e])
     return {"dtheta": dtheta, "gyro_error": gyro_error, "lost": lost}
 
 

@@ -132,7 +132,7 @@ def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> Hardware
                 "rate_random_walk": gyro.rate_random_walk,
                 "bias": np.array(gyro.bias),
             },
-            loss_probability=links.per_link(receivers, senders, "loss_probability") if links_on else None,
+            **(_loss_model(links, receivers, senders) if links_on else {}),
         )
         out.update(n_samples=Q)
         if sensors.enabled:
@@ -146,6 +146,15 @@ def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> Hardware
                 link_lost=np.ascontiguousarray(lost, dtype=np.uint8),
             )
     return HardwarePack(**out)
+
+
+def _loss_model(links, receivers, senders) -> dict:
+    """The keyword of :func:`~fsmctl.model.noise.hardware_noise` that draws the links' losses, per the loss model."""
+    if links.loss_model == "bernoulli":
+        return {"loss_probability": links.per_link(receivers, senders, "loss_probability")}
+    from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS
+
+    return {"gilbert_elliott": {k: links.per_link(receivers, senders, k) for k in GILBERT_ELLIOTT_KEYS}}
 
 
 @dataclass(frozen=True)

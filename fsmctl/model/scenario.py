@@ -246,7 +246,8 @@ class Scenario:
                 if problem:
                     raise ValueError(f"actuator.spin_inertia: the wheels' spin inertia exceeds agent {i}'s: {problem}")
         linked = {(lk.receiver, lk.sender) for lk in self.topology.links}
-        for name, upper in (("delay_table", math.inf), ("loss_table", 1.0)):
+        tables = ("loss_table", "good_to_bad_table", "bad_to_good_table", "loss_good_table", "loss_bad_table")
+        for name, upper in (("delay_table", math.inf), *((t, 1.0) for t in tables)):
             tab = getattr(self.links, name)
             if tab is None:
                 continue
@@ -259,6 +260,7 @@ class Scenario:
                         f"links.{name}[{i + 1}][{j + 1}]: the link {i + 1} <- {j + 1} needs a value in [0, {upper:g}], "
                         f"got {v!r}"
                     )
+        self._gilbert_elliott_links()
         if self.links_active and not period > 0:
             raise ValueError(
                 "links: sensors and imperfect links act at the control instants; set "
@@ -270,6 +272,20 @@ class Scenario:
         except LawError as exc:
             raise ValueError(str(exc)) from None
         return self
+
+    def _gilbert_elliott_links(self) -> None:
+        """Each link's Gilbert-Elliott parameters valid together (p + r > 0), the tables' entries merged."""
+        lk = self.links
+        if lk.loss_model != "gilbert_elliott":
+            return
+        from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS, gilbert_elliott_problem
+
+        for link in self.topology.links:
+            i, j = link.receiver, link.sender
+            values = [float(lk.per_link([i], [j], key)[0]) for key in GILBERT_ELLIOTT_KEYS]
+            problem = gilbert_elliott_problem(*values)
+            if problem:
+                raise ValueError(f"links: the link {i + 1} <- {j + 1}: {problem}")
 
     @property
     def law(self) -> LawCode:
@@ -624,8 +640,7 @@ class Scenario:
         receivers = [link.receiver for link in self.topology.links]
         senders = [link.sender for link in self.topology.links]
         return bool(
-            np.any(lk.per_link(receivers, senders, "delay") > 0)
-            or np.any(lk.per_link(receivers, senders, "loss_probability") > 0)
+            np.any(lk.per_link(receivers, senders, "delay") > 0) or np.any(lk.loss_rates(receivers, senders) > 0)
         )
 
     def hardware_lines(self) -> list[str]:
@@ -653,10 +668,19 @@ class Scenario:
                 f"rad/s^1.5 bias={list(g.bias)} rad/s"
             )
         if self.links_active:
-            lines.append(
-                f"  links: delay={'per link' if lk.delay_table is not None else f'{lk.delay} s'} loss_probability="
-                + ("per link" if lk.loss_table is not None else f"{lk.loss_probability}")
-            )
+            delay = f"  links: delay={'per link' if lk.delay_table is not None else f'{lk.delay} s'} "
+            if lk.loss_model == "bernoulli":
+                lines.append(
+                    delay
+                    + "loss_model=bernoulli loss_probability="
+                    + ("per link" if lk.loss_table is not None else f"{lk.loss_probability}")
+                )
+            else:
+                values = " ".join(
+                    f"{k}={'per link' if getattr(lk, f'{k}_table') is not None else lk._scalar(k)}"
+                    for k in ("good_to_bad", "bad_to_good", "loss_good", "loss_bad")
+                )
+                lines.append(delay + f"loss_model=gilbert_elliott {values}")
         return lines
 
     def describe(self) -> list[str]:

@@ -277,9 +277,13 @@ def _links_schema() -> dict:
     links = _section(sc.LinkSettings)
     links["description"] = _class_doc(sc.LinkSettings)
     props = links["properties"]
+    for name in ("good_to_bad", "bad_to_good", "loss_good", "loss_bad"):  # unset: the model's default (described)
+        props[name].pop("default", None)
+    probability = {"type": "number", "minimum": 0, "maximum": 1}
     for name, value in (
         ("delay_table", {"type": "number", "minimum": 0}),
-        ("loss_table", {"type": "number", "minimum": 0, "maximum": 1}),
+        ("loss_table", probability),
+        *((f"{key}_table", probability) for key in ("good_to_bad", "bad_to_good", "loss_good", "loss_bad")),
     ):
         node = props[name]
         props[name] = {

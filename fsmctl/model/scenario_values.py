@@ -314,6 +314,7 @@ Limits = Annotated[tuple[Annotated[float, Field(allow_inf_nan=True)], ...], Befo
 Matrix3N = Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_matrix)]
 ActuatorKind = Annotated[Literal["ideal", "reaction_wheels"], BeforeValidator(_lower)]
 WheelLayout = Annotated[Literal["pyramid", "orthogonal", "custom"], BeforeValidator(_lower)]
+LossModel = Annotated[Literal["bernoulli", "gilbert_elliott"], BeforeValidator(_lower)]
 
 _CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, arbitrary_types_allowed=True)
 ZERO3 = (0.0, 0.0, 0.0)

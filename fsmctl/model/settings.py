@@ -31,6 +31,7 @@ from fsmctl.model.scenario_values import (
     LawParameters,
     Limits,
     LinkTable,
+    LossModel,
     Mat3,
     Matrix3N,
     Numbers,
@@ -548,6 +549,20 @@ class SensorSettings:
         return self.star_tracker is not None or self.gyro is not None
 
 
+_PER_LINK = {  # a per-link setting: its scalar and the n x n table that overrides it
+    "delay": ("delay", "delay_table"),
+    "loss_probability": ("loss_probability", "loss_table"),
+    "good_to_bad": ("good_to_bad", "good_to_bad_table"),
+    "bad_to_good": ("bad_to_good", "bad_to_good_table"),
+    "loss_good": ("loss_good", "loss_good_table"),
+    "loss_bad": ("loss_bad", "loss_bad_table"),
+}
+_BERNOULLI_KEYS = ("loss_probability", "loss_table")
+_GILBERT_ELLIOTT_KEYS = tuple(
+    k for key in ("good_to_bad", "bad_to_good", "loss_good", "loss_bad") for k in _PER_LINK[key]
+)
+
+
 @_validated
 class LinkSettings:
     """Imperfect communication links, applied at the control instants (``simulation.control_period > 0``).
@@ -555,11 +570,20 @@ class LinkSettings:
     * Delay: the receiver gets the neighbour's broadcast as it was ``delay`` seconds earlier (its value at the
       latest control instant at or before ``t - delay``; before ``t = 0`` the broadcast's initial value,
       the constant initial history of delay equations).
-    * Loss: at each control instant each link independently loses its packet with ``loss_probability``; the
-      receiver then holds the last value it received on that link.
+    * Loss, ``loss_model = "bernoulli"`` (default): at each control instant each link independently loses its
+      packet with ``loss_probability``; the receiver then holds the last value it received on that link.
+    * Loss, ``loss_model = "gilbert_elliott"``: bursty losses (Gilbert 1960, Elliott 1963).  Each link is a
+      good/bad Markov chain stepped at the control instants (``good_to_bad`` = p, ``bad_to_good`` = r, both
+      needed), losing the packet with ``loss_good`` (1 - k, default 0) in the good state and ``loss_bad``
+      (1 - h, default 1) in the bad one; it starts in its stationary distribution, so the loss rate is
+      ``(r loss_good + p loss_bad) / (p + r)`` at every instant (Gilbert's channel, loss_good = 0 and
+      loss_bad = 1: ``p / (p + r)``, mean burst ``1 / r`` instants;
+      :func:`fsmctl.model.noise.gilbert_elliott_statistics`).  A lost packet is held as above.
 
-    ``delay_table`` / ``loss_table`` (n x n, row = receiver, column = sender, like ``topology.phase_table``)
-    set a value per link and override the scalars.
+    ``<key>_table`` (n x n, row = receiver, column = sender, like ``topology.phase_table``; ``loss_table`` for
+    ``loss_probability``) sets a value per link and overrides the scalar ``<key>``.  The keys of the model not
+    chosen are refused; the losses are drawn from ``simulation.seed``, one stream per link
+    (:mod:`fsmctl.model.noise`).
 
     Examples
     --------
@@ -567,11 +591,18 @@ class LinkSettings:
     >>> links = LinkSettings(delay=0.1, loss_table=[[0.0, 0.05], [0.2, 0.0]])
     >>> links.enabled, links.per_link([0, 1], [1, 0], "loss_probability").tolist()
     (True, [0.05, 0.2])
+    >>> bursty = LinkSettings(loss_model="gilbert_elliott", good_to_bad=0.01, bad_to_good=0.25)
+    >>> bursty.loss_rates([0], [1]).round(6).tolist()  # p / (p + r)
+    [0.038462]
     """
 
     delay: Real = _doc("transport delay of every link", "s", ge=0, default=0.0)
     loss_probability: Real = _doc(
-        "probability that a link loses its packet at a control instant", "1", ge=0, le=1, default=0.0
+        "loss_model = 'bernoulli': probability that a link loses its packet at a control instant",
+        "1",
+        ge=0,
+        le=1,
+        default=0.0,
     )
     delay_table: LinkTable | None = _doc(
         "per-link delay, n x n (row receiver, column sender; entries without a link are ignored)", "s", default=None
@@ -579,6 +610,86 @@ class LinkSettings:
     loss_table: LinkTable | None = _doc(
         "per-link loss probability, n x n (row receiver, column sender)", "1", default=None
     )
+    loss_model: LossModel = _doc(
+        "packet-loss model: 'bernoulli' (independent losses) or 'gilbert_elliott' (bursty, a good/bad Markov chain)",
+        default="bernoulli",
+    )
+    good_to_bad: Real | None = _doc(
+        "loss_model = 'gilbert_elliott': p, probability of moving from the good to the bad state at a control "
+        "instant (needed with that model, or good_to_bad_table)",
+        "1",
+        ge=0,
+        le=1,
+        default=None,
+    )
+    bad_to_good: Real | None = _doc(
+        "loss_model = 'gilbert_elliott': r, probability of moving from the bad to the good state at a control instant "
+        "(mean bad period 1/r instants; needed with that model, or bad_to_good_table)",
+        "1",
+        ge=0,
+        le=1,
+        default=None,
+    )
+    loss_good: Real | None = _doc(
+        "loss_model = 'gilbert_elliott': 1 - k, probability of losing a packet in the good state (unset: 0)",
+        "1",
+        ge=0,
+        le=1,
+        default=None,
+    )
+    loss_bad: Real | None = _doc(
+        "loss_model = 'gilbert_elliott': 1 - h, probability of losing a packet in the bad state (unset: 1)",
+        "1",
+        ge=0,
+        le=1,
+        default=None,
+    )
+    good_to_bad_table: LinkTable | None = _doc(
+        "per-link good_to_bad, n x n (row receiver, column sender)", "1", default=None
+    )
+    bad_to_good_table: LinkTable | None = _doc(
+        "per-link bad_to_good, n x n (row receiver, column sender)", "1", default=None
+    )
+    loss_good_table: LinkTable | None = _doc(
+        "per-link loss_good, n x n (row receiver, column sender)", "1", default=None
+    )
+    loss_bad_table: LinkTable | None = _doc("per-link loss_bad, n x n (row receiver, column sender)", "1", default=None)
+
+    @model_validator(mode="after")
+    def _loss_model(self) -> LinkSettings:
+        from fsmctl.model.noise import gilbert_elliott_problem
+
+        if self.loss_model == "bernoulli":
+            written = [k for k in _GILBERT_ELLIOTT_KEYS if getattr(self, k) is not None]
+            if written:
+                raise ValueError(
+                    f"{written[0]}: a parameter of loss_model = 'gilbert_elliott' (loss_model is 'bernoulli')"
+                )
+            return self
+        if self.loss_probability != 0 or self.loss_table is not None:
+            key = "loss_table" if self.loss_table is not None else "loss_probability"
+            raise ValueError(
+                f"{key}: a parameter of loss_model = 'bernoulli'; with loss_model = 'gilbert_elliott' the losses are "
+                f"set by good_to_bad, bad_to_good, loss_good and loss_bad: remove {key}"
+                + (" (or set loss_probability = 0 over a scenario it extends)" if key == "loss_probability" else "")
+            )
+        for key in ("good_to_bad", "bad_to_good"):
+            if getattr(self, key) is None and getattr(self, f"{key}_table") is None:
+                raise ValueError(f"{key}: loss_model = 'gilbert_elliott' needs {key} (or {key}_table)")
+        scalars = [self._scalar(k) for k in ("good_to_bad", "bad_to_good", "loss_good", "loss_bad")]
+        if self.good_to_bad is not None and self.bad_to_good is not None:
+            problem = gilbert_elliott_problem(*scalars)
+            if problem:
+                raise ValueError(problem)
+        return self
+
+    def _scalar(self, key: str) -> float:
+        """A per-link setting's scalar as flown (the Gilbert-Elliott defaults: p, r 0 -- then a table --, loss_good 0,
+        loss_bad 1)."""
+        value = getattr(self, key)
+        if value is None:
+            return 1.0 if key == "loss_bad" else 0.0
+        return float(value)
 
     @property
     def enabled(self) -> bool:
@@ -590,27 +701,51 @@ class LinkSettings:
         return (
             self.delay > 0
             or self.loss_probability > 0
+            or self.loss_model == "gilbert_elliott"
             or any_table(self.delay_table, 0.0)
             or any_table(self.loss_table, 0.0)
         )
 
-    def per_link(self, receivers, senders, which: str) -> np.ndarray:
-        """Values of ``"delay"`` or ``"loss_probability"`` for the links ``receivers[e] <- senders[e]`` (0-based).
+    def loss_rates(self, receivers, senders) -> np.ndarray:
+        """The stationary loss rate of the links ``receivers[e] <- senders[e]`` (0-based), whichever the model.
 
         Parameters
         ----------
         receivers, senders : sequence of int
             The links' agents, 0-based.
-        which : {"delay", "loss_probability"}
+
+        Returns
+        -------
+        numpy.ndarray
+            ``loss_probability`` per link (Bernoulli), or ``(r loss_good + p loss_bad) / (p + r)``
+            (Gilbert-Elliott).
+        """
+        if self.loss_model == "bernoulli":
+            return self.per_link(receivers, senders, "loss_probability")
+        p, r, good, bad = (
+            self.per_link(receivers, senders, k) for k in ("good_to_bad", "bad_to_good", "loss_good", "loss_bad")
+        )
+        return (r * good + p * bad) / (p + r)
+
+    def per_link(self, receivers, senders, which: str) -> np.ndarray:
+        """Values of a per-link setting for the links ``receivers[e] <- senders[e]`` (0-based).
+
+        Parameters
+        ----------
+        receivers, senders : sequence of int
+            The links' agents, 0-based.
+        which : {"delay", "loss_probability", "good_to_bad", "bad_to_good", "loss_good", "loss_bad"}
             The setting.
 
         Returns
         -------
         numpy.ndarray
-            One value per link (the table's entry, else the scalar).
+            One value per link (the table's entry, else the scalar; an unset Gilbert-Elliott scalar is its
+            default: ``loss_good`` 0, ``loss_bad`` 1).
         """
-        table = self.delay_table if which == "delay" else self.loss_table
-        scalar = self.delay if which == "delay" else self.loss_probability
+        key, table_key = _PER_LINK[which]
+        table = getattr(self, table_key)
+        scalar = getattr(self, key) if key in ("delay", "loss_probability") else self._scalar(key)
         if table is None:
             return np.full(len(receivers), scalar, dtype=float)
         tab = np.array(table, dtype=float)

@@ -285,6 +285,24 @@ def rate_gyro(
 # ----------------------------------------------------------------------------- communication link
 
 
+def _loss_model(where: str, p: float, loss_model, *gilbert_elliott):
+    """The link's loss model checked as a scenario's ``[links]`` are; returns ``index ->`` the keywords of
+    :func:`fsmctl.model.noise.hardware_noise` for links ``0 .. index`` (the earlier ones lossless, unused)."""
+    from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS
+    from fsmctl.model.settings import LinkSettings
+
+    written = {k: v for k, v in zip(GILBERT_ELLIOTT_KEYS, gilbert_elliott, strict=True) if v is not None}
+    try:
+        settings = LinkSettings(loss_probability=p, loss_model=loss_model, **written)
+    except ScenarioError as exc:
+        raise ScenarioError(f"{where}: {exc}") from None
+    if settings.loss_model == "bernoulli":
+        return lambda index: {"loss_probability": [0.0] * index + [p]}
+    values = {k: float(settings.per_link([0], [0], k)[0]) for k in GILBERT_ELLIOTT_KEYS}
+    lossless = {"good_to_bad": 0.0, "bad_to_good": 1.0, "loss_good": 0.0, "loss_bad": 0.0}
+    return lambda index: {"gilbert_elliott": {k: [lossless[k]] * index + [values[k]] for k in GILBERT_ELLIOTT_KEYS}}
+
+
 def link(
     delay: float,
     loss_probability: float,
@@ -297,6 +315,11 @@ def link(
     signal: str = "b",
     dt: float | bool | None = True,
     name: str | None = None,
+    loss_model: str = "bernoulli",
+    good_to_bad: float | None = None,
+    bad_to_good: float | None = None,
+    loss_good: float | None = None,
+    loss_bad: float | None = None,
 ) -> ct.NonlinearIOSystem:
     """One communication link (discrete time, ``dt = period``): transport delay and packet loss.
 
@@ -306,14 +329,17 @@ def link(
     of instant ``q`` is lost, when it keeps the value it holds (at instant 0 it holds the value of instant 0).
     The losses are those :func:`fsmctl.simulate` draws for link number ``index`` of the topology
     (``scenario.topology.links[index]``, :func:`fsmctl.model.noise.hardware_noise`) with ``simulation.seed =
-    seed``: independent Bernoulli(``loss_probability``) per instant.
+    seed``: independent Bernoulli(``loss_probability``) per instant, or, with ``loss_model = "gilbert_elliott"``,
+    the bursty losses of a good/bad Markov chain started in its stationary distribution (the scenario's
+    ``[links]`` keys of the same names, :class:`fsmctl.model.settings.LinkSettings`, checked by it).
 
     Parameters
     ----------
     delay : float
         Transport delay (s, >= 0).
     loss_probability : float
-        Probability of losing the packet of an instant, in ``[0, 1]``.
+        Bernoulli model: probability of losing the packet of an instant, in ``[0, 1]`` (0 with
+        ``loss_model = "gilbert_elliott"``).
     period : float
         Control period ``T`` (s, > 0).
     horizon : float
@@ -331,6 +357,14 @@ def link(
         period itself all give ``dt = period``; ``0`` (continuous time) and another period are refused.
     name : str, optional
         System name; default python-control's unique ``sys[<id>]``.
+    loss_model : {"bernoulli", "gilbert_elliott"}
+        The loss model (:mod:`fsmctl.model.noise`).
+    good_to_bad, bad_to_good : float, optional
+        ``loss_model = "gilbert_elliott"``: the transition probabilities ``p`` and ``r`` per instant (both needed,
+        ``p + r > 0``).
+    loss_good, loss_bad : float, optional
+        ``loss_model = "gilbert_elliott"``: loss probabilities in the good (``1 - k``, default 0) and bad
+        (``1 - h``, default 1) states.
 
     Returns
     -------
@@ -353,6 +387,10 @@ def link(
     >>> r = ct.input_output_response(ln, T, T[None, :], np.zeros(ln.nstates))
     >>> r.outputs.round(12).tolist()  # the clock of 3 instants before (0.25 s: ceil(2.5) = 3), 0 before
     [0.0, 0.0, 0.0, 0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7]
+    >>> bursty = link(0.0, 0.0, 0.1, horizon=1.5, seed=1, size=1, loss_model="gilbert_elliott", good_to_bad=0.15,
+    ...               bad_to_good=0.3)
+    >>> bursty.lost.tolist()  # one burst of 8 lost packets
+    [0, 0, 0, 0, 0, 1, 1, 1, 1, 1, 1, 1, 1, 0, 0, 0]
     """
     call = _factory_call(link, locals())  # first: the arguments only
     from fsmctl.model.problem import delay_instants
@@ -363,6 +401,7 @@ def link(
     p = _scalar(loss_probability, f"{where}: loss_probability", minimum=0.0)
     if p > 1:
         raise ScenarioError(f"{where}: loss_probability: must be <= 1, got {p}")
+    losses = _loss_model(where, p, loss_model, good_to_bad, bad_to_good, loss_good, loss_bad)
     period, Q = _samples(horizon, period, where)
     _timebase(dt, period, where, stateful=True)
     seed = _count(seed, f"{where}: seed", 0)
@@ -371,9 +410,7 @@ def link(
     if not isinstance(signal, str) or not signal or any(c in signal for c in ".[]"):
         raise ScenarioError(f"{where}: signal: must be a non-empty name without '.', '[' or ']', got {_show(signal)}")
     D = int(delay_instants(np.array([delay]), period)[0])
-    lost = _noise(where, seed=seed, n_agents=1, n_samples=Q, period=period, loss_probability=[0.0] * index + [p])[
-        "lost"
-    ][:, index].copy()
+    lost = _noise(where, seed=seed, n_agents=1, n_samples=Q, period=period, **losses(index))["lost"][:, index].copy()
     samples = _Samples(lost, period, False, where)
 
     def deliver(t, x, u):

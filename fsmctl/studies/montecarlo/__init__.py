@@ -52,7 +52,8 @@ Flight hardware (issue 13: ``[actuator]``, ``[sensors]``, ``[links]``, ``simulat
   rate random walks ``N``, ``K`` (not its constant bias) by one ``U(low, high)`` factor per run; it needs
   ``[sensors]``.  These draws come from children of the run's seed sequence of their own, after and apart
   from the draws above, so adding a range changes no other draw.  The per-run values are in the dataset
-  (``link_delay_max_s``, ``loss_probability_max``, ``sensor_noise_scale``), with the wheels' peak speed and
+  (``link_delay_max_s``, ``loss_probability_max`` -- the stationary loss rate for Gilbert-Elliott links --,
+  ``sensor_noise_scale``), with the wheels' peak speed and
   momentum (``wheel_speed_peak_rad_per_s``, ``wheel_momentum_peak_N_m_s``; NaN without wheels).
 * ``control_period`` (``--control-period``) sets the base scenario's ``simulation.control_period``
   through ``scenario.replace`` (``None``: the scenario's).

@@ -191,14 +191,14 @@ def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.S
 
 
 def _hardware_record(scenario: Scenario, noise_scale: float) -> dict[str, float]:
-    """The run's link delay and loss (largest over its links; 0 without links or a control period) and the factor
-    on its sensor noise (NaN without sensors)."""
+    """The run's link delay and loss (largest over its links, the stationary loss rate for a Gilbert-Elliott link;
+    0 without links or a control period) and the factor on its sensor noise (NaN without sensors)."""
     links = scenario.topology.links
     out = {"link_delay_max_s": 0.0, "loss_probability_max": 0.0}
     if links and scenario.simulation.control_period > 0:
         receivers, senders = [lk.receiver for lk in links], [lk.sender for lk in links]
         out["link_delay_max_s"] = float(np.max(scenario.links.per_link(receivers, senders, "delay")))
-        out["loss_probability_max"] = float(np.max(scenario.links.per_link(receivers, senders, "loss_probability")))
+        out["loss_probability_max"] = float(np.max(scenario.links.loss_rates(receivers, senders)))
     out["sensor_noise_scale"] = noise_scale if scenario.sensors.enabled else math.nan
     return out
 

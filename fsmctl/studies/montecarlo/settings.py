@@ -322,7 +322,7 @@ def random_processes(scenario: Scenario) -> list[str]:
     if scenario.simulation.control_period > 0 and scenario.topology.links:
         receivers = [link.receiver for link in scenario.topology.links]
         senders = [link.sender for link in scenario.topology.links]
-        if np.any(links.per_link(receivers, senders, "loss_probability") > 0):
+        if np.any(links.loss_rates(receivers, senders) > 0):
             out.append("packet loss")
     return out
 
