@@ -27,6 +27,7 @@ import lazy_loader
 
 from fsmctl.model.scenario import (
     ActuatorSettings,
+    WheelCommandSettings,
     Agent,
     ControllerSettings,
     GyroSettings,
@@ -63,6 +64,7 @@ _PUBLIC_MODULES = (
 __all__ = [
     "__version__",
     "ActuatorSettings",
+    "WheelCommandSettings",
     "Agent",
     "GyroSettings",
     "LinkSettings",
