@@ -27,7 +27,6 @@ import lazy_loader
 
 from fsmctl.model.scenario import (
     ActuatorSettings,
-    WheelCommandSettings,
     Agent,
     ControllerSettings,
     GyroSettings,
@@ -39,6 +38,7 @@ from fsmctl.model.scenario import (
     SimulationSettings,
     Sinusoid,
     StarTrackerSettings,
+    WheelCommandSettings,
     load_scenario,
     paper_scenario,
 )

@@ -91,7 +91,6 @@ from fsmctl.model.settings import (
     _AGENT_FIELDS,
     _CONTROLLER_FIELDS,
     ActuatorSettings,
-    WheelCommandSettings,
     Agent,
     ControllerSettings,
     GyroSettings,
@@ -101,6 +100,7 @@ from fsmctl.model.settings import (
     SimulationSettings,
     Sinusoid,
     StarTrackerSettings,
+    WheelCommandSettings,
 )
 from fsmctl.model.topology import Topology, TopologyError
 
