@@ -430,7 +430,7 @@ def reaction_wheel_spacecraft(
         attitude=True,
         jacobian=jacobian,
     )
-    system._mrp_model = (mrp_jacobian, mrp_states, _labels("u_command"), 6)
+    system._mrp_model = (mrp_jacobian, mrp_states, _labels("u_command"), 6 + n)
     return _finish(system, call, params, dt)
 
 
