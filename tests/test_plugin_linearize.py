@@ -178,7 +178,7 @@ def test_wheel_plant_is_exact():
         ):
             rough, fine = (sc.linearize(x0, u0, eps=eps) for eps in (1e-4, 1e-8))
             assert np.array_equal(rough.A, fine.A) and np.array_equal(rough.B, fine.B)
-            fd = _central(lambda u: sc.dynamics(0.0, x0, u), u0, 1e-7)
+            fd = _central(lambda u, sc=sc, x0=x0: sc.dynamics(0.0, x0, u), u0, 1e-7)
             assert np.allclose(fine.B, fd, rtol=1e-6, atol=1e-7 * np.abs(fd).max())
             assert np.abs(fine.B[:, 6:]).max() > 0  # the u_wheels columns
 
