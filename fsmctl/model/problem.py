@@ -136,7 +136,7 @@ def wheel_command_samples(scenario: Scenario, n_steps: int, hold_steps: int, whe
             )
     if not np.all(np.isfinite(out)):
         q = int(np.argwhere(~np.isfinite(out))[0][0])
-        raise InputError(f"wheel_commands: not finite at t = {instants[q]!r} s")
+        raise InputError(f"wheel_commands: not finite at t = {float(instants[q])!r} s")
     return np.ascontiguousarray(out)
 
 
