@@ -244,3 +244,21 @@ def test_cli_flies_a_scenario_file_with_wheel_commands(tmp_path, allocation):
         text=True,
     )
     assert done.returncode == 2 and "must be one of 'scaled' or 'clipped'" in done.stderr, done.stderr
+
+
+def test_step_start_gate_batched_and_scalar_kernels_agree():
+    """The held speed limit's inner stages (the generated wheel_net_torque, lane-batched or scalar) fly the same
+    run; the paper's hardware scenario with its wheels driven to a speed limit at step starts."""
+    from fsmctl.model.problem import pack
+    from fsmctl.simulation import simulator
+
+    s = fsmctl.load_scenario("paper-hardware").replace(
+        simulation={"t_final": 5.0}, actuator={"speed_gate": "step_start", "allocation": "clipped", "max_speed": 5.0}
+    )
+    p = pack(s)
+    if not simulator._driver(p.law).fsm_batched_available():
+        pytest.skip("this build has no batched kernels")
+    a, b = simulator.simulate_packed(p, kernels="batched"), simulator.simulate_packed(p, kernels="scalar")
+    assert (a["wheel_torque"] == 0.0).any()  # the speed limit acted
+    for k in ("sigma", "omega", "wheel_speed", "wheel_torque", "u"):
+        np.testing.assert_array_equal(a[k], b[k])

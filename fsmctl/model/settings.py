@@ -377,7 +377,24 @@ class WheelCommandSettings:
         return self
 
     def table(self, n_agents: int) -> np.ndarray:
-        """``(T, n_agents, N)`` torques: the table, a per-wheel row repeated for every spacecraft."""
+        """The table as ``(T, n_agents, N)`` torques, a per-wheel row repeated for every spacecraft.
+
+        Parameters
+        ----------
+        n_agents : int
+            Spacecraft of the scenario.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(T, n_agents, N)`` motor torques (N m), row ``m`` holding from ``time[m]``.
+
+        Examples
+        --------
+        >>> from fsmctl.model.settings import WheelCommandSettings
+        >>> WheelCommandSettings(time=[0.0], motor_torque=[[0.01, 0.0, 0.0]]).table(2).shape
+        (1, 2, 3)
+        """
         a = np.array(self.motor_torque, dtype=float)
         return np.repeat(a[:, None, :], n_agents, axis=1) if a.ndim == 2 else a
 
