@@ -9,7 +9,9 @@ wheels and wheel motor torques (held over each control interval):
   wheel distribution; the wheel commands it held are then given to the two references.
 
 Phase 1 (Basilisk vs the oracle, and both vs closed forms) checks the references themselves, their command
-timing and Basilisk's conventions; phase 2 compares fsmctl with both.  The Basilisk tests take the ``bsk``
+timing and Basilisk's conventions; phase 2 compares fsmctl (default rules) with both; phase 3 reproduces a
+Basilisk run with per-wheel commands, its torque clip and its speed limit through fsmctl's documented API
+(``allocation = "clipped"``, ``speed_gate = "step_start"``) to 1e-9 rad and 1e-10 rad/s (measured 6e-15, 1.4e-14).  The Basilisk tests take the ``bsk``
 fixture (skipped where Basilisk is not installed: ``pip install bsk``); the fsmctl-vs-oracle tests always run.
 
 How the tolerances are set: all the runs below use ``dt = 0.01 s`` with body rates <= 0.7 rad/s, so RK4's
@@ -18,8 +20,9 @@ convergence checked in ``test_basilisk_converges_to_the_oracle_at_fourth_order``
 adds ~1e-12 of the state.  The tolerances (``ATT``, ``RATE``, ``SPEED``) sit ~25-70x above these, and far below
 any modelling difference: a command held one interval late moves the attitude by 4e-3 rad; a hub inertia
 without the wheels' spin inertia (``J - sum J_s g g^T``) by 1e-2 rad (both checked below as negative controls).
-The wheel speed-limit rule is sampled differently by fsmctl (every RK4 stage) and Basilisk (every ``dt``): there
-the tolerance is the effect of one ``dt`` of full motor torque, see ``test_speed_limit_fsmctl_vs_*``.
+With fsmctl's default ``speed_gate = "continuous"`` the wheel speed-limit rule is sampled differently by fsmctl
+(every RK4 stage) and Basilisk (every ``dt``): there the tolerance is the effect of one ``dt`` of full motor torque,
+see ``test_speed_limit_fsmctl_vs_*``; ``speed_gate = "step_start"`` is Basilisk's timing (phase 3).
 """
 
 from __future__ import annotations
