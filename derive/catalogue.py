@@ -29,6 +29,7 @@ from fsmctl.symbolic.hardware import (
     rate_gyro_measurement,
     star_tracker_measurement,
     wheel_acceleration,
+    wheel_friction,
     wheel_motor_torque,
 )
 from fsmctl.symbolic.model import ErrorModel, plant_rhs, reference_rate_in_body
@@ -130,6 +131,7 @@ def wheel_specs() -> list[FunctionSpec]:
     u_motor, u_net = wheel_motor_torque(u[0], Omega[0], *w)
     g, omega_dot = vector_symbols("g"), vector_symbols("omega_dot")
     J_s, net = _scalar("J_s"), _scalar("u_net")
+    u_held = _scalar("u_motor")
     return [
         FunctionSpec(
             name="wheel_torque",
@@ -137,6 +139,15 @@ def wheel_specs() -> list[FunctionSpec]:
             "included); wheel = [speed_max, viscous, coulomb, coulomb_band]",
             inputs=(("u_command", u), ("Omega", Omega), ("wheel", w)),
             outputs=(("u_motor", sp.ImmutableMatrix([u_motor])), ("u_net", sp.ImmutableMatrix([u_net]))),
+            batched=True,
+        ),
+        FunctionSpec(
+            name="wheel_net_torque",
+            doc="one reaction wheel: net torque on the wheel for a motor torque already past the speed limit (the "
+            "limit decided at the start of the step and held: actuator.speed_gate = 'step_start'), friction "
+            "included; wheel = [speed_max, viscous, coulomb, coulomb_band] (speed_max unused)",
+            inputs=(("u_motor", u_held), ("Omega", Omega), ("wheel", w)),
+            outputs=(("u_net", sp.ImmutableMatrix([u_held[0] + wheel_friction(Omega[0], *w[1:])])),),
             batched=True,
         ),
         FunctionSpec(

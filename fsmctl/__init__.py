@@ -38,6 +38,7 @@ from fsmctl.model.scenario import (
     SimulationSettings,
     Sinusoid,
     StarTrackerSettings,
+    WheelCommandSettings,
     load_scenario,
     paper_scenario,
 )
@@ -63,6 +64,7 @@ _PUBLIC_MODULES = (
 __all__ = [
     "__version__",
     "ActuatorSettings",
+    "WheelCommandSettings",
     "Agent",
     "GyroSettings",
     "LinkSettings",

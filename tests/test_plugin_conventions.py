@@ -227,7 +227,11 @@ def _systems() -> list[tuple[ct.NonlinearIOSystem, np.ndarray, np.ndarray]]:
         (fsmctl.reference_generator(paper.reference.omega, name="reference"), X0[:4], np.zeros(0)),
         (fsmctl.fsm_controller(a.J0_array, paper.controller, delta, neighbours=nb, name="ctrl1"), np.zeros(0), u_law),
         (law_controller("adaptive_fsm", a.J0_array, neighbours=nb, params={"u_max": 1.0}), np.full(3, 0.01), u_law),
-        (plant, reaction_wheel_state(plant, [0.1, 0.0, 0.0], [0.0, 0.01, 0.0], [10.0, 0.0, -5.0]), np.r_[TAU, 0, 0, 0]),
+        (
+            plant,
+            reaction_wheel_state(plant, [0.1, 0.0, 0.0], [0.0, 0.01, 0.0], [10.0, 0.0, -5.0]),
+            np.r_[TAU, 0, 0, 0, 0.01, 0.0, -0.02],
+        ),
     ]
 
 

@@ -166,13 +166,21 @@ def test_neighbour_broadcasts_enter_with_the_weights_at_t():
 
 def test_wheel_plant_is_exact():
     wheels = {"layout": "pyramid", "spin_inertia": 0.05, "max_torque": 0.1, "viscous_friction": 0.001}
-    sc = reaction_wheel_spacecraft(J, wheels, name="sc")
-    x0 = reaction_wheel_state(sc, [0.1, 0.2, -0.1], [0.01, 0.02, -0.01], Omega0=[10.0, 5.0, -3.0, 2.0])
-    for u0 in (np.r_[0.01, 0.02, 0.03, 0.1, 0.0, 0.0], np.r_[0.2, 0.1, 0.05, 0.0, 0.0, 0.0]):  # free, scaled
-        rough, fine = (sc.linearize(x0, u0, eps=eps) for eps in (1e-4, 1e-8))
-        assert np.array_equal(rough.A, fine.A) and np.array_equal(rough.B, fine.B)
-        fd = _central(lambda u: sc.dynamics(0.0, x0, u), u0, 1e-7)
-        assert np.allclose(fine.B, fd, rtol=1e-6, atol=1e-7 * np.abs(fd).max())
+    w = np.r_[0.02, -0.01, 0.0, 0.03]  # per-wheel commands u_wheels (one of them pushing a wheel to its limit below)
+    for allocation in ("scaled", "clipped"):
+        sc = reaction_wheel_spacecraft(J, {**wheels, "allocation": allocation}, name="sc")
+        x0 = reaction_wheel_state(sc, [0.1, 0.2, -0.1], [0.01, 0.02, -0.01], Omega0=[10.0, 5.0, -3.0, 2.0])
+        for u0 in (
+            np.r_[0.01, 0.02, 0.03, 0.1, 0.0, 0.0, 0.0 * w],  # free
+            np.r_[0.2, 0.1, 0.05, 0.0, 0.0, 0.0, 0.0 * w],  # a wheel at its limit
+            np.r_[0.01, 0.02, 0.03, 0.1, 0.0, 0.0, w],  # with per-wheel commands, free
+            np.r_[0.05, 0.02, 0.03, 0.0, 0.0, 0.0, 2.0 * w],  # ... and a wheel at its limit
+        ):
+            rough, fine = (sc.linearize(x0, u0, eps=eps) for eps in (1e-4, 1e-8))
+            assert np.array_equal(rough.A, fine.A) and np.array_equal(rough.B, fine.B)
+            fd = _central(lambda u, sc=sc, x0=x0: sc.dynamics(0.0, x0, u), u0, 1e-7)
+            assert np.allclose(fine.B, fd, rtol=1e-6, atol=1e-7 * np.abs(fd).max())
+            assert np.abs(fine.B[:, 6:]).max() > 0  # the u_wheels columns
 
 
 def test_formation_composes_the_exact_jacobians():

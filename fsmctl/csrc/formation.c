@@ -26,6 +26,7 @@
 #include "reference_rhs.h"
 #include "sensor_measurement.h"
 #include "wheel_acceleration.h"
+#include "wheel_net_torque.h"
 #include "wheel_torque.h"
 
 typedef int (*casadi_fn)(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
@@ -54,6 +55,8 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_problem, wheel_Js), FSM_FIELD(fsm_problem, wheel_torque_max), FSM_FIELD(fsm_problem, wheel_params),
       FSM_FIELD(fsm_problem, J_spin), FSM_FIELD(fsm_problem, sensor_dtheta), FSM_FIELD(fsm_problem, sensor_gyro),
       FSM_FIELD(fsm_problem, link_delay), FSM_FIELD(fsm_problem, link_lost), FSM_FIELD(fsm_problem, n_members),
+      FSM_FIELD(fsm_problem, wheel_allocation), FSM_FIELD(fsm_problem, wheel_gate),
+      FSM_FIELD(fsm_problem, wheel_command),
       FSM_FIELD(fsm_output, capacity), FSM_FIELD(fsm_output, written), FSM_FIELD(fsm_output, t),
       FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
       FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
@@ -201,6 +204,7 @@ typedef struct {
   double *u_motor, *u_net;               /* n x nw: motor torque after the speed limit, net torque (last evaluation) */
   double *h_w, *tau_w, *u_body;          /* n x 3: wheel momentum, torque on the wheels, -tau_w (last evaluation) */
   int *gated;                            /* n: a wheel held at its speed limit (last evaluation) */
+  int gate_held;                         /* 1: inner stage of a step with the speed limit held (u_motor as decided) */
   double *sig_meas, *om_meas;            /* n x 3: what the law sees (sensors) */
   double *wl;                            /* lanes of the wheel kernels: ceil(n nw / FSM_LANES) blocks of WL_END rows */
   int n_wgroups;
@@ -273,6 +277,7 @@ static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes
 #define gyrostat_rhs_x4 fsm_no_kernel
 #define wheel_torque_x4 fsm_no_kernel
 #define wheel_acceleration_x4 fsm_no_kernel
+#define wheel_net_torque_x4 fsm_no_kernel
 #endif
 
 
@@ -436,7 +441,8 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
                             law_control_paper_work, law_control_exact_work, law_constants_work,
                             reference_rhs_work,     disturbance_torque_work, mrp_shadow_work,
                             error_state_paper_work, error_state_exact_work, gyrostat_rhs_work,
-                            wheel_torque_work,      wheel_acceleration_work, sensor_measurement_work};
+                            wheel_torque_work,      wheel_acceleration_work, sensor_measurement_work,
+                            wheel_net_torque_work};
   casadi_int max_iw = 1, max_w = 1;
   for (size_t k = 0; k < sizeof(works) / sizeof(works[0]); ++k) {
     casadi_int a, r, iw, w;
@@ -672,25 +678,77 @@ static void deliver_links(workspace *W, const fsm_problem *P) {
   }
 }
 
-/* The torque distribution of the reaction wheels, the one place it is written (fsmctl.model.actuators is its
- * NumPy transcription): minimum-norm wheel torques u_w = -pinv(G_s) u for the law's body torque u, all divided by
- * one factor max(1, max_k |u_w,k| / u_max,k), so that the body torque keeps its direction and the most loaded
- * wheel sits at its limit. */
+/* The wheel commands, the one place these rules are written (fsmctl.model.actuators is their NumPy transcription):
+ * minimum-norm wheel torques -pinv(G_s) u for the law's body torque u, plus the open-loop command of the current
+ * control instant (wheel_command, if any), then the torque limit u_max,k:
+ *   FSM_WHEEL_SCALED:  all divided by one factor max(1, max_k |u_w,k| / u_max,k), so that the body torque keeps its
+ *                      direction and the most loaded wheel sits at its limit;
+ *   FSM_WHEEL_CLIPPED: each clipped to [-u_max,k, u_max,k] on its own (Basilisk's ConfigureRWRequests).
+ * wscale[i] is max(1, max_k |u_w,k| / u_max,k) before the limit under either rule (> 1: a wheel at its limit). */
 static void wheel_commands(workspace *W, const fsm_problem *P) {
   const int n = W->n, nw = W->nw;
+  const double *cmd = P->wheel_command ? P->wheel_command + (size_t)W->q * n * nw : NULL;
   for (int i = 0; i < n; ++i) {
-    const double *u = W->u + 3 * i;
+    const double *u = W->u + 3 * i, *lim = P->wheel_torque_max + (size_t)nw * i;
     double *uw = W->uw + (size_t)nw * i;
     double r = 0.0;
     for (int k = 0; k < nw; ++k) {
       const double *pk = P->wheel_pinv + ((size_t)nw * i + k) * 3;
       uw[k] = -(pk[0] * u[0] + pk[1] * u[1] + pk[2] * u[2]);
-      r = fmax(r, fabs(uw[k]) / P->wheel_torque_max[(size_t)nw * i + k]);
+      if (cmd) uw[k] += cmd[(size_t)nw * i + k];
+      r = fmax(r, fabs(uw[k]) / lim[k]);
     }
     const double scale = fmax(1.0, r);
-    if (scale > 1.0)
+    if (P->wheel_allocation == FSM_WHEEL_CLIPPED) {
+      for (int k = 0; k < nw; ++k) {
+        if (uw[k] > lim[k])
+          uw[k] = lim[k];
+        else if (uw[k] < -lim[k])
+          uw[k] = -lim[k];
+      }
+    } else if (scale > 1.0) {
       for (int k = 0; k < nw; ++k) uw[k] /= scale;
+    }
     W->wscale[i] = scale;
+  }
+}
+
+/* Inner stages of a step with the speed limit decided at its start (FSM_GATE_STEP_START): the motor torques u_motor
+ * stay as wheel_torques set them at the step's first stage (batched: also in the lane row WL_UM), the net torques
+ * (the generated wheel_net_torque: friction at this x) and the wheels' momentum and reaction are recomputed. */
+static void wheel_net_torques(workspace *W, const fsm_problem *P, const double *x) {
+  const int n = W->n, nw = W->nw, S = W->stride, nz = W->nz;
+  if (W->batched) {
+    const int total = n * nw;
+    for (int g = 0; g < W->n_wgroups; ++g) {
+      double *L = W->wl + (size_t)g * WL_END * FSM_LANES;
+      const int m0 = g * FSM_LANES, lanes = total - m0 < FSM_LANES ? total - m0 : FSM_LANES;
+      for (int l = 0; l < FSM_LANES; ++l) L[FSM_LANES * WL_OM + l] = x[W->wheel_x[m0 + l]];
+      const double *arg[3] = {L + FSM_LANES * WL_UM, L + FSM_LANES * WL_OM, L + FSM_LANES * WL_PAR};
+      double *res[1] = {L + FSM_LANES * WL_UNET};
+      wheel_net_torque_x4(arg, res, lanes);
+      for (int l = 0; l < lanes; ++l) W->u_net[m0 + l] = L[FSM_LANES * WL_UNET + l];
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    const double *Om = x + 3 + (size_t)S * i + 6 + nz;
+    double *hw = W->h_w + 3 * i, *tw = W->tau_w + 3 * i;
+    hw[0] = hw[1] = hw[2] = tw[0] = tw[1] = tw[2] = 0.0;
+    for (int k = 0; k < nw; ++k) {
+      const size_t ik = (size_t)nw * i + k;
+      const double *g = P->wheel_axes + 3 * ik;
+      if (!W->batched) {
+        const double *arg[3] = {W->u_motor + ik, Om + k, P->wheel_params + 4 * ik};
+        double *res[1] = {W->u_net + ik};
+        wheel_net_torque(arg, res, W->iw, W->w, 0);
+      }
+      const double hk = P->wheel_Js[ik] * Om[k], tk = W->u_net[ik];
+      for (int c = 0; c < 3; ++c) {
+        hw[c] += hk * g[c];
+        tw[c] += tk * g[c];
+      }
+    }
+    for (int c = 0; c < 3; ++c) W->u_body[3 * i + c] = -tw[c];
   }
 }
 
@@ -698,6 +756,10 @@ static void wheel_commands(workspace *W, const fsm_problem *P) {
  * wheel_torque), their momentum and reaction: h_w = sum Js Omega g, tau_w = sum u_net g, u_body = -tau_w. */
 static void wheel_torques(workspace *W, const fsm_problem *P, const double *x, const double *uwa) {
   const int n = W->n, nw = W->nw, S = W->stride, nz = W->nz;
+  if (W->gate_held) {
+    wheel_net_torques(W, P, x);
+    return;
+  }
   if (W->batched) { /* the generated kernel, FSM_LANES wheels per call (lanes past the last repeat it) */
     const int total = n * nw;
     for (int g = 0; g < W->n_wgroups; ++g) {
@@ -1114,6 +1176,12 @@ static int validate(const fsm_problem *P) {
   if (P->n_wheels > 0 && !(P->wheel_axes && P->wheel_pinv && P->wheel_Js && P->wheel_torque_max && P->wheel_params &&
                            P->J_spin))
     return 0;
+  if (P->wheel_allocation != FSM_WHEEL_SCALED && P->wheel_allocation != FSM_WHEEL_CLIPPED) return 0;
+  if (P->wheel_gate != FSM_GATE_CONTINUOUS && P->wheel_gate != FSM_GATE_STEP_START) return 0;
+  /* a motor torque held over a step must be constant over it: commands held between control instants */
+  if (P->n_wheels > 0 && P->wheel_gate == FSM_GATE_STEP_START && P->hold_steps <= 0) return 0;
+  if (P->wheel_command && (P->n_wheels <= 0 || P->hold_steps <= 0 || P->n_samples < P->n_steps / P->hold_steps + 1))
+    return 0;
   if (P->sensors || P->links_imperfect) { /* they act at the control instants */
     if (P->hold_steps <= 0 || P->n_samples < P->n_steps / P->hold_steps + 1) return 0;
     if (P->sensors && !(P->sensor_dtheta && P->sensor_gyro)) return 0;
@@ -1133,6 +1201,7 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
   double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *xt = k4 + N, *u_prev = xt + N, *sat0 = u_prev + 3 * n;
   const double dt = P->dt, t0 = P->t0;
   const int continuous = P->hold_steps <= 0;
+  const int step_gate = W->nw > 0 && P->wheel_gate == FSM_GATE_STEP_START;
   /* The link weights k^j_ij(t) are piecewise constant in t.  All four stages of the step over [t_k, t_k+1]
    * use their value at the step midpoint, i.e. the value that holds on the step when no switch lies strictly
    * inside it.  A switch on the step grid (every switch of the paper's Table 2 when dt divides 0.1 s) is then
@@ -1143,7 +1212,9 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
     const double t = t0 + (double)k * dt, t_link = t0 + ((double)k + 0.5) * dt;
     int sample = continuous || (k % P->hold_steps == 0);
     if (!continuous && sample) W->q = k / P->hold_steps;
+    W->gate_held = 0;
     stage_one(W, P, t, t_link, x, k1, sample);
+    W->gate_held = step_gate; /* the speed limit decided at the step's start holds over its other stages */
     if (W->bad_agent != -2) break;
     if (k % P->output_every == 0) record(O, W, t, x);
     /* after the record: a caller stopping here gets the outputs and statistics up to t_k exactly */
@@ -1200,6 +1271,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
   const double out_dt = (double)P->output_every * P->dt;
   const double hold_dt = P->hold_steps > 0 ? (double)P->hold_steps * P->dt : 0.0;
   const int continuous = P->hold_steps <= 0;
+  const int step_gate = W->nw > 0 && P->wheel_gate == FSM_GATE_STEP_START;
   long long m_out = 0, q_hold = 0, attempts = 0;
   double t = t0, h = P->dt;
   int first = 1;
@@ -1208,7 +1280,9 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
     const double eps_t = 1e-12 * fmax(1.0, fabs(t));
     int sample = 0;
     if (!continuous && fabs(t - (t0 + (double)q_hold * hold_dt)) <= eps_t) { sample = 1; W->q = q_hold++; }
+    W->gate_held = 0;
     stage_one(W, P, t, t, x, k1, continuous || sample || first);
+    W->gate_held = step_gate; /* as in simulate_rk4: every trial step from x holds the limit decided at x */
     if (W->bad_agent != -2) break;
     memcpy(u_snap, W->nw > 0 ? W->u_body : W->u_apply, sizeof(double) * 3 * n); /* the torque on the body */
     wheel_saturation(W, sat0); /* at the step's start, as the torque */

@@ -13,10 +13,13 @@
  *
  * Flight hardware (each off by default; off, the loop is the ideal-torque loop, bit for bit):
  *   - reaction wheels (n_wheels > 0): at each control evaluation the law's torque is distributed to the wheels
- *     (minimum-norm, one scale factor keeping every wheel within its torque limit: wheel_commands, the one place
- *     this rule is written; fsmctl.model.actuators is its NumPy transcription), held with the control, and the
- *     plant is the generated gyrostat_rhs with the generated per-wheel wheel_torque (speed limit, friction) and
- *     wheel_acceleration;
+ *     (minimum-norm), the open-loop per-wheel commands of that instant (wheel_command) are added, and the torque
+ *     limit is applied, scaled (one factor for all wheels) or clipped (each wheel): wheel_commands, the one
+ *     place these rules are written (fsmctl.model.actuators is their NumPy transcription).  The commands are held
+ *     with the control, and the plant is the generated gyrostat_rhs with the generated per-wheel wheel_torque
+ *     (speed limit, friction) and wheel_acceleration; with wheel_gate = FSM_GATE_STEP_START the speed limit is
+ *     decided at the start of each integrator step and held over it (the generated wheel_net_torque adds the
+ *     friction at the inner stages);
  *   - sensors (sensors = 1): at control instant q the law sees the generated sensor_measurement of the true state
  *     with the noise sensor_dtheta[q], sensor_gyro[q] (drawn in Python, fsmctl.model.noise); the metrics and
  *     records of sigma/omega see the truth;
@@ -34,7 +37,7 @@
 extern "C" {
 #endif
 
-#define FSM_ABI_VERSION 4
+#define FSM_ABI_VERSION 5
 
 typedef struct {
   int n_agents;
@@ -86,7 +89,17 @@ typedef struct {
   int n_members;                 /* <= 1: one run; m > 1: the agents are m runs of n_agents / m agents each (a
                                     block-diagonal formation) and the per-agent output arrays are member-major:
                                     m x capacity x (n_agents / m) x ... (each run's outputs contiguous) */
+  /* wheels as Basilisk flies them (ABI 5) */
+  int wheel_allocation;          /* torque-limit rule: FSM_WHEEL_SCALED (one factor for all wheels) or
+                                    FSM_WHEEL_CLIPPED (each wheel clipped to +-wheel_torque_max, Basilisk's) */
+  int wheel_gate;                /* speed limit: FSM_GATE_CONTINUOUS (at every evaluation) or FSM_GATE_STEP_START
+                                    (decided at the start of each integrator step and held over it, Basilisk's) */
+  const double *wheel_command;   /* NULL, or n_samples x n x n_wheels: open-loop motor torque of each wheel (N m,
+                                    positive spins it up along g) added at control instant q before the limit rule */
 } fsm_problem;
+
+enum { FSM_WHEEL_SCALED = 0, FSM_WHEEL_CLIPPED = 1 };
+enum { FSM_GATE_CONTINUOUS = 0, FSM_GATE_STEP_START = 1 };
 
 enum {
   FSM_KERNELS_AUTO = 0,    /* batched where the build has AVX (fsm_batched_preferred), else scalar */

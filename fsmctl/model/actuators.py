@@ -1,16 +1,24 @@
-"""Reaction-wheel torque distribution: from the law's body torque to wheel motor torques.
+"""Reaction-wheel commands: from the law's body torque (and open-loop per-wheel commands) to wheel motor torques.
 
-The rule (applied at every control instant by the compiled loop, ``fsmctl/csrc/formation.c``,
+The rules (applied at every control instant by the compiled loop, ``fsmctl/csrc/formation.c``,
 ``wheel_commands``; this NumPy transcription is held equal to it by ``tests/test_wheels.py``):
 
 1. minimum-norm distribution ``u_w* = -P u`` with ``P = pinv(G_s)`` (``G_s``: the ``3 x N`` spin axes),
    so that the wheels' reaction on the hub, ``-G_s u_w*``, is the commanded body torque ``u``;
-2. direction-preserving saturation: with ``r = max_i |u_w*_i| / max_torque_i``, every wheel torque is
-   divided by ``max(1, r)``: the body torque keeps its direction and the most loaded wheel sits at its
-   limit (clipping wheels one by one would turn the torque away from the command).
+2. plus the open-loop motor torque commands of that instant, if any (``actuator.wheel_commands``, or the
+   ``wheel_commands`` callable of :func:`fsmctl.simulate`; Basilisk's ``motorTorque`` sign: positive spins the
+   wheel up along ``g``);
+3. the torque limit, one of :data:`ALLOCATIONS` (``actuator.allocation``):
 
-Between control instants the wheel commands are held; the speed limit and friction act continuously
-(:func:`fsmctl.symbolic.hardware.wheel_motor_torque`).
+   * ``"scaled"`` (the default): with ``r = max_i |u_w_i| / max_torque_i``, every wheel torque is divided by
+     ``max(1, r)``: the body torque keeps its direction and the most loaded wheel sits at its limit;
+   * ``"clipped"`` (Basilisk's ``reactionWheelStateEffector``): each wheel is clipped to
+     ``[-max_torque_i, max_torque_i]`` on its own (the body torque turns away from the command when a wheel
+     saturates).
+
+Between control instants the wheel commands are held; the speed limit and friction
+(:func:`fsmctl.symbolic.hardware.wheel_speed_gate`, :func:`~fsmctl.symbolic.hardware.wheel_friction`) act on the
+held commands, the speed limit decided as :data:`SPEED_GATES` says (``actuator.speed_gate``).
 """
 
 from __future__ import annotations
@@ -19,8 +27,25 @@ import numpy as np
 
 from fsmctl.errors import InputError
 
+ALLOCATIONS: dict[str, str] = {
+    "scaled": "every wheel divided by one factor when one would exceed its max_torque (the body torque keeps its "
+    "direction)",
+    "clipped": "each wheel clipped to +-max_torque on its own (Basilisk's rule)",
+}
+"""The torque-limit rules of the reaction wheels (``actuator.allocation``), the default first."""
+
+SPEED_GATES: dict[str, str] = {
+    "continuous": "the speed limit evaluated at every evaluation of the dynamics (every RK4 stage)",
+    "step_start": "the speed limit decided from the speeds at the start of each integrator step and held over the "
+    "step (Basilisk's timing)",
+}
+"""When the wheels' speed limit is decided (``actuator.speed_gate``), the default first."""
+
 __all__ = [
+    "ALLOCATIONS",
+    "SPEED_GATES",
     "distribution_matrix",
+    "sample_wheel_commands",
     "distribute",
     "body_torque_capacity",
     "max_body_torque",
@@ -128,11 +153,19 @@ def distribution_matrix(axes: np.ndarray) -> np.ndarray:
     return np.linalg.pinv(G)
 
 
-def distribute(u_body: np.ndarray, pinv: np.ndarray, max_torque: np.ndarray) -> tuple[np.ndarray, float]:
-    """Wheel motor torques ``(N,)`` for the body torque ``u_body`` (3,), and the scale factor ``max(1, r)``.
+def distribute(
+    u_body: np.ndarray,
+    pinv: np.ndarray,
+    max_torque: np.ndarray,
+    command: np.ndarray | None = None,
+    allocation: str = "scaled",
+) -> tuple[np.ndarray, float]:
+    """Wheel motor torques ``(N,)`` for the body torque ``u_body`` (3,), and the load factor ``max(1, r)``.
 
-    The module's rule: ``u_w* = -P u`` (minimum norm), then divided by ``max(1, r)``,
-    ``r = max_i |u_w*_i| / max_torque_i`` (the direction of the body torque is kept).
+    The module's rules: ``u_w = -P u`` (minimum norm), plus ``command`` (open-loop motor torques), then the
+    torque limit ``allocation``: ``"scaled"`` divides every torque by ``max(1, r)``,
+    ``r = max_i |u_w_i| / max_torque_i`` (the direction of the body torque is kept); ``"clipped"`` clips each
+    torque to ``[-max_torque_i, max_torque_i]``.
 
     Parameters
     ----------
@@ -142,32 +175,96 @@ def distribute(u_body: np.ndarray, pinv: np.ndarray, max_torque: np.ndarray) -> 
         ``(N, 3)`` distribution matrix (:func:`distribution_matrix`).
     max_torque : numpy.ndarray
         ``(N,)`` motor torque limit of each wheel (N m).
+    command : numpy.ndarray, optional
+        ``(N,)`` open-loop motor torques added before the limit (N m; positive spins the wheel up along its axis).
+    allocation : {"scaled", "clipped"}
+        The torque-limit rule (:data:`ALLOCATIONS`).
 
     Returns
     -------
     u_w : numpy.ndarray
         ``(N,)`` wheel motor torques (N m); their reaction on the hub is ``-G_s u_w``.
     scale : float
-        ``max(1, r)``: 1 when no wheel saturates.
+        ``max(1, r)`` before the limit: 1 when no wheel saturates (under either rule).
+
+    Raises
+    ------
+    InputError
+        ``allocation`` is not one of :data:`ALLOCATIONS`.
 
     Examples
     --------
     >>> import numpy as np
     >>> from fsmctl.model import distribute, distribution_matrix
-    >>> u_w, scale = distribute(np.array([0.3, 0.0, 0.0]), distribution_matrix(np.eye(3)), np.full(3, 0.2))
-    >>> u_w.tolist(), scale
-    ([-0.2, -0.0, -0.0], 1.5)
+    >>> P = distribution_matrix(np.eye(3))
+    >>> u_w, scale = distribute(np.array([0.3, 0.1, 0.0]), P, np.full(3, 0.2))
+    >>> u_w.round(6).tolist(), scale
+    ([-0.2, -0.066667, -0.0], 1.5)
+    >>> distribute(np.array([0.3, 0.1, 0.0]), P, np.full(3, 0.2), allocation="clipped")[0].tolist()
+    [-0.2, -0.1, -0.0]
+    >>> distribute(np.zeros(3), P, np.full(3, 0.2), command=np.array([0.05, 0.0, 0.5]), allocation="clipped")[0].tolist()
+    [0.05, 0.0, 0.2]
     """
+    if allocation not in ALLOCATIONS:
+        raise InputError(f"allocation: expected one of {', '.join(map(repr, ALLOCATIONS))}, got {allocation!r}")
     pinv = np.asarray(pinv, dtype=float)
+    lim = np.asarray(max_torque, dtype=float)
     u_w = np.empty(pinv.shape[0])
     u = np.asarray(u_body, dtype=float)
+    cmd = None if command is None else np.asarray(command, dtype=float)
+    r = 0.0
     for i in range(pinv.shape[0]):  # the C loop's order of operations, so that the results are bit-identical
         u_w[i] = -(pinv[i, 0] * u[0] + pinv[i, 1] * u[1] + pinv[i, 2] * u[2])
-    r = 0.0
-    for i in range(u_w.size):
-        r = max(r, abs(u_w[i]) / max_torque[i])
+        if cmd is not None:
+            u_w[i] += cmd[i]
+        r = max(r, abs(u_w[i]) / lim[i])
     scale = max(1.0, r)
+    if allocation == "clipped":
+        for i in range(u_w.size):
+            if u_w[i] > lim[i]:
+                u_w[i] = lim[i]
+            elif u_w[i] < -lim[i]:
+                u_w[i] = -lim[i]
+        return u_w, scale
     return (u_w / scale if scale > 1.0 else u_w), scale
+
+
+def sample_wheel_commands(time: np.ndarray, torque: np.ndarray, instants: np.ndarray) -> np.ndarray:
+    """A zero-order-hold table of wheel commands sampled at the control instants.
+
+    Row ``m`` of ``torque`` holds on ``[time[m], time[m+1])`` (the last row to the end); before ``time[0]`` the
+    commands are 0.  An instant within ``1e-9 max(1, |t|)`` of a table time counts as at it (``q * period``
+    rounding).
+
+    Parameters
+    ----------
+    time : numpy.ndarray
+        ``(T,)`` strictly increasing times (s).
+    torque : numpy.ndarray
+        ``(T, ...)`` commands (N m), e.g. ``(T, n_agents, n_wheels)``.
+    instants : numpy.ndarray
+        ``(Q,)`` control instants (s).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(Q, ...)`` the commands at each instant.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.model.actuators import sample_wheel_commands
+    >>> sample_wheel_commands(np.array([1.0, 2.0]), np.array([[0.1], [0.2]]), np.arange(4) * 0.7).ravel().tolist()
+    [0.0, 0.0, 0.1, 0.2]
+    """
+    t = np.asarray(time, dtype=float)
+    a = np.asarray(torque, dtype=float)
+    q = np.asarray(instants, dtype=float)
+    row = np.searchsorted(t, q + 1e-9 * np.maximum(1.0, np.abs(q)), side="right") - 1
+    out = np.zeros((q.size, *a.shape[1:]))
+    on = row >= 0
+    out[on] = a[row[on]]
+    return out
 
 
 def body_torque_capacity(axes: np.ndarray, max_torque: np.ndarray, directions: int = 2000, seed: int = 0) -> dict:

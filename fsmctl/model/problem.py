@@ -22,7 +22,16 @@ from fsmctl.model.laws import LawCode, initial_law_states, parameter_matrix, res
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import schedule_weight
 
-__all__ = ["PackedProblem", "HardwarePack", "pack", "output_buffer_bytes", "pack_hardware", "batch_key", "stack"]
+__all__ = [
+    "PackedProblem",
+    "HardwarePack",
+    "pack",
+    "output_buffer_bytes",
+    "pack_hardware",
+    "batch_key",
+    "stack",
+    "wheel_command_samples",
+]
 
 
 def output_buffer_bytes(
@@ -50,7 +59,8 @@ class HardwarePack:
     ``wheel_pinv`` (n, N, 3); ``wheel_Js``, ``wheel_torque_max`` (n, N); ``wheel_params`` (n, N, 4) in the
     generated layout ``[speed_max, viscous, coulomb, coulomb_band]``; ``J_spin`` (n, 3, 3); ``wheel_speed0``
     (n, N); ``sensor_dtheta``, ``sensor_gyro`` (Q, n, 3); ``link_delay`` (L,) in control instants;
-    ``link_lost`` (Q, L) uint8.
+    ``link_lost`` (Q, L) uint8; ``wheel_allocation`` (0: scaled, 1: clipped), ``wheel_gate`` (0: continuous, 1:
+    step_start), ``wheel_command`` (Q, n, N) open-loop motor torques at the control instants, or None.
     """
 
     n_wheels: int = 0
@@ -68,6 +78,11 @@ class HardwarePack:
     sensor_gyro: np.ndarray = field(default_factory=lambda: np.zeros((0, 0, 3)))
     link_delay: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int32))
     link_lost: np.ndarray = field(default_factory=lambda: np.zeros((0, 0), dtype=np.uint8))
+    # wheels as Basilisk flies them: the limit rules (0 scaled / 1 clipped; 0 continuous / 1 step_start) and the
+    # open-loop motor torques at the control instants, (Q, n, N), or None
+    wheel_allocation: int = 0
+    wheel_gate: int = 0
+    wheel_command: np.ndarray | None = None
 
 
 def delay_instants(delay: np.ndarray, period: float) -> np.ndarray:
@@ -79,13 +94,68 @@ def delay_instants(delay: np.ndarray, period: float) -> np.ndarray:
     return np.minimum(q, np.iinfo(np.int32).max).astype(np.int32)
 
 
-def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int) -> HardwarePack:
+def wheel_command_samples(scenario: Scenario, n_steps: int, hold_steps: int, wheel_commands=None) -> np.ndarray | None:
+    """The open-loop wheel motor torques at the control instants ``q * control_period``, ``(Q, n, N)``, or None.
+
+    From the scenario's table (``actuator.wheel_commands``, zero-order hold) or from ``wheel_commands``: a callable
+    ``f(t) -> (n_agents, n_wheels)`` sampled at each instant, or an array ``(Q, n_agents, n_wheels)`` of those samples.
+    Both given, or a value of the wrong shape or not finite: :class:`~fsmctl.errors.InputError`.
+    """
+    from fsmctl.errors import InputError
+    from fsmctl.model.actuators import sample_wheel_commands
+
+    act = scenario.actuator
+    table = act.wheel_commands if act.enabled else None
+    if wheel_commands is None and table is None:
+        return None
+    n, N = scenario.n_agents, act.n_wheels
+    if not act.enabled:
+        raise InputError("wheel_commands: the scenario flies no reaction wheels (actuator.kind = 'ideal')")
+    if wheel_commands is not None and table is not None:
+        raise InputError("wheel_commands: given both to simulate and in the scenario (actuator.wheel_commands)")
+    period = scenario.simulation.control_period
+    if not (period > 0 and hold_steps > 0):
+        raise InputError("wheel_commands: act at the control instants; set simulation.control_period > 0")
+    Q = n_steps // hold_steps + 1
+    instants = np.arange(Q) * period
+    if table is not None:
+        return sample_wheel_commands(np.array(table.time), table.table(n), instants)
+    if callable(wheel_commands):
+        out = np.empty((Q, n, N))
+        for q, t in enumerate(instants):
+            v = np.asarray(wheel_commands(float(t)), dtype=float)
+            if v.shape != (n, N):
+                raise InputError(f"wheel_commands({float(t)!r}): expected an array of shape ({n}, {N}), got {v.shape}")
+            out[q] = v
+    else:
+        out = np.asarray(wheel_commands, dtype=float)
+        if out.shape != (Q, n, N):
+            raise InputError(
+                f"wheel_commands: expected a callable f(t) -> ({n}, {N}) or an array ({Q}, {n}, {N}) (one per control "
+                f"instant), got shape {out.shape}"
+            )
+    if not np.all(np.isfinite(out)):
+        q = int(np.argwhere(~np.isfinite(out))[0][0])
+        raise InputError(f"wheel_commands: not finite at t = {float(instants[q])!r} s")
+    return np.ascontiguousarray(out)
+
+
+def pack_hardware(scenario: Scenario, n_steps: int, hold_steps: int, wheel_commands=None) -> HardwarePack:
     """The scenario's actuator, sensors and links as arrays (:class:`HardwarePack`); the noise of the run is
-    drawn here, from ``simulation.seed`` (:func:`fsmctl.model.noise.hardware_noise`)."""
+    drawn here, from ``simulation.seed`` (:func:`fsmctl.model.noise.hardware_noise`); ``wheel_commands``: as
+    :func:`wheel_command_samples`."""
     act, sensors, links = scenario.actuator, scenario.sensors, scenario.links
     n = scenario.n_agents
     out: dict = {}
+    command = wheel_command_samples(scenario, n_steps, hold_steps, wheel_commands)
     if act.enabled:
+        out.update(
+            wheel_allocation=1 if act.allocation == "clipped" else 0,
+            wheel_gate=1 if act.speed_gate == "step_start" else 0,
+            wheel_command=command,
+        )
+        if command is not None:
+            out.update(n_samples=command.shape[0])
         G = act.spin_axes()
         N = G.shape[1]
         Js = act.per_wheel("spin_inertia")
@@ -242,10 +312,10 @@ class PackedProblem:
         return out
 
 
-def pack(scenario: Scenario, law: LawCode | str | None = None) -> PackedProblem:
+def pack(scenario: Scenario, law: LawCode | str | None = None, *, wheel_commands=None) -> PackedProblem:
     """Flatten a validated scenario (flying ``law``, default the scenario's ``controller.law``).
 
-    Another ``law`` is flown by the rule of :meth:`fsmctl.Scenario.replace`: the scenario's written keys that it
+    ``wheel_commands``: open-loop wheel motor torques (:func:`wheel_command_samples`).  Another ``law`` is flown by the rule of :meth:`fsmctl.Scenario.replace`: the scenario's written keys that it
     declares apply, the others are dropped (one :class:`~fsmctl.model.laws.LawSwitchWarning` says which).
     """
     if law is not None and resolve_law(law).folder != scenario.law.folder:
@@ -262,7 +332,7 @@ def pack(scenario: Scenario, law: LawCode | str | None = None) -> PackedProblem:
         counts.append(len(link.k_j.breakpoints))
         times.extend(link.k_j.breakpoints)
         values.extend(link.k_j.values)
-    hardware = pack_hardware(scenario, sim.n_steps, sim.hold_steps)
+    hardware = pack_hardware(scenario, sim.n_steps, sim.hold_steps, wheel_commands)
     nz, nw = law.n_states, hardware.n_wheels
     stride = 6 + nz + nw
     z0 = initial_law_states(law)

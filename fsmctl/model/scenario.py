@@ -100,6 +100,7 @@ from fsmctl.model.settings import (
     SimulationSettings,
     Sinusoid,
     StarTrackerSettings,
+    WheelCommandSettings,
 )
 from fsmctl.model.topology import Topology, TopologyError
 
@@ -113,6 +114,7 @@ __all__ = [
     "ControllerSettings",
     "SimulationSettings",
     "ActuatorSettings",
+    "WheelCommandSettings",
     "StarTrackerSettings",
     "GyroSettings",
     "SensorSettings",
@@ -237,6 +239,19 @@ class Scenario:
                 "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
             )
         n = len(self.agents)
+        act = self.actuator
+        if act.enabled and not period > 0 and (act.speed_gate == "step_start" or act.wheel_commands is not None):
+            what = "wheel_commands" if act.wheel_commands is not None else "speed_gate"
+            raise ValueError(
+                f"actuator.{what}: wheel commands held over each step (speed_gate = 'step_start') and open-loop wheel "
+                "commands act at the control instants; set simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
+            )
+        table = act.wheel_commands.table(n) if act.enabled and act.wheel_commands is not None else None
+        if table is not None and table.shape[1] != n:
+            raise ValueError(
+                f"actuator.wheel_commands.motor_torque: a row per wheel, or {n} rows (one per agent) per time; got "
+                f"{table.shape[1]} rows per time"
+            )
         if self.actuator.enabled:  # the hub inertia J - J_spin must be a rigid body's
             from fsmctl.model.actuators import hub_inertia_problem
 

@@ -189,6 +189,26 @@ def _table(v: Any) -> tuple[tuple[float, ...], ...]:
     return tuple(rows)
 
 
+def _wheel_torque_table(v: Any) -> tuple:
+    """Per-wheel torques over time: a T x N (every spacecraft alike) or T x n x N nested array of finite numbers."""
+    if isinstance(v, np.ndarray):
+        v = v.tolist()
+    what = "a table of motor torques, one row per time (a row per wheel, or per spacecraft and wheel)"
+    if isinstance(v, (str, bytes, Mapping)) or not isinstance(v, Sequence) or not len(v):
+        raise ValueError(f"expected {what}, got {v!r}")
+    shape: list[int] = []
+    x = v
+    while isinstance(x, Sequence) and not isinstance(x, (str, bytes)):
+        if not len(x):
+            raise ValueError(f"expected {what}, got an empty row")
+        shape.append(len(x))
+        x = x[0]
+    if len(shape) not in (2, 3):
+        raise ValueError(f"expected {what} (2 or 3 levels of nesting), got {len(shape)} level(s)")
+    a = _real_array(v, tuple(shape), what)
+    return tuple(map(tuple, a)) if a.ndim == 2 else tuple(tuple(map(tuple, b)) for b in a)
+
+
 def _count(v: Any) -> int:
     """A non-negative integer (never a bool or a float)."""
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, np.integer)):
@@ -315,6 +335,9 @@ Matrix3N = Annotated[tuple[tuple[float, ...], ...], BeforeValidator(_matrix)]
 ActuatorKind = Annotated[Literal["ideal", "reaction_wheels"], BeforeValidator(_lower)]
 WheelLayout = Annotated[Literal["pyramid", "orthogonal", "custom"], BeforeValidator(_lower)]
 LossModel = Annotated[Literal["bernoulli", "gilbert_elliott"], BeforeValidator(_lower)]
+WheelAllocation = Annotated[Literal["scaled", "clipped"], BeforeValidator(_lower)]
+SpeedGate = Annotated[Literal["continuous", "step_start"], BeforeValidator(_lower)]
+WheelTorqueTable = Annotated[tuple, BeforeValidator(_wheel_torque_table)]
 
 _CONFIG = ConfigDict(extra="forbid", allow_inf_nan=False, arbitrary_types_allowed=True)
 ZERO3 = (0.0, 0.0, 0.0)

@@ -37,10 +37,13 @@ from fsmctl.model.scenario_values import (
     Numbers,
     Real,
     ScenarioError,
+    SpeedGate,
     Text,
     TorqueLimit,
     Vec3,
+    WheelAllocation,
     WheelLayout,
+    WheelTorqueTable,
     _count,
     _doc,
     _inertia_problem,
@@ -342,6 +345,62 @@ class SimulationSettings:
 
 
 @_validated
+class WheelCommandSettings:
+    """Open-loop motor torque commands of the reaction wheels, a table held between its times (zero-order hold).
+
+    Row ``m`` of ``motor_torque`` holds from ``time[m]`` to the next time (the last to the end of the run); before
+    ``time[0]`` the commands are 0.  A row gives one torque per wheel (every spacecraft alike) or one row of wheel
+    torques per spacecraft.  The sign is Basilisk's ``motorTorque``: positive spins the wheel up along its axis
+    ``g`` (its reaction on the hub is ``-g``).  The commands are sampled at the control instants and added to
+    what the wheels get from the law's body torque, before the torque limit (``actuator.allocation``): with
+    ``controller.enabled = false`` the wheels fly exactly the table.
+
+    Examples
+    --------
+    >>> from fsmctl.model.settings import WheelCommandSettings
+    >>> WheelCommandSettings(time=[0.0, 10.0], motor_torque=[[0.01, 0.0, 0.0], [0.0, 0.0, 0.0]]).time
+    (0.0, 10.0)
+    """
+
+    time: Numbers = _doc("start of each row of motor_torque, strictly increasing, >= 0", "s")
+    motor_torque: WheelTorqueTable = _doc(
+        "one row per time: a torque per wheel (every spacecraft alike), or per spacecraft a torque per wheel",
+        "N m",
+    )
+
+    @model_validator(mode="after")
+    def _rows(self) -> WheelCommandSettings:
+        t = np.array(self.time)
+        if t[0] < 0 or np.any(np.diff(t) <= 0):
+            raise ValueError(f"time: must be >= 0 and strictly increasing, got {list(self.time)}")
+        if len(self.motor_torque) != t.size:
+            raise ValueError(f"motor_torque: one row per time ({t.size}), got {len(self.motor_torque)} rows")
+        return self
+
+    def table(self, n_agents: int) -> np.ndarray:
+        """The table as ``(T, n_agents, N)`` torques, a per-wheel row repeated for every spacecraft.
+
+        Parameters
+        ----------
+        n_agents : int
+            Spacecraft of the scenario.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(T, n_agents, N)`` motor torques (N m), row ``m`` holding from ``time[m]``.
+
+        Examples
+        --------
+        >>> from fsmctl.model.settings import WheelCommandSettings
+        >>> WheelCommandSettings(time=[0.0], motor_torque=[[0.01, 0.0, 0.0]]).table(2).shape
+        (1, 2, 3)
+        """
+        a = np.array(self.motor_torque, dtype=float)
+        return np.repeat(a[:, None, :], n_agents, axis=1) if a.ndim == 2 else a
+
+
+@_validated
 class ActuatorSettings:
     """How the law's torque reaches the body: an ideal torque source with a per-axis clip, or reaction wheels.
 
@@ -394,6 +453,21 @@ class ActuatorSettings:
         default=0.1,
     )
     initial_speed: Numbers = _doc("wheel speeds at t = 0: one value, or one per wheel", "rad/s", default=(0.0,))
+    allocation: WheelAllocation = _doc(
+        "torque-limit rule: 'scaled' (when a wheel would exceed max_torque, every wheel is divided by one factor: "
+        "the body torque keeps its direction) or 'clipped' (each wheel clipped to +-max_torque on its own: "
+        "Basilisk's rule)",
+        default="scaled",
+    )
+    speed_gate: SpeedGate = _doc(
+        "when the speed limit is decided: 'continuous' (at every evaluation of the dynamics) or 'step_start' "
+        "(from the speeds at the start of each integrator step, held over the step: Basilisk's timing; needs "
+        "simulation.control_period > 0)",
+        default="continuous",
+    )
+    wheel_commands: WheelCommandSettings | None = _doc(
+        "open-loop motor torque per wheel, added before the torque limit (unset: none)", default=None
+    )
 
     @model_validator(mode="after")
     def _wheels(self) -> ActuatorSettings:
@@ -428,6 +502,12 @@ class ActuatorSettings:
         for name in ("viscous_friction", "coulomb_friction"):
             if not all(x >= 0 for x in getattr(self, name)):
                 raise ValueError(f"{name}: every value must be >= 0, got {list(getattr(self, name))}")
+        if self.wheel_commands is not None:
+            if not self.enabled:
+                raise ValueError("wheel_commands: given with kind = 'ideal'; set kind = 'reaction_wheels'")
+            width = np.array(self.wheel_commands.motor_torque).shape[-1]
+            if width != n:
+                raise ValueError(f"wheel_commands.motor_torque: one torque per wheel ({n}), got {width} per row")
         return self
 
     def _raw_axes(self) -> np.ndarray:

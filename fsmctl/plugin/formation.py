@@ -457,6 +457,11 @@ def formation(
     name = _system_name(name, "formation")
     if name is None:
         raise ScenarioError("formation: name must be a non-empty string without '.', got None")
+    if scenario.actuator.enabled and scenario.actuator.wheel_commands is not None:
+        raise ScenarioError(
+            "formation: actuator.wheel_commands (an open-loop table) is flown by fsmctl.simulate; in python-control "
+            "feed the wheel plants' u_wheels inputs (fsmctl.plugin.hardware.reaction_wheel_spacecraft)"
+        )
     if scenario.simulation.control_period > 0:
         if actuators is not None or sensors is not None:
             raise ScenarioError(
@@ -530,7 +535,7 @@ def formation(
     systems = [reference_generator(scenario.reference.omega, normalization_gain=normalization_gain, name="reference")]
     ignored: dict[str, list[str]] = {}
     if wheels:  # the wheel plants' extra signals (d: no external torque input; wheel speeds, momentum, torques)
-        ignored["ignore_inputs"] = [f"sc{i}.d" for i in range(1, n + 1)]
+        ignored["ignore_inputs"] = [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in ("d", "u_wheels")]
         ignored_outputs += [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in ("Omega", "h_wheels", "wheel_torque")]
     if ignored_outputs:
         ignored["ignore_outputs"] = ignored_outputs

@@ -173,8 +173,9 @@ def reaction_wheel_spacecraft(
 
     The compiled simulator's wheel plant (``actuator.kind = "reaction_wheels"``), evaluating its generated
     functions: the body-torque command ``u_command`` is distributed to the wheels by
-    :func:`fsmctl.model.actuators.distribute` (minimum norm, all wheel torques scaled by one factor when a wheel
-    would exceed ``max_torque``); each wheel's motor torque after the speed limit and its net torque with friction
+    :func:`fsmctl.model.actuators.distribute` (minimum norm, plus the per-wheel motor torque commands ``u_wheels``,
+    then the torque limit ``actuator.allocation``: all wheel torques scaled by one factor when a wheel would
+    exceed ``max_torque``, or each wheel clipped); each wheel's motor torque after the speed limit and its net torque with friction
     come from ``wheel_torque``; the hub from ``gyrostat_rhs`` (``(J - J_spin) omega_dot = -omega x (J omega +
     h_wheels) - tau_wheels + L``, ``L`` the external torque); the wheel speeds from ``wheel_acceleration``.  The attitude is integrated as
     Euler parameters with the normalisation-drift control of :func:`fsmctl.plugin.iosys.spacecraft`.
@@ -191,7 +192,9 @@ def reaction_wheel_spacecraft(
         The wheel array (``kind = "reaction_wheels"``; a mapping is read as :class:`ActuatorSettings` with that
         kind by default): spin axes, spin inertia, torque and speed limits, friction.  Its ``initial_speed`` is
         not used here: the initial state is given to :func:`control.input_output_response`
-        (:func:`reaction_wheel_state` builds it).
+        (:func:`reaction_wheel_state` builds it).  Its ``allocation`` is the torque-limit rule; its ``speed_gate``
+        must be ``"continuous"`` (a continuous-time plant has no step to hold the speed limit over); its
+        ``wheel_commands`` table is not used (the input ``u_wheels`` is this plant's open-loop command).
     disturbance : Sinusoid, optional
         Disturbance torque ``d(t)`` (N m), as in :func:`fsmctl.plugin.iosys.spacecraft`; none by default.  The
         external torque is ``L = d(t) + `` the input ``d``.
@@ -213,7 +216,9 @@ def reaction_wheel_spacecraft(
     ParameterizedSystem
         States ``q[0..3]`` (Euler parameters, scalar first, N -> B), ``omega[0..2]`` (rad/s, body frame),
         ``Omega[0..N-1]`` (wheel speeds relative to the hub, rad/s).  Inputs ``u_command[0..2]`` (the body torque
-        the law asks for, N m) and ``d[0..2]`` (external torque added to the ``disturbance``, N m).  Outputs ``sigma[0..2]`` (MRP,
+        the law asks for, N m), ``d[0..2]`` (external torque added to the ``disturbance``, N m) and
+        ``u_wheels[0..N-1]`` (per-wheel motor torque commands added before the torque limit, N m, positive spinning
+        the wheel up along its axis: Basilisk's ``motorTorque``).  Outputs ``sigma[0..2]`` (MRP,
         ``|sigma| <= 1``), ``omega[0..2]``, ``Omega[0..N-1]``, ``tau[0..2]`` (the wheels' reaction on the body,
         ``-sum_k u_net,k g_k``, N m), ``h_wheels[0..2]`` (``sum_k J_s,k Omega_k g_k``, N m s) and
         ``wheel_torque[0..N-1]`` (motor torques after the speed limit, N m: the compiled result's
@@ -242,21 +247,34 @@ def reaction_wheel_spacecraft(
     >>> sc.state_labels[7:], sc.output_labels[9:12]
     (['Omega[0]', 'Omega[1]', 'Omega[2]'], ['tau[0]', 'tau[1]', 'tau[2]'])
     >>> x0 = reaction_wheel_state(sc, sigma0=[0.1, 0.0, 0.0])
-    >>> (sc.output(0.0, x0, [0.0, 0.0, 0.5, 0, 0, 0])[9:12].round(12) + 0.0).tolist()  # asks 0.5 N m, gets max_torque
+    >>> (sc.output(0.0, x0, [0.0, 0.0, 0.5, 0, 0, 0, 0, 0, 0])[9:12].round(12) + 0.0).tolist()  # asks 0.5 N m, gets max_torque
     [0.0, 0.0, 0.1]
-    >>> U = np.zeros((6, 2))
+    >>> U = np.zeros((sc.ninputs, 2))  # u_command, d, u_wheels
     >>> U[2] = 0.05  # 0.05 N m about z for 10 s, taken from the wheels
     >>> r = ct.input_output_response(sc, [0.0, 10.0], U, x0)
     >>> round(float(r.outputs[5, -1]), 9)  # the hub's rate: 0.5 N m s / (J_z - J_s)
     0.002500625
     >>> bool(abs(200.0 * r.outputs[5, -1] + r.outputs[14, -1]) < 1e-12)  # the total momentum J omega + h is kept
     True
+
+    A per-wheel command: 0.02 N m spinning wheel 3 (along z) up; the hub turns the other way:
+
+    >>> U = np.zeros((sc.ninputs, 2))
+    >>> U[sc.input_labels.index("u_wheels[2]")] = 0.02
+    >>> r = ct.input_output_response(sc, [0.0, 10.0], U, x0)
+    >>> round(float(r.outputs[5, -1]), 9)
+    -0.00100025
     """
     call = _factory_call(reaction_wheel_spacecraft, locals())
     name = _system_name(name, "reaction_wheel_spacecraft")
     where = f"reaction_wheel_spacecraft {name!r}" if name else "reaction_wheel_spacecraft"
     J = _inertia(J, f"{where}: J")
     act = _actuator(actuator, where)
+    if act.speed_gate != "continuous":
+        raise ScenarioError(
+            f"{where}: actuator: speed_gate = {act.speed_gate!r} decides the speed limit at the start of each step of "
+            "the compiled loop; this continuous-time plant evaluates it continuously (speed_gate = 'continuous')"
+        )
     gain = _scalar(normalization_gain, f"{where}: normalization_gain", minimum=0.0)
     G = _read_only(act.spin_axes())
     n = G.shape[1]
@@ -308,18 +326,25 @@ def reaction_wheel_spacecraft(
     rhs = _FlatCall(rhs_graph, [(1, 1), *x_u, (3, 1), (12, 1), (3, 3), (3, 3), *wheel_arrays], "reaction_wheel_rhs")
     out = _FlatCall(out_graph, [*x_u, *wheel_arrays], "reaction_wheel_out")
 
+    clipped = act.allocation == "clipped"
+
     def commands(u, a: _WheelArray) -> np.ndarray:
-        return distribute(u[:3], a.pinv, a.max_torque)[0]
+        return distribute(u[:3], a.pinv, a.max_torque, command=u[6:], allocation=act.allocation)[0]
 
     # the exact Jacobian: the distribution's rule as a graph (its derivative and switches), chained into the plant's
-    dist_graph = _FlatCall(lambda u, P, m: [_distribution_graph(u, P, m)], [(3, 1), (n, 3), (n, 1)], "wheel_dist")
+    dist_graph = _FlatCall(
+        lambda u, c, P, m: [_distribution_graph(u, c, P, m, clipped)], [(3, 1), (n, 1), (n, 3), (n, 1)], "wheel_dist"
+    )
+    u_wheels = _labels("u_wheels", n)
     state_names = _signal_names(states, _labels("q", 4) + _labels("omega") + _labels("Omega", n), "states", where)
     wheel_labels = _labels("u_wheel", n)
 
     def jacobian(t, x, u, p):
         a = derived(p)
         uw = commands(u, a)
-        (du,) = dist_graph.jacobian(u[:3], a.pinv, a.max_torque, wrt=(0,), labels=(_labels("u_command"),))
+        du, dc = dist_graph.jacobian(
+            u[:3], u[6:], a.pinv, a.max_torque, wrt=(0, 1), labels=(_labels("u_command"), u_wheels)
+        )
         A, B_w, B_d = rhs.jacobian(
             t,
             x,
@@ -337,7 +362,12 @@ def reaction_wheel_spacecraft(
         C, D_w = out.jacobian(
             x, uw, p["axes"], p["spin_inertia"], a.wheel, wrt=(0, 1), labels=(state_names, wheel_labels)
         )
-        return A, np.hstack([B_w @ du, B_d]), C, np.hstack([D_w @ du, np.zeros((C.shape[0], 3))])
+        return (
+            A,
+            np.hstack([B_w @ du, B_d, B_w @ dc]),
+            C,
+            np.hstack([D_w @ du, np.zeros((C.shape[0], 3)), D_w @ dc]),
+        )
 
     def update(t, x, u, p):
         a = derived(p)
@@ -368,7 +398,9 @@ def reaction_wheel_spacecraft(
     def mrp_jacobian(t, x, u, p):
         a = derived(p)
         uw = commands(u, a)
-        (du,) = dist_graph.jacobian(u[:3], a.pinv, a.max_torque, wrt=(0,), labels=(_labels("u_command"),))
+        du, _ = dist_graph.jacobian(
+            u[:3], u[6:], a.pinv, a.max_torque, wrt=(0, 1), labels=(_labels("u_command"), u_wheels)
+        )
         A, B_w = mrp_rhs.jacobian(
             t,
             x,
@@ -391,21 +423,24 @@ def reaction_wheel_spacecraft(
         output,
         values,
         validators,
-        inputs=_signal_names(inputs, _labels("u_command") + _labels("d"), "inputs", where),
+        inputs=_signal_names(inputs, _labels("u_command") + _labels("d") + u_wheels, "inputs", where),
         outputs=_signal_names(outputs, output_labels, "outputs", where),
         states=state_names,
         name=name,
         attitude=True,
         jacobian=jacobian,
     )
-    system._mrp_model = (mrp_jacobian, mrp_states, _labels("u_command"), 6)
+    system._mrp_model = (mrp_jacobian, mrp_states, _labels("u_command"), 6 + n)
     return _finish(system, call, params, dt)
 
 
-def _distribution_graph(u, P, m):
+def _distribution_graph(u, c, P, m, clipped: bool):
     """:func:`fsmctl.model.actuators.distribute`'s wheel torques as a CasADi graph (for its derivative):
-    ``u_w* = -P u``, divided by ``max(1, max_i |u_w*_i| / max_torque_i)``."""
-    uw = -ca.mtimes(P, u)
+    ``u_w* = -P u + c``, clipped to ``+-max_torque_i`` (``clipped``) or divided by
+    ``max(1, max_i |u_w*_i| / max_torque_i)``."""
+    uw = -ca.mtimes(P, u) + c
+    if clipped:
+        return ca.fmin(ca.fmax(uw, -m), m)
     r = ca.DM(0.0)
     for i in range(uw.shape[0]):
         r = ca.fmax(r, ca.fabs(uw[i]) / m[i])

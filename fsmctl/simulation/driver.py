@@ -74,6 +74,10 @@ class _Problem(ctypes.Structure):
         ("link_delay", _ip),
         ("link_lost", ctypes.POINTER(ctypes.c_ubyte)),
         ("n_members", ctypes.c_int),
+        # wheels as Basilisk flies them (ABI 5)
+        ("wheel_allocation", ctypes.c_int),
+        ("wheel_gate", ctypes.c_int),
+        ("wheel_command", _dp),
     ]
 
 
@@ -107,7 +111,7 @@ class _Output(ctypes.Structure):
     ]
 
 
-ABI_VERSION = 4
+ABI_VERSION = 5
 """``FSM_ABI_VERSION`` of fsmctl/csrc/formation.h that these mirrors describe."""
 
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong)
@@ -256,4 +260,7 @@ class _CProblem:
             link_delay=f("ld", hw.link_delay, np.int32),
             link_lost=f("ll", hw.link_lost, np.uint8),
             n_members=members,
+            wheel_allocation=hw.wheel_allocation,
+            wheel_gate=hw.wheel_gate,
+            wheel_command=None if hw.wheel_command is None else f("wcmd", hw.wheel_command),
         )

@@ -427,10 +427,10 @@ def _result(scenario: Scenario, raw: dict) -> SimulationResult:
     )
 
 
-def _prepare(scenario: Scenario) -> PackedProblem:
+def _prepare(scenario: Scenario, wheel_commands=None) -> PackedProblem:
     """The checks before a run (noise memory, integrator, step size) and the packed problem."""
     check_noise_memory(scenario)
-    p = pack(scenario)
+    p = pack(scenario, wheel_commands=wheel_commands)
     _check_integrator(p, scenario)
     _check_law_at_start(p)
     _warn_step_size(scenario, p)
@@ -451,6 +451,7 @@ def simulate(
     progress: bool | None = None,
     monitor=None,
     monitor_interval: float | None = None,
+    wheel_commands=None,
 ) -> SimulationResult:
     """Simulate ``scenario`` with the generated code; see :class:`SimulationResult`.
 
@@ -470,6 +471,12 @@ def simulate(
     monitor_interval : float, optional
         Seconds of simulated time between monitor calls, rounded to a whole number (>= 1) of output intervals
         (default: a tenth of ``t_final``).
+    wheel_commands : callable or numpy.ndarray, optional
+        Open-loop motor torques of the reaction wheels (N m; positive spins a wheel up along its axis):
+        ``f(t) -> (n_agents, n_wheels)``, called at each control instant ``t = q * control_period`` and held until
+        the next, or the array ``(Q, n_agents, n_wheels)`` of those samples.  Added to what the wheels get from the
+        law's body torque before the torque limit (``actuator.allocation``); the scenario must fly reaction wheels
+        with ``simulation.control_period > 0`` and have no ``actuator.wheel_commands`` table.
 
     Returns
     -------
@@ -504,8 +511,19 @@ def simulate(
     >>> early = fsmctl.simulate(s, monitor=lambda t, partial: partial()[0].aaem_deg[-1] < 20.0, monitor_interval=0.5)
     >>> early.stopped_at is None or early.stopped_at == float(early.time[-1])
     True
+
+    Reaction wheels flying an open-loop command on wheel 1 (the law switched off):
+
+    >>> import numpy as np
+    >>> hw = s.replace(
+    ...     controller={"enabled": False}, simulation={"control_period": 0.1},
+    ...     actuator={"kind": "reaction_wheels", "layout": "pyramid", "spin_inertia": 0.05, "allocation": "clipped"},
+    ... )
+    >>> r = fsmctl.simulate(hw, wheel_commands=lambda t: np.tile([0.01, 0.0, 0.0, 0.0], (6, 1)))
+    >>> r.wheel_torque[0, 0].tolist()
+    [0.01, 0.0, 0.0, 0.0]
     """
-    p = _prepare(scenario)
+    p = _prepare(scenario, wheel_commands)
     if progress is None:
         progress = p.n_steps * p.n_agents > 1_000_000 and sys.stderr.isatty()
     raw_monitor = None

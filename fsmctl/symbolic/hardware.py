@@ -34,6 +34,8 @@ from fsmctl.symbolic.symbols import as_symmetric_matrix3, as_vector3
 __all__ = [
     "gyrostat_rhs",
     "wheel_motor_torque",
+    "wheel_speed_gate",
+    "wheel_friction",
     "wheel_acceleration",
     "star_tracker_measurement",
     "rate_gyro_measurement",
@@ -59,21 +61,37 @@ def gyrostat_rhs(
     return sp.ImmutableMatrix(mrp_G(sigma) * omega), sp.ImmutableMatrix(hub.adjugate() * rhs / hub.det())
 
 
-def wheel_motor_torque(u_command, Omega, speed_max, viscous, coulomb, coulomb_band) -> tuple[sp.Expr, sp.Expr]:
-    """``(u_motor, u_net)`` of one wheel: the motor torque after the speed limit, and the torque on the wheel.
+def wheel_speed_gate(u_command, Omega, speed_max) -> sp.Expr:
+    """The motor torque a wheel's speed limit lets through (Basilisk's rule, ``reactionWheelStateEffector.cpp``,
+    ``ConfigureRWRequests``): ``0`` when ``|Omega| >= speed_max`` and ``Omega u_command >= 0`` (the command would
+    drive the wheel further), else ``u_command``.  Torque that slows the wheel always passes; ``Omega`` itself is
+    never clamped.
 
-    * Speed limit (Basilisk's rule): a wheel at or beyond ``speed_max`` is not driven further,
-      ``u_motor = 0`` when ``|Omega| >= speed_max`` and ``u_command Omega > 0``, else ``u_command``.
-    * Friction opposes the spin: ``u_net = u_motor - viscous Omega - coulomb sat(Omega / coulomb_band)``;
-      the Coulomb term is linear inside ``|Omega| < coulomb_band`` (a stiction band that removes the
-      discontinuity of ``sgn(Omega)`` at rest) and ``sgn(Omega)`` for ``coulomb_band = 0``.
+    Where this is evaluated is the engine's choice (``actuator.speed_gate``): at every evaluation of the dynamics
+    (``"continuous"``), or once at the start of each integrator step with the result held over the step
+    (``"step_start"``, Basilisk's timing).
     """
-    u_motor = sp.Piecewise((0, sp.And(sp.Abs(Omega) >= speed_max, u_command * Omega > 0)), (u_command, True))
+    return sp.Piecewise((0, sp.And(sp.Abs(Omega) >= speed_max, Omega * u_command >= 0)), (u_command, True))
+
+
+def wheel_friction(Omega, viscous, coulomb, coulomb_band) -> sp.Expr:
+    """Friction torque on a wheel (opposing the spin): ``-viscous Omega - coulomb sat(Omega / coulomb_band)``.
+
+    The Coulomb term is linear inside ``|Omega| < coulomb_band`` (a stiction band that removes the discontinuity
+    of ``sgn(Omega)`` at rest) and ``sgn(Omega)`` for ``coulomb_band = 0``.
+    """
     coulomb_term = sp.Piecewise(
         (sp.sign(Omega), sp.Abs(Omega) >= coulomb_band),
         (Omega / coulomb_band, True),
     )
-    return u_motor, u_motor - viscous * Omega - coulomb * coulomb_term
+    return -viscous * Omega - coulomb * coulomb_term
+
+
+def wheel_motor_torque(u_command, Omega, speed_max, viscous, coulomb, coulomb_band) -> tuple[sp.Expr, sp.Expr]:
+    """``(u_motor, u_net)`` of one wheel: the motor torque after the speed limit (:func:`wheel_speed_gate`), and
+    the torque on the wheel, ``u_net = u_motor + friction`` (:func:`wheel_friction`)."""
+    u_motor = wheel_speed_gate(u_command, Omega, speed_max)
+    return u_motor, u_motor + wheel_friction(Omega, viscous, coulomb, coulomb_band)
 
 
 def wheel_acceleration(g, J_s, u_net, omega_dot) -> sp.Expr:

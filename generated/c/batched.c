@@ -586,7 +586,7 @@ int wheel_torque_x4(const double *const *arg, double *const *res, int lanes) {
   w3 = fsm_splat(0.0);
   w4 = fsm_load(arg[0] + 0);
   w5 = w1 * w4;
-  w3 = fsm_bool(w3 < w5);
+  w3 = fsm_bool(w3 <= w5);
   w0 = fsm_bool((w0 != 0) & (w3 != 0));
   w0 = fsm_bool(w0 == 0);
   w0 = fsm_if_else_zero(w0, w4);
@@ -606,6 +606,30 @@ int wheel_torque_x4(const double *const *arg, double *const *res, int lanes) {
   w4 = w4 * w5;
   w0 = w0 - w4;
   fsm_store(res[1] + 0, w0);
+  return 0;
+}
+
+int wheel_net_torque_x4(const double *const *arg, double *const *res, int lanes) {
+  if (lanes > 4) lanes = 4; /* never index past the vector */
+  fsm_v w0, w1, w2, w3, w4, w5;
+  w0 = fsm_load(arg[0] + 0);
+  w1 = fsm_load(arg[1] + 0);
+  w2 = fsm_load(arg[2] + 4);
+  w2 = w1 * w2;
+  w0 = w0 - w2;
+  w2 = fsm_load(arg[2] + 8);
+  w3 = fsm_load(arg[2] + 12);
+  w4 = fsm_fabs(w1);
+  w4 = fsm_bool(w3 <= w4);
+  w5 = fsm_sign(w1);
+  w5 = fsm_if_else_zero(w4, w5);
+  w4 = fsm_bool(w4 == 0);
+  w1 = w1 / w3;
+  w4 = fsm_if_else_zero(w4, w1);
+  w5 = w5 + w4;
+  w2 = w2 * w5;
+  w0 = w0 - w2;
+  fsm_store(res[0] + 0, w0);
   return 0;
 }
 

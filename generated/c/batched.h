@@ -26,6 +26,7 @@ int disturbance_torque_x4(const double *const *arg, double *const *res, int lane
 int plant_rhs_x4(const double *const *arg, double *const *res, int lanes);
 int gyrostat_rhs_x4(const double *const *arg, double *const *res, int lanes);
 int wheel_torque_x4(const double *const *arg, double *const *res, int lanes);
+int wheel_net_torque_x4(const double *const *arg, double *const *res, int lanes);
 int wheel_acceleration_x4(const double *const *arg, double *const *res, int lanes);
 #ifdef __cplusplus
 }

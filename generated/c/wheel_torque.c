@@ -89,7 +89,7 @@ static int casadi_f0(const casadi_real** arg, casadi_real** res, casadi_int* iw,
   a3=0.;
   a4=arg[0]? arg[0][0] : 0;
   a5=(a1*a4);
-  a3=(a3<a5);
+  a3=(a3<=a5);
   a0=(a0&&a3);
   a0=(!a0);
   a0=(a0?a4:0);
