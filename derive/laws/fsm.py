@@ -30,6 +30,13 @@ def law(error_model) -> Law:
         doc="fast sliding mode with neighbour coordination (the paper's law; TSM with c1 = 0, LSM with c2 = 0)",
         reference=REFERENCE,
     )
+    b.torque(declare_fsm(b))
+    return b.build()
+
+
+def declare_fsm(b: LawBuilder):
+    """Declare the paper's law on ``b`` (parameters, theorems, discontinuity, loop rates, presets, broadcast ``s``)
+    and return its body torque (eq 16 with the coordination term of eq 19), for ``b.torque``."""
     p = declare_fsm_parameters(b)
     c1, c2, alpha, phi, epsilon, fix, delta = (
         p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
@@ -48,6 +55,4 @@ def law(error_model) -> Law:
         b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta,
         coordination_term(s, b.k_sum, b.received), boundary_layer=phi, fix=fix, epsilon=epsilon,
     )  # fmt: skip
-    u = surface.with_shared_slope(pieces.u, "FSM torque")  # every fractional power comes from the shared slope
-    b.torque(u)
-    return b.build()
+    return surface.with_shared_slope(pieces.u, "FSM torque")  # every fractional power comes from the shared slope
