@@ -709,7 +709,7 @@ def builtin_laws() -> dict[str, LawCode]:
     --------
     >>> from fsmctl.model import builtin_laws
     >>> list(builtin_laws())
-    ['fsm', 'adaptive_fsm', 'pid', 'super_twisting']
+    ['fsm', 'fsm_wheels', 'adaptive_fsm', 'pid', 'super_twisting']
     """
     return dict(_builtin_laws())
 
