@@ -242,3 +242,58 @@ def test_batched_and_scalar_kernels_fly_the_same_wheel_commands():
     a, b = simulator.simulate_packed(p, kernels="batched"), simulator.simulate_packed(p, kernels="scalar")
     for k in ("sigma", "omega", "wheel_speed", "wheel_torque", "u"):
         np.testing.assert_array_equal(a[k], b[k])
+
+
+# ----------------------------------------------------------------------------- python-control
+
+
+def _controllers(bias, gain):
+    from fsmctl.plugin.iosys import law_controller
+
+    J0 = fsmctl.paper_scenario("1").agents[0].J0_array
+    parameters = {"boundary_layer": 0.01}
+    rw = law_controller(
+        "fsm_wheels",
+        J0,
+        parameters={**parameters, "momentum_gain": gain, "speed_bias": bias},
+        u_max=0.5,
+        actuator=PYRAMID,
+        name="w",
+    )
+    return rw, law_controller("fsm", J0, parameters=parameters, u_max=0.5, name="p")
+
+
+def test_the_controller_outputs_the_law_s_wheel_commands():
+    """Outputs tau (as the fsm controller's), s, u_wheels; inputs ..., Omega.  The commands against NumPy's pinv,
+    and d u_wheels / d Omega = (I - pinv(G) G) diag(-k_h J_s) from the linearisation."""
+    bias, gain = [5.0, -3.0, 2.0, 1.0], 0.2
+    rw, plain = _controllers(bias, gain)
+    assert rw.output_labels[6:] == [f"u_wheels[{k}]" for k in range(4)]
+    assert rw.input_labels[15:] == [f"Omega[{k}]" for k in range(4)]
+    y = np.random.default_rng(1).uniform(-0.2, 0.2, 15)
+    Omega = np.array([30.0, -10.0, 4.0, 12.0])
+    out = rw.output(0.0, [], np.r_[y, Omega])
+    tau = plain.output(0.0, [], y)[:3]
+    np.testing.assert_allclose(out[:3], tau, rtol=0, atol=1e-15)
+    assert np.abs(tau).max() == 0.5  # a torque at the limit: the commands realise the limited torque
+    act = fsmctl.model.scenario.ActuatorSettings(**PYRAMID)
+    G, Js = act.spin_axes(), act.per_wheel("spin_inertia")
+    P = np.linalg.pinv(G)
+    null = np.eye(4) - P @ G
+    expected = -P @ tau + null @ (-gain * Js * (Omega - bias))
+    np.testing.assert_allclose(out[6:], expected, rtol=0, atol=1e-13)
+    np.testing.assert_allclose(-G @ out[6:], tau, rtol=0, atol=1e-13)
+    D = rw.linearize([], np.r_[y, Omega]).D
+    np.testing.assert_allclose(D[6:, 15:], null @ np.diag(-gain * Js), rtol=0, atol=1e-13)
+
+
+def test_the_controller_s_actuator_must_match_the_law():
+    from fsmctl.plugin.iosys import law_controller
+
+    J0 = np.diag([10.0, 20.0, 30.0])
+    with pytest.raises(ScenarioError, match=r"the law fsm_wheels commands 4 reaction wheels, the actuator has 3"):
+        law_controller("fsm_wheels", J0, actuator={"layout": "orthogonal"})
+    with pytest.raises(ScenarioError, match=r"the law pid commands no wheels"):
+        law_controller("pid", J0, actuator=PYRAMID)
+    body_only = law_controller("fsm_wheels", J0)  # without an actuator: the body torque, for an ideal source
+    assert body_only.noutputs == 6 and body_only.ninputs == 15
