@@ -27,10 +27,11 @@ from __future__ import annotations
 
 import sympy as sp
 
-from derive.laws.fsm import REFERENCE, declare_fsm
 from fsmctl.symbolic.controller import saturate
+from fsmctl.symbolic.fsm_parameters import declare_paper_law
 from fsmctl.symbolic.law import Law, LawBuilder
 
+REFERENCE = "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455, eqs 13, 16-19, Remarks 6-7"
 N_WHEELS = 4
 """The wheels the law commands (the scenario's actuator must have as many; 4: the default pyramid)."""
 
@@ -45,7 +46,7 @@ def law(error_model) -> Law:
         ),
         reference=REFERENCE + "; null motion: Schaub & Junkins, Analytical Mechanics of Space Systems, Sec. 4.5.4",
     )
-    u = declare_fsm(b)
+    u = declare_paper_law(b)  # the paper's law, as derive/laws/fsm.py declares it
     b.torque(u)
     k_h = b.parameter(
         "momentum_gain", 0.05, unit="1/s", minimum=0.0,
