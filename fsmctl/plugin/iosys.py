@@ -72,8 +72,11 @@ from fsmctl.model.laws import (
 from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid
 from fsmctl.model.topology import Schedule, Topology, schedule_weight
 from fsmctl.plugin.arguments import (
+    _actuator,
+    _axes_check,
     _inertia,
     _labels,
+    _per_wheel_check,
     _positive3,
     _scalar,
     _show,
@@ -528,8 +531,6 @@ def _controller(
     values, validators = {"J0": J0, **scheme.values, "u_max": u_max}, {"J0": _inertia, **scheme.validators}
     validators["u_max"] = _torque_limit
     if nw:
-        from fsmctl.plugin.hardware import _axes_check, _per_wheel_check
-
         values.update(wheels)
         validators.update(axes=_axes_check(nw), spin_inertia=_per_wheel_check(nw, positive=True, inf=False))
     outputs = _labels("tau") + _labels(bname, nb) + (_labels("u_wheels", nw) if nw else [])
@@ -675,8 +676,6 @@ def law_controller(
 
 def _law_wheels(law: LawCode, actuator: Any, where: str) -> dict[str, np.ndarray]:
     """The ``axes`` and ``spin_inertia`` of ``actuator`` for a law that commands as many wheels."""
-    from fsmctl.plugin.hardware import _actuator
-
     act = _actuator(actuator, where)
     if not law.n_wheels:
         raise ScenarioError(
