@@ -151,11 +151,11 @@ def test_step_size_report_uses_the_declared_rates_per_agent():
 def test_only_the_paper_s_law_declares_the_paper_s_theorems_and_it_is_listed_first():
     laws = builtin_laws()
     declared = [name for name, law in laws.items() if law.paper_theorems is not None]
-    assert declared == ["fsm"]
+    assert declared == ["fsm", "fsm_wheels"]  # fsm_wheels: the paper's body torque, flown through its wheels
     assert dict(laws["fsm"].paper_theorems.parameters) == {
         r: r for r in ("c1", "c2", "alpha", "boundary_layer", "epsilon", "singularity_fix", "delta")
     }
-    assert list(laws) == ["fsm", *sorted(set(laws) - {"fsm"})]
+    assert list(laws) == ["fsm", "fsm_wheels", *sorted(set(laws) - {"fsm", "fsm_wheels"})]
     base = fsmctl.paper_scenario("1")
     assert available_constraints("fsm", base)["theorem1"] == ""
     assert "does not declare" in available_constraints("super_twisting", base)["theorem2"]

@@ -1,7 +1,8 @@
 """The paper's fast-sliding-mode law (Liang, Sun & Wang 2012, eqs 13, 16-19, Remarks 6-7).
 
-Written with the public law API, as a user would: the sliding variable ``s`` (eq 13) is what an agent
-broadcasts, and the torque is eq 16 in computed-torque form (``fsmctl.symbolic.controller``; the form that
+Written with the public law API, as a user would, in :func:`fsmctl.symbolic.fsm_parameters.declare_paper_law`
+(shared with ``fsm_wheels``, which flies the same body torque through its wheels): the sliding variable ``s``
+(eq 13) is what an agent broadcasts, and the torque is eq 16 in computed-torque form (``fsmctl.symbolic.controller``; the form that
 ``fsmctl.proofs.identities`` proves equal to eqs 17-19) with the coordination term of eq 19,
 ``sum_j (k^i_ij s_i - k^j_ij s_j) = k_sum s_i - received``.  The TSM and LSM surfaces of Section 3.3 are
 ``c1 = 0`` and ``c2 = 0``.  The powers ``|sigma_e,k|^alpha`` are computed once and shared by the surface and
@@ -12,13 +13,8 @@ Pure SymPy: no NumPy, no I/O.
 
 from __future__ import annotations
 
-from fsmctl.symbolic.controller import (
-    computed_torque_pieces,
-    coordination_term,
-)
-from fsmctl.symbolic.fsm_parameters import declare_fsm_parameters, declare_surface_presets, fsm_loop_rates
+from fsmctl.symbolic.fsm_parameters import declare_paper_law
 from fsmctl.symbolic.law import Law, LawBuilder
-from fsmctl.symbolic.surfaces import fast_sliding_surface
 
 REFERENCE = "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455, eqs 13, 16-19, Remarks 6-7"
 
@@ -30,24 +26,5 @@ def law(error_model) -> Law:
         doc="fast sliding mode with neighbour coordination (the paper's law; TSM with c1 = 0, LSM with c2 = 0)",
         reference=REFERENCE,
     )
-    p = declare_fsm_parameters(b)
-    c1, c2, alpha, phi, epsilon, fix, delta = (
-        p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
-    )  # fmt: skip
-    b.paper_theorems(
-        c1=c1, c2=c2, alpha=alpha, boundary_layer=phi, epsilon=epsilon, singularity_fix=fix, delta=delta
-    )  # fmt: skip
-    b.discontinuous("sgn(s) of the switching term u^D (eq 18)", smoothed_by=phi)
-    b.loop_rates(**fsm_loop_rates(p))
-    declare_surface_presets(b, p)
-    surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
-    e, s = surface.error, surface.s
-    b.broadcast("s", s, unit="1/s")
-
-    pieces = computed_torque_pieces(
-        b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta,
-        coordination_term(s, b.k_sum, b.received), boundary_layer=phi, fix=fix, epsilon=epsilon,
-    )  # fmt: skip
-    u = surface.with_shared_slope(pieces.u, "FSM torque")  # every fractional power comes from the shared slope
-    b.torque(u)
+    b.torque(declare_paper_law(b))  # parameters, theorems, presets, broadcast s (eq 13); torque eq 16 + eq 19
     return b.build()

@@ -9,11 +9,13 @@ Examples
 >>> from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, MANIFEST_FILE, MANIFEST_FORMAT
 >>> LAW_FILE, MANIFEST_FILE, LAW_FORMAT >= 1, MANIFEST_FORMAT >= 1
 ('law.json', 'manifest.json', True, True)
+>>> law_format({"name": "fsm"}), law_format({"name": "fsm_wheels", "wheels": {"count": 4}})
+(1, 2)
 """
 
 from __future__ import annotations
 
-__all__ = ["LAW_FILE", "LAW_FORMAT", "MANIFEST_FILE", "MANIFEST_FORMAT"]
+__all__ = ["LAW_FILE", "LAW_FORMAT", "LAW_FORMAT_OLDEST", "MANIFEST_FILE", "MANIFEST_FORMAT", "law_format"]
 
 MANIFEST_FILE = "manifest.json"
 """the manifest of a generated folder: versions, functions, the sha256 of every other file"""
@@ -21,5 +23,27 @@ MANIFEST_FORMAT = 1
 """the format number of ``manifest.json`` this fsmctl writes and reads"""
 LAW_FILE = "law.json"
 """a law folder's description: parameters, states, broadcast, cache and declarations"""
-LAW_FORMAT = 1
-"""the format number of ``law.json`` this fsmctl writes and reads"""
+LAW_FORMAT = 2
+"""the newest format number of ``law.json`` this fsmctl writes and reads (2: the law commands its reaction wheels)"""
+LAW_FORMAT_OLDEST = 1
+"""the oldest format number of ``law.json`` this fsmctl reads (1: a law without wheel outputs)"""
+
+
+def law_format(metadata: dict) -> int:
+    """The format number a law folder is written with: the oldest that describes the law.
+
+    A law without wheel outputs is format 1 (its folder is unchanged since before wheel outputs, and readable by
+    an fsmctl that knows nothing of them); a law that commands its wheels is format 2, which an older fsmctl
+    refuses instead of flying the minimum-norm distribution of its body torque in their place.
+
+    Parameters
+    ----------
+    metadata : dict
+        The law's description (:meth:`fsmctl.symbolic.law.Law.metadata`).
+
+    Returns
+    -------
+    int
+        1 or 2.
+    """
+    return 2 if metadata.get("wheels") is not None else 1

@@ -9,6 +9,7 @@ folder has the same do-not-edit headers, serialized CasADi functions and sha256 
     c/law_local_{paper,exact}.c/.h  broadcast and cache (fsmctl.symbolic.law)
     c/law_control_{paper,exact}.c/.h  torque and law-state derivative
     c/law_loop_rates.c/.h           bounds on the loop's rates, if the law declares them
+    c/law_wheels_{paper,exact}.c/.h the per-wheel motor torque commands, if the law commands its wheels
     c/law_batched.c/.h              the lane-batched kernels of the local and control functions
     casadi/*.casadi                 the same functions for the no-compiler fallback and the plug-in
     manifest.json
@@ -27,7 +28,7 @@ from pathlib import Path
 
 from fsmctl.codegen.batched import UnsupportedInstructionError
 from fsmctl.codegen.casadi_bridge import UnsupportedExpressionError
-from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT
+from fsmctl.codegen.formats import LAW_FILE, law_format
 from fsmctl.codegen.writer import GeneratedFunction, build_functions, check_generated, write_generated
 from fsmctl.symbolic.law import Law, LawDefinitionError, LawVariants, law_variants
 
@@ -45,7 +46,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
 
     The per-agent contract of :mod:`fsmctl.symbolic.law`: ``law_constants``, ``law_local_<model>`` and
     ``law_control_<model>`` for ``model`` in ``paper``, ``exact``, then ``law_loop_rates`` if the law declares
-    :meth:`~fsmctl.symbolic.law.LawBuilder.loop_rates`, then the script's ``EXTRA_FUNCTIONS``.
+    :meth:`~fsmctl.symbolic.law.LawBuilder.loop_rates`, then ``law_wheels_paper`` and ``law_wheels_exact`` if it
+    declares :meth:`~fsmctl.symbolic.law.LawBuilder.wheel_torques`, then the script's ``EXTRA_FUNCTIONS``.
 
     Parameters
     ----------
@@ -89,7 +91,9 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
     for law in variants:
         specs += [law.local_spec(), law.control_spec()]
     rates = variants.paper.loop_rates_spec()  # law_loop_rates(params), if the law declares loop_rates()
-    specs += ([] if rates is None else [rates]) + list(variants.extra)
+    specs += [] if rates is None else [rates]
+    specs += [s for s in (law.wheels_spec() for law in variants) if s is not None]  # law_wheels_<model>, if any
+    specs += list(variants.extra)
     try:
         return build_functions(specs)
     except UnsupportedExpressionError as exc:
@@ -99,7 +103,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
 
 
 def _metadata(law: Law, source: str) -> dict:
-    return {"format": LAW_FORMAT, "source": source, **law.metadata()}
+    meta = law.metadata()
+    return {"format": law_format(meta), "source": source, **meta}
 
 
 def write_law(

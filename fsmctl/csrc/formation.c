@@ -21,6 +21,10 @@
 #include "law_control_paper.h"
 #include "law_local_exact.h"
 #include "law_local_paper.h"
+#ifdef FSM_LAW_WHEELS /* lawwheels: the law commands its wheels (law.json "wheels"; fsmctl.model.generated_code) */
+#include "law_wheels_exact.h"
+#include "law_wheels_paper.h"
+#endif
 #include "mrp_shadow.h"
 #include "plant_rhs.h"
 #include "reference_rhs.h"
@@ -210,6 +214,11 @@ typedef struct {
   int n_wgroups;
   int *wheel_lane;                       /* per lane of the wheel groups: the flattened wheel index m */
   size_t *wheel_x, *wheel_wd;            /* per lane: offset of its Omega in x, of its agent's omega_dot in dx */
+  /* lawwheels: a law that commands its wheels (law_wheels_<model>; NULL: the minimum-norm distribution) */
+  casadi_fn law_wheels;
+  double *lw_in;                         /* nc + nb: one agent's cache and received sum, gathered from the lanes */
+  double *lw_w;                          /* ... followed by its own CasADi work array */
+  casadi_int *lw_iw;
   long long q;                           /* the current control instant */
   int hist_len;                          /* slots of the broadcast history (max delay + 1) */
   double *b_hist, *b_first, *link_val;   /* hist_len x n x nb; n x nb (instant 0); n_links x nb (delivered) */
@@ -235,6 +244,8 @@ static void free_workspace(workspace *W) {
   free(W->wheel_wd);
   free(W->hw);
   free(W->gated);
+  free(W->lw_in);
+  free(W->lw_iw);
   free(W->lanes);
   free(W->iw);
   free(W->w);
@@ -321,6 +332,37 @@ static void pack_lane_constants(workspace *W, const fsm_problem *P) {
       if (W->nw > 0) to_lane(ROW(G, RW_JSPIN), P->J_spin + 9 * i, 9, l);
     }
   }
+}
+
+/* lawwheels: the law's own wheel commands, when it declares them (compiled with -DFSM_LAW_WHEELS) and the scenario
+ * flies reaction wheels; on an ideal actuator the law's body torque is flown and its wheel commands are unused.
+ * Checks law_wheels_<model> against the problem (the control inputs, then 3 x nw axes, nw speeds, nw spin
+ * inertias; nw commands out) and allocates its gather buffer and CasADi work arrays. */
+static int law_wheels_setup(workspace *W, const fsm_problem *P) {
+  W->law_wheels = NULL;
+#ifdef FSM_LAW_WHEELS
+  if (W->nw == 0) return FSM_OK;
+  const int ex = P->error_model == 1;
+  casadi_sparsity_fn win = ex ? law_wheels_exact_sparsity_in : law_wheels_paper_sparsity_in;
+  casadi_sparsity_fn cin = ex ? law_control_exact_sparsity_in : law_control_paper_sparsity_in;
+  if ((ex ? law_wheels_exact_n_in() : law_wheels_paper_n_in()) != N_CONTROL_IN + 3) return FSM_BAD_PROBLEM;
+  if ((ex ? law_wheels_exact_n_out() : law_wheels_paper_n_out()) != 1) return FSM_BAD_PROBLEM;
+  for (int a = 0; a < N_CONTROL_IN; ++a)
+    if (sparsity_nnz(win(a)) != sparsity_nnz(cin(a))) return FSM_BAD_PROBLEM;
+  if (sparsity_nnz(win(N_CONTROL_IN)) != 3 * W->nw || sparsity_nnz(win(N_CONTROL_IN + 1)) != W->nw ||
+      sparsity_nnz(win(N_CONTROL_IN + 2)) != W->nw)
+    return FSM_BAD_PROBLEM;
+  if (sparsity_nnz((ex ? law_wheels_exact_sparsity_out : law_wheels_paper_sparsity_out)(0)) != W->nw)
+    return FSM_BAD_PROBLEM;
+  casadi_int a, r, iw, w;
+  (ex ? law_wheels_exact_work : law_wheels_paper_work)(&a, &r, &iw, &w);
+  W->lw_in = calloc((size_t)W->nc + (size_t)W->nb + (size_t)w + 1, sizeof(double));
+  W->lw_iw = calloc((size_t)iw + 1, sizeof(casadi_int));
+  if (!W->lw_in || !W->lw_iw) return FSM_NOMEM;
+  W->lw_w = W->lw_in + W->nc + W->nb;
+  W->law_wheels = ex ? law_wheels_exact : law_wheels_paper;
+#endif
+  return FSM_OK;
 }
 
 static int alloc_workspace(workspace *W, const fsm_problem *P) {
@@ -508,6 +550,10 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
       }
     }
   }
+  {
+    const int rc = law_wheels_setup(W, P);
+    if (rc != FSM_OK) { free_workspace(W); return rc; }
+  }
   W->u_apply = W->u;
   W->uu_apply = W->uu;
   W->zdot_apply = W->zdot;
@@ -678,15 +724,43 @@ static void deliver_links(workspace *W, const fsm_problem *P) {
   }
 }
 
+/* lawwheels: the per-wheel motor torque commands of a law that commands its wheels, law_wheels_<model>, into uw
+ * (n x nw), for every agent at (t, x): the inputs of law_control (the law sees the measurements when sensed; the
+ * batched kernels left the cache and the received sum in the lane rows) and the agent's wheel axes, speeds
+ * Omega (true, from x) and spin inertias. */
+static void law_wheel_commands(workspace *W, const fsm_problem *P, double t, const double *x, int sensed) {
+  const int n = W->n, nw = W->nw, nb = W->nb, nc = W->nc, S = W->stride;
+  for (int i = 0; i < n; ++i) {
+    const double *xi = x + 3 + (size_t)S * i;
+    const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
+    const double *cache = W->cache + (size_t)nc * i, *recv = W->recv + (size_t)nb * i;
+    if (W->batched) {
+      from_lane(W->lw_in, lane_slot(W, RW_CACHE, i), nc, 0);
+      from_lane(W->lw_in + nc, lane_slot(W, RW_RECV, i), nb, 0);
+      cache = W->lw_in;
+      recv = W->lw_in + nc;
+    }
+    const size_t iw0 = (size_t)nw * i;
+    const double *arg[N_CONTROL_IN + 3] = {&t, si, wi, xi + 6, x, W->wd, W->wdd, P->J0 + 9 * i,
+                                           P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i, cache,
+                                           W->ksum + i, recv, W->krs + i, P->u_max + i, P->wheel_axes + 3 * iw0,
+                                           xi + 6 + W->nz, P->wheel_Js + iw0};
+    double *res[1] = {W->uw + iw0};
+    W->law_wheels(arg, res, W->lw_iw, W->lw_w, 0);
+  }
+}
+
 /* The wheel commands, the one place these rules are written (fsmctl.model.actuators is their NumPy transcription):
- * minimum-norm wheel torques -pinv(G_s) u for the law's body torque u, plus the open-loop command of the current
+ * minimum-norm wheel torques -pinv(G_s) u for the law's body torque u (or the law's own per-wheel commands,
+ * law_wheel_commands, when the law declares them), plus the open-loop command of the current
  * control instant (wheel_command, if any), then the torque limit u_max,k:
  *   FSM_WHEEL_SCALED:  all divided by one factor max(1, max_k |u_w,k| / u_max,k), so that the body torque keeps its
  *                      direction and the most loaded wheel sits at its limit;
  *   FSM_WHEEL_CLIPPED: each clipped to [-u_max,k, u_max,k] on its own (Basilisk's ConfigureRWRequests).
  * wscale[i] is max(1, max_k |u_w,k| / u_max,k) before the limit under either rule (> 1: a wheel at its limit). */
-static void wheel_commands(workspace *W, const fsm_problem *P) {
+static void wheel_commands(workspace *W, const fsm_problem *P, double t, const double *x, int sensed) {
   const int n = W->n, nw = W->nw;
+  if (W->law_wheels) law_wheel_commands(W, P, t, x, sensed); /* lawwheels: the law's own commands in uw */
   const double *cmd = P->wheel_command ? P->wheel_command + (size_t)W->q * n * nw : NULL;
   for (int i = 0; i < n; ++i) {
     const double *u = W->u + 3 * i, *lim = P->wheel_torque_max + (size_t)nw * i;
@@ -694,7 +768,7 @@ static void wheel_commands(workspace *W, const fsm_problem *P) {
     double r = 0.0;
     for (int k = 0; k < nw; ++k) {
       const double *pk = P->wheel_pinv + ((size_t)nw * i + k) * 3;
-      uw[k] = -(pk[0] * u[0] + pk[1] * u[1] + pk[2] * u[2]);
+      if (!W->law_wheels) uw[k] = -(pk[0] * u[0] + pk[1] * u[1] + pk[2] * u[2]);
       if (cmd) uw[k] += cmd[(size_t)nw * i + k];
       r = fmax(r, fabs(uw[k]) / lim[k]);
     }
@@ -975,7 +1049,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       check_commands_lanes(W, t);
     else
       check_commands(W, t);
-    if (W->nw > 0) wheel_commands(W, P);
+    if (W->nw > 0) wheel_commands(W, P, t, x, sensed);
   }
   /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3.  Each
    * distinct disturbance is evaluated once (batched: FSM_LANES of them per kernel call); agents whose parameters

@@ -115,6 +115,7 @@ __all__ = [
     "model_sx_function",
     "backend",
     "compile_flags",
+    "law_defines",
 ]
 
 _log = logging.getLogger(__name__)
@@ -822,6 +823,31 @@ def compiled_library(law_dir: Path | None = None) -> CompiledLibrary | None:
     return _compiled_library((law_dir or default_law_dir()).resolve())
 
 
+def law_defines(law_dir: Path) -> tuple[str, ...]:
+    """The preprocessor flags a law folder's ``law.json`` asks of the engine: ``-DFSM_LAW_WHEELS`` for a law that
+    commands its reaction wheels (its ``law_wheels_<model>`` are then compiled in and called), none otherwise.
+
+    Parameters
+    ----------
+    law_dir : pathlib.Path
+        A verified law folder.
+
+    Returns
+    -------
+    tuple of str
+        The flags (empty for a law without wheel outputs: its library is the one built before wheel outputs
+        existed).
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import default_law_dir, law_defines
+    >>> law_defines(default_law_dir())
+    ()
+    """
+    meta = json.loads((law_dir / "law.json").read_text("utf-8"))
+    return ("-DFSM_LAW_WHEELS",) if meta.get("wheels") is not None else ()
+
+
 def _compile_notice(law_dir: Path) -> Callable[[], None]:
     """A callable that logs, on its first call only, that the generated C of ``law_dir``'s law is compiled.
 
@@ -856,6 +882,7 @@ def _compiled_library(law_dir: Path) -> CompiledLibrary | None:
     sources = _sources(law_dir)
     flags, target_cpu = compile_flags(cc)
     options = [(flags, target_cpu)] + ([(CFLAGS, "portable")] if flags != CFLAGS else [])
+    options = [((*fl, *law_defines(law_dir)), tgt) for fl, tgt in options]
     attempts = [(fl, _library_key(sources, fl, tgt, cc)) for fl, tgt in options]
     with _lock:
         try:

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, MANIFEST_FILE, MANIFEST_FORMAT
+from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, LAW_FORMAT_OLDEST, MANIFEST_FILE, MANIFEST_FORMAT, law_format
 from fsmctl.errors import InputError
 from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 from fsmctl.ranges import ParameterRange
@@ -342,6 +342,9 @@ class LawCode:
         How its declared loop-rate bounds come about (:meth:`loop_rates`); None if it declares none.
     paper_theorems : LawPaperTheorems or None
         Whether it is the paper's eqs 13-19, so that Theorems 1-2 apply (and with which parameters).
+    n_wheels : int
+        The number of reaction wheels the law commands itself (``law_wheels_<model>``,
+        :meth:`fsmctl.symbolic.law.LawBuilder.wheel_torques`); 0 when the engine distributes its body torque.
 
     Examples
     --------
@@ -370,6 +373,7 @@ class LawCode:
     presets: tuple[LawPresetGroup, ...] = ()
     loop_rates_doc: str | None = None
     paper_theorems: LawPaperTheorems | None = None
+    n_wheels: int = 0
 
     @property
     def n_params(self) -> int:
@@ -513,9 +517,11 @@ def _manifest(folder: Path) -> dict:
     return manifest
 
 
-def _check_format(path: Path, number: Any, expected: int) -> None:
-    """Refuse a file whose format number is not the one this fsmctl writes (older, newer or none)."""
-    if number == expected and not isinstance(number, bool):
+def _check_format(path: Path, number: Any, expected: int, oldest: int | None = None) -> None:
+    """Refuse a file whose format number is not one this fsmctl reads, ``oldest`` (default ``expected``) to
+    ``expected`` (older, newer or none)."""
+    oldest = expected if oldest is None else oldest
+    if isinstance(number, int) and not isinstance(number, bool) and oldest <= number <= expected:
         return
     again = "derive the law again with this fsmctl (`fsmctl derive FILE.py --out DIR`)"
     if isinstance(number, int) and not isinstance(number, bool) and number > expected:
@@ -524,7 +530,7 @@ def _check_format(path: Path, number: Any, expected: int) -> None:
             f"{again}, or upgrade fsmctl"
         )
     what = f"format {number}" if isinstance(number, int) and not isinstance(number, bool) else "no format number"
-    raise LawError(f"{path}: {what}, older than this fsmctl {__version__} reads (format {expected}): {again}")
+    raise LawError(f"{path}: {what}, older than this fsmctl {__version__} reads (format {oldest}): {again}")
 
 
 def _verify_files(folder: Path, listed: Mapping[str, str]) -> None:
@@ -563,7 +569,12 @@ def _verified_metadata(folder: Path) -> tuple[dict, dict]:
         raise LawError(f"{folder}: cannot be read ({exc})") from exc
     if not isinstance(meta, dict):
         raise LawError(f"{folder / LAW_FILE}: not a law description (a JSON object); derive the folder again")
-    _check_format(folder / LAW_FILE, meta.get("format"), LAW_FORMAT)
+    _check_format(folder / LAW_FILE, meta.get("format"), LAW_FORMAT, LAW_FORMAT_OLDEST)
+    if meta.get("format") != law_format(meta):  # e.g. wheel outputs in a format-1 folder: an older fsmctl ignores them
+        raise LawError(
+            f"{folder / LAW_FILE}: format {meta.get('format')} does not describe this law (format {law_format(meta)} "
+            "does); derive the folder again"
+        )
     return meta, manifest
 
 
@@ -586,6 +597,13 @@ def _check_sizes(law: LawCode, manifest: dict) -> None:
         "constant count": (law.n_constants, control["constants"]),
         "state count": (law.n_states, control["z"]),
     }
+    if law.n_wheels:  # law_wheels_<model>: the control inputs, then the wheels' (fsmctl.symbolic.law.WHEEL_INPUTS)
+        for model in ("paper", "exact"):
+            wheels_in = _signature(manifest, f"law_wheels_{model}", inputs=True)
+            wheels_out = _signature(manifest, f"law_wheels_{model}", inputs=False)
+            declared[f"wheel count ({model})"] = (law.n_wheels, wheels_out["u_wheels"])
+            declared[f"wheel speeds ({model})"] = (law.n_wheels, wheels_in["wheel_speed"])
+            declared[f"spin axes ({model})"] = (3 * law.n_wheels, wheels_in["spin_axes"])
     for what, (said, generated) in declared.items():
         if said != generated:
             raise LawError(
@@ -656,6 +674,7 @@ def _law_code(folder: Path, meta: dict) -> LawCode:
             for g in meta.get("presets", [])
         ),
         loop_rates_doc=None if meta.get("loop_rates") is None else meta["loop_rates"].get("doc", ""),
+        n_wheels=0 if meta.get("wheels") is None else int(meta["wheels"]["count"]),
         paper_theorems=None
         if meta.get("paper_theorems") is None
         else LawPaperTheorems(MappingProxyType(dict(meta["paper_theorems"]))),
@@ -690,7 +709,7 @@ def builtin_laws() -> dict[str, LawCode]:
     --------
     >>> from fsmctl.model import builtin_laws
     >>> list(builtin_laws())
-    ['fsm', 'adaptive_fsm', 'pid', 'super_twisting']
+    ['fsm', 'fsm_wheels', 'adaptive_fsm', 'pid', 'super_twisting']
     """
     return dict(_builtin_laws())
 

@@ -282,6 +282,11 @@ class Scenario:
                 "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
             )
         law = resolve_law(self.controller.law)  # a law that cannot be found is a LawError
+        if law.n_wheels and self.actuator.enabled and self.actuator.n_wheels != law.n_wheels:  # lawwheels
+            raise ValueError(
+                f"actuator: the law {law.name} commands {law.n_wheels} reaction wheels, the actuator has "
+                f"{self.actuator.n_wheels}; give it {law.n_wheels} wheels or fly another law"
+            )
         try:
             parameter_matrix(law, self)  # the written keys against the law's declarations and ranges
         except LawError as exc:

@@ -31,9 +31,12 @@ from fsmctl.model.actuators import distribute, distribution_matrix, hub_inertia_
 from fsmctl.model.attitude import mrp_of_quaternion_expression, quaternion_from_mrp, quaternion_rate_expression
 from fsmctl.model.scenario import ActuatorSettings, ScenarioError, Sinusoid
 from fsmctl.plugin.arguments import (
+    _actuator,
+    _axes_check,
     _inertia,
     _labels,
     _numbers,
+    _per_wheel_check,
     _scalar,
     _show,
     _signal_names,
@@ -60,61 +63,6 @@ __all__ = [
 
 _WHEEL_VECTORS = ("spin_inertia", "max_torque", "max_speed", "viscous_friction", "coulomb_friction")
 """Per-wheel settings of :class:`ActuatorSettings` that are parameters of the plant (one value per wheel)."""
-
-
-def _actuator(value: Any, where: str) -> ActuatorSettings:
-    """An :class:`ActuatorSettings` of reaction wheels (a mapping is read as one, ``kind`` defaulting to wheels)."""
-    if isinstance(value, Mapping):
-        try:
-            value = ActuatorSettings(**{"kind": "reaction_wheels", **value})
-        except TypeError as exc:  # a non-string key
-            raise ScenarioError(f"{where}: actuator: {exc}") from None
-        except ScenarioError as exc:
-            raise ScenarioError(f"{where}: actuator: {exc}") from None
-    if not isinstance(value, ActuatorSettings):
-        raise ScenarioError(
-            f"{where}: actuator: expected ActuatorSettings or a mapping of its fields, got {type(value).__name__}"
-        )
-    if not value.enabled:
-        raise ScenarioError(
-            f"{where}: actuator: kind is {value.kind!r}; this plant flies reaction wheels (kind 'reaction_wheels'), "
-            "the ideal torque source is fsmctl.spacecraft"
-        )
-    return value
-
-
-def _axes_check(n: int):
-    def check(value: Any, where: str) -> np.ndarray:
-        G = _numbers(value, (3, n), f"a 3 x {n} matrix of spin axes (one column per wheel)", where)
-        norms = np.linalg.norm(G, axis=0)
-        if np.any(norms == 0):
-            raise ScenarioError(f"{where}: wheel {int(np.argmin(norms)) + 1} has a zero spin axis")
-        if np.linalg.matrix_rank(G / norms, tol=1e-9) < 3:
-            raise ScenarioError(f"{where}: the spin axes do not span 3-D")
-        if np.allclose(norms, 1.0, rtol=0, atol=1e-15):
-            return G
-        unit = G / norms
-        unit.setflags(write=False)
-        return unit
-
-    return check
-
-
-def _per_wheel_check(n: int, *, positive: bool, inf: bool):
-    """Validator of a per-wheel setting: one number or ``n`` numbers, ``> 0`` (``positive``) or ``>= 0``."""
-
-    def check(value: Any, where: str) -> np.ndarray:
-        if isinstance(value, np.ndarray) and value.ndim == 0:
-            value = value[()]
-        items = list(value) if isinstance(value, (list, tuple, np.ndarray)) else [value]
-        if (isinstance(value, np.ndarray) and value.ndim != 1) or len(items) not in (1, n):
-            raise ScenarioError(f"{where}: expected one real number or {n} (one per wheel), got {_show(value)}")
-        a = np.array([_scalar(v, where, minimum=0.0, strict=positive, inf=inf) for v in items])
-        out = np.broadcast_to(a, (n,)).copy()
-        out.setflags(write=False)
-        return out
-
-    return check
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:

@@ -72,8 +72,11 @@ from fsmctl.model.laws import (
 from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid
 from fsmctl.model.topology import Schedule, Topology, schedule_weight
 from fsmctl.plugin.arguments import (
+    _actuator,
+    _axes_check,
     _inertia,
     _labels,
+    _per_wheel_check,
     _positive3,
     _scalar,
     _show,
@@ -436,10 +439,13 @@ def _controller(
     signals: Mapping[str, Any],
     params: Any,
     dt: Any,
+    wheels: Mapping[str, np.ndarray] | None = None,
 ) -> ParameterizedSystem:
-    """One agent's law (the contract of :mod:`fsmctl.symbolic.law`) as a python-control system."""
+    """One agent's law (the contract of :mod:`fsmctl.symbolic.law`) as a python-control system; ``wheels``
+    (``axes``, ``spin_inertia``) for a law that commands its wheels (:func:`_law_wheels`)."""
     where = f"{kind} {name!r}" if name else kind
     nz, nb, bname = law.n_states, law.n_broadcast, law.broadcast_name
+    nw = law.n_wheels if wheels is not None else 0  # lawwheels: outputs u_wheels, inputs Omega
     if bname == "tau":
         raise ScenarioError(f"{where}: the law's broadcast is named 'tau', the controller's torque output")
     local = _Generated(
@@ -452,18 +458,29 @@ def _controller(
     inputs = _labels("sigma") + _labels("omega") + _labels("sigma_d") + _labels("omega_d") + _labels("omega_d_dot")
     for nb_ in nbrs:
         inputs += _labels(f"{bname}_{nb_.name}", nb)
+    n_in = len(inputs)  # the wheel speeds Omega[0..nw-1] follow
+    inputs += _labels("Omega", nw) if nw else []
+    wheel_commands = _Generated(f"law_wheels_{error_model}", law.folder) if nw else None
 
-    # one flat call: (t, own/reference signals, z, params, J0, aggregates, u_max) -> (torque, broadcast, z_dot);
-    # the law's constants are computed from the parameters inside the call, so params= values are used consistently
-    def build(t, y, z, prm, J, k_sum, received, k_received_sum, um):
+    # one flat call: (t, own/reference signals, z, params, J0, aggregates, u_max[, axes, Omega, J_s]) -> (torque,
+    # broadcast[, wheel commands], z_dot); the law's constants are computed from the parameters inside the call, so
+    # params= values are used consistently
+    def build(t, y, z, prm, J, k_sum, received, k_received_sum, um, *wheel_inputs):
         agent = (t, y[0:3], y[3:6], z, y[6:9], y[9:12], y[12:15], J, prm, constants(prm))
         b, cache = local(*agent)
         u, _, z_dot = control(*agent, cache, k_sum, received, k_received_sum, um)
-        return [u, b, z_dot]
+        if not nw:
+            return [u, b, z_dot]
+        return [u, b, wheel_commands(*agent, cache, k_sum, received, k_received_sum, um, *wheel_inputs), z_dot]
 
     shapes = [(1, 1), (15, 1), (nz, 1), (law.n_params, 1), (3, 3), (1, 1), (nb, 1), (1, 1), (1, 1)]
+    shapes += [(3, nw), (nw, 1), (nw, 1)] if nw else []
     call = _FlatCall(build, shapes, f"{kind}_law")
     zero = np.zeros(nb)
+    n_out = 3 + nb + nw
+
+    def wheel_args(u, p) -> tuple:
+        return (p["axes"], u[n_in:], p["spin_inertia"]) if nw else ()
 
     def evaluate(t, x, u, p):
         # eq 19: the agent knows only what it receives, sum_j k^j_ij(t) b_j, from the b_j on its inputs; the
@@ -473,9 +490,9 @@ def _controller(
             broadcasts, [w(t) for w in weights], [0] * len(nbrs), range(1, len(nbrs) + 1), k_i, zero=lambda: zero
         )
         prm = scheme.pack(p)
-        return call(t, u[:15], x, prm, p["J0"], k_sum[0], received[0], k_received_sum[0], p["u_max"])
+        return call(t, u[:15], x, prm, p["J0"], k_sum[0], received[0], k_received_sum[0], p["u_max"], *wheel_args(u, p))
 
-    update = None if nz == 0 else (lambda t, x, u, p: evaluate(t, x, u, p)[3 + nb :])
+    update = None if nz == 0 else (lambda t, x, u, p: evaluate(t, x, u, p)[n_out:])
     m = len(nbrs)
     states = _signal_names(signals["states"], law.state_labels() if nz else [], "states", where)
     basis = [np.zeros((nb, nb * m))] + [np.eye(nb, nb * m, nb * j) for j in range(m)]
@@ -494,7 +511,7 @@ def _controller(
             k_i,
             zero=lambda: zero,
         )
-        d_y, d_z, d_received = call.jacobian(
+        d_y, d_z, d_received, *d_wheels = call.jacobian(
             t,
             u[:15],
             x,
@@ -504,20 +521,27 @@ def _controller(
             received[0],
             k_received_sum[0],
             p["u_max"],
-            wrt=(1, 2, 6),
-            labels=(inputs[:15], states, [f"received[{k}]" for k in range(nb)]),
+            *wheel_args(u, p),
+            wrt=(1, 2, 6) + ((10,) if nw else ()),
+            labels=(inputs[:15], states, [f"received[{k}]" for k in range(nb)]) + ((inputs[n_in:],) if nw else ()),
         )
-        d_u = np.hstack([d_y, d_received @ weight])
-        return d_z[3 + nb :], d_u[3 + nb :], d_z[: 3 + nb], d_u[: 3 + nb]
+        d_u = np.hstack([d_y, d_received @ weight, *d_wheels])
+        return d_z[n_out:], d_u[n_out:], d_z[:n_out], d_u[:n_out]
 
+    values, validators = {"J0": J0, **scheme.values, "u_max": u_max}, {"J0": _inertia, **scheme.validators}
+    validators["u_max"] = _torque_limit
+    if nw:
+        values.update(wheels)
+        validators.update(axes=_axes_check(nw), spin_inertia=_per_wheel_check(nw, positive=True, inf=False))
+    outputs = _labels("tau") + _labels(bname, nb) + (_labels("u_wheels", nw) if nw else [])
     system = ParameterizedSystem(
         kind,
         update,
-        lambda t, x, u, p: evaluate(t, x, u, p)[: 3 + nb],
-        {"J0": J0, **scheme.values, "u_max": u_max},
-        {"J0": _inertia, **scheme.validators, "u_max": _torque_limit},
+        lambda t, x, u, p: evaluate(t, x, u, p)[:n_out],
+        values,
+        validators,
         inputs=_signal_names(signals["inputs"], inputs, "inputs", where),
-        outputs=_signal_names(signals["outputs"], _labels("tau") + _labels(bname, nb), "outputs", where),
+        outputs=_signal_names(signals["outputs"], outputs, "outputs", where),
         name=name,
         jacobian=jacobian,
         **({"states": states} if nz else {}),
@@ -544,6 +568,7 @@ def law_controller(
     states: Any = None,
     params: Mapping[str, Any] | None = None,
     dt: Any = 0,
+    actuator: Any = None,
 ) -> ParameterizedSystem:
     """One agent's control law, any law (built-in, derived folder or derivation script), as a python-control system.
 
@@ -581,21 +606,31 @@ def law_controller(
         python-control's timebase.  A law with states is continuous time (``None`` is taken as 0, a discrete
         ``dt`` raises); a static law (no states) is a memoryless map and takes any timebase (``None``:
         unspecified, ``True`` or a sampling period: discrete).
+    actuator : ActuatorSettings or mapping, optional
+        For a law that commands its reaction wheels (:attr:`LawCode.n_wheels`,
+        :meth:`fsmctl.symbolic.law.LawBuilder.wheel_torques`): the wheel array (as for
+        :func:`fsmctl.plugin.hardware.reaction_wheel_spacecraft`), whose spin axes and spin inertias the law reads;
+        it must have the law's number of wheels.  Given, the system has the wheel speeds as inputs and the law's
+        wheel commands as outputs; omitted, it is the law's body torque only (for an ideal torque source).
 
     Returns
     -------
     ParameterizedSystem
         States: the law's states ``z`` (labels of :meth:`LawCode.state_labels`; none: a static system).
-        Inputs ``sigma``, ``omega`` (own state), ``sigma_d``, ``omega_d``, ``omega_d_dot`` (reference) and each
-        neighbour's broadcast.  Outputs ``tau[0..2]`` (the applied, limited torque: the plant's input) and the
-        broadcast ``<broadcast>[k]``.  Parameters ``f"{name}_J0"``, one per law parameter under its name
-        (``f"{name}_K"``, ...), ``f"{name}_u_max"`` and the owner tag.  Initial law states:
+        Inputs ``sigma``, ``omega`` (own state), ``sigma_d``, ``omega_d``, ``omega_d_dot`` (reference), each
+        neighbour's broadcast and, with ``actuator``, the wheel speeds ``Omega[0..N-1]`` (rad/s, relative to the
+        hub: the wheel spacecraft's outputs).  Outputs ``tau[0..2]`` (the applied, limited torque: the plant's
+        input), the broadcast ``<broadcast>[k]`` and, with ``actuator``, the wheel motor torque commands
+        ``u_wheels[0..N-1]`` (N m, before the wheels' limits).  Parameters ``f"{name}_J0"``, one per law parameter
+        under its name (``f"{name}_K"``, ...), ``f"{name}_u_max"``, with ``actuator`` ``f"{name}_axes"`` (3 x N)
+        and ``f"{name}_spin_inertia"`` (N), and the owner tag.  Initial law states:
         :func:`fsmctl.model.laws.initial_law_states`.
 
     Raises
     ------
     fsmctl.ScenarioError
-        A bad ``J0``, parameter, ``u_max``, ``error_model``, ``neighbours`` or ``name``.
+        A bad ``J0``, parameter, ``u_max``, ``error_model``, ``neighbours`` or ``name``; an ``actuator`` for a law
+        that commands no wheels, or with another number of wheels than the law's.
     fsmctl.model.laws.LawError
         An unknown law.
 
@@ -609,6 +644,12 @@ def law_controller(
     (0, ['tau[0]', 'tau[1]', 'tau[2]', 's[0]', 's[1]', 's[2]'])
     >>> float(ctrl.params["c_c1"]), ctrl.params["c_singularity_fix"]
     (0.5, 'switch')
+
+    A law that commands its four wheels (the built-in ``fsm_wheels``, null motion toward a speed bias):
+
+    >>> rw = law_controller("fsm_wheels", paper.agents[0].J0_array, actuator={"layout": "pyramid"}, name="w")
+    >>> rw.input_labels[-4:], rw.output_labels[-4:]
+    (['Omega[0]', 'Omega[1]', 'Omega[2]', 'Omega[3]'], ['u_wheels[0]', 'u_wheels[1]', 'u_wheels[2]', 'u_wheels[3]'])
     """
     call = _factory_call(law_controller, locals())
     name = _system_name(name, "law_controller")
@@ -627,7 +668,26 @@ def law_controller(
     u_max = _torque_limit(u_max, f"{where}: u_max")
     nbrs = _neighbours(neighbours, where)
     signals = {"inputs": inputs, "outputs": outputs, "states": states}
-    return _controller("law_controller", law, J0, scheme, u_max, error_model, nbrs, name, call, signals, params, dt)
+    wheels = None if actuator is None else _law_wheels(law, actuator, where)
+    return _controller(
+        "law_controller", law, J0, scheme, u_max, error_model, nbrs, name, call, signals, params, dt, wheels
+    )
+
+
+def _law_wheels(law: LawCode, actuator: Any, where: str) -> dict[str, np.ndarray]:
+    """The ``axes`` and ``spin_inertia`` of ``actuator`` for a law that commands as many wheels."""
+    act = _actuator(actuator, where)
+    if not law.n_wheels:
+        raise ScenarioError(
+            f"{where}: actuator: the law {law.name} commands no wheels (reaction_wheel_spacecraft distributes its "
+            "torque); give no actuator"
+        )
+    if act.n_wheels != law.n_wheels:
+        raise ScenarioError(
+            f"{where}: actuator: the law {law.name} commands {law.n_wheels} reaction wheels, the actuator has "
+            f"{act.n_wheels}"
+        )
+    return {"axes": act.spin_axes(), "spin_inertia": np.asarray(act.per_wheel("spin_inertia"), dtype=float)}
 
 
 def _flown_parameters(

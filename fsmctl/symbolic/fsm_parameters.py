@@ -4,8 +4,8 @@
 Liang, Sun & Wang (2012), eqs 13-19 and Remarks 6-7, in this order: ``c1``, ``c2``, ``alpha`` (the surface,
 eq 13), ``boundary_layer`` (Remark 7), ``epsilon`` and ``singularity_fix`` (Remark 6) and ``delta`` (eq 18);
 a law that has no boundary layer or no fixed switching gain leaves those out.  The built-in laws ``fsm``,
-``adaptive_fsm`` and ``super_twisting`` use it, so the paper's defaults, units, ranges and meanings are written
-once.
+``fsm_wheels``, ``adaptive_fsm`` and ``super_twisting`` use it, so the paper's defaults, units, ranges and meanings
+are written once.  :func:`declare_paper_law` declares the whole law (``fsm``, and ``fsm_wheels``'s body torque).
 
 Pure SymPy: no NumPy, no I/O.
 """
@@ -19,7 +19,7 @@ import sympy as sp
 
 from fsmctl.symbolic.law import LawBuilder
 
-__all__ = ["FsmParameters", "declare_fsm_parameters", "declare_surface_presets", "fsm_loop_rates"]
+__all__ = ["FsmParameters", "declare_fsm_parameters", "declare_paper_law", "declare_surface_presets", "fsm_loop_rates"]
 
 SINGULARITY_FIXES: tuple[str, ...] = ("none", "switch", "clamp")
 """Remark 6's devices, in the order of :class:`fsmctl.symbolic.controller.SingularityFix` (the packed index)."""
@@ -181,3 +181,56 @@ def declare_surface_presets(b: LawBuilder, p: FsmParameters) -> None:
         "surface", default="fsm", options={"fsm": {}, "tsm": {p.c1: 0.0}, "lsm": {p.c2: 0.0}},
         doc="the sliding surface of Sec. 3.3: fsm (eq 13), tsm (terminal: c1 = 0) or lsm (linear: c2 = 0)",
     )  # fmt: skip
+
+
+def declare_paper_law(b: LawBuilder) -> sp.ImmutableMatrix:
+    """Declare the paper's law on ``b`` and return its body torque, for ``b.torque`` (Liang et al. 2012, eqs 13-19).
+
+    Declares, in this order: the parameters (:func:`declare_fsm_parameters`, the paper's defaults), the claim that
+    the law is eqs 13-19 (``paper_theorems``), the discontinuity ``sgn(s)`` smoothed by ``boundary_layer``, the loop
+    rates (:func:`fsm_loop_rates`), the ``surface`` presets (:func:`declare_surface_presets`) and the broadcast
+    ``s`` (eq 13, 1/s).  The torque is eq 16 in computed-torque form with the coordination term of eq 19, every
+    fractional power from the surface's shared slope.  The built-in ``fsm`` is this law; ``fsm_wheels`` flies the
+    same body torque through its wheels.
+
+    Parameters
+    ----------
+    b : LawBuilder
+        The law being built (nothing declared yet).
+
+    Returns
+    -------
+    sympy.ImmutableMatrix
+        The commanded body torque (3 components, N m).
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import LawBuilder
+    >>> from fsmctl.symbolic.fsm_parameters import declare_paper_law
+    >>> b = LawBuilder("fsm_copy", doc="the paper's law")
+    >>> b.torque(declare_paper_law(b))
+    >>> law = b.build()
+    >>> law.broadcast_name, law.n_params, law.paper_theorems.parameter("delta")
+    ('s', 9, 'delta')
+    """
+    from fsmctl.symbolic.controller import computed_torque_pieces, coordination_term
+    from fsmctl.symbolic.surfaces import fast_sliding_surface
+
+    p = declare_fsm_parameters(b)
+    c1, c2, alpha, phi, epsilon, fix, delta = (
+        p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
+    )  # fmt: skip
+    b.paper_theorems(
+        c1=c1, c2=c2, alpha=alpha, boundary_layer=phi, epsilon=epsilon, singularity_fix=fix, delta=delta
+    )  # fmt: skip
+    b.discontinuous("sgn(s) of the switching term u^D (eq 18)", smoothed_by=phi)
+    b.loop_rates(**fsm_loop_rates(p))
+    declare_surface_presets(b, p)
+    surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
+    e, s = surface.error, surface.s
+    b.broadcast("s", s, unit="1/s")
+    pieces = computed_torque_pieces(
+        b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta,
+        coordination_term(s, b.k_sum, b.received), boundary_layer=phi, fix=fix, epsilon=epsilon,
+    )  # fmt: skip
+    return surface.with_shared_slope(pieces.u, "FSM torque")  # every fractional power comes from the shared slope

@@ -77,8 +77,11 @@ __all__ = [
     "Lyapunov",
     "PaperTheorems",
     "PresetGroup",
+    "WHEEL_INPUTS",
+    "WheelInputs",
     "contract_names",
     "law_variants",
+    "wheels_function_name",
 ]
 
 AGENT_INPUTS: tuple[str, ...] = (
@@ -96,6 +99,10 @@ AGENT_INPUTS: tuple[str, ...] = (
 """Inputs of ``law_local_*`` (and the first inputs of ``law_control_*``), in order."""
 NEIGHBOUR_INPUTS: tuple[str, ...] = ("cache", "k_sum", "received", "k_received_sum", "u_max")
 """The further inputs of ``law_control_*``, in order."""
+WHEEL_INPUTS: tuple[str, ...] = ("spin_axes", "wheel_speed", "spin_inertia")
+"""The last inputs of ``law_wheels_*`` (after those of ``law_control_*``), in order: the ``3 x N`` spin axes (body
+frame, column ``k`` the unit axis ``g_k``), the ``N`` wheel speeds relative to the hub (rad/s) and the ``N`` spin
+inertias (kg m^2); see :meth:`LawBuilder.reaction_wheels`."""
 
 SHARED_CONTROLLER_KEYS: tuple[str, ...] = ("law", "parameters", "torque_limit", "error_model", "enabled")
 """The ``[controller]`` keys every law shares: no parameter or preset group of a law may take these names."""
@@ -113,8 +120,14 @@ PAPER_THEOREM_ROLES: tuple[str, ...] = (
 LOOP_RATES_FUNCTION = "law_loop_rates"
 """The generated function of :meth:`LawBuilder.loop_rates`: ``law_loop_rates(params) -> (surface, layer)``."""
 
+_U_MAX = sp.Symbol("u_max", real=True)
 _NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-_RESERVED = set(AGENT_INPUTS) | set(NEIGHBOUR_INPUTS) | {"u", "u_commanded", "z_dot", "broadcast"}
+_RESERVED = (
+    set(AGENT_INPUTS)
+    | set(NEIGHBOUR_INPUTS)
+    | set(WHEEL_INPUTS)
+    | {"u", "u_commanded", "z_dot", "broadcast", "u_wheels"}
+)
 
 
 class LawDefinitionError(DerivationInputError):
@@ -138,6 +151,72 @@ def contract_names(error_model: ErrorModel | str) -> tuple[str, str]:
     """Names of the generated ``(local, control)`` functions for an error model."""
     m = ErrorModel(error_model).value
     return f"law_local_{m}", f"law_control_{m}"
+
+
+def wheels_function_name(error_model: ErrorModel | str) -> str:
+    """Name of the generated per-wheel command function of a law that commands its wheels, for an error model.
+
+    Parameters
+    ----------
+    error_model : ErrorModel or str
+        ``"paper"`` or ``"exact"``.
+
+    Returns
+    -------
+    str
+        ``law_wheels_<model>`` (see :meth:`LawBuilder.wheel_torques`).
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic.law import wheels_function_name
+    >>> wheels_function_name("exact")
+    'law_wheels_exact'
+    """
+    return f"law_wheels_{ErrorModel(error_model).value}"
+
+
+@dataclass(frozen=True)
+class WheelInputs:
+    """What a law that commands its reaction wheels knows about them, from :meth:`LawBuilder.reaction_wheels`.
+
+    Inputs of the generated ``law_wheels_<model>`` only (the body torque of :meth:`LawBuilder.torque` cannot read
+    them: an ideal actuator flies it without wheels).
+
+    Parameters
+    ----------
+    n : int
+        The number of wheels ``N``; a scenario that flies the law must have as many.
+    spin_axes : sympy.ImmutableMatrix
+        ``3 x N``: column ``k`` is the unit spin axis ``g_k`` of wheel ``k`` in the body frame.
+    speed : sympy.ImmutableMatrix
+        ``N x 1``: the wheel speeds ``Omega_k`` relative to the hub (rad/s).
+    spin_inertia : sympy.ImmutableMatrix
+        ``N x 1``: the spin inertias ``J_s,k`` (kg m^2).
+
+    Examples
+    --------
+    >>> from fsmctl.symbolic import LawBuilder
+    >>> w = LawBuilder("rw", doc="example").reaction_wheels(4)
+    >>> w.n, w.spin_axes.shape, w.speed.T
+    (4, (3, 4), Matrix([[wheel_speed[0], wheel_speed[1], wheel_speed[2], wheel_speed[3]]]))
+    >>> w.momentum[0]
+    spin_axes[0, 0]*spin_inertia[0]*wheel_speed[0] + spin_axes[0, 1]*spin_inertia[1]*wheel_speed[1] + spin_axes[0, 2]*spin_inertia[2]*wheel_speed[2] + spin_axes[0, 3]*spin_inertia[3]*wheel_speed[3]
+    """
+
+    n: int
+    spin_axes: sp.ImmutableMatrix
+    speed: sp.ImmutableMatrix
+    spin_inertia: sp.ImmutableMatrix
+
+    @property
+    def momentum(self) -> sp.ImmutableMatrix:
+        """The wheels' spin momentum relative to the hub in the body frame, ``sum_k J_s,k Omega_k g_k`` (N m s)."""
+        return sp.ImmutableMatrix(self.spin_axes * sp.matrix_multiply_elementwise(self.spin_inertia, self.speed))
+
+    @property
+    def symbols(self) -> dict[str, sp.ImmutableMatrix]:
+        """The inputs by name (:data:`WHEEL_INPUTS`)."""
+        return dict(zip(WHEEL_INPUTS, (self.spin_axes, self.speed, self.spin_inertia), strict=True))
 
 
 @dataclass(frozen=True)
@@ -389,6 +468,11 @@ class Law:
         Closed-form bounds on the loop's rates (:meth:`LawBuilder.loop_rates`).
     paper_theorems : PaperTheorems or None
         Whether the law is the paper's eqs 13-19, with which parameters (:meth:`LawBuilder.paper_theorems`).
+    wheel_stages : tuple of (str, Matrix, Matrix)
+        The stages that read the wheels' inputs (evaluated with the wheel commands only).
+    wheel_torques : sympy.ImmutableMatrix or None
+        The per-wheel motor torque commands (:meth:`LawBuilder.wheel_torques`; N m); None when the law leaves its
+        body torque to the engine's minimum-norm distribution.
 
     Examples
     --------
@@ -436,6 +520,8 @@ class Law:
     presets: tuple[PresetGroup, ...] = ()
     loop_rates: LoopRates | None = None
     paper_theorems: PaperTheorems | None = None
+    wheel_stages: tuple[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix], ...] = ()
+    wheel_torques: sp.ImmutableMatrix | None = None
 
     # -- sizes -------------------------------------------------------------------------------------
     @property
@@ -462,6 +548,11 @@ class Law:
     def n_cache(self) -> int:
         """Length of the ``cache`` vector passed from ``law_local_*`` to ``law_control_*``."""
         return sum(len(m) for _, m in self.cache)
+
+    @property
+    def n_wheels(self) -> int:
+        """The number of wheels the law commands (:meth:`LawBuilder.wheel_torques`); 0 when it commands none."""
+        return 0 if self.wheel_torques is None else self.wheel_torques.rows
 
     def parameter(self, name: str) -> LawParameter:
         """The parameter declared as ``name``.
@@ -531,7 +622,7 @@ class Law:
             A column in the contract's inputs only (a scalar becomes a 1x1 matrix).
         """
         expr = sp.ImmutableMatrix(expr) if isinstance(expr, sp.MatrixBase) else sp.ImmutableMatrix([expr])
-        for _, syms, value in reversed((*self.constants, *self.local_stages, *self.control_stages)):
+        for _, syms, value in reversed((*self.constants, *self.local_stages, *self.control_stages, *self.wheel_stages)):
             expr = expr.xreplace(dict(zip(syms, value, strict=True)))
         return expr
 
@@ -609,6 +700,31 @@ class Law:
             batched=self.batched,
         )
 
+    def wheels_spec(self) -> FunctionSpec | None:
+        """The generated function ``law_wheels_<model>(..., u_max, spin_axes, wheel_speed, spin_inertia) -> u_wheels``.
+
+        The inputs of ``law_control_<model>`` followed by :data:`WHEEL_INPUTS`; the output is the ``N`` per-wheel
+        motor torque commands of :meth:`LawBuilder.wheel_torques`.  None when the law commands no wheels.
+
+        Returns
+        -------
+        FunctionSpec or None
+            What :func:`fsmctl.codegen.build_functions` translates.
+        """
+        if self.wheel_torques is None:
+            return None
+        return FunctionSpec(
+            name=wheels_function_name(self.error_model),
+            doc=(
+                f"{self.name} ({self.error_model.value} error kinematics): the motor torque commands u_wheels of its "
+                f"{self.n_wheels} reaction wheels (N m, positive spins a wheel up along its axis), given what the "
+                "agent received and the wheels' axes, speeds and spin inertias"
+            ),
+            inputs=self._inputs(AGENT_INPUTS + NEIGHBOUR_INPUTS + WHEEL_INPUTS),
+            stages=tuple((s, v) for _, s, v in (*self.control_stages, *self.wheel_stages)),
+            outputs=(("u_wheels", self.wheel_torques),),
+        )
+
     def loop_rates_spec(self) -> FunctionSpec | None:
         """The generated function ``law_loop_rates(params) -> (surface, layer)``, or None if none is declared.
 
@@ -636,7 +752,8 @@ class Law:
         -------
         dict
             JSON-able: name, doc, reference, parameters, states, broadcast, constants, cache, lyapunov, and the
-            declarations discontinuity, presets, loop_rates and paper_theorems.
+            declarations discontinuity, presets, loop_rates and paper_theorems; ``wheels`` (``count``, the
+            ``function`` prefix, ``unit``) only for a law that commands its wheels.
         """
         return {
             "name": self.name,
@@ -656,7 +773,11 @@ class Law:
             if self.loop_rates is None
             else {"function": LOOP_RATES_FUNCTION, "doc": self.loop_rates.doc},
             "paper_theorems": None if self.paper_theorems is None else dict(self.paper_theorems.parameters),
-        }
+        } | (
+            {}  # a law without wheel outputs: law.json as before wheel outputs existed (format 1)
+            if self.wheel_torques is None
+            else {"wheels": {"count": self.n_wheels, "function": "law_wheels", "unit": "N m"}}
+        )
 
 
 def _matrix(value, what: str) -> sp.ImmutableMatrix:
@@ -775,6 +896,8 @@ class LawBuilder:
         self._presets: list[PresetGroup] = []
         self._loop_rates: LoopRates | None = None
         self._paper_theorems: PaperTheorems | None = None
+        self._wheels: WheelInputs | None = None
+        self._wheel_torques: sp.ImmutableMatrix | None = None
         self.batched = True
 
     # -- declarations -----------------------------------------------------------------------------
@@ -1054,6 +1177,22 @@ class LawBuilder:
         """``sum_j k^j_ij(t)``: the total weight of what the agent receives at ``t``."""
         return self._neighbour_symbol("k_received_sum")[0]
 
+    @property
+    def u_max(self) -> sp.Symbol:
+        """The ideal actuator's per-axis torque limit (N m, the scenario's ``torque_limit``), for :meth:`wheel_torques`.
+
+        ``saturate(u, b.u_max)`` (:func:`fsmctl.symbolic.saturate`) is the body torque the ideal actuator applies and
+        the engine's minimum-norm distribution realises; a law that commands its wheels reads it to do the same.
+
+        Raises
+        ------
+        LawDefinitionError
+            No :meth:`reaction_wheels` declared (only the wheel commands may read the limit).
+        """
+        if self._wheels is None:
+            raise LawDefinitionError(f"{self.name}: u_max is read by wheel_torques() only: declare reaction_wheels()")
+        return _U_MAX
+
     def torque(self, u) -> None:
         """Declare the commanded body torque (3 components, N m), before the actuator's limit.
 
@@ -1073,6 +1212,101 @@ class LawBuilder:
         if u.shape != (3, 1):
             raise LawDefinitionError(f"{self.name}: torque must have 3 components, got {u.rows}")
         self._torque = u
+
+    def reaction_wheels(self, n: int) -> WheelInputs:
+        """Declare that the law commands ``n`` reaction wheels itself; returns the symbols of what it knows of them.
+
+        The spin axes, wheel speeds and spin inertias are inputs of the generated ``law_wheels_<model>`` only, the
+        function of :meth:`wheel_torques`; the body torque (:meth:`torque`), the broadcast and the law states cannot
+        read them, so that the law still flies on an ideal torque source.  A scenario that flies the law on reaction
+        wheels must have ``n`` of them (checked before the run); on an ideal actuator the wheel commands are not
+        used and the actuator applies the body torque.
+
+        Parameters
+        ----------
+        n : int
+            The number of wheels (positive), e.g. 4 for a pyramid.
+
+        Returns
+        -------
+        WheelInputs
+            ``spin_axes`` (``3 x n``, column ``k`` the unit axis ``g_k`` in the body frame), ``speed`` (``n``,
+            ``Omega_k`` relative to the hub, rad/s), ``spin_inertia`` (``n``, kg m^2) and ``momentum``
+            (``sum_k J_s,k Omega_k g_k``).
+
+        Raises
+        ------
+        LawDefinitionError
+            A second declaration, or ``n`` not a positive integer.
+
+        Examples
+        --------
+        Null motion that spins the wheels down without changing the body torque (``pinv(G) = G^T (G G^T)^-1``):
+
+        >>> import sympy as sp
+        >>> from fsmctl.symbolic import LawBuilder
+        >>> b = LawBuilder("pd_rw", "exact", doc="PD, wheel momentum managed by null motion")
+        >>> K = b.parameter("K", 1.0, unit="N m", minimum=0.0, doc="attitude gain")
+        >>> k_h = b.parameter("k_h", 0.1, unit="1/s", minimum=0.0, doc="momentum gain")
+        >>> e = b.error_state()
+        >>> b.broadcast("sigma_e", e.sigma_e)
+        >>> u = -K * e.sigma_e - 4 * K * e.omega_e
+        >>> b.torque(u)
+        >>> w = b.reaction_wheels(4)
+        >>> G = w.spin_axes
+        >>> P = b.stage("P", list(G.T * (G * G.T).inv(method="ADJ")))  # the 4 x 3 pseudo-inverse, row-major
+        >>> pinv = sp.Matrix(4, 3, list(P))
+        >>> v = -k_h * sp.matrix_multiply_elementwise(w.spin_inertia, w.speed)
+        >>> b.wheel_torques(-pinv * (u + G * v) + v)
+        >>> law = b.build()
+        >>> law.n_wheels, law.wheels_spec().name, [name for name, _ in law.wheels_spec().outputs]
+        (4, 'law_wheels_exact', ['u_wheels'])
+        """
+        if self._wheels is not None:
+            raise LawDefinitionError(f"{self.name}: reaction_wheels() is declared twice")
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            raise LawDefinitionError(f"{self.name}: reaction_wheels(n): n must be a positive integer, got {n!r}")
+        axes = sp.ImmutableMatrix(3, n, lambda r, k: sp.Symbol(f"spin_axes[{r}, {k}]", real=True))
+        self._wheels = WheelInputs(n, axes, vector_symbols("wheel_speed", n), vector_symbols("spin_inertia", n))
+        return self._wheels
+
+    def wheel_torques(self, u_wheels) -> None:
+        """Declare the motor torque command of each wheel of :meth:`reaction_wheels` (N m), before the wheels' limits.
+
+        Wheel ``k``'s motor torque ``u_k > 0`` spins it up along its axis ``g_k``; the body feels
+        ``-sum_k g_k u_k``.  On reaction wheels the engine flies these commands instead of the minimum-norm
+        distribution ``-pinv(G) u`` of the body torque; the same torque limit then applies (all commands divided by
+        one factor when one exceeds its ``max_torque``), and the speed limit and friction as for any command.  The
+        body torque of :meth:`torque` stays what the ideal actuator flies and what results record as
+        ``u_commanded``; the law is responsible for their agreement (``-G u_wheels`` equal to the limited body
+        torque, plus any null motion ``G v = 0``).
+
+        Parameters
+        ----------
+        u_wheels : Matrix or sequence
+            ``N`` commands, in the law's inputs, stages, what the agent receives and the wheel symbols.
+
+        Raises
+        ------
+        LawDefinitionError
+            No :meth:`reaction_wheels` declared before, a second declaration, or not ``N`` components.
+
+        Examples
+        --------
+        See :meth:`reaction_wheels`.
+        """
+        if self._wheels is None:
+            raise LawDefinitionError(
+                f"{self.name}: wheel_torques() needs reaction_wheels(n) first (the number of wheels and their symbols)"
+            )
+        if self._wheel_torques is not None:
+            raise LawDefinitionError(f"{self.name}: wheel_torques() is declared twice")
+        value = _matrix(u_wheels, f"{self.name}: wheel_torques")
+        if value.rows != self._wheels.n:
+            raise LawDefinitionError(
+                f"{self.name}: wheel_torques() has {value.rows} components, reaction_wheels() declared {self._wheels.n}"
+            )
+        self._wheel_torques = value
 
     def derivative(self, state: sp.ImmutableMatrix, expr) -> None:
         """Declare the time derivative of a law state declared with :meth:`state`.
@@ -1404,6 +1638,10 @@ class LawBuilder:
             raise LawDefinitionError(f"{self.name}: no broadcast declared (what the agent sends to its neighbours)")
         if self._torque is None:
             raise LawDefinitionError(f"{self.name}: no torque declared")
+        if self._wheels is not None and self._wheel_torques is None:
+            raise LawDefinitionError(
+                f"{self.name}: reaction_wheels({self._wheels.n}) is declared but no wheel_torques() (the commands)"
+            )
         missing = [s.name for s in self._states if s.name not in self._derivatives]
         if missing:
             raise LawDefinitionError(f"{self.name}: states without a derivative: {missing}")
@@ -1423,16 +1661,25 @@ class LawBuilder:
         symbols["constants"] = sp.ImmutableMatrix(const_syms) if const_syms else sp.ImmutableMatrix.zeros(0, 1)
         agent = set().union(*(m.free_symbols for m in symbols.values()))
         neighbour = set().union(*(m.free_symbols for m in self._neighbour.values()))
-        # split the stages: a stage is on the control side if it reads a neighbour input or a control stage
+        wheel_inputs = set()
+        if self._wheels is not None:  # the wheels' inputs, and the ideal actuator's limit (b.u_max)
+            wheel_inputs = set().union(*(m.free_symbols for m in self._wheels.symbols.values()), {_U_MAX})
+        # split the stages: a stage is on the control side if it reads a neighbour input or a control stage, on the
+        # wheels' side (law_wheels_* only) if it reads a wheel input or a wheel stage
         local, control, control_syms = [], [], set(neighbour)
+        wheel, wheel_syms = [], set(wheel_inputs)
         known = set(agent)
         for name, syms, value in self._stages:
             free = value.free_symbols
-            unknown = free - known - neighbour - set(self._param_symbols)
+            unknown = free - known - neighbour - set(self._param_symbols) - wheel_syms
             if unknown:
                 raise LawDefinitionError(
                     f"{self.name}: stage {name} uses symbols that are no input of the law: {sorted(map(str, unknown))}"
                 )
+            if free & wheel_syms:
+                wheel.append((name, syms, value))
+                wheel_syms |= set(syms)
+                continue
             (control if free & control_syms else local).append((name, syms, value))
             if free & control_syms:
                 control_syms |= set(syms)
@@ -1446,6 +1693,11 @@ class LawBuilder:
         )
         outputs["state derivative"] = derivative
         for what, value in outputs.items():
+            if value.free_symbols & wheel_syms:
+                raise LawDefinitionError(
+                    f"{self.name}: {what} reads the wheels (reaction_wheels()); only wheel_torques() may (an ideal "
+                    "actuator flies the law without wheels)"
+                )
             unknown = value.free_symbols - known - neighbour
             if unknown:
                 raise LawDefinitionError(
@@ -1453,16 +1705,26 @@ class LawBuilder:
                 )
         if bvalue.free_symbols & control_syms:
             raise LawDefinitionError(f"{self.name}: the broadcast must not depend on what the agent receives")
-        # the local stages the control side reads
+        if self._wheel_torques is not None:
+            unknown = self._wheel_torques.free_symbols - known - neighbour - wheel_syms
+            if unknown:
+                raise LawDefinitionError(
+                    f"{self.name}: wheel_torques uses symbols that are no input of the law: {sorted(map(str, unknown))}"
+                )
+        # the local stages the control side (and the wheels' side) reads
         needed = set().union(self._torque.free_symbols, derivative.free_symbols)
-        for _, _, value in control:
+        if self._wheel_torques is not None:
+            needed |= self._wheel_torques.free_symbols
+        for _, _, value in (*control, *wheel):
             needed |= value.free_symbols
         cache = tuple((name, syms) for name, syms, _ in local if set(syms) & needed)
         symbols["cache"] = (
             sp.ImmutableMatrix([s for _, m in cache for s in m]) if cache else sp.ImmutableMatrix.zeros(0, 1)
         )
         symbols.update(self._neighbour)
-        symbols["u_max"] = sp.ImmutableMatrix([sp.Symbol("u_max", real=True)])
+        symbols["u_max"] = sp.ImmutableMatrix([_U_MAX])
+        if self._wheels is not None:
+            symbols.update(self._wheels.symbols)
         return Law(
             name=self.name,
             doc=self.doc,
@@ -1486,6 +1748,8 @@ class LawBuilder:
             presets=tuple(self._presets),
             loop_rates=self._loop_rates,
             paper_theorems=self._paper_theorems,
+            wheel_stages=tuple(wheel),
+            wheel_torques=self._wheel_torques,
         )
 
 
@@ -1520,7 +1784,7 @@ def law_variants(build, extra: Sequence[FunctionSpec] = ()) -> LawVariants:
     a, b = laws
     for what in (
         "name", "parameters", "states", "broadcast_name", "n_broadcast", "n_constants",
-        "discontinuity", "presets", "loop_rates", "paper_theorems",
+        "discontinuity", "presets", "loop_rates", "paper_theorems", "n_wheels",
     ):  # fmt: skip
         if getattr(a, what) != getattr(b, what):
             raise LawDefinitionError(f"{a.name}: the paper and exact variants differ in {what}")
