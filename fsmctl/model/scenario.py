@@ -49,6 +49,14 @@ from typing import Annotated, Any
 import numpy as np
 from pydantic import BeforeValidator, model_validator
 
+from fsmctl.model.hardware_settings import (
+    ActuatorSettings,
+    GyroSettings,
+    LinkSettings,
+    SensorSettings,
+    StarTrackerSettings,
+    WheelCommandSettings,
+)
 from fsmctl.model.laws import (
     LawCode,
     LawError,
@@ -90,17 +98,11 @@ from fsmctl.model.scenario_values import (
 from fsmctl.model.settings import (
     _AGENT_FIELDS,
     _CONTROLLER_FIELDS,
-    ActuatorSettings,
     Agent,
     ControllerSettings,
-    GyroSettings,
-    LinkSettings,
     Reference,
-    SensorSettings,
     SimulationSettings,
     Sinusoid,
-    StarTrackerSettings,
-    WheelCommandSettings,
 )
 from fsmctl.model.topology import Topology, TopologyError
 

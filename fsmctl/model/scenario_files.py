@@ -22,6 +22,13 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from fsmctl.model.hardware_settings import (
+    ActuatorSettings,
+    GyroSettings,
+    LinkSettings,
+    SensorSettings,
+    StarTrackerSettings,
+)
 from fsmctl.model.laws import (
     AGENT_KEYS,
     LawCode,
@@ -33,14 +40,9 @@ from fsmctl.model.laws import (
 from fsmctl.model.scenario_values import _KEY_FIRST, ScenarioError, _is_real, _mat3
 from fsmctl.model.settings import (
     _CONTROLLER_FIELDS,
-    ActuatorSettings,
     Agent,
     ControllerSettings,
-    GyroSettings,
-    LinkSettings,
-    SensorSettings,
     Sinusoid,
-    StarTrackerSettings,
 )
 from fsmctl.model.topology import TopologyError
 from fsmctl.suggest import did_you_mean

@@ -288,8 +288,8 @@ def rate_gyro(
 def _loss_model(where: str, p: float, loss_model, *gilbert_elliott):
     """The link's loss model checked as a scenario's ``[links]`` are; returns ``index ->`` the keywords of
     :func:`fsmctl.model.noise.hardware_noise` for links ``0 .. index`` (the earlier ones lossless, unused)."""
+    from fsmctl.model.hardware_settings import LinkSettings
     from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS
-    from fsmctl.model.settings import LinkSettings
 
     written = {k: v for k, v in zip(GILBERT_ELLIOTT_KEYS, gilbert_elliott, strict=True) if v is not None}
     try:
@@ -331,7 +331,7 @@ def link(
     (``scenario.topology.links[index]``, :func:`fsmctl.model.noise.hardware_noise`) with ``simulation.seed =
     seed``: independent Bernoulli(``loss_probability``) per instant, or, with ``loss_model = "gilbert_elliott"``,
     the bursty losses of a good/bad Markov chain started in its stationary distribution (the scenario's
-    ``[links]`` keys of the same names, :class:`fsmctl.model.settings.LinkSettings`, checked by it).
+    ``[links]`` keys of the same names, :class:`fsmctl.model.hardware_settings.LinkSettings`, checked by it).
 
     Parameters
     ----------
