@@ -9,6 +9,7 @@ folder has the same do-not-edit headers, serialized CasADi functions and sha256 
     c/law_local_{paper,exact}.c/.h  broadcast and cache (fsmctl.symbolic.law)
     c/law_control_{paper,exact}.c/.h  torque and law-state derivative
     c/law_loop_rates.c/.h           bounds on the loop's rates, if the law declares them
+    c/law_trigger.c/.h              when the agent sends its broadcast, if the law declares a trigger
     c/law_batched.c/.h              the lane-batched kernels of the local and control functions
     casadi/*.casadi                 the same functions for the no-compiler fallback and the plug-in
     manifest.json
@@ -45,7 +46,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
 
     The per-agent contract of :mod:`fsmctl.symbolic.law`: ``law_constants``, ``law_local_<model>`` and
     ``law_control_<model>`` for ``model`` in ``paper``, ``exact``, then ``law_loop_rates`` if the law declares
-    :meth:`~fsmctl.symbolic.law.LawBuilder.loop_rates`, then the script's ``EXTRA_FUNCTIONS``.
+    :meth:`~fsmctl.symbolic.law.LawBuilder.loop_rates`, then ``law_trigger`` if it declares
+    :meth:`~fsmctl.symbolic.law.LawBuilder.trigger`, then the script's ``EXTRA_FUNCTIONS``.
 
     Parameters
     ----------
@@ -89,7 +91,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
     for law in variants:
         specs += [law.local_spec(), law.control_spec()]
     rates = variants.paper.loop_rates_spec()  # law_loop_rates(params), if the law declares loop_rates()
-    specs += ([] if rates is None else [rates]) + list(variants.extra)
+    trigger = variants.paper.trigger_spec()  # law_trigger(t, broadcast, broadcast_sent, ...), if declared
+    specs += ([] if rates is None else [rates]) + ([] if trigger is None else [trigger]) + list(variants.extra)
     try:
         return build_functions(specs)
     except UnsupportedExpressionError as exc:

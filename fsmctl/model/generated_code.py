@@ -228,6 +228,37 @@ def _sources(law_dir: Path) -> list[Path]:
     return sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(_driver_dir().glob("*.c"))
 
 
+TRIGGER_DEFINE = "-DFSM_LAW_TRIGGER"
+"""Compiles the engine's event-trigger hook (``fsmctl/csrc/formation.c``) for a law whose ``law.json`` declares a
+trigger (its folder then holds ``c/law_trigger.c``); a law without one is compiled exactly as before."""
+
+
+def law_defines(law_dir: Path) -> tuple[str, ...]:
+    """The preprocessor flags a law folder needs: :data:`TRIGGER_DEFINE` when its ``law.json`` declares a trigger.
+
+    Parameters
+    ----------
+    law_dir : pathlib.Path
+        The law folder.
+
+    Returns
+    -------
+    tuple of str
+        ``()`` or ``("-DFSM_LAW_TRIGGER",)``.
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import default_law_dir, law_defines
+    >>> law_defines(default_law_dir()), law_defines(default_law_dir().parent / "fsm_event")
+    ((), ('-DFSM_LAW_TRIGGER',))
+    """
+    try:
+        meta = json.loads((Path(law_dir) / "law.json").read_text("utf-8"))
+    except (OSError, ValueError):
+        return ()
+    return (TRIGGER_DEFINE,) if isinstance(meta, dict) and meta.get("trigger") is not None else ()
+
+
 def _compiler() -> str | None:
     """The C compiler's path: ``$CC`` if set (None if it is not found), else ``cc``, ``gcc`` or ``clang``."""
     cc = os.environ.get("CC")
@@ -856,6 +887,8 @@ def _compiled_library(law_dir: Path) -> CompiledLibrary | None:
     sources = _sources(law_dir)
     flags, target_cpu = compile_flags(cc)
     options = [(flags, target_cpu)] + ([(CFLAGS, "portable")] if flags != CFLAGS else [])
+    law_flags = law_defines(law_dir)
+    options = [((*fl, *law_flags), tgt) for fl, tgt in options]
     attempts = [(fl, _library_key(sources, fl, tgt, cc)) for fl, tgt in options]
     with _lock:
         try:

@@ -21,6 +21,7 @@ from fsmctl.simulation.failures import SimulationError
 
 _dp = ctypes.POINTER(ctypes.c_double)
 _ip = ctypes.POINTER(ctypes.c_int)
+_llp = ctypes.POINTER(ctypes.c_longlong)
 
 
 class _Problem(ctypes.Structure):
@@ -74,6 +75,9 @@ class _Problem(ctypes.Structure):
         ("link_delay", _ip),
         ("link_lost", ctypes.POINTER(ctypes.c_ubyte)),
         ("n_members", ctypes.c_int),
+        # event-triggered communication (ABI 5)
+        ("trigger_every", ctypes.c_longlong),
+        ("zeno_checks", ctypes.c_longlong),
     ]
 
 
@@ -104,10 +108,17 @@ class _Output(ctypes.Structure):
         ("wheel_torque", _dp),
         ("sigma_measured", _dp),
         ("omega_measured", _dp),
+        # event-triggered communication (ABI 5)
+        ("messages_sent", _llp),
+        ("messages_delivered", _llp),
+        ("events_per_output", _llp),
+        ("first_event", _dp),
+        ("last_event", _dp),
+        ("min_inter_event", _dp),
     ]
 
 
-ABI_VERSION = 4
+ABI_VERSION = 5
 """``FSM_ABI_VERSION`` of fsmctl/csrc/formation.h that these mirrors describe."""
 
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong)
@@ -119,6 +130,7 @@ _RC = {
     5: "the adaptive step size fell below h_min",
     6: "the adaptive integrator exceeded its step budget",
     7: "the control law returned a non-finite torque command",
+    8: "the event trigger fired at every check (Zeno behaviour)",
 }
 
 
@@ -163,7 +175,7 @@ def _driver_for(law_dir: Path) -> ctypes.CDLL | None:
     dll.fsm_link_weight.restype = ctypes.c_double
     dll.fsm_law_sizes.argtypes = [ctypes.POINTER(ctypes.c_longlong)]
     dll.fsm_law_sizes.restype = None
-    for name in ("fsm_batched_available", "fsm_batched_preferred"):
+    for name in ("fsm_batched_available", "fsm_batched_preferred", "fsm_trigger_available"):
         getattr(dll, name).argtypes = []
         getattr(dll, name).restype = ctypes.c_int
     return dll
@@ -198,6 +210,7 @@ class _CProblem:
         self._keep = {}
 
         ctypes_of = {np.float64: ctypes.c_double, np.int32: ctypes.c_int, np.uint8: ctypes.c_ubyte}
+        from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
 
         def f(name, arr, dtype=np.float64):
             a = np.ascontiguousarray(arr, dtype=dtype)
@@ -256,4 +269,6 @@ class _CProblem:
             link_delay=f("ld", hw.link_delay, np.int32),
             link_lost=f("ll", hw.link_lost, np.uint8),
             n_members=members,
+            trigger_every=p.trigger_every,
+            zeno_checks=ZENO_CONSECUTIVE_CHECKS if p.trigger_every else 0,
         )
