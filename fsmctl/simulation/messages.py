@@ -25,7 +25,14 @@ that packet is lost (no message arrives before the first one: the link holds the
 
 from __future__ import annotations
 
+import ctypes
+from typing import TYPE_CHECKING
+
 import numpy as np
+
+if TYPE_CHECKING:
+    from fsmctl.model.problem import PackedProblem
+    from fsmctl.model.scenario import Scenario
 
 __all__ = ["MESSAGE_FIELDS", "periodic_messages", "mean_inter_event"]
 
@@ -136,3 +143,78 @@ def periodic_messages(
         "min_inter_event_s": np.full(n_agents, period if sent > 1 else np.inf),
         "mean_inter_event_s": np.full(n_agents, period if sent > 1 else np.nan),
     }
+
+
+# ----------------------------------------------------------------------------- the simulator's side
+
+
+def event_buffers(p: PackedProblem, lead: tuple) -> dict | None:
+    """The arrays the compiled loop writes the message counts of an event-triggered run into (None: periodic)."""
+    if not p.trigger_every:
+        return None
+    n = p.n_agents
+    return {
+        "messages_sent": np.zeros(n, dtype=np.int64),
+        "messages_delivered": np.zeros(p.n_links, dtype=np.int64),
+        "events_per_output": np.zeros(lead, dtype=np.int64),
+        "first_event": np.full(n, np.nan),
+        "last_event": np.full(n, np.nan),
+        "min_inter_event": np.full(n, np.inf),
+    }
+
+
+def event_pointers(events: dict | None) -> dict:
+    """The ctypes pointers of :func:`event_buffers`' arrays, as ``fsm_output`` fields (none for periodic runs)."""
+    if events is None:
+        return {}
+    out = {}
+    for k, v in events.items():
+        ctype = ctypes.c_longlong if v.dtype == np.int64 else ctypes.c_double
+        out[k] = v.ctypes.data_as(ctypes.POINTER(ctype))
+    return out
+
+
+def messages_now(p: PackedProblem, events: dict | None, w: int) -> dict:
+    """The message fields (:mod:`fsmctl.simulation.messages`) after ``w`` output rows: the loop's counts of an
+    event-triggered run, the closed form of periodic broadcasting, none for continuous control."""
+    if events is not None:
+        return {
+            "messages_sent": events["messages_sent"].copy(),
+            "messages_per_link": events["messages_delivered"].copy(),
+            "events_per_output": events["events_per_output"][:w].copy(),
+            "min_inter_event_s": events["min_inter_event"].copy(),
+            "mean_inter_event_s": mean_inter_event(
+                events["messages_sent"], events["first_event"], events["last_event"]
+            ),
+        }
+    if p.hold_steps <= 0 or w == 0:
+        return {}
+    hw = p.hardware
+    return periodic_messages(
+        n_agents=p.n_agents,
+        rows=w,
+        output_every=p.output_every,
+        hold_steps=p.hold_steps,
+        dt=p.dt,
+        link_senders=p.link_sender,
+        link_delay=hw.link_delay if hw.links_imperfect else None,
+        link_lost=hw.link_lost if hw.links_imperfect else None,
+    )
+
+
+def result_messages(scenario: Scenario, raw: dict) -> dict:
+    """The message fields of a run: as the loop returned them, else (runs flown together, the CasADi fallback: ideal
+    links, no trigger) periodic broadcasting's closed form; none for continuous control."""
+    if raw.get("messages_sent") is not None:
+        return {k: raw[k] for k in MESSAGE_FIELDS}
+    sim = scenario.simulation
+    if sim.hold_steps <= 0 or scenario.law.trigger is not None or scenario.links_active:
+        return {}
+    return periodic_messages(
+        n_agents=scenario.n_agents,
+        rows=int(np.asarray(raw["t"]).size),
+        output_every=sim.output_every,
+        hold_steps=sim.hold_steps,
+        dt=sim.dt,
+        link_senders=np.array([lk.sender for lk in scenario.topology.links], dtype=np.int64),
+    )

@@ -51,7 +51,7 @@ from fsmctl.simulation.failures import (
     nonfinite_hint,
 )
 from fsmctl.simulation.memory import available_memory, format_bytes
-from fsmctl.simulation.messages import MESSAGE_FIELDS, mean_inter_event, periodic_messages
+from fsmctl.simulation.messages import MESSAGE_FIELDS, event_buffers, event_pointers, messages_now, result_messages
 from fsmctl.simulation.metrics import (
     RAEM_WORKING_BYTES,
 )
@@ -248,8 +248,8 @@ def _fly(
     bufs["t"] = np.zeros(cap)
     bufs["sigma_d"] = np.zeros((cap, 3))
     stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
-    events = _event_buffers(p, lead)  # event-triggered communication: the counts the loop writes
-    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()}, **_event_pointers(events))
+    events = event_buffers(p, lead)  # event-triggered communication: the counts the loop writes
+    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()}, **event_pointers(events))
     cp = _CProblem(p, kernels=kernels, members=members)
     x0 = np.ascontiguousarray(p.x0, dtype=float)
     if kernels == "auto":
@@ -269,7 +269,7 @@ def _fly(
             stopped_at=None,
             rc=0,
         )
-        raw.update(_messages_now(p, events, w))
+        raw.update(messages_now(p, events, w))
         return raw
 
     every = _callback_every(p)
@@ -314,55 +314,6 @@ def _fly(
         return raw
     raw.update(rc=int(rc), fail_time=float(out.fail_time), fail_agent=int(out.fail_agent))
     return raw
-
-
-def _event_buffers(p: PackedProblem, lead: tuple) -> dict | None:
-    """The arrays the compiled loop writes the message counts of an event-triggered run into (None: periodic)."""
-    if not p.trigger_every:
-        return None
-    n = p.n_agents
-    return {
-        "messages_sent": np.zeros(n, dtype=np.int64),
-        "messages_delivered": np.zeros(p.n_links, dtype=np.int64),
-        "events_per_output": np.zeros(lead, dtype=np.int64),
-        "first_event": np.full(n, np.nan),
-        "last_event": np.full(n, np.nan),
-        "min_inter_event": np.full(n, np.inf),
-    }
-
-
-def _event_pointers(events: dict | None) -> dict:
-    if events is None:
-        return {}
-    return {k: _ptr(v, ctypes.c_longlong if v.dtype == np.int64 else ctypes.c_double) for k, v in events.items()}
-
-
-def _messages_now(p: PackedProblem, events: dict | None, w: int) -> dict:
-    """The message fields (:mod:`fsmctl.simulation.messages`) after ``w`` output rows: the loop's counts of an
-    event-triggered run, the closed form of periodic broadcasting, none for continuous control."""
-    if events is not None:
-        return {
-            "messages_sent": events["messages_sent"].copy(),
-            "messages_per_link": events["messages_delivered"].copy(),
-            "events_per_output": events["events_per_output"][:w].copy(),
-            "min_inter_event_s": events["min_inter_event"].copy(),
-            "mean_inter_event_s": mean_inter_event(
-                events["messages_sent"], events["first_event"], events["last_event"]
-            ),
-        }
-    if p.hold_steps <= 0 or w == 0:
-        return {}
-    hw = p.hardware
-    return periodic_messages(
-        n_agents=p.n_agents,
-        rows=w,
-        output_every=p.output_every,
-        hold_steps=p.hold_steps,
-        dt=p.dt,
-        link_senders=p.link_sender,
-        link_delay=hw.link_delay if hw.links_imperfect else None,
-        link_lost=hw.link_lost if hw.links_imperfect else None,
-    )
 
 
 def _zeno_message(p: PackedProblem, raw: dict) -> str:
@@ -500,25 +451,7 @@ def _result(scenario: Scenario, raw: dict) -> SimulationResult:
         steps_rejected=int(raw["steps_rejected"]),
         **{k: raw.get(k) for k in ("wheel_speed", "wheel_torque", "sigma_measured", "omega_measured")},
         stopped_at=raw.get("stopped_at"),
-        **_result_messages(scenario, raw),
-    )
-
-
-def _result_messages(scenario: Scenario, raw: dict) -> dict:
-    """The message fields of a run: as the loop returned them, else (runs flown together, the CasADi fallback: ideal
-    links, no trigger) periodic broadcasting's closed form; none for continuous control."""
-    if raw.get("messages_sent") is not None:
-        return {k: raw[k] for k in MESSAGE_FIELDS}
-    sim = scenario.simulation
-    if sim.hold_steps <= 0 or scenario.law.trigger is not None or scenario.links_active:
-        return {}
-    return periodic_messages(
-        n_agents=scenario.n_agents,
-        rows=int(np.asarray(raw["t"]).size),
-        output_every=sim.output_every,
-        hold_steps=sim.hold_steps,
-        dt=sim.dt,
-        link_senders=np.array([lk.sender for lk in scenario.topology.links], dtype=np.int64),
+        **result_messages(scenario, raw),
     )
 
 
