@@ -773,7 +773,7 @@ def builtin_laws() -> dict[str, LawCode]:
     --------
     >>> from fsmctl.model import builtin_laws
     >>> list(builtin_laws())
-    ['fsm', 'adaptive_fsm', 'pid', 'super_twisting']
+    ['fsm', 'adaptive_fsm', 'fsm_event', 'pid', 'super_twisting']
     """
     return dict(_builtin_laws())
 

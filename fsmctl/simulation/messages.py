@@ -110,6 +110,11 @@ def periodic_messages(
     dict
         :data:`MESSAGE_FIELDS` as arrays.
 
+    Raises
+    ------
+    ValueError
+        No control period (``hold_steps <= 0``): continuous control sends no discrete messages.
+
     Examples
     --------
     Ten seconds of 10 Hz control, outputs every second, two agents linked both ways:

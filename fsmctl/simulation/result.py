@@ -162,8 +162,10 @@ class SimulationResult:
         Examples
         --------
         >>> import fsmctl
-        >>> s = fsmctl.paper_scenario("1").replace(controller={"law": "fsm_event"}, simulation={"t_final": 2.0})
-        >>> r = fsmctl.simulate(s.replace(simulation={"control_period": 0.1}))
+        >>> s = fsmctl.paper_scenario("1").replace(
+        ...     controller={"law": "fsm_event"}, simulation={"t_final": 2.0, "control_period": 0.1}
+        ... )
+        >>> r = fsmctl.simulate(s)
         >>> r.event_triggered, int(r.messages_sent.sum()) < 6 * 21  # fewer than one per agent and control instant
         (True, True)
         """
