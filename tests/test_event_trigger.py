@@ -275,3 +275,11 @@ def test_simulate_prints_the_messages_of_the_builtin_event_law(tmp_path, capsys)
     assert "event-triggered" in line and "delivered on 30 links" in line
     summary = json.loads((tmp_path / "out" / "summary.json").read_text())["summary"]
     assert summary["event_triggered"] and summary["messages_sent"] < 6 * 51
+
+
+def test_the_python_control_plugin_refuses_an_event_triggered_law():
+    """Its systems broadcast continuously: flying fsm_event there would silently not be event-triggered."""
+    from fsmctl.plugin.iosys import law_controller
+
+    with pytest.raises(ScenarioError, match="fsm_event is event-triggered"):
+        law_controller("fsm_event", fsmctl.paper_scenario("1").agents[0].J0_array)
