@@ -56,7 +56,11 @@ def law(error_model) -> Law:
         p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
     )  # fmt: skip
     floor = b.parameter(
-        "threshold_floor", 0.05, unit="1/s", minimum=0.0, doc="c0: the floor of the trigger threshold on the norm of s - s_sent"
+        "threshold_floor",
+        0.05,
+        unit="1/s",
+        minimum=0.0,
+        doc="c0: the floor of the trigger threshold on the norm of s - s_sent",
     )
     initial = b.parameter(
         "threshold_initial", 0.2, unit="1/s", minimum=0.0, doc="c1: the threshold's decaying part at t = 0"
