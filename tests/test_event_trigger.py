@@ -283,3 +283,11 @@ def test_the_python_control_plugin_refuses_an_event_triggered_law():
 
     with pytest.raises(ScenarioError, match="fsm_event is event-triggered"):
         law_controller("fsm_event", fsmctl.paper_scenario("1").agents[0].J0_array)
+
+
+def test_fsmctl_laws_shows_the_trigger(capsys):
+    from fsmctl.cli.main import main
+
+    assert main(["laws", "fsm_event"]) == 0
+    (line,) = [ln for ln in capsys.readouterr().out.splitlines() if ln.strip().startswith("trigger:")]
+    assert "threshold_floor + threshold_initial*exp(-t*threshold_decay)" in line and "every control instant" in line
