@@ -291,3 +291,13 @@ def test_fsmctl_laws_shows_the_trigger(capsys):
     assert main(["laws", "fsm_event"]) == 0
     (line,) = [ln for ln in capsys.readouterr().out.splitlines() if ln.strip().startswith("trigger:")]
     assert "threshold_floor + threshold_initial*exp(-t*threshold_decay)" in line and "every control instant" in line
+
+
+def test_without_the_compiled_loop_an_event_triggered_law_is_refused(monkeypatch):
+    """The CasADi fallback does not model triggers: one line, never a silently periodic run."""
+    from fsmctl.errors import EnvironmentProblem
+    from fsmctl.simulation import simulator
+
+    monkeypatch.setattr(simulator, "_driver", lambda law=None: None)
+    with pytest.raises(EnvironmentProblem, match="pd_event is event-triggered, which runs in the compiled simulator"):
+        fsmctl.simulate(formation(t_final=1.0))
