@@ -33,6 +33,8 @@ name                               value                         meaning
                                                                  together (part of the study: its trials depend on it)
 :data:`DASK_TIMEOUT_S`             10                            s: how long a Dask scheduler gets to accept the
                                                                  connection and send its handshake
+:data:`ZENO_CONSECUTIVE_CHECKS`    100                           an event-triggered run stops (Zeno guard) when an
+                                                                 agent sends at this many consecutive trigger checks
 =================================  ============================  ======================================================
 
 Converged (:data:`CONVERGED_RULE`): a run has converged when AAEM and RAEM each stay at or below
@@ -70,6 +72,7 @@ __all__ = [
     "SURFACE_METRIC_TOLERANCE",
     "TUNE_BATCH",
     "DASK_TIMEOUT_S",
+    "ZENO_CONSECUTIVE_CHECKS",
     "default_steady_window",
     "steady_window_text",
     "default_workers",
@@ -122,6 +125,15 @@ it, not on the number of workers."""
 
 DASK_TIMEOUT_S = 10.0
 """s: how long a Dask scheduler gets to accept the connection and send its handshake (``--dask-timeout``)."""
+
+ZENO_CONSECUTIVE_CHECKS = 100
+"""The Zeno guard of event-triggered communication: a run stops (``fsmctl.simulation.ZenoError``) when an agent sends
+at this many consecutive trigger checks (10 s at the usual 10 Hz checks).  Why: checked at sampled instants, a
+trigger cannot fire faster than its checks, so the continuous-time Zeno collapse of the inter-event time shows as an
+agent that sends at every check; such a run is periodic broadcasting at the check rate while it reports itself as
+event-triggered (e.g. a threshold of 0 fires whenever the broadcast moves).  The legitimate bursts of a transient
+are shorter: the built-in ``fsm_event`` on the paper's Case 1 at 10 Hz, its torque saturated throughout, sends at
+most 4 checks in a row (69 with its threshold floor lowered to 0.03 1/s)."""
 
 
 def default_steady_window(horizon_s: float) -> float:

@@ -78,6 +78,8 @@ __all__ = [
     "control_law_eqs_16_19",
     "dcm_to_mrp",
     "error_rates",
+    "event_triggered_clock_links",
+    "event_triggered_pd_formation",
     "k_j_exact",
     "lagrange_M_C_E",
     "mrp_G",
@@ -497,4 +499,118 @@ def paper_scenario() -> dict:
         "phases": _PHASES.copy(),
         "case3_weights": [(2.0, 0.6), (4.0, 2.8), (8.0, 5.0)],
         "t_final": 100.0,
+    }
+
+
+# ----------------------------------------------------------------------------------------------
+# Event-triggered communication (issue 28): the rule, transcribed from its statement
+# ----------------------------------------------------------------------------------------------
+# At every check instant (a control instant q with q % check_every == 0) agent j compares its current broadcast
+# b_j(t_q) with the last value it sent; it sends when the trigger holds, and always at the first instant.  Its
+# neighbours use the last value they received (held between messages).  A message sent at instant q_s on a link
+# with a delay of d instants arrives at q_s + d unless the packet of that arrival instant is lost; before the first
+# arrival a link holds the first value sent.
+
+
+def event_triggered_clock_links(times, senders, gap, delay, lost, check_every=1):
+    """The clock probe over event-triggered links: each agent broadcasts its clock t and sends when
+    ``t - t_sent > gap``.
+
+    ``times`` (Q,) control instants, ``senders`` (L,) the sending agent of each link (0-based), ``delay`` (L,) in
+    instants, ``lost`` (Q, L) bool.  Returns ``(held, sent, delivered)``: ``held`` (Q, L) the clock value each link
+    holds after the arrivals of each instant, ``sent`` (Q, n) whether each agent sent, ``delivered`` (L,) the messages
+    that arrived on each link.
+    """
+    times = np.asarray(times, dtype=np.float64)
+    senders = np.asarray(senders)
+    n = int(senders.max()) + 1 if senders.size else 0
+    Q, L = times.size, senders.size
+    sent = np.zeros((Q, n), dtype=bool)
+    last = np.full(n, np.nan)
+    for q in range(Q):
+        if q % check_every:
+            continue
+        for j in range(n):
+            if q == 0 or times[q] - last[j] > gap:
+                sent[q, j] = True
+                last[j] = times[q]
+    held = np.zeros((Q, L))
+    delivered = np.zeros(L, dtype=np.int64)
+    for e in range(L):
+        value = times[0]  # the first value sent (instant 0), held before any arrival
+        for q in range(Q):
+            origin = q - int(delay[e])
+            if origin >= 0 and sent[origin, senders[e]] and not lost[q, e]:
+                value = times[origin]
+                delivered[e] += 1
+            held[q, e] = value
+    return held, sent, delivered
+
+
+def event_triggered_pd_formation(
+    J, sigma0, omega0, senders, receivers, k_j, *, K, P, c0, c1, lam, dt, hold, n_steps, check_every=1
+):
+    """A formation of rigid bodies (eqs 3-4) flying ``u_i = -K se_i - P we_i - K sum_j k_ij (se_i - se_j,held)`` with
+    the reference at rest (so ``se = sigma``, ``we = omega``, eqs 5-8), a zero-order hold of ``hold`` RK4 steps of
+    ``dt``, and event-triggered broadcasting of ``se`` (``|se - se_sent| > c0 + c1 exp(-lam t)``) over ideal links of
+    constant weights ``k_j`` (``receivers[e]`` receives from ``senders[e]``).  MRPs are switched to the shadow set
+    after every step.
+
+    Returns a dict of arrays at the control instants: ``t`` (Q,), ``sigma``, ``omega`` (Q, n, 3), ``sent`` (Q, n)
+    bool, and ``delivered`` (L,) messages per link.
+    """
+    n = len(J)
+    J = [np.asarray(Ji, dtype=np.float64) for Ji in J]
+    sig = np.array([mrp_shadow(s) for s in sigma0], dtype=np.float64)
+    om = np.array(omega0, dtype=np.float64)
+    held = np.zeros((n, 3))
+    sent_at = []
+    delivered = np.zeros(len(senders), dtype=np.int64)
+    out_t, out_s, out_w = [], [], []
+    u = np.zeros((n, 3))
+    for k in range(n_steps + 1):
+        t = k * dt
+        if k % hold == 0:
+            q = k // hold
+            se = np.array([mrp_error(sig[i], np.zeros(3)) for i in range(n)])
+            fired = np.zeros(n, dtype=bool)
+            if q % check_every == 0:
+                for i in range(n):
+                    if q == 0 or np.linalg.norm(se[i] - held[i]) > c0 + c1 * np.exp(-lam * t):
+                        fired[i] = True
+                        held[i] = se[i]
+                for e, j in enumerate(senders):
+                    delivered[e] += fired[j]
+            sent_at.append(fired)
+            for i in range(n):
+                coupling = np.zeros(3)
+                for e in range(len(senders)):
+                    if receivers[e] == i:
+                        coupling += k_j[e] * (se[i] - held[senders[e]])
+                u[i] = -K * se[i] - P * om[i] - K * coupling
+            out_t.append(t)
+            out_s.append(sig.copy())
+            out_w.append(om.copy())
+        if k == n_steps:
+            break
+
+        def rhs(s, w):
+            ds, dw = np.empty_like(s), np.empty_like(w)
+            for i in range(n):
+                ds[i], dw[i] = plant_rhs(s[i], w[i], u[i], J[i])
+            return ds, dw
+
+        a_s, a_w = rhs(sig, om)
+        b_s, b_w = rhs(sig + 0.5 * dt * a_s, om + 0.5 * dt * a_w)
+        c_s, c_w = rhs(sig + 0.5 * dt * b_s, om + 0.5 * dt * b_w)
+        d_s, d_w = rhs(sig + dt * c_s, om + dt * c_w)
+        sig = sig + dt / 6.0 * (a_s + 2.0 * b_s + 2.0 * c_s + d_s)
+        om = om + dt / 6.0 * (a_w + 2.0 * b_w + 2.0 * c_w + d_w)
+        sig = np.array([mrp_shadow(s) for s in sig])
+    return {
+        "t": np.array(out_t),
+        "sigma": np.array(out_s),
+        "omega": np.array(out_w),
+        "sent": np.array(sent_at),
+        "delivered": delivered,
     }

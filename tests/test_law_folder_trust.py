@@ -235,7 +235,14 @@ def test_a_builtin_law_is_verified_by_the_same_path(tmp_path, monkeypatch):
     monkeypatch.setattr(laws_module, "generated_dir", lambda: root)
     resolve_law.cache_clear()
     try:
-        assert list(laws_module.builtin_laws()) == ["fsm", "fsm_wheels", "adaptive_fsm", "pid", "super_twisting"]
+        assert list(laws_module.builtin_laws()) == [
+            "fsm",
+            "fsm_wheels",
+            "adaptive_fsm",
+            "fsm_event",
+            "pid",
+            "super_twisting",
+        ]
         _edit_law_json(root / "laws" / "pid", _swap_parameters)
         resolve_law.cache_clear()  # package data: read and verified once per session, again after cache_clear
         with pytest.raises(LawError, match=r"pid/law\.json: does not match its sha256"):

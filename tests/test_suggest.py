@@ -47,7 +47,7 @@ def _cli(argv, capsys) -> tuple[int, str]:
         (
             ["simulate", "--law", "fsmm"],
             "fsmctl simulate: error: law 'fsmm': not a built-in law (did you mean fsm or adaptive_fsm?; the built-in "
-            "laws: fsm, adaptive_fsm, pid, super_twisting), a derivation script (.py) or a derived law folder",
+            "laws: fsm, adaptive_fsm, fsm_event, pid, super_twisting), a derivation script (.py) or a derived law folder",
         ),
     ],
 )

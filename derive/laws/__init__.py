@@ -4,5 +4,5 @@
 derived with ``fsmctl derive FILE.py``.
 """
 
-BUILTIN_LAWS: tuple[str, ...] = ("fsm", "pd", "super_twisting", "adaptive_fsm", "fsm_wheels")
+BUILTIN_LAWS: tuple[str, ...] = ("fsm", "pd", "super_twisting", "adaptive_fsm", "fsm_wheels", "fsm_event")
 """Module names under ``derive/laws/``, in the order ``fsmctl laws`` lists them."""

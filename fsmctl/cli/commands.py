@@ -180,7 +180,8 @@ def run(args: argparse.Namespace) -> int:
         # keep the scenario's output spacing unless it no longer fits the horizon
         interval = min(scenario.simulation.output_interval, t_final)
         simulation["output_interval"] = interval
-    scenario = scenario.with_law(law, parameters).replace(controller=controller, simulation=simulation)
+    # the run settings first: a law switched to may need them (an event-triggered law needs a control period)
+    scenario = scenario.replace(simulation=simulation).with_law(law, parameters).replace(controller=controller)
     with output_folder(args.out) as out:
         if args.from_result is not None:
             print(f"from {args.from_result}:")
@@ -331,5 +332,7 @@ def _format_summary(summary: dict) -> str:
         f"saturated {duration_phrase(sat, summary['horizon_s'], digits=2)} (per agent, every step), "
         + ("never at an output sample" if not math.isfinite(last) else f"last at the output sample t = {last:.2f} s")
     )
+    if summary.get("messages_line"):  # a run with a control period: its messages (event-triggered or periodic)
+        lines.append(f"  {summary['messages_line']}")
     lines.append(f"  {summary['scenario']}: {summary['backend']} backend, {summary['wall_time_s']:.2f} s")
     return "\n".join(lines)

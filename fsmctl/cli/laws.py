@@ -106,7 +106,8 @@ def law_to_dict(law) -> dict:
         ``name``, ``doc``, ``reference``, ``source``, ``folder``, ``builtin``, ``broadcast`` (name, size),
         ``states`` (as declared), ``lyapunov`` (whether one is declared), the declarations ``discontinuity``
         (``where``, ``smoothed_by``, or None), ``presets`` (name, default, options, doc), ``loop_rates`` (their
-        doc, or None) and ``paper_theorems`` (the paper's symbol -> parameter name, or None), and ``parameters``
+        doc, or None), ``paper_theorems`` (the paper's symbol -> parameter name, or None) and ``trigger`` (its
+        condition, check period and doc, or None: event-triggered communication), and ``parameters``
         (name, default, size, unit, minimum, maximum, exclusive bounds, range text, choices, tunable, doc).
     """
     return {
@@ -133,6 +134,9 @@ def law_to_dict(law) -> dict:
         ],
         "loop_rates": law.loop_rates_doc,
         "paper_theorems": None if law.paper_theorems is None else dict(law.paper_theorems.parameters),
+        "trigger": None
+        if law.trigger is None
+        else {"condition": law.trigger.condition, "period": law.trigger.period, "doc": law.trigger.doc},
         "parameters": [
             {
                 "name": p.name,
@@ -211,6 +215,9 @@ def format_law(law) -> str:
         lines.append(
             "  paper:     eqs 13-19 of Liang et al. 2012: Theorems 1-2 apply (fsmctl prove --law checks eq 20)"
         )
+    if law.trigger is not None:
+        every = "every control instant" if law.trigger.period is None else f"every {law.trigger.period:g} s"
+        lines.append(f"  trigger:   sends when {law.trigger.condition} (checked {every}; needs a control period)")
     if not law.parameters:
         lines.append("  parameters: none")
         return "\n".join(lines)

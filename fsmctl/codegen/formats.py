@@ -32,9 +32,10 @@ LAW_FORMAT_OLDEST = 1
 def law_format(metadata: dict) -> int:
     """The format number a law folder is written with: the oldest that describes the law.
 
-    A law without wheel outputs is format 1 (its folder is unchanged since before wheel outputs, and readable by
-    an fsmctl that knows nothing of them); a law that commands its wheels is format 2, which an older fsmctl
-    refuses instead of flying the minimum-norm distribution of its body torque in their place.
+    A law without wheel outputs or a trigger is format 1 (its folder is unchanged since before either existed, and
+    readable by an fsmctl that knows nothing of them); a law that commands its wheels or declares a trigger is
+    format 2, which an older fsmctl refuses instead of flying the minimum-norm distribution of its body torque in
+    place of its wheel commands, or broadcasting at every control evaluation in place of its trigger.
 
     Parameters
     ----------
@@ -46,4 +47,4 @@ def law_format(metadata: dict) -> int:
     int
         1 or 2.
     """
-    return 2 if metadata.get("wheels") is not None else 1
+    return 2 if metadata.get("wheels") is not None or metadata.get("trigger") is not None else 1

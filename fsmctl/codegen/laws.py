@@ -10,6 +10,7 @@ folder has the same do-not-edit headers, serialized CasADi functions and sha256 
     c/law_control_{paper,exact}.c/.h  torque and law-state derivative
     c/law_loop_rates.c/.h           bounds on the loop's rates, if the law declares them
     c/law_wheels_{paper,exact}.c/.h the per-wheel motor torque commands, if the law commands its wheels
+    c/law_trigger.c/.h              when the agent sends its broadcast, if the law declares a trigger
     c/law_batched.c/.h              the lane-batched kernels of the local and control functions
     casadi/*.casadi                 the same functions for the no-compiler fallback and the plug-in
     manifest.json
@@ -47,7 +48,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
     The per-agent contract of :mod:`fsmctl.symbolic.law`: ``law_constants``, ``law_local_<model>`` and
     ``law_control_<model>`` for ``model`` in ``paper``, ``exact``, then ``law_loop_rates`` if the law declares
     :meth:`~fsmctl.symbolic.law.LawBuilder.loop_rates`, then ``law_wheels_paper`` and ``law_wheels_exact`` if it
-    declares :meth:`~fsmctl.symbolic.law.LawBuilder.wheel_torques`, then the script's ``EXTRA_FUNCTIONS``.
+    declares :meth:`~fsmctl.symbolic.law.LawBuilder.wheel_torques`, then ``law_trigger`` if it declares
+    :meth:`~fsmctl.symbolic.law.LawBuilder.trigger`, then the script's ``EXTRA_FUNCTIONS``.
 
     Parameters
     ----------
@@ -93,7 +95,8 @@ def law_functions(variants: LawVariants) -> list[GeneratedFunction]:
     rates = variants.paper.loop_rates_spec()  # law_loop_rates(params), if the law declares loop_rates()
     specs += [] if rates is None else [rates]
     specs += [s for s in (law.wheels_spec() for law in variants) if s is not None]  # law_wheels_<model>, if any
-    specs += list(variants.extra)
+    trigger = variants.paper.trigger_spec()  # law_trigger(t, broadcast, broadcast_sent, ...), if declared
+    specs += ([] if trigger is None else [trigger]) + list(variants.extra)
     try:
         return build_functions(specs)
     except UnsupportedExpressionError as exc:

@@ -32,6 +32,9 @@
 #include "wheel_acceleration.h"
 #include "wheel_net_torque.h"
 #include "wheel_torque.h"
+#ifdef FSM_LAW_TRIGGER /* a law that declares LawBuilder.trigger (fsmctl.model.generated_code.law_defines) */
+#include "law_trigger.h"
+#endif
 
 typedef int (*casadi_fn)(const casadi_real **arg, casadi_real **res, casadi_int *iw, casadi_real *w, int mem);
 typedef int (*casadi_work_fn)(casadi_int *sz_arg, casadi_int *sz_res, casadi_int *sz_iw, casadi_int *sz_w);
@@ -61,6 +64,7 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_problem, link_delay), FSM_FIELD(fsm_problem, link_lost), FSM_FIELD(fsm_problem, n_members),
       FSM_FIELD(fsm_problem, wheel_allocation), FSM_FIELD(fsm_problem, wheel_gate),
       FSM_FIELD(fsm_problem, wheel_command),
+      FSM_FIELD(fsm_problem, trigger_every), FSM_FIELD(fsm_problem, zeno_checks), /* ABI 5: trigger */
       FSM_FIELD(fsm_output, capacity), FSM_FIELD(fsm_output, written), FSM_FIELD(fsm_output, t),
       FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
       FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
@@ -68,7 +72,11 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_output, saturated_time), FSM_FIELD(fsm_output, u_total_variation),
       FSM_FIELD(fsm_output, u_unsat_max), FSM_FIELD(fsm_output, steps_taken), FSM_FIELD(fsm_output, steps_rejected),
       FSM_FIELD(fsm_output, fail_time), FSM_FIELD(fsm_output, fail_agent), FSM_FIELD(fsm_output, wheel_speed),
-      FSM_FIELD(fsm_output, wheel_torque), FSM_FIELD(fsm_output, sigma_measured), FSM_FIELD(fsm_output, omega_measured)};
+      FSM_FIELD(fsm_output, wheel_torque), FSM_FIELD(fsm_output, sigma_measured), FSM_FIELD(fsm_output, omega_measured),
+      /* ABI 5: trigger */
+      FSM_FIELD(fsm_output, messages_sent), FSM_FIELD(fsm_output, messages_delivered),
+      FSM_FIELD(fsm_output, events_per_output), FSM_FIELD(fsm_output, first_event), FSM_FIELD(fsm_output, last_event),
+      FSM_FIELD(fsm_output, min_inter_event)};
   const int n = (int)(sizeof v / sizeof v[0]);
   for (int k = 0; k < n && k < capacity; ++k) out[k] = v[k];
   return n;
@@ -115,6 +123,29 @@ static int law_contract_ok(const fsm_problem *P, int *nk, int *nc) {
       return 0;
   }
   return 1;
+}
+
+/* The law's trigger (event-triggered communication) as compiled: law_trigger(t, broadcast, broadcast_sent, params,
+ * constants) -> margin, checked against the law's sizes; 0 in a build without it. */
+int fsm_trigger_available(void) {
+#ifdef FSM_LAW_TRIGGER
+  return 1;
+#else
+  return 0;
+#endif
+}
+
+static int trigger_contract_ok(const fsm_problem *P, int nk) {
+#ifdef FSM_LAW_TRIGGER
+  const int sizes[5] = {1, P->n_broadcast, P->n_broadcast, P->n_params, nk};
+  if (law_trigger_n_in() != 5 || law_trigger_n_out() != 1 || sparsity_nnz(law_trigger_sparsity_out(0)) != 1) return 0;
+  for (int a = 0; a < 5; ++a)
+    if (sparsity_nnz(law_trigger_sparsity_in(a)) != sizes[a]) return 0;
+  return 1;
+#else
+  (void)P, (void)nk;
+  return 0;
+#endif
 }
 
 /* Lane-batched evaluation.  Agents are taken FSM_LANES at a time ("groups"); each group owns one block of
@@ -224,12 +255,22 @@ typedef struct {
   double *b_hist, *b_first, *link_val;   /* hist_len x n x nb; n x nb (instant 0); n_links x nb (delivered) */
   int bad_agent;                         /* first agent whose commanded torque was non-finite (-2: none) */
   double bad_time;                       /* ... and when */
+  int bad_rc;                            /* ... and the status it ends the run with (FSM_NONFINITE_CONTROL, FSM_ZENO) */
+  /* event-triggered communication (trigger_every > 0) */
+  const double *b_tx;                    /* what the links carry: b (periodic) or b_sent (event-triggered) */
+  double *b_sent;                        /* n x nb: the last broadcast each agent sent */
+  unsigned char *sent_now, *sent_hist;   /* n: sent at the current instant; hist_len x n (imperfect links) */
+  long long *streak, *since_out;         /* n: consecutive checks with a message; messages since the last record */
+  fsm_output *out;                       /* where the message counts go (NULL: not counted, e.g. fsm_rhs) */
   casadi_int *iw;
   double *w;
 } workspace;
 
 static void free_workspace(workspace *W) {
   free(W->b);
+  free(W->b_sent);
+  free(W->sent_now);
+  free(W->streak);
   free(W->in_start);
   free(W->in_links);
   free(W->act_start);
@@ -478,6 +519,18 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     W->uw_apply = W->uw;
     W->wscale_apply = W->wscale;
   }
+  W->b_tx = W->b;
+  if (P->trigger_every > 0) { /* event-triggered communication */
+    if (!trigger_contract_ok(P, nk)) { free_workspace(W); return FSM_BAD_PROBLEM; }
+    const size_t H = P->links_imperfect ? (size_t)W->hist_len : 0;
+    W->b_sent = calloc(N * nb > 0 ? N * nb : 1, sizeof(double));
+    W->sent_now = calloc(N + H * N, 1);
+    W->streak = calloc(2 * N, sizeof(long long));
+    if (!W->b_sent || !W->sent_now || !W->streak) { free_workspace(W); return FSM_NOMEM; }
+    W->sent_hist = P->links_imperfect ? W->sent_now + N : NULL;
+    W->since_out = W->streak + N;
+    W->b_tx = W->b_sent;
+  }
   /* CasADi work arrays: the largest need of the functions used */
   casadi_work_fn works[] = {plant_rhs_work,         law_local_paper_work,   law_local_exact_work,
                             law_control_paper_work, law_control_exact_work, law_constants_work,
@@ -492,6 +545,14 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     if (iw > max_iw) max_iw = iw;
     if (w > max_w) max_w = w;
   }
+#ifdef FSM_LAW_TRIGGER
+  {
+    casadi_int a, r, iw, w;
+    law_trigger_work(&a, &r, &iw, &w);
+    if (iw > max_iw) max_iw = iw;
+    if (w > max_w) max_w = w;
+  }
+#endif
   W->batched = P->kernels == FSM_KERNELS_BATCHED || (P->kernels == FSM_KERNELS_AUTO && fsm_batched_preferred());
   if (W->batched && !fsm_batched_available()) { free_workspace(W); return FSM_BAD_PROBLEM; }
   if (W->batched) {
@@ -559,6 +620,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->zdot_apply = W->zdot;
   W->bad_agent = -2;
   W->bad_time = NAN;
+  W->bad_rc = FSM_NONFINITE_CONTROL;
   return FSM_OK;
 }
 
@@ -642,7 +704,7 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
   }
   /* Receiver by receiver, its active links in link order: the same sums 0 + k b_1 + k b_2 + ... as adding link by
    * link into recv, with the partial sums in registers (no store-to-load chain through memory). */
-  const double *src = P->links_imperfect ? W->link_val : W->b;
+  const double *src = P->links_imperfect ? W->link_val : W->b_tx; /* b_tx: b, or b_sent when event-triggered */
   const int padded = W->batched ? W->n_groups * FSM_LANES : n;
   for (int i = 0; i < n; ++i) {
     if (nb == 3) {
@@ -705,23 +767,81 @@ static void measure(workspace *W, const fsm_problem *P, const double *x) {
 
 /* The links at control instant W->q (after every agent computed its broadcast W->b): record the broadcasts,
  * then each link delivers the sender's broadcast of instant q - delay (before instant 0: of instant 0), unless
- * its packet of instant q is lost; the receiver keeps the value it last received. */
+ * its packet of instant q is lost; the receiver keeps the value it last received.  Event-triggered
+ * (W->sent_hist): the broadcasts recorded are those sent (b_sent), and a link delivers only the message its sender
+ * sent at instant q - delay (none before instant 0: the link holds the instant-0 value from the start). */
 static void deliver_links(workspace *W, const fsm_problem *P) {
   const int n = W->n, nb = W->nb, H = W->hist_len;
   const long long q = W->q;
   const size_t row = (size_t)n * nb;
-  memcpy(W->b_hist + (size_t)(q % H) * row, W->b, sizeof(double) * row);
+  memcpy(W->b_hist + (size_t)(q % H) * row, W->b_tx, sizeof(double) * row);
+  if (W->sent_hist) memcpy(W->sent_hist + (size_t)(q % H) * n, W->sent_now, (size_t)n);
   if (q == 0) {
-    memcpy(W->b_first, W->b, sizeof(double) * row);
+    memcpy(W->b_first, W->b_tx, sizeof(double) * row);
     for (int e = 0; e < P->n_links; ++e)
       memcpy(W->link_val + (size_t)nb * e, W->b_first + (size_t)nb * P->link_sender[e], sizeof(double) * nb);
   }
   for (int e = 0; e < P->n_links; ++e) {
     if (P->link_lost[(size_t)q * P->n_links + e]) continue;
     const long long from = q - P->link_delay[e];
+    if (W->sent_hist) { /* event-triggered: only a message sent at instant q - delay arrives now */
+      if (from < 0 || !W->sent_hist[(size_t)(from % H) * n + P->link_sender[e]]) continue;
+      if (W->out) W->out->messages_delivered[e]++;
+    }
     const double *src = from >= 0 ? W->b_hist + (size_t)(from % H) * row : W->b_first;
     memcpy(W->link_val + (size_t)nb * e, src + (size_t)nb * P->link_sender[e], sizeof(double) * nb);
   }
+}
+
+/* Event-triggered communication at control instant W->q (after every agent computed its broadcast W->b), the one
+ * place the rule is written (tests/oracle_numpy.py transcribes it): at a check instant (q a multiple of
+ * trigger_every) agent i sends when law_trigger(t, b_i, b_sent_i, params_i, constants_i) > 0, and always at instant
+ * 0; a message sets b_sent_i = b_i, which the links carry until the next one.  Counts the messages (per agent, per
+ * link with ideal links: deliver_links counts them with imperfect ones), their times and, per agent, the checks in a
+ * row with a message: zeno_checks of them stop the run (FSM_ZENO). */
+static void event_trigger(workspace *W, const fsm_problem *P, double t) {
+  const int n = W->n, nb = W->nb;
+  const long long q = W->q;
+  memset(W->sent_now, 0, (size_t)n);
+  if (q % P->trigger_every != 0) return;
+  for (int i = 0; i < n; ++i) {
+    const double *bi = W->b + (size_t)nb * i;
+    double *si = W->b_sent + (size_t)nb * i;
+    int fire = q == 0;
+#ifdef FSM_LAW_TRIGGER
+    if (!fire) {
+      double margin = 0.0;
+      const double *arg[5] = {&t, bi, si, P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i};
+      double *res[1] = {&margin};
+      law_trigger(arg, res, W->iw, W->w, 0);
+      fire = margin > 0.0;
+    }
+#endif
+    W->streak[i] = fire ? W->streak[i] + 1 : 0;
+    if (!fire) continue;
+    memcpy(si, bi, sizeof(double) * nb);
+    W->sent_now[i] = 1;
+    fsm_output *O = W->out;
+    if (O) {
+      if (O->messages_sent[i] > 0) {
+        const double gap = t - O->last_event[i];
+        if (gap < O->min_inter_event[i]) O->min_inter_event[i] = gap;
+      } else {
+        O->first_event[i] = t;
+      }
+      O->last_event[i] = t;
+      O->messages_sent[i]++;
+      W->since_out[i]++;
+    }
+    if (P->zeno_checks > 0 && W->streak[i] >= P->zeno_checks && W->bad_agent == -2) {
+      W->bad_agent = i;
+      W->bad_time = t;
+      W->bad_rc = FSM_ZENO;
+    }
+  }
+  if (W->out && !P->links_imperfect)
+    for (int e = 0; e < P->n_links; ++e)
+      if (W->sent_now[P->link_sender[e]]) W->out->messages_delivered[e]++;
 }
 
 /* lawwheels: the per-wheel motor torque commands of a law that commands its wheels, law_wheels_<model>, into uw
@@ -1016,6 +1136,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     }
   }
   if (compute_control) {
+    if (P->trigger_every > 0) event_trigger(W, P, t); /* what the agents send (b_sent) */
     if (P->links_imperfect) deliver_links(W, P);
     aggregate(W, P, t_link); /* batched: into the lane rows */
     if (W->batched) {
@@ -1175,6 +1296,10 @@ static void record(fsm_output *O, workspace *W, double t, const double *x) {
     }
     if (W->sig_meas && O->sigma_measured) memcpy(O->sigma_measured + o, W->sig_meas + 3 * i, 3 * sizeof(double));
     if (W->om_meas && O->omega_measured) memcpy(O->omega_measured + o, W->om_meas + 3 * i, 3 * sizeof(double));
+    if (W->since_out && O->events_per_output) { /* messages since the previous row */
+      O->events_per_output[slot] = W->since_out[i];
+      W->since_out[i] = 0;
+    }
   }
 }
 
@@ -1256,6 +1381,8 @@ static int validate(const fsm_problem *P) {
   if (P->n_wheels > 0 && P->wheel_gate == FSM_GATE_STEP_START && P->hold_steps <= 0) return 0;
   if (P->wheel_command && (P->n_wheels <= 0 || P->hold_steps <= 0 || P->n_samples < P->n_steps / P->hold_steps + 1))
     return 0;
+  if (P->trigger_every < 0 || P->zeno_checks < 0) return 0;
+  if (P->trigger_every > 0 && (P->hold_steps <= 0 || !fsm_trigger_available())) return 0; /* checked at instants */
   if (P->sensors || P->links_imperfect) { /* they act at the control instants */
     if (P->hold_steps <= 0 || P->n_samples < P->n_steps / P->hold_steps + 1) return 0;
     if (P->sensors && !(P->sensor_dtheta && P->sensor_gyro)) return 0;
@@ -1317,7 +1444,7 @@ static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_outpu
   if (W->bad_agent != -2) {
     O->fail_time = W->bad_time;
     O->fail_agent = W->bad_agent;
-    return FSM_NONFINITE_CONTROL;
+    return W->bad_rc;
   }
   return FSM_OK;
 }
@@ -1434,7 +1561,7 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
   if (W->bad_agent != -2) {
     O->fail_time = W->bad_time;
     O->fail_agent = W->bad_agent;
-    return FSM_NONFINITE_CONTROL;
+    return W->bad_rc;
   }
   return FSM_OK;
 }
@@ -1460,6 +1587,20 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
   O->steps_rejected = 0;
   O->fail_time = NAN;
   O->fail_agent = -2;
+  if (P->trigger_every > 0) { /* the message counts (event-triggered communication) */
+    if (!O->messages_sent || !O->messages_delivered || !O->first_event || !O->last_event || !O->min_inter_event) {
+      free(buf);
+      free_workspace(&W);
+      return FSM_BAD_PROBLEM;
+    }
+    for (int i = 0; i < n; ++i) {
+      O->messages_sent[i] = 0;
+      O->first_event[i] = O->last_event[i] = NAN;
+      O->min_inter_event[i] = INFINITY;
+    }
+    for (int e = 0; e < P->n_links; ++e) O->messages_delivered[e] = 0;
+    W.out = O;
+  }
   shadow_all(&W, x);
   if (P->integrator == 1)
     rc = simulate_dopri(&W, P, x, O, buf + N, progress, every);

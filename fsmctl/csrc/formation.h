@@ -27,6 +27,13 @@
  *     q - link_delay[e] (before instant 0: its value at instant 0), unless link_lost[q][e], when the receiver
  *     keeps the last value it received on that link.
  *
+ * Event-triggered communication (trigger_every > 0; a law declaring LawBuilder.trigger, compiled with
+ * -DFSM_LAW_TRIGGER): at every trigger_every-th control instant each agent evaluates the law's generated
+ * law_trigger(t, b_i, b_sent_i, params_i, constants_i) and sends when it is > 0 (at instant 0 always): then
+ * b_sent_i = b_i.  The links carry b_sent (held between messages) instead of the live broadcast; with imperfect links
+ * a link delivers at instant q the message its sender sent at instant q - link_delay[e], if it sent one then and
+ * link_lost[q][e] is 0.  An agent that sends at zeno_checks consecutive checks stops the run (FSM_ZENO).
+ *
  * State layout: x = [sigma_d (3), then for each agent i: sigma_i (3), omega_i (3), z_i (n_states), Omega_i (n_wheels)].
  * The ABI (struct sizes and field offsets, FSM_ABI_VERSION) is exported by fsm_abi() and checked by Python at load.
  */
@@ -96,6 +103,11 @@ typedef struct {
                                     (decided at the start of each integrator step and held over it, Basilisk's) */
   const double *wheel_command;   /* NULL, or n_samples x n x n_wheels: open-loop motor torque of each wheel (N m,
                                     positive spins it up along g) added at control instant q before the limit rule */
+  /* event-triggered communication (ABI 5) */
+  long long trigger_every;       /* 0: periodic broadcasting (every control evaluation); m > 0: the law's trigger is
+                                    checked at every m-th control instant (needs hold_steps > 0 and a library
+                                    compiled with the law's trigger) */
+  long long zeno_checks;         /* > 0: an agent that sends at this many consecutive checks stops the run (FSM_ZENO) */
 } fsm_problem;
 
 enum { FSM_WHEEL_SCALED = 0, FSM_WHEEL_CLIPPED = 1 };
@@ -127,6 +139,12 @@ typedef struct {
   double *wheel_speed;      /* capacity x n x n_wheels: Omega (rad/s); NULL when n_wheels = 0 */
   double *wheel_torque;     /* capacity x n x n_wheels: motor torque after the speed limit (N m) */
   double *sigma_measured, *omega_measured; /* capacity x n x 3: what the law saw last; NULL: not recorded */
+  /* event-triggered communication (ABI 5; appended; topic: trigger): written when trigger_every > 0 */
+  long long *messages_sent;      /* n: messages each agent sent (its first at instant 0) */
+  long long *messages_delivered; /* n_links: messages each link delivered to its receiver (not lost, arrived) */
+  long long *events_per_output;  /* capacity x n: messages sent since the previous output row (row 0: at t0) */
+  double *first_event, *last_event; /* n: times of each agent's first and last message (s) */
+  double *min_inter_event;       /* n: shortest time between two consecutive messages (+inf: fewer than two) */
 } fsm_output;
 
 /* Progress callback: called every `every` steps with (steps done, steps planned), right after the output sample of
@@ -143,7 +161,8 @@ enum {
   FSM_BAD_PROBLEM = 4,
   FSM_STEP_TOO_SMALL = 5,
   FSM_TOO_MANY_STEPS = 6,
-  FSM_NONFINITE_CONTROL = 7 /* the control law returned a non-finite torque command (fail_time, fail_agent) */
+  FSM_NONFINITE_CONTROL = 7, /* the control law returned a non-finite torque command (fail_time, fail_agent) */
+  FSM_ZENO = 8               /* an agent sent at zeno_checks consecutive trigger checks (fail_time, fail_agent) */
 };
 
 /* The ABI: out[0] = FSM_ABI_VERSION, out[1] = sizeof(fsm_problem), out[2] = sizeof(fsm_output), then the
@@ -154,6 +173,7 @@ int fsm_abi(long long *out, int capacity);
 void fsm_law_sizes(long long *out);
 int fsm_batched_available(void); /* 1 if this build has the batched kernels (GCC/Clang vector extension) */
 int fsm_batched_preferred(void); /* 1 if FSM_KERNELS_AUTO means batched in this build (available and AVX) */
+int fsm_trigger_available(void); /* 1 if this build has the law's event trigger (compiled with -DFSM_LAW_TRIGGER) */
 int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every);
 
 /* One evaluation of the formation right-hand side (control computed at this state; link weights at t).

@@ -63,6 +63,7 @@ _ATTRS = {
         "LawPaperTheorems",
         "LawParameterInfo",
         "LawPresetGroup",
+        "LawTrigger",
         "LawSwitchWarning",
         "builtin_laws",
         "resolve_law",

@@ -229,6 +229,45 @@ def _sources(law_dir: Path) -> list[Path]:
     return sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(_driver_dir().glob("*.c"))
 
 
+TRIGGER_DEFINE = "-DFSM_LAW_TRIGGER"
+"""The engine's hook for a law that declares a trigger (:meth:`fsmctl.symbolic.law.LawBuilder.trigger`)."""
+WHEELS_DEFINE = "-DFSM_LAW_WHEELS"
+"""The engine's hook for a law that commands its wheels (:meth:`fsmctl.symbolic.law.LawBuilder.wheel_torques`)."""
+
+
+def law_defines(law_dir: Path) -> tuple[str, ...]:
+    """The preprocessor flags a law folder's ``law.json`` asks of the engine: :data:`WHEELS_DEFINE` for a law that
+    commands its reaction wheels (its ``law_wheels_<model>`` are then compiled in and called), :data:`TRIGGER_DEFINE`
+    for a law that declares a trigger; none otherwise (the library of such a law is the one built before either
+    existed).
+
+    Parameters
+    ----------
+    law_dir : pathlib.Path
+        The law folder.
+
+    Returns
+    -------
+    tuple of str
+        The flags, in that order.
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import default_law_dir, law_defines
+    >>> law_defines(default_law_dir()), law_defines(default_law_dir().parent / "fsm_event")
+    ((), ('-DFSM_LAW_TRIGGER',))
+    """
+    try:
+        meta = json.loads((Path(law_dir) / "law.json").read_text("utf-8"))
+    except (OSError, ValueError):
+        return ()
+    if not isinstance(meta, dict):
+        return ()
+    return tuple(
+        flag for flag, key in ((WHEELS_DEFINE, "wheels"), (TRIGGER_DEFINE, "trigger")) if meta.get(key) is not None
+    )
+
+
 def _compiler() -> str | None:
     """The C compiler's path: ``$CC`` if set (None if it is not found), else ``cc``, ``gcc`` or ``clang``."""
     cc = os.environ.get("CC")
@@ -823,31 +862,6 @@ def compiled_library(law_dir: Path | None = None) -> CompiledLibrary | None:
     return _compiled_library((law_dir or default_law_dir()).resolve())
 
 
-def law_defines(law_dir: Path) -> tuple[str, ...]:
-    """The preprocessor flags a law folder's ``law.json`` asks of the engine: ``-DFSM_LAW_WHEELS`` for a law that
-    commands its reaction wheels (its ``law_wheels_<model>`` are then compiled in and called), none otherwise.
-
-    Parameters
-    ----------
-    law_dir : pathlib.Path
-        A verified law folder.
-
-    Returns
-    -------
-    tuple of str
-        The flags (empty for a law without wheel outputs: its library is the one built before wheel outputs
-        existed).
-
-    Examples
-    --------
-    >>> from fsmctl.model.generated_code import default_law_dir, law_defines
-    >>> law_defines(default_law_dir())
-    ()
-    """
-    meta = json.loads((law_dir / "law.json").read_text("utf-8"))
-    return ("-DFSM_LAW_WHEELS",) if meta.get("wheels") is not None else ()
-
-
 def _compile_notice(law_dir: Path) -> Callable[[], None]:
     """A callable that logs, on its first call only, that the generated C of ``law_dir``'s law is compiled.
 
@@ -882,7 +896,8 @@ def _compiled_library(law_dir: Path) -> CompiledLibrary | None:
     sources = _sources(law_dir)
     flags, target_cpu = compile_flags(cc)
     options = [(flags, target_cpu)] + ([(CFLAGS, "portable")] if flags != CFLAGS else [])
-    options = [((*fl, *law_defines(law_dir)), tgt) for fl, tgt in options]
+    law_flags = law_defines(law_dir)
+    options = [((*fl, *law_flags), tgt) for fl, tgt in options]
     attempts = [(fl, _library_key(sources, fl, tgt, cc)) for fl, tgt in options]
     with _lock:
         try:

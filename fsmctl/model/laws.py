@@ -49,6 +49,7 @@ __all__ = [
     "LawPaperTheorems",
     "LawParameterInfo",
     "LawPresetGroup",
+    "LawTrigger",
     "LawError",
     "builtin_laws",
     "resolve_law",
@@ -309,6 +310,78 @@ class LawPaperTheorems:
 
 
 @dataclass(frozen=True)
+class LawTrigger:
+    """When an agent of an event-triggered law sends its broadcast (``LawBuilder.trigger``), as ``law.json`` says.
+
+    The engine evaluates the generated ``law_trigger(t, broadcast, broadcast_sent, params, constants)`` at each
+    check instant and the agent sends when it is > 0 (see ``docs/guide/event-triggered.md``).
+
+    Parameters
+    ----------
+    condition : str
+        The declared condition (``lhs > rhs``), as text.
+    period : float or None
+        Seconds between checks (a multiple of the control period), or None: every control instant.
+    doc : str
+        What the rule is (a citation).
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> resolve_law("fsm_event").trigger.period, resolve_law("fsm").trigger
+    (None, None)
+    """
+
+    condition: str
+    period: float | None
+    doc: str
+
+    def check_every(self, control_period: float) -> int:
+        """The checks' spacing in control instants: 1 without a declared period, else ``period / control_period``.
+
+        Parameters
+        ----------
+        control_period : float
+            The run's control period, s (> 0).
+
+        Returns
+        -------
+        int
+            Control instants between checks (>= 1).
+
+        Raises
+        ------
+        LawError
+            No control period, or a declared period that is not a whole multiple of it.
+
+        Examples
+        --------
+        >>> from fsmctl.model.laws import LawTrigger
+        >>> LawTrigger("|s - s_sent| > c0", 0.5, "").check_every(0.1)
+        5
+        >>> LawTrigger("|s - s_sent| > c0", 0.25, "").check_every(0.1)
+        Traceback (most recent call last):
+        ...
+        fsmctl.model.laws.LawError: the law's trigger is checked every 0.25 s, which is not a multiple of simulation.control_period = 0.1 s
+        """
+        if not control_period > 0:
+            raise LawError(
+                "an event-triggered law (a law with a trigger) needs a control period: set "
+                "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control; the trigger is checked at the control "
+                "instants)"
+            )
+        if self.period is None:
+            return 1
+        m = round(self.period / control_period)
+        if m < 1 or abs(m * control_period - self.period) > 1e-9 * self.period:
+            raise LawError(
+                f"the law's trigger is checked every {self.period:g} s, which is not a multiple of "
+                f"simulation.control_period = {control_period:g} s"
+            )
+        return m
+
+
+@dataclass(frozen=True)
 class LawCode:
     """A law's generated code and what the runtime needs to know about it (read from a law folder's ``law.json``).
 
@@ -345,6 +418,8 @@ class LawCode:
     n_wheels : int
         The number of reaction wheels the law commands itself (``law_wheels_<model>``,
         :meth:`fsmctl.symbolic.law.LawBuilder.wheel_torques`); 0 when the engine distributes its body torque.
+    trigger : LawTrigger or None
+        When an agent sends its broadcast (event-triggered communication); None: at every control evaluation.
 
     Examples
     --------
@@ -374,6 +449,7 @@ class LawCode:
     loop_rates_doc: str | None = None
     paper_theorems: LawPaperTheorems | None = None
     n_wheels: int = 0
+    trigger: LawTrigger | None = None
 
     @property
     def n_params(self) -> int:
@@ -678,6 +754,13 @@ def _law_code(folder: Path, meta: dict) -> LawCode:
         paper_theorems=None
         if meta.get("paper_theorems") is None
         else LawPaperTheorems(MappingProxyType(dict(meta["paper_theorems"]))),
+        trigger=None
+        if meta.get("trigger") is None
+        else LawTrigger(
+            str(meta["trigger"]["condition"]),
+            None if meta["trigger"]["period"] is None else float(meta["trigger"]["period"]),
+            str(meta["trigger"].get("doc", "")),
+        ),
     )
 
 
@@ -709,7 +792,7 @@ def builtin_laws() -> dict[str, LawCode]:
     --------
     >>> from fsmctl.model import builtin_laws
     >>> list(builtin_laws())
-    ['fsm', 'fsm_wheels', 'adaptive_fsm', 'pid', 'super_twisting']
+    ['fsm', 'fsm_wheels', 'adaptive_fsm', 'fsm_event', 'pid', 'super_twisting']
     """
     return dict(_builtin_laws())
 

@@ -35,19 +35,26 @@ __all__ = [
 
 
 def output_buffer_bytes(
-    n_agents: int, n_rows: int, n_broadcast: int = 3, n_states: int = 0, n_wheels: int = 0, measured: bool = False
+    n_agents: int,
+    n_rows: int,
+    n_broadcast: int = 3,
+    n_states: int = 0,
+    n_wheels: int = 0,
+    measured: bool = False,
+    events: bool = False,
 ) -> int:
     """Bytes of a run's output buffers for ``n_rows`` output samples of ``n_agents`` agents (float64).
 
     Six ``(rows, n, 3)`` arrays (sigma, omega, sigma_e, omega_e, u, u_unsaturated), the broadcast
     ``(rows, n, n_broadcast)`` and law states ``(rows, n, n_states)``, wheel speeds and torques
     ``(rows, n, n_wheels)`` each, the measured attitude and rate ``(rows, n, 3)`` each when ``measured``, time
-    ``(rows,)``, sigma_d ``(rows, 3)`` and three ``(n,)`` statistics: what
+    ``(rows,)``, sigma_d ``(rows, 3)``, the messages per output row ``(rows, n)`` (int64) when ``events`` (a run with a
+    control period: event-triggered or periodic broadcasting) and three ``(n,)`` statistics: what
     :func:`fsmctl.simulation.simulator.simulate_packed` allocates (with ``rows = n_outputs + 1``) before the loop
     starts.
     """
     n, rows = int(n_agents), int(n_rows)
-    per_agent = 6 * 3 + int(n_broadcast) + int(n_states) + 2 * int(n_wheels) + (6 if measured else 0)
+    per_agent = 6 * 3 + int(n_broadcast) + int(n_states) + 2 * int(n_wheels) + (6 if measured else 0) + int(events)
     return 8 * (rows * (per_agent * n + 1 + 3) + 3 * n)
 
 
@@ -257,6 +264,9 @@ class PackedProblem:
     sched_values: np.ndarray  # (sum counts,)
     x0: np.ndarray  # (3 + (6 + n_states + n_wheels) n,)
     hardware: HardwarePack = field(default_factory=HardwarePack)
+    trigger_every: int = 0
+    """event-triggered communication: 0 broadcasts at every control evaluation; m > 0 checks the law's trigger at
+    every m-th control instant (:meth:`fsmctl.model.laws.LawTrigger.check_every`)"""
 
     @property
     def n_states(self) -> int:
@@ -293,7 +303,13 @@ class PackedProblem:
     def output_bytes(self) -> int:
         """Bytes of the output buffers the simulator allocates (:func:`output_buffer_bytes`, ``n_outputs + 1`` rows)."""
         return output_buffer_bytes(
-            self.n_agents, self.n_outputs + 1, self.n_broadcast, self.n_states, self.n_wheels, self.hardware.sensors
+            self.n_agents,
+            self.n_outputs + 1,
+            self.n_broadcast,
+            self.n_states,
+            self.n_wheels,
+            self.hardware.sensors,
+            self.hold_steps > 0,
         )
 
     def link_weights(self, t: float | np.ndarray) -> np.ndarray:
@@ -373,6 +389,7 @@ def pack(scenario: Scenario, law: LawCode | str | None = None, *, wheel_commands
         sched_values=np.array(values, dtype=float),
         x0=x0,
         hardware=hardware,
+        trigger_every=0 if law.trigger is None else law.trigger.check_every(sim.control_period),
     )
 
 
@@ -381,7 +398,7 @@ def batch_key(p: PackedProblem) -> tuple | None:
 
     Same law (folder), error model, fixed-step RK4 with the same ``t0``, ``dt``, number of steps, output grid and
     control hold, the same reference (its sinusoid and ``sigma_d(0)``, bit for bit) and agents per run; no flight
-    hardware (wheels, sensors, imperfect links) and the RK4 integrator only (dopri45's steps depend on every state).
+    hardware (wheels, sensors, imperfect links), no event trigger, and the RK4 integrator only (dopri45's steps depend on every state).
     Gains, inertias, initial states, disturbances, torque limits and topologies may differ.
 
     Parameters
@@ -405,8 +422,8 @@ def batch_key(p: PackedProblem) -> tuple | None:
     True
     """
     hw = p.hardware
-    if p.integrator != 0 or hw.n_wheels or hw.sensors or hw.links_imperfect:
-        return None
+    if p.integrator != 0 or hw.n_wheels or hw.sensors or hw.links_imperfect or p.trigger_every:
+        return None  # event-triggered runs fly alone: their per-link message counts are the run's own
     ref = np.ascontiguousarray(p.ref_params, dtype=float).tobytes() + np.ascontiguousarray(p.x0[:3]).tobytes()
     return (str(p.law.folder), p.error_model, p.n_agents, p.t0, p.dt, p.n_steps, p.output_every, p.hold_steps, ref)
 

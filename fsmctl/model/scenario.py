@@ -293,6 +293,11 @@ class Scenario:
             parameter_matrix(law, self)  # the written keys against the law's declarations and ranges
         except LawError as exc:
             raise ValueError(str(exc)) from None
+        if law.trigger is not None:  # event-triggered: checked at the control instants (or a multiple of them)
+            try:
+                law.trigger.check_every(period)
+            except LawError as exc:
+                raise ValueError(f"controller.law = {law.name}: {exc}") from None
         return self
 
     def _gilbert_elliott_links(self) -> None:

@@ -448,6 +448,11 @@ def _controller(
     nw = law.n_wheels if wheels is not None else 0  # lawwheels: outputs u_wheels, inputs Omega
     if bname == "tau":
         raise ScenarioError(f"{where}: the law's broadcast is named 'tau', the controller's torque output")
+    if law.trigger is not None:  # event-triggered communication is flown by the compiled loop only
+        raise ScenarioError(
+            f"{where}: the law {law.name} is event-triggered (it declares a trigger), which the python-control "
+            "systems do not model (their broadcast output is continuous); fly it with fsmctl.simulate"
+        )
     local = _Generated(
         f"law_local_{error_model}", law.folder
     )  # the contract's names (fsmctl.symbolic.law.contract_names)

@@ -18,7 +18,8 @@ import lazy_loader
 _ATTRS = {
     "simulator": ["simulate", "simulate_many"],
     "result": ["SimulationResult"],
-    "failures": ["SimulationError", "StepSizeWarning", "DiscontinuousControlWarning"],
+    "failures": ["SimulationError", "ZenoError", "StepSizeWarning", "DiscontinuousControlWarning"],
+    "messages": ["periodic_messages", "MESSAGE_FIELDS"],
     "step_size": ["step_size_report"],
     "metrics": [
         "principal_angles",

@@ -21,6 +21,7 @@ from fsmctl.simulation.failures import SimulationError
 
 _dp = ctypes.POINTER(ctypes.c_double)
 _ip = ctypes.POINTER(ctypes.c_int)
+_llp = ctypes.POINTER(ctypes.c_longlong)
 
 
 class _Problem(ctypes.Structure):
@@ -78,6 +79,9 @@ class _Problem(ctypes.Structure):
         ("wheel_allocation", ctypes.c_int),
         ("wheel_gate", ctypes.c_int),
         ("wheel_command", _dp),
+        # event-triggered communication (ABI 5)
+        ("trigger_every", ctypes.c_longlong),
+        ("zeno_checks", ctypes.c_longlong),
     ]
 
 
@@ -108,6 +112,13 @@ class _Output(ctypes.Structure):
         ("wheel_torque", _dp),
         ("sigma_measured", _dp),
         ("omega_measured", _dp),
+        # event-triggered communication (ABI 5)
+        ("messages_sent", _llp),
+        ("messages_delivered", _llp),
+        ("events_per_output", _llp),
+        ("first_event", _dp),
+        ("last_event", _dp),
+        ("min_inter_event", _dp),
     ]
 
 
@@ -123,6 +134,7 @@ _RC = {
     5: "the adaptive step size fell below h_min",
     6: "the adaptive integrator exceeded its step budget",
     7: "the control law returned a non-finite torque command",
+    8: "the event trigger fired at every check (Zeno behaviour)",
 }
 
 
@@ -167,7 +179,7 @@ def _driver_for(law_dir: Path) -> ctypes.CDLL | None:
     dll.fsm_link_weight.restype = ctypes.c_double
     dll.fsm_law_sizes.argtypes = [ctypes.POINTER(ctypes.c_longlong)]
     dll.fsm_law_sizes.restype = None
-    for name in ("fsm_batched_available", "fsm_batched_preferred"):
+    for name in ("fsm_batched_available", "fsm_batched_preferred", "fsm_trigger_available"):
         getattr(dll, name).argtypes = []
         getattr(dll, name).restype = ctypes.c_int
     return dll
@@ -202,6 +214,7 @@ class _CProblem:
         self._keep = {}
 
         ctypes_of = {np.float64: ctypes.c_double, np.int32: ctypes.c_int, np.uint8: ctypes.c_ubyte}
+        from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
 
         def f(name, arr, dtype=np.float64):
             a = np.ascontiguousarray(arr, dtype=dtype)
@@ -263,4 +276,6 @@ class _CProblem:
             wheel_allocation=hw.wheel_allocation,
             wheel_gate=hw.wheel_gate,
             wheel_command=None if hw.wheel_command is None else f("wcmd", hw.wheel_command),
+            trigger_every=p.trigger_every,
+            zeno_checks=ZENO_CONSECUTIVE_CHECKS if p.trigger_every else 0,
         )

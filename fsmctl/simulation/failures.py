@@ -25,6 +25,20 @@ class SimulationError(RuntimeError):
     """
 
 
+class ZenoError(SimulationError):
+    """An event-triggered run stopped by the Zeno guard: an agent sent at every trigger check for
+    :data:`fsmctl.policy.ZENO_CONSECUTIVE_CHECKS` checks in a row (the message names the agent, the time, the
+    inter-event time and what to change).  A :class:`SimulationError` (``fsmctl simulate`` exits 1); the compiled
+    loop's status is ``FSM_ZENO``.
+
+    Examples
+    --------
+    >>> from fsmctl.simulation import SimulationError, ZenoError
+    >>> issubclass(ZenoError, SimulationError)
+    True
+    """
+
+
 class DiscontinuousControlWarning(RuntimeWarning):
     """An adaptive integrator was asked to integrate the discontinuous sgn(s) law.
 

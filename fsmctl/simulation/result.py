@@ -93,6 +93,16 @@ class SimulationResult:
         What the law saw through the sensors; None without sensors.
     stopped_at : float or None
         The stop time when a monitor stopped the run early; None when it completed.
+    messages_sent : numpy.ndarray or None, shape (n,), int
+        Messages each agent sent (:mod:`fsmctl.simulation.messages`): an event-triggered law's as its trigger fired,
+        periodic broadcasting's one per control instant (so the two compare); None for continuous control
+        (``simulation.control_period = 0``).
+    messages_per_link : numpy.ndarray or None, shape (L,), int
+        Messages each link (``scenario.topology.links`` order) delivered to its receiver (sent, arrived, not lost).
+    events_per_output : numpy.ndarray or None, shape (T, n), int
+        Messages each agent sent in ``(time[r-1], time[r]]`` (row 0: at ``time[0]``): the event rate over time.
+    min_inter_event_s, mean_inter_event_s : numpy.ndarray or None, shape (n,)
+        Shortest and mean time between consecutive messages of each agent, s (inf / NaN with fewer than two).
 
     Examples
     --------
@@ -132,7 +142,61 @@ class SimulationResult:
     omega_measured: np.ndarray | None = None
     stopped_at: float | None = None
     """s: the time of the last sample when a monitor stopped the run early (``time[-1]``); None: the run completed"""
+    messages_sent: np.ndarray | None = None
+    """(n,) int: messages each agent sent; None for continuous control (:mod:`fsmctl.simulation.messages`)"""
+    messages_per_link: np.ndarray | None = None
+    """(L,) int: messages each link delivered to its receiver"""
+    events_per_output: np.ndarray | None = None
+    """(T, n) int: messages each agent sent since the previous output sample"""
+    min_inter_event_s: np.ndarray | None = None
+    """(n,) s: shortest time between consecutive messages of each agent (inf: fewer than two)"""
+    mean_inter_event_s: np.ndarray | None = None
+    """(n,) s: mean time between consecutive messages of each agent (NaN: fewer than two)"""
     _cache: dict = field(default_factory=dict, repr=False, init=False)
+
+    @property
+    def event_triggered(self) -> bool:
+        """Whether the law flown declares a trigger (its agents send only when it fires; else at every control
+        instant).
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> s = fsmctl.paper_scenario("1").replace(
+        ...     controller={"law": "fsm_event"}, simulation={"t_final": 2.0, "control_period": 0.1}
+        ... )
+        >>> r = fsmctl.simulate(s)
+        >>> r.event_triggered, int(r.messages_sent.sum()) < 6 * 21  # fewer than one per agent and control instant
+        (True, True)
+        """
+        return self.law.trigger is not None
+
+    def messages_line(self) -> str | None:
+        """One line on the messages of the run (``fsmctl simulate`` prints it); None for continuous control.
+
+        Examples
+        --------
+        >>> import fsmctl
+        >>> r = fsmctl.simulate(fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "control_period": 0.1}))
+        >>> print(r.messages_line())
+        messages: 66 sent (periodic broadcasting, one per agent and control instant; 11 per agent), 330 delivered on 30 links; inter-event time min 0.1 s, mean 0.1 s
+        """
+        if self.messages_sent is None:
+            return None
+        sent, links = self.messages_sent, self.messages_per_link
+        how = (
+            f"event-triggered, {sent.min()}-{sent.max()} per agent"
+            if self.event_triggered
+            else f"periodic broadcasting, one per agent and control instant; {sent.max()} per agent"
+        )
+        finite = self.min_inter_event_s[np.isfinite(self.min_inter_event_s)]
+        mean = self.mean_inter_event_s[np.isfinite(self.mean_inter_event_s)]
+        gaps = (
+            f"; inter-event time min {finite.min():.3g} s, mean {mean.mean():.3g} s"
+            if finite.size and mean.size
+            else ""
+        )
+        return f"messages: {int(sent.sum())} sent ({how}), {int(links.sum())} delivered on {links.size} links{gaps}"
 
     @property
     def wheel_momentum(self) -> np.ndarray | None:
@@ -312,6 +376,18 @@ class SimulationResult:
                 if self.wheel_speed is not None
                 else {}
             ),
+            **(
+                {
+                    "event_triggered": self.event_triggered,
+                    "messages_sent": int(self.messages_sent.sum()),
+                    "messages_sent_per_agent": self.messages_sent.tolist(),
+                    "messages_delivered": int(self.messages_per_link.sum()),
+                    "min_inter_event_s": float(self.min_inter_event_s.min()),
+                    "messages_line": self.messages_line(),
+                }
+                if self.messages_sent is not None
+                else {}
+            ),
         }
 
     @property
@@ -400,6 +476,7 @@ class SimulationResult:
                 "u_total_variation_N_m": var(self.u_total_variation, ("agent",), "N m", "total variation of u"),
                 "u_unsaturated_max_N_m": var(self.u_unsaturated_max, ("agent",), "N m", "max |commanded torque|"),
                 **self._hardware_variables(var),
+                **self._message_variables(var),
             },
             coords=coords,
         )
@@ -431,6 +508,31 @@ class SimulationResult:
             tna = ("time_s", "agent", "axis")
             out["sigma_measured"] = var(self.sigma_measured, tna, "1", "attitude the law saw (star tracker)")
             out["omega_measured_rad_per_s"] = var(self.omega_measured, tna, "rad/s", "rate the law saw (gyro)")
+        return out
+
+    def _message_variables(self, var) -> dict:
+        """The message counts (:mod:`fsmctl.simulation.messages`) as variables: int32 (NetCDF-3 has no int64), the
+        per-link counts only when there are links (NetCDF-3 has no zero-length fixed dimension)."""
+        if self.messages_sent is None:
+            return {}
+        out = {
+            "messages_sent": var(self.messages_sent.astype(np.int32), ("agent",), "1", "messages each agent sent"),
+            "events_per_output": var(
+                self.events_per_output.astype(np.int32),
+                ("time_s", "agent"),
+                "1",
+                "messages each agent sent since the previous output sample",
+            ),
+            "min_inter_event_s": var(self.min_inter_event_s, ("agent",), "s", "shortest time between messages"),
+            "mean_inter_event_s": var(self.mean_inter_event_s, ("agent",), "s", "mean time between messages"),
+        }
+        if self.messages_per_link.size:
+            out["messages_per_link"] = var(
+                self.messages_per_link.astype(np.int32),
+                ("link",),
+                "1",
+                "messages each link delivered to its receiver (topology.links order)",
+            )
         return out
 
     def save(

@@ -47,9 +47,11 @@ from fsmctl.simulation.failures import (
     DiscontinuousControlWarning,
     SimulationError,
     StepSizeWarning,
+    ZenoError,
     nonfinite_hint,
 )
 from fsmctl.simulation.memory import available_memory, format_bytes
+from fsmctl.simulation.messages import MESSAGE_FIELDS, event_buffers, event_pointers, messages_now, result_messages
 from fsmctl.simulation.metrics import (
     RAEM_WORKING_BYTES,
 )
@@ -66,6 +68,7 @@ from fsmctl.simulation.step_size import (
 
 __all__ = [
     "SimulationError",
+    "ZenoError",
     "DiscontinuousControlWarning",
     "StepSizeWarning",
     "SimulationResult",
@@ -102,9 +105,7 @@ def check_output_memory(p: PackedProblem, *, available: int | None = None) -> in
     simulate`` needs to run, summarise and save the results.  It is compared with ``available`` (default:
     :func:`available_memory`; None: no check) before anything is allocated.  Returns the estimate in bytes.
     """
-    buffers = output_buffer_bytes(
-        p.n_agents, p.n_outputs + 1, p.n_broadcast, p.n_states, p.n_wheels, p.hardware.sensors
-    )
+    buffers = p.output_bytes
     needed = int(RESULT_MEMORY_FACTOR * buffers) + RAEM_WORKING_BYTES
     if available is None:
         available = available_memory()
@@ -247,7 +248,8 @@ def _fly(
     bufs["t"] = np.zeros(cap)
     bufs["sigma_d"] = np.zeros((cap, 3))
     stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
-    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()})
+    events = event_buffers(p, lead)  # event-triggered communication: the counts the loop writes
+    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()}, **event_pointers(events))
     cp = _CProblem(p, kernels=kernels, members=members)
     x0 = np.ascontiguousarray(p.x0, dtype=float)
     if kernels == "auto":
@@ -267,6 +269,7 @@ def _fly(
             stopped_at=None,
             rc=0,
         )
+        raw.update(messages_now(p, events, w))
         return raw
 
     every = _callback_every(p)
@@ -313,9 +316,25 @@ def _fly(
     return raw
 
 
+def _zeno_message(p: PackedProblem, raw: dict) -> str:
+    """The one line of the Zeno guard (:data:`fsmctl.policy.ZENO_CONSECUTIVE_CHECKS`): agent, time, inter-event time,
+    what to change."""
+    from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
+
+    check = p.trigger_every * p.hold_steps * p.dt
+    return (
+        f"simulation failed: Zeno guard: agent {raw['fail_agent'] + 1} of law {p.law.name} sent at each of "
+        f"{ZENO_CONSECUTIVE_CHECKS} consecutive trigger checks up to t = {raw['fail_time']:.6g} s (inter-event time "
+        f"{check:g} s, the check period: the trigger holds no message back); raise the trigger's threshold (e.g. a "
+        "floor c0 > 0), check it less often (LawBuilder.trigger(period=...)), or fly a law without a trigger"
+    )
+
+
 def _failure_message(p: PackedProblem, raw: dict) -> str:
     rc = raw["rc"]
     detail = _RC.get(rc, f"error code {rc}")
+    if rc == 8:
+        return _zeno_message(p, raw)
     if rc in (1, 7):
         who = "the reference" if raw["fail_agent"] == -1 else f"agent {raw['fail_agent'] + 1}"
         detail += f" at t = {raw['fail_time']:.6g} s in {who}"
@@ -368,6 +387,12 @@ def simulate_packed(
     dll = _driver(p.law)
     hw = p.hardware
     if dll is None:
+        if p.trigger_every:
+            raise EnvironmentProblem(
+                f"the law {p.law.name} is event-triggered, which runs in the compiled simulator only, which is not "
+                "available (no C compiler was found, or compiling failed: see the warning; install gcc or clang, or "
+                "set CC)"
+            )
         if hw.n_wheels or hw.sensors or hw.links_imperfect:
             raise EnvironmentProblem(
                 "reaction wheels, sensors and imperfect links run in the compiled simulator only, which is not "
@@ -392,6 +417,8 @@ def simulate_packed(
             "GCC/Clang vector extension); use kernels='auto' or 'scalar'"
         )
     raw = _fly(p, progress=progress, label=label, kernels=kernels, monitor=monitor, monitor_interval=monitor_interval)
+    if raw["rc"] == 8:
+        raise ZenoError(_failure_message(p, raw))
     if raw["rc"] != 0:
         raise SimulationError(_failure_message(p, raw))
     if raw["stopped_at"] is None:
@@ -424,6 +451,7 @@ def _result(scenario: Scenario, raw: dict) -> SimulationResult:
         steps_rejected=int(raw["steps_rejected"]),
         **{k: raw.get(k) for k in ("wheel_speed", "wheel_torque", "sigma_measured", "omega_measured")},
         stopped_at=raw.get("stopped_at"),
+        **result_messages(scenario, raw),
     )
 
 
@@ -553,7 +581,9 @@ def _split(raw: dict, n: int, count: int) -> list[dict]:
     count``) as one raw dict per run: contiguous views of the batch's buffers, as a run alone returns them."""
     out = []
     for m in range(count):
-        raw_m = {k: v for k, v in raw.items() if k not in _PER_AGENT_KEYS}
+        # the message counts of the stack are recomputed per run (_result_messages; runs flown together broadcast
+        # periodically over ideal links)
+        raw_m = {k: v for k, v in raw.items() if k not in _PER_AGENT_KEYS and k not in MESSAGE_FIELDS}
         raw_m["t"], raw_m["sigma_d"] = raw["t"].copy(), raw["sigma_d"].copy()
         for k in _PER_AGENT_KEYS:
             v = raw[k]

@@ -79,6 +79,7 @@ __all__ = [
     "PresetGroup",
     "WHEEL_INPUTS",
     "WheelInputs",
+    "Trigger",
     "contract_names",
     "law_variants",
     "wheels_function_name",
@@ -116,6 +117,10 @@ PAPER_THEOREM_ROLES: tuple[str, ...] = (
     "delta",
 )
 """The symbols of Liang et al. 2012, eqs 13-19, that :meth:`LawBuilder.paper_theorems` maps to a law's parameters."""
+
+TRIGGER_FUNCTION = "law_trigger"
+"""The generated function of :meth:`LawBuilder.trigger`:
+``law_trigger(t, broadcast, broadcast_sent, params, constants) -> margin`` (the agent sends when ``margin > 0``)."""
 
 LOOP_RATES_FUNCTION = "law_loop_rates"
 """The generated function of :meth:`LawBuilder.loop_rates`: ``law_loop_rates(params) -> (surface, layer)``."""
@@ -365,6 +370,33 @@ class LoopRates:
 
 
 @dataclass(frozen=True)
+class Trigger:
+    """When an agent sends its broadcast (event-triggered communication), from :meth:`LawBuilder.trigger`.
+
+    Generated as ``law_trigger(t, broadcast, broadcast_sent, params, constants) -> margin`` with
+    ``margin = lhs - rhs`` of the declared ``lhs > rhs``: at each check instant the agent sends (and its neighbours
+    then hold the value it sent) when ``margin > 0``.
+
+    Parameters
+    ----------
+    margin : sympy.Expr
+        ``lhs - rhs``, in ``t``, the broadcast symbols ``broadcast[k]``, the last sent value ``broadcast_sent[k]``,
+        the parameters and the constants.
+    condition : str
+        The declared condition, as text (``law.json`` and ``fsmctl laws`` show it).
+    period : float or None
+        Seconds between checks (a multiple of the run's control period), or None: at every control instant.
+    doc : str
+        What the rule is (a citation).
+    """
+
+    margin: sp.Expr
+    condition: str
+    period: float | None = None
+    doc: str = ""
+
+
+@dataclass(frozen=True)
 class PaperTheorems:
     """The declaration that a law *is* Liang et al. 2012's eqs 13-19, from :meth:`LawBuilder.paper_theorems`.
 
@@ -473,6 +505,8 @@ class Law:
     wheel_torques : sympy.ImmutableMatrix or None
         The per-wheel motor torque commands (:meth:`LawBuilder.wheel_torques`; N m); None when the law leaves its
         body torque to the engine's minimum-norm distribution.
+    trigger : Trigger or None
+        When the agent sends its broadcast (:meth:`LawBuilder.trigger`); None: at every control evaluation.
 
     Examples
     --------
@@ -522,6 +556,7 @@ class Law:
     paper_theorems: PaperTheorems | None = None
     wheel_stages: tuple[tuple[str, sp.ImmutableMatrix, sp.ImmutableMatrix], ...] = ()
     wheel_torques: sp.ImmutableMatrix | None = None
+    trigger: Trigger | None = None
 
     # -- sizes -------------------------------------------------------------------------------------
     @property
@@ -745,6 +780,30 @@ class Law:
             ),
         )
 
+    def trigger_spec(self) -> FunctionSpec | None:
+        """The generated function ``law_trigger(t, broadcast, broadcast_sent, params, constants) -> margin``, or None
+        if the law declares no trigger (:meth:`LawBuilder.trigger`).
+
+        Returns
+        -------
+        FunctionSpec or None
+            What :func:`fsmctl.codegen.build_functions` translates.
+        """
+        if self.trigger is None:
+            return None
+        return FunctionSpec(
+            name=TRIGGER_FUNCTION,
+            doc=f"{self.name}: event trigger, the agent sends its broadcast when margin > 0: {self.trigger.condition}",
+            inputs=(
+                ("t", self.symbols["t"]),
+                ("broadcast", _broadcast_symbols(self.n_broadcast)),
+                ("broadcast_sent", _sent_symbols(self.n_broadcast)),
+                ("params", self.symbols["params"]),
+                ("constants", self.symbols["constants"]),
+            ),
+            outputs=(("margin", sp.ImmutableMatrix([self.trigger.margin])),),
+        )
+
     def metadata(self) -> dict:
         """What the runtime needs to know about the law (written to ``law.json``).
 
@@ -753,7 +812,9 @@ class Law:
         dict
             JSON-able: name, doc, reference, parameters, states, broadcast, constants, cache, lyapunov, and the
             declarations discontinuity, presets, loop_rates and paper_theorems; ``wheels`` (``count``, the
-            ``function`` prefix, ``unit``) only for a law that commands its wheels.
+            ``function`` prefix, ``unit``) only for a law that commands its wheels; ``trigger`` (the generated
+            function, the condition, the check period and its doc) only when the law declares one, so that the
+            ``law.json`` of a law without either is what it was before they existed.
         """
         return {
             "name": self.name,
@@ -773,11 +834,34 @@ class Law:
             if self.loop_rates is None
             else {"function": LOOP_RATES_FUNCTION, "doc": self.loop_rates.doc},
             "paper_theorems": None if self.paper_theorems is None else dict(self.paper_theorems.parameters),
-        } | (
-            {}  # a law without wheel outputs: law.json as before wheel outputs existed (format 1)
-            if self.wheel_torques is None
-            else {"wheels": {"count": self.n_wheels, "function": "law_wheels", "unit": "N m"}}
-        )
+            **(
+                {}  # a law without wheel outputs: law.json as before wheel outputs existed (format 1)
+                if self.wheel_torques is None
+                else {"wheels": {"count": self.n_wheels, "function": "law_wheels", "unit": "N m"}}
+            ),
+            **(
+                {}
+                if self.trigger is None
+                else {
+                    "trigger": {
+                        "function": TRIGGER_FUNCTION,
+                        "condition": self.trigger.condition,
+                        "period": self.trigger.period,
+                        "doc": self.trigger.doc,
+                    }
+                }
+            ),
+        }
+
+
+def _broadcast_symbols(n: int) -> sp.ImmutableMatrix:
+    """The current broadcast as an input of ``law_trigger``: ``broadcast[k]``."""
+    return vector_symbols("broadcast", n)
+
+
+def _sent_symbols(n: int) -> sp.ImmutableMatrix:
+    """The last value the agent sent, an input of ``law_trigger``: ``broadcast_sent[k]``."""
+    return vector_symbols("broadcast_sent", n)
 
 
 def _matrix(value, what: str) -> sp.ImmutableMatrix:
@@ -898,6 +982,7 @@ class LawBuilder:
         self._paper_theorems: PaperTheorems | None = None
         self._wheels: WheelInputs | None = None
         self._wheel_torques: sp.ImmutableMatrix | None = None
+        self._trigger: Trigger | None = None
         self.batched = True
 
     # -- declarations -----------------------------------------------------------------------------
@@ -1192,6 +1277,110 @@ class LawBuilder:
         if self._wheels is None:
             raise LawDefinitionError(f"{self.name}: u_max is read by wheel_torques() only: declare reaction_wheels()")
         return _U_MAX
+
+    @property
+    def broadcast_now(self) -> sp.ImmutableMatrix:
+        """The agent's current broadcast as symbols ``broadcast[k]``, for :meth:`trigger` (the declared broadcast
+        expression may be used instead: the trigger replaces it by these)."""
+        self._neighbour_symbol("k_sum")  # the broadcast must be declared
+        return _broadcast_symbols(self._broadcast[1].rows)
+
+    @property
+    def broadcast_sent(self) -> sp.ImmutableMatrix:
+        """The last broadcast the agent sent, symbols ``broadcast_sent[k]``, for :meth:`trigger`."""
+        if self._broadcast is None:
+            raise LawDefinitionError(f"{self.name}: declare the broadcast before using the last value sent")
+        return _sent_symbols(self._broadcast[1].rows)
+
+    def trigger(self, condition, *, period: float | None = None, doc: str = "") -> None:
+        """Declare when the agent sends its broadcast (event-triggered communication).
+
+        At each check instant the engine evaluates ``condition`` with the agent's current broadcast and the last
+        value it sent; when it holds, the agent sends (its neighbours then aggregate that value until its next
+        message).  At the first instant every agent sends.  A law without a trigger broadcasts at every control
+        evaluation.  A run of a law with a trigger needs a control period (``simulation.control_period > 0``):
+        the trigger is checked at the control instants (or every ``period`` seconds), never inside a step.
+
+        Parameters
+        ----------
+        condition : sympy relational
+            A strict inequality ``lhs > rhs`` (or ``lhs < rhs``) in the broadcast (the expression declared with
+            :meth:`broadcast`, or :attr:`broadcast_now`), the last value sent (:attr:`broadcast_sent`), the time
+            :attr:`t`, the parameters and the constants; e.g. ``(s - b.broadcast_sent).norm() > c0 + c1 *
+            sp.exp(-lam * b.t)`` (Seyboth, Dimarogonas & Johansson, Automatica 49 (2013) 245-252).  Generated as
+            ``law_trigger(t, broadcast, broadcast_sent, params, constants) -> lhs - rhs``; the agent sends when it
+            is > 0.
+        period : float, optional
+            Seconds between checks: a multiple of the run's control period (checked before a run); None (default)
+            checks at every control instant.
+        doc : str
+            What the rule is (a citation).
+
+        Raises
+        ------
+        LawDefinitionError
+            Before :meth:`broadcast`, a second declaration, a condition that is not a strict inequality, one that
+            depends on what the agent receives or on anything but the inputs above, or a bad period.
+
+        Examples
+        --------
+        >>> import sympy as sp
+        >>> from fsmctl.symbolic import LawBuilder
+        >>> b = LawBuilder("pd_event", doc="PD, event-triggered consensus")
+        >>> c0 = b.parameter("c0", 0.01, minimum=0.0, doc="threshold floor")
+        >>> e = b.error_state()
+        >>> b.broadcast("sigma_e", e.sigma_e)
+        >>> b.trigger((e.sigma_e - b.broadcast_sent).norm() > c0, doc="relative threshold")
+        >>> b.torque(-e.sigma_e - e.omega_e - (b.k_received_sum * e.sigma_e - b.received))
+        >>> law = b.build()
+        >>> law.trigger.margin
+        -c0 + sqrt((-broadcast[0] + broadcast_sent[0])**2 + (-broadcast[1] + broadcast_sent[1])**2 + (-broadcast[2] + broadcast_sent[2])**2)
+        >>> b.trigger(c0 >= 0)
+        Traceback (most recent call last):
+        ...
+        fsmctl.symbolic.law.LawDefinitionError: pd_event: trigger() is declared twice
+        """
+        if self._broadcast is None:
+            raise LawDefinitionError(f"{self.name}: trigger(): declare the broadcast before its trigger")
+        if self._trigger is not None:
+            raise LawDefinitionError(f"{self.name}: trigger() is declared twice")
+        if isinstance(condition, sp.StrictGreaterThan):
+            margin = condition.lhs - condition.rhs
+        elif isinstance(condition, sp.StrictLessThan):
+            margin = condition.rhs - condition.lhs
+        else:
+            got = type(condition).__name__ if isinstance(condition, sp.Basic) else repr(condition)
+            raise LawDefinitionError(
+                f"{self.name}: trigger(): the condition must be a strict inequality lhs > rhs in SymPy symbols (the "
+                f"agent sends when it holds), got {got}"
+            )
+        bvalue = self._broadcast[1]
+        now, sent = _broadcast_symbols(bvalue.rows), _sent_symbols(bvalue.rows)
+        margin = sp.sympify(margin).xreplace(dict(zip(bvalue, now, strict=True)))
+        if isinstance(margin, sp.MatrixBase) or not isinstance(margin, sp.Expr):
+            raise LawDefinitionError(f"{self.name}: trigger(): lhs and rhs must be scalars")
+        free = margin.free_symbols
+        neighbour = set().union(*(m.free_symbols for m in self._neighbour.values()))
+        if free & neighbour:
+            raise LawDefinitionError(
+                f"{self.name}: trigger(): the condition must not depend on what the agent receives "
+                f"({sorted(map(str, free & neighbour))})"
+            )
+        const_syms = {s for _, m, _ in self._constants for s in m}
+        allowed = {self.t, *now, *sent, *self._param_symbols, *const_syms}
+        extra = free - allowed
+        if extra:
+            raise LawDefinitionError(
+                f"{self.name}: trigger(): the condition may depend on the broadcast, the last value sent "
+                f"(broadcast_sent), t, the parameters and the constants only, not {sorted(map(str, extra))}"
+            )
+        if period is not None:
+            if isinstance(period, bool) or not isinstance(period, (int, float)) or not 0 < period < float("inf"):
+                raise LawDefinitionError(
+                    f"{self.name}: trigger(period=...): seconds between checks (> 0) or None, got {period!r}"
+                )
+            period = float(period)
+        self._trigger = Trigger(margin, str(condition), period, str(doc))
 
     def torque(self, u) -> None:
         """Declare the commanded body torque (3 components, N m), before the actuator's limit.
@@ -1750,6 +1939,7 @@ class LawBuilder:
             paper_theorems=self._paper_theorems,
             wheel_stages=tuple(wheel),
             wheel_torques=self._wheel_torques,
+            trigger=self._trigger,
         )
 
 
@@ -1784,7 +1974,7 @@ def law_variants(build, extra: Sequence[FunctionSpec] = ()) -> LawVariants:
     a, b = laws
     for what in (
         "name", "parameters", "states", "broadcast_name", "n_broadcast", "n_constants",
-        "discontinuity", "presets", "loop_rates", "paper_theorems", "n_wheels",
+        "discontinuity", "presets", "loop_rates", "paper_theorems", "n_wheels", "trigger",
     ):  # fmt: skip
         if getattr(a, what) != getattr(b, what):
             raise LawDefinitionError(f"{a.name}: the paper and exact variants differ in {what}")
