@@ -13,6 +13,8 @@ ones, and the open-loop commands move the wheels far from where the law alone pu
 
 from __future__ import annotations
 
+import pickle
+
 import control as ct
 import numpy as np
 import pytest
@@ -141,6 +143,8 @@ def test_the_formation_of_a_scenario_with_a_wheel_command_table_flies_the_table(
     sim = fsmctl.simulate(s)
     np.testing.assert_allclose(r.outputs[0:3].T, sim.sigma[:, 0], rtol=0, atol=1e-10)
     np.testing.assert_allclose(_wheel_speeds(loop, r), sim.wheel_speed[:, 0], rtol=0, atol=1e-8)
+    again = pickle.loads(pickle.dumps(loop))  # the table block pickles with the loop
+    np.testing.assert_array_equal(ct.input_output_response(again, T, 0, initial_state(s)).outputs, r.outputs)
     alone = fsmctl.simulate(s.replace(actuator={"wheel_commands": None}))
     assert np.abs(alone.wheel_speed[-1, 0] - sim.wheel_speed[-1, 0]).max() > 0.2
 

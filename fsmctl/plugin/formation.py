@@ -639,6 +639,11 @@ def _scenario_controllers(scenario: Scenario, phase_lead: float = 0.0) -> list[P
     ]
 
 
+def _stateless(t, x, u, params) -> np.ndarray:
+    """The (empty) state update of a block without states, a module function so that the block pickles."""
+    return np.zeros(0)
+
+
 def _table_row(time: np.ndarray, torque: np.ndarray, t, x, u, params) -> np.ndarray:
     """The wheel commands of the table ``(time, torque)`` held at ``t`` (:func:`sample_wheel_commands`)."""
     return sample_wheel_commands(time, torque, np.array([t], dtype=float))[0].ravel()
@@ -651,9 +656,10 @@ def _wheel_command_table(scenario: Scenario) -> ct.NonlinearIOSystem:
     act, n = scenario.actuator, scenario.n_agents
     table = act.wheel_commands
     return ct.nlsys(
-        None,
+        _stateless,
         functools.partial(_table_row, np.array(table.time, dtype=float), table.table(n)),
         inputs=0,
+        states=0,
         outputs=[f"sc{i}_u_wheels[{k}]" for i in range(1, n + 1) for k in range(act.n_wheels)],
         dt=scenario.simulation.control_period,
         name="wheel_commands",
