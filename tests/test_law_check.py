@@ -112,7 +112,8 @@ def test_fsm_report_formats(fsm_report):
     d = fsm_report.to_dict()
     json.dumps(d, allow_nan=False)
     assert d["law"] == "fsm" and d["ok"] is True
-    assert [c["id"] for c in d["checks"]] == list(law_check.CHECK_IDS)
+    wheel_free = [c for c in law_check.CHECK_IDS if c != "wheels-realise-torque"]  # fsm commands no wheels
+    assert [c["id"] for c in d["checks"]] == wheel_free
     assert all(c["kind"] in KINDS for c in d["checks"])
     text = fsm_report.to_text()
     assert text.count("\n") > 8 and "generated-equals-symbolic" in text and "FAILS" not in text
@@ -221,3 +222,41 @@ def test_symbolic_work_is_time_limited():
     finished, value = law_check._with_budget(lambda: time.sleep(30) or True, 0.5)
     assert (finished, value) == (False, None) and time.perf_counter() - t0 < 10
     assert law_check._with_budget(lambda: 1 + 1, 10) == (True, 2)
+
+
+# ----------------------------------------------------------------------------- wheels-realise-torque
+
+_WRONG_WHEELS = """\
+from fsmctl.symbolic.controller import saturate
+from fsmctl.symbolic.law import LawBuilder
+
+
+def law(error_model):
+    b = LawBuilder("wrong_wheels", error_model, doc="a PD law whose wheel commands are G^T u, not pinv(G) u")
+    e = b.error_state()
+    b.broadcast("sigma_e", e.sigma_e)
+    u = -2.0 * e.sigma_e - 8.0 * e.omega_e
+    b.torque(u)
+    w = b.reaction_wheels(4)
+    b.wheel_torques(-w.spin_axes.T * saturate(u, b.u_max))
+    return b.build()
+"""
+
+
+def test_the_wheel_commands_of_fsm_wheels_produce_its_body_torque():
+    """fsm_wheels: -G u_w = sat(u) to round-off while its null motion moves the commands by N m."""
+    c = check_law("fsm_wheels", checks=["wheels-realise-torque"], samples=40).check("wheels-realise-torque")
+    assert c.kind == "checked" and c.passed is True
+    assert c.data["max_relative_error"] < 1e-13 and c.data["largest_null_motion"] > 0.1
+    assert check_law("pid", checks=["wheels-realise-torque"], samples=5).checks == ()  # no wheels: not applicable
+
+
+def test_wheel_commands_that_do_not_produce_the_torque_fail(tmp_path):
+    """A planted law commanding u_w = -G^T u (the transpose, not the pseudo-inverse): G G^T u != u."""
+    script = tmp_path / "wrong_wheels.py"
+    script.write_text(_WRONG_WHEELS)
+    report = check_law(str(script), checks=["wheels-realise-torque"], samples=20)
+    c = report.check("wheels-realise-torque")
+    assert c.passed is False and not report.ok
+    assert c.data["max_relative_error"] > 0.1
+    assert "[FAILS] max ||-G u_w - u||_inf" in c.detail and "worst point" in c.detail

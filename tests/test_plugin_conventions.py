@@ -258,10 +258,10 @@ def test_an_unpickled_formation_is_consistent_and_flies_bit_for_bit():
     loop = fsmctl.formation(s, params={"c1": 0.9})
     loop.params["sc2_J"] = 1.1 * np.asarray(loop.params["sc2_J"])  # changed after construction
     twin = pickle.loads(pickle.dumps(loop))
-    x = initial_state(s)
+    x, u = initial_state(s), np.zeros(loop.ninputs)  # the wheels' open-loop inputs sc<i>_u_wheels: zero
     assert type(twin) is type(loop) and twin.law_parameters == loop.law_parameters
-    assert np.array_equal(twin.dynamics(0.0, x, []), loop.dynamics(0.0, x, []))
-    assert np.array_equal(twin.dynamics(0.0, x, [], params={"c1": 0.4}), loop.dynamics(0.0, x, [], params={"c1": 0.4}))
+    assert np.array_equal(twin.dynamics(0.0, x, u), loop.dynamics(0.0, x, u))
+    assert np.array_equal(twin.dynamics(0.0, x, u, params={"c1": 0.4}), loop.dynamics(0.0, x, u, params={"c1": 0.4}))
     T = [0.0, 0.02]
     options = {"solve_ivp_kwargs": {"max_step": 0.005}}
     r, r_twin = (ct.input_output_response(sys, T, 0, x, **options) for sys in (loop, twin))

@@ -167,8 +167,6 @@ def test_bad_wheel_commands_to_simulate_are_input_errors():
         fsmctl.simulate(single_spacecraft(t_final=0.5), wheel_commands=lambda t: np.zeros((1, 3)))
     with pytest.raises(ScenarioError, match="kind = 'reaction_wheels'"):
         fsmctl.ActuatorSettings(wheel_commands={"time": [0.0], "motor_torque": [[0.0, 0.0, 0.0]]})
-    with pytest.raises(ScenarioError, match="u_wheels"):
-        fsmctl.formation(table)
     with pytest.raises(ScenarioError, match="step_start"):
         fsmctl.reaction_wheel_spacecraft(np.diag([10.0, 10.0, 10.0]), {"speed_gate": "step_start"})
 

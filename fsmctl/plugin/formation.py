@@ -11,6 +11,7 @@ discrete-time loop of :func:`sampled_formation`, every block sampled at the cont
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Mapping, Sequence
 from typing import Any
@@ -19,6 +20,7 @@ import control as ct
 import numpy as np
 
 from fsmctl.errors import InputError
+from fsmctl.model.actuators import sample_wheel_commands
 from fsmctl.model.laws import LawError, parameter_matrix
 from fsmctl.model.scenario import Scenario, ScenarioError
 from fsmctl.plugin.arguments import _labels, _show, _system_name, _timebase
@@ -367,6 +369,15 @@ def formation(
     ``j`` (``s_j`` for the paper's law, eq 19) for each link ``i <- j`` of the topology.  Optional actuator and
     sensor blocks are inserted per agent and wired by their signal names.
 
+    Reaction wheels: a law that commands its wheels (:attr:`fsmctl.model.laws.LawCode.n_wheels`, e.g.
+    ``fsm_wheels``) drives ``sc<i>.u_wheels`` from ``ctrl<i>.u_wheels`` and reads the wheel speeds
+    ``sc<i>.Omega`` (``sc<i>.u_command`` is then zero: the compiled loop's rule); any other law's torque is the
+    plant's ``u_command``, split minimum-norm.  The inputs ``sc<i>_u_wheels[k]`` of the formation are open-loop
+    per-wheel motor torques added to the law's before the torque limit, as :func:`fsmctl.simulate`'s
+    ``wheel_commands`` (zero: none).  A scenario's table ``[actuator.wheel_commands]`` (it needs
+    ``control_period > 0``) is the block ``wheel_commands`` of the sampled loop, held at the control instants as
+    :func:`fsmctl.simulate` holds it; the inputs add to it.
+
     Parameters
     ----------
     scenario : Scenario
@@ -405,8 +416,9 @@ def formation(
     Returns
     -------
     FormationSystem
-        No inputs (plot a response through :func:`fsmctl.formation_response`: python-control's own ``plot()``
-        asks for inputs). States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``
+        No inputs without reaction wheels (plot a response through :func:`fsmctl.formation_response`:
+        python-control's own ``plot()`` asks for inputs); with them, the open-loop wheel commands
+        ``sc<i>_u_wheels[k]`` (N m, Basilisk's ``motorTorque`` sign). States ``reference_q_d[0..3]``, then per agent ``sc<i>_q[0..3]``, ``sc<i>_omega[0..2]``
         (and the wheel speeds), then the controllers' law states ``ctrl<i>_<state>[k]`` if the law has any
         (:func:`initial_state` builds all of these from the scenario, :func:`mrp_state` maps them back to MRPs),
         then the states of the actuator and sensor blocks (pass ``[initial_state(s), x_blocks]``, or
@@ -422,7 +434,7 @@ def formation(
     ------
     fsmctl.ScenarioError
         ``scenario`` not a :class:`fsmctl.Scenario`, or a sampled one with imperfect links or blocks; an actuator or sensor
-        block whose signals do not fit (a missing ``tau_command``/``tau``/``*_measured`` signal, an input that
+        block whose signals do not fit (or any actuator block with a law that commands its wheels) (a missing ``tau_command``/``tau``/``*_measured`` signal, an input that
         is no plant output, the wrong number of components, two sensors measuring the same signal), a
         discrete-time block, or a sequence whose length is not the number of agents.
 
@@ -457,11 +469,6 @@ def formation(
     name = _system_name(name, "formation")
     if name is None:
         raise ScenarioError("formation: name must be a non-empty string without '.', got None")
-    if scenario.actuator.enabled and scenario.actuator.wheel_commands is not None:
-        raise ScenarioError(
-            "formation: actuator.wheel_commands (an open-loop table) is flown by fsmctl.simulate; in python-control "
-            "feed the wheel plants' u_wheels inputs (fsmctl.plugin.hardware.reaction_wheel_spacecraft)"
-        )
     if scenario.simulation.control_period > 0:
         if actuators is not None or sensors is not None:
             raise ScenarioError(
@@ -479,6 +486,12 @@ def formation(
     n = scenario.n_agents
     law = scenario.law
     wheels = scenario.actuator.enabled
+    law_wheels = wheels and law.n_wheels > 0  # pcwheels: the law drives sc<i>.u_wheels, reads sc<i>.Omega
+    if law_wheels and actuators is not None:
+        raise ScenarioError(
+            f"formation: actuators: the law {law.name} commands its reaction wheels (sc<i>.u_wheels), not a body "
+            "torque: an actuator block between its torque and the plant would not act"
+        )
     act_blocks = _agent_blocks(actuators, "actuators", scenario)
     sensor_blocks = _agent_blocks(sensors, "sensors", scenario)
     controller_list = _scenario_controllers(scenario)
@@ -507,7 +520,9 @@ def formation(
             [f"ctrl{i}.omega_d", "reference.omega_d"],
             [f"ctrl{i}.omega_d_dot", "reference.omega_d_dot"],
         ]
-        if act_blocks[i - 1]:
+        if law_wheels:  # the engine's rule: the law's wheel commands, the minimum-norm split of no torque
+            connections += [[f"sc{i}.u_wheels", f"ctrl{i}.u_wheels"], [f"ctrl{i}.Omega", f"sc{i}.Omega"]]
+        elif act_blocks[i - 1]:
             b, conn, ign = _wire_actuator(
                 i, act_blocks[i - 1][0], plant, torque_input, f"formation: actuators: agent {i}"
             )
@@ -534,18 +549,28 @@ def formation(
     # the blocks' states last, so that [initial_state(scenario), x_blocks] is the initial state
     systems = [reference_generator(scenario.reference.omega, normalization_gain=normalization_gain, name="reference")]
     ignored: dict[str, list[str]] = {}
+    inplist, inputs = [], []
     if wheels:  # the wheel plants' extra signals (d: no external torque input; wheel speeds, momentum, torques)
-        ignored["ignore_inputs"] = [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in ("d", "u_wheels")]
-        ignored_outputs += [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in ("Omega", "h_wheels", "wheel_torque")]
+        unused_in = ("d", "u_command") if law_wheels else ("d",)
+        ignored["ignore_inputs"] = [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in unused_in]
+        unused_out = ("h_wheels", "wheel_torque") if law_wheels else ("Omega", "h_wheels", "wheel_torque")
+        ignored_outputs += [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in unused_out]
+        if law_wheels:
+            ignored_outputs += [f"ctrl{i}.tau" for i in range(1, n + 1)]
+        # pcwheels: open-loop per-wheel commands, added to the law's (the engine's wheel_commands)
+        nw = scenario.actuator.n_wheels
+        inplist = [f"sc{i}.u_wheels[{k}]" for i in range(1, n + 1) for k in range(nw)]
+        inputs = [f"sc{i}_u_wheels[{k}]" for i in range(1, n + 1) for k in range(nw)]
     if ignored_outputs:
         ignored["ignore_outputs"] = ignored_outputs
     loop = ct.interconnect(
         systems + plants + controllers + blocks,
         connections=connections,
+        inplist=inplist,
         outlist=outlist,
         outputs=outputs,
         name=name,
-        inputs=[],
+        inputs=inputs,
         **ignored,
     )
     return _as_formation(loop, scenario, name, params)
@@ -598,6 +623,7 @@ def _scenario_controllers(scenario: Scenario, phase_lead: float = 0.0) -> list[P
         rows = parameter_matrix(law, scenario)
     except LawError as exc:
         raise ScenarioError(str(exc)) from None
+    act = scenario.actuator if scenario.actuator.enabled and law.n_wheels else None  # the law's wheels
     return [
         law_controller(
             law,
@@ -607,9 +633,37 @@ def _scenario_controllers(scenario: Scenario, phase_lead: float = 0.0) -> list[P
             error_model=c.error_model,
             neighbours=_agent_neighbours(scenario, i, phase_lead),
             name=f"ctrl{i + 1}",
+            actuator=act,
         )
         for i, agent in enumerate(scenario.agents)
     ]
+
+
+def _stateless(t, x, u, params) -> np.ndarray:
+    """The (empty) state update of a block without states, a module function so that the block pickles."""
+    return np.zeros(0)
+
+
+def _table_row(time: np.ndarray, torque: np.ndarray, t, x, u, params) -> np.ndarray:
+    """The wheel commands of the table ``(time, torque)`` held at ``t`` (:func:`sample_wheel_commands`)."""
+    return sample_wheel_commands(time, torque, np.array([t], dtype=float))[0].ravel()
+
+
+def _wheel_command_table(scenario: Scenario) -> ct.NonlinearIOSystem:
+    """The scenario's open-loop table ``actuator.wheel_commands`` as the discrete-time block ``wheel_commands``
+    (``dt = control_period``, no inputs): its outputs ``sc<i>_u_wheels[k]`` at the instant ``t_q`` are the table's
+    row held at ``t_q``, the commands :func:`fsmctl.simulate` adds at that instant (zero before the first time)."""
+    act, n = scenario.actuator, scenario.n_agents
+    table = act.wheel_commands
+    return ct.nlsys(
+        _stateless,
+        functools.partial(_table_row, np.array(table.time, dtype=float), table.table(n)),
+        inputs=0,
+        states=0,
+        outputs=[f"sc{i}_u_wheels[{k}]" for i in range(1, n + 1) for k in range(act.n_wheels)],
+        dt=scenario.simulation.control_period,
+        name="wheel_commands",
+    )
 
 
 def _flat_signals(syslist: Sequence[ct.InputOutputSystem], attr: str) -> list[str]:
@@ -684,7 +738,9 @@ def sampled_formation(
     scenario's star tracker and rate gyro (``[sensors]``) are :func:`fsmctl.plugin.hardware.star_tracker` and
     :func:`~fsmctl.plugin.hardware.rate_gyro` with ``dt = T``, drawn from ``simulation.seed`` as
     :func:`fsmctl.simulate` draws them.  Signals, states, parameters and their names are those of the
-    continuous-time :func:`fsmctl.formation` (states ``[initial_state(scenario), ...]``).
+    continuous-time :func:`fsmctl.formation` (states ``[initial_state(scenario), ...]``; with reaction wheels the
+    inputs ``sc<i>_u_wheels[k]``, held over each period, and the scenario's ``[actuator.wheel_commands]`` table
+    as the block ``wheel_commands``).
 
     Parameters
     ----------
@@ -741,7 +797,12 @@ def sampled_formation(
     gain = DEFAULT_NORMALIZATION_GAIN if normalization_gain is None else normalization_gain
     # the continuous-time loop gives the blocks and their wiring (one source of both); each block is then
     # replaced by its discrete-time twin, with the same name and signals, and the wiring is made again
-    continuous = scenario.replace(simulation={"control_period": 0.0}, sensors={"star_tracker": None, "gyro": None})
+    wheel_table = scenario.actuator.wheel_commands if scenario.actuator.enabled else None
+    continuous = scenario.replace(
+        simulation={"control_period": 0.0},
+        sensors={"star_tracker": None, "gyro": None},
+        **({"actuator": {"wheel_commands": None}} if wheel_table is not None else {}),
+    )
     loop = formation(continuous, sensors=_scenario_sensors(scenario), normalization_gain=gain, name=name)
     syslist = [_sampled_subsystem(sys, scenario, T, h) for sys in loop.syslist]
     inputs, outputs = _flat_signals(loop.syslist, "input_labels"), _flat_signals(loop.syslist, "output_labels")
@@ -750,14 +811,26 @@ def sampled_formation(
         for r in range(len(inputs))
         if loop.connect_map[r].any()
     ]
+    if wheel_table is not None:  # pcwheels: the scenario's open-loop table, a block feeding sc<i>.u_wheels
+        table = _wheel_command_table(scenario)
+        syslist.append(table)
+        for label in table.output_labels:
+            plant, k = label.split("_u_wheels")
+            target = next((c for c in connections if c[0] == f"{plant}.u_wheels{k}"), None)
+            if target is None:
+                connections.append([f"{plant}.u_wheels{k}", f"wheel_commands.{label}"])
+            else:
+                target.append(f"wheel_commands.{label}")
+    inplist = [[inputs[r] for r in np.flatnonzero(col)] for col in loop.input_map.T]
     stacked = outputs + inputs  # output_map reads the stacked subsystem outputs, then inputs
     outlist = [stacked[int(np.flatnonzero(row)[0])] for row in loop.output_map]
     sampled = ct.interconnect(
         syslist,
         connections=connections,
+        inplist=inplist,
         outlist=outlist,
         outputs=list(loop.output_labels),
-        inputs=[],
+        inputs=list(loop.input_labels),
         dt=T,
         name=name,
         check_unused=False,

@@ -22,6 +22,12 @@ The checks:
    (:meth:`fsmctl.symbolic.law.Law.expanded`, evaluated by ``sympy.lambdify``) at seeded random inputs,
    excluding points within ``1e-6`` of a switching surface (a ``sign`` argument or an inequality of a
    ``Piecewise``); pass at a relative error of ``1e-9``.
+   For a law that commands its reaction wheels (:meth:`fsmctl.symbolic.law.LawBuilder.wheel_torques`) also
+   ``wheels-realise-torque`` (checked): at seeded random inputs, random spin axes (``N`` unit columns spanning the
+   body), wheel speeds and spin inertias, the generated ``law_wheels_<model>`` commands ``u_w`` produce on the
+   body the law's applied (limited) torque ``u = sat(u_commanded, u_max)`` of ``law_control_<model>``:
+   ``||-G u_w - u||_inf <= 1e-9 max(||u||_inf, ||u_w||_inf)`` (null motion ``G v = 0`` adds no body torque, so
+   a law such as ``fsm_wheels`` meets it to round-off); before the wheels' own limits, which the engine applies.
 2. ``closed-loop`` (derived): the isolated agent in error coordinates (``J = J0``, no disturbance, no
    neighbours, the reference at rest so ``sigma_e = sigma``, ``omega_e = omega`` on the shadow set):
    ``sigma_dot = G(sigma) omega``, ``omega_dot = J0^-1 (u - omega x J0 omega)``, ``z_dot``;
@@ -61,7 +67,7 @@ import sympy as sp
 
 from fsmctl.model.generated_paths import builtin_law_scripts
 from fsmctl.model.laws import LawCode, LawError, builtin_laws, resolve_law
-from fsmctl.symbolic.law import Law, LawVariants, contract_names
+from fsmctl.symbolic.law import Law, LawVariants, contract_names, wheels_function_name
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_dot, mrp_G_inverse, skew
 
 __all__ = [
@@ -77,7 +83,13 @@ CHECKED, DERIVED, PROVED, EVIDENCE, FAILS, NOT_DECLARED = (
     "checked", "derived", "proved", "evidence", "fails", "not declared"
 )  # fmt: skip
 KINDS: tuple[str, ...] = (CHECKED, DERIVED, PROVED, EVIDENCE, FAILS, NOT_DECLARED)
-CHECK_IDS: tuple[str, ...] = ("generated-equals-symbolic", "closed-loop", "closed-loop-eq20", "lyapunov")
+CHECK_IDS: tuple[str, ...] = (
+    "generated-equals-symbolic",
+    "wheels-realise-torque",
+    "closed-loop",
+    "closed-loop-eq20",
+    "lyapunov",
+)
 
 TOLERANCE = 1e-9
 """relative error at which the generated code counts as equal to the symbolic law"""
@@ -827,6 +839,86 @@ def _check_generated(law: Law, code: LawCode, rng: np.random.Generator, samples:
     )  # fmt: skip
 
 
+WHEEL_SPEED_BOUND = 300.0
+"""|Omega_k| (rad/s) of the wheel speeds the wheel check samples"""
+SPIN_INERTIA_RANGE = (0.01, 0.2)
+"""spin inertias (kg m^2) the wheel check samples"""
+
+
+def _spin_axes(rng: np.random.Generator, n_wheels: int) -> np.ndarray:
+    """Random unit spin axes (3 x N) that span the body well (smallest singular value >= 0.3)."""
+    while True:
+        G = rng.normal(size=(3, n_wheels))
+        G /= np.linalg.norm(G, axis=0)
+        if np.linalg.svd(G, compute_uv=False)[-1] >= 0.3:
+            return G
+
+
+def _check_wheels(law: Law, code: LawCode, rng: np.random.Generator, samples: int, seed: int) -> LawCheck:
+    """``-G u_w = u`` at sampled points: the law's wheel commands produce its applied body torque."""
+    model = law.error_model.value
+    name = wheels_function_name(law.error_model)
+    statement = (
+        f"the wheel commands u_w of {name} produce on the body the law's applied torque u of "
+        f"law_control_{model}: -G u_w = sat(u_commanded, u_max)"
+    )
+    n = law.n_wheels
+    if code.n_wheels != n:
+        return LawCheck(
+            "wheels-realise-torque", CHECKED, statement,
+            f"the generated code commands {code.n_wheels} wheels, the law {n} (derive it again)", passed=False,
+        )  # fmt: skip
+    local_name, control_name = contract_names(law.error_model)
+    f_const, f_local, f_control = code.casadi("law_constants"), code.casadi(local_name), code.casadi(control_name)
+    f_wheels = code.casadi(name)
+    x = _sample_inputs(law, rng, samples)
+    a = x.arrays
+    errors = np.empty(samples)
+    largest_null = 0.0
+    for i in range(samples):
+        G = _spin_axes(rng, n)
+        speed = rng.uniform(-WHEEL_SPEED_BOUND, WHEEL_SPEED_BOUND, size=n)
+        spin = rng.uniform(*SPIN_INERTIA_RANGE, size=n)
+        agent = [a["t"][i], a["sigma"][i], a["omega"][i], a["z"][i], a["sigma_d"][i], a["omega_d"][i],
+                 a["omega_d_dot"][i], a["J0"][i], a["params"][i]]  # fmt: skip
+        (constants,) = _as_outputs(f_const(a["params"][i]), 1)
+        _, cache = _as_outputs(f_local(*agent, constants), 2)
+        neighbours = [a["k_sum"][i], a["received"][i], a["k_received_sum"][i], a["u_max"][i]]
+        u = _as_outputs(f_control(*agent, constants, cache, *neighbours), 3)[0]
+        (u_w,) = _as_outputs(f_wheels(*agent, constants, cache, *neighbours, G, speed, spin), 1)
+        scale = max(np.abs(u).max(), np.abs(u_w).max(), 1e-12)
+        errors[i] = np.abs(-G @ u_w - u).max() / scale
+        minimum_norm = -np.linalg.pinv(G) @ u
+        largest_null = max(largest_null, float(np.abs(u_w - minimum_norm).max()))
+    errors = np.where(np.isfinite(errors), errors, np.inf)
+    worst = int(np.argmax(errors))
+    max_err = float(errors[worst])
+    passed = bool(max_err <= TOLERANCE)
+    lines = [
+        f"{samples} random points (seed {seed}); region: {REGION_TEXT}; spin axes: {n} random unit vectors spanning "
+        f"the body (smallest singular value >= 0.3), wheel speeds |Omega_k| <= {WHEEL_SPEED_BOUND:g} rad/s, spin "
+        f"inertias in [{SPIN_INERTIA_RANGE[0]:g}, {SPIN_INERTIA_RANGE[1]:g}] kg m^2",
+        "u: the applied torque law_control returns (the law's torque limited by u_max, what an ideal actuator "
+        f"applies); u_w: {name}; the wheels' own limits are the engine's, after",
+        f"largest departure of u_w from the minimum-norm -pinv(G) u (null motion, or a wrong command): "
+        f"{largest_null:.3e} N m",
+        f"[{'ok' if passed else 'FAILS'}] max ||-G u_w - u||_inf / max(||u||_inf, ||u_w||_inf) = {max_err:.3e} "
+        f"<= {TOLERANCE:g}",
+    ]
+    data = {"max_relative_error": max_err, "tolerance": TOLERANCE, "points": samples, "seed": seed,
+            "largest_null_motion": largest_null}  # fmt: skip
+    if not passed:
+        point = {key: a[key][worst].tolist() for key in ("sigma", "omega", "z", "sigma_d", "omega_d", "params")}
+        lines.append(f"worst point: {point}")
+        data["worst_point"] = point
+    return LawCheck(
+        "wheels-realise-torque", CHECKED, statement, "\n".join(lines),
+        latex=rf"\max_i \frac{{\|-G u_w(x_i) - u(x_i)\|_\infty}}{{\max(\|u\|_\infty, \|u_w\|_\infty)}} = "
+        rf"{_latex_float(max_err)} \le 10^{{-9}}",
+        passed=passed, data=data,
+    )  # fmt: skip
+
+
 def _short(expr, limit: int = 120) -> str:
     text = str(expr)
     return text if len(text) <= limit else text[: limit - 3] + "..."
@@ -1381,6 +1473,10 @@ def check_law(
         code = resolve_law(spec)
         source = code.source
         out.append(timed(_check_generated, law, code, np.random.default_rng([seed, 1]), samples, seed))
+    if "wheels-realise-torque" in wanted and law.n_wheels:
+        code = resolve_law(spec)
+        source = source or code.source
+        out.append(timed(_check_wheels, law, code, np.random.default_rng([seed, 4]), samples, seed))
     cl = None
     if wanted & {"closed-loop", "closed-loop-eq20", "lyapunov"}:
         t0 = time.perf_counter()
