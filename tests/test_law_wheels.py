@@ -120,11 +120,15 @@ def test_the_wheel_function_evaluates_the_declared_commands():
 
 
 def test_laws_without_wheel_outputs_keep_format_1_and_compile_as_before():
+    """Format 2 and a flag exactly for the laws that need them (fsm_wheels: wheels; fsm_event: a trigger)."""
     for name, law in builtin_laws().items():
         meta = json.loads((law.folder / "law.json").read_text())
         if name == "fsm_wheels":
             assert meta["format"] == 2 and meta["wheels"] == {"count": 4, "function": "law_wheels", "unit": "N m"}
             assert law.n_wheels == 4 and law_defines(law.folder) == ("-DFSM_LAW_WHEELS",)
+        elif name == "fsm_event":
+            assert meta["format"] == 2 and "wheels" not in meta and law.n_wheels == 0
+            assert law_defines(law.folder) == ("-DFSM_LAW_TRIGGER",)
         else:
             assert meta["format"] == 1 and "wheels" not in meta and law.n_wheels == 0
             assert law_defines(law.folder) == ()

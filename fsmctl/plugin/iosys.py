@@ -64,11 +64,7 @@ import casadi as ca
 import numpy as np
 
 from fsmctl.model.coupling import aggregate
-from fsmctl.model.laws import (
-    LawCode,
-    LawError,
-    resolve_law,
-)
+from fsmctl.model.laws import LawCode, LawError, resolve_law
 from fsmctl.model.scenario import ControllerSettings, Scenario, ScenarioError, Sinusoid
 from fsmctl.model.topology import Schedule, Topology, schedule_weight
 from fsmctl.plugin.arguments import (
@@ -86,9 +82,7 @@ from fsmctl.plugin.arguments import (
     _torque_limit,
     _twelve,
 )
-from fsmctl.plugin.jacobians import (
-    _Generated,
-)
+from fsmctl.plugin.jacobians import _Generated
 from fsmctl.plugin.parameters import (
     InvalidStateError,
     ParameterKeyError,
