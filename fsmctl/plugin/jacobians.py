@@ -4,7 +4,7 @@ Every fsmctl system evaluates generated CasADi functions; its linearization (:fu
 ``sys.linearize``) differentiates the same graphs, rebuilt once per system from the serialized ``SX`` functions the
 C code was generated from (:func:`fsmctl.model.generated_code.model_sx_function`,
 :func:`~fsmctl.model.generated_code.law_sx_function`), by CasADi's automatic differentiation: no finite-difference
-step.  An interconnection (:class:`fsmctl.plugin.formation.FormationSystem`) composes its subsystems' Jacobians through
+step.  An interconnection (:class:`fsmctl.plugin.formation_system.FormationSystem`) composes its subsystems' Jacobians through
 its connection maps: linear blocks by their matrices, fsmctl systems exactly, any other nonlinear block by
 python-control's finite differences (``eps``).
 

@@ -1,7 +1,7 @@
 """python-control plug-in: exact linearizations for control design.
 
 :func:`linearize` is :func:`control.linearize` with exact Jacobians also for a plain :func:`control.interconnect`
-that holds fsmctl systems (every fsmctl system and :class:`fsmctl.plugin.formation.FormationSystem` is exact under
+that holds fsmctl systems (every fsmctl system and :class:`fsmctl.plugin.formation_system.FormationSystem` is exact under
 ``control.linearize`` itself, :mod:`fsmctl.plugin.jacobians`).  :func:`mrp_linearization` gives the six-state
 linearization in the MRP and the body rate, for control design, and :func:`mrp_estimator` the static system that
 closes such a design around the quaternion plant with :func:`control.create_statefbk_iosystem`.
@@ -17,7 +17,7 @@ import numpy as np
 
 from fsmctl.model.scenario import ScenarioError
 from fsmctl.plugin.arguments import _numbers
-from fsmctl.plugin.formation import FormationSystem, _linearize_interconnection
+from fsmctl.plugin.formation_system import FormationSystem, _linearize_interconnection
 from fsmctl.plugin.jacobians import Kink, NonDifferentiableError
 
 __all__ = ["linearize", "mrp_linearization", "mrp_estimator"]

@@ -17,7 +17,7 @@ import numpy as np
 
 from fsmctl.model.laws import LawError, parameter_matrix
 from fsmctl.model.scenario import Scenario, ScenarioError
-from fsmctl.plugin.formation import FormationSystem
+from fsmctl.plugin.formation_system import FormationSystem
 
 __all__ = ["solver_options"]
 
