@@ -37,7 +37,7 @@ def law(error_model):
     return b.build()
 """
 
-UNITS = ("_s", "_deg", "_N_m", "_N_m_s", "_N_m_per_s")
+UNITS = ("_s", "_deg", "_N_m", "_N_m_s", "_N_m_per_s", "_count")
 
 
 @pytest.fixture(scope="module")

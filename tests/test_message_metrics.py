@@ -40,9 +40,9 @@ def test_compare_counts_periodic_broadcasting_and_a_silent_trigger():
     ]
     cmp = compare_laws(_case1(control_period=PERIOD), runs)
     periodic, silent = cmp.row("periodic"), cmp.row("silent")
-    assert periodic["messages_sent"] == N_AGENTS * INSTANTS == 126
+    assert periodic["messages_count"] == N_AGENTS * INSTANTS == 126
     assert periodic["messages_per_agent_per_s"] == pytest.approx(INSTANTS / HORIZON, rel=1e-12)
-    assert silent["messages_sent"] == N_AGENTS  # each agent's first message at t0, then never again
+    assert silent["messages_count"] == N_AGENTS  # each agent's first message at t0, then never again
     assert silent["messages_per_agent_per_s"] == pytest.approx(1 / HORIZON, rel=1e-12)
     assert "messages sent, all agents" in cmp.to_text()
 
@@ -50,14 +50,14 @@ def test_compare_counts_periodic_broadcasting_and_a_silent_trigger():
 def test_compare_says_not_applicable_for_continuous_control(tmp_path):
     cmp = compare_laws(_case1(control_period=0.0), ["fsm"])
     row = cmp.row("fsm")
-    assert math.isnan(row["messages_sent"]) and math.isnan(row["messages_per_agent_per_s"])
+    assert math.isnan(row["messages_count"]) and math.isnan(row["messages_per_agent_per_s"])
     text = cmp.to_text()
     line = next(ln for ln in text.splitlines() if "messages sent, all agents" in ln)
     assert "n/a (continuous)" in line and " 0 " not in line, line
     cmp.to_csv(tmp_path / "c.csv")
     header, values = (tmp_path / "c.csv").read_text().splitlines()[:2]
     cells = dict(zip(header.split(","), values.split(","), strict=True))
-    assert cells["messages_sent"] == "nan"
+    assert cells["messages_count"] == "nan"
 
 
 def test_montecarlo_stores_the_counts_per_run(tmp_path):
@@ -65,17 +65,17 @@ def test_montecarlo_stores_the_counts_per_run(tmp_path):
     out = mc.run_campaign(settings, tmp_path / "mc", workers=1, progress=False, figures=False)
     ds = out.dataset
     assert list(ds.status.values) == ["ok", "ok"]
-    np.testing.assert_array_equal(ds.messages_sent.values, [N_AGENTS * 6, N_AGENTS * 6])  # t = 0, 0.1, ..., 0.5
+    np.testing.assert_array_equal(ds.messages_count.values, [N_AGENTS * 6, N_AGENTS * 6])  # t = 0, 0.1, ..., 0.5
     assert ds.messages_per_agent_per_s.attrs["units"] == "1/s"
     summary = json.loads((tmp_path / "mc" / "summary.json").read_text())
-    assert summary["statistics"]["messages_sent"]["median"] == N_AGENTS * 6 and "messages" not in summary
+    assert summary["statistics"]["messages_count"]["median"] == N_AGENTS * 6 and "messages" not in summary
 
 
 def test_montecarlo_says_not_applicable_for_continuous_control(tmp_path):
     settings = CampaignSettings(runs=2, seed=3, t_final=0.3, output_interval=0.1, control_period=0.0)
     mc.run_campaign(settings, tmp_path / "mc", workers=1, progress=False, figures=False)
     summary = json.loads((tmp_path / "mc" / "summary.json").read_text())
-    assert summary["statistics"]["messages_sent"] == {"finite": 0, "nan": 2}
+    assert summary["statistics"]["messages_count"] == {"finite": 0, "nan": 2}
     assert summary["messages"].startswith("not applicable: continuous control")
 
 

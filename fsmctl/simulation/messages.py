@@ -47,7 +47,7 @@ MESSAGE_FIELDS: tuple[str, ...] = (
 
 
 MESSAGE_METRICS: tuple[tuple[str, str, str], ...] = (
-    ("messages_sent", "messages sent, all agents (nan: continuous control, no messages)", "1"),
+    ("messages_count", "messages sent, all agents (nan: continuous control, no messages)", "1"),
     ("messages_per_agent_per_s", "messages per agent per second (nan: continuous control)", "1/s"),
 )
 """``(name, description, unit)`` of the message metrics of a run (:func:`message_metrics`): the ``compare``
@@ -73,7 +73,7 @@ def message_metrics(result: Any, rows: int | None = None) -> dict[str, float]:
     Returns
     -------
     dict
-        :data:`MESSAGE_METRICS` names -> float: ``messages_sent`` (count) and ``messages_per_agent_per_s`` (1/s,
+        :data:`MESSAGE_METRICS` names -> float: ``messages_count`` (messages sent) and ``messages_per_agent_per_s`` (1/s,
         NaN when the samples span no time).  Both NaN for continuous control (no control period: no message is a
         discrete event, so there is nothing to count; never 0).
 
@@ -84,7 +84,7 @@ def message_metrics(result: Any, rows: int | None = None) -> dict[str, float]:
     >>> import fsmctl
     >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 2.0, "control_period": 0.1})
     >>> message_metrics(fsmctl.simulate(s))
-    {'messages_sent': 126.0, 'messages_per_agent_per_s': 10.5}
+    {'messages_count': 126.0, 'messages_per_agent_per_s': 10.5}
     """
     nan = {name: float("nan") for name, _, _ in MESSAGE_METRICS}
     events = getattr(result, "events_per_output", None)
@@ -95,7 +95,7 @@ def message_metrics(result: Any, rows: int | None = None) -> dict[str, float]:
     sent = float(np.sum(np.asarray(events)[:w]))
     span = float(t[-1] - t[0]) if t.size else 0.0
     n = np.asarray(events).shape[1]
-    return {"messages_sent": sent, "messages_per_agent_per_s": sent / (n * span) if span > 0 else float("nan")}
+    return {"messages_count": sent, "messages_per_agent_per_s": sent / (n * span) if span > 0 else float("nan")}
 
 
 def mean_inter_event(count: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:

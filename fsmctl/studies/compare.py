@@ -31,7 +31,7 @@ column                             meaning
 ``chattering_N_m``                 total variation of u: ``sum_i sum_steps |u_i(t_k) - u_i(t_k-1)|_1``
 ``chattering_N_m_per_s``           the same per second of simulated time
 ``saturated_time_max_s``, ``_mean``  time with a torque component at the limit: max and mean over agents
-``messages_sent``                  messages sent by all agents (:func:`fsmctl.simulation.message_metrics`:
+``messages_count``                 messages sent by all agents (:func:`fsmctl.simulation.message_metrics`:
                                    periodic broadcasting one per agent and control instant, an
                                    event-triggered law as its trigger fired); NaN = continuous control
 ``messages_per_agent_per_s``       the same per agent and second of simulated time (NaN likewise)
@@ -569,7 +569,7 @@ class Comparison:
         _log_if_wide(ax_c, chat)
         ax_c.set_ylabel("total variation of u per second (N m/s)")
         ax_c.set_title("chattering", fontsize=9)
-        sent = np.array([r["messages_sent"] for r in self.table], dtype=float)
+        sent = np.array([r["messages_count"] for r in self.table], dtype=float)
         ax_m.bar(pos, np.where(np.isfinite(sent), sent, 0.0), color=colors)
         for k in np.flatnonzero(~np.isfinite(sent)):
             ax_m.text(pos[k], 0.0, "n/a", ha="center", va="bottom", fontsize=8)

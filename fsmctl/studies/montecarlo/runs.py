@@ -40,7 +40,7 @@ SCALARS = (
     "sensor_noise_scale",
     "wheel_speed_peak_rad_per_s",
     "wheel_momentum_peak_N_m_s",
-    "messages_sent",
+    "messages_count",
     "messages_per_agent_per_s",
     "wall_time_s",
     "cpu_time_s",

@@ -487,7 +487,7 @@ def summarize(ds, settings: CampaignSettings) -> dict:
             )  # fmt: skip
         stats[k] = entry
     out["statistics"] = stats
-    if "messages_sent" in stats and stats["messages_sent"]["finite"] == 0:
+    if "messages_count" in stats and stats["messages_count"]["finite"] == 0:
         out["messages"] = "not applicable: continuous control (no control period), no message is a discrete event"
     out["cpu_time_s_total"] = float(np.nansum(ds["cpu_time_s"].values))
     return out

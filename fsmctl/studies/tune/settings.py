@@ -53,7 +53,7 @@ def _messages(result: Any, w: int) -> float:
     """Messages sent by all agents over the first ``w`` output samples (:func:`fsmctl.simulation.message_metrics`)."""
     from fsmctl.simulation.messages import message_metrics
 
-    return message_metrics(result, w)["messages_sent"]
+    return message_metrics(result, w)["messages_count"]
 
 
 @dataclass(frozen=True)
@@ -125,7 +125,7 @@ OBJECTIVES: dict[str, Objective] = {
     "messages": Objective(
         "1",
         "messages sent by all agents (needs a control period)",
-        "messages_sent",
+        "messages_count",
         partial=_messages,
         needs_control_period=True,
     ),
