@@ -37,7 +37,7 @@ def law(error_model):
     return b.build()
 """
 
-UNITS = ("_s", "_deg", "_N_m", "_N_m_s", "_N_m_per_s")
+UNITS = ("_s", "_deg", "_N_m", "_N_m_s", "_N_m_per_s", "_count")
 
 
 @pytest.fixture(scope="module")
@@ -256,7 +256,7 @@ def test_saved_files(pair, tmp_path):
         tmp_path / "comparison.svg"
     ).stat().st_size > 10_000
     fig = pair.figure()
-    assert len(fig.axes) == 5 and fig.axes[0].get_yscale() == "log" and len(fig.axes[0].lines) == 4 + 3
+    assert len(fig.axes) == 6 and fig.axes[0].get_yscale() == "log" and len(fig.axes[0].lines) == 4 + 3
 
 
 @pytest.fixture

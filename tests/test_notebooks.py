@@ -68,6 +68,7 @@ MIN_FIGURES = {
     "05_robustness": 3,  # three pairs of parameters
     "06_your_own_law": 3,  # the law flown on Case 1 (error angles, its state); the comparison with and without the limit
     "07_paper_on_hardware": 3,  # the paper's law on the hardware, the laws compared, the noise-seed campaign
+    "08_event_triggered": 3,  # messages and inter-event times per agent, events over time, accuracy and the c0 sweep
 }
 
 
@@ -356,6 +357,20 @@ def _check_hardware(nb) -> list[str]:
     return problems
 
 
+def _check_event_triggered(nb) -> list[str]:
+    """08: periodic broadcasting at 10 Hz for 100 s sends one message per agent and instant, 6 x 1001 (hand count);
+    the event-triggered run sends fewer, at least one per agent (the first, at t0)."""
+    problems = []
+    out = _stdout(nb)
+    periodic = re.search(r"periodic \(fsm\): messages: (\d+) sent", out)
+    event = re.search(r"event-triggered \(fsm_event\): messages: (\d+) sent", out)
+    if periodic is None or int(periodic.group(1)) != 6 * (round(100.0 / 0.1) + 1):
+        problems.append(f"08: periodic broadcasting should print 6006 messages, got {periodic and periodic.group(1)}")
+    if event is None or not 6 <= int(event.group(1)) < 6006:
+        problems.append(f"08: the event-triggered run should send 6 to 6005 messages, got {event and event.group(1)}")
+    return problems
+
+
 CHECKS = {
     "01_derivation": _check_derivation,
     "02_proof_check": _check_proof_check,
@@ -364,6 +379,7 @@ CHECKS = {
     "05_robustness": lambda nb: [],
     "06_your_own_law": _check_own_law,
     "07_paper_on_hardware": _check_hardware,
+    "08_event_triggered": _check_event_triggered,
 }
 
 

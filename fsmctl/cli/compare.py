@@ -54,7 +54,7 @@ EPILOG_TEXT = """runs file (TOML), for variants of a law::
 metrics: settling times of AAEM (eq 42) and RAEM (eq 43) to each tolerance (first time after which the metric
 stays within it; "not settled" within the horizon), steady mean/max over the last window, peak applied and
 commanded torque component, RMS torque, effort sum_i int sum_k abs(u_ik) dt, chattering = total variation of u (engine, every
-step), saturated time, wall time."""
+step), saturated time, messages sent (all agents; per agent per second; n/a for continuous control), wall time."""
 
 
 def _tolerances(text: str) -> tuple[float, ...]:

@@ -19,7 +19,7 @@ _ATTRS = {
     "simulator": ["simulate", "simulate_many"],
     "result": ["SimulationResult"],
     "failures": ["SimulationError", "ZenoError", "StepSizeWarning", "DiscontinuousControlWarning"],
-    "messages": ["periodic_messages", "MESSAGE_FIELDS"],
+    "messages": ["periodic_messages", "MESSAGE_FIELDS", "message_metrics", "MESSAGE_METRICS"],
     "step_size": ["step_size_report"],
     "metrics": [
         "principal_angles",

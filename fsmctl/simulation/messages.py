@@ -26,7 +26,7 @@ that packet is lost (no message arrives before the first one: the link holds the
 from __future__ import annotations
 
 import ctypes
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -34,7 +34,7 @@ if TYPE_CHECKING:
     from fsmctl.model.problem import PackedProblem
     from fsmctl.model.scenario import Scenario
 
-__all__ = ["MESSAGE_FIELDS", "periodic_messages", "mean_inter_event"]
+__all__ = ["MESSAGE_FIELDS", "MESSAGE_METRICS", "periodic_messages", "mean_inter_event", "message_metrics"]
 
 MESSAGE_FIELDS: tuple[str, ...] = (
     "messages_sent",
@@ -44,6 +44,58 @@ MESSAGE_FIELDS: tuple[str, ...] = (
     "mean_inter_event_s",
 )
 """The names of the message fields of a result (and of a run's raw arrays)."""
+
+
+MESSAGE_METRICS: tuple[tuple[str, str, str], ...] = (
+    ("messages_count", "messages sent, all agents (nan: continuous control, no messages)", "1"),
+    ("messages_per_agent_per_s", "messages per agent per second (nan: continuous control)", "1/s"),
+)
+"""``(name, description, unit)`` of the message metrics of a run (:func:`message_metrics`): the ``compare``
+columns, the ``montecarlo`` per-run variables and the ``tune`` objective ``messages`` read them."""
+
+
+def message_metrics(result: Any, rows: int | None = None) -> dict[str, float]:
+    """The message metrics of a run: messages sent by all agents, and per agent per second of simulated time.
+
+    The one definition of "how many messages a run needs" (``fsmctl compare``, ``fsmctl montecarlo``, the ``tune``
+    objective ``messages``): the sum of :attr:`~fsmctl.simulation.SimulationResult.events_per_output` over the
+    first ``rows`` output samples (all: every message of the run, ``messages_sent.sum()``), and that divided by the
+    agents and the time those samples span.  Periodic broadcasting counts one message per agent and control instant
+    (:func:`periodic_messages`), an event-triggered law the messages its trigger sent.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run (or a run in progress: its first ``rows`` samples).
+    rows : int, optional
+        Count the messages sent up to output sample ``rows - 1``; default all.
+
+    Returns
+    -------
+    dict
+        :data:`MESSAGE_METRICS` names -> float: ``messages_count`` (messages sent) and ``messages_per_agent_per_s`` (1/s,
+        NaN when the samples span no time).  Both NaN for continuous control (no control period: no message is a
+        discrete event, so there is nothing to count; never 0).
+
+    Examples
+    --------
+    Periodic broadcasting at 10 Hz for 2 s: 21 control instants, 6 agents.
+
+    >>> import fsmctl
+    >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 2.0, "control_period": 0.1})
+    >>> message_metrics(fsmctl.simulate(s))
+    {'messages_count': 126.0, 'messages_per_agent_per_s': 10.5}
+    """
+    nan = {name: float("nan") for name, _, _ in MESSAGE_METRICS}
+    events = getattr(result, "events_per_output", None)
+    if events is None:
+        return nan
+    w = np.asarray(events).shape[0] if rows is None else int(rows)
+    t = np.asarray(result.time[:w], dtype=float)
+    sent = float(np.sum(np.asarray(events)[:w]))
+    span = float(t[-1] - t[0]) if t.size else 0.0
+    n = np.asarray(events).shape[1]
+    return {"messages_count": sent, "messages_per_agent_per_s": sent / (n * span) if span > 0 else float("nan")}
 
 
 def mean_inter_event(count: np.ndarray, first: np.ndarray, last: np.ndarray) -> np.ndarray:

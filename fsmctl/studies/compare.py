@@ -31,8 +31,14 @@ column                             meaning
 ``chattering_N_m``                 total variation of u: ``sum_i sum_steps |u_i(t_k) - u_i(t_k-1)|_1``
 ``chattering_N_m_per_s``           the same per second of simulated time
 ``saturated_time_max_s``, ``_mean``  time with a torque component at the limit: max and mean over agents
+``messages_count``                 messages sent by all agents (:func:`fsmctl.simulation.message_metrics`:
+                                   periodic broadcasting one per agent and control instant, an
+                                   event-triggered law as its trigger fired); NaN = continuous control
+``messages_per_agent_per_s``       the same per agent and second of simulated time (NaN likewise)
 ``wall_time_s``                    wall time of the simulation (the compiled loop)
 =================================  ========================================================================
+
+In the text and Markdown tables a message column of a run without a control period reads "n/a (continuous)".
 
 A run that fails (:class:`~fsmctl.simulation.simulator.SimulationError`: non-finite state, ...) keeps its row,
 with ``status = "failed: <reason>"`` and NaN metrics, so the other runs are still reported.
@@ -54,6 +60,7 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.policy import COMPARISON_TOLERANCES_DEG, TOLERANCE_DEG, default_steady_window, steady_window_text
+from fsmctl.simulation.messages import MESSAGE_METRICS, message_metrics
 from fsmctl.simulation.metrics import settling_time
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.compare_runs import LawRun, as_runs, run_scenario
@@ -71,6 +78,8 @@ __all__ = [
     "run_metrics",
     "metric_columns",
 ]
+
+_MESSAGE_COLUMNS = frozenset(name for name, _, _ in MESSAGE_METRICS)
 
 SERIES_POINTS = 2000
 """At most about this many samples of AAEM/RAEM per run are kept for the figure."""
@@ -120,6 +129,7 @@ def metric_columns(tolerances_deg: Sequence[float] = COMPARISON_TOLERANCES_DEG) 
         ("saturated_time_mean_s", "saturated time, mean", "s"),
         ("peak_wheel_momentum_N_m_s", "peak |wheel momentum| (nan: no wheels)", "N m s"),
         ("peak_wheel_speed_rad_per_s", "peak |wheel speed| (nan: no wheels)", "rad/s"),
+        *MESSAGE_METRICS,
         ("wall_time_s", "wall time", "s"),
     ]
     return cols
@@ -136,7 +146,8 @@ def run_metrics(
     Settling times, steady maxima, peak torques, saturated times, the total variation and the wall time come
     from :meth:`SimulationResult.summary <fsmctl.simulation.simulator.SimulationResult.summary>` (the engine's
     statistics); computed here are the steady means (over the same window), the RMS torque and the control
-    effort (trapezoid rule on the output samples).
+    effort (trapezoid rule on the output samples); the message counts are
+    :func:`fsmctl.simulation.message_metrics`'s.
 
     Parameters
     ----------
@@ -196,6 +207,7 @@ def run_metrics(
             "saturated_time_mean_s": float(sat.mean()),
             "peak_wheel_momentum_N_m_s": summary.get("wheel_momentum_peak_N_m_s", math.nan),
             "peak_wheel_speed_rad_per_s": summary.get("wheel_speed_peak_rad_per_s", math.nan),
+            **message_metrics(result),
             "wall_time_s": float(summary["wall_time_s"]),
         }
     )
@@ -412,6 +424,8 @@ class Comparison:
                     cells.append("not converged")
                 elif "_settling_" in col and r["status"] == "ok" and math.isnan(v):
                     cells.append(settled_text)
+                elif col in _MESSAGE_COLUMNS and r["status"] == "ok" and math.isnan(v):
+                    cells.append("n/a (continuous)")
                 else:
                     cells.append(_fmt(v, ".2f" if "_settling_" in col or col == "converged_at_s" else ".4g"))
             rows.append([desc, unit, *cells])
@@ -486,7 +500,8 @@ class Comparison:
 
     def figure(self) -> Figure:
         """AAEM (eq 42) and RAEM (eq 43) against time on log-y for every run, and bars of settling time (AAEM, per
-        tolerance; hatched at the horizon = not settled), peak applied torque (commanded: black tick) and chattering.
+        tolerance; hatched at the horizon = not settled), peak applied torque (commanded: black tick), chattering
+        and messages sent (a run without a control period is marked "n/a": continuous control sends none).
 
         Returns
         -------
@@ -498,17 +513,17 @@ class Comparison:
         >>> import fsmctl
         >>> s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "output_interval": 0.1})
         >>> len(compare_laws(s, ["fsm"]).figure().axes)
-        5
+        6
         """
         from matplotlib.figure import Figure
 
         from fsmctl.studies.figures import RUN_COLORS
 
         fig = Figure(figsize=(13, 7.5), layout="constrained")
-        gs = fig.add_gridspec(2, 6)
-        ax_a = fig.add_subplot(gs[0, :3])
-        ax_r = fig.add_subplot(gs[0, 3:], sharex=ax_a)
-        ax_s, ax_p, ax_c = (fig.add_subplot(gs[1, 2 * k : 2 * k + 2]) for k in range(3))
+        gs = fig.add_gridspec(2, 8)
+        ax_a = fig.add_subplot(gs[0, :4])
+        ax_r = fig.add_subplot(gs[0, 4:], sharex=ax_a)
+        ax_s, ax_p, ax_c, ax_m = (fig.add_subplot(gs[1, 2 * k : 2 * k + 2]) for k in range(4))
         colors = [RUN_COLORS[k % len(RUN_COLORS)] for k in range(len(self.table))]  # runs: never an agent's colour
         for row, color in zip(self.table, colors, strict=True):
             ser = self.series.get(row["label"])
@@ -554,9 +569,16 @@ class Comparison:
         _log_if_wide(ax_c, chat)
         ax_c.set_ylabel("total variation of u per second (N m/s)")
         ax_c.set_title("chattering", fontsize=9)
-        for ax in (ax_p, ax_c):
+        sent = np.array([r["messages_count"] for r in self.table], dtype=float)
+        ax_m.bar(pos, np.where(np.isfinite(sent), sent, 0.0), color=colors)
+        for k in np.flatnonzero(~np.isfinite(sent)):
+            ax_m.text(pos[k], 0.0, "n/a", ha="center", va="bottom", fontsize=8)
+        _log_if_wide(ax_m, sent)
+        ax_m.set_ylabel("messages sent, all agents")
+        ax_m.set_title("messages (n/a: continuous control)", fontsize=9)
+        for ax in (ax_p, ax_c, ax_m):
             ax.set_xticks(pos, labels, rotation=20 if n > 2 else 0, ha="right" if n > 2 else "center", fontsize=8)
-        for ax in (ax_s, ax_p, ax_c):
+        for ax in (ax_s, ax_p, ax_c, ax_m):
             ax.grid(True, axis="y", alpha=0.3)
         fig.suptitle(f"{self.scenario_label}: law comparison", fontsize=11)
         return fig

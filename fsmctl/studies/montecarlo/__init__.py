@@ -63,7 +63,10 @@ torques, saturation time, whether Theorem 1's topology conditions hold for the r
 (:func:`fsmctl.proofs.theorem1.analyze_topology`), whether the configured ``delta_i`` exceeds
 Theorem 2's requirement at the reference (``sigma_e = 0, omega_e = 0``, bound boxes of the
 disturbance and the reference; :func:`fsmctl.proofs.theorem2.delta_requirements`), whether it
-converged, and a status (``ok``, ``failed`` with the error, ``worker-died``).  The "final" values are
+converged, the messages its agents sent (``messages_count``, ``messages_per_agent_per_s``:
+:func:`fsmctl.simulation.message_metrics`, the same definition as ``fsmctl compare``'s columns; NaN for continuous
+control, and ``summary.json`` then says ``messages``: not applicable), and a status (``ok``, ``failed`` with the
+error, ``worker-died``).  The "final" values are
 those at ``t_final``: the campaign's output grid divides the horizon, and a run whose last sample is
 not at ``t_final`` is ``failed``, never ``ok``.
 

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from fsmctl.model.scenario import Agent, Scenario
+from fsmctl.simulation.messages import message_metrics
 from fsmctl.studies.montecarlo.sampling import sample_run_scenario, sampled_noise_scale
 from fsmctl.studies.montecarlo.settings import STATUS_FAILED, STATUS_OK, CampaignSettings, child_seed
 
@@ -39,6 +40,8 @@ SCALARS = (
     "sensor_noise_scale",
     "wheel_speed_peak_rad_per_s",
     "wheel_momentum_peak_N_m_s",
+    "messages_count",
+    "messages_per_agent_per_s",
     "wall_time_s",
     "cpu_time_s",
 )
@@ -181,6 +184,7 @@ def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.S
         n_links=float(len(scenario.topology.links)),
         **_hardware_record(scenario, sampled_noise_scale(settings, seed)),
         **{k: summary[k] for k in ("wheel_speed_peak_rad_per_s", "wheel_momentum_peak_N_m_s") if k in summary},
+        **message_metrics(result),  # NaN for continuous control
         converged=converged(np.asarray(result.time), aaem, raem, tol),  # the one definition (policy.CONVERGED_RULE)
         theorem1_holds=bool(t1.holds) and paper_law,
         theorem2_at_reference_holds=bool(t2 is not None and t2.ok),

@@ -66,7 +66,7 @@ def chunk_dataset(rows: list[tuple[int, str, str, dict]], n_agents: int, seed: i
     rows = sorted(rows, key=lambda r: r[0])
     run = np.array([r[0] for r in rows], dtype=np.int64)
     data: dict[str, Any] = {}
-    units = {"_N_m_s": "N m s", "_s": "s", "_deg": "deg", "_N_m": "N m", "_rad_per_s": "rad/s"}
+    units = {"_N_m_s": "N m s", "_rad_per_s": "rad/s", "_per_s": "1/s", "_s": "s", "_deg": "deg", "_N_m": "N m"}
 
     def unit(name: str) -> str:
         return next((u for suffix, u in units.items() if name.endswith(suffix)), "1")
@@ -487,6 +487,8 @@ def summarize(ds, settings: CampaignSettings) -> dict:
             )  # fmt: skip
         stats[k] = entry
     out["statistics"] = stats
+    if "messages_count" in stats and stats["messages_count"]["finite"] == 0:
+        out["messages"] = "not applicable: continuous control (no control period), no message is a discrete event"
     out["cpu_time_s_total"] = float(np.nansum(ds["cpu_time_s"].values))
     return out
 

@@ -21,6 +21,8 @@ name                unit     meaning (per run; :func:`fsmctl.studies.compare.run
 ``rms_torque``      N m      RMS of the torque vector's norm
 ``chattering``      N m/s    total variation of u per second of simulated time
 ``wheel_momentum``  N m s    peak wheel angular momentum (only for a scenario with reaction wheels)
+``messages``        1        messages sent by all agents (:func:`fsmctl.simulation.message_metrics`; only with a
+                             control period: a continuous-control scenario is refused)
 ==================  =======  ==========================================================================================
 
 **Never settles**: a run whose metric does not settle within the horizon ``T`` scores

@@ -191,6 +191,11 @@ def _plan(settings: TuneSettings, out_dir: str | Path, command: Sequence[str] | 
     for name in settings.objectives:
         if OBJECTIVES[name].needs_wheels and not base.actuator.enabled:
             raise InputError(f"tune: objective {name} needs a scenario with reaction wheels; {base.label} has none")
+        if OBJECTIVES[name].needs_control_period and not base.simulation.control_period > 0:
+            raise InputError(
+                f"tune: objective {name} needs a control period (messages are sent at control instants); "
+                f"{base.label} is flown in continuous control: set simulation.control_period in the scenario file"
+            )
     why = available_constraints(settings.law, base)
     for name in settings.constraints:
         if why[name]:

@@ -49,6 +49,13 @@ def _wheel_momentum(result: Any, w: int) -> float:
     return float(np.max(np.linalg.norm(h @ act.spin_axes().T, axis=-1)))
 
 
+def _messages(result: Any, w: int) -> float:
+    """Messages sent by all agents over the first ``w`` output samples (:func:`fsmctl.simulation.message_metrics`)."""
+    from fsmctl.simulation.messages import message_metrics
+
+    return message_metrics(result, w)["messages_count"]
+
+
 @dataclass(frozen=True)
 class Objective:
     """One objective of a tuning study (minimised): the one entry that declares and scores it.
@@ -71,6 +78,9 @@ class Objective:
         checkpoint); for every objective without ``error``.
     needs_wheels : bool
         Only a scenario with reaction wheels can measure it (else :class:`~fsmctl.errors.InputError`).
+    needs_control_period : bool
+        Only a scenario with a control period (``simulation.control_period > 0``) can measure it: continuous control
+        sends no discrete messages (else :class:`~fsmctl.errors.InputError`).
 
     Examples
     --------
@@ -86,6 +96,7 @@ class Objective:
     error: str | None = None
     partial: Callable[[Any, int], float] | None = None
     needs_wheels: bool = False
+    needs_control_period: bool = False
 
     def __post_init__(self):
         if self.error not in (None, "aaem", "raem"):
@@ -110,6 +121,13 @@ OBJECTIVES: dict[str, Objective] = {
         "peak_wheel_momentum_N_m_s",
         partial=_wheel_momentum,
         needs_wheels=True,
+    ),
+    "messages": Objective(
+        "1",
+        "messages sent by all agents (needs a control period)",
+        "messages_count",
+        partial=_messages,
+        needs_control_period=True,
     ),
 }
 """objective name -> :class:`Objective` (unit, description, how a run is scored); all are minimised"""
