@@ -31,6 +31,9 @@ no-compiler fallback's (:mod:`fsmctl.simulation.casadi_formation`), the neighbou
    kernels="batched" | "scalar")``), alternated, checked bit-identical.
 2. Every built-in law (:func:`fsmctl.model.laws.builtin_laws`) on the batched kernels: each law's Case 1,
    100 s RK4, batched vs scalar.
+   Then the flight hardware (issue 13: ``hardware``) and issue 28's additions (``flight``: the ideal loop against
+   the engine before issue 28 built side by side, ``paper-hardware`` with periodic vs event-triggered links, the
+   wheel rules, a law commanding its wheels), 100 s each, alternated.
 3. Scaling in the number of agents n = 6, 24, 96, 384 on a ring and all-to-all: time per
    simulated second, exponents fitted in n and in the number of links (n = 24..384).
 4. Floating-point work per right-hand side from the CasADi graphs of the generated functions
@@ -867,6 +870,238 @@ def hardware_section(quick: bool, log) -> dict:
     return out
 
 
+PRE_ISSUE28_COMMIT = "5784432"
+"""Main's last commit before issue 28's wheel rules, wheel-commanding laws, event triggers and bursty loss: its engine
+is the baseline of "the ideal loop unchanged within 5 % when none of this is used"."""
+
+
+def _engine_at(commit: str, log):
+    """The whole compiled engine of ``commit`` (its ``fsmctl/csrc``, ``generated/c`` and ``generated/laws/fsm/c``,
+    from ``git archive``) built with today's flags into a temporary library, or None (no git checkout, no compiler).
+    Its structs are a prefix of today's (fields are only appended), so today's ctypes structures drive it."""
+    import shutil
+    import tarfile
+    from io import BytesIO
+
+    from fsmctl.model.generated_code import _compiler, compile_flags
+    from fsmctl.simulation.driver import _PROGRESS, _dp, _Output, _Problem
+
+    cc = _compiler()
+    if cc is None or shutil.which("git") is None:
+        return None
+    tmp = Path(tempfile.mkdtemp(prefix=f"fsmctl-bench-{commit}-"))
+    folders = ("fsmctl/csrc", "generated/c", "generated/laws/fsm/c")
+    try:
+        tar = subprocess.run(["git", "archive", commit, *folders], cwd=ROOT, capture_output=True, check=True).stdout
+        with tarfile.open(fileobj=BytesIO(tar)) as t:
+            t.extractall(tmp, filter="data")
+    except (subprocess.CalledProcessError, OSError, tarfile.TarError) as exc:
+        log(f"flight: no engine of {commit} ({exc})")
+        return None
+    csrc = tmp / "fsmctl" / "csrc"
+    sources = sorted((tmp / "generated" / "c").glob("*.c")) + sorted((tmp / "generated/laws/fsm/c").glob("*.c"))
+    sources += sorted(csrc.glob("*.c"))
+    flags, _ = compile_flags(cc)
+    includes = [f"-I{d}" for d in dict.fromkeys(p.parent for p in sources)]
+    math = ["-include", str(csrc / "fsm_pow.h"), "-include", str(csrc / "fsm_trig.h")]  # as math_include_args()
+    lib = tmp / f"libfsm_{commit}.so"
+    cmd = [cc, *flags, *includes, *math, *map(str, sources), "-o", str(lib), "-lm"]
+    subprocess.run(cmd, check=True, capture_output=True)
+    dll = ctypes.CDLL(str(lib))
+    dll.fsm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.POINTER(_Output), _PROGRESS, ctypes.c_longlong]
+    dll.fsm_simulate.restype = ctypes.c_int
+    return dll
+
+
+def _fly_on(dll, p) -> tuple[float, dict]:
+    """One run of the packed problem ``p`` (ideal loop: no hardware, no trigger) on another engine's library ``dll``:
+    (C-loop wall time, the output arrays)."""
+    from fsmctl.simulation.driver import _PROGRESS, _CProblem, _Output, _ptr
+
+    n, cap = p.n_agents, p.n_outputs + 1
+    bufs = {k: np.zeros((cap, n, 3)) for k in ("sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat")}
+    bufs.update(broadcast=np.zeros((cap, n, p.n_broadcast)), z=np.zeros((cap, n, p.n_states)))
+    bufs.update(t=np.zeros(cap), sigma_d=np.zeros((cap, 3)))
+    stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
+    out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()})
+    cp = _CProblem(p)
+    x0 = np.ascontiguousarray(p.x0)
+    t = time.perf_counter()
+    rc = dll.fsm_simulate(ctypes.byref(cp.struct), _ptr(x0), ctypes.byref(out), _PROGRESS(0), 0)
+    wall = time.perf_counter() - t
+    if rc != 0:
+        raise RuntimeError(f"engine returned {rc}")
+    return wall, {k: v[: out.written] for k, v in bufs.items()}
+
+
+FLIGHT_VARIANTS = {
+    "ideal": "paper Case 1, `fsm`, continuous control (the ideal-torque loop), default kernels",
+    f"ideal_{PRE_ISSUE28_COMMIT}": f"the same packed problem on the engine of commit {PRE_ISSUE28_COMMIT}",
+    "ideal_10Hz": "Case 1, `fsm`, control at 10 Hz (periodic broadcasting)",
+    "ideal_10Hz_event": "Case 1, `fsm_event` at 10 Hz (event-triggered broadcasting, ideal links and torque)",
+    "hw_periodic": "`paper-hardware` (wheels, sensors, links, 10 Hz) with `fsm`: periodic broadcasting",
+    "hw_event": "`paper-hardware` with `fsm_event`: event-triggered links",
+    "hw_clipped_step_start": '`paper-hardware`, `fsm`, `allocation = "clipped"`, `speed_gate = "step_start"`',
+    "hw_fsm_wheels": "`paper-hardware` with `fsm_wheels` (the law commands its wheels: `law_wheels` per agent)",
+}
+"""The variants of the flight section (issue 28), all 100 s at dt = 1 ms (RK4)."""
+
+
+_WHEELS_PROFILE_SCRIPT = """
+import warnings
+import fsmctl
+from fsmctl.model.laws import builtin_laws
+from fsmctl.model.problem import pack
+from fsmctl.simulation.simulator import simulate_packed
+warnings.simplefilter("ignore")
+p = pack(fsmctl.load_scenario("paper-hardware").replace(simulation={{"t_final": 100.0}}), builtin_laws()["fsm_wheels"])
+for _ in range({runs}):
+    simulate_packed(p)
+"""
+
+
+def _law_wheels_profile(runs: int, log) -> dict | None:
+    """``perf record`` of ``runs`` runs of ``paper-hardware`` with ``fsm_wheels`` (100 s): the share of the compiled
+    library's samples in the law's scalar ``law_wheels_*`` (and the driver's ``law_wheel_commands`` around it, when
+    not inlined); None without ``perf``."""
+    import shutil
+
+    perf = shutil.which("perf")
+    if perf is None:
+        return None
+    with tempfile.TemporaryDirectory() as tmp:
+        data = Path(tmp) / "perf.data"
+        rec = subprocess.run(
+            [perf, "record", "-q", "-F", "4000", "-o", str(data), sys.executable, "-c",
+             _WHEELS_PROFILE_SCRIPT.format(runs=runs)],
+            capture_output=True, text=True, timeout=600, env={**os.environ, "OPENBLAS_NUM_THREADS": "1"},
+        )  # fmt: skip
+        if rec.returncode != 0:
+            log(f"flight: perf record failed ({rec.stderr.strip()[:200]}); no profile")
+            return None
+        rep = subprocess.run(
+            [perf, "report", "-i", str(data), "--stdio", "--no-children", "--sort", "dso,symbol", "-q"],
+            capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+    library, wheels, top = 0.0, 0.0, collections.Counter()
+    for line in rep.stdout.splitlines():
+        parts = line.split()
+        if len(parts) < 4 or not parts[0].endswith("%") or "libfsmctl" not in parts[1]:
+            continue
+        pct, sym = float(parts[0][:-1]), parts[3]
+        library += pct
+        top[sym] += pct
+        if sym.startswith(("law_wheels", "law_wheel_commands")):
+            wheels += pct
+    if not library:
+        return None
+    return {
+        "runs": runs,
+        "law_wheels_share_of_library": wheels / library,
+        "top_of_library": {k: v / library for k, v in top.most_common(8)},
+    }
+
+
+def flight_section(quick: bool, log) -> dict:
+    """Issue 28's budget: the ideal loop against the engine before issue 28 (commit :data:`PRE_ISSUE28_COMMIT`,
+    built from its sources side by side), ``paper-hardware`` with periodic vs event-triggered broadcasting against
+    the ideal loop, the wheel rules (clipped, step_start) and a law commanding its wheels (``fsm_wheels``) against
+    the default; every variant 100 s at dt = 1 ms, alternated in one run, C-loop times compared by their minima."""
+    import warnings
+
+    import fsmctl
+    from fsmctl.model.laws import LawSwitchWarning, builtin_laws
+    from fsmctl.model.problem import pack
+    from fsmctl.simulation.simulator import simulate_packed
+
+    laws = builtin_laws()
+    base = fsmctl.paper_scenario("1")
+    hw = fsmctl.load_scenario("paper-hardware").replace(simulation={"t_final": 100.0})
+    at10 = base.replace(simulation={"control_period": 0.1})
+    clipped = hw.replace(actuator={"allocation": "clipped", "speed_gate": "step_start"})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", LawSwitchWarning)  # flying fsm_event / fsm_wheels on the paper's scenarios
+        packed = {
+            "ideal": pack(base),
+            "ideal_10Hz": pack(at10),
+            "ideal_10Hz_event": pack(at10, laws["fsm_event"]),
+            "hw_periodic": pack(hw),
+            "hw_event": pack(hw, laws["fsm_event"]),
+            "hw_clipped_step_start": pack(clipped),
+            "hw_fsm_wheels": pack(hw, laws["fsm_wheels"]),
+        }
+    old_key = f"ideal_{PRE_ISSUE28_COMMIT}"
+    old = _engine_at(PRE_ISSUE28_COMMIT, log)
+    order = [k for k in FLIGHT_VARIANTS if k != old_key or old is not None]
+    reps = 2 if quick else 11
+    loops: dict[str, list[float]] = {k: [] for k in order}
+    cpus: dict[str, list[float]] = {k: [] for k in order}
+    first: dict = {}
+    for r in range(reps):
+        for k in order if r % 2 == 0 else order[::-1]:
+            c = time.thread_time()
+            if k == old_key:
+                wall, raw = _fly_on(old, packed["ideal"])
+            else:
+                raw = simulate_packed(packed[k])
+                wall = float(raw["wall_time"])
+            cpus[k].append(time.thread_time() - c)
+            loops[k].append(wall)
+            first.setdefault(k, raw)
+
+    def ratios(best: dict) -> dict:
+        return {
+            "event_over_ideal": best["hw_event"] / best["ideal"],
+            "periodic_over_ideal": best["hw_periodic"] / best["ideal"],
+            "event_over_periodic": best["hw_event"] / best["hw_periodic"],
+            "clipped_step_start_over_default": best["hw_clipped_step_start"] / best["hw_periodic"],
+            "fsm_wheels_over_fsm": best["hw_fsm_wheels"] / best["hw_periodic"],
+            **({"ideal_over_pre_issue28": best["ideal"] / best[old_key]} if old is not None else {}),
+        }
+
+    best = {k: min(v) for k, v in cpus.items()}
+    best_wall = {k: min(v) for k, v in loops.items()}
+    out: dict = {
+        "horizon_s": 100.0,
+        "dt_s": 1e-3,
+        "repeats": reps,
+        "n_agents": packed["ideal"].n_agents,
+        "variants": {k: FLIGHT_VARIANTS[k] for k in order},
+        "timing": "thread CPU time of the whole call (the C loop and its Python wrapper), min of the repeats",
+        "cpu_min_s": best,
+        "cpu_median_s": {k: statistics.median(v) for k, v in cpus.items()},
+        "c_loop_min_s": best_wall,
+        "c_loop_median_s": {k: statistics.median(v) for k, v in loops.items()},
+        "cpu_all_s": cpus,
+        "c_loop_all_s": loops,
+        **ratios(best),
+        "c_loop_ratios": ratios(best_wall),
+    }
+    # law_wheels runs per agent at each control instant (the commands are held with the control)
+    p = packed["hw_fsm_wheels"]
+    calls = p.n_agents * (round(100.0 / 0.1) + 1)
+    out["fsm_wheels_calls"] = calls
+    out["fsm_wheels_extra_per_call_s"] = (best["hw_fsm_wheels"] - best["hw_periodic"]) / calls
+    prof = _law_wheels_profile(2 if quick else 15, log)
+    if prof:
+        prof["law_wheels_per_call_s"] = prof["law_wheels_share_of_library"] * best["hw_fsm_wheels"] / calls
+        out["fsm_wheels_profile"] = prof
+    for k in ("ideal_10Hz_event", "hw_event"):
+        raw = first[k]
+        out[f"{k}_messages_sent"] = int(np.sum(raw["messages_sent"])) if raw.get("messages_sent") is not None else None
+    out["periodic_messages_sent"] = packed["hw_periodic"].n_agents * (round(100.0 / 0.1) + 1)
+    if old is not None:
+        same = all(np.array_equal(first[old_key][q], first["ideal"][q]) for q in ("sigma", "omega", "u", "broadcast"))
+        out["pre_issue28_trajectory_identical"] = bool(same)
+    log(
+        "flight: "
+        + ", ".join(f"{k} {v:.3f} s" for k, v in best.items())
+        + f"; event/ideal = {out['event_over_ideal']:.2f}"
+        + (f", ideal/{PRE_ISSUE28_COMMIT} = {out['ideal_over_pre_issue28']:.3f}" if old else "")
+    )
+    return out
+
+
 def smooth_ring_section(quick: bool, log) -> dict:
     """A smooth large formation: the case where adaptive steps grow long (python-control's best case).
 
@@ -1441,6 +1676,7 @@ def markdown(res: dict) -> str:
     lines += _markdown_kernels(res)
     lines += _markdown_laws(res)
     lines += _markdown_hardware(res)
+    lines += _markdown_flight(res)
     lines += _markdown_scale(res)
     lines += _markdown_smooth_ring(res)
     lines += _markdown_flops(res)
@@ -1667,6 +1903,71 @@ def _markdown_hardware(res: dict) -> list[str]:
                 "code adds nothing measurable when it is off); identical trajectories: "
                 f"{'yes' if hw['pre_hardware_trajectory_identical'] else 'NO'}."
             )
+    return lines
+
+
+def _markdown_flight(res: dict) -> list[str]:
+    lines: list[str] = []
+    fl = res.get("flight")
+    if not fl:
+        return lines
+    best, ideal = fl["cpu_min_s"], fl["cpu_min_s"]["ideal"]
+    lines += [
+        "",
+        "## Issue 28 in the compiled loop: event-triggered links, wheel rules, laws commanding their wheels",
+        "",
+        f"Every variant {fl['horizon_s']:g} s at dt = {fl['dt_s']:g} s (RK4), {fl['n_agents']} agents, min of "
+        f"{fl['repeats']} alternated runs in one process. `paper-hardware`: 4-wheel pyramid, star "
+        "tracker and gyro, links with 0.1 s delay and 5 % loss, control at 10 Hz (its 600 s horizon cut to 100 s). "
+        "The ratios use the thread CPU time of each call (the C loop and its Python wrapper): the machine was shared "
+        "(see the load averages), and CPU time leaves out the time the run waited for a core; the C loop's wall "
+        "time is shown beside it.",
+        "",
+        "| variant | what | CPU min (s) | CPU median (s) | / ideal | C loop wall min (s) | / ideal |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    wall, wall_ideal = fl["c_loop_min_s"], fl["c_loop_min_s"]["ideal"]
+    for k, v in best.items():
+        lines.append(
+            f"| {k} | {fl['variants'][k]} | {_f(v)} | {_f(fl['cpu_median_s'][k])} | {_f(v / ideal)} | "
+            f"{_f(wall[k])} | {_f(wall[k] / wall_ideal)} |"
+        )
+    ev = fl["event_over_ideal"]
+    lines += [
+        "",
+        f"* Event-triggered hardware / ideal = {_f(ev)} (target of issue 28: <= 2: {'met' if ev <= 2 else 'MISSED'}); "
+        f"periodic hardware / ideal = {_f(fl['periodic_over_ideal'])}; event-triggered / periodic hardware = "
+        f"{_f(fl['event_over_periodic'])}. Messages sent in 100 s: {fl['hw_event_messages_sent']} event-triggered "
+        f"on `paper-hardware` ({fl['ideal_10Hz_event_messages_sent']} on Case 1 at 10 Hz) vs "
+        f"{fl['periodic_messages_sent']} periodic. C-loop wall-time ratios: event-triggered hardware / ideal "
+        f"{_f(fl['c_loop_ratios']['event_over_ideal'])}, periodic hardware / ideal "
+        f"{_f(fl['c_loop_ratios']['periodic_over_ideal'])}.",
+        f'* `allocation = "clipped"`, `speed_gate = "step_start"` / the default (scaled, continuous) = '
+        f"{_f(fl['clipped_step_start_over_default'])} (C-loop wall: {_f(fl['c_loop_ratios']['clipped_step_start_over_default'])}).",
+        f"* `fsm_wheels` / `fsm` on `paper-hardware` = {_f(fl['fsm_wheels_over_fsm'])} (C-loop wall: "
+        f"{_f(fl['c_loop_ratios']['fsm_wheels_over_fsm'])}). The law's scalar `law_wheels` runs per agent and "
+        f"control instant ({fl['fsm_wheels_calls']} calls in 100 s)"
+        + (
+            f"; perf record of {pr['runs']} such runs: `law_wheels_*` take "
+            f"{pr['law_wheels_share_of_library']:.2%} of the library's samples, i.e. "
+            f"{pr['law_wheels_per_call_s'] * 1e6:.2f} us per call; the loop's time goes to "
+            + ", ".join(f"`{k}` {v:.0%}" for k, v in list(pr["top_of_library"].items())[:6])
+            + " (the wheels' generated kernels at every RK4 stage, not the law's commands)"
+            if (pr := fl.get("fsm_wheels_profile"))
+            else ""
+        )
+        + f". The difference of the two loops over the calls, {fl['fsm_wheels_extra_per_call_s'] * 1e6:.2f} us per "
+        "call, is within the repeats' noise (the two runs also fly different trajectories).",
+    ]
+    if "ideal_over_pre_issue28" in fl:
+        r = fl["ideal_over_pre_issue28"]
+        lines.append(
+            f"* Ideal loop today / the engine of commit {PRE_ISSUE28_COMMIT} (before issue 28; its `fsmctl/csrc` and "
+            f"generated C built side by side with the same flags) = {_f(r)} (C-loop wall: "
+            f"{_f(fl['c_loop_ratios']['ideal_over_pre_issue28'])}; target: unchanged within 5 %: "
+            f"{'met' if r <= 1.05 else 'MISSED'}); identical trajectories: "
+            f"{'yes' if fl['pre_issue28_trajectory_identical'] else 'NO'}."
+        )
     return lines
 
 
@@ -1912,7 +2213,7 @@ def _throughput_markdown(tp: dict) -> list[str]:
 
 
 SECTIONS = (
-    "compare", "kernels", "laws", "hardware", "scale", "smooth_ring", "flops", "subprocess", "throughput", "montecarlo",
+    "compare", "kernels", "laws", "hardware", "flight", "scale", "smooth_ring", "flops", "subprocess", "throughput", "montecarlo",
 )  # fmt: skip
 """The sections of a run, in order (``--only`` selects some)."""
 
@@ -1965,6 +2266,7 @@ def main(argv=None) -> int:
     section("kernels", lambda: kernels_section(args.quick, log))
     section("laws", lambda: laws_section(args.quick, log))
     section("hardware", lambda: hardware_section(args.quick, log))
+    section("flight", lambda: flight_section(args.quick, log))
     section("scale", lambda: scale_section(args.quick, log))
     section("smooth_ring", lambda: smooth_ring_section(args.quick, log))
     section("flops", lambda: flops_section(res["compare"], log, res["kernels"]))
