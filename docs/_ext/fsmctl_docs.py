@@ -135,6 +135,7 @@ FAST_MODE = {
     "05_robustness": "two values per parameter and 10 s horizons",
     "06_your_own_law": "40 s horizons instead of 100 s",
     "07_paper_on_hardware": "a 100 s horizon instead of 600 s and a 4-run campaign instead of 16",
+    "08_event_triggered": "outputs every 0.5 s instead of 0.1 s and three threshold floors instead of five",
 }
 """What the gallery's fast mode (``FSMCTL_FAST=1``) shortens in each notebook: the banner on its page."""
 

@@ -46,6 +46,7 @@ EPILOG_TEXT = f"""objectives (all minimised; --objectives a,b,...; aggregated ov
 - peak_torque, rms_torque (N m)
 - chattering (N m/s): total variation of u per second
 - wheel_momentum (N m s): peak wheel momentum (scenarios with reaction wheels)
+- messages (1): messages sent by all agents over the run (needs a control period; an event-triggered law such as fsm_event sends fewer than one per agent and control instant): trade it against an accuracy objective, e.g. --objectives aaem_steady,messages
 
 constraints (--constraints a,b,...; default: every one that applies; a trial is feasible when all are <= 0):
 
