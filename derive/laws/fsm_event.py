@@ -30,13 +30,8 @@ from __future__ import annotations
 
 import sympy as sp
 
-from fsmctl.symbolic.controller import (
-    computed_torque_pieces,
-    coordination_term,
-)
-from fsmctl.symbolic.fsm_parameters import declare_fsm_parameters, declare_surface_presets, fsm_loop_rates
+from fsmctl.symbolic.fsm_parameters import declare_paper_law
 from fsmctl.symbolic.law import Law, LawBuilder
-from fsmctl.symbolic.surfaces import fast_sliding_surface
 
 REFERENCE = (
     "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455, eqs 13, 16-19 (the torque); Seyboth, Dimarogonas & "
@@ -51,10 +46,7 @@ def law(error_model) -> Law:
         doc="the paper's fast sliding mode law, broadcasting s only when |s - s_sent| > c0 + c1 exp(-lambda t)",
         reference=REFERENCE,
     )
-    p = declare_fsm_parameters(b)
-    c1, c2, alpha, phi, epsilon, fix, delta = (
-        p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
-    )  # fmt: skip
+    u = declare_paper_law(b, theorems=False)  # the paper's law (derive/laws/fsm.py) without its theorems' claim
     floor = b.parameter(
         "threshold_floor",
         0.05,
@@ -68,21 +60,9 @@ def law(error_model) -> Law:
     decay = b.parameter(
         "threshold_decay", 0.1, unit="1/s", minimum=0.0, doc="lambda: the decay rate of the threshold's c1 part"
     )
-    b.discontinuous("sgn(s) of the switching term u^D (eq 18)", smoothed_by=phi)
-    b.loop_rates(**fsm_loop_rates(p))
-    declare_surface_presets(b, p)
-    surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
-    e, s = surface.error, surface.s
-    b.broadcast("s", s, unit="1/s")
     b.trigger(
-        (s - b.broadcast_sent).norm() > floor + initial * sp.exp(-decay * b.t),
+        (b.broadcast_now - b.broadcast_sent).norm() > floor + initial * sp.exp(-decay * b.t),
         doc="Seyboth, Dimarogonas & Johansson, Automatica 49 (2013) 245-252: |s - s_sent| > c0 + c1 exp(-lambda t)",
     )
-
-    pieces = computed_torque_pieces(
-        b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta,
-        coordination_term(s, b.k_sum, b.received), boundary_layer=phi, fix=fix, epsilon=epsilon,
-    )  # fmt: skip
-    u = surface.with_shared_slope(pieces.u, "FSM torque")  # every fractional power comes from the shared slope
     b.torque(u)
     return b.build()

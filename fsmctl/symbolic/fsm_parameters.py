@@ -17,7 +17,9 @@ from dataclasses import dataclass
 
 import sympy as sp
 
+from fsmctl.symbolic.controller import computed_torque_pieces, coordination_term
 from fsmctl.symbolic.law import LawBuilder
+from fsmctl.symbolic.surfaces import fast_sliding_surface
 
 __all__ = ["FsmParameters", "declare_fsm_parameters", "declare_paper_law", "declare_surface_presets", "fsm_loop_rates"]
 
@@ -183,20 +185,24 @@ def declare_surface_presets(b: LawBuilder, p: FsmParameters) -> None:
     )  # fmt: skip
 
 
-def declare_paper_law(b: LawBuilder) -> sp.ImmutableMatrix:
+def declare_paper_law(b: LawBuilder, *, theorems: bool = True) -> sp.ImmutableMatrix:
     """Declare the paper's law on ``b`` and return its body torque, for ``b.torque`` (Liang et al. 2012, eqs 13-19).
 
     Declares, in this order: the parameters (:func:`declare_fsm_parameters`, the paper's defaults), the claim that
-    the law is eqs 13-19 (``paper_theorems``), the discontinuity ``sgn(s)`` smoothed by ``boundary_layer``, the loop
+    the law is eqs 13-19 (``paper_theorems``; not with ``theorems=False``, for a variant the theorems do not cover), the discontinuity ``sgn(s)`` smoothed by ``boundary_layer``, the loop
     rates (:func:`fsm_loop_rates`), the ``surface`` presets (:func:`declare_surface_presets`) and the broadcast
     ``s`` (eq 13, 1/s).  The torque is eq 16 in computed-torque form with the coordination term of eq 19, every
     fractional power from the surface's shared slope.  The built-in ``fsm`` is this law; ``fsm_wheels`` flies the
-    same body torque through its wheels.
+    same body torque through its wheels, ``fsm_event`` broadcasts ``s`` on a trigger (``theorems=False``: the
+    theorems assume continuous coordination), and the explainer's unswitched variant builds it on another error
+    state.
 
     Parameters
     ----------
     b : LawBuilder
         The law being built (nothing declared yet).
+    theorems : bool
+        Declare ``paper_theorems`` (Theorems 1-2 apply to the law as the paper flies it).
 
     Returns
     -------
@@ -213,16 +219,14 @@ def declare_paper_law(b: LawBuilder) -> sp.ImmutableMatrix:
     >>> law.broadcast_name, law.n_params, law.paper_theorems.parameter("delta")
     ('s', 9, 'delta')
     """
-    from fsmctl.symbolic.controller import computed_torque_pieces, coordination_term
-    from fsmctl.symbolic.surfaces import fast_sliding_surface
-
     p = declare_fsm_parameters(b)
     c1, c2, alpha, phi, epsilon, fix, delta = (
         p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
     )  # fmt: skip
-    b.paper_theorems(
-        c1=c1, c2=c2, alpha=alpha, boundary_layer=phi, epsilon=epsilon, singularity_fix=fix, delta=delta
-    )  # fmt: skip
+    if theorems:
+        b.paper_theorems(
+            c1=c1, c2=c2, alpha=alpha, boundary_layer=phi, epsilon=epsilon, singularity_fix=fix, delta=delta
+        )  # fmt: skip
     b.discontinuous("sgn(s) of the switching term u^D (eq 18)", smoothed_by=phi)
     b.loop_rates(**fsm_loop_rates(p))
     declare_surface_presets(b, p)

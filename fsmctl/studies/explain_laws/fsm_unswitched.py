@@ -1,6 +1,8 @@
 """The paper's FSM law with the error MRP *not* switched to the shadow set (for ``fsmctl reproduce``'s explanations).
 
-A copy of ``derive/laws/fsm.py`` (Liang, Sun & Wang 2012, eqs 13, 16-19, Remarks 6-7) whose error MRP is the
+The law of ``derive/laws/fsm.py`` (Liang, Sun & Wang 2012, eqs 13, 16-19, Remarks 6-7; declared by
+:func:`fsmctl.symbolic.fsm_parameters.declare_paper_law`, without the claim that Theorems 1-2 cover it) whose error
+MRP is the
 direct MRP composition ``sigma_e = sigma (x) sigma_d^-1`` (:func:`fsmctl.symbolic.mrp.mrp_compose` of
 ``sigma`` and ``-sigma_d``) instead of :func:`fsmctl.symbolic.mrp.mrp_error`, which returns the shadow-set
 member (``|sigma_e| <= 1``, principal angle <= 180 deg).  Unswitched, ``|sigma_e|`` may exceed 1 (principal
@@ -17,12 +19,10 @@ Pure SymPy: no NumPy, no I/O.
 
 from __future__ import annotations
 
-from fsmctl.symbolic.controller import computed_torque_pieces, coordination_term
-from fsmctl.symbolic.fsm_parameters import declare_fsm_parameters, declare_surface_presets, fsm_loop_rates
+from fsmctl.symbolic.fsm_parameters import declare_paper_law
 from fsmctl.symbolic.law import ErrorState, Law, LawBuilder
 from fsmctl.symbolic.model import reference_acceleration_in_body, reference_rate_in_body
 from fsmctl.symbolic.mrp import mrp_compose
-from fsmctl.symbolic.surfaces import fast_sliding_surface
 
 SHADOW_SWITCH = False
 """False: the error MRP is the unswitched composition; True: the standard (shadow-set) error state."""
@@ -59,21 +59,5 @@ def law(error_model) -> Law:
         + ("" if SHADOW_SWITCH else ", error MRP not switched to the shadow set"),
         reference=REFERENCE,
     )
-    p = declare_fsm_parameters(b)
-    c1, c2, alpha, phi, epsilon, fix, delta = (
-        p.c1, p.c2, p.alpha, p.boundary_layer, p.epsilon, p.singularity_fix, p.delta
-    )  # fmt: skip
-    b.discontinuous("sgn(s) of the switching term u^D (eq 18)", smoothed_by=phi)
-    b.loop_rates(**fsm_loop_rates(p))
-    declare_surface_presets(b, p)
-    surface = fast_sliding_surface(b, c1, c2, alpha, epsilon, fix)
-    e, s = surface.error, surface.s
-    b.broadcast("s", s, unit="1/s")
-
-    pieces = computed_torque_pieces(
-        b.J0, e.sigma_e, e.omega_e, e.omega_r, e.omega_r_dot, s, c1, c2, alpha, delta,
-        coordination_term(s, b.k_sum, b.received), boundary_layer=phi, fix=fix, epsilon=epsilon,
-    )  # fmt: skip
-    u = surface.with_shared_slope(pieces.u, "FSM torque")  # every fractional power comes from the shared slope
-    b.torque(u)
+    b.torque(declare_paper_law(b, theorems=False))  # the paper's law on this builder's error state
     return b.build()
