@@ -188,3 +188,27 @@ def test_an_actuator_block_cannot_carry_a_wheel_law_s_commands():
     )
     with pytest.raises(InputError, match=r"^formation: actuators: the law fsm_wheels commands its reaction wheels"):
         fsmctl.formation(_scenario(), actuators=lag)
+
+
+def test_discrete_law_controller_commands_the_wheels_at_the_instant_and_holds_them():
+    """``discrete_law_controller(..., actuator=)``: the outputs ``u_wheels[k]`` of an instant are the continuous
+    controller's at that instant (same generated function), and the system is discrete with the period."""
+    from fsmctl.plugin.sampled import discrete_law_controller
+
+    s = _scenario()
+    a = s.agents[0]
+    kw = {"parameters": s.law_parameters()[0], "u_max": s.controller.effective_torque_limit, "actuator": s.actuator}
+    sampled = discrete_law_controller(s.law, a.J0_array, dt=0.1, name="c", **kw)
+    continuous = law_controller(s.law, a.J0_array, name="c", **kw)
+    assert sampled.dt == 0.1 and sampled.input_labels == continuous.input_labels
+    assert sampled.output_labels[-4:] == [f"u_wheels[{k}]" for k in range(4)]
+    rng = np.random.default_rng(28)
+    u = rng.normal(scale=0.1, size=continuous.ninputs)
+    x = np.zeros(continuous.nstates)
+    out = sampled.output(0.0, x, u)
+    np.testing.assert_array_equal(out, continuous.output(0.0, x, u))
+    omega_inputs = [k for k, label in enumerate(sampled.input_labels) if label.startswith("Omega[")]
+    assert len(omega_inputs) == 4
+    u2 = u.copy()
+    u2[omega_inputs] += 10.0  # other wheel speeds: the null motion (momentum_gain > 0) changes the commands
+    assert not np.allclose(sampled.output(0.0, x, u2)[-4:], out[-4:])

@@ -231,6 +231,7 @@ def discrete_law_controller(
     error_model: str = "paper",
     neighbours: Sequence[Neighbour] = (),
     name: str | None = None,
+    actuator: Any = None,
 ) -> ParameterizedSystem:
     """One agent's control law as a discrete-time system (sampled control at the period ``dt``).
 
@@ -244,8 +245,10 @@ def discrete_law_controller(
 
     Parameters
     ----------
-    law, J0, parameters, u_max, error_model, neighbours, name
-        As :func:`fsmctl.plugin.iosys.law_controller`.
+    law, J0, parameters, u_max, error_model, neighbours, name, actuator
+        As :func:`fsmctl.plugin.iosys.law_controller` (``actuator``: the wheel array of a law that commands its
+        wheels; the system then has the wheel speeds ``Omega[k]`` as inputs and the commands ``u_wheels[k]``, held
+        over the period, as outputs).
     dt : float
         The control period (s, > 0): python-control's ``dt`` of the system.
 
@@ -274,18 +277,15 @@ def discrete_law_controller(
     (True, True)
     """
     T = _period(dt, "discrete_law_controller")
-    return _discrete_law(law, J0, T, _INSTANT_LEAD * T, parameters, u_max, error_model, neighbours, name)
-
-
-def _discrete_law(law, J0, T, lead, parameters, u_max, error_model, neighbours, name) -> ParameterizedSystem:
     ctrl = law_controller(
         law,
         J0,
         parameters=parameters,
         u_max=u_max,
         error_model=error_model,
-        neighbours=_led(neighbours, lead),
+        neighbours=_led(neighbours, _INSTANT_LEAD * T),
         name=name,
+        actuator=actuator,
     )
     return _discrete(ctrl, T)
 
