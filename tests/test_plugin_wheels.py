@@ -210,5 +210,5 @@ def test_discrete_law_controller_commands_the_wheels_at_the_instant_and_holds_th
     omega_inputs = [k for k, label in enumerate(sampled.input_labels) if label.startswith("Omega[")]
     assert len(omega_inputs) == 4
     u2 = u.copy()
-    u2[omega_inputs] += 10.0  # other wheel speeds: the null motion (momentum_gain > 0) changes the commands
+    u2[omega_inputs] += [30.0, -30.0, 30.0, -30.0]  # other wheel speeds: the null motion (momentum_gain > 0) acts
     assert not np.allclose(sampled.output(0.0, x, u2)[-4:], out[-4:])
