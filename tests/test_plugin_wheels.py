@@ -212,3 +212,22 @@ def test_discrete_law_controller_commands_the_wheels_at_the_instant_and_holds_th
     u2 = u.copy()
     u2[omega_inputs] += [30.0, -30.0, 30.0, -30.0]  # other wheel speeds: the null motion (momentum_gain > 0) acts
     assert not np.allclose(sampled.output(0.0, x, u2)[-4:], out[-4:])
+
+
+@pytest.mark.parametrize(
+    ("change", "named"),
+    [
+        ({"actuator": {"speed_gate": "step_start"}}, "speed_gate = 'step_start'"),
+        ({"controller": {"law": "fsm_event"}}, "event-triggered"),
+    ],
+)
+def test_formation_names_what_only_the_compiled_loop_flies(change, named):
+    """A sampled scenario with Basilisk's speed-gate timing or an event-triggered law: one line naming that setting
+    and fsmctl.simulate (not the control period, which is set: a fresh user's trial was told to set it)."""
+    s = _scenario("fsm", control_period=0.1, dt=0.01).replace(**change)
+    fsmctl.simulate(s.replace(simulation={"t_final": 0.2}))  # a valid scenario: the compiled loop flies it
+    with pytest.raises(fsmctl.ScenarioError) as info:
+        fsmctl.formation(s)
+    message = str(info.value)
+    assert named in message and "fsmctl.simulate" in message and "control_period > 0" not in message
+    assert "\n" not in message

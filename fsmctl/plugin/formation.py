@@ -546,6 +546,23 @@ def _scenario_sensors(scenario: Scenario) -> list[tuple[ct.InputOutputSystem, ..
     return out
 
 
+def _compiled_only(scenario: Scenario, where: str) -> None:
+    """Refuse, naming the setting, what only the compiled loop flies (before the continuous copy is built, whose own
+    checks would name the wrong cause)."""
+    if scenario.actuator.enabled and scenario.actuator.speed_gate != "continuous":
+        raise ScenarioError(
+            f"{where}: actuator.speed_gate = {scenario.actuator.speed_gate!r} (the speed limit decided at the start "
+            "of each step of the compiled loop, Basilisk's timing) is flown by fsmctl.simulate only; the "
+            "python-control wheel plant models speed_gate = 'continuous'"
+        )
+    if scenario.law.trigger is not None:
+        raise ScenarioError(
+            f"{where}: the law {scenario.law.name} is event-triggered (it declares a trigger), which the "
+            "python-control systems do not model (their broadcast is sent at every instant); fly it with "
+            "fsmctl.simulate"
+        )
+
+
 def sampled_formation(
     scenario: Scenario,
     *,
@@ -589,7 +606,8 @@ def sampled_formation(
     Raises
     ------
     fsmctl.ScenarioError
-        ``scenario`` not a Scenario, ``control_period = 0`` (use :func:`fsmctl.formation`), or imperfect links.
+        ``scenario`` not a Scenario, ``control_period = 0`` (use :func:`fsmctl.formation`), imperfect links, or what
+        only the compiled loop flies: ``actuator.speed_gate = "step_start"`` or an event-triggered law.
 
     Examples
     --------
@@ -617,6 +635,7 @@ def sampled_formation(
             f"{where}: imperfect links ([links]) are not part of the sampled loop: wire fsmctl.plugin.hardware.link "
             "blocks between the controllers by hand, or fly the scenario with fsmctl.simulate"
         )
+    _compiled_only(scenario, where)
     T, h = sim.control_period, sim.dt
     gain = DEFAULT_NORMALIZATION_GAIN if normalization_gain is None else normalization_gain
     # the continuous-time loop gives the blocks and their wiring (one source of both); each block is then
