@@ -232,6 +232,8 @@ def test_cli_flies_a_scenario_file_with_wheel_commands(tmp_path, allocation):
         text=True,
     )
     assert done.returncode == 0, done.stderr
+    header = [line for line in done.stdout.splitlines() if line.strip().startswith("actuator:")]
+    assert header and f"allocation={allocation} " in header[0] and "wheel_commands: 2 rows from t = 0 s" in header[0]
     (saved,) = list((tmp_path / "out").glob("*.nc"))
     np.testing.assert_array_equal(fsmctl.load_result(saved)["wheel_speed_rad_per_s"].values, r.wheel_speed)
     bad = tmp_path / "bad.toml"

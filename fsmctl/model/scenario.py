@@ -682,7 +682,12 @@ class Scenario:
                 + (f" {a.pyramid_angle:g} deg" if a.layout == "pyramid" else "")
                 + "), "
                 + " ".join(f"{k}={v}" for k, v in per.items())
-                + f" coulomb_band={a.coulomb_band}"
+                + f" coulomb_band={a.coulomb_band} allocation={a.allocation} speed_gate={a.speed_gate}"
+                + (
+                    ""
+                    if a.wheel_commands is None
+                    else f" wheel_commands: {len(a.wheel_commands.time)} rows from t = {a.wheel_commands.time[0]:g} s"
+                )
             )
         else:
             lines.append("  actuator: ideal torque source (per-axis clip at torque_limit)")
