@@ -112,6 +112,8 @@ def test_tune_trades_messages_against_accuracy(sampled, tmp_path):
         flown = fsmctl.simulate(scenario)
         assert trial["objectives"]["messages"] == int(flown.messages_sent.sum())
         assert N_AGENTS <= trial["objectives"]["messages"] <= N_AGENTS * 11
+        count = trial["objectives"]["messages"]
+        assert result.objective_text("messages", count) == f"{count:.6g}"  # a count: no unit "1" after it
 
 
 def test_tune_refuses_messages_on_continuous_control(tmp_path):

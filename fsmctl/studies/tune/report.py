@@ -15,6 +15,7 @@ from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.studies.tune.evaluation import coupling_scales
 from fsmctl.studies.tune.settings import (
     CONSTRAINTS,
+    DIMENSIONLESS,
     OBJECTIVES,
     STUDY_FILE,
     SearchParameter,
@@ -148,7 +149,8 @@ class TuneResult:
                 f"not settled within {self.horizon_s:g} s (scored {value:.6g} s = {value / self.horizon_s:.3g} x "
                 "horizon)"
             )
-        return f"{value:.6g} {OBJECTIVES[objective].unit}"
+        unit = OBJECTIVES[objective].unit
+        return f"{value:.6g}" + (f" {unit}" if unit not in DIMENSIONLESS else "")  # "92", not "92 1" (a count)
 
     def _unsettled_lines(self) -> list[str]:
         """How many complete trials did not settle, and how such a trial is scored (one line per objective)."""
