@@ -46,8 +46,9 @@ def _cli(argv, capsys) -> tuple[int, str]:
         (["simulate", "--scenari", "paper"], "fsmctl simulate: unknown option --scenari (did you mean --scenario?)"),
         (
             ["simulate", "--law", "fsmm"],
-            "fsmctl simulate: error: law 'fsmm': not a built-in law (did you mean fsm or adaptive_fsm?; the built-in "
-            "laws: fsm, adaptive_fsm, fsm_event, pid, super_twisting), a derivation script (.py) or a derived law folder",
+            "fsmctl simulate: error: law 'fsmm': not a built-in law (the built-in laws: fsm, fsm_wheels, adaptive_fsm, "
+            "fsm_event, pid, super_twisting), a derivation script (.py) or a derived law folder; did you mean fsm or "
+            "adaptive_fsm?",
         ),
     ],
 )

@@ -262,3 +262,13 @@ def test_step_start_gate_batched_and_scalar_kernels_agree():
     assert (a["wheel_torque"] == 0.0).any()  # the speed limit acted
     for k in ("sigma", "omega", "wheel_speed", "wheel_torque", "u"):
         np.testing.assert_array_equal(a[k], b[k])
+
+
+def test_a_misspelled_key_is_named_first():
+    """A misspelled key makes another "missing": the one line names the unknown key, then the other error."""
+    s = single_spacecraft(actuator={"kind": "reaction_wheels"})
+    with pytest.raises(ScenarioError) as info:
+        s.replace(actuator={"wheel_commands": {"time": [0.0], "torque": [[0.0, 0.0, 0.0, 0.0]]}})
+    message = str(info.value)
+    assert message.startswith("actuator.wheel_commands.torque: "), message
+    assert "more error, first actuator.wheel_commands.motor_torque: missing" in message

@@ -94,17 +94,21 @@ class LawError(InputError):
         Returns
         -------
         LawError
-            ``law 'fsmm': not a built-in law (did you mean fsm?; fsm, ...), a derivation script (.py) or ...``.
+            ``law 'fsmm': not a built-in law (the built-in laws: fsm, ...), a derivation script (.py) or a derived law
+            folder; did you mean fsm?``.
 
         Examples
         --------
         >>> print(LawError.unknown("fsmm", ["fsm", "pid"]))
-        law 'fsmm': not a built-in law (did you mean fsm?; the built-in laws: fsm, pid), a derivation script (.py) or a derived law folder
+        law 'fsmm': not a built-in law (the built-in laws: fsm, pid), a derivation script (.py) or a derived law folder; did you mean fsm?
         """
         names = list(names)
         hint = did_you_mean(text, names)
-        known = f"{hint}; the built-in laws: {', '.join(names)}" if hint else ", ".join(names)
-        return cls(f"law {text!r}: not a built-in law ({known}), a derivation script (.py) or a derived law folder")
+        known = f"the built-in laws: {', '.join(names)}"
+        return cls(
+            f"law {text!r}: not a built-in law ({known}), a derivation script (.py) or a derived law folder"
+            + (f"; {hint}" if hint else "")
+        )
 
 
 class LawSwitchWarning(UserWarning):

@@ -401,13 +401,18 @@ _KEY_FIRST = re.compile(r"^\w+(\[\d+\])*(: | = )")
 
 def _scenario_error(exc: ValidationError, where: str = "") -> ScenarioError:
     errors = exc.errors(include_url=False)
-    first = errors[0]
-    path = _loc(first["loc"])
     unknown = [e for e in errors if e["type"] in ("unexpected_keyword_argument", "extra_forbidden")]
-    if unknown and first in unknown and len(unknown) > 1:
-        keys = sorted(str(e["loc"][-1]) for e in unknown)
+    # an unknown key first: a misspelled key is usually why another is "missing", and the one line must name it
+    first = unknown[0] if unknown else errors[0]
+    path = _loc(first["loc"])
+    if unknown:
+        keys = sorted(str(e["loc"][-1]) for e in unknown if e["loc"][:-1] == first["loc"][:-1])
         parent = _loc(first["loc"][:-1])
-        msg = f"{parent + ': ' if parent else ''}unknown keys {keys}"
+        if len(keys) > 1:
+            msg = f"{parent + ': ' if parent else ''}unknown keys {keys}"
+        else:
+            msg = f"{path}: {_message(first)}" if path else _message(first)
+        rest = [e for e in errors if e is not first and not (e in unknown and e["loc"][:-1] == first["loc"][:-1])]
     else:
         text = _message(first)
         # a section's own check names its key ("max_torque: ...", "t_final = ..."): report it as a file does
@@ -416,8 +421,10 @@ def _scenario_error(exc: ValidationError, where: str = "") -> ScenarioError:
         if joined and path.endswith("parameters"):  # a law parameter: named as the file writes it
             path = path.removesuffix("parameters").rstrip(".")
         msg = (f"{path}.{text}" if joined else f"{path}: {text}") if path else text
-    if len(errors) > 1 and not (unknown and first in unknown):
-        msg += f" (and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''})"
+        rest = errors[1:]
+    if rest:
+        nxt = rest[0]
+        msg += f" (and {len(rest)} more error{'s' if len(rest) > 1 else ''}, first {_loc(nxt['loc']) or 'the table'}: {_message(nxt)})"
     return ScenarioError(f"{where}: {msg}" if where else msg)
 
 
