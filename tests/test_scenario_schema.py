@@ -138,6 +138,33 @@ def test_a_complete_hardware_scenario_is_valid_under_the_schema_and_loads(tmp_pa
     assert custom.simulation.seed == 7 and custom.links.loss_probability == 0.0
 
 
+@pytest.mark.parametrize(
+    "rows",
+    [
+        [[0.01, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]],  # a torque per wheel, every spacecraft alike
+        [[[0.01, 0.0, 0.0, 0.0]] * 6, [[0.0, 0.0, 0.0, 0.0]] * 6],  # per spacecraft a torque per wheel
+    ],
+    ids=["per-wheel", "per-spacecraft"],
+)
+def test_wheel_commands_tables_are_valid_under_the_schema_and_load(tmp_path, rows):
+    data = tomllib.loads(HARDWARE_TOML)
+    data["actuator"]["wheel_commands"] = {"time": [0.0, 10.0], "motor_torque": rows}
+    assert _schema_errors(data) == []
+    path = tmp_path / "commands.toml"
+    path.write_text(
+        HARDWARE_TOML.replace(
+            "initial_speed = 0.0",
+            f"initial_speed = 0.0\nwheel_commands = {{ time = [0.0, 10.0], motor_torque = {rows} }}",
+        )
+    )
+    table = sc.load_scenario(path, case="1").actuator.wheel_commands.table(6)
+    assert table.shape == (2, 6, 4) and table[0, 5, 0] == 0.01
+    data["actuator"]["wheel_commands"] = {"time": [0.0, 10.0], "motor_torque": [["0.01", 0, 0, 0], [0, 0, 0, 0]]}
+    assert _schema_errors(data)  # a string is no torque
+    del data["actuator"]["wheel_commands"]["time"]
+    assert _schema_errors(data)  # both keys are required
+
+
 def test_the_builtin_hardware_scenario_is_valid_under_the_schema():
     """paper-hardware.toml only says what differs (``extends = "paper"``): the schema does not ask it for agents."""
     text = (Path(fsmctl.__file__).parent / "scenarios" / "paper-hardware.toml").read_text()
@@ -191,6 +218,7 @@ def test_reference_page_documents_every_hardware_key():
         (sc.StarTrackerSettings, "sensors.star_tracker."),
         (sc.GyroSettings, "sensors.gyro."),
         (sc.LinkSettings, "links."),
+        (sc.WheelCommandSettings, "actuator.wheel_commands."),
     ):
         for f in dataclasses.fields(cls):
             assert f"`{prefix}{f.name}`" in page, f"{prefix}{f.name} missing from {REFERENCE_PATH}"
@@ -203,3 +231,8 @@ def test_reference_page_documents_every_hardware_key():
     assert "| `sensors.star_tracker.noise_std` | 3 numbers (>= 0) | rad | required |" in page
     for heading in ("## `[actuator]`", "### `[sensors.star_tracker]`", "### `[sensors.gyro]`", "## `[links]`"):
         assert heading in page
+    assert "### `[actuator.wheel_commands]`" in page
+    assert "| `actuator.wheel_commands` | table |  | optional |" in page  # an unset table, not "the law's"
+    actuator = page.split("## `[actuator]`")[1].split("| key |")[0]  # the section's prose: every rule it names
+    for rule in ('`"scaled"`', '`"clipped"`', "`speed_gate`", '`"step_start"`', "`wheel_commands`"):
+        assert rule in actuator, rule

@@ -98,12 +98,20 @@ class ActuatorSettings:
     ``kind = "ideal"`` (default, the paper's actuator): the body receives the law's torque, clipped per axis by
     ``controller.torque_limit``.  ``kind = "reaction_wheels"``: every spacecraft carries the same array of
     balanced wheels (:mod:`fsmctl.symbolic.hardware`; the spacecraft inertia ``J0 + delta_J`` includes them).
+
     At each control instant the law's torque command (clipped per axis by ``controller.torque_limit``) is
-    distributed to the wheels by the minimum-norm rule ``u_w = -pinv(G_s) u``; when a wheel's share exceeds
-    ``max_torque`` every wheel torque is scaled by the same factor, so the body torque keeps its direction
-    and one wheel sits at its limit.  Between instants the wheel torques are held; a wheel at ``max_speed``
-    is not driven further (its torque is 0 while the command would speed it up), and friction acts
-    continuously.
+    distributed to the wheels by the minimum-norm rule ``u_w = -pinv(G_s) u`` (a law that commands its wheels
+    itself, such as ``fsm_wheels``, gives ``u_w`` instead); the open-loop ``wheel_commands`` of that instant, if
+    any, are added.  Then the torque limit ``max_torque``, by the rule ``allocation``: ``"scaled"`` (default)
+    divides every wheel torque by one factor when one exceeds its limit, so the body torque keeps its direction
+    and the most loaded wheel sits at its limit; ``"clipped"`` clips each wheel to ``+-max_torque`` on its own
+    (Basilisk's rule: the wheels inside their limit keep their command, the body torque may turn).
+
+    Between instants the wheel torques are held; a wheel at ``max_speed`` is not driven further (its torque is 0
+    while the command would speed it up), and friction acts continuously.  ``speed_gate`` says when that speed
+    limit is decided: ``"continuous"`` (default) at every evaluation of the dynamics, ``"step_start"`` from the
+    speeds at the start of each integrator step, held over the step's stages (Basilisk's timing; needs
+    ``simulation.control_period > 0``).
 
     Examples
     --------
@@ -157,7 +165,9 @@ class ActuatorSettings:
         default="continuous",
     )
     wheel_commands: WheelCommandSettings | None = _doc(
-        "open-loop motor torque per wheel, added before the torque limit (unset: none)", default=None
+        "open-loop motor torques per wheel, a table of times and torques added to the law's wheel torques before "
+        "the torque limit; unset: none",
+        default=None,
     )
 
     @model_validator(mode="after")

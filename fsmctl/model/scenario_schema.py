@@ -251,7 +251,24 @@ def _actuator_schema() -> dict:
         default = getattr(sc.ActuatorSettings(), name)
         default = [("inf" if x == float("inf") else x) for x in default]
         props[name] = _per_wheel(props[name], value, default[0] if len(default) == 1 else default)
+    props["wheel_commands"] = _wheel_commands_schema(props["wheel_commands"]["description"])
     return actuator
+
+
+def _wheel_commands_schema(description: str) -> dict:
+    """``[actuator.wheel_commands]``: a table (no null: an unset table is left out), its rows one per time."""
+    table = _section(sc.WheelCommandSettings)
+    table["description"] = description + "\n\n" + _class_doc(sc.WheelCommandSettings)
+    number = {"type": "number"}
+    torque = table["properties"]["motor_torque"]
+    torque["minItems"] = 1
+    torque["items"] = {  # a row: a torque per wheel, or per spacecraft a torque per wheel
+        "type": "array",
+        "minItems": 1,
+        "items": {"anyOf": [number, {"type": "array", "minItems": 1, "items": number}]},
+    }
+    table["properties"]["time"]["minItems"] = 1
+    return table
 
 
 def _sensors_schema() -> dict:
@@ -513,7 +530,8 @@ def _type(node: dict) -> str:
         if items.get("type") == "array" and n == 3:
             return "3x3 matrix" if items.get("minItems") == items.get("maxItems") == 3 else "3 x N matrix"
         if items.get("type") == "array" and n is None:
-            return "n x n table of " + _type(items.get("items") or {}) + "s"
+            inner = items.get("items") or {}
+            return "n x n table of " + _type(inner) + "s" if "type" in inner else "table of rows"
         if items.get("enum"):
             return f"array of {_type(items)}" + (f" ({n})" if n else "")
         inner = _type(items) if items else "value"
@@ -547,17 +565,21 @@ def _default(node: dict, required: bool) -> str:
         return "required"
     if "default" not in node:
         return "optional"
-    if node["default"] is None:
-        return "the law's"
+    if node["default"] is None:  # an unset optional table (its description says what unset means)
+        return "optional"
     return f"`{json.dumps(node['default'])}`"
 
 
-def _rows(props: dict, required: set[str], prefix: str, *, first_paragraph: bool = False) -> list[str]:
+_SUBTABLES = {"actuator": ("wheel_commands",), "sensors": ("star_tracker", "gyro")}
+"""the sub-tables of a section that the reference describes in a section of their own (``[sensors.gyro]``)"""
+
+
+def _rows(props: dict, required: set[str], prefix: str, *, subtables: tuple[str, ...] = ()) -> list[str]:
     rows = []
     for key, node in props.items():
         rng = _range(node)
         desc = node.get("description", "")
-        if first_paragraph:  # a sub-table described in a section of its own
+        if key in subtables:  # a sub-table described in a section of its own
             desc = desc.split("\n\n")[0] + f" (`[{prefix}{key}]` below)"
         desc = desc.replace("|", "\\|").replace("\n", " ")
         rows.append(
@@ -629,16 +651,14 @@ def reference_markdown(schema: dict | None = None) -> str:
     for section in ("simulation", "controller", "actuator", "sensors", "links", "reference", "topology"):
         node = props[section]
         out += [f"## `[{section}]`", "", node.get("description", ""), "", head]
-        out += _rows(
-            node["properties"], set(node.get("required", [])), f"{section}.", first_paragraph=section == "sensors"
-        )
+        subtables = _SUBTABLES.get(section, ())
+        out += _rows(node["properties"], set(node.get("required", [])), f"{section}.", subtables=subtables)
         out.append("")
-        if section == "sensors":
-            for sensor in ("star_tracker", "gyro"):
-                sub = node["properties"][sensor]
-                out += [f"### `[sensors.{sensor}]`", "", sub.get("description", "").split("\n\n", 1)[-1], "", head]
-                out += _rows(sub["properties"], set(sub.get("required", [])), f"sensors.{sensor}.")
-                out.append("")
+        for key in subtables:
+            sub = node["properties"][key]
+            out += [f"### `[{section}.{key}]`", "", sub.get("description", "").split("\n\n", 1)[-1], "", head]
+            out += _rows(sub["properties"], set(sub.get("required", [])), f"{section}.{key}.")
+            out.append("")
     agent = props["agents"]["items"]
     out += ["## `[[agents]]`", "", agent["description"], "", head]
     out += _rows(agent["properties"], set(agent.get("required", [])), "agents[i].")
