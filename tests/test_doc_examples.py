@@ -29,6 +29,7 @@ import oracle_numpy as oracle
 import pytest
 
 import fsmctl
+from fsmctl.studies.compare_runs import read_runs_file
 
 EXAMPLES = Path(__file__).resolve().parent.parent / "docs" / "examples"
 
@@ -42,7 +43,26 @@ def test_every_example_scenario_is_checked_here():
         "ring_of_three.toml",
         "wheels_and_sensors.toml",
         "my_law.toml",
+        "event_trigger_sweep.toml",
     }
+
+
+def test_event_trigger_sweep():
+    """The runs file of docs/findings.md's event-triggered comparison: periodic fsm, then fsm_event with the threshold
+    floors its table lists; each flies (1 s at 10 Hz on Case 1) and periodic broadcasting sends one message per agent
+    and control instant (6 x 11), the event-triggered runs fewer."""
+    runs = read_runs_file(EXAMPLES / "event_trigger_sweep.toml")
+    assert [(r.law, dict(r.parameters).get("threshold_floor")) for r in runs] == [
+        ("fsm", None),
+        *[("fsm_event", c0) for c0 in (0.01, 0.02, 0.05, 0.1, 0.2)],
+    ]
+    base = fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0, "control_period": 0.1})
+    sent = []
+    for r in runs:
+        s = base.replace(controller={"law": r.law, "parameters": dict(r.parameters)})
+        sent.append(int(fsmctl.simulate(s).messages_sent.sum()))
+    assert sent[0] == 6 * 11
+    assert all(6 <= n < sent[0] for n in sent[1:])
 
 
 def test_ring_of_three():
