@@ -82,7 +82,7 @@ def check_campaign_memory(settings: CampaignSettings, base: Scenario, *, availab
     ...     check_campaign_memory(settings, base, available=16 * 10**9)
     ... except ValueError as exc:
     ...     print(str(exc).split(" but")[0])
-    montecarlo: the results of 1,000,000,000 runs would need ~1.86 TB of memory
+    montecarlo: the results of 1,000,000,000 runs would need ~... TB of memory
     """
     from fsmctl.simulation.simulator import available_memory
 
