@@ -14,6 +14,8 @@ import math
 import numpy as np
 from pydantic import model_validator
 
+from fsmctl.model.actuators import spin_inertia_matrix
+from fsmctl.model.noise import gilbert_elliott_problem
 from fsmctl.model.scenario_values import (
     ZERO3,
     ActuatorKind,
@@ -237,7 +239,6 @@ class ActuatorSettings:
 
     def spin_inertia_matrix(self) -> np.ndarray:
         """``J_spin = sum_k J_s,k g_k g_k^T`` (3, 3) of the wheels (zero for the ideal actuator)."""
-        from fsmctl.model.actuators import spin_inertia_matrix
 
         if not self.enabled:
             return np.zeros((3, 3))
@@ -438,7 +439,6 @@ class LinkSettings:
 
     @model_validator(mode="after")
     def _loss_model(self) -> LinkSettings:
-        from fsmctl.model.noise import gilbert_elliott_problem
 
         if self.loss_model == "bernoulli":
             written = [k for k in _GILBERT_ELLIOTT_KEYS if getattr(self, k) is not None]

@@ -17,8 +17,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from fsmctl.model.actuators import distribution_matrix
+from fsmctl.errors import InputError
+from fsmctl.model.actuators import distribution_matrix, sample_wheel_commands
 from fsmctl.model.laws import LawCode, initial_law_states, parameter_matrix, resolve_law
+from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import schedule_weight
 
@@ -108,8 +110,6 @@ def wheel_command_samples(scenario: Scenario, n_steps: int, hold_steps: int, whe
     ``f(t) -> (n_agents, n_wheels)`` sampled at each instant, or an array ``(Q, n_agents, n_wheels)`` of those samples.
     Both given, or a value of the wrong shape or not finite: :class:`~fsmctl.errors.InputError`.
     """
-    from fsmctl.errors import InputError
-    from fsmctl.model.actuators import sample_wheel_commands
 
     act = scenario.actuator
     table = act.wheel_commands if act.enabled else None
@@ -229,7 +229,6 @@ def _loss_model(links, receivers, senders) -> dict:
     """The keyword of :func:`~fsmctl.model.noise.hardware_noise` that draws the links' losses, per the loss model."""
     if links.loss_model == "bernoulli":
         return {"loss_probability": links.per_link(receivers, senders, "loss_probability")}
-    from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS
 
     return {"gilbert_elliott": {k: links.per_link(receivers, senders, k) for k in GILBERT_ELLIOTT_KEYS}}
 

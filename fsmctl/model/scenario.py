@@ -64,6 +64,7 @@ from fsmctl.model.laws import (
     parameter_matrix,
     resolve_law,
 )
+from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS, gilbert_elliott_problem
 from fsmctl.model.scenario_files import (
     AGENT_DEFAULT_KEYS,
     BUILTIN_SCENARIOS,
@@ -305,7 +306,6 @@ class Scenario:
         lk = self.links
         if lk.loss_model != "gilbert_elliott":
             return
-        from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS, gilbert_elliott_problem
 
         for link in self.topology.links:
             i, j = link.receiver, link.sender

@@ -15,6 +15,8 @@ import control as ct
 import numpy as np
 
 from fsmctl.errors import InputError
+from fsmctl.model.hardware_settings import LinkSettings
+from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS
 from fsmctl.model.scenario import ScenarioError
 from fsmctl.plugin.arguments import (
     _labels,
@@ -288,8 +290,6 @@ def rate_gyro(
 def _loss_model(where: str, p: float, loss_model, *gilbert_elliott):
     """The link's loss model checked as a scenario's ``[links]`` are; returns ``index ->`` the keywords of
     :func:`fsmctl.model.noise.hardware_noise` for links ``0 .. index`` (the earlier ones lossless, unused)."""
-    from fsmctl.model.hardware_settings import LinkSettings
-    from fsmctl.model.noise import GILBERT_ELLIOTT_KEYS
 
     written = {k: v for k, v in zip(GILBERT_ELLIOTT_KEYS, gilbert_elliott, strict=True) if v is not None}
     try:

@@ -15,6 +15,7 @@ import numpy as np
 
 from fsmctl.model.generated_code import compiled_library, default_law_dir
 from fsmctl.model.problem import PackedProblem
+from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
 from fsmctl.simulation.failures import SimulationError
 
 # ----------------------------------------------------------------------------- ctypes binding
@@ -214,7 +215,6 @@ class _CProblem:
         self._keep = {}
 
         ctypes_of = {np.float64: ctypes.c_double, np.int32: ctypes.c_int, np.uint8: ctypes.c_ubyte}
-        from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
 
         def f(name, arr, dtype=np.float64):
             a = np.ascontiguousarray(arr, dtype=dtype)

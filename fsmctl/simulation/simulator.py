@@ -42,6 +42,7 @@ import numpy as np
 from fsmctl.errors import EnvironmentProblem, ResourceLimitError
 from fsmctl.model.problem import PackedProblem, output_buffer_bytes, pack
 from fsmctl.model.scenario import Scenario
+from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
 from fsmctl.simulation.driver import _KERNELS, _RC, _CProblem, _driver, _Output, _ptr, batched_kernels_preferred
 from fsmctl.simulation.failures import (
     DiscontinuousControlWarning,
@@ -319,7 +320,6 @@ def _fly(
 def _zeno_message(p: PackedProblem, raw: dict) -> str:
     """The one line of the Zeno guard (:data:`fsmctl.policy.ZENO_CONSECUTIVE_CHECKS`): agent, time, inter-event time,
     what to change."""
-    from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
 
     check = p.trigger_every * p.hold_steps * p.dt
     return (

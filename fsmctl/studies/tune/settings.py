@@ -14,6 +14,7 @@ from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.topology import Topology
 from fsmctl.policy import TOLERANCE_DEG, TUNE_BATCH
+from fsmctl.simulation.messages import message_metrics
 
 
 def _peak_torque(result: Any, w: int) -> float:
@@ -51,7 +52,6 @@ def _wheel_momentum(result: Any, w: int) -> float:
 
 def _messages(result: Any, w: int) -> float:
     """Messages sent by all agents over the first ``w`` output samples (:func:`fsmctl.simulation.message_metrics`)."""
-    from fsmctl.simulation.messages import message_metrics
 
     return message_metrics(result, w)["messages_count"]
 
