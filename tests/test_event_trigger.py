@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import json
 import math
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -301,3 +303,16 @@ def test_without_the_compiled_loop_an_event_triggered_law_is_refused(monkeypatch
     monkeypatch.setattr(simulator, "_driver", lambda law=None: None)
     with pytest.raises(EnvironmentProblem, match="pd_event is event-triggered, which runs in the compiled simulator"):
         fsmctl.simulate(formation(t_final=1.0))
+
+
+def test_derive_says_what_triggers_the_broadcast(tmp_path):
+    """``fsmctl derive`` of a law with a trigger states the condition and that it needs a control period."""
+    done = subprocess.run(
+        [sys.executable, "-m", "fsmctl", "derive", str(LAWS / "pd_event.py"), "--out", str(tmp_path / "pd_event")],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    (line,) = [x for x in done.stdout.splitlines() if x.startswith("trigger: ")]
+    assert "sends its broadcast when" in line and "needs a control period" in line
+    assert "broadcast_sent" in line  # the condition as declared

@@ -11,6 +11,7 @@ import hashlib
 import json
 import re
 import shutil
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ import sympy as sp
 from formations import single_spacecraft
 
 import fsmctl
+from fsmctl.cli.derive import verification_lines
 from fsmctl.model.generated_code import law_defines
 from fsmctl.model.laws import LawError, LawSwitchWarning, builtin_laws, resolve_law
 from fsmctl.model.scenario import ScenarioError
@@ -301,3 +303,19 @@ def test_the_controller_s_actuator_must_match_the_law():
         law_controller("pid", J0, actuator=PYRAMID)
     body_only = law_controller("fsm_wheels", J0)  # without an actuator: the body torque, for an ideal source
     assert body_only.noutputs == 6 and body_only.ninputs == 15
+
+
+def test_derive_says_the_law_commands_its_wheels():
+    """What ``fsmctl derive`` prints of a law that commands its wheels: how many, and what the scenario needs."""
+
+    def law(error_model):
+        b = LawBuilder("rw", error_model, doc="test")
+        e = b.error_state()
+        b.broadcast("sigma_e", e.sigma_e)
+        b.torque(-e.sigma_e)
+        w = b.reaction_wheels(3)
+        b.wheel_torques(-w.spin_axes.T * (-e.sigma_e))
+        return b.build()
+
+    (line,) = [x for x in verification_lines(law_variants(law), Path("rw.py")) if x.startswith("wheels: ")]
+    assert "commands 3 reaction wheels" in line and "must have 3 wheels" in line

@@ -211,6 +211,17 @@ def verification_lines(variants, script: Path) -> list[str]:
         + "; constants (law_constants) "
         + (", ".join(n for n, _, _ in law.constants) or "none")
     )
+    if law.wheel_torques is not None:
+        lines.append(
+            f"wheels: the law commands {law.n_wheels} reaction wheels itself (law_wheels_*; the scenario must have "
+            f"{law.n_wheels} wheels; on an ideal actuator its torque is flown)"
+        )
+    if law.trigger is not None:
+        every = "every control instant" if law.trigger.period is None else f"every {law.trigger.period:g} s"
+        lines.append(
+            f"trigger: sends its broadcast when {law.trigger.condition} (law_trigger, checked at {every}; needs a "
+            "control period)"
+        )
     lines.append(
         "lyapunov: "
         + (
