@@ -21,7 +21,7 @@
 #include "law_control_paper.h"
 #include "law_local_exact.h"
 #include "law_local_paper.h"
-#ifdef FSM_LAW_WHEELS /* lawwheels: the law commands its wheels (law.json "wheels"; fsmctl.model.generated_code) */
+#ifdef FSM_LAW_WHEELS /* the law commands its wheels (law.json "wheels"; fsmctl.model.generated_code) */
 #include "law_wheels_exact.h"
 #include "law_wheels_paper.h"
 #endif
@@ -64,7 +64,7 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_problem, link_delay), FSM_FIELD(fsm_problem, link_lost), FSM_FIELD(fsm_problem, n_members),
       FSM_FIELD(fsm_problem, wheel_allocation), FSM_FIELD(fsm_problem, wheel_gate),
       FSM_FIELD(fsm_problem, wheel_command),
-      FSM_FIELD(fsm_problem, trigger_every), FSM_FIELD(fsm_problem, zeno_checks), /* ABI 5: trigger */
+      FSM_FIELD(fsm_problem, trigger_every), FSM_FIELD(fsm_problem, zeno_checks), /* ABI 5 */
       FSM_FIELD(fsm_output, capacity), FSM_FIELD(fsm_output, written), FSM_FIELD(fsm_output, t),
       FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
       FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
@@ -73,7 +73,7 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_output, u_unsat_max), FSM_FIELD(fsm_output, steps_taken), FSM_FIELD(fsm_output, steps_rejected),
       FSM_FIELD(fsm_output, fail_time), FSM_FIELD(fsm_output, fail_agent), FSM_FIELD(fsm_output, wheel_speed),
       FSM_FIELD(fsm_output, wheel_torque), FSM_FIELD(fsm_output, sigma_measured), FSM_FIELD(fsm_output, omega_measured),
-      /* ABI 5: trigger */
+      /* ABI 5 */
       FSM_FIELD(fsm_output, messages_sent), FSM_FIELD(fsm_output, messages_delivered),
       FSM_FIELD(fsm_output, events_per_output), FSM_FIELD(fsm_output, first_event), FSM_FIELD(fsm_output, last_event),
       FSM_FIELD(fsm_output, min_inter_event)};
@@ -245,7 +245,7 @@ typedef struct {
   int n_wgroups;
   int *wheel_lane;                       /* per lane of the wheel groups: the flattened wheel index m */
   size_t *wheel_x, *wheel_wd;            /* per lane: offset of its Omega in x, of its agent's omega_dot in dx */
-  /* lawwheels: a law that commands its wheels (law_wheels_<model>; NULL: the minimum-norm distribution) */
+  /* a law that commands its wheels (law_wheels_<model>; NULL: the minimum-norm distribution) */
   casadi_fn law_wheels;
   double *lw_in;                         /* nc + nb: one agent's cache and received sum, gathered from the lanes */
   double *lw_w;                          /* ... followed by its own CasADi work array */
@@ -375,7 +375,7 @@ static void pack_lane_constants(workspace *W, const fsm_problem *P) {
   }
 }
 
-/* lawwheels: the law's own wheel commands, when it declares them (compiled with -DFSM_LAW_WHEELS) and the scenario
+/* The law's own wheel commands, when it declares them (compiled with -DFSM_LAW_WHEELS) and the scenario
  * flies reaction wheels; on an ideal actuator the law's body torque is flown and its wheel commands are unused.
  * Checks law_wheels_<model> against the problem (the control inputs, then 3 x nw axes, nw speeds, nw spin
  * inertias; nw commands out) and allocates its gather buffer and CasADi work arrays. */
@@ -844,7 +844,7 @@ static void event_trigger(workspace *W, const fsm_problem *P, double t) {
       if (W->sent_now[P->link_sender[e]]) W->out->messages_delivered[e]++;
 }
 
-/* lawwheels: the per-wheel motor torque commands of a law that commands its wheels, law_wheels_<model>, into uw
+/* The per-wheel motor torque commands of a law that commands its wheels, law_wheels_<model>, into uw
  * (n x nw), for every agent at (t, x): the inputs of law_control (the law sees the measurements when sensed; the
  * batched kernels left the cache and the received sum in the lane rows) and the agent's wheel axes, speeds
  * Omega (true, from x) and spin inertias. */
@@ -880,7 +880,7 @@ static void law_wheel_commands(workspace *W, const fsm_problem *P, double t, con
  * wscale[i] is max(1, max_k |u_w,k| / u_max,k) before the limit under either rule (> 1: a wheel at its limit). */
 static void wheel_commands(workspace *W, const fsm_problem *P, double t, const double *x, int sensed) {
   const int n = W->n, nw = W->nw;
-  if (W->law_wheels) law_wheel_commands(W, P, t, x, sensed); /* lawwheels: the law's own commands in uw */
+  if (W->law_wheels) law_wheel_commands(W, P, t, x, sensed); /* the law's own commands in uw */
   const double *cmd = P->wheel_command ? P->wheel_command + (size_t)W->q * n * nw : NULL;
   for (int i = 0; i < n; ++i) {
     const double *u = W->u + 3 * i, *lim = P->wheel_torque_max + (size_t)nw * i;

@@ -139,7 +139,7 @@ typedef struct {
   double *wheel_speed;      /* capacity x n x n_wheels: Omega (rad/s); NULL when n_wheels = 0 */
   double *wheel_torque;     /* capacity x n x n_wheels: motor torque after the speed limit (N m) */
   double *sigma_measured, *omega_measured; /* capacity x n x 3: what the law saw last; NULL: not recorded */
-  /* event-triggered communication (ABI 5; appended; topic: trigger): written when trigger_every > 0 */
+  /* event-triggered communication (ABI 5; appended): written when trigger_every > 0 */
   long long *messages_sent;      /* n: messages each agent sent (its first at instant 0) */
   long long *messages_delivered; /* n_links: messages each link delivered to its receiver (not lost, arrived) */
   long long *events_per_output;  /* capacity x n: messages sent since the previous output row (row 0: at t0) */

@@ -285,7 +285,8 @@ class Scenario:
                 "simulation.control_period > 0 (e.g. 0.1 for 10 Hz control)"
             )
         law = resolve_law(self.controller.law)  # a law that cannot be found is a LawError
-        if law.n_wheels and self.actuator.enabled and self.actuator.n_wheels != law.n_wheels:  # lawwheels
+        # a law that commands its wheels flies on an array of its own size
+        if law.n_wheels and self.actuator.enabled and self.actuator.n_wheels != law.n_wheels:
             raise ValueError(
                 f"actuator: the law {law.name} commands {law.n_wheels} reaction wheels, the actuator has "
                 f"{self.actuator.n_wheels}; give it {law.n_wheels} wheels or fly another law"

@@ -310,7 +310,7 @@ def formation(
     n = scenario.n_agents
     law = scenario.law
     wheels = scenario.actuator.enabled
-    law_wheels = wheels and law.n_wheels > 0  # pcwheels: the law drives sc<i>.u_wheels, reads sc<i>.Omega
+    law_wheels = wheels and law.n_wheels > 0  # the law drives sc<i>.u_wheels, reads sc<i>.Omega
     if law_wheels and actuators is not None:
         raise ScenarioError(
             f"formation: actuators: the law {law.name} commands its reaction wheels (sc<i>.u_wheels), not a body "
@@ -381,7 +381,7 @@ def formation(
         ignored_outputs += [f"sc{i}.{sig}" for i in range(1, n + 1) for sig in unused_out]
         if law_wheels:
             ignored_outputs += [f"ctrl{i}.tau" for i in range(1, n + 1)]
-        # pcwheels: open-loop per-wheel commands, added to the law's (the engine's wheel_commands)
+        # open-loop per-wheel commands, added to the law's (the engine's wheel_commands)
         nw = scenario.actuator.n_wheels
         inplist = [f"sc{i}.u_wheels[{k}]" for i in range(1, n + 1) for k in range(nw)]
         inputs = [f"sc{i}_u_wheels[{k}]" for i in range(1, n + 1) for k in range(nw)]
@@ -654,7 +654,7 @@ def sampled_formation(
         for r in range(len(inputs))
         if loop.connect_map[r].any()
     ]
-    if wheel_table is not None:  # pcwheels: the scenario's open-loop table, a block feeding sc<i>.u_wheels
+    if wheel_table is not None:  # the scenario's open-loop table, a block feeding sc<i>.u_wheels
         table = _wheel_command_table(scenario)
         syslist.append(table)
         for label in table.output_labels:

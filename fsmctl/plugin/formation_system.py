@@ -174,10 +174,10 @@ class FormationSystem(ct.InterconnectedSystem):
         >>> lin.A.shape, bool(np.isfinite(lin.A).all())
         ((46, 46), True)
         """
-        return _linearize_interconnection(self, x0, u0, t, params, eps, copy_names, **kwargs)
+        return linearize_interconnection(self, x0, u0, t, params, eps, copy_names, **kwargs)
 
 
-def _linearize_interconnection(
+def linearize_interconnection(
     sys: ct.InterconnectedSystem, x0, u0=None, t=0, params=None, eps=1e-6, copy_names=False, **kwargs
 ) -> ct.StateSpace:
     """The exact linearization of any :class:`control.InterconnectedSystem` (python-control's ``linearize``

@@ -439,7 +439,7 @@ def _controller(
     (``axes``, ``spin_inertia``) for a law that commands its wheels (:func:`_law_wheels`)."""
     where = f"{kind} {name!r}" if name else kind
     nz, nb, bname = law.n_states, law.n_broadcast, law.broadcast_name
-    nw = law.n_wheels if wheels is not None else 0  # lawwheels: outputs u_wheels, inputs Omega
+    nw = law.n_wheels if wheels is not None else 0  # a law that commands its wheels: outputs u_wheels, inputs Omega
     if bname == "tau":
         raise ScenarioError(f"{where}: the law's broadcast is named 'tau', the controller's torque output")
     if law.trigger is not None:  # event-triggered communication is flown by the compiled loop only

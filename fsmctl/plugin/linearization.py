@@ -17,7 +17,7 @@ import numpy as np
 
 from fsmctl.model.scenario import ScenarioError
 from fsmctl.plugin.arguments import _numbers
-from fsmctl.plugin.formation_system import FormationSystem, _linearize_interconnection
+from fsmctl.plugin.formation_system import FormationSystem, linearize_interconnection
 from fsmctl.plugin.jacobians import Kink, NonDifferentiableError
 
 __all__ = ["linearize", "mrp_linearization", "mrp_estimator"]
@@ -76,7 +76,7 @@ def linearize(sys: Any, xeq: Any, ueq: Any = None, t: float = 0, params: Mapping
     """
     if not isinstance(sys, ct.InterconnectedSystem) or isinstance(sys, FormationSystem):
         return ct.linearize(sys, xeq, ueq, t=t, params=params, **kw)
-    return _linearize_interconnection(sys, xeq, ueq, t, params, **kw)
+    return linearize_interconnection(sys, xeq, ueq, t, params, **kw)
 
 
 def _mrp_plant(plant: Any, where: str) -> tuple:
