@@ -96,6 +96,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="the certificate file (default: ./<law>.certificate.json; the Markdown beside it)")  # fmt: skip
     s.add_argument("--report", type=Path, default=None, metavar="FILE.md", help="the Markdown report's path")
     s.add_argument("--json", action="store_true", help="print the certificate's summary as JSON (no leaves)")
+    s.add_argument("--fly", type=float, default=20.0, metavar="S",
+                   help="fly a counterexample for S seconds and plot V along it beside the certificate (0: do not; "
+                   "default: 20)")  # fmt: skip
     add_progress_option(p, what="of the branch and bound")
     p.set_defaults(func=run)
     return p
@@ -122,6 +125,8 @@ def run(args: argparse.Namespace) -> int:
         return _check(args)
     if args.law is None:
         raise UsageError("give --law NAME|FILE.py (or --check FILE.json)")
+    if not (math.isfinite(args.fly) and args.fly >= 0):
+        raise UsageError(f"--fly must be a finite number >= 0, got {args.fly}")
     for name in ("region_sigma", "region_omega", "region_z", "seconds"):
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
@@ -154,6 +159,8 @@ def _certify(args) -> int:
     from fsmctl.proofs.certificate import certify_law
     from fsmctl.proofs.certify import SearchSettings
     from fsmctl.proofs.certify_problem import StateRegion
+    from fsmctl.studies.certify_flight import fly_counterexample
+    from fsmctl.studies.figures import save_figure
 
     code = resolve_law(args.law)
     scenario = load_scenario(args.scenario or "paper", case=args.case)
@@ -178,6 +185,13 @@ def _certify(args) -> int:
         )  # fmt: skip
     out = args.out or Path(f"{code.name}.certificate.json")
     report = args.report or out.with_suffix(".md")
+    figure = None
+    if cert.verdict == "counterexample" and args.fly > 0:
+        flight = fly_counterexample(cert, scenario, t_final=args.fly)
+        cert.notes.append(flight.summary())
+        cert.notes.extend(flight.notes)
+        stem = out.parent / (out.name.split(".")[0] + ".counterexample")
+        figure = save_figure(flight.figure(), stem)[0]
     cert.write(out, report)
     if args.json:
         d = cert.as_dict()
@@ -186,6 +200,8 @@ def _certify(args) -> int:
     else:
         print("\n".join(cert.lines()))
         print(f"certificate written to {out} and {report}; re-check: fsmctl certify --check {out}")
+        if figure is not None:
+            print(f"the counterexample's flight: {figure}")
     return 0 if cert.verdict == "certified" else 1
 
 

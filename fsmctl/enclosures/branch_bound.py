@@ -25,6 +25,7 @@ outward (:func:`numpy.nextafter`), as in the evaluator.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -417,7 +418,7 @@ def bound_maximum(
     while True:
         upper = max(best, float(qub.max())) if qub.size else best
         gap = max(absolute_gap, relative_gap * abs(upper))
-        if upper - best <= gap:
+        if math.isfinite(upper) and upper - best <= gap:
             return MaximumBound(upper, best, witness, boxes, True, time.perf_counter() - t0)
         if boxes >= budget.max_boxes or time.perf_counter() - t0 > budget.max_seconds or not spanned.any():
             return MaximumBound(upper, best, witness, boxes, False, time.perf_counter() - t0)

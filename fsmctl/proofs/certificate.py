@@ -440,7 +440,7 @@ def certify_law(
         sc = sc.with_law(spec)
     if not 0 <= agent < sc.n_agents:
         raise CertificateError(f"agent {agent + 1}: the scenario has {sc.n_agents} agents")
-    error_model = sc.controller.error_model.value
+    error_model = str(getattr(sc.controller.error_model, "value", sc.controller.error_model))
     symbolic = getattr(variants, error_model)
     region = region or StateRegion()
     uncertainty = uncertainty or scenario_uncertainty(sc, agent)

@@ -46,12 +46,13 @@ import numpy as np
 
 from fsmctl.enclosures.branch_bound import Budget, SignSearch, bound_maximum, enclose_sharp, prove_negative
 from fsmctl.enclosures.intervals import IntervalFunction
+from fsmctl.proofs.certify_core import CORE_FRACTIONS, QuadraticCore, quadratic_core
 from fsmctl.proofs.certify_problem import (
     Candidate,
     CertifyProblem,
     candidate_expression,
 )
-from fsmctl.proofs.quadratic_forms import interval_matrix_negative_definite, quadratic_lyapunov
+from fsmctl.proofs.quadratic_forms import quadratic_lyapunov
 from fsmctl.symbolic.law import Law
 
 __all__ = [
@@ -77,8 +78,6 @@ __all__ = [
 CERTIFIED, COUNTEREXAMPLE, INCONCLUSIVE = "certified", "counterexample", "inconclusive"
 ASYMPTOTIC, ULTIMATELY_BOUNDED = "asymptotic", "ultimately bounded"
 
-CORE_FRACTIONS = (0.25, 0.125, 0.0625, 0.03125, 0.015625)
-"""core boxes tried for the second-order argument, as fractions of the region's half-widths (largest first)"""
 EPSILON_GRID = tuple(10.0 ** (k / 4) for k in range(-16, 5))
 """cross-term weights screened (1e-4 ... 10): the nominal Hessians at the origin pick the best"""
 SCREEN_FRACTION = 0.1
@@ -261,35 +260,12 @@ def lyapunov_programs(problem: CertifyProblem, V) -> LyapunovPrograms:
     return LyapunovPrograms(*progs, fW, fV(problem.x))
 
 
-def origin_argument(problem: CertifyProblem, progs: LyapunovPrograms, fractions=CORE_FRACTIONS) -> dict:
-    """The second-order argument at the origin (see the module docstring): the largest core box that passes.
-
-    Returns ``{"passed": True, "fraction": f, "half_widths": [...]}`` or ``{"passed": False, "why": ...}``.
-    """
-    fW = progs.W_function
-    n = problem.n_state
-    x = problem.x
-    xs = x[:n]
-    W = fW(x)
-    H = IntervalFunction(ca.Function("H", [x], [ca.hessian(W, xs)[0]]))
-    G = IntervalFunction(ca.Function("G", [x], [ca.gradient(W, xs)]))
-    lo, hi = problem.lo.copy(), problem.hi.copy()
-    lo[:n], hi[:n] = 0.0, 0.0
-    w_lo, w_hi = progs.W.enclose_arb(lo, hi, precision=BALL_PRECISION)
-    g_lo, g_hi = G.enclose_arb(lo, hi, precision=BALL_PRECISION)
-    if not (w_lo[0] == w_hi[0] == 0.0 and np.all(g_lo == 0.0) and np.all(g_hi == 0.0)):
-        return {"passed": False, "why": "V_dot(0) = 0 and grad V_dot(0) = 0 could not be proved for every uncertainty"}
-    for frac in fractions:
-        clo, chi = problem.lo.copy(), problem.hi.copy()
-        clo[:n], chi[:n] = problem.lo[:n] * frac, problem.hi[:n] * frac
-        e = H.enclose(clo[:, None], chi[:, None])
-        if not bool(e.continuous[0]):
-            continue
-        hlo, hhi = e.lo[:, 0].reshape(n, n, order="F"), e.hi[:, 0].reshape(n, n, order="F")
-        hlo, hhi = np.minimum(hlo, hlo.T), np.maximum(hhi, hhi.T)
-        if np.all(np.isfinite(hlo) & np.isfinite(hhi)) and interval_matrix_negative_definite(hlo, hhi):
-            return {"passed": True, "fraction": frac, "half_widths": (problem.hi[:n] * frac).tolist()}
-    return {"passed": False, "why": "the Hessian of V_dot is not negative definite on any core box tried"}
+def origin_argument(problem: CertifyProblem, progs: LyapunovPrograms, fractions=CORE_FRACTIONS) -> QuadraticCore:
+    """The second-order argument near the origin (:func:`fsmctl.proofs.certify_core.quadratic_core`)."""
+    return quadratic_core(
+        problem.x, progs.W_function(problem.x), problem.n_state, problem.lo, problem.hi, fractions=fractions,
+        precision=BALL_PRECISION,
+    )  # fmt: skip
 
 
 def inside_core(problem: CertifyProblem, core: dict) -> Callable | None:
@@ -346,7 +322,12 @@ def certify_candidate(
     t0 = time.perf_counter()
     progs = lyapunov_programs(problem, candidate.expression)
     asymptotic = not np.any(problem.hi[problem.n_state :][_motion_mask(problem)] > 0)
-    core = origin_argument(problem, progs) if asymptotic else {}
+    core = origin_argument(problem, progs)
+    if asymptotic and core.get("passed") and core["r_star"] > 0:  # pragma: no cover - w0 = G = 0 at an equilibrium
+        core = QuadraticCore(passed=False, why="V_dot(0) = 0 and grad V_dot(0) = 0 could not be proved")
+    if core.get("passed") and core["r_star"] >= core["fraction"]:
+        core = QuadraticCore(passed=False, why=f"the ball where V_dot may be >= 0 (radius {core['r_star']:.3g} of "
+                             f"the region) is not inside the core box ({core['fraction']:g} of the region)")  # fmt: skip
     # without the origin's argument an asymptotic certificate is out of reach: search only for a counterexample
     seconds = settings.max_seconds * (SCREEN_FRACTION if asymptotic and not core.get("passed") else 1.0)
     search = prove_negative(
@@ -383,6 +364,8 @@ def _judge(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutco
         pv_lo, _ = progs.v_bounds(s.positive_points, s.positive_points)
         refuting = s.positive_points[pv_lo >= c_bnd]
         c_all = float(vhi.max()) if vhi.size else 0.0
+        if out.core.get("passed"):  # V_dot < 0 on the core outside the ball |y| <= r*: the ball joins the inner set
+            c_all = max(c_all, _ball_level(problem, progs, out.core["r_star"]))
         certified = c_all < c_bnd
         c_in, out.level = (c_all, c_bnd) if certified else split_levels(vlo, vhi, c_bnd)
         out.inner_level = c_in
@@ -398,6 +381,16 @@ def _judge(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutco
     if c_in is not None or out.level > 0:
         if out.level > (c_in or 0.0):
             _levels_report(problem, progs, out, c_in)
+
+
+def _ball_level(problem: CertifyProblem, progs: LyapunovPrograms, r_star: float) -> float:
+    """A certified upper bound of ``V`` on the box ``|y_k| <= r*`` (scaled state) that holds the ball of the core."""
+    n = problem.n_state
+    scale = np.maximum(np.abs(problem.lo[:n]), np.abs(problem.hi[:n]))
+    lo, hi = np.zeros(problem.lo.size), np.zeros(problem.lo.size)
+    lo[:n], hi[:n] = -r_star * scale, r_star * scale
+    f = IntervalFunction(ca.Function("V", [problem.x], [progs.V_sx]))
+    return bound_maximum(f, lo, hi, relative_gap=1e-3, budget=BOUNDARY_BUDGET).upper
 
 
 def split_levels(vlo: np.ndarray, vhi: np.ndarray, c_bnd: float) -> tuple[float | None, float]:

@@ -1,0 +1,177 @@
+"""``fsmctl certify`` (issue 29): rigorous Lyapunov certificates, refutations and their re-check.
+
+Independent oracles: the analytic region of attraction of ``tests/data/laws/pd_bistable_state.py`` (``|x| < 1``);
+the analytic ``V_dot`` of the unstable and wrong-candidate laws (``+P |omega|^2``, ``2K sigma^T omega - P |omega|^2``)
+evaluated in NumPy at the counterexample; Euler's equations written out in NumPy for the closed loop's vector field;
+dense sampling of ``V_dot`` for the soundness of a certificate.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from fsmctl.model.laws import resolve_law
+from fsmctl.proofs.certificate import certify_law, check_certificate, read_certificate
+from fsmctl.proofs.certify import SearchSettings
+from fsmctl.proofs.certify_problem import StateRegion, Uncertainty, build_problem
+
+ROOT = Path(__file__).resolve().parents[1]
+LAWS = ROOT / "tests" / "data" / "laws"
+MY_LAW, MY_SCENARIO = ROOT / "docs" / "examples" / "my_law.py", ROOT / "docs" / "examples" / "my_law.toml"
+FAST = SearchSettings(max_seconds=30.0)
+J0 = np.diag([20.0, 25.0, 30.0])  # my_law.toml's first agent
+
+
+def _certify(law, **kw):
+    kw.setdefault("scenario", MY_SCENARIO)
+    kw.setdefault("settings", FAST)
+    return certify_law(str(law), **kw)
+
+
+def _skew(v):
+    return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
+
+
+def test_closed_loop_is_eulers_equations():
+    """The vector field at random points (state and uncertainty) against Euler's equations written out in NumPy."""
+    code = resolve_law(str(MY_LAW))
+    region, unc = StateRegion(0.5, 0.1), Uncertainty(inertia=0.1, disturbance=0.2, reference_rate=0.01)
+    p = build_problem(code, "exact", J0, np.array([4.0, 12.0, 1.0]), np.inf, region, unc)
+    import casadi as ca
+
+    f = ca.Function("f", [p.x], [p.field])
+    rng = np.random.default_rng(1)
+    for _ in range(20):
+        x = rng.uniform(p.lo, p.hi)
+        se, we, th, d, wd, wdd = x[:3], x[3:6], x[6:9], x[9:12], x[12:15], x[15:18]
+        J = J0 * (1 + np.diag(th))  # diagonal J0: the three non-zero entries
+        s2 = se @ se
+        S = _skew(se)
+        C = np.eye(3) + (8 * S @ S - 4 * (1 - s2) * S) / (1 + s2) ** 2
+        w = we + C @ wd
+        u = -4.0 * se - 12.0 * we  # my_pd isolated: the consensus term vanishes
+        wdot = np.linalg.solve(J, u + d - np.cross(w, J @ w))
+        G = 0.25 * ((1 - s2) * np.eye(3) + 2 * S + 2 * np.outer(se, se))
+        expected = np.concatenate([G @ we, wdot + np.cross(we, C @ wd) - C @ wdd])
+        np.testing.assert_allclose(np.array(f(x)).ravel(), expected, rtol=1e-12, atol=1e-15)
+
+
+@pytest.fixture(scope="module")
+def pd_certificate(tmp_path_factory):
+    cert = _certify(MY_LAW, region=StateRegion(0.2, 0.05), uncertainty=Uncertainty(inertia=0.1))
+    path = tmp_path_factory.mktemp("cert") / "my_pd.certificate.json"
+    cert.write(path, path.with_suffix(".md"))
+    return cert, path
+
+
+def test_pd_example_certified_asymptotic_with_inertia_uncertainty(pd_certificate):
+    cert, _ = pd_certificate
+    assert (cert.verdict, cert.kind) == ("certified", "asymptotic")
+    assert cert.candidate["kind"] == "declared + cross term"  # the declared V_dot = -P |omega|^2 is semidefinite
+    assert cert.outcome["core"]["passed"]
+    assert cert.outcome["level"] > 0
+
+
+def test_certificate_is_sound_against_dense_sampling(pd_certificate):
+    """V_dot < 0 at 20,000 random points of the region x uncertainty (floats: an independent spot check)."""
+    cert, _ = pd_certificate
+    code = resolve_law(str(MY_LAW))
+    p = build_problem(code, "exact", J0, np.array([4.0, 12.0, 1.0]), np.inf, cert.region, cert.uncertainty)
+    import casadi as ca
+    import sympy as sp
+
+    from fsmctl.proofs.certify_problem import state_symbols
+
+    s, w, z = state_symbols(0)
+    V = sp.sympify(cert.candidate["expression"], locals={str(v): v for v in (*s, *w)})
+    _, _, fW, _ = p.lyapunov(V)
+    rng = np.random.default_rng(7)
+    x = rng.uniform(p.lo, p.hi, size=(20_000, p.lo.size))
+    x = x[np.linalg.norm(x[:, :6], axis=1) > 1e-6]
+    vals = np.array(fW.map(x.shape[0])(x.T)).ravel()
+    assert vals.max() < 0
+
+
+def test_certificate_file_rechecks(pd_certificate):
+    _, path = pd_certificate
+    result = check_certificate(path, arb_sample=8)
+    assert result.ok, result.lines
+    assert any("tile the region" in line for line in result.lines)
+    assert "certified" in path.with_suffix(".md").read_text()
+
+
+def test_tampered_certificate_fails_recheck(pd_certificate, tmp_path):
+    """A certificate whose level is raised past V's minimum on the region's boundary does not re-check."""
+    _, path = pd_certificate
+    d = json.loads(path.read_text())
+    d["outcome"]["level"] *= 4
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(d))
+    result = check_certificate(bad, arb_sample=2)
+    assert not result.ok
+    assert any("FAILS" in line and "boundary" in line for line in result.lines)
+
+
+def test_unstable_law_refuted_with_a_confirmed_counterexample():
+    cert = _certify(LAWS / "pd_unstable.py", region=StateRegion(0.2, 0.05), uncertainty=Uncertainty())
+    assert cert.verdict == "counterexample"
+    c = cert.outcome["counterexample"]
+    assert c["confirmed"]
+    w = np.array([c["point"][f"omega_e[{k}]"] for k in range(3)])
+    assert np.isclose(c["V_dot"], 2.0 * w @ w, rtol=1e-9)  # the analytic V_dot = +P |omega|^2, P = 2
+
+
+def test_wrong_candidate_refuted():
+    cert = _certify(LAWS / "pd_wrong_v.py", region=StateRegion(0.2, 0.05), uncertainty=Uncertainty())
+    assert cert.verdict == "counterexample"
+    c = cert.outcome["counterexample"]
+    s = np.array([c["point"][f"sigma_e[{k}]"] for k in range(3)])
+    w = np.array([c["point"][f"omega_e[{k}]"] for k in range(3)])
+    analytic = 2 * 4.0 * s @ w - 12.0 * w @ w  # V_dot of the 3x weighted candidate along the PD loop
+    assert analytic > 0
+    assert np.isclose(c["V_dot"], analytic, rtol=1e-9, atol=1e-15)
+
+
+@pytest.mark.parametrize(("bound", "verdict"), [(0.95, "certified"), (1.05, "counterexample")])
+def test_known_region_of_attraction_boundary(bound, verdict):
+    """``x_dot = -x (1 - x^2)`` attracts exactly |x| < 1: certified on |x| <= 0.95, refuted on |x| <= 1.05."""
+    cert = _certify(LAWS / "pd_bistable_state.py", region=StateRegion(0.05, 0.02, bound), uncertainty=Uncertainty())
+    assert cert.verdict == verdict
+    if verdict == "counterexample":
+        assert abs(cert.outcome["counterexample"]["point"]["z[0]"]) > 1.0
+
+
+def test_monotone_in_the_uncertainty():
+    """What is certified for a larger inertia set is certified for a smaller one; a refutation persists."""
+    small = _certify(MY_LAW, region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(inertia=0.02))
+    large = _certify(MY_LAW, region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(inertia=0.1))
+    assert large.verdict == "certified"
+    assert small.verdict == "certified"
+    unstable = [
+        _certify(LAWS / "pd_unstable.py", region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(inertia=r)).verdict
+        for r in (0.0, 0.1)
+    ]
+    assert unstable == ["counterexample", "counterexample"]
+
+
+def test_disturbance_gives_ultimate_boundedness_never_asymptotic():
+    cert = _certify(MY_LAW, region=StateRegion(0.3, 0.05), uncertainty=Uncertainty(inertia=0.1, disturbance=0.05))
+    assert cert.kind in (None, "ultimately bounded")
+    assert cert.verdict in ("certified", "inconclusive")
+    if cert.verdict == "certified":
+        ub = cert.outcome["ultimate_bound"]
+        assert 0 < ub["sigma_e_max"] < 0.3
+        assert cert.outcome["inner_level"] < cert.outcome["level"]
+
+
+def test_read_certificate_refuses_other_files(tmp_path):
+    from fsmctl.proofs.certificate import CertificateError
+
+    bad = tmp_path / "x.json"
+    bad.write_text("{}")
+    with pytest.raises(CertificateError, match="not a certificate"):
+        read_certificate(bad)
