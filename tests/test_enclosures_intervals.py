@@ -175,7 +175,7 @@ def _check_op(name: str, oracle, boxes: list[list[tuple[float, float]]], ts: lis
 
 
 @pytest.mark.parametrize("name", sorted(UNARY))
-@settings(max_examples=25)
+@settings(max_examples=40)
 @given(data=st.data())
 def test_unary_enclosures_contain_the_exact_value(name, data):
     boxes = [[data.draw(_box())] for _ in range(6)]
@@ -184,7 +184,7 @@ def test_unary_enclosures_contain_the_exact_value(name, data):
 
 
 @pytest.mark.parametrize("name", sorted(BINARY))
-@settings(max_examples=20)
+@settings(max_examples=30)
 @given(data=st.data())
 def test_binary_enclosures_contain_the_exact_value(name, data):
     boxes = [[data.draw(_box()), data.draw(_box(integer_exponent=name == "pow"))] for _ in range(5)]

@@ -11,11 +11,12 @@ Soundness argument
   endpoint is within half an ulp of the exact one; moving it one ulp outward (``np.nextafter`` towards
   ``-inf``/``+inf``) gives a bound on the exact endpoint, including in the subnormal range and on overflow
   (an overflowed ``inf`` lower bound becomes ``DBL_MAX``, below the exact value).
-* The transcendental functions (exp, log, sin, ..., pow, atan2, hypot, erf) come from libm or from NumPy's
-  SIMD kernels, which are not correctly rounded; their documented error bounds (glibc's ``libm-test-ulps``
-  maxima for these functions are at most 3 ulps on x86-64; NumPy's AVX-512 SVML kernels are documented at
-  at most 4 ulps) are covered by widening each endpoint by :data:`LIBM_ULPS` ulps, then clamping to the
-  known range of the function (``exp >= 0``, ``|sin| <= 1``, ``|atan| <= pi/2`` with outward-rounded pi...).
+* The transcendental functions (exp, log, sin, ..., pow, atan2, hypot) come from glibc's libm or from NumPy's
+  SIMD kernels, and erf from SciPy; none is correctly rounded.  glibc's documented maxima (``libm-test-ulps``,
+  x86-64) for these functions are 1-3 ulps; NumPy's AVX-512 kernels (Intel SVML) are documented at 4 ulps at
+  most.  Each endpoint is widened by :data:`LIBM_ULPS` ulps (with a factor 2 to spare, see ``_dn``), then
+  clamped to the known range of the function (``exp >= 0``, ``|sin| <= 1``, ``|atan| <= pi/2`` with
+  outward-rounded pi...).
 * Monotone functions map endpoints; the others (sq, even powers, cos, sin, cosh, fabs, atan2, ...) locate
   their extrema conservatively (a critical point is included whenever the rounded test cannot exclude it).
 * Outside a function's domain (log or sqrt of negatives, division by an interval containing 0, a non-integer
