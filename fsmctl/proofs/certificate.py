@@ -39,6 +39,7 @@ from fsmctl.proofs.certify import (
 )
 from fsmctl.proofs.certify_check import recheck, tiles_region
 from fsmctl.proofs.certify_problem import Candidate, StateRegion, Uncertainty, build_problem, state_symbols
+from fsmctl.proofs.certify_symbolic import reduced_torque
 from fsmctl.proofs.law_check import load_law_variants
 
 __all__ = [
@@ -144,11 +145,20 @@ class Certificate:
             sig = max(v for k, v in ext.items() if k.startswith("sigma_e"))
             om = max(v for k, v in ext.items() if k.startswith("omega_e"))
             out.append(f"{{V <= {o['level']:.6g}}} lies in |sigma_e,k| <= {sig:.4g}, |omega_e,k| <= {om:.4g} rad/s")
-        if o.get("decrease"):
-            text = f"V_dot <= -{o['decrease']:.4g} on the certified annulus outside the core"
-            if o.get("reach_time") is not None:
-                text += f"; from {{V <= {o['level']:.4g}}} the inner set is reached within {o['reach_time']:.4g} s"
+        if o.get("core", {}).get("passed"):
+            core = o["core"]
+            text = (
+                f"on the core V_dot <= -{core['mu']:.4g} |y|^2, y = sigma_e, omega_e scaled by the region's half-widths"
+            )
+            if core.get("r_star"):
+                text += f", outside |y| <= {core['r_star']:.4g}"
             out.append(text)
+        if o.get("decrease") and o.get("reach_time") is not None:
+            c_mid = 0.5 * (o["inner_level"] + o["level"])
+            out.append(
+                f"V_dot <= -{o['decrease']:.4g} on {{{c_mid:.4g} <= V <= {o['level']:.4g}}}: from {{V <= {o['level']:.4g}}}"
+                f" the level {c_mid:.4g} is reached within {o['reach_time']:.4g} s"
+            )
         cov = o.get("volume", {})
         out.append(
             f"search: {o.get('boxes', 0)} boxes in {o.get('seconds', 0):.1f} s; proved {100 * cov.get('proved', 0):.4g} %"
@@ -448,8 +458,15 @@ def certify_law(
     J0 = sc.agents[agent].J0_array
     params = parameter_matrix(code, sc)[agent]
     limit = float(sc.controller.effective_torque_limit)
-    problem = build_problem(code, error_model, J0, params, limit, region, uncertainty)
-    candidates, notes = choose_candidates(problem, symbolic, params, J0, _vertices(problem, uncertainty))
+    notes: list[str] = []
+    reduced = reduced_torque(symbolic, params, J0, at_rest=not (any(uncertainty.reference_rate) or any(
+        uncertainty.reference_acceleration)))  # fmt: skip
+    problem = build_problem(
+        code, error_model, J0, params, limit, region, uncertainty, law=symbolic, reduced=reduced
+    )  # fmt: skip
+    notes.append(f"the law's torque: {problem.route}")
+    candidates, more = choose_candidates(problem, symbolic, params, J0, _vertices(problem, uncertainty))
+    notes.extend(more)
     if sc.actuator.kind != "ideal":
         notes.append("the scenario flies reaction wheels: certify models an ideal actuator with the torque limit")
     if sc.simulation.control_period:

@@ -431,12 +431,14 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
 
     out.level_extent = extent(out.level)
     annulus = (vlo <= out.level) & (vlo >= (c_in or 0.0))
-    if np.any(annulus):
-        out.decrease = float(-s.proved_sup[annulus].max())
-        if out.decrease > 0:
-            low = c_in if c_in is not None and not math.isclose(c_in, 0.0) else _core_level(problem, progs, out)
-            if low is not None:
-                out.reach_time = float((out.level - low) / out.decrease) if out.level > low else 0.0
+    if c_in is not None and c_in > 0 and np.any(annulus):
+        # V_dot <= -m on the leaves of {c_mid <= V <= c}: the time from {V <= c} down to c_mid is at most (c - c_mid)/m
+        c_mid = 0.5 * (c_in + out.level)
+        band = annulus & (vlo >= c_mid)
+        if np.any(band):
+            out.decrease = float(-s.proved_sup[band].max())
+            if out.decrease > 0:
+                out.reach_time = float((out.level - c_mid) / out.decrease)
     if c_in is not None and problem.hi[n:].any():
         ext = extent(c_in)
         sig = max(ext[f"sigma_e[{k}]"] for k in range(3))
@@ -446,24 +448,6 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
             "omega_e_max_rad_s": om,
             "attitude_error_max_deg": math.degrees(4 * math.atan(math.sqrt(3) * sig)),
         }
-
-
-def _core_level(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutcome) -> float | None:
-    """A level ``c_core`` whose set ``{V <= c_core}`` lies inside the core box (V's minimum on the core's faces)."""
-    if not out.core.get("passed"):
-        return None
-    n = problem.n_state
-    half = np.asarray(out.core["half_widths"])
-    best = math.inf
-    for k in range(n):
-        for side in (-half[k], half[k]):
-            lo = np.zeros(problem.x.numel())
-            hi = np.zeros(problem.x.numel())
-            lo[:n], hi[:n] = -half, half
-            lo[k] = hi[k] = side
-            a, _ = progs.v_bounds(lo[None, :], hi[None, :])
-            best = min(best, float(a[0]))
-    return max(best, 0.0)
 
 
 def _counterexample(problem: CertifyProblem, progs: LyapunovPrograms, points: np.ndarray) -> dict:

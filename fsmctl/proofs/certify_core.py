@@ -34,10 +34,13 @@ __all__ = ["CORE_FRACTIONS", "HESSIAN_BUDGET", "QuadraticCore", "quadratic_core"
 
 CORE_FRACTIONS = (1.0, 0.5, 0.25, 0.125, 0.0625)
 """core boxes tried, as fractions of the region's half-widths (largest first)"""
-HESSIAN_BUDGET = Budget(max_boxes=40_000, max_seconds=600.0, batch=2048)
+HESSIAN_BUDGET = Budget(max_boxes=20_000, max_seconds=600.0, batch=2048)
 """the box-by-box proof of negative definiteness on one core box (bounded by boxes: reproducible on re-check)"""
 MIN_WIDTH = 1.0 / 64
 """a core sub-box narrower than this (in the scaled coordinates) is not split: the core fraction fails"""
+UNCERTAINTY_SPLIT_WEIGHT = 0.25
+"""an uncertainty input is split only when it is this many times wider (relative to its range) than every state
+input: the Hessian depends on the uncertainty mildly and on the state strongly"""
 EXACT_PER_BATCH = 256
 """boxes of a batch checked with the exact midpoint-radius test when Gershgorin's discs fail"""
 
@@ -99,6 +102,7 @@ def _scaled_hessians(H: IntervalFunction, lo, hi, n: int, scale: np.ndarray, mu:
 def _negative_definite_on(H, lo0, hi0, n, scale, mu, budget: Budget) -> tuple[bool, int]:
     """Whether ``D H D + 2 mu I`` is negative definite on every sub-box of ``[lo0, hi0]`` (split as needed)."""
     width0 = np.where(hi0 > lo0, hi0 - lo0, 1.0)
+    weight = np.where(np.arange(lo0.size) < n, 1.0, UNCERTAINTY_SPLIT_WEIGHT)
     queue_lo, queue_hi = lo0[:, None].copy(), hi0[:, None].copy()
     boxes, t0 = 0, time.perf_counter()
     while queue_lo.shape[1]:
@@ -119,7 +123,7 @@ def _negative_definite_on(H, lo0, hi0, n, scale, mu, budget: Budget) -> tuple[bo
         rel = (bhi - blo) / width0[:, None]
         if np.any(rel.max(axis=0) <= MIN_WIDTH):
             return False, boxes
-        dims = rel.argmax(axis=0)
+        dims = (rel * weight[:, None]).argmax(axis=0)
         cols = np.arange(blo.shape[1])
         mid = 0.5 * (blo[dims, cols] + bhi[dims, cols])
         lo2, hi2 = np.concatenate([blo, blo], axis=1), np.concatenate([bhi, bhi], axis=1)
@@ -136,7 +140,8 @@ def _origin_values(W: IntervalFunction, G: IntervalFunction, lo, hi, n, scale, p
     _, w_hi = W.enclose_arb(lo, hi, precision=precision)
     g_lo, g_hi = G.enclose_arb(lo, hi, precision=precision)
     g = np.maximum(np.abs(g_lo), np.abs(g_hi)) * scale
-    return max(float(w_hi[0]), 0.0), _up(float(np.sqrt(_up(np.sum(_up(g * g))))))
+    norm = 0.0 if not np.any(g) else _up(float(np.sqrt(_up(np.sum(_up(g * g))))))
+    return max(float(w_hi[0]), 0.0), norm
 
 
 def quadratic_core(
@@ -188,7 +193,7 @@ def quadratic_core(
         return QuadraticCore(passed=False, why="the Hessian of V_dot at the origin is not negative definite")
     t0, total = time.perf_counter(), 0
     for frac in fractions:
-        for mu in (-top / 4, -top / 16, -top / 64):
+        for mu in (-top / 16,):
             clo, chi = lo.copy(), hi.copy()
             clo[:n], chi[:n] = lo[:n] * frac, hi[:n] * frac
             ok, boxes = _negative_definite_on(H, clo, chi, n, scale, mu, budget)
@@ -197,7 +202,7 @@ def quadratic_core(
                 r = (g0 + math.sqrt(g0 * g0 + 4 * mu * w0)) / (2 * mu) if (g0 or w0) else 0.0
                 return QuadraticCore(
                     passed=True, fraction=frac, half_widths=(scale * frac).tolist(), mu=mu, w0=w0, G=g0,
-                    r_star=_up(r * (1 + 1e-12)), boxes=total, seconds=time.perf_counter() - t0,
+                    r_star=_up(r * (1 + 1e-12)) if r > 0 else 0.0, boxes=total, seconds=time.perf_counter() - t0,
                 )  # fmt: skip
     return QuadraticCore(
         passed=False, why="the Hessian of V_dot is not negative definite on any core box tried", boxes=total

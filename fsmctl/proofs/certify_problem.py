@@ -37,7 +37,9 @@ from fsmctl.codegen.casadi_bridge import SympyToCasadi
 from fsmctl.errors import InputError
 from fsmctl.model.generated_code import law_sx_function
 from fsmctl.model.laws import LawCode
+from fsmctl.proofs.certify_symbolic import ReducedTorque
 from fsmctl.symbolic.law import Law, contract_names
+from fsmctl.symbolic.mrp import mrp_G
 
 __all__ = [
     "INERTIA_SETS",
@@ -292,6 +294,21 @@ def _inertia(J0: np.ndarray, theta: ca.SX, inertia_set: str) -> tuple[ca.SX, lis
     return ca.vertcat(*[ca.horzcat(*r) for r in rows]), pairs
 
 
+def _inverse(J0: np.ndarray, J: ca.SX, theta: ca.SX, inertia_set: str) -> ca.SX:
+    """``J^-1``, written so that each uncertain input occurs as few times as possible (tighter enclosures):
+    ``J0^-1 / (1 + theta)`` for the proportional set, ``diag(1 / J_kk)`` for a diagonal ``J0``, else adj / det."""
+    if inertia_set == "proportional":
+        return ca.SX(np.linalg.inv(J0)) / (1 + theta[0])
+    if np.count_nonzero(J0 - np.diag(np.diag(J0))) == 0:
+        return ca.diag(ca.vertcat(*[1 / J[k, k] for k in range(3)]))
+    adj = ca.SX(3, 3)
+    for i in range(3):
+        for j in range(3):
+            minor = [[J[r, c] for c in range(3) if c != i] for r in range(3) if r != j]
+            adj[i, j] = (-1) ** (i + j) * (minor[0][0] * minor[1][1] - minor[0][1] * minor[1][0])
+    return adj / (J[0, 0] * adj[0, 0] + J[0, 1] * adj[1, 0] + J[0, 2] * adj[2, 0])
+
+
 @dataclass
 class CertifyProblem:
     """One agent's closed loop with its uncertainty as CasADi graphs of ``x`` (see the module docstring)."""
@@ -307,6 +324,8 @@ class CertifyProblem:
     """``(sigma_e_dot, omega_e_dot, z_dot)``"""
     torque: ca.SX
     inertia_pairs: list[tuple[int, int]] = field(default_factory=list)
+    route: str = "the generated code's graphs"
+    """how the law's torque enters: its generated graphs, or its SymPy stages reduced at sigma_d = 0"""
 
     def state_slice(self) -> slice:
         return slice(0, self.n_state)
@@ -319,7 +338,15 @@ class CertifyProblem:
         translate = SympyToCasadi(dict(zip([*s, *w, *z], [xs[k] for k in range(self.n_state)], strict=True)))
         Vx = translate(V)
         gV = ca.gradient(Vx, self.x)
-        Vdot = ca.dot(ca.gradient(Vx, xs), self.field)
+        # the kinematic part grad_sigma V . G(sigma_e) omega_e is simplified in SymPy (for the MRP energy
+        # 2K ln(1 + |sigma|^2) it is K sigma^T omega exactly): fewer occurrences of each input, tighter enclosures
+        G_omega = mrp_G(s) * w
+        kinematic = sum(
+            sp.cancel(sum(sp.diff(term, sk) * gk for sk, gk in zip(s, G_omega, strict=True)))
+            for term in sp.Add.make_args(sp.expand(V))
+        )
+        rest = ca.gradient(Vx, xs)[3:]
+        Vdot = translate(kinematic) + ca.dot(rest, self.field[3:])
         gVdot = ca.gradient(Vdot, self.x)
         f = [ca.Function(n, [self.x], [e]) for n, e in (("V", Vx), ("dV", gV), ("V_dot", Vdot), ("dV_dot", gVdot))]
         return tuple(f)
@@ -333,6 +360,9 @@ def build_problem(
     torque_limit: float,
     region: StateRegion,
     uncertainty: Uncertainty,
+    *,
+    law: Law | None = None,
+    reduced: ReducedTorque | None = None,
 ) -> CertifyProblem:
     """The closed loop of one agent flying ``code`` with the uncertainty, as graphs of one input vector.
 
@@ -352,6 +382,11 @@ def build_problem(
         The state box.
     uncertainty : Uncertainty
         The uncertainty box.
+    law : fsmctl.symbolic.law.Law, optional
+        The law's symbols, with ``reduced``.
+    reduced : ReducedTorque, optional
+        The torque reduced symbolically (:func:`fsmctl.proofs.certify_symbolic.reduced_torque`): used in place of
+        the generated graph when it agrees with it at seeded random points of the box (to ``1e-9``).
 
     Returns
     -------
@@ -389,16 +424,15 @@ def build_problem(
             f"law {code.name!r}: its torque depends on the time t; certify treats time-invariant laws"
         )
     u, z_dot = ca.substitute(u, t, 0), ca.substitute(z_dot, t, 0)
-    adj = ca.SX(3, 3)
-    for i in range(3):
-        for j in range(3):
-            minor = [[J[r, c] for c in range(3) if c != i] for r in range(3) if r != j]
-            adj[i, j] = (-1) ** (i + j) * (minor[0][0] * minor[1][1] - minor[0][1] * minor[1][0])
-    det = J[0, 0] * adj[0, 0] + J[0, 1] * adj[1, 0] + J[0, 2] * adj[2, 0]
-    omega_dot = ca.mtimes(adj, u + d - ca.cross(omega, ca.mtimes(J, omega))) / det
+    x = ca.vertcat(se, we, z, theta, d, wd, wdd)
+    route = "the generated code's graphs"
+    if reduced is not None and law is not None:
+        ur, zr = _reduced_graphs(law, reduced, se, omega, z, wd, wdd, torque_limit)
+        if _agree(x, (u, z_dot), (ur, zr), region, uncertainty, nz, n_theta):
+            u, z_dot, route = ur, zr, f"the law's SymPy stages reduced at sigma_d = 0: {reduced.how}"
+    omega_dot = ca.mtimes(_inverse(J0, J, theta, uncertainty.inertia_set), u + d - ca.cross(omega, ca.mtimes(J, omega)))
     we_dot = omega_dot + ca.cross(we, ca.mtimes(C, wd)) - ca.mtimes(C, wdd)
     field_ = ca.vertcat(ca.mtimes(_mrp_G(se), we), we_dot, z_dot)
-    x = ca.vertcat(se, we, z, theta, d, wd, wdd)
     half = region.bounds(nz)
     unc = np.concatenate(
         [
@@ -418,4 +452,36 @@ def build_problem(
         + [f"omega_d[{k}]" for k in range(3)]
         + [f"omega_d_dot[{k}]" for k in range(3)]
     )
-    return CertifyProblem(names, 6 + nz, -hi, hi.copy(), x, field_, u, pairs)
+    return CertifyProblem(names, 6 + nz, -hi, hi.copy(), x, field_, u, pairs, route)
+
+
+def _reduced_graphs(law: Law, reduced: ReducedTorque, se, omega, z, wd, wdd, torque_limit: float):
+    sym = law.symbols
+    pairs = [(sym["sigma"], se), (sym["omega"], omega), (sym["z"], z), (sym["omega_d"], wd), (sym["omega_d_dot"], wdd)]
+    mapping = {}
+    for symbols, values in pairs:
+        mapping.update({a: values[k] for k, a in enumerate(list(symbols))})
+    translate = SympyToCasadi(mapping)
+    u = translate(reduced.u)
+    if math.isfinite(torque_limit):
+        u = ca.fmin(ca.fmax(u, -torque_limit), torque_limit)
+    z_dot = translate(reduced.z_dot) if reduced.z_dot.rows else ca.SX(0, 1)
+    return u, z_dot
+
+
+AGREEMENT_POINTS = 64
+"""seeded random points at which a reduced torque must agree with the generated one"""
+
+
+def _agree(x, generated, reduced, region: StateRegion, uncertainty: Uncertainty, nz: int, n_theta: int) -> bool:
+    f = ca.Function("agree", [x], [ca.vertcat(*generated), ca.vertcat(*reduced)])
+    half = np.concatenate(
+        [region.bounds(nz), np.full(n_theta, uncertainty.inertia), uncertainty.disturbance,
+         uncertainty.reference_rate, uncertainty.reference_acceleration]
+    )  # fmt: skip
+    rng = np.random.default_rng(29)
+    for _ in range(AGREEMENT_POINTS):
+        a, b = (np.array(v, float).ravel() for v in f(rng.uniform(-half, half)))
+        if not np.all(np.abs(a - b) <= 1e-9 * (1 + np.abs(a))):
+            return False
+    return True
