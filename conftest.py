@@ -10,6 +10,7 @@ from __future__ import annotations
 import copy
 import functools
 import os
+from pathlib import Path
 
 import pytest
 
@@ -74,3 +75,5 @@ def _shared_doctest_setup(doctest_namespace):
     """Names the Examples of several modules share (their setup is written once, here)."""
     doctest_namespace["one_second_records"] = one_second_records
     doctest_namespace["one_second_reproduction"] = one_second_reproduction
+    # the documented example laws and scenarios (docs/examples/): Examples that certify or fly them name files there
+    doctest_namespace["EXAMPLES"] = Path(__file__).resolve().parent / "docs" / "examples"

@@ -20,7 +20,7 @@ import sys
 from pathlib import Path
 
 from fsmctl.cli.exit_codes import epilog
-from fsmctl.cli.options import add_case_option, add_progress_option, add_scenario_option
+from fsmctl.cli.options import add_case_option, add_out_option, add_progress_option, add_scenario_option
 
 __all__ = ["EXIT_CODES", "add_parser", "run"]
 
@@ -56,7 +56,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     argparse.ArgumentParser
         The ``certify`` parser, with ``func = run``.
     """
-    from fsmctl.proofs.certify import SearchSettings
+    from fsmctl.proofs.certify import CANDIDATE_CHOICES, SearchSettings
     from fsmctl.proofs.certify_problem import INERTIA_SETS, StateRegion
 
     region, search = StateRegion(), SearchSettings()
@@ -67,34 +67,46 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "inconclusive.",
         epilog=EPILOG,
     )
-    p.add_argument("--law", metavar="NAME|FILE.py", help="the law: a built-in name or a derivation script")
-    p.add_argument("--check", metavar="FILE.json", type=Path, help="re-check a certificate file instead")
+    p.add_argument("--law", metavar="NAME|FILE.py|DIR", help="the law: a built-in name or a derivation script")
+    p.add_argument("--check", metavar="FILE.json", type=Path, dest="certificate_file",
+                   help="re-check a certificate file instead")  # fmt: skip
     add_scenario_option(p, default=None, note="supplying J0, the parameters, the torque limit and the uncertainty")
     add_case_option(p)
     p.add_argument("--agent", type=int, default=1, metavar="I", help="which agent of the scenario (default: 1)")
     g = p.add_argument_group("the region (error coordinates)")
     g.add_argument("--region-sigma", type=float, default=region.sigma, metavar="R",
-                   help=f"|sigma_e,k| <= R (default: {region.sigma:g})")  # fmt: skip
+                   help=f"every component of sigma_e within [-R, R] (default: {region.sigma:g})")  # fmt: skip
     g.add_argument("--region-omega", type=float, default=region.omega, metavar="R",
-                   help=f"|omega_e,k| <= R rad/s (default: {region.omega:g})")  # fmt: skip
+                   help=f"every component of omega_e within [-R, R] rad/s (default: {region.omega:g})")  # fmt: skip
     g.add_argument("--region-z", type=float, default=region.z, metavar="R",
-                   help=f"|z_k| <= R for the law's own states (default: {region.z:g})")  # fmt: skip
+                   help=f"every component of the law's own states z within [-R, R] (default: {region.z:g})")  # fmt: skip
     u = p.add_argument_group("the uncertainty (default: the scenario's)")
     u.add_argument("--inertia-uncertainty", type=float, default=None, metavar="REL",
-                   help="J_kl = J0_kl (1 + theta_kl), |theta_kl| <= REL (0: J = J0)")  # fmt: skip
+                   help="the true inertia J_kl = J0_kl (1 + theta_kl) with theta_kl within [-REL, REL] (0: J = J0)")  # fmt: skip
     u.add_argument("--inertia-set", choices=INERTIA_SETS, default=None,
                    help="each non-zero entry of J0 on its own (entries) or J = (1 + theta) J0 (proportional)")  # fmt: skip
-    u.add_argument("--disturbance", type=float, default=None, metavar="N_M", help="|d_k| <= N_M N m (0: none)")
+    u.add_argument(
+        "--disturbance",
+        type=float,
+        default=None,
+        metavar="N_M",
+        help="every disturbance component within [-N_M, N_M] N m (0: none)",
+    )
     u.add_argument("--reference-rate", type=float, default=None, metavar="RAD_S",
-                   help="|omega_d,k| <= RAD_S rad/s (0 with --reference-acceleration 0: the reference at rest)")  # fmt: skip
+                   help="every reference rate component within [-RAD_S, RAD_S] rad/s (0 with --reference-acceleration 0: the "
+                   "reference at rest)")  # fmt: skip
     u.add_argument("--reference-acceleration", type=float, default=None, metavar="RAD_S2",
-                   help="|omega_d_dot,k| <= RAD_S2 rad/s^2")  # fmt: skip
+                   help="every reference acceleration component within [-RAD_S2, RAD_S2] rad/s^2")  # fmt: skip
     s = p.add_argument_group("the search and the files")
+    s.add_argument("--candidate", choices=CANDIDATE_CHOICES, default="auto",
+                   help="auto: the law's declared V, then the V fsmctl finds (cross term, quadratic); declared: only "
+                   "the law's own V (default: auto)")  # fmt: skip
     s.add_argument("--seconds", type=float, default=search.max_seconds, metavar="S",
                    help=f"budget of the branch and bound per candidate V (default: {search.max_seconds:g})")  # fmt: skip
-    s.add_argument("--out", type=Path, default=None, metavar="FILE.json",
-                   help="the certificate file (default: ./<law>.certificate.json; the Markdown beside it)")  # fmt: skip
-    s.add_argument("--report", type=Path, default=None, metavar="FILE.md", help="the Markdown report's path")
+    add_out_option(p, None, help="output folder: certificate.json, certificate.md and, for a counterexample, its "
+                   "flight's figure (default: ./certify-<law>)")  # fmt: skip
+    s.add_argument("--report", type=Path, default=None, metavar="FILE.md",
+                   help="write the Markdown report here instead (default: certificate.md in the output folder)")  # fmt: skip
     s.add_argument("--json", action="store_true", help="print the certificate's summary as JSON (no leaves)")
     s.add_argument("--fly", type=float, default=20.0, metavar="S",
                    help="fly a counterexample for S seconds and plot V along it beside the certificate (0: do not; "
@@ -119,7 +131,7 @@ def run(args: argparse.Namespace) -> int:
     """
     from fsmctl.cli.main import UsageError
 
-    if args.check is not None:
+    if args.certificate_file is not None:
         if args.law is not None:
             raise UsageError("--check re-checks a file: it takes no --law")
         return _check(args)
@@ -181,17 +193,17 @@ def _certify(args) -> int:
 
         cert = certify_law(
             args.law, scenario=scenario, agent=args.agent - 1, region=region, uncertainty=uncertainty,
-            settings=settings, progress=progress,
+            settings=settings, candidates=args.candidate, progress=progress,
         )  # fmt: skip
-    out = args.out or Path(f"{code.name}.certificate.json")
-    report = args.report or out.with_suffix(".md")
+    folder = args.out or Path(f"certify-{code.name}")
+    out = folder / "certificate.json"
+    report = args.report or folder / "certificate.md"
     figure = None
     if cert.verdict == "counterexample" and args.fly > 0:
         flight = fly_counterexample(cert, scenario, t_final=args.fly)
         cert.notes.append(flight.summary())
         cert.notes.extend(flight.notes)
-        stem = out.parent / (out.name.split(".")[0] + ".counterexample")
-        figure = save_figure(flight.figure(), stem)[0]
+        figure = save_figure(flight.figure(), folder / "counterexample")[0]
     cert.write(out, report)
     if args.json:
         d = cert.as_dict()
@@ -208,7 +220,7 @@ def _certify(args) -> int:
 def _check(args) -> int:
     from fsmctl.proofs.certificate import check_certificate
 
-    result = check_certificate(args.check)
+    result = check_certificate(args.certificate_file)
     first = "re-checked: every statement holds" if result.ok else "NOT re-checked: a statement fails"
     print(first)
     print("\n".join(result.lines))

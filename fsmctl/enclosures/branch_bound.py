@@ -34,9 +34,23 @@ import numpy as np
 
 from fsmctl.enclosures.intervals import IntervalFunction
 
-__all__ = ["Budget", "MaximumBound", "SignSearch", "bound_maximum", "enclose_sharp", "prove_negative"]
+__all__ = [
+    "EXCLUDED",
+    "POSITIVE",
+    "PROVED",
+    "UNDECIDED",
+    "Budget",
+    "MaximumBound",
+    "SignSearch",
+    "bisection_leaves",
+    "bound_maximum",
+    "enclose_sharp",
+    "prove_negative",
+]
 
 _INF = np.inf
+PROVED, POSITIVE, UNDECIDED, EXCLUDED = -1, -2, -3, -4
+"""leaf codes of :attr:`SignSearch.codes` (a code >= 0 is the input a box was split along)"""
 
 
 @dataclass(frozen=True)
@@ -194,6 +208,12 @@ class SignSearch:
     """the budget ran out before every leaf was decided"""
     volume: dict[str, float] = field(default_factory=dict)
     """fraction of the box's volume (over the inputs it spans) that is proved, positive, undecided, excluded"""
+    codes: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int8))
+    """the bisection tree: per box in processing order, the input it was split along (>= 0) or its leaf kind
+    (:data:`PROVED`, :data:`POSITIVE`, :data:`UNDECIDED`, :data:`EXCLUDED`); :func:`bisection_leaves` rebuilds
+    the leaves from it"""
+    batch: int = 0
+    """boxes per pass (the processing order depends on it)"""
 
 
 def _volume(lo, hi, scale, spanned) -> float:
@@ -216,6 +236,7 @@ def prove_negative(
     min_width: float = 1e-4,
     exclude: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
     progress: Callable[[int, float], None] | None = None,
+    stop_on_positive: bool = False,
 ) -> SignSearch:
     """Prove ``f(x) < threshold`` on a box by splitting it, or find points where ``f(x) > threshold``.
 
@@ -243,6 +264,8 @@ def prove_negative(
         proves by another argument (a leaf, not split further).
     progress : callable, optional
         ``progress(boxes_evaluated, fraction_decided)`` after each batch.
+    stop_on_positive : bool
+        Stop after the first batch that proves ``f > threshold`` somewhere (the boxes left are undecided).
 
     Returns
     -------
@@ -276,42 +299,57 @@ def prove_negative(
     t0 = time.perf_counter()
     queue_lo, queue_hi = lo0[:, None].copy(), hi0[:, None].copy()
     kinds: dict[str, list] = {k: [] for k in ("proved", "positive", "undecided", "excluded")}
+    codes: list[np.ndarray] = []  # the bisection tree, box by box in processing order (see bisection_leaves)
     boxes, exhausted = 0, False
     while queue_lo.shape[1]:
         if boxes >= budget.max_boxes or time.perf_counter() - t0 > budget.max_seconds:
             kinds["undecided"].append((queue_lo, queue_hi))
+            codes.append(np.full(queue_lo.shape[1], UNDECIDED, np.int8))
             exhausted = True
             break
         take = min(budget.batch, queue_lo.shape[1])
         blo, bhi = queue_lo[:, :take], queue_hi[:, :take]
         queue_lo, queue_hi = queue_lo[:, take:], queue_hi[:, take:]
+        code, idx = np.full(take, UNDECIDED, np.int8), np.arange(take)
         boxes += take
         if exclude is not None:
             out = np.asarray(exclude(blo, bhi), bool)
             kinds["excluded"].append((blo[:, out], bhi[:, out]))
-            blo, bhi = blo[:, ~out], bhi[:, ~out]
+            code[idx[out]] = EXCLUDED
+            blo, bhi, idx = blo[:, ~out], bhi[:, ~out], idx[~out]
         _, fhi, mag = enclose_sharp(f, blo, bhi, output=output, gradient=gradient)
         proved = fhi < threshold
         kinds["proved"].append((blo[:, proved], bhi[:, proved], fhi[proved]))
-        blo, bhi = blo[:, ~proved], bhi[:, ~proved]
+        code[idx[proved]] = PROVED
+        blo, bhi, idx = blo[:, ~proved], bhi[:, ~proved], idx[~proved]
         mag = None if mag is None else mag[:, ~proved]
         c = np.minimum(np.maximum(0.5 * (blo + bhi), blo), bhi)
         at = f.enclose(c, c).lo[output]
         positive = at > threshold
         kinds["positive"].append((blo[:, positive], bhi[:, positive], c[:, positive], at[positive]))
+        code[idx[positive]] = POSITIVE
         keep = ~positive
-        blo, bhi, mag = blo[:, keep], bhi[:, keep], None if mag is None else mag[:, keep]
+        blo, bhi, idx, mag = blo[:, keep], bhi[:, keep], idx[keep], None if mag is None else mag[:, keep]
         small = np.all(np.where(can[:, None], (bhi - blo) <= min_width * scale[:, None], True), axis=0)
         kinds["undecided"].append((blo[:, small], bhi[:, small]))
-        blo, bhi, mag = blo[:, ~small], bhi[:, ~small], None if mag is None else mag[:, ~small]
+        blo, bhi, idx, mag = blo[:, ~small], bhi[:, ~small], idx[~small], None if mag is None else mag[:, ~small]
         if blo.shape[1]:
             dims = _split_dimension(blo, bhi, scale, can, mag)
+            code[idx] = dims
             nlo, nhi = _halve(blo, bhi, dims)
             queue_lo, queue_hi = np.concatenate([queue_lo, nlo], axis=1), np.concatenate([queue_hi, nhi], axis=1)
+        codes.append(code)
+        if stop_on_positive and positive.any() and queue_lo.shape[1]:
+            kinds["undecided"].append((queue_lo, queue_hi))
+            codes.append(np.full(queue_lo.shape[1], UNDECIDED, np.int8))
+            break
         if progress is not None:
             pending = _volume(queue_lo.T, queue_hi.T, scale, spanned)
             progress(boxes, 1.0 - pending)
-    return _sign_search(kinds, n, boxes, time.perf_counter() - t0, exhausted, scale, spanned)
+    search = _sign_search(kinds, n, boxes, time.perf_counter() - t0, exhausted, scale, spanned)
+    search.codes = np.concatenate(codes) if codes else np.zeros(0, np.int8)
+    search.batch = budget.batch
+    return search
 
 
 def _stack(parts: list, n: int, matrices: int, vectors: int) -> list[np.ndarray]:
@@ -339,6 +377,78 @@ def _sign_search(kinds, n, boxes, seconds, exhausted, scale, spanned) -> SignSea
         "excluded": _volume(xlo, xhi, scale, spanned),
     }
     return SignSearch(plo, phi, psup, qlo, qhi, qpt, qval, ulo, uhi, xlo, xhi, boxes, seconds, exhausted, volume)
+
+
+def bisection_leaves(lo, hi, codes: np.ndarray, batch: int) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """The leaves of a :func:`prove_negative` search rebuilt from its codes: a partition of the box by construction.
+
+    The boxes are split at the same midpoints, in the same order, as in the search, so the leaves are the
+    search's, bit for bit.
+
+    Parameters
+    ----------
+    lo, hi : array_like
+        The root box ``(n_in,)``.
+    codes : numpy.ndarray
+        :attr:`SignSearch.codes`.
+    batch : int
+        :attr:`SignSearch.batch`.
+
+    Returns
+    -------
+    dict
+        ``{kind: (lo, hi)}`` for each leaf code, boxes as rows ``(k, n_in)`` in processing order.
+
+    Raises
+    ------
+    ValueError
+        Codes that do not describe a complete bisection of the box.
+
+    Examples
+    --------
+    >>> import casadi as ca, numpy as np
+    >>> from fsmctl.enclosures.intervals import IntervalFunction
+    >>> from fsmctl.enclosures.branch_bound import PROVED, bisection_leaves, prove_negative
+    >>> x = ca.SX.sym("x", 2)
+    >>> f = IntervalFunction(ca.Function("f", [x], [ca.sumsqr(x) - 1]))
+    >>> s = prove_negative(f, [-0.6, -0.6], [0.6, 0.6])
+    >>> leaves = bisection_leaves([-0.6, -0.6], [0.6, 0.6], s.codes, s.batch)
+    >>> bool(np.array_equal(leaves[PROVED][0], s.proved_lo))
+    True
+    """
+    lo0, hi0 = np.asarray(lo, float).ravel(), np.asarray(hi, float).ravel()
+    n = lo0.size
+    codes = np.asarray(codes)
+    qlo, qhi = lo0[:, None].copy(), hi0[:, None].copy()
+    parts: dict[int, list] = {k: [] for k in (PROVED, POSITIVE, UNDECIDED, EXCLUDED)}
+    p = 0
+    while qlo.shape[1]:
+        take = min(batch, qlo.shape[1])
+        code = codes[p : p + take]
+        if code.size != take:
+            raise ValueError("the codes end before the bisection does")
+        p += take
+        blo, bhi = qlo[:, :take], qhi[:, :take]
+        qlo, qhi = qlo[:, take:], qhi[:, take:]
+        for kind in parts:
+            parts[kind].append((blo[:, code == kind], bhi[:, code == kind]))
+        split = code >= 0
+        if np.any(code[split] >= n) or np.any(~split & ~np.isin(code, list(parts))):
+            raise ValueError("a code names no input and no leaf kind")
+        if split.any():
+            nlo, nhi = _halve(blo[:, split], bhi[:, split], code[split].astype(int))
+            qlo, qhi = np.concatenate([qlo, nlo], axis=1), np.concatenate([qhi, nhi], axis=1)
+    if p != codes.size:
+        raise ValueError("codes are left after the bisection ends")
+    out = {}
+    for kind, pieces in parts.items():
+        los = [a for a, _ in pieces if a.shape[1]]
+        his = [b for _, b in pieces if b.shape[1]]
+        out[kind] = (
+            np.concatenate(los, axis=1).T.copy() if los else np.zeros((0, n)),
+            np.concatenate(his, axis=1).T.copy() if his else np.zeros((0, n)),
+        )
+    return out
 
 
 @dataclass(frozen=True)

@@ -8,7 +8,10 @@
 * Theorem 1 on a concrete time-varying topology (eqs 25-27): :func:`analyze_topology`, :func:`eta_interval`;
 * Theorem 2's switching gain (eqs 29-33): :func:`delta_requirements` over a :class:`Region`;
 * any law written with :class:`fsmctl.symbolic.LawBuilder` (``fsmctl prove --law``): :func:`check_law`,
-  which returns a :class:`LawReport`.
+  which returns a :class:`LawReport`;
+* a rigorous Lyapunov certificate of a law over a :class:`StateRegion` with an :class:`Uncertainty`
+  (``fsmctl certify``): :func:`certify_law` (its budget :class:`SearchSettings`), re-checked from its file by
+  :func:`check_certificate`.
 
 The modules :mod:`~fsmctl.proofs.identities` (the model identities ``python -m derive`` proves) and
 :mod:`~fsmctl.proofs.seed_audit` (the re-audit against the printed text) are documented in place.  Names load
@@ -26,6 +29,9 @@ _ATTRS = {
     "theorem1": ["analyze_topology", "eta_interval"],
     "theorem2": ["Region", "delta_requirements"],
     "law_check": ["check_law", "LawReport"],
+    "certificate": ["certify_law", "check_certificate"],
+    "certify_problem": ["StateRegion", "Uncertainty"],
+    "certify": ["SearchSettings"],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]

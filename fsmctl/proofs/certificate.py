@@ -4,10 +4,11 @@
 :class:`Certificate` is its record: the law (name, source, the hash of its generated code), the agent's nominal
 inertia, parameters and torque limit, the region, the uncertainty, the candidate ``V`` (its exact expression), the
 method and the arithmetic, the verdict with its levels, bounds and counterexample, and every leaf box on which
-``V_dot < 0`` was proved.  :meth:`Certificate.write` saves it as JSON (the leaves compressed, base64) and Markdown;
+``V_dot < 0`` was proved (the branch and bound's bisection tree, one code per box).  :meth:`Certificate.write`
+saves it as JSON (the tree compressed, base64) and Markdown;
 :func:`check_certificate` re-checks a saved file independently of the search: it rebuilds the closed loop from the
 recorded inputs (refusing a law whose generated code changed), re-proves ``V_dot < 0`` on every recorded leaf,
-checks that the leaves tile the region (inside it, interiors disjoint, volumes summing to the region's exactly),
+rebuilds the leaves from the tree (a partition of the region by construction),
 re-proves the origin's second-order argument and the levels, confirms the counterexample in ball arithmetic, and
 re-proves a sample of the leaves in python-flint's ball arithmetic (the formally rigorous route).
 """
@@ -30,6 +31,7 @@ from fsmctl.model.laws import parameter_matrix, resolve_law
 from fsmctl.model.scenario import Scenario, load_scenario
 from fsmctl.outputs import write_text
 from fsmctl.proofs.certify import (
+    CANDIDATE_CHOICES,
     CERTIFIED,
     COUNTEREXAMPLE,
     CandidateOutcome,
@@ -37,8 +39,15 @@ from fsmctl.proofs.certify import (
     certify_candidate,
     choose_candidates,
 )
-from fsmctl.proofs.certify_check import recheck, tiles_region
-from fsmctl.proofs.certify_problem import Candidate, StateRegion, Uncertainty, build_problem, state_symbols
+from fsmctl.proofs.certify_check import recheck
+from fsmctl.proofs.certify_problem import (
+    Candidate,
+    StateRegion,
+    Uncertainty,
+    build_problem,
+    candidate_from_record,
+    expression_tree,
+)
 from fsmctl.proofs.certify_symbolic import reduced_torque
 from fsmctl.proofs.law_check import load_law_variants
 
@@ -50,7 +59,6 @@ __all__ = [
     "certify_law",
     "check_certificate",
     "read_certificate",
-    "tiles_region",
 ]
 
 CERTIFICATE_FORMAT = 1
@@ -68,14 +76,18 @@ class CertificateError(InputError):
     """A certificate file that cannot be read or re-checked (one line, exit 2)."""
 
 
-def _encode(a: np.ndarray) -> dict:
-    a = np.ascontiguousarray(a, dtype="<f8")
-    return {"shape": list(a.shape), "float64_zlib_base64": base64.b64encode(zlib.compress(a.tobytes(), 6)).decode()}
+def _encode_tree(tree: dict) -> dict:
+    codes = np.ascontiguousarray(tree.get("codes", np.zeros(0, np.int8)), dtype=np.int8)
+    return {
+        "batch": int(tree.get("batch", 0)),
+        "boxes": int(codes.size),
+        "codes_int8_zlib_base64": base64.b64encode(zlib.compress(codes.tobytes(), 9)).decode(),
+    }
 
 
-def _decode(d: dict) -> np.ndarray:
-    raw = zlib.decompress(base64.b64decode(d["float64_zlib_base64"]))
-    return np.frombuffer(raw, dtype="<f8").reshape(d["shape"]).copy()
+def _decode_tree(d: dict) -> dict:
+    raw = zlib.decompress(base64.b64decode(d["codes_int8_zlib_base64"]))
+    return {"batch": int(d["batch"]), "codes": np.frombuffer(raw, dtype=np.int8).copy()}
 
 
 def law_fingerprint(folder: Path) -> str:
@@ -97,10 +109,13 @@ class Certificate:
     outcome: dict
     attempts: list[dict] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    leaves: dict = field(default_factory=dict)
-    """``proved_lo``, ``proved_hi``, ``excluded_lo``, ``excluded_hi``, ``other_lo``, ``other_hi`` as arrays"""
+    tree: dict = field(default_factory=dict)
+    """the branch and bound's bisection of the region: ``codes`` and ``batch``
+    (:func:`fsmctl.enclosures.branch_bound.bisection_leaves` rebuilds every leaf from them)"""
     names: list[str] = field(default_factory=list)
     versions: dict = field(default_factory=dict)
+    route: str = ""
+    """how the law's torque entered the closed loop (:attr:`fsmctl.proofs.certify_problem.CertifyProblem.route`)"""
 
     # ------------------------------------------------------------------------------------------- text
     def headline(self) -> str:
@@ -191,7 +206,7 @@ class Certificate:
         text += [f"| {k} | {v} |" for k, v in rows]
         text += ["", "## V", "", "```", self.candidate["expression"], "```", "", "## Report", ""]
         text += [f"- {line}" for line in self.lines()[1:]]
-        text += ["", f"Re-check: `fsmctl certify --check {self.law['name']}.certificate.json`", ""]
+        text += ["", "Re-check: `fsmctl certify --check certificate.json` (the JSON file beside this report)", ""]
         return "\n".join(text)
 
     # ------------------------------------------------------------------------------------------- files
@@ -212,8 +227,9 @@ class Certificate:
             "attempts": self.attempts,
             "notes": self.notes,
             "inputs": self.names,
+            "route": self.route,
             "versions": self.versions,
-            "leaves": {k: _encode(v) for k, v in self.leaves.items()},
+            "tree": _encode_tree(self.tree),
         }
 
     def write(self, json_path: Path, markdown_path: Path | None = None) -> None:
@@ -233,7 +249,7 @@ def _json_default(o):
 
 
 def read_certificate(path: Path) -> dict:
-    """The JSON of a certificate file, with its leaves decoded (arrays).
+    """The JSON of a certificate file, with its bisection tree decoded (``tree``: ``codes`` array and ``batch``).
 
     Raises
     ------
@@ -246,7 +262,10 @@ def read_certificate(path: Path) -> dict:
         raise CertificateError(f"{path}: not a readable certificate ({exc})") from None
     if not isinstance(d, dict) or d.get("format") != CERTIFICATE_FORMAT:
         raise CertificateError(f"{path}: not a certificate of format {CERTIFICATE_FORMAT}")
-    d["leaves"] = {k: _decode(v) for k, v in d.get("leaves", {}).items()}
+    try:
+        d["tree"] = _decode_tree(d["tree"]) if d.get("tree", {}).get("batch") else {}
+    except (KeyError, TypeError, ValueError, zlib.error) as exc:
+        raise CertificateError(f"{path}: the certificate's bisection tree cannot be read ({exc})") from None
     return d
 
 
@@ -275,6 +294,7 @@ def candidate_dict(c: Candidate) -> dict:
         "kind": c.kind,
         "describe": c.describe(),
         "expression": sp.sstr(c.expression, full_prec=True),
+        "tree": expression_tree(c.expression),
         "epsilon": c.epsilon,
         "P": None if c.P is None else [list(r) for r in c.P],
         "note": c.note,
@@ -287,18 +307,9 @@ def _why(o: CandidateOutcome) -> str:
     return o.difficulty or "not proved"
 
 
-def leaves_of(o: CandidateOutcome) -> dict:
+def tree_of(o: CandidateOutcome) -> dict:
     s = o.search
-    if s is None:
-        return {}
-    return {
-        "proved_lo": s.proved_lo,
-        "proved_hi": s.proved_hi,
-        "excluded_lo": s.excluded_lo,
-        "excluded_hi": s.excluded_hi,
-        "other_lo": np.concatenate([s.positive_lo, s.undecided_lo]),
-        "other_hi": np.concatenate([s.positive_hi, s.undecided_hi]),
-    }
+    return {} if s is None else {"codes": s.codes, "batch": s.batch}
 
 
 def choose_outcome(outcomes: list[CandidateOutcome]) -> CandidateOutcome:
@@ -374,6 +385,13 @@ def scenario_uncertainty(scenario: Scenario, agent: int) -> Uncertainty:
     )
 
 
+def _closed_loop(code, symbolic, error_model, J0, params, limit, region, uncertainty):
+    """The closed loop as certify and its re-check build it (the torque reduced symbolically where it can be)."""
+    at_rest = not (any(uncertainty.reference_rate) or any(uncertainty.reference_acceleration))
+    reduced = reduced_torque(symbolic, params, J0, at_rest=at_rest)
+    return build_problem(code, error_model, J0, params, limit, region, uncertainty, law=symbolic, reduced=reduced)
+
+
 def _vertices(problem, uncertainty: Uncertainty) -> list[np.ndarray]:
     n_theta = sum(1 for name in problem.names if name.startswith("theta"))
     rest = len(problem.names) - problem.n_state - n_theta
@@ -392,6 +410,7 @@ def certify_law(
     region: StateRegion | None = None,
     uncertainty: Uncertainty | None = None,
     settings: SearchSettings | None = None,
+    candidates: str = "auto",
     progress=None,
 ) -> Certificate:
     """Certify a law's closed loop over a region with the uncertainty, or refute it, or say why not.
@@ -415,6 +434,10 @@ def certify_law(
         Default the scenario's (:func:`scenario_uncertainty`).
     settings : SearchSettings, optional
         The budget per candidate.
+    candidates : str
+        ``"auto"``: the law's declared ``V``, then the candidates fsmctl finds (the first certified one answers; the
+        declared one's counterexample is kept in the attempts); ``"declared"``: the law's own ``V`` only (a wrong
+        declared ``V`` is then refuted even when the law is stable).
     progress : callable, optional
         ``progress(boxes, fraction_decided)`` during each search.
 
@@ -431,12 +454,13 @@ def certify_law(
 
     Examples
     --------
-    The documented PD example with a 10 % inertia uncertainty (a small region and budget keep this quick):
+    The documented PD example (``docs/examples/my_law.py``, ``EXAMPLES`` that folder) with a 10 % inertia
+    uncertainty (a small region and budget keep this quick):
 
     >>> from fsmctl.proofs.certificate import certify_law
     >>> from fsmctl.proofs.certify import SearchSettings
     >>> from fsmctl.proofs.certify_problem import StateRegion, Uncertainty
-    >>> c = certify_law("docs/examples/my_law.py", scenario="docs/examples/my_law.toml",
+    >>> c = certify_law(EXAMPLES / "my_law.py", scenario=EXAMPLES / "my_law.toml",
     ...                 region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(inertia=0.1),
     ...                 settings=SearchSettings(max_seconds=20))
     >>> c.verdict, c.kind
@@ -459,20 +483,20 @@ def certify_law(
     params = parameter_matrix(code, sc)[agent]
     limit = float(sc.controller.effective_torque_limit)
     notes: list[str] = []
-    reduced = reduced_torque(symbolic, params, J0, at_rest=not (any(uncertainty.reference_rate) or any(
-        uncertainty.reference_acceleration)))  # fmt: skip
-    problem = build_problem(
-        code, error_model, J0, params, limit, region, uncertainty, law=symbolic, reduced=reduced
-    )  # fmt: skip
+    problem = _closed_loop(code, symbolic, error_model, J0, params, limit, region, uncertainty)
     notes.append(f"the law's torque: {problem.route}")
-    candidates, more = choose_candidates(problem, symbolic, params, J0, _vertices(problem, uncertainty))
+    if candidates not in CANDIDATE_CHOICES:
+        raise CertificateError(f"candidates must be one of {CANDIDATE_CHOICES}, got {candidates!r}")
+    chosen_candidates, more = choose_candidates(
+        problem, symbolic, params, J0, _vertices(problem, uncertainty), which=candidates
+    )
     notes.extend(more)
     if sc.actuator.kind != "ideal":
         notes.append("the scenario flies reaction wheels: certify models an ideal actuator with the torque limit")
     if sc.simulation.control_period:
         notes.append("the scenario samples its control: certify treats the continuous-time loop")
     outcomes: list[CandidateOutcome] = []
-    for cand in candidates:
+    for cand in chosen_candidates:
         o = certify_candidate(problem, cand, settings, progress=progress)
         outcomes.append(o)
         if o.verdict == CERTIFIED:
@@ -498,7 +522,7 @@ def certify_law(
             "inconclusive", None, lawd, info, region, uncertainty,
             {"kind": "none", "describe": "no candidate", "expression": "", "epsilon": None, "P": None, "note": ""},
             {"difficulty": "no Lyapunov candidate: " + "; ".join(notes), "level": 0.0}, [], notes, {},
-            problem.names, _versions(),
+            problem.names, _versions(), problem.route,
         )  # fmt: skip
     chosen = choose_outcome(outcomes)
     attempts = [
@@ -506,8 +530,8 @@ def certify_law(
     ] + [{"describe": chosen.candidate.describe(), "verdict": chosen.verdict, "why": _why(chosen)}]
     return Certificate(
         chosen.verdict, chosen.kind if chosen.verdict == CERTIFIED else None, lawd, info, region, uncertainty,
-        candidate_dict(chosen.candidate), outcome_dict(chosen), attempts, notes, leaves_of(chosen), problem.names,
-        _versions(),
+        candidate_dict(chosen.candidate), outcome_dict(chosen), attempts, notes, tree_of(chosen), problem.names,
+        _versions(), problem.route,
     )  # fmt: skip
 
 
@@ -551,6 +575,16 @@ def check_certificate(path: str | Path, *, arb_sample: int | None = ARB_SAMPLE, 
     ------
     CertificateError
         Not a certificate, or its law's generated code has changed since it was written.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs import SearchSettings, StateRegion, Uncertainty, certify_law, check_certificate
+    >>> c = certify_law(EXAMPLES / "my_law.py", scenario=EXAMPLES / "my_law.toml",
+    ...                 region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(inertia=0.05),
+    ...                 settings=SearchSettings(max_seconds=20))
+    >>> c.write("my_pd.certificate.json")
+    >>> check_certificate("my_pd.certificate.json", arb_sample=4).ok
+    True
     """
     d = read_certificate(Path(path))
     code = resolve_law(d["law"]["spec"])
@@ -567,15 +601,16 @@ def check_certificate(path: str | Path, *, arb_sample: int | None = ARB_SAMPLE, 
     )  # fmt: skip
     a = d["agent"]
     limit = math.inf if a["torque_limit_N_m"] == "inf" else float(a["torque_limit_N_m"])
-    problem = build_problem(
-        code, d["law"]["error_model"], np.array(a["J0_kg_m2"]), np.array(a["packed_parameters"]), limit, region,
-        uncertainty,
-    )  # fmt: skip
+    error_model = d["law"]["error_model"]
+    symbolic = getattr(load_law_variants(d["law"]["spec"]), error_model)
+    J0, params = np.array(a["J0_kg_m2"], float), np.array(a["packed_parameters"], float)
+    problem = _closed_loop(code, symbolic, error_model, J0, params, limit, region, uncertainty)
+    if problem.route != d.get("route"):
+        raise CertificateError(f"{path}: the law's torque enters differently now ({problem.route})")
     if problem.names != d["inputs"]:
         raise CertificateError(f"{path}: the closed loop's inputs differ from the certificate's")
     if not d["candidate"]["expression"]:
         return CertificateCheck(d["verdict"] != CERTIFIED, ("no candidate: nothing to re-check",))
-    s, w, z = state_symbols(problem.n_state - 6)
-    V = sp.sympify(d["candidate"]["expression"], locals={str(v): v for v in (*s, *w, *z)})
+    V = candidate_from_record(d["candidate"], problem.n_state - 6)
     ok, lines = recheck(problem, V, d, arb_sample=arb_sample, seed=seed)
     return CertificateCheck(ok, tuple(lines))

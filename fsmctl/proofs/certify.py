@@ -58,6 +58,7 @@ from fsmctl.symbolic.law import Law
 __all__ = [
     "ASYMPTOTIC",
     "BALL_PRECISION",
+    "CANDIDATE_CHOICES",
     "BOUNDARY_BUDGET",
     "CERTIFIED",
     "COUNTEREXAMPLE",
@@ -103,6 +104,12 @@ class SearchSettings:
         Boxes narrower than this fraction of the region in every input are not split further (left undecided).
     batch : int
         Boxes per vectorised evaluation.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs import SearchSettings
+    >>> SearchSettings(max_seconds=10).budget().max_seconds
+    10.0
     """
 
     max_seconds: float = 60.0
@@ -111,6 +118,17 @@ class SearchSettings:
     batch: int = 4096
 
     def budget(self, seconds: float | None = None) -> Budget:
+        """The branch and bound's :class:`~fsmctl.enclosures.branch_bound.Budget` (``seconds``: another time limit).
+
+        Parameters
+        ----------
+        seconds : float, optional
+            A time limit other than ``max_seconds``.
+
+        Returns
+        -------
+        Budget
+        """
         return Budget(self.max_boxes, self.max_seconds if seconds is None else seconds, self.batch)
 
 
@@ -165,8 +183,17 @@ def _score(HV: np.ndarray, HW: np.ndarray) -> float:
     return float(-lw.max() / lv.max())
 
 
+CANDIDATE_CHOICES = ("auto", "declared")
+"""``auto``: the declared V, then the cross-term and quadratic candidates fsmctl finds; ``declared``: only the law's"""
+
+
 def choose_candidates(
-    problem: CertifyProblem, law: Law, params: np.ndarray, J0: np.ndarray, inertia_vertices: list[np.ndarray]
+    problem: CertifyProblem,
+    law: Law,
+    params: np.ndarray,
+    J0: np.ndarray,
+    inertia_vertices: list[np.ndarray],
+    which: str = "auto",
 ) -> tuple[list[Candidate], list[str]]:
     """The candidates to try, best first, and a note per one left out (see the module docstring).
 
@@ -180,6 +207,8 @@ def choose_candidates(
         The agent's packed parameters and nominal inertia.
     inertia_vertices : list of numpy.ndarray
         Values of the uncertainty inputs (``x``'s tail) at which the semidefinite program linearises.
+    which : str
+        One of :data:`CANDIDATE_CHOICES`.
 
     Returns
     -------
@@ -190,6 +219,8 @@ def choose_candidates(
     if law.lyapunov is not None:
         V0 = candidate_expression(law, params, J0)
         out.append(Candidate("declared", V0, note=law.lyapunov.doc))
+        if which == "declared":
+            return out, notes
         HV, HW = _hessians_at_origin(problem, V0)
         if _score(HV, HW) == -math.inf and np.all(np.isfinite(HW)):
             scored = []
@@ -205,6 +236,8 @@ def choose_candidates(
                 notes.append("no cross-term weight makes the nominal V_dot negative definite at the origin")
     else:
         notes.append(f"law {law.name!r} declares no Lyapunov candidate (LawBuilder.lyapunov)")
+        if which == "declared":
+            return out, notes
     quad = _quadratic_candidate(problem, law, params, J0, inertia_vertices, notes)
     if quad is not None:
         out.append(quad)
@@ -333,6 +366,7 @@ def certify_candidate(
     search = prove_negative(
         progs.W, problem.lo, problem.hi, gradient=progs.dW, budget=settings.budget(seconds),
         min_width=settings.min_width, exclude=inside_core(problem, core), progress=progress,
+        stop_on_positive=asymptotic,  # any point with V_dot > 0 refutes an asymptotic claim
     )  # fmt: skip
     out = CandidateOutcome(candidate, INCONCLUSIVE, ASYMPTOTIC if asymptotic else ULTIMATELY_BOUNDED, core=core)
     out.search = search

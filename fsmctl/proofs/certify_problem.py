@@ -49,6 +49,9 @@ __all__ = [
     "Uncertainty",
     "build_problem",
     "candidate_expression",
+    "candidate_from_record",
+    "expression_tree",
+    "state_symbols",
 ]
 
 INERTIA_SETS = ("entries", "proportional")
@@ -63,6 +66,20 @@ class CertifyInputError(InputError):
 class StateRegion:
     """The box of error states a certificate speaks about: ``|sigma_e,k| <= sigma``, ``|omega_e,k| <= omega``,
     ``|z_k| <= z`` (the law's own states).
+
+    Parameters
+    ----------
+    sigma : float
+        Bound of each MRP error component, in ``(0, 1)``.
+    omega : float
+        Bound of each rate error component (rad/s).
+    z : float
+        Bound of each of the law's own states (their units).
+
+    Raises
+    ------
+    CertifyInputError
+        A bound that is not a finite number > 0, or ``sigma >= 1``.
 
     Examples
     --------
@@ -89,12 +106,32 @@ class StateRegion:
             )
 
     def describe(self, n_states: int) -> str:
-        """One line naming the box."""
+        """One line naming the box.
+
+        Parameters
+        ----------
+        n_states : int
+            The law's number of states (0: no ``z`` bound is named).
+
+        Returns
+        -------
+        str
+        """
         text = f"|sigma_e,k| <= {self.sigma:g}, |omega_e,k| <= {self.omega:g} rad/s"
         return text + (f", |z_k| <= {self.z:g}" if n_states else "")
 
     def bounds(self, n_states: int) -> np.ndarray:
-        """``(6 + n_states,)``: the half-widths of the box."""
+        """``(6 + n_states,)``: the half-widths of the box.
+
+        Parameters
+        ----------
+        n_states : int
+            The law's number of states.
+
+        Returns
+        -------
+        numpy.ndarray
+        """
         return np.array([self.sigma] * 3 + [self.omega] * 3 + [self.z] * n_states, dtype=float)
 
 
@@ -152,7 +189,12 @@ class Uncertainty:
         return not any(self.disturbance) and not any(self.reference_rate) and not any(self.reference_acceleration)
 
     def describe(self) -> str:
-        """One line."""
+        """One line naming the sets.
+
+        Returns
+        -------
+        str
+        """
         if self.inertia == 0:
             parts = ["J = J0"]
         elif self.inertia_set == "proportional":
@@ -171,7 +213,12 @@ class Uncertainty:
         return "; ".join(parts)
 
     def as_dict(self) -> dict:
-        """JSON-ready."""
+        """The sets as a JSON-ready dict (units in the keys).
+
+        Returns
+        -------
+        dict
+        """
         return {
             "inertia": self.inertia,
             "inertia_set": self.inertia_set,
@@ -267,6 +314,79 @@ def candidate_expression(
             "z, the parameters and J0"
         )
     return V
+
+
+_FUNCTIONS = {"Add": sp.Add, "Mul": sp.Mul, "Pow": sp.Pow, "log": sp.log, "exp": sp.exp, "Abs": sp.Abs,
+              "sign": sp.sign}  # fmt: skip
+"""the nodes a candidate's expression tree may hold (anything else in a certificate file is refused)"""
+
+
+def expression_tree(expr: sp.Expr):
+    """A JSON-ready tree of ``expr`` (exact: each float as its binary fraction and precision): read back by
+    :func:`candidate_from_record` without evaluating any text."""
+    if isinstance(expr, sp.Symbol):
+        return ["Symbol", expr.name]
+    if isinstance(expr, sp.Integer):
+        return ["Integer", str(int(expr))]
+    if isinstance(expr, sp.Rational):
+        return ["Rational", str(expr.p), str(expr.q)]
+    if isinstance(expr, sp.Float):  # exact: the binary fraction, and the precision it carries
+        q = sp.Rational(expr)
+        return ["Float", str(q.p), str(q.q), str(expr._prec)]
+    name = type(expr).__name__
+    if name not in _FUNCTIONS:
+        raise CertifyInputError(f"a candidate may use + * ^ log exp Abs sign only, not {name}")
+    return [name, *[expression_tree(a) for a in expr.args]]
+
+
+def _from_tree(node, symbols: dict) -> sp.Expr:
+    if not isinstance(node, list) or not node or not isinstance(node[0], str):
+        raise ValueError("malformed node")
+    kind, args = node[0], node[1:]
+    if kind == "Symbol":
+        return symbols[args[0]]
+    if kind == "Integer":
+        return sp.Integer(int(args[0]))
+    if kind == "Rational":
+        return sp.Rational(int(args[0]), int(args[1]))
+    if kind == "Float":
+        return sp.Float(sp.Rational(int(args[0]), int(args[1])), precision=int(args[2]))
+    return _FUNCTIONS[kind](*[_from_tree(a, symbols) for a in args])
+
+
+def candidate_from_record(record: dict, n_states: int) -> sp.Expr:
+    """A candidate ``V`` from a certificate's ``candidate`` record (its exact expression ``tree``).
+
+    Parameters
+    ----------
+    record : dict
+        With ``"tree"`` (:func:`expression_tree` of the expression in :func:`state_symbols`).
+    n_states : int
+        The law's number of states.
+
+    Returns
+    -------
+    sympy.Expr
+
+    Raises
+    ------
+    CertifyInputError
+        A record without a readable expression.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs.certify_problem import candidate_from_record, expression_tree, state_symbols
+    >>> s, w, z = state_symbols(0)
+    >>> V = 2 * s[0] ** 2 + 0.5 * w[1] * s[2]
+    >>> candidate_from_record({"tree": expression_tree(V)}, 0) == V
+    True
+    """
+    s, w, z = state_symbols(n_states)
+    symbols = {v.name: v for v in (*s, *w, *z)}
+    try:
+        return _from_tree(record["tree"], symbols)
+    except (KeyError, TypeError, ValueError, IndexError) as exc:
+        raise CertifyInputError(f"the certificate's candidate expression cannot be read ({exc!r})") from None
 
 
 def _dcm(sigma: ca.SX) -> ca.SX:

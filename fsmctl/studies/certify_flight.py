@@ -23,7 +23,7 @@ import sympy as sp
 from fsmctl.model.scenario import Scenario, Sinusoid
 from fsmctl.model.topology import all_to_all
 from fsmctl.proofs.certificate import Certificate
-from fsmctl.proofs.certify_problem import state_symbols
+from fsmctl.proofs.certify_problem import candidate_from_record, state_symbols
 from fsmctl.simulation.simulator import simulate
 
 __all__ = ["CounterexampleFlight", "fly_counterexample"]
@@ -110,8 +110,10 @@ def fly_counterexample(
     >>> from fsmctl.proofs.certify import SearchSettings
     >>> from fsmctl.proofs.certify_problem import StateRegion, Uncertainty
     >>> from fsmctl.studies.certify_flight import fly_counterexample
-    >>> sc = load_scenario("docs/examples/my_law.toml").with_law("tests/data/laws/pd_unstable.py")
-    >>> cert = certify_law("tests/data/laws/pd_unstable.py", scenario=sc, region=StateRegion(0.1, 0.02),
+    A deliberately unstable PD law (``docs/examples/pd_unstable.py``, ``EXAMPLES`` that folder):
+
+    >>> sc = load_scenario(EXAMPLES / "my_law.toml").with_law(str(EXAMPLES / "pd_unstable.py"))
+    >>> cert = certify_law(EXAMPLES / "pd_unstable.py", scenario=sc, region=StateRegion(0.1, 0.02),
     ...                    uncertainty=Uncertainty(), settings=SearchSettings(max_seconds=10))
     >>> flight = fly_counterexample(cert, sc, t_final=5.0)
     >>> bool(flight.V[-1] > flight.V[0])
@@ -161,7 +163,7 @@ def fly_counterexample(
     )
     result = simulate(one, progress=False)
     s, w, zs = state_symbols(len(z))
-    V = sp.sympify(d["candidate"]["expression"], locals={str(v): v for v in (*s, *w, *zs)})
+    V = candidate_from_record(d["candidate"], len(z))
     fV = sp.lambdify([*s, *w, *zs], V, "numpy")
     se_t, we_t = result.sigma_e[:, 0, :], result.omega_e[:, 0, :]
     zt = result.z[:, 0, :] if len(z) else np.zeros((se_t.shape[0], 0))

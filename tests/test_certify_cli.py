@@ -1,0 +1,69 @@
+"""``fsmctl certify`` from the command line: verdicts and exit codes, the files, the flight, ``--check``, bad input."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from fsmctl.cli.main import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples"
+SMALL = ["--scenario", str(EXAMPLES / "my_law.toml"), "--region-sigma", "0.05", "--region-omega", "0.01",
+         "--seconds", "15", "--no-progress"]  # fmt: skip
+
+
+def _run(capsys, *argv):
+    code = main(["certify", *argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_certified_writes_and_rechecks(capsys, tmp_path):
+    out = tmp_path / "certificate.json"
+    code, text, _ = _run(capsys, "--law", str(EXAMPLES / "my_law.py"), *SMALL, "--inertia-uncertainty", "0.05",
+                         "--out", str(tmp_path))  # fmt: skip
+    assert code == 0, text
+    assert text.splitlines()[0].startswith("certified (asymptotic)")
+    d = json.loads(out.read_text())
+    assert (d["verdict"], d["kind"]) == ("certified", "asymptotic")
+    assert d["uncertainty"]["inertia"] == 0.05
+    assert out.with_suffix(".md").read_text().startswith("# Certificate: my_pd")
+    code, text, _ = _run(capsys, "--check", str(out))
+    assert code == 0, text
+    assert text.startswith("re-checked: every statement holds")
+
+
+def test_counterexample_flown_exit_1(capsys, tmp_path):
+    out = tmp_path / "certificate.json"
+    code, text, _ = _run(capsys, "--law", str(EXAMPLES / "pd_unstable.py"), *SMALL, "--inertia-uncertainty", "0",
+                         "--out", str(tmp_path), "--fly", "5")  # fmt: skip
+    assert code == 1
+    assert text.startswith("counterexample: V_dot =")
+    assert (tmp_path / "counterexample.png").is_file()
+    assert "flown from the counterexample" in out.with_suffix(".md").read_text()
+
+
+def test_json_summary(capsys, tmp_path):
+    code, text, _ = _run(capsys, "--law", str(EXAMPLES / "pd_unstable.py"), *SMALL, "--inertia-uncertainty", "0",
+                         "--out", str(tmp_path), "--fly", "0", "--json")  # fmt: skip
+    d = json.loads(text)
+    assert code == 1 and d["verdict"] == "counterexample" and "tree" not in d
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["--law", "nonexistent_law"], "nonexistent_law"),
+        (["--law", "pd", "--region-sigma", "1.5"], "sigma"),
+        (["--law", "pd", "--region-omega", "-1"], "--region-omega"),
+        (["--check", "missing.json"], "missing.json"),
+        ([], "--law"),
+    ],
+)
+def test_bad_input_one_line_exit_2(capsys, argv, message):
+    code, _, err = _run(capsys, *argv)
+    assert code == 2
+    assert message in err
+    assert len(err.strip().splitlines()) == 1
