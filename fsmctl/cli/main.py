@@ -5,6 +5,7 @@ Subcommands live in their own modules, each exposing ``add_parser(subparsers)``
 
 ============================  ======================================================================
 ``fsmctl prove``              proof check of Section 3, or of a law (``--law``) (:mod:`fsmctl.cli.prove`)
+``fsmctl certify``            a Lyapunov certificate for a law over a region (:mod:`fsmctl.cli.certify`)
 ``fsmctl simulate``           one scenario/case, any law (:mod:`fsmctl.cli.commands`)
 ``fsmctl reproduce``          Section 4 reproduction report (:mod:`fsmctl.cli.reproduce`)
 ``fsmctl compare-surfaces``   FSM vs TSM vs LSM, Theorem 3 (:mod:`fsmctl.cli.surfaces`)
@@ -78,6 +79,7 @@ __all__ = [
 
 SUBCOMMAND_MODULES = (
     "fsmctl.cli.prove",
+    "fsmctl.cli.certify",
     "fsmctl.cli.commands",
     "fsmctl.cli.reproduce",
     "fsmctl.cli.surfaces",

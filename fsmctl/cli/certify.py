@@ -1,0 +1,199 @@
+"""``fsmctl certify``: a machine-checked Lyapunov certificate for a law, over a region, with the uncertainty.
+
+``fsmctl certify --law L`` asks, for one agent of a scenario flying the law (isolated, in error coordinates), whether
+``V_dot < 0`` holds at every point of a region for every true inertia, disturbance and reference motion in the
+stated sets (:func:`fsmctl.proofs.certificate.certify_law`, :mod:`fsmctl.proofs.certify`), and answers
+``certified`` (asymptotic or ultimately bounded), ``counterexample`` or ``inconclusive``.  The certificate is written
+as JSON (everything needed to re-check it) and Markdown; ``fsmctl certify --check FILE.json`` re-checks a file
+(:func:`fsmctl.proofs.certificate.check_certificate`).
+
+Exit codes: 0 certified (``--check``: every statement re-proved); 1 a counterexample or inconclusive (``--check``:
+a statement did not re-check); 2 usage or input error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from pathlib import Path
+
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.options import add_case_option, add_progress_option, add_scenario_option
+
+__all__ = ["EXIT_CODES", "add_parser", "run"]
+
+EXIT_CODES = {
+    0: "certified (with --check: every statement of the file re-proved)",
+    1: "a counterexample, or inconclusive (with --check: a statement did not re-check)",
+}
+"""What ``fsmctl certify``'s exit codes 0 and 1 mean."""
+
+EPILOG = epilog(
+    EXIT_CODES,
+    text="""verdicts: certified (asymptotic: V_dot < 0 on the region but the origin, for every admissible
+uncertainty; ultimately bounded: V_dot < 0 outside an inner sublevel set, when a disturbance or a moving reference
+keeps the error from vanishing), counterexample (a point where V_dot > 0, confirmed in ball arithmetic),
+inconclusive (the budget ran out, or boxes too small to split; the report says where).  A certificate is never
+upgraded from one kind to another; numeric evidence is never called a certificate.
+
+the uncertainty defaults to the scenario's: its delta_J as a set around J0, its disturbance's and its reference's
+bounds; each option below overrides one part (0 removes it).""",
+)
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register the ``certify`` subcommand.
+
+    Parameters
+    ----------
+    subparsers : argparse subparsers action
+        From :func:`fsmctl.cli.main.build_parser`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``certify`` parser, with ``func = run``.
+    """
+    from fsmctl.proofs.certify import SearchSettings
+    from fsmctl.proofs.certify_problem import INERTIA_SETS, StateRegion
+
+    region, search = StateRegion(), SearchSettings()
+    p = subparsers.add_parser(
+        "certify",
+        help="prove a law stable over a region with the uncertainty (a Lyapunov certificate), or refute it",
+        description="A rigorous Lyapunov certificate for one agent's closed loop: certified, counterexample or "
+        "inconclusive.",
+        epilog=EPILOG,
+    )
+    p.add_argument("--law", metavar="NAME|FILE.py", help="the law: a built-in name or a derivation script")
+    p.add_argument("--check", metavar="FILE.json", type=Path, help="re-check a certificate file instead")
+    add_scenario_option(p, default=None, note="supplying J0, the parameters, the torque limit and the uncertainty")
+    add_case_option(p)
+    p.add_argument("--agent", type=int, default=1, metavar="I", help="which agent of the scenario (default: 1)")
+    g = p.add_argument_group("the region (error coordinates)")
+    g.add_argument("--region-sigma", type=float, default=region.sigma, metavar="R",
+                   help=f"|sigma_e,k| <= R (default: {region.sigma:g})")  # fmt: skip
+    g.add_argument("--region-omega", type=float, default=region.omega, metavar="R",
+                   help=f"|omega_e,k| <= R rad/s (default: {region.omega:g})")  # fmt: skip
+    g.add_argument("--region-z", type=float, default=region.z, metavar="R",
+                   help=f"|z_k| <= R for the law's own states (default: {region.z:g})")  # fmt: skip
+    u = p.add_argument_group("the uncertainty (default: the scenario's)")
+    u.add_argument("--inertia-uncertainty", type=float, default=None, metavar="REL",
+                   help="J_kl = J0_kl (1 + theta_kl), |theta_kl| <= REL (0: J = J0)")  # fmt: skip
+    u.add_argument("--inertia-set", choices=INERTIA_SETS, default=None,
+                   help="each non-zero entry of J0 on its own (entries) or J = (1 + theta) J0 (proportional)")  # fmt: skip
+    u.add_argument("--disturbance", type=float, default=None, metavar="N_M", help="|d_k| <= N_M N m (0: none)")
+    u.add_argument("--reference-rate", type=float, default=None, metavar="RAD_S",
+                   help="|omega_d,k| <= RAD_S rad/s (0 with --reference-acceleration 0: the reference at rest)")  # fmt: skip
+    u.add_argument("--reference-acceleration", type=float, default=None, metavar="RAD_S2",
+                   help="|omega_d_dot,k| <= RAD_S2 rad/s^2")  # fmt: skip
+    s = p.add_argument_group("the search and the files")
+    s.add_argument("--seconds", type=float, default=search.max_seconds, metavar="S",
+                   help=f"budget of the branch and bound per candidate V (default: {search.max_seconds:g})")  # fmt: skip
+    s.add_argument("--out", type=Path, default=None, metavar="FILE.json",
+                   help="the certificate file (default: ./<law>.certificate.json; the Markdown beside it)")  # fmt: skip
+    s.add_argument("--report", type=Path, default=None, metavar="FILE.md", help="the Markdown report's path")
+    s.add_argument("--json", action="store_true", help="print the certificate's summary as JSON (no leaves)")
+    add_progress_option(p, what="of the branch and bound")
+    p.set_defaults(func=run)
+    return p
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fsmctl certify`` (see the module docstring).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options.
+
+    Returns
+    -------
+    int
+        0 certified / re-checked, 1 otherwise; bad input raises :class:`fsmctl.cli.main.UsageError` (exit 2).
+    """
+    from fsmctl.cli.main import UsageError
+
+    if args.check is not None:
+        if args.law is not None:
+            raise UsageError("--check re-checks a file: it takes no --law")
+        return _check(args)
+    if args.law is None:
+        raise UsageError("give --law NAME|FILE.py (or --check FILE.json)")
+    for name in ("region_sigma", "region_omega", "region_z", "seconds"):
+        v = getattr(args, name)
+        if not (math.isfinite(v) and v > 0):
+            raise UsageError(f"--{name.replace('_', '-')} must be a finite number > 0, got {v}")
+    return _certify(args)
+
+
+def _uncertainty(args, scenario, agent: int):
+    from fsmctl.proofs.certificate import scenario_uncertainty
+    from fsmctl.proofs.certify_problem import Uncertainty
+
+    base = scenario_uncertainty(scenario, agent)
+    return Uncertainty(
+        inertia=base.inertia if args.inertia_uncertainty is None else args.inertia_uncertainty,
+        inertia_set=args.inertia_set or base.inertia_set,
+        disturbance=base.disturbance if args.disturbance is None else args.disturbance,
+        reference_rate=base.reference_rate if args.reference_rate is None else args.reference_rate,
+        reference_acceleration=(
+            base.reference_acceleration if args.reference_acceleration is None else args.reference_acceleration
+        ),
+    )
+
+
+def _certify(args) -> int:
+    from tqdm.auto import tqdm
+
+    from fsmctl.cli.main import UsageError
+    from fsmctl.model.laws import resolve_law
+    from fsmctl.model.scenario import load_scenario
+    from fsmctl.proofs.certificate import certify_law
+    from fsmctl.proofs.certify import SearchSettings
+    from fsmctl.proofs.certify_problem import StateRegion
+
+    code = resolve_law(args.law)
+    scenario = load_scenario(args.scenario or "paper", case=args.case)
+    if code.name != scenario.law.name:
+        scenario = scenario.with_law(args.law)
+    if not 1 <= args.agent <= scenario.n_agents:
+        raise UsageError(f"--agent must be in 1..{scenario.n_agents}, got {args.agent}")
+    region = StateRegion(args.region_sigma, args.region_omega, args.region_z)
+    uncertainty = _uncertainty(args, scenario, args.agent - 1)
+    settings = SearchSettings(max_seconds=args.seconds)
+    print(f"certify {code.name}: region {region.describe(code.n_states)}; {uncertainty.describe()}", file=sys.stderr)
+    shown = sys.stderr.isatty() if args.progress is None else args.progress
+    with tqdm(total=100.0, unit="%", desc="branch and bound", disable=not shown, file=sys.stderr) as bar:
+
+        def progress(boxes: int, fraction: float) -> None:
+            bar.n = round(100 * fraction, 1)
+            bar.set_postfix_str(f"{boxes} boxes", refresh=True)
+
+        cert = certify_law(
+            args.law, scenario=scenario, agent=args.agent - 1, region=region, uncertainty=uncertainty,
+            settings=settings, progress=progress,
+        )  # fmt: skip
+    out = args.out or Path(f"{code.name}.certificate.json")
+    report = args.report or out.with_suffix(".md")
+    cert.write(out, report)
+    if args.json:
+        d = cert.as_dict()
+        d.pop("leaves")
+        print(json.dumps(d, indent=1, default=str))
+    else:
+        print("\n".join(cert.lines()))
+        print(f"certificate written to {out} and {report}; re-check: fsmctl certify --check {out}")
+    return 0 if cert.verdict == "certified" else 1
+
+
+def _check(args) -> int:
+    from fsmctl.proofs.certificate import check_certificate
+
+    result = check_certificate(args.check)
+    first = "re-checked: every statement holds" if result.ok else "NOT re-checked: a statement fails"
+    print(first)
+    print("\n".join(result.lines))
+    return 0 if result.ok else 1

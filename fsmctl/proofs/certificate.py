@@ -1,0 +1,564 @@
+"""A certificate of ``fsmctl certify``: what was asked, what was proved, and how to re-check it from its file.
+
+:func:`certify_law` runs the search of :mod:`fsmctl.proofs.certify` for a law flown by one agent of a scenario;
+:class:`Certificate` is its record: the law (name, source, the hash of its generated code), the agent's nominal
+inertia, parameters and torque limit, the region, the uncertainty, the candidate ``V`` (its exact expression), the
+method and the arithmetic, the verdict with its levels, bounds and counterexample, and every leaf box on which
+``V_dot < 0`` was proved.  :meth:`Certificate.write` saves it as JSON (the leaves compressed, base64) and Markdown;
+:func:`check_certificate` re-checks a saved file independently of the search: it rebuilds the closed loop from the
+recorded inputs (refusing a law whose generated code changed), re-proves ``V_dot < 0`` on every recorded leaf,
+checks that the leaves tile the region (inside it, interiors disjoint, volumes summing to the region's exactly),
+re-proves the origin's second-order argument and the levels, confirms the counterexample in ball arithmetic, and
+re-proves a sample of the leaves in python-flint's ball arithmetic (the formally rigorous route).
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import json
+import math
+import zlib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import sympy as sp
+
+from fsmctl.errors import InputError
+from fsmctl.model.laws import parameter_matrix, resolve_law
+from fsmctl.model.scenario import Scenario, load_scenario
+from fsmctl.outputs import write_text
+from fsmctl.proofs.certify import (
+    CERTIFIED,
+    COUNTEREXAMPLE,
+    CandidateOutcome,
+    SearchSettings,
+    certify_candidate,
+    choose_candidates,
+)
+from fsmctl.proofs.certify_check import recheck, tiles_region
+from fsmctl.proofs.certify_problem import Candidate, StateRegion, Uncertainty, build_problem, state_symbols
+from fsmctl.proofs.law_check import load_law_variants
+
+__all__ = [
+    "CERTIFICATE_FORMAT",
+    "Certificate",
+    "CertificateCheck",
+    "CertificateError",
+    "certify_law",
+    "check_certificate",
+    "read_certificate",
+    "tiles_region",
+]
+
+CERTIFICATE_FORMAT = 1
+"""version of the certificate file's layout"""
+ARB_SAMPLE = 64
+"""proved leaves re-proved in ball arithmetic by :func:`check_certificate` (all of them with ``arb_sample=None``)"""
+ARITHMETIC = (
+    "IEEE-754 double intervals with outward rounding (one ulp after + - * / sqrt; libm functions widened by "
+    "fsmctl.enclosures.intervals.LIBM_ULPS ulps), natural extension intersected with the mean-value form; "
+    "the origin's values and counterexamples in python-flint ball arithmetic (256 bits)"
+)
+
+
+class CertificateError(InputError):
+    """A certificate file that cannot be read or re-checked (one line, exit 2)."""
+
+
+def _encode(a: np.ndarray) -> dict:
+    a = np.ascontiguousarray(a, dtype="<f8")
+    return {"shape": list(a.shape), "float64_zlib_base64": base64.b64encode(zlib.compress(a.tobytes(), 6)).decode()}
+
+
+def _decode(d: dict) -> np.ndarray:
+    raw = zlib.decompress(base64.b64decode(d["float64_zlib_base64"]))
+    return np.frombuffer(raw, dtype="<f8").reshape(d["shape"]).copy()
+
+
+def law_fingerprint(folder: Path) -> str:
+    """SHA-256 of a law folder's ``manifest.json`` (it lists every generated file's hash)."""
+    return hashlib.sha256((Path(folder) / "manifest.json").read_bytes()).hexdigest()
+
+
+@dataclass
+class Certificate:
+    """The record of one ``fsmctl certify`` question and its answer (see the module docstring)."""
+
+    verdict: str
+    kind: str | None
+    law: dict
+    agent: dict
+    region: StateRegion
+    uncertainty: Uncertainty
+    candidate: dict
+    outcome: dict
+    attempts: list[dict] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    leaves: dict = field(default_factory=dict)
+    """``proved_lo``, ``proved_hi``, ``excluded_lo``, ``excluded_hi``, ``other_lo``, ``other_hi`` as arrays"""
+    names: list[str] = field(default_factory=list)
+    versions: dict = field(default_factory=dict)
+
+    # ------------------------------------------------------------------------------------------- text
+    def headline(self) -> str:
+        """The first line a reader needs."""
+        o = self.outcome
+        if self.verdict == CERTIFIED:
+            if self.kind == "asymptotic":
+                return (
+                    f"certified ({self.kind}): V_dot < 0 on the region except the origin, for every admissible "
+                    f"uncertainty; region of attraction contains {{V <= {o['level']:.6g}}}"
+                )
+            ub = o.get("ultimate_bound", {})
+            return (
+                f"certified ({self.kind}): V_dot < 0 on {{{o['inner_level']:.6g} <= V <= {o['level']:.6g}}}; "
+                f"ultimate bound |sigma_e,k| <= {ub.get('sigma_e_max', float('nan')):.4g}, "
+                f"|omega_e,k| <= {ub.get('omega_e_max_rad_s', float('nan')):.4g} rad/s"
+            )
+        if self.verdict == COUNTEREXAMPLE:
+            c = o["counterexample"]
+            return f"counterexample: V_dot = {c['V_dot']:.6g} > 0 at a point of the region (ball arithmetic: {c['V_dot_ball']})"
+        return f"inconclusive: {o.get('difficulty') or 'the budget ran out'}"
+
+    def lines(self) -> list[str]:
+        """The console report."""
+        o = self.outcome
+        out = [
+            self.headline(),
+            f"law {self.law['name']} ({self.law['spec']}, {self.law['error_model']} error model), agent "
+            f"{self.agent['index'] + 1} of {self.agent['scenario']}",
+            f"region: {self.region.describe(len(self.names) and self.agent['n_states'])}",
+            f"uncertainty: {self.uncertainty.describe()}",
+            f"V: {self.candidate['describe']}",
+            f"  = {self.candidate['expression'][:400]}" + (" ..." if len(self.candidate["expression"]) > 400 else ""),
+        ]
+        if o.get("core", {}).get("passed"):
+            out.append(
+                f"origin: V_dot(0) = 0, grad V_dot(0) = 0 (ball arithmetic), Hessian of V_dot negative definite on the "
+                f"core box of {o['core']['fraction']:g} x the region"
+            )
+        if o.get("level_extent"):
+            ext = o["level_extent"]
+            sig = max(v for k, v in ext.items() if k.startswith("sigma_e"))
+            om = max(v for k, v in ext.items() if k.startswith("omega_e"))
+            out.append(f"{{V <= {o['level']:.6g}}} lies in |sigma_e,k| <= {sig:.4g}, |omega_e,k| <= {om:.4g} rad/s")
+        if o.get("decrease"):
+            text = f"V_dot <= -{o['decrease']:.4g} on the certified annulus outside the core"
+            if o.get("reach_time") is not None:
+                text += f"; from {{V <= {o['level']:.4g}}} the inner set is reached within {o['reach_time']:.4g} s"
+            out.append(text)
+        cov = o.get("volume", {})
+        out.append(
+            f"search: {o.get('boxes', 0)} boxes in {o.get('seconds', 0):.1f} s; proved {100 * cov.get('proved', 0):.4g} %"
+            f", core {100 * cov.get('excluded', 0):.4g} %, undecided {100 * cov.get('undecided', 0):.4g} %, "
+            f"V_dot > 0 {100 * cov.get('positive', 0):.4g} % of the region x uncertainty"
+        )
+        for a in self.attempts[:-1]:
+            out.append(f"tried first: {a['describe']}: {a['verdict']} ({a['why']})")
+        out.extend(f"note: {n}" for n in self.notes)
+        return out
+
+    def markdown(self) -> str:
+        """The Markdown report (what a reader of the file sees)."""
+        o = self.outcome
+        rows = [
+            ("verdict", f"**{self.verdict}**" + (f" ({self.kind})" if self.verdict == CERTIFIED else "")),
+            ("law", f"`{self.law['name']}` (`{self.law['spec']}`), {self.law['error_model']} error model"),
+            ("generated code", f"manifest sha256 `{self.law['manifest_sha256'][:16]}...`"),
+            ("agent", f"{self.agent['index'] + 1} of `{self.agent['scenario']}`"),
+            ("region", self.region.describe(self.agent["n_states"])),
+            ("uncertainty", self.uncertainty.describe()),
+            ("candidate", self.candidate["describe"]),
+            ("method", "branch and bound on rigorous enclosures of V_dot (fsmctl.enclosures)"),
+            ("arithmetic", ARITHMETIC),
+            ("level c", f"{o.get('level', 0):.9g}"),
+        ]
+        if o.get("inner_level") is not None:
+            rows.append(("inner level c_in", f"{o['inner_level']:.9g}"))
+        text = [f"# Certificate: {self.law['name']}", "", self.headline(), "", "| | |", "|---|---|"]
+        text += [f"| {k} | {v} |" for k, v in rows]
+        text += ["", "## V", "", "```", self.candidate["expression"], "```", "", "## Report", ""]
+        text += [f"- {line}" for line in self.lines()[1:]]
+        text += ["", f"Re-check: `fsmctl certify --check {self.law['name']}.certificate.json`", ""]
+        return "\n".join(text)
+
+    # ------------------------------------------------------------------------------------------- files
+    def as_dict(self) -> dict:
+        return {
+            "format": CERTIFICATE_FORMAT,
+            "verdict": self.verdict,
+            "kind": self.kind,
+            "headline": self.headline(),
+            "law": self.law,
+            "agent": self.agent,
+            "region": {"sigma": self.region.sigma, "omega": self.region.omega, "z": self.region.z},
+            "uncertainty": self.uncertainty.as_dict(),
+            "candidate": self.candidate,
+            "method": "branch and bound on rigorous enclosures of V_dot",
+            "arithmetic": ARITHMETIC,
+            "outcome": self.outcome,
+            "attempts": self.attempts,
+            "notes": self.notes,
+            "inputs": self.names,
+            "versions": self.versions,
+            "leaves": {k: _encode(v) for k, v in self.leaves.items()},
+        }
+
+    def write(self, json_path: Path, markdown_path: Path | None = None) -> None:
+        """Write the JSON file (and the Markdown report), atomically."""
+        json_path = Path(json_path)
+        write_text(json_path, json.dumps(self.as_dict(), indent=1, default=_json_default) + "\n")
+        if markdown_path is not None:
+            write_text(Path(markdown_path), self.markdown())
+
+
+def _json_default(o):
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    raise TypeError(type(o).__name__)
+
+
+def read_certificate(path: Path) -> dict:
+    """The JSON of a certificate file, with its leaves decoded (arrays).
+
+    Raises
+    ------
+    CertificateError
+        Not a readable certificate of this format.
+    """
+    try:
+        d = json.loads(Path(path).read_text("utf-8"))
+    except (OSError, ValueError) as exc:
+        raise CertificateError(f"{path}: not a readable certificate ({exc})") from None
+    if not isinstance(d, dict) or d.get("format") != CERTIFICATE_FORMAT:
+        raise CertificateError(f"{path}: not a certificate of format {CERTIFICATE_FORMAT}")
+    d["leaves"] = {k: _decode(v) for k, v in d.get("leaves", {}).items()}
+    return d
+
+
+def outcome_dict(o: CandidateOutcome) -> dict:
+    s = o.search
+    return {
+        "level": o.level,
+        "inner_level": o.inner_level,
+        "boundary_level": o.boundary_level,
+        "level_extent": o.level_extent,
+        "ultimate_bound": o.ultimate_bound,
+        "decrease": o.decrease,
+        "reach_time": o.reach_time,
+        "core": o.core,
+        "counterexample": o.counterexample,
+        "difficulty": o.difficulty,
+        "boxes": 0 if s is None else s.boxes,
+        "seconds": o.seconds,
+        "exhausted": False if s is None else s.exhausted,
+        "volume": {} if s is None else s.volume,
+    }
+
+
+def candidate_dict(c: Candidate) -> dict:
+    return {
+        "kind": c.kind,
+        "describe": c.describe(),
+        "expression": sp.sstr(c.expression, full_prec=True),
+        "epsilon": c.epsilon,
+        "P": None if c.P is None else [list(r) for r in c.P],
+        "note": c.note,
+    }
+
+
+def _why(o: CandidateOutcome) -> str:
+    if o.counterexample:
+        return f"V_dot = {o.counterexample['V_dot']:.3g} > 0 at a point"
+    return o.difficulty or "not proved"
+
+
+def leaves_of(o: CandidateOutcome) -> dict:
+    s = o.search
+    if s is None:
+        return {}
+    return {
+        "proved_lo": s.proved_lo,
+        "proved_hi": s.proved_hi,
+        "excluded_lo": s.excluded_lo,
+        "excluded_hi": s.excluded_hi,
+        "other_lo": np.concatenate([s.positive_lo, s.undecided_lo]),
+        "other_hi": np.concatenate([s.positive_hi, s.undecided_hi]),
+    }
+
+
+def choose_outcome(outcomes: list[CandidateOutcome]) -> CandidateOutcome:
+    """The answer: the first certified candidate, else the declared candidate's counterexample, else the first."""
+    for o in outcomes:
+        if o.verdict == CERTIFIED:
+            return o
+    for o in outcomes:
+        if o.verdict == COUNTEREXAMPLE and o.candidate.kind == "declared":
+            return o
+    return outcomes[0]
+
+
+# ----------------------------------------------------------------------------------------------- the question
+
+
+def _versions() -> dict[str, str]:
+    from importlib import metadata
+
+    out = {}
+    for name in ("fsmctl", "casadi", "sympy", "numpy", "python-flint", "cvxpy"):
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def scenario_uncertainty(scenario: Scenario, agent: int) -> Uncertainty:
+    """The uncertainty a scenario states for one agent: its ``delta_J`` as a set, its disturbance's and its
+    reference's bounds (eq 29).
+
+    The inertia set is ``"proportional"`` with ``|theta| <= |kappa|`` when ``delta_J = kappa J0`` (the paper's
+    ``0.3 J0``), else ``"entries"`` with the largest relative entry.
+
+    Parameters
+    ----------
+    scenario : Scenario
+        The scenario.
+    agent : int
+        0-based.
+
+    Returns
+    -------
+    Uncertainty
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.proofs.certificate import scenario_uncertainty
+    >>> u = scenario_uncertainty(fsmctl.paper_scenario("1"), 0)
+    >>> u.inertia, u.inertia_set
+    (0.3, 'proportional')
+    """
+    a = scenario.agents[agent]
+    J0, dJ = a.J0_array, np.asarray(a.delta_J, float)
+    kappa = float(np.trace(dJ) / np.trace(J0))
+    if np.max(np.abs(dJ - kappa * J0)) <= 1e-12 * np.max(np.abs(J0)):
+        inertia, kind = abs(kappa), "proportional"
+    else:
+        nz = J0 != 0
+        if np.any(dJ[~nz] != 0):
+            raise CertificateError(
+                f"agent {agent + 1}: delta_J changes an entry where J0 is 0; certify's inertia sets scale J0's entries"
+            )
+        inertia, kind = float(np.max(np.abs(dJ[nz] / J0[nz]))), "entries"
+    return Uncertainty(
+        inertia=round(inertia, 12),
+        inertia_set=kind,
+        disturbance=tuple(a.disturbance.bound()),
+        reference_rate=tuple(scenario.reference.omega.bound()),
+        reference_acceleration=tuple(scenario.reference.omega.rate_bound()),
+    )
+
+
+def _vertices(problem, uncertainty: Uncertainty) -> list[np.ndarray]:
+    n_theta = sum(1 for name in problem.names if name.startswith("theta"))
+    rest = len(problem.names) - problem.n_state - n_theta
+    corners = [np.zeros(n_theta)]
+    if uncertainty.inertia > 0:
+        grid = np.array(np.meshgrid(*[[-1.0, 1.0]] * n_theta, indexing="ij")).reshape(n_theta, -1).T
+        corners += list(grid * uncertainty.inertia)
+    return [np.concatenate([c, np.zeros(rest)]) for c in corners]
+
+
+def certify_law(
+    law: str | Path,
+    *,
+    scenario: Scenario | str | Path | None = None,
+    agent: int = 0,
+    region: StateRegion | None = None,
+    uncertainty: Uncertainty | None = None,
+    settings: SearchSettings | None = None,
+    progress=None,
+) -> Certificate:
+    """Certify a law's closed loop over a region with the uncertainty, or refute it, or say why not.
+
+    The isolated agent flying ``law`` with the scenario's nominal inertia, parameters and torque limit, in error
+    coordinates, for every true inertia, disturbance and reference motion in ``uncertainty``
+    (:mod:`fsmctl.proofs.certify` describes the verdicts and the candidates).
+
+    Parameters
+    ----------
+    law : str or pathlib.Path
+        A built-in law name or a derivation script (the candidate ``V`` is read from its SymPy declaration).
+    scenario : Scenario, str or pathlib.Path, optional
+        Supplies ``J0``, the parameters, the torque limit and (by default) the uncertainty; default the paper's
+        Case 1 flying ``law``.  A scenario flying another law flies ``law`` instead.
+    agent : int
+        Which agent (0-based).
+    region : StateRegion, optional
+        Default ``|sigma_e,k| <= 0.5``, ``|omega_e,k| <= 0.1`` rad/s, ``|z_k| <= 1``.
+    uncertainty : Uncertainty, optional
+        Default the scenario's (:func:`scenario_uncertainty`).
+    settings : SearchSettings, optional
+        The budget per candidate.
+    progress : callable, optional
+        ``progress(boxes, fraction_decided)`` during each search.
+
+    Returns
+    -------
+    Certificate
+
+    Raises
+    ------
+    fsmctl.model.LawError
+        An unknown law.
+    CertificateError, fsmctl.proofs.certify_problem.CertifyInputError
+        An agent index out of range, a region or uncertainty certify cannot take.
+
+    Examples
+    --------
+    The documented PD example with a 10 % inertia uncertainty (a small region and budget keep this quick):
+
+    >>> from fsmctl.proofs.certificate import certify_law
+    >>> from fsmctl.proofs.certify import SearchSettings
+    >>> from fsmctl.proofs.certify_problem import StateRegion, Uncertainty
+    >>> c = certify_law("docs/examples/my_law.py", scenario="docs/examples/my_law.toml",
+    ...                 region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(inertia=0.1),
+    ...                 settings=SearchSettings(max_seconds=20))
+    >>> c.verdict, c.kind
+    ('certified', 'asymptotic')
+    """
+    spec = str(law)
+    code = resolve_law(spec)
+    variants = load_law_variants(spec)
+    sc = scenario if isinstance(scenario, Scenario) else load_scenario(scenario or "paper")
+    if code.name != sc.law.name:
+        sc = sc.with_law(spec)
+    if not 0 <= agent < sc.n_agents:
+        raise CertificateError(f"agent {agent + 1}: the scenario has {sc.n_agents} agents")
+    error_model = sc.controller.error_model.value
+    symbolic = getattr(variants, error_model)
+    region = region or StateRegion()
+    uncertainty = uncertainty or scenario_uncertainty(sc, agent)
+    settings = settings or SearchSettings()
+    J0 = sc.agents[agent].J0_array
+    params = parameter_matrix(code, sc)[agent]
+    limit = float(sc.controller.effective_torque_limit)
+    problem = build_problem(code, error_model, J0, params, limit, region, uncertainty)
+    candidates, notes = choose_candidates(problem, symbolic, params, J0, _vertices(problem, uncertainty))
+    if sc.actuator.kind != "ideal":
+        notes.append("the scenario flies reaction wheels: certify models an ideal actuator with the torque limit")
+    if sc.simulation.control_period:
+        notes.append("the scenario samples its control: certify treats the continuous-time loop")
+    outcomes: list[CandidateOutcome] = []
+    for cand in candidates:
+        o = certify_candidate(problem, cand, settings, progress=progress)
+        outcomes.append(o)
+        if o.verdict == CERTIFIED:
+            break
+    names = [p.name for p in code.parameters]
+    info = {
+        "index": agent,
+        "scenario": sc.label,
+        "J0_kg_m2": J0.tolist(),
+        "parameters": dict(zip(names, _by_name(code, params), strict=True)),
+        "packed_parameters": params.tolist(),
+        "torque_limit_N_m": limit if math.isfinite(limit) else "inf",
+        "n_states": int(code.n_states),
+    }
+    lawd = {
+        "name": code.name,
+        "spec": spec,
+        "error_model": error_model,
+        "manifest_sha256": law_fingerprint(code.folder),
+    }
+    if not outcomes:
+        return Certificate(
+            "inconclusive", None, lawd, info, region, uncertainty,
+            {"kind": "none", "describe": "no candidate", "expression": "", "epsilon": None, "P": None, "note": ""},
+            {"difficulty": "no Lyapunov candidate: " + "; ".join(notes), "level": 0.0}, [], notes, {},
+            problem.names, _versions(),
+        )  # fmt: skip
+    chosen = choose_outcome(outcomes)
+    attempts = [
+        {"describe": o.candidate.describe(), "verdict": o.verdict, "why": _why(o)} for o in outcomes if o is not chosen
+    ] + [{"describe": chosen.candidate.describe(), "verdict": chosen.verdict, "why": _why(chosen)}]
+    return Certificate(
+        chosen.verdict, chosen.kind if chosen.verdict == CERTIFIED else None, lawd, info, region, uncertainty,
+        candidate_dict(chosen.candidate), outcome_dict(chosen), attempts, notes, leaves_of(chosen), problem.names,
+        _versions(),
+    )  # fmt: skip
+
+
+def _by_name(code, params: np.ndarray) -> list:
+    out, k = [], 0
+    for p in code.parameters:
+        v = params[k : k + p.size]
+        out.append(p.choices[int(v[0])] if p.choices else float(v[0]) if p.size == 1 else v.tolist())
+        k += p.size
+    return out
+
+
+# ----------------------------------------------------------------------------------------------- re-check
+
+
+@dataclass(frozen=True)
+class CertificateCheck:
+    """What :func:`check_certificate` re-established: ``ok`` and one line per step."""
+
+    ok: bool
+    lines: tuple[str, ...]
+
+
+def check_certificate(path: str | Path, *, arb_sample: int | None = ARB_SAMPLE, seed: int = 0) -> CertificateCheck:
+    """Re-check a certificate file independently of the search that produced it (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The JSON file written by :meth:`Certificate.write`.
+    arb_sample : int or None
+        Proved leaves re-proved in ball arithmetic (None: all of them; slow).
+    seed : int
+        Which leaves are sampled.
+
+    Returns
+    -------
+    CertificateCheck
+
+    Raises
+    ------
+    CertificateError
+        Not a certificate, or its law's generated code has changed since it was written.
+    """
+    d = read_certificate(Path(path))
+    code = resolve_law(d["law"]["spec"])
+    if law_fingerprint(code.folder) != d["law"]["manifest_sha256"]:
+        raise CertificateError(
+            f"{path}: law {d['law']['name']!r}'s generated code has changed since the certificate was written "
+            "(manifest hash differs): certify it again"
+        )
+    region = StateRegion(**d["region"])
+    u = d["uncertainty"]
+    uncertainty = Uncertainty(
+        u["inertia"], u["inertia_set"], tuple(u["disturbance_N_m"]), tuple(u["reference_rate_rad_s"]),
+        tuple(u["reference_acceleration_rad_s2"]),
+    )  # fmt: skip
+    a = d["agent"]
+    limit = math.inf if a["torque_limit_N_m"] == "inf" else float(a["torque_limit_N_m"])
+    problem = build_problem(
+        code, d["law"]["error_model"], np.array(a["J0_kg_m2"]), np.array(a["packed_parameters"]), limit, region,
+        uncertainty,
+    )  # fmt: skip
+    if problem.names != d["inputs"]:
+        raise CertificateError(f"{path}: the closed loop's inputs differ from the certificate's")
+    if not d["candidate"]["expression"]:
+        return CertificateCheck(d["verdict"] != CERTIFIED, ("no candidate: nothing to re-check",))
+    s, w, z = state_symbols(problem.n_state - 6)
+    V = sp.sympify(d["candidate"]["expression"], locals={str(v): v for v in (*s, *w, *z)})
+    ok, lines = recheck(problem, V, d, arb_sample=arb_sample, seed=seed)
+    return CertificateCheck(ok, tuple(lines))

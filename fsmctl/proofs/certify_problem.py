@@ -1,0 +1,421 @@
+"""The question ``fsmctl certify`` answers, as CasADi graphs: an agent's closed loop with the model's uncertainty.
+
+The isolated agent (no neighbours: ``k_sum = 0``, ``received = 0``) in error coordinates, Liang, Sun & Wang (2012)
+eqs 4-8 with the uncertainty of eq 29, at an instant where the reference attitude is ``sigma_d = 0`` (the error
+dynamics do not depend on ``sigma_d``; a law written on :meth:`fsmctl.symbolic.law.LawBuilder.error_state` sees
+only the error state)::
+
+    sigma = sigma_e,   omega = omega_e + C(sigma_e) omega_d,
+    sigma_e_dot = G(sigma_e) omega_e                                   (eq 5)
+    J omega_dot = -omega^x J omega + u + d                             (eqs 4, 29)
+    omega_e_dot = omega_dot + omega_e^x C(sigma_e) omega_d - C(sigma_e) omega_d_dot
+    z_dot = the law's state derivative,
+
+``u`` the law's applied torque (its generated ``law_control_<model>`` with ``J0`` and the scenario's parameters and
+torque limit), ``C`` the direction-cosine matrix of an MRP.  The uncertainty: the true inertia ``J`` with
+``J_kl = J0_kl (1 + theta_kl)``, ``|theta_kl| <= inertia`` (``"entries"``: each distinct non-zero entry on its own,
+``J`` symmetric; ``"proportional"``: one ``theta``, ``J = (1 + theta) J0``); the disturbance ``|d_k| <= d_k bound``;
+the reference rate ``|omega_d,k|`` and acceleration ``|omega_d_dot,k|`` within their bounds.
+
+Everything is one input vector ``x = (sigma_e, omega_e, z, theta, d, omega_d, omega_d_dot)`` so that the rigorous
+evaluator (:class:`fsmctl.enclosures.intervals.IntervalFunction`) and the branch and bound see one box.  The
+candidate ``V(sigma_e, omega_e, z)`` is written in SymPy (the law's :meth:`~fsmctl.symbolic.law.LawBuilder.lyapunov`,
+optionally with a cross term, or a quadratic form) and translated by :mod:`fsmctl.codegen.casadi_bridge`;
+``V_dot = grad V . f`` is formed here with CasADi.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+import numpy as np
+import sympy as sp
+
+from fsmctl.codegen.casadi_bridge import SympyToCasadi
+from fsmctl.errors import InputError
+from fsmctl.model.generated_code import law_sx_function
+from fsmctl.model.laws import LawCode
+from fsmctl.symbolic.law import Law, contract_names
+
+__all__ = [
+    "INERTIA_SETS",
+    "Candidate",
+    "CertifyProblem",
+    "StateRegion",
+    "Uncertainty",
+    "build_problem",
+    "candidate_expression",
+]
+
+INERTIA_SETS = ("entries", "proportional")
+"""how the true inertia may differ from J0 (see the module docstring)"""
+
+
+class CertifyInputError(InputError):
+    """A region, an uncertainty or a law that ``fsmctl certify`` cannot take (one line, exit 2)."""
+
+
+@dataclass(frozen=True)
+class StateRegion:
+    """The box of error states a certificate speaks about: ``|sigma_e,k| <= sigma``, ``|omega_e,k| <= omega``,
+    ``|z_k| <= z`` (the law's own states).
+
+    Examples
+    --------
+    >>> from fsmctl.proofs.certify_problem import StateRegion
+    >>> StateRegion(0.5, 0.1).describe(0)
+    '|sigma_e,k| <= 0.5, |omega_e,k| <= 0.1 rad/s'
+    """
+
+    sigma: float = 0.5
+    omega: float = 0.1
+    """rad/s"""
+    z: float = 1.0
+    """in the law state's own units"""
+
+    def __post_init__(self) -> None:
+        for name in ("sigma", "omega", "z"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise CertifyInputError(f"region: {name} must be a finite number > 0, got {v!r}")
+        if self.sigma >= 1:
+            raise CertifyInputError(
+                f"region: sigma = {self.sigma:g} reaches |sigma_e| = 1 (a rotation of 180 deg, where MRPs switch "
+                "set): take sigma < 1"
+            )
+
+    def describe(self, n_states: int) -> str:
+        """One line naming the box."""
+        text = f"|sigma_e,k| <= {self.sigma:g}, |omega_e,k| <= {self.omega:g} rad/s"
+        return text + (f", |z_k| <= {self.z:g}" if n_states else "")
+
+    def bounds(self, n_states: int) -> np.ndarray:
+        """``(6 + n_states,)``: the half-widths of the box."""
+        return np.array([self.sigma] * 3 + [self.omega] * 3 + [self.z] * n_states, dtype=float)
+
+
+def _triple(value, what: str) -> tuple[float, float, float]:
+    v = np.broadcast_to(np.asarray(value, dtype=float), (3,))
+    if not np.all(np.isfinite(v) & (v >= 0)):
+        raise CertifyInputError(f"uncertainty: {what} must be 3 finite bounds >= 0, got {value!r}")
+    return (float(v[0]), float(v[1]), float(v[2]))
+
+
+@dataclass(frozen=True)
+class Uncertainty:
+    """What the model may get wrong: the inertia, the disturbance, the reference's motion (eq 29).
+
+    Parameters
+    ----------
+    inertia : float
+        Relative bound: ``J_kl = J0_kl (1 + theta_kl)``, ``|theta_kl| <= inertia`` (0: ``J = J0``).
+    inertia_set : str
+        ``"entries"`` (each distinct non-zero entry independently) or ``"proportional"`` (``J = (1 + theta) J0``,
+        the paper's ``Delta_J = 0.3 J0`` family).
+    disturbance : float or 3 floats
+        ``|d_k|`` bound, N m.
+    reference_rate : float or 3 floats
+        ``|omega_d,k|`` bound, rad/s (0: the reference at rest).
+    reference_acceleration : float or 3 floats
+        ``|omega_d_dot,k|`` bound, rad/s^2.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs.certify_problem import Uncertainty
+    >>> Uncertainty(inertia=0.1).describe()
+    'J_kl = J0_kl (1 + theta_kl), |theta_kl| <= 0.1; no disturbance; the reference at rest'
+    >>> Uncertainty(disturbance=0.005).at_rest_and_undisturbed
+    False
+    """
+
+    inertia: float = 0.0
+    inertia_set: str = "entries"
+    disturbance: tuple[float, float, float] | float = 0.0
+    reference_rate: tuple[float, float, float] | float = 0.0
+    reference_acceleration: tuple[float, float, float] | float = 0.0
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.inertia) and 0 <= self.inertia < 1):
+            raise CertifyInputError(f"uncertainty: inertia must be in [0, 1), got {self.inertia!r}")
+        if self.inertia_set not in INERTIA_SETS:
+            raise CertifyInputError(f"uncertainty: inertia_set must be one of {INERTIA_SETS}, got {self.inertia_set!r}")
+        for name in ("disturbance", "reference_rate", "reference_acceleration"):
+            object.__setattr__(self, name, _triple(getattr(self, name), name))
+
+    @property
+    def at_rest_and_undisturbed(self) -> bool:
+        """No disturbance and the reference at rest: the origin is an equilibrium for every inertia in the set."""
+        return not any(self.disturbance) and not any(self.reference_rate) and not any(self.reference_acceleration)
+
+    def describe(self) -> str:
+        """One line."""
+        if self.inertia == 0:
+            parts = ["J = J0"]
+        elif self.inertia_set == "proportional":
+            parts = [f"J = (1 + theta) J0, |theta| <= {self.inertia:g}"]
+        else:
+            parts = [f"J_kl = J0_kl (1 + theta_kl), |theta_kl| <= {self.inertia:g}"]
+        d = self.disturbance
+        parts.append(f"|d_k| <= {_fmt3(d)} N m" if any(d) else "no disturbance")
+        if any(self.reference_rate) or any(self.reference_acceleration):
+            parts.append(
+                f"|omega_d,k| <= {_fmt3(self.reference_rate)} rad/s, "
+                f"|omega_d_dot,k| <= {_fmt3(self.reference_acceleration)} rad/s^2"
+            )
+        else:
+            parts.append("the reference at rest")
+        return "; ".join(parts)
+
+    def as_dict(self) -> dict:
+        """JSON-ready."""
+        return {
+            "inertia": self.inertia,
+            "inertia_set": self.inertia_set,
+            "disturbance_N_m": list(self.disturbance),
+            "reference_rate_rad_s": list(self.reference_rate),
+            "reference_acceleration_rad_s2": list(self.reference_acceleration),
+        }
+
+
+def _fmt3(v) -> str:
+    return f"{v[0]:g}" if v[0] == v[1] == v[2] else "(" + ", ".join(f"{x:g}" for x in v) + ")"
+
+
+@dataclass(frozen=True)
+class Candidate:
+    """A Lyapunov candidate: how it was obtained and its SymPy expression in ``sigma_e, omega_e, z``.
+
+    ``kind``: ``"declared"`` (the law's own), ``"declared + cross term"`` (``+ epsilon sigma_e^T J0 omega_e``) or
+    ``"quadratic"`` (``x^T P x`` with ``P`` from :func:`fsmctl.proofs.quadratic_forms.quadratic_lyapunov`).
+    """
+
+    kind: str
+    expression: sp.Expr
+    """in the symbols ``sigma_e[k]``, ``omega_e[k]``, ``z[k]`` (numbers for parameters and J0)"""
+    epsilon: float | None = None
+    P: tuple[tuple[float, ...], ...] | None = None
+    note: str = ""
+
+    def describe(self) -> str:
+        """One line."""
+        if self.kind == "quadratic":
+            return "V = x^T P x, x = (sigma_e, omega_e, z), P from a semidefinite program" + (
+                f" ({self.note})" if self.note else ""
+            )
+        if self.kind == "declared + cross term":
+            return f"the law's V + {self.epsilon:g} sigma_e^T J0 omega_e"
+        return "the law's declared V"
+
+
+def state_symbols(n_states: int) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+    """The SymPy columns ``sigma_e``, ``omega_e``, ``z`` a candidate is written in."""
+    s = sp.Matrix(sp.symbols("sigma_e[0:3]", real=True))
+    w = sp.Matrix(sp.symbols("omega_e[0:3]", real=True))
+    z = sp.Matrix(sp.symbols(f"z[0:{n_states}]", real=True)) if n_states else sp.zeros(0, 1)
+    return s, w, z
+
+
+def candidate_expression(
+    law: Law, params: np.ndarray, J0: np.ndarray, *, epsilon: float | None = None, P: np.ndarray | None = None
+) -> sp.Expr:
+    """The candidate ``V(sigma_e, omega_e, z)`` with the parameters and ``J0`` as numbers.
+
+    Parameters
+    ----------
+    law : fsmctl.symbolic.law.Law
+        Its :meth:`~fsmctl.symbolic.law.LawBuilder.lyapunov` ``V`` (written for the isolated agent at rest, in
+        ``sigma``, ``omega``, ``z``) is read as ``V(sigma_e, omega_e, z)``; unused when ``P`` is given.
+    params : numpy.ndarray
+        The packed parameters.
+    J0 : numpy.ndarray
+        3x3.
+    epsilon : float, optional
+        Adds ``epsilon sigma_e^T J0 omega_e``.
+    P : numpy.ndarray, optional
+        ``V = x^T P x`` instead, ``x = (sigma_e, omega_e, z)``.
+
+    Returns
+    -------
+    sympy.Expr
+    """
+    n = law.n_states
+    s, w, z = state_symbols(n)
+    J0m = sp.Matrix(3, 3, [sp.Float(float(v), 17) for v in np.asarray(J0, float).ravel()])
+    if P is not None:
+        x = sp.Matrix.vstack(s, w, z)
+        Pm = sp.Matrix(P.shape[0], P.shape[1], [sp.Float(float(v), 17) for v in np.asarray(P).ravel()])
+        return sp.expand((x.T * Pm * x)[0, 0])
+    if law.lyapunov is None:
+        raise CertifyInputError(f"law {law.name!r} declares no Lyapunov candidate (LawBuilder.lyapunov)")
+    sym = law.symbols
+    rep = dict(zip(list(sym["sigma"]), list(s), strict=True))
+    rep.update(zip(list(sym["omega"]), list(w), strict=True))
+    rep.update(zip(list(sym["z"]), list(z), strict=True))
+    rep.update(zip(list(sym["params"]), [sp.Float(float(v), 17) for v in params], strict=True))
+    rep.update(zip(list(sym["J0"]), list(J0m), strict=True))
+    V = law.expanded(law.lyapunov.V)[0, 0].xreplace(rep)
+    if epsilon:
+        V = V + sp.Float(float(epsilon), 17) * (s.T * J0m * w)[0, 0]
+    left = V.free_symbols - set(s) - set(w) - set(z)
+    if left:
+        raise CertifyInputError(
+            f"law {law.name!r}: its Lyapunov candidate depends on {sorted(map(str, left))}, not only on sigma, omega, "
+            "z, the parameters and J0"
+        )
+    return V
+
+
+def _dcm(sigma: ca.SX) -> ca.SX:
+    """Direction-cosine matrix of an MRP (Schaub & Junkins eq 3.147)."""
+    s2 = ca.dot(sigma, sigma)
+    S = ca.skew(sigma)
+    return ca.SX.eye(3) + (8 * ca.mtimes(S, S) - 4 * (1 - s2) * S) / (1 + s2) ** 2
+
+
+def _mrp_G(sigma: ca.SX) -> ca.SX:
+    """``G(sigma)`` of ``sigma_dot = G(sigma) omega`` (eq 5)."""
+    s2 = ca.dot(sigma, sigma)
+    return 0.25 * ((1 - s2) * ca.SX.eye(3) + 2 * ca.skew(sigma) + 2 * ca.mtimes(sigma, sigma.T))
+
+
+def _inertia(J0: np.ndarray, theta: ca.SX, inertia_set: str) -> tuple[ca.SX, list[tuple[int, int]]]:
+    J = ca.SX(J0)
+    if inertia_set == "proportional":
+        return (1 + theta[0]) * J, []
+    pairs = [(i, j) for i in range(3) for j in range(i, 3) if J0[i, j] != 0]
+    rows = [[J[i, j] for j in range(3)] for i in range(3)]
+    for k, (i, j) in enumerate(pairs):
+        rows[i][j] = J0[i, j] * (1 + theta[k])
+        rows[j][i] = rows[i][j]
+    return ca.vertcat(*[ca.horzcat(*r) for r in rows]), pairs
+
+
+@dataclass
+class CertifyProblem:
+    """One agent's closed loop with its uncertainty as CasADi graphs of ``x`` (see the module docstring)."""
+
+    names: list[str]
+    """name of each input of ``x``"""
+    n_state: int
+    """``6 + n_states``: the state part of ``x`` comes first"""
+    lo: np.ndarray
+    hi: np.ndarray
+    x: ca.SX
+    field: ca.SX
+    """``(sigma_e_dot, omega_e_dot, z_dot)``"""
+    torque: ca.SX
+    inertia_pairs: list[tuple[int, int]] = field(default_factory=list)
+
+    def state_slice(self) -> slice:
+        return slice(0, self.n_state)
+
+    def lyapunov(self, V: sp.Expr) -> tuple[ca.Function, ca.Function, ca.Function, ca.Function]:
+        """``(V, grad V, V_dot, grad V_dot)`` as CasADi functions of ``x`` for a candidate in the state symbols."""
+        n_z = self.n_state - 6
+        s, w, z = state_symbols(n_z)
+        xs = self.x[: self.n_state]
+        translate = SympyToCasadi(dict(zip([*s, *w, *z], [xs[k] for k in range(self.n_state)], strict=True)))
+        Vx = translate(V)
+        gV = ca.gradient(Vx, self.x)
+        Vdot = ca.dot(ca.gradient(Vx, xs), self.field)
+        gVdot = ca.gradient(Vdot, self.x)
+        f = [ca.Function(n, [self.x], [e]) for n, e in (("V", Vx), ("dV", gV), ("V_dot", Vdot), ("dV_dot", gVdot))]
+        return tuple(f)
+
+
+def build_problem(
+    code: LawCode,
+    error_model: str,
+    J0: np.ndarray,
+    params: np.ndarray,
+    torque_limit: float,
+    region: StateRegion,
+    uncertainty: Uncertainty,
+) -> CertifyProblem:
+    """The closed loop of one agent flying ``code`` with the uncertainty, as graphs of one input vector.
+
+    Parameters
+    ----------
+    code : fsmctl.model.laws.LawCode
+        The law's generated code (the graphs the engine flies).
+    error_model : str
+        ``"paper"`` or ``"exact"``.
+    J0 : numpy.ndarray
+        The nominal inertia (3x3).
+    params : numpy.ndarray
+        The law's packed parameters.
+    torque_limit : float
+        Per-component bound of the applied torque (``inf``: none).
+    region : StateRegion
+        The state box.
+    uncertainty : Uncertainty
+        The uncertainty box.
+
+    Returns
+    -------
+    CertifyProblem
+
+    Raises
+    ------
+    CertifyInputError
+        A law whose torque depends on time (certify treats time-invariant laws).
+    """
+    J0 = np.asarray(J0, dtype=float)
+    nz = int(code.n_states)
+    local = law_sx_function(code.folder, contract_names(error_model)[0])
+    control = law_sx_function(code.folder, contract_names(error_model)[1])
+    consts = law_sx_function(code.folder, "law_constants")
+    se, we, z = ca.SX.sym("sigma_e", 3), ca.SX.sym("omega_e", 3), ca.SX.sym("z", nz)
+    n_theta = (
+        1 if uncertainty.inertia_set == "proportional" else len([1 for i in range(3) for j in range(i, 3) if J0[i, j]])
+    )
+    theta, d = ca.SX.sym("theta", n_theta), ca.SX.sym("d", 3)
+    wd, wdd = ca.SX.sym("omega_d", 3), ca.SX.sym("omega_d_dot", 3)
+    t = ca.SX.sym("t")
+    J, pairs = _inertia(J0, theta, uncertainty.inertia_set)
+    C = _dcm(se)
+    omega = we + ca.mtimes(C, wd)
+    p = ca.DM(np.asarray(params, float))
+    g = consts(p)
+    zero3 = ca.SX.zeros(3)
+    _, cache = local(t, se, omega, z, zero3, wd, wdd, ca.DM(J0), p, g)
+    received = ca.SX.zeros(local.size1_out(0))
+    limit = torque_limit if math.isfinite(torque_limit) else 1e300
+    u, _, z_dot = control(t, se, omega, z, zero3, wd, wdd, ca.DM(J0), p, g, cache, 0, received, 0, limit)
+    if ca.depends_on(ca.vertcat(u, z_dot), t):
+        raise CertifyInputError(
+            f"law {code.name!r}: its torque depends on the time t; certify treats time-invariant laws"
+        )
+    u, z_dot = ca.substitute(u, t, 0), ca.substitute(z_dot, t, 0)
+    adj = ca.SX(3, 3)
+    for i in range(3):
+        for j in range(3):
+            minor = [[J[r, c] for c in range(3) if c != i] for r in range(3) if r != j]
+            adj[i, j] = (-1) ** (i + j) * (minor[0][0] * minor[1][1] - minor[0][1] * minor[1][0])
+    det = J[0, 0] * adj[0, 0] + J[0, 1] * adj[1, 0] + J[0, 2] * adj[2, 0]
+    omega_dot = ca.mtimes(adj, u + d - ca.cross(omega, ca.mtimes(J, omega))) / det
+    we_dot = omega_dot + ca.cross(we, ca.mtimes(C, wd)) - ca.mtimes(C, wdd)
+    field_ = ca.vertcat(ca.mtimes(_mrp_G(se), we), we_dot, z_dot)
+    x = ca.vertcat(se, we, z, theta, d, wd, wdd)
+    half = region.bounds(nz)
+    unc = np.concatenate(
+        [
+            np.full(n_theta, uncertainty.inertia),
+            uncertainty.disturbance,
+            uncertainty.reference_rate,
+            uncertainty.reference_acceleration,
+        ]
+    )
+    hi = np.concatenate([half, unc])
+    names = (
+        [f"sigma_e[{k}]" for k in range(3)]
+        + [f"omega_e[{k}]" for k in range(3)]
+        + [f"z[{k}]" for k in range(nz)]
+        + [f"theta[{k}]" for k in range(n_theta)]
+        + [f"d[{k}]" for k in range(3)]
+        + [f"omega_d[{k}]" for k in range(3)]
+        + [f"omega_d_dot[{k}]" for k in range(3)]
+    )
+    return CertifyProblem(names, 6 + nz, -hi, hi.copy(), x, field_, u, pairs)
