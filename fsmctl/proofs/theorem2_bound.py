@@ -593,6 +593,7 @@ def _candidates(fn: ca.Function, region: t2.Region, k: int, x0: np.ndarray):
     target_sign = np.sign(s_dot[k]) or 1.0
     for level in (0.9, 0.5, 0.25, 0.1, 0.03):
         x = x0.copy()
+        x[[j for j in range(3) if j != k]] = 0.0  # sigma_e,j = 0 off the axis: the other s_j reachable by omega_e
         target = np.zeros(3)
         target[k] = target_sign * level * region.omega
         for _ in range(6):
@@ -607,4 +608,7 @@ def _candidates(fn: ca.Function, region: t2.Region, k: int, x0: np.ndarray):
             except np.linalg.LinAlgError:
                 break
             x[3:6] = np.clip(x[3:6] + step, -region.omega, region.omega)
-        yield f"the witness with omega_e moved to s_{k + 1} = {target[k]:.3g}, the other s_j = 0", x
+        yield (
+            f"the witness with sigma_e,j = 0 off axis {k + 1}, omega_e moved to s_{k + 1} = {target[k]:.3g}, s_j = 0",
+            x,
+        )
