@@ -48,16 +48,6 @@ def test_paper_scenario_is_refuted_at_a_rigorous_point(paper):
     assert np.all(np.abs(x[0:3]) <= 0.05) and np.all(np.abs(x[3:6]) <= 0.05)
 
 
-def test_raised_delta_on_a_small_region_is_proved(paper):
-    """Region |sigma_e|, |omega_e| <= 1e-3: the requirement there is the reference part (~0.0014) plus at most
-    (1+kappa) c2 slope |sigma_e_dot| ~ 1.3 * 0.8 * 20.6 * 2.5e-4 ~ 0.0054 (slope (2-alpha) epsilon^(alpha-1) = 20.6,
-    |sigma_e_dot| <= |omega_e|/4 near 0) and smaller terms: delta = 0.05 covers it with a wide margin."""
-    raised = paper.replace(controller={"delta": [0.05, 0.05, 0.05]})
-    cert = certified_delta_requirements(raised, Region(1e-3, 1e-3), budget=SMALL)
-    assert cert.verdict == "proved", [(a.lower, a.upper) for g in cert.groups for a in g.axes]
-    assert cert.reaching is None and "V = s^T s/2 decreases" in cert.reaching_note
-
-
 def test_a_larger_region_never_gives_a_smaller_bound(paper):
     """Soundness across regions: the larger box contains the smaller one's witness, so its certified upper bound is
     at least the smaller box's certified lower bound (upper_large >= sup_large >= sup_small >= lower_small)."""
