@@ -88,10 +88,13 @@ def test_erratum_details_show_residual_and_correction(case1_results):
     assert "circular" in r.detail and "P = I/(1+kappa)" in r.detail
 
 
-def test_numeric_verdict_states_samples_and_ranges():
+def test_open_verdict_states_certified_intervals_and_ranges():
+    """At the reference (region 0) the configured delta lies inside the certified interval of the requirement on some
+    axis: neither proved nor refuted (NUMERIC, open); the sampled numbers stay as context."""
     r = run_claims(["theorem2-delta"], ProofContext(paper_scenario("1"), Region(0.0, 0.0), n_random=0))[0]
     assert r.verdict == C.NUMERIC and r.holds
-    assert "state samples per agent" in r.detail and "|sigma_e,k| <= 0" in r.detail and "not a proof" in r.detail
+    assert "certified requirement" in r.detail and "|sigma_e,k| <= 0" in r.detail and "[OPEN]" in r.detail
+    assert "sampling (context)" in r.detail
     traj = [max(a["reference_trajectory"]) for a in r.data["agents"]]
     assert max(traj) < 1e-3  # on the reference trajectory: well below the configured 0.005
 

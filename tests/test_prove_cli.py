@@ -63,7 +63,7 @@ def test_theorem2_default_region_fails_for_paper_delta_as_documented(capsys):
     code, out, _ = _run(capsys, "theorem2-delta", "--samples", "100")
     assert code == 0
     assert out.splitlines()[0] == "all 1 check as documented (1 known failure of the paper: theorem2-delta)"
-    assert "fails for this scenario" in out and "INSUFFICIENT" in out
+    assert "fails for this scenario" in out and "REFUTED" in out
     assert _run(capsys, "theorem2-delta", "--samples", "100", "--strict")[0] == 1
 
 

@@ -37,6 +37,7 @@ import sympy as sp
 
 import fsmctl.proofs.theorem1 as t1
 import fsmctl.proofs.theorem2 as t2
+import fsmctl.proofs.theorem2_bound as t2b
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.policy import default_workers
@@ -862,64 +863,49 @@ def _fsm_values(sc: Scenario) -> dict:
 
 
 def _theorem2_delta(ctx: ProofContext) -> _Outcome:
-    """The delta_i Theorem 2 (corrected) needs for the scenario, by sampling, vs the configured delta_i."""
+    """The delta_i Theorem 2 (corrected) needs for the scenario, certified by interval branch and bound, vs the
+    configured delta_i; the reaching condition refuted at a point when the requirement is."""
     sc = ctx.scenario
     res = t2.delta_requirements(sc, ctx.region, n_random=ctx.n_random, seed=ctx.seed)
+    cert = t2b.certified_delta_requirements(sc, ctx.region)
     fv = t2.format_vector
     lines = [
-        f"scenario {sc.label}, region {ctx.region.describe()} (contains the reference sigma_e = 0, omega_e = 0)",
-        f"sampling: {res.description}",
+        f"scenario {sc.label}, region {ctx.region.describe()} (contains the reference sigma_e = 0, omega_e = 0), "
+        "times the bound boxes of omega_d, u_d and omega_d_dot",
         "requirement: (delta_i)_k > sup (1+kappa_i) |d_i|_k, d_i = s_i_dot at delta = 0 without coordination "
         "(automatic differentiation of the paper's law's generated law_local_*, law_control_* and the model's "
         "plant_rhs along the rigid-body motion)",
+        f"certified upper bound (interval arithmetic with outward rounding, branch and bound: {cert.boxes} boxes in "
+        f"{cert.seconds:.1f} s; the Remark 6 band cut out of each sigma_e,k box); lower bound certified at a witness "
+        "point",
         f"coupling: {res.coupling}",
     ]
+    lines += _certified_lines(cert)
+    lines.append(_reaching_line(cert))
+    lines.append(f"sampling (context): {res.description}")
     for a in res.agents:
-        status = "ok" if a.ok else "INSUFFICIENT"
         lines.append(
-            f"agent {a.agent}: configured {fv(a.configured)}; needed over the region {fv(a.region)} [{status}]; "
-            f"on the reference trajectory (actual signals, max over t in [0, {sc.simulation.t_final:g}] s, "
-            f"{res.trajectory_samples} times) {fv(a.reference_trajectory)}; at the reference under the bound boxes "
-            f"{fv(a.reference_bound)}; worst sample sigma_e = {fv(a.worst_state[0])}, omega_e = {fv(a.worst_state[1])}"
+            f"agent {a.agent} sampled: over the region {fv(a.region)}; on the reference trajectory (actual signals, "
+            f"max over t in [0, {sc.simulation.t_final:g}] s, {res.trajectory_samples} times) "
+            f"{fv(a.reference_trajectory)}; at the reference under the bound boxes {fv(a.reference_bound)}"
         )
     if res.agents:
         lines.append(f"{res.agents[0].note}")
-    c = sc.controller
-    p = _fsm_values(sc)
-    fix, alpha, epsilon = p["singularity_fix"], p["alpha"], p["epsilon"]
-    if fix == "switch":
-        slope = (2 - alpha) * epsilon ** (alpha - 1)
-        lines.append(
-            f"why it grows off the reference: a_eq contains c2 slope_k sigma_e_dot,k with the Remark 6 slope up to "
-            f"(2 - alpha) epsilon^(alpha-1) = {slope:.4g} near sigma_e,k = 0 (c2 slope = {p['c2'] * slope:.4g} 1/s)"
-            + (
-                "; with error_model = paper the rotation G(sigma_e)(R(sigma_e) - I) omega_d that eqs 7-8 drop enters "
-                "s_dot through the same slope"
-                if c.error_model == "paper"
-                else ""
-            )
-        )
-    else:
-        lines.append(
-            f"singularity_fix = {fix}: the surface keeps sig(sigma_e)^alpha, whose slope is unbounded at "
-            "sigma_e,k = 0, so s_dot (and the requirement) is unbounded wherever omega_e != 0 there (Remark 6)"
-        )
+    lines.append(_slope_line(sc))
     if res.largest_scale is not None:
         f = res.largest_scale
         lines.append(
-            f"the configured delta meets the requirement only on a box about {f:.3g} times the region "
+            f"sampled: the configured delta meets the requirement only on a box about {f:.3g} times the region "
             f"(|sigma_e,k| <= {f * ctx.region.sigma:.3g}, |omega_e,k| <= {f * ctx.region.omega:.3g} rad/s; bisection on "
             "the grid)"
         )
-    lines.append(
-        "this is a sampled supremum (a lower estimate of the true one), not a proof; the guarantee also "
-        "needs the trajectory to stay in the region, which is not checked"
-    )
+    lines.append("the guarantee also needs the trajectory to stay in the region, which is not checked")
     data = {
         "region": {"sigma": ctx.region.sigma, "omega": ctx.region.omega},
         "samples_per_agent": res.samples,
         "trajectory_times": res.trajectory_samples,
         "largest_scale": res.largest_scale,
+        "certified": _certified_data(cert),
         "agents": [
             {
                 "agent": a.agent,
@@ -934,12 +920,97 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
         ],
     }
     latex = (
-        r"(\delta_i)_k > \sup_{\text{region},\,t}\,(1+\kappa_i)\big|\dot s_i\big|_{\delta=0,\ \text{no coordination}}"
+        r"(\delta_i)_k > \sup_{\text{region}}\,(1+\kappa_i)\big|\dot s_i\big|_{\delta=0,\ \text{no coordination}}"
         r" = \sup\big|w_{0i} - \kappa_i a_{eq,i}\big|_k"
     )
-    if res.ok:
-        return _Outcome(NUMERIC, lines, latex, data=data)
-    return _Outcome(FAILS, lines, latex, holds=False, data=data)
+    if cert.verdict == "proved":
+        return _Outcome(PROVED, lines, latex, data=data)
+    if cert.verdict == "refuted":
+        return _Outcome(FAILS, lines, latex, holds=False, data=data)
+    return _Outcome(NUMERIC, lines, latex, holds=res.ok, data=data)
+
+
+def _certified_lines(cert: t2b.Theorem2Bound) -> list[str]:
+    lines = []
+    for g in cert.groups:
+        who = "agent" + ("s " if len(g.agents) > 1 else " ") + ", ".join(str(a) for a in g.agents)
+        axes = "; ".join(
+            f"axis {a.axis}: [{a.lower:.4g}, {a.upper:.4g}] (gap {a.gap:.3g}, {a.boxes} boxes"
+            + (", converged" if a.converged else "")
+            + ")"
+            for a in g.axes
+        )
+        configured = t2.format_vector([a.configured for a in g.axes])
+        lines.append(f"{who}: configured {configured}; certified requirement {axes} [{g.verdict.upper()}]")
+    return lines
+
+
+def _reaching_line(cert: t2b.Theorem2Bound) -> str:
+    p = cert.reaching
+    if p is None:
+        return f"reaching condition: {cert.reaching_note}"
+    x = np.asarray(p.point)
+    names = t2b.VARIABLES
+    where = ", ".join(f"{n} = {t2.format_vector(x[3 * i : 3 * i + 3])}" for i, n in enumerate(names))
+    return (
+        f"reaching condition REFUTED (agent {p.agent}, full law with the configured delta, no coordination): at "
+        f"{where} (found at {p.how}) ball arithmetic proves s_{p.axis} s_dot_{p.axis} > 0 and s^T s_dot = "
+        f"{p.s_dot_s} > 0: V = s^T s/2 increases there; s = ({', '.join(p.s)}), s_dot = ({', '.join(p.s_dot)})"
+    )
+
+
+def _certified_data(cert: t2b.Theorem2Bound) -> dict:
+    p = cert.reaching
+    return {
+        "verdict": cert.verdict,
+        "boxes": cert.boxes,
+        "seconds": cert.seconds,
+        "groups": [
+            {
+                "agents": list(g.agents),
+                "verdict": g.verdict,
+                "kappa": g.kappa,
+                "axes": [
+                    {
+                        "axis": a.axis,
+                        "configured": a.configured,
+                        "lower": a.lower,
+                        "upper": a.upper if math.isfinite(a.upper) else None,
+                        "witness": list(a.witness),
+                        "converged": a.converged,
+                        "boxes": a.boxes,
+                    }
+                    for a in g.axes
+                ],
+            }
+            for g in cert.groups
+        ],
+        "reaching_refuted_at": None
+        if p is None
+        else {"agent": p.agent, "axis": p.axis, "point": list(p.point), "s_dot_s": p.s_dot_s},
+    }
+
+
+def _slope_line(sc: Scenario) -> str:
+    c = sc.controller
+    p = _fsm_values(sc)
+    fix, alpha, epsilon = p["singularity_fix"], p["alpha"], p["epsilon"]
+    if fix == "switch":
+        slope = (2 - alpha) * epsilon ** (alpha - 1)
+        return (
+            f"why it grows off the reference: a_eq contains c2 slope_k sigma_e_dot,k with the Remark 6 slope up to "
+            f"(2 - alpha) epsilon^(alpha-1) = {slope:.4g} near sigma_e,k = 0 (c2 slope = {p['c2'] * slope:.4g} 1/s)"
+            + (
+                "; with error_model = paper the rotation G(sigma_e)(R(sigma_e) - I) omega_d that eqs 7-8 drop enters "
+                "s_dot through the same slope"
+                if c.error_model == "paper"
+                else ""
+            )
+        )
+    return (
+        f"singularity_fix = {fix}: the surface keeps sig(sigma_e)^alpha, whose slope is unbounded at "
+        "sigma_e,k = 0, so s_dot (and the requirement) is unbounded wherever omega_e != 0 there (Remark 6)"
+    )
 
 
 def _finite(v) -> list:

@@ -216,8 +216,12 @@ def drift_function(error_model: str, outputs: tuple[str, ...] = DRIFT_OUTPUTS) -
 
 
 @functools.cache
-def _drift_expressions(error_model: str) -> tuple[tuple[ca.SX, ...], dict[str, ca.SX]]:
-    """The symbolic inputs and outputs of :func:`drift_function` (built once per error model)."""
+def _drift_expressions(error_model: str, keep_delta: bool = False) -> tuple[tuple[ca.SX, ...], dict[str, ca.SX]]:
+    """The symbolic inputs and outputs of :func:`drift_function` (built once per error model).
+
+    With ``keep_delta`` the law's ``delta`` (read from ``params``) is kept: ``d`` is then ``s_dot`` of the full law
+    without coordination (the reaching condition's ``s_dot``), not the drift at ``delta = 0``.
+    """
     fsm = _paper_law()
     local = law_sx_function(fsm.folder, f"law_local_{error_model}")
     control = law_sx_function(fsm.folder, f"law_control_{error_model}")
@@ -229,7 +233,8 @@ def _drift_expressions(error_model: str) -> tuple[tuple[ca.SX, ...], dict[str, c
     J0, J, params, coord = sym("J0", 3, 3), sym("J", 3, 3), sym("params", fsm.n_params), sym("coordination", 3)
     zero = ca.SX.zeros(3)
     k, n = _offset(fsm, "delta")
-    p = ca.vertcat(params[:k], ca.SX.zeros(n), params[k + n :])  # delta = 0: the drift of eqs 30-33
+    # delta = 0: the drift of eqs 30-33
+    p = params if keep_delta else ca.vertcat(params[:k], ca.SX.zeros(n), params[k + n :])
     gc = const(p)
     z = ca.SX.zeros(fsm.n_states)
     s, cache = local(0, sig, om, z, sigd, wd, wdd, J0, p, gc)

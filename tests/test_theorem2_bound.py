@@ -1,0 +1,58 @@
+"""Theorem 2's certified delta requirement (fsmctl.proofs.theorem2_bound) against the sampled route."""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from fsmctl.enclosures.branch_bound import Budget
+from fsmctl.model.scenario import paper_scenario
+from fsmctl.proofs.theorem2 import Region, _drift_expressions, delta_requirements, fsm_parameters
+from fsmctl.proofs.theorem2_bound import certified_delta_requirements
+
+SMALL = Budget(max_boxes=200_000, max_seconds=4.0)
+
+
+@pytest.fixture(scope="module")
+def paper():
+    return paper_scenario("1")
+
+
+def test_certified_upper_bounds_every_sample(paper):
+    """Oracle: the CasADi numeric route (delta_requirements) at many seeded random points never exceeds the certified
+    upper bound, and the certified lower bound is below it."""
+    region = Region(0.01, 0.01)
+    cert = certified_delta_requirements(paper, region, budget=SMALL, refute=False)
+    sampled = delta_requirements(paper, region, n_random=2000, seed=3, dt_reference=None, search_scale=False)
+    for g in cert.groups:
+        for agent in g.agents:
+            values = sampled.agents[agent - 1].region
+            for a, v in zip(g.axes, values, strict=True):
+                assert v <= a.upper and a.lower <= a.upper
+
+
+def test_paper_scenario_is_refuted_at_a_rigorous_point(paper):
+    cert = certified_delta_requirements(paper, Region(), budget=SMALL)
+    assert cert.verdict == "refuted"
+    assert all(a.lower > a.configured for g in cert.groups for a in g.axes)
+    p = cert.reaching
+    assert p is not None
+    # independent float check of s^T s_dot at the point (the full law, configured delta, no coordination)
+    inputs, exprs = _drift_expressions(paper.controller.error_model, True)
+    fn = ca.Function("r", list(inputs), [ca.dot(exprs["s"], exprs["d"]), exprs["s"], exprs["d"]])
+    x = np.asarray(p.point)
+    agent = paper.agents[p.agent - 1]
+    v, s, s_dot = fn(
+        x[0:3], x[3:6], x[6:9], x[9:12], agent.J0_array, agent.J_true, fsm_parameters(paper)[p.agent - 1], x[12:15]
+    )
+    assert float(v) > 0 and float(s[p.axis - 1] * s_dot[p.axis - 1]) > 0
+    assert np.all(np.abs(x[0:3]) <= 0.05) and np.all(np.abs(x[3:6]) <= 0.05)
+
+
+def test_a_larger_region_never_gives_a_smaller_bound(paper):
+    """Soundness across regions: the larger box contains the smaller one's witness, so its certified upper bound is
+    at least the smaller box's certified lower bound (upper_large >= sup_large >= sup_small >= lower_small)."""
+    small = certified_delta_requirements(paper, Region(2e-4, 2e-4), budget=SMALL, refute=False)
+    large = certified_delta_requirements(paper, Region(1e-3, 1e-3), budget=SMALL, refute=False)
+    for gs, gl in zip(small.groups, large.groups, strict=True):
+        for a, b in zip(gs.axes, gl.axes, strict=True):
+            assert b.upper >= a.lower
