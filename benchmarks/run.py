@@ -1682,6 +1682,7 @@ def markdown(res: dict) -> str:
     lines += _markdown_flops(res)
     lines += _markdown_tools(res)
     lines += _markdown_throughput_and_montecarlo(res)
+    lines += _markdown_certify(res)
     return "\n".join(lines) + "\n"
 
 
@@ -2212,8 +2213,86 @@ def _throughput_markdown(tp: dict) -> list[str]:
     return lines
 
 
+def certify_section(quick: bool, log) -> dict:
+    """``fsmctl certify`` (issue 29): the documented PD example on the issue's region and a smaller one, ultimately
+    bounded with disturbances, Theorem 2's certified bound for the paper's law, the interval evaluator's throughput.
+
+    Each certify run is one call of :func:`fsmctl.proofs.certify_law` (every candidate it tries, 60 s budget each);
+    the wall time is the whole call.  No target is tuned for: the verdicts are reported as they come.
+    """
+    import fsmctl
+    from fsmctl.enclosures.intervals import IntervalFunction
+    from fsmctl.model.generated_code import default_law_dir, law_sx_function
+    from fsmctl.proofs import SearchSettings, StateRegion, Uncertainty, certify_law
+    from fsmctl.proofs.theorem2 import Region
+    from fsmctl.proofs.theorem2_bound import PROVE_BUDGET, certified_delta_requirements
+
+    law, scenario = str(ROOT / "docs/examples/my_law.py"), str(ROOT / "docs/examples/my_law.toml")
+    settings = SearchSettings(max_seconds=20.0 if quick else 60.0)
+    cases = [
+        ("issue region, 10 % inertia", StateRegion(0.5, 0.1), Uncertainty(inertia=0.1)),
+        ("|sigma_e,k| <= 0.2, |omega_e,k| <= 0.05, 10 % inertia", StateRegion(0.2, 0.05), Uncertainty(inertia=0.1)),
+        ("|sigma_e,k| <= 0.1, |omega_e,k| <= 0.02, d <= 0.005 N m", StateRegion(0.1, 0.02), Uncertainty(disturbance=0.005)),
+        ("|sigma_e,k| <= 0.5, |omega_e,k| <= 0.1, d <= 0.24 N m (the paper's bound)", StateRegion(0.5, 0.1),
+         Uncertainty(disturbance=0.24)),
+    ]  # fmt: skip
+    out: dict = {"cases": []}
+    for name, region, uncertainty in cases[:2] if quick else cases:
+        t0 = time.perf_counter()
+        c = certify_law(law, scenario=scenario, region=region, uncertainty=uncertainty, settings=settings)
+        wall = time.perf_counter() - t0
+        log(f"certify {name}: {c.verdict} {c.kind or ''} in {wall:.1f} s")
+        out["cases"].append(
+            {"case": name, "verdict": c.verdict, "kind": c.kind, "wall_s": wall, "headline": c.headline(),
+             "candidate": c.candidate["describe"], "boxes": c.outcome.get("boxes")}
+        )  # fmt: skip
+    t0 = time.perf_counter()
+    bound = certified_delta_requirements(fsmctl.paper_scenario("1"), Region(), budget=PROVE_BUDGET)
+    axes = [a for g in bound.groups for a in g.axes]
+    out["theorem2"] = {
+        "wall_s": time.perf_counter() - t0,
+        "verdict": bound.verdict,
+        "lower_min": min(a.lower for a in axes),
+        "lower_max": max(a.lower for a in axes),
+        "upper_max": max(a.upper for a in axes),
+        "budget_s": PROVE_BUDGET.max_seconds,
+    }
+    f = IntervalFunction(law_sx_function(default_law_dir(), "law_control_exact"))
+    rng = np.random.default_rng(0)
+    lo = rng.uniform(-0.1, 0.1, (f.n_in, 10_000))
+    best, _, _, _ = timed(lambda: f.enclose(lo, lo + 1e-3), 3)
+    out["throughput_boxes_per_s"] = 10_000 / best
+    out["law_control_exact_instructions"] = f.n_instructions
+    return out
+
+
+def _markdown_certify(res: dict) -> list[str]:
+    c = res.get("certify")
+    if not c:
+        return []
+    lines = ["", "## fsmctl certify (issue 29)", "", "| case (docs/examples/my_law.py) | verdict | wall (s) | candidate |",
+             "|---|---|---|---|"]  # fmt: skip
+    for r in c["cases"]:
+        verdict = r["verdict"] + (f" ({r['kind']})" if r.get("kind") else "")
+        lines.append(f"| {r['case']} | {verdict} | {r['wall_s']:.0f} | {r['candidate']} |")
+    t = c.get("theorem2")
+    if t:
+        lines += [
+            "",
+            f"Theorem 2's requirement for the paper's law, Case 1, region |sigma_e,k|, |omega_e,k| <= 0.05 (prove's "
+            f"{t['budget_s']:g} s budget): {t['verdict']}; certified lower bounds {t['lower_min']:.3g}-{t['lower_max']:.3g}"
+            f" 1/s^2 (configured 0.005), largest certified upper bound {t['upper_max']:.3g}; {t['wall_s']:.0f} s.",
+        ]
+    lines.append(
+        f"Interval evaluator: {c['throughput_boxes_per_s']:.3g} boxes/s on the paper's `law_control_exact` "
+        f"({c['law_control_exact_instructions']} instructions), 10,000 boxes per call."
+    )
+    return lines
+
+
 SECTIONS = (
     "compare", "kernels", "laws", "hardware", "flight", "scale", "smooth_ring", "flops", "subprocess", "throughput", "montecarlo",
+    "certify",
 )  # fmt: skip
 """The sections of a run, in order (``--only`` selects some)."""
 
@@ -2273,6 +2352,7 @@ def main(argv=None) -> int:
     section("subprocess", lambda: {} if args.quick else subprocess_section(log))
     runs = args.montecarlo_runs if args.montecarlo_runs is not None else (20 if args.quick else 1000)
     section("throughput", lambda: throughput_section(args.quick, log))
+    section("certify", lambda: certify_section(args.quick, log))
     previous_mc = res.get("montecarlo")
     if previous_mc and not previous_mc.get("before"):
         previous_mc = {**previous_mc, "date": res.get("measured", {}).get("montecarlo") or previous_date}

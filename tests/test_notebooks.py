@@ -69,6 +69,7 @@ MIN_FIGURES = {
     "06_your_own_law": 3,  # the law flown on Case 1 (error angles, its state); the comparison with and without the limit
     "07_paper_on_hardware": 3,  # the paper's law on the hardware, the laws compared, the noise-seed campaign
     "08_event_triggered": 3,  # messages and inter-event times per agent, events over time, accuracy and the c0 sweep
+    "09_certify": 1,  # V and the attitude error along the flight from the counterexample
 }
 
 
@@ -371,6 +372,14 @@ def _check_event_triggered(nb) -> list[str]:
     return problems
 
 
+def _check_certify(nb) -> list[str]:
+    """09: the PD example is certified asymptotic with the inertia uncertainty, its file re-checks, and the unstable
+    law is refuted with a counterexample whose flight makes V grow (the notebook asserts these; the text says so)."""
+    out = _stdout(nb)
+    expected = ("certified (asymptotic)", "re-proved on", "counterexample: V_dot =", "flown from the counterexample")
+    return [f"09: the output should say {text!r}" for text in expected if text not in out]
+
+
 CHECKS = {
     "01_derivation": _check_derivation,
     "02_proof_check": _check_proof_check,
@@ -380,6 +389,7 @@ CHECKS = {
     "06_your_own_law": _check_own_law,
     "07_paper_on_hardware": _check_hardware,
     "08_event_triggered": _check_event_triggered,
+    "09_certify": _check_certify,
 }
 
 
