@@ -136,6 +136,7 @@ FAST_MODE = {
     "06_your_own_law": "40 s horizons instead of 100 s",
     "07_paper_on_hardware": "a 100 s horizon instead of 600 s and a 4-run campaign instead of 16",
     "08_event_triggered": "outputs every 0.5 s instead of 0.1 s and three threshold floors instead of five",
+    "09_certify": "a 30 s branch-and-bound budget per candidate instead of 60 s (the same regions and verdicts)",
 }
 """What the gallery's fast mode (``FSMCTL_FAST=1``) shortens in each notebook: the banner on its page."""
 

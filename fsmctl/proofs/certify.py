@@ -108,7 +108,7 @@ class SearchSettings:
     Examples
     --------
     >>> from fsmctl.proofs import SearchSettings
-    >>> SearchSettings(max_seconds=10).budget().max_seconds
+    >>> SearchSettings(max_seconds=10.0).budget().max_seconds
     10.0
     """
 

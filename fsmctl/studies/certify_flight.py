@@ -110,6 +110,7 @@ def fly_counterexample(
     >>> from fsmctl.proofs.certify import SearchSettings
     >>> from fsmctl.proofs.certify_problem import StateRegion, Uncertainty
     >>> from fsmctl.studies.certify_flight import fly_counterexample
+
     A deliberately unstable PD law (``docs/examples/pd_unstable.py``, ``EXAMPLES`` that folder):
 
     >>> sc = load_scenario(EXAMPLES / "my_law.toml").with_law(str(EXAMPLES / "pd_unstable.py"))
