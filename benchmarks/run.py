@@ -2230,10 +2230,10 @@ def certify_section(quick: bool, log) -> dict:
     law, scenario = str(ROOT / "docs/examples/my_law.py"), str(ROOT / "docs/examples/my_law.toml")
     settings = SearchSettings(max_seconds=20.0 if quick else 60.0)
     cases = [
-        ("issue region, 10 % inertia", StateRegion(0.5, 0.1), Uncertainty(inertia=0.1)),
-        ("|sigma_e,k| <= 0.2, |omega_e,k| <= 0.05, 10 % inertia", StateRegion(0.2, 0.05), Uncertainty(inertia=0.1)),
-        ("|sigma_e,k| <= 0.1, |omega_e,k| <= 0.02, d <= 0.005 N m", StateRegion(0.1, 0.02), Uncertainty(disturbance=0.005)),
-        ("|sigma_e,k| <= 0.5, |omega_e,k| <= 0.1, d <= 0.24 N m (the paper's bound)", StateRegion(0.5, 0.1),
+        ("the issue's region (sigma_e,k within 0.5, omega_e,k within 0.1 rad/s), 10 % inertia", StateRegion(0.5, 0.1), Uncertainty(inertia=0.1)),
+        ("sigma_e,k within 0.2, omega_e,k within 0.05 rad/s, 10 % inertia", StateRegion(0.2, 0.05), Uncertainty(inertia=0.1)),
+        ("sigma_e,k within 0.1, omega_e,k within 0.02 rad/s, disturbance 0.005 N m", StateRegion(0.1, 0.02), Uncertainty(disturbance=0.005)),
+        ("sigma_e,k within 0.5, omega_e,k within 0.1 rad/s, disturbance 0.24 N m (the paper's bound)", StateRegion(0.5, 0.1),
          Uncertainty(disturbance=0.24)),
     ]  # fmt: skip
     out: dict = {"cases": []}
@@ -2279,7 +2279,7 @@ def _markdown_certify(res: dict) -> list[str]:
     if t:
         lines += [
             "",
-            f"Theorem 2's requirement for the paper's law, Case 1, region |sigma_e,k|, |omega_e,k| <= 0.05 (prove's "
+            f"Theorem 2's requirement for the paper's law, Case 1, every sigma_e,k and omega_e,k within 0.05 (prove's "
             f"{t['budget_s']:g} s budget): {t['verdict']}; certified lower bounds {t['lower_min']:.3g}-{t['lower_max']:.3g}"
             f" 1/s^2 (configured 0.005), largest certified upper bound {t['upper_max']:.3g}; {t['wall_s']:.0f} s.",
         ]
