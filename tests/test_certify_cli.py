@@ -56,8 +56,8 @@ def test_json_summary(capsys, tmp_path):
     ("argv", "message"),
     [
         (["--law", "nonexistent_law"], "nonexistent_law"),
-        (["--law", "pd", "--region-sigma", "1.5"], "sigma"),
-        (["--law", "pd", "--region-omega", "-1"], "--region-omega"),
+        (["--law", "pid", "--region-sigma", "1.5"], "sigma"),
+        (["--law", "pid", "--region-omega", "-1"], "--region-omega"),
         (["--check", "missing.json"], "missing.json"),
         ([], "--law"),
     ],

@@ -174,13 +174,13 @@ def _certify(args) -> int:
     from fsmctl.studies.certify_flight import fly_counterexample
     from fsmctl.studies.figures import save_figure
 
+    region = StateRegion(args.region_sigma, args.region_omega, args.region_z)  # bad input first, before any work
     code = resolve_law(args.law)
     scenario = load_scenario(args.scenario or "paper", case=args.case)
     if code.name != scenario.law.name:
         scenario = scenario.with_law(args.law)
     if not 1 <= args.agent <= scenario.n_agents:
         raise UsageError(f"--agent must be in 1..{scenario.n_agents}, got {args.agent}")
-    region = StateRegion(args.region_sigma, args.region_omega, args.region_z)
     uncertainty = _uncertainty(args, scenario, args.agent - 1)
     settings = SearchSettings(max_seconds=args.seconds)
     print(f"certify {code.name}: region {region.describe(code.n_states)}; {uncertainty.describe()}", file=sys.stderr)
@@ -207,7 +207,7 @@ def _certify(args) -> int:
     cert.write(out, report)
     if args.json:
         d = cert.as_dict()
-        d.pop("leaves")
+        d.pop("tree")
         print(json.dumps(d, indent=1, default=str))
     else:
         print("\n".join(cert.lines()))
