@@ -437,14 +437,15 @@ def certified_delta_requirements(
 
     Examples
     --------
-    At the reference alone (only ``omega_d``, ``u_d`` and ``omega_d_dot`` vary) the paper's ``delta = 0.005``
-    suffices, certified:
+    At the reference alone (only ``omega_d``, ``u_d`` and ``omega_d_dot`` vary) no certified lower bound reaches the
+    paper's ``delta = 0.005``, so it is not refuted there (whether the upper bounds fall below it depends on the
+    budget: proved or open):
 
     >>> import fsmctl
     >>> from fsmctl.proofs.theorem2 import Region
     >>> r = certified_delta_requirements(fsmctl.paper_scenario("1"), Region(0.0, 0.0))
-    >>> r.verdict, len(r.groups), bool(max(a.upper for g in r.groups for a in g.axes) < 0.005)
-    ('proved', 6, True)
+    >>> r.verdict in ("proved", "open"), len(r.groups), bool(max(a.lower for g in r.groups for a in g.axes) < 0.005)
+    (True, 6, True)
     """
     t0 = time.perf_counter()
     region = Region() if region is None else region
