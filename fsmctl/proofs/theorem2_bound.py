@@ -36,8 +36,9 @@ from dataclasses import dataclass
 import casadi as ca
 import flint
 import numpy as np
+from scipy import optimize
 
-from fsmctl.enclosures.branch_bound import Budget, MaximumBound, bound_maximum
+from fsmctl.enclosures.branch_bound import Budget
 from fsmctl.enclosures.intervals import IntervalFunction
 from fsmctl.model.scenario import Scenario
 from fsmctl.proofs import theorem2 as t2
@@ -85,6 +86,7 @@ class AxisBound:
     """the 15 inputs (:data:`VARIABLES`) of the witness point"""
     converged: bool
     boxes: int
+    """of the group's search (its three axes are bounded together)"""
     seconds: float
 
     @property
@@ -148,7 +150,8 @@ class Theorem2Bound:
 
     @property
     def boxes(self) -> int:
-        return sum(a.boxes for g in self.groups for a in g.axes)
+        """Boxes evaluated by every group's search."""
+        return sum(g.axes[0].boxes for g in self.groups)
 
 
 def _box(scenario: Scenario, region: t2.Region, u_bound: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -189,9 +192,9 @@ def requirement_functions(
 
     Returns
     -------
-    (IntervalFunction, list of IntervalFunction)
-        ``x -> |d|`` and, per axis ``k``, ``x -> d|d_k|/dx`` (15 outputs; ``sign(d_k) dd_k/dx``, whose enclosure
-        contains the Clarke gradient where ``d_k`` may vanish).
+    (IntervalFunction, IntervalFunction)
+        ``x -> |d|`` and its Jacobian ``x -> d|d|/dx`` (3 x 15, column-major: 45 outputs; row ``k`` is
+        ``sign(d_k) dd_k/dx``, whose enclosure contains the Clarke gradient where ``d_k`` may vanish).
 
     Examples
     --------
@@ -199,145 +202,283 @@ def requirement_functions(
     >>> from fsmctl.proofs.theorem2 import fsm_parameters
     >>> paper = fsmctl.paper_scenario("1")
     >>> J0 = paper.agents[0].J0_array
-    >>> f, grads = requirement_functions("paper", J0, 1.3 * J0, fsm_parameters(paper)[0])
-    >>> f.n_in, f.n_out, len(grads), grads[0].n_out
-    (15, 3, 3, 15)
+    >>> f, jac = requirement_functions("paper", J0, 1.3 * J0, fsm_parameters(paper)[0])
+    >>> f.n_in, f.n_out, jac.n_out
+    (15, 3, 45)
     """
     x, d = _fixed(error_model, False, ("d",), J0, J, params)
     a = ca.fabs(d)
     f = IntervalFunction(ca.Function("theorem2_abs_d", [x], [a]))
-    grads = [IntervalFunction(ca.Function(f"theorem2_abs_d{k}_grad", [x], [ca.jacobian(a[k], x).T])) for k in range(3)]
-    return f, grads
+    return f, IntervalFunction(ca.Function("theorem2_abs_d_jacobian", [x], [ca.jacobian(a, x)]))
+
+
+def _reduced_functions(error_model: str, J0, J, params, half_widths: np.ndarray):
+    """``y = (sigma_e, omega_e, omega_d) -> g``, ``g_k = |d_k(y, 0, 0)| + sum_j |A_kj(y)| U_j + sum_j |B_kj(y)| W_j``
+    (``U``, ``W``: the half-widths of the ``u_d`` and ``omega_d_dot`` boxes, centred at 0): per axis ``g_k`` and its
+    gradient, then the float functions ``y -> (d(y, 0, 0), A(y), B(y))`` and ``y -> (g, dg/dy)``.
+
+    ``d`` is affine in ``(u_d, omega_d_dot)`` (checked: ``A = dd/du_d`` and ``B = dd/domega_d_dot`` do not depend on
+    them), so ``g_k(y)`` is exactly the maximum of ``|d_k|`` over those boxes: the search runs on 9 inputs, not 15.
+    """
+    x, d, A, B = _fixed(error_model, False, ("d", "A", "B"), J0, J, params)
+    y, w = x[:9], x[9:]
+    if ca.jacobian(ca.vertcat(ca.vec(A), ca.vec(B)), w).nnz() != 0:  # pragma: no cover - structure of the law
+        raise RuntimeError("Theorem 2's drift is not affine in (u_d, omega_d_dot); the reduction does not apply")
+    d0, A0, B0 = (ca.substitute(v, w, ca.DM.zeros(6)) for v in (d, A, B))
+    g = ca.fabs(d0) + ca.mtimes(ca.fabs(ca.horzcat(A0, B0)), ca.DM(np.asarray(half_widths, float)))
+    floats = ca.Function("theorem2_max_abs_d", [y], [g, ca.jacobian(g, y)])
+    per_axis = [
+        (
+            IntervalFunction(ca.Function(f"theorem2_max_abs_d{k}", [y], [g[k]])),
+            IntervalFunction(ca.Function(f"theorem2_max_abs_d{k}_gradient", [y], [ca.jacobian(g[k], y)])),
+        )
+        for k in range(3)
+    ]
+    return per_axis, ca.Function("theorem2_affine_parts", [y], [d0, A0, B0]), floats
+
+
+def _lift(parts: ca.Function, half_widths: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``(15, m)`` points: ``y[:, k]`` with the ``(u_d, omega_d_dot)`` corner maximising ``|d_k|`` (float signs)."""
+    out = np.zeros((15, y.shape[1]))
+    for k in range(y.shape[1]):
+        d0, A, B = (np.asarray(v, float) for v in parts(y[:, k]))
+        sign = 1.0 if d0[k % 3, 0] >= 0 else -1.0
+        coef = np.concatenate([A[k % 3], B[k % 3]])
+        out[:9, k] = y[:, k]
+        out[9:, k] = np.where(sign * coef >= 0, 1.0, -1.0) * half_widths
+    return out
 
 
 def _general_functions(error_model: str, J0, J, params):
-    """``|P - I|`` (9 outputs, column-major) and ``|s|`` (3) with their gradients, for a non-proportional Delta_J."""
+    """``|P - I|`` (9 outputs, column-major) and ``|s|`` (3) with their Jacobians, for a non-proportional Delta_J."""
     x, P, s = _fixed(error_model, False, ("P", "s"), J0, J, params)
+    x = x[:9]  # neither depends on (u_d, omega_d_dot)
     q = ca.fabs(ca.vec(P - ca.DM.eye(3)))
     a = ca.fabs(s)
     fq = IntervalFunction(ca.Function("theorem2_abs_P_minus_I", [x], [q]))
     fs = IntervalFunction(ca.Function("theorem2_abs_s", [x], [a]))
-    gq = [IntervalFunction(ca.Function("gq", [x], [ca.jacobian(q[k], x).T])) for k in range(9)]
-    gs = [IntervalFunction(ca.Function("gs", [x], [ca.jacobian(a[k], x).T])) for k in range(3)]
+    gq = IntervalFunction(ca.Function("theorem2_abs_P_minus_I_jacobian", [x], [ca.jacobian(q, x)]))
+    gs = IntervalFunction(ca.Function("theorem2_abs_s_jacobian", [x], [ca.jacobian(a, x)]))
     return (fq, gq), (fs, gs)
 
 
-BAND_SHRINK = 1e-6
-"""The pieces of the Remark 6 band: ``|sigma_e,k| <= (1 - BAND_SHRINK) epsilon`` (where the law's test
-``|sigma_e,k| >= epsilon`` is decided false despite outward rounding) and the two outer pieces from that bound
-outwards (they overlap the band's piece at its end: the pieces cover the box)."""
+BAND_SHRINK = 0.05
+"""The pieces of the Remark 6 band: ``|sigma_e,k| <= (1 - BAND_SHRINK) epsilon`` and the two outer pieces from that
+bound outwards (they overlap the band's piece at its end: the pieces cover the box).
+
+The law recomputes ``sigma_e`` from the state (an MRP-quaternion-MRP round trip, the identity for ``|sigma| < 1``),
+which interval arithmetic widens by a relative ``O(|sigma|^2)`` (below 1% on ``|sigma_e,k| <= 0.05``).  Cut 5%
+inside the band, the band's piece decides the law's test ``|sigma_e,k| >= epsilon`` false (the singular branch
+``|sigma_e,k|^(alpha-1)`` is dropped) and the outer pieces keep that branch away from 0: every piece is finite."""
+
+LIPSCHITZ_FIXES = ("switch",)
+"""Remark 6 devices whose drift is known continuous across ``|sigma_e,k| = epsilon`` (the C^1 extension: value and
+slope of ``sig(x)^alpha`` match there; the shadow-set switch of the MRP stays outside ``|sigma| < 1``).  With such a
+device the mean-value form is used on every box whose gradient enclosure is finite, although the evaluator flags the
+box as possibly switching (see :func:`_search`)."""
+
+BATCH = 2048
+"""Boxes split per pass of the search (more when the queue is long: an eighth of it)."""
 
 
-def _pieces(lo: np.ndarray, hi: np.ndarray, epsilon: float | None) -> list[tuple[np.ndarray, np.ndarray]]:
-    """The box cut along each ``sigma_e`` component at ``+-(1 - BAND_SHRINK) epsilon`` (None: not cut).
-
-    Inside the band the Remark 6 device replaces ``|sigma_e,k|^(alpha-1)``; an enclosure of a box straddling the
-    band evaluates both branches and the unbounded one makes it infinite: cut there, every piece is finite.
-    """
+def _pieces(lo: np.ndarray, hi: np.ndarray, epsilon: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """``(15, P)`` start boxes: the box cut along each ``sigma_e`` component at ``+-(1 - BAND_SHRINK) epsilon``
+    (None: not cut; :data:`BAND_SHRINK`)."""
     per_dim = []
     for k in range(3):
         a, b = lo[k], hi[k]
         c = (1 - BAND_SHRINK) * epsilon if epsilon else None
-        if c is None or b <= c:
-            per_dim.append([(a, b)])
+        if c is None or b <= (1 + BAND_SHRINK) * epsilon:
+            per_dim.append([(a, b)] if c is None or b <= c else [(a, -c), (-c, c), (c, b)])
             continue
-        per_dim.append([(a, -c), (-c, c), (c, b)])
-    out = []
+        z = (1 + BAND_SHRINK) * epsilon
+        per_dim.append([(a, -z), (-z, -c), (-c, c), (c, z), (z, b)])
+    los, his = [], []
     for p0 in per_dim[0]:
         for p1 in per_dim[1]:
             for p2 in per_dim[2]:
                 L, H = lo.copy(), hi.copy()
                 L[:3], H[:3] = (p0[0], p1[0], p2[0]), (p0[1], p1[1], p2[1])
-                out.append((L, H))
-    return out
+                los.append(L)
+                his.append(H)
+    return np.stack(los, axis=1), np.stack(his, axis=1)
 
 
 @dataclass(frozen=True)
-class _PieceBound:
-    upper: float
-    lower: float
+class _Found:
+    """Per output ``k`` of a search: ``lower[k] <= max y_k <= upper[k]``, ``y_k(witness[:, k]) >= lower[k]``."""
+
+    upper: np.ndarray
+    lower: np.ndarray
     witness: np.ndarray
     boxes: int
-    converged: bool
+    converged: np.ndarray
     seconds: float
 
 
-class _Scheduler:
-    """Splits a budget's time and boxes equally among the bounds still to compute; each bound is the maximum over
-    the pieces of :func:`_pieces`, refined in rounds on the pieces that may still hold the maximum."""
-
-    def __init__(self, budget: Budget, calls: int, relative_gap: float, epsilon: float | None):
-        self.budget, self.left, self.gap, self.epsilon = budget, calls, relative_gap, epsilon
-        self.t0, self.boxes = time.perf_counter(), 0
-
-    def bound(self, f, lo, hi, output, gradient) -> _PieceBound:
-        t0 = time.perf_counter()
-        seconds = max(self.budget.max_seconds - (t0 - self.t0), 0.05) / self.left
-        boxes = max((self.budget.max_boxes - self.boxes) // self.left, 1)
-        self.left = max(self.left - 1, 1)
-        pieces = _pieces(lo, hi, self.epsilon)
-        best_lower, witness = _sampled_max(f, lo, hi, output)
-        found: list[MaximumBound | None] = [None] * len(pieces)
-        used, share = 0, max(boxes // (4 * len(pieces)), 64)
-        open_ = list(range(len(pieces)))
-        while open_:
-            for j in open_:
-                left_s = seconds - (time.perf_counter() - t0)
-                if left_s <= 0 or used >= boxes:
-                    break
-                # bound_maximum's relative gap is relative to the upper bound (infinite on a first box where the
-                # Remark 6 slope is unbounded, which would stop it at once): an absolute gap relative to the best
-                # value known (a lower estimate of the max, so the stop is at least as strict)
-                gap = self.gap * max(best_lower, 0.0)
-                b = Budget(max_boxes=min(share, boxes - used), max_seconds=max(left_s / len(open_), 0.01))
-                m = bound_maximum(
-                    f, *pieces[j], output=output, gradient=gradient, relative_gap=0.0, absolute_gap=gap, budget=b
-                )
-                used += m.boxes
-                if found[j] is None or m.upper < found[j].upper or m.lower > found[j].lower:
-                    found[j] = m if found[j] is None else _better(found[j], m)
-                if found[j].lower > best_lower:
-                    best_lower, witness = found[j].lower, found[j].witness
-            upper_all = [np.inf if m is None else m.upper for m in found]
-            top = max(upper_all)
-            if top - best_lower <= self.gap * max(best_lower, 0.0) or (
-                time.perf_counter() - t0 >= seconds or used >= boxes
-            ):
-                break
-            limit = best_lower + self.gap * max(best_lower, 0.0)
-            open_ = [j for j in range(len(pieces)) if upper_all[j] > limit]
-            open_.sort(key=lambda j: -upper_all[j])
-            share *= 2
-        upper = max(np.inf if m is None else m.upper for m in found)
-        if np.isnan(upper):
-            upper = np.inf
-        converged = bool(upper - best_lower <= self.gap * max(best_lower, 0.0))
-        self.boxes += used
-        return _PieceBound(float(upper), float(best_lower), witness, used, converged, time.perf_counter() - t0)
+def _dn(x):
+    return np.nextafter(x, -np.inf)
 
 
-def _better(a: MaximumBound, b: MaximumBound) -> MaximumBound:
-    """The tighter of two bounds of the same piece (both certified)."""
-    low = a if a.lower >= b.lower else b
-    return MaximumBound(
-        min(a.upper, b.upper),
-        low.lower,
-        low.witness,
-        a.boxes + b.boxes,
-        a.converged or b.converged,
-        a.seconds + b.seconds,
-    )
+def _upr(x):
+    return np.nextafter(x, np.inf)
 
 
-def _sampled_max(f: IntervalFunction, lo: np.ndarray, hi: np.ndarray, output: int, n: int = 256):
-    """``(value, point)``: the largest certified lower value of ``y[output]`` at the box's corners-by-sign and seeded random points."""
-    rng = np.random.default_rng(0)
-    x = lo[:, None] + (hi - lo)[:, None] * rng.integers(0, 2, (lo.size, n))
-    x = np.hstack([x, lo[:, None] + (hi - lo)[:, None] * rng.uniform(0, 1, (lo.size, n))])
-    v = f.enclose(x, x).lo[output]
-    v = np.where(np.isfinite(v), v, -np.inf)
-    j = int(np.argmax(v))
-    return (float(v[j]), x[:, j].copy()) if np.isfinite(v[j]) else (0.0, 0.5 * (lo + hi))
+def _product(alo, ahi, blo, bhi):
+    """Outward-rounded interval product (NaN from ``0 * inf`` taken as the infinite bound)."""
+    with np.errstate(invalid="ignore", over="ignore"):
+        p = np.stack([alo * blo, alo * bhi, ahi * blo, ahi * bhi])
+    return _dn(np.where(np.isnan(p), -np.inf, p).min(axis=0)), _upr(np.where(np.isnan(p), np.inf, p).max(axis=0))
+
+
+def _enclose(f: IntervalFunction, jac: IntervalFunction, lo, hi, lipschitz: bool, epsilon: float | None = None):
+    """Every output over ``(n, N)`` boxes: the natural extension intersected with the mean-value form about the
+    centre ``f(c) + J(X) (X - c)`` (outward rounding), valid where ``f`` is Lipschitz on the box: the evaluator
+    proves it continuous, or ``lipschitz`` (known continuous), and the Jacobian's enclosure is finite.
+
+    With ``epsilon``, a box meeting the zone ``(1 +- BAND_SHRINK) epsilon`` of ``|sigma_e,j|`` (where the evaluator
+    cannot decide the law's test ``|sigma_e,j| >= epsilon`` and adds both branches) is also enclosed by the mean-value
+    form about a face: ``f(X_F) + sum_j J_j(X) (X_j - b_j)``, ``X_F`` the box with each such ``sigma_e,j`` fixed at
+    the end ``b_j`` farther from the zone (there the test is decided), valid by the mean-value theorem on the
+    segments from ``x`` to its projection on ``X_F`` (they lie in the box).
+
+    Returns ``(upper (m, N), Jacobian lo and hi (n, m, N), valid (N,), centre (n, N), certified lower at the centre
+    (m, N))``.
+    """
+    m, n = f.n_out, f.n_in
+    e = f.enclose(lo, hi)
+    c = np.minimum(np.maximum(0.5 * (lo + hi), lo), hi)
+    ec = f.enclose(c, c)
+    g = jac.enclose(lo, hi)
+    glo, ghi = g.lo.reshape(n, m, -1), g.hi.reshape(n, m, -1)  # y = jacobian (m x n), column-major
+    dlo, dhi = _dn(lo - c), _upr(hi - c)
+    mhi = ec.hi.copy()
+    with np.errstate(invalid="ignore", over="ignore"):
+        for i in range(n):
+            _, thi = _product(glo[i], ghi[i], dlo[i], dhi[i])
+            mhi = _upr(mhi + thi)
+    finite = np.all(np.isfinite(glo) & np.isfinite(ghi), axis=(0, 1))
+    valid = (e.continuous | lipschitz) & finite
+    upper = np.where(valid & ~np.isnan(mhi), np.minimum(e.hi, mhi), e.hi)
+    if epsilon is not None:
+        upper = np.where(valid, np.minimum(upper, _face_form(f, lo, hi, glo, ghi, epsilon)), upper)
+    upper = np.where(np.isnan(upper), np.inf, upper)
+    at = np.where(np.isnan(ec.lo), -np.inf, ec.lo)
+    return upper, glo, ghi, valid, c, at
+
+
+def _face_form(f: IntervalFunction, lo, hi, glo, ghi, epsilon: float) -> np.ndarray:
+    """Upper bounds of the mean-value form about the faces of :func:`_enclose` (inf where no ``sigma_e`` component
+    meets the zone)."""
+    zlo, zhi = (1 - BAND_SHRINK) * epsilon, (1 + BAND_SHRINK) * epsilon
+    meets = ((hi[:3] >= zlo) & (lo[:3] <= zhi)) | ((hi[:3] >= -zhi) & (lo[:3] <= -zlo))
+    any_ = meets.any(axis=0)
+    if not any_.any():
+        return np.full((f.n_out, lo.shape[1]), np.inf)
+    far = np.where(np.abs(np.abs(lo[:3]) - epsilon) >= np.abs(np.abs(hi[:3]) - epsilon), lo[:3], hi[:3])
+    flo, fhi = lo.copy(), hi.copy()
+    flo[:3] = np.where(meets, far, lo[:3])
+    fhi[:3] = np.where(meets, far, hi[:3])
+    mhi = f.enclose(flo, fhi).hi
+    with np.errstate(invalid="ignore", over="ignore"):
+        for j in range(3):
+            dlo = np.where(meets[j], _dn(lo[j] - far[j]), 0.0)
+            dhi = np.where(meets[j], _upr(hi[j] - far[j]), 0.0)
+            _, thi = _product(glo[j], ghi[j], dlo, dhi)
+            mhi = _upr(mhi + thi)
+    return np.where(any_ & ~np.isnan(mhi), mhi, np.inf)
+
+
+def _to_faces(lo, hi, glo, ghi, valid) -> None:
+    """Monotonicity test (single output): where ``df/dx_i >= 0`` on a box on which ``f`` is Lipschitz, its maximum is
+    on the face ``x_i = hi_i`` (``<= 0``: ``x_i = lo_i``); the box is replaced by that face, in place."""
+    up = (glo[:, 0, :] >= 0) & valid[None, :]
+    down = (ghi[:, 0, :] <= 0) & valid[None, :] & ~up
+    lo[up] = hi[up]
+    hi[down] = lo[down]
+
+
+def _search(
+    f: IntervalFunction,
+    jac: IntervalFunction,
+    lo: np.ndarray,
+    hi: np.ndarray,
+    *,
+    seconds: float,
+    max_boxes: int,
+    relative_gap: float,
+    lipschitz: bool,
+    seeds: np.ndarray,
+    epsilon: float | None = None,
+) -> _Found:
+    """Best-first branch and bound of the maxima of all outputs of ``f`` at once over the union of the start boxes
+    ``(n, P)``.
+
+    One queue holds every box that may still hold the maximum of some output (its upper bound exceeds that output's
+    best certified value by more than the gap); each pass splits the boxes of largest relative excess, in two, along
+    the input of largest ``width x |gradient|`` (gradient of the output with the largest excess).  With one output a
+    box where ``f`` is monotone in an input is reduced to the face holding the maximum (:func:`_to_faces`).
+    ``upper[k]`` is the largest upper bound of output ``k`` over the queue and over every box dropped (a dropped box's
+    bound is kept); ``lower[k]`` the best certified value at a point: box centres and ``seeds`` ``(n, S)``.
+    """
+    t0 = time.perf_counter()
+    m = f.n_out
+    scale = np.where(hi.max(axis=1) > lo.min(axis=1), hi.max(axis=1) - lo.min(axis=1), 1.0)
+    qlo, qhi = lo.copy(), hi.copy()
+    qub, glo, ghi, valid, c, at = _enclose(f, jac, qlo, qhi, lipschitz, epsilon)
+    qmag = np.maximum(np.abs(glo), np.abs(ghi))
+    best, witness = np.full(m, -np.inf), np.zeros((f.n_in, m))
+    sv = f.enclose(seeds, seeds).lo
+    sv = np.where(np.isnan(sv), -np.inf, sv)
+    dropped = np.full(m, -np.inf)
+    boxes = qlo.shape[1]
+    for values, points in ((sv, seeds), (at, c)):
+        j = values.argmax(axis=1)
+        better = values[np.arange(m), j] > best
+        best = np.where(better, values[np.arange(m), j], best)
+        witness[:, better] = points[:, j[better]]
+    while True:
+        tol = relative_gap * np.maximum(best, 0.0)
+        upper = np.maximum(np.maximum(best, dropped), qub.max(axis=1) if qub.size else -np.inf)
+        converged = np.isfinite(upper) & (upper - best <= relative_gap * np.maximum(upper, 0.0))
+        if converged.all() or boxes >= max_boxes or time.perf_counter() - t0 > seconds or not qub.size:
+            return _Found(upper, best, witness, boxes, converged, time.perf_counter() - t0)
+        need = qub > (best + tol)[:, None]
+        keep = need.any(axis=0) & np.any(qhi > qlo, axis=0)  # a point box is final: its bound is kept
+        if not keep.all():
+            dropped = np.maximum(dropped, np.where(~keep[None, :], qub, -np.inf).max(axis=1))
+            qlo, qhi, qub, qmag, need = qlo[:, keep], qhi[:, keep], qub[:, keep], qmag[:, :, keep], need[:, keep]
+            if not qub.size:
+                continue
+        excess = np.where(need, (qub - best[:, None]) / np.maximum(np.abs(best), 1e-300)[:, None], -np.inf)
+        priority = excess.max(axis=0)
+        take = min(qub.shape[1], max(BATCH, qub.shape[1] // 8))
+        order = np.argpartition(-priority, take - 1)[:take] if take < priority.size else np.arange(priority.size)
+        rest = np.ones(priority.size, bool)
+        rest[order] = False
+        blo, bhi = qlo[:, order], qhi[:, order]
+        k = excess[:, order].argmax(axis=0)
+        mag = qmag[:, k, order]  # (n, take): the gradient of the output that most needs the box
+        width = (bhi - blo) / scale[:, None]
+        score = np.where(width > 0, width * np.where(np.isfinite(mag), mag, 1e300) * scale[:, None], -1.0)
+        dims = np.where(score.max(axis=0) > 0, score.argmax(axis=0), width.argmax(axis=0))
+        cols = np.arange(take)
+        mid = 0.5 * (blo[dims, cols] + bhi[dims, cols])
+        nlo, nhi = np.concatenate([blo, blo], axis=1), np.concatenate([bhi, bhi], axis=1)
+        nhi[dims, cols] = mid
+        nlo[dims, take + cols] = mid
+        nub, glo, ghi, valid, c, at = _enclose(f, jac, nlo, nhi, lipschitz, epsilon)
+        if m == 1:
+            _to_faces(nlo, nhi, glo, ghi, valid)
+        boxes += nlo.shape[1]
+        j = at.argmax(axis=1)
+        better = at[np.arange(m), j] > best
+        best = np.where(better, at[np.arange(m), j], best)
+        witness[:, better] = c[:, j[better]]
+        qlo = np.concatenate([qlo[:, rest], nlo], axis=1)
+        qhi = np.concatenate([qhi[:, rest], nhi], axis=1)
+        qub = np.concatenate([qub[:, rest], nub], axis=1)
+        qmag = np.concatenate([qmag[:, :, rest], np.maximum(np.abs(glo), np.abs(ghi))], axis=2)
 
 
 def _up(x: flint.arb) -> float:
@@ -349,13 +490,11 @@ def _down(x: flint.arb) -> float:
     return float(np.nextafter(float(x.lower()), -np.inf)) if x.is_finite() else -np.inf
 
 
-def _scaled(kappa: float, m: _PieceBound) -> tuple[float, float]:
-    """``(1+kappa) [lower, upper]`` rounded outward (NaN/inf upper: unbounded)."""
-    if not np.isfinite(m.upper):
-        return max(float(m.lower), 0.0) * (1 + kappa) if np.isfinite(m.lower) else 0.0, np.inf
+def _scaled(kappa: float, lower: float, upper: float) -> tuple[float, float]:
+    """``(1+kappa) [lower, upper]`` rounded outward (NaN/inf upper: unbounded; a lower bound below 0 is 0)."""
     factor = 1 + flint.arb(kappa)
-    lower = _down(factor * flint.arb(max(m.lower, 0.0))) if np.isfinite(m.lower) else 0.0
-    return max(lower, 0.0), _up(factor * flint.arb(m.upper))
+    low = max(_down(factor * flint.arb(float(lower))), 0.0) if np.isfinite(lower) and lower > 0 else 0.0
+    return low, _up(factor * flint.arb(float(upper))) if np.isfinite(upper) else np.inf
 
 
 def _general_upper(dbar: np.ndarray, Q: np.ndarray, cbar: float) -> np.ndarray:
@@ -374,6 +513,109 @@ def _general_upper(dbar: np.ndarray, Q: np.ndarray, cbar: float) -> np.ndarray:
     except ZeroDivisionError:
         return np.full(3, np.inf)
     return np.array([_up(sol[i, 0]) for i in range(3)])
+
+
+def _requirement_search(runner: _Runner, error_model: str, agent, params: np.ndarray, lo, hi) -> _Found:
+    """The search of ``max |d_k|`` on the 9 inputs of :func:`_reduced_functions`; its witnesses lifted to the 15
+    inputs, where the lower bounds are re-certified with the 15-input ``|d|`` (a rigorous value at the point)."""
+    per_axis, parts, floats = _reduced_functions(error_model, agent.J0_array, agent.J_true, params, hi[9:])
+    seeds = _seeds(lo[:9], hi[:9])
+    seeds = np.hstack([seeds, _local_maxima(floats, lo[:9], hi[:9], seeds)])
+    found = [runner.run(g, grad, lo[:9], hi[:9], seeds) for g, grad in per_axis]
+    m = _Found(
+        np.concatenate([r.upper for r in found]),
+        np.concatenate([r.lower for r in found]),
+        np.hstack([r.witness for r in found]),
+        sum(r.boxes for r in found),
+        np.concatenate([r.converged for r in found]),
+        sum(r.seconds for r in found),
+    )
+    points = _lift(parts, hi[9:], m.witness)
+    x, d = _fixed(error_model, False, ("d",), agent.J0_array, agent.J_true, params)
+    at = (
+        IntervalFunction(ca.Function("theorem2_abs_d", [x], [ca.fabs(d)]))
+        .enclose(points, points)
+        .lo[np.arange(3), np.arange(3)]
+    )
+    lower = np.where(np.isnan(at), -np.inf, at)
+    return _Found(m.upper, lower, points, m.boxes, m.converged & (m.upper - lower <= runner.gap * m.upper), m.seconds)
+
+
+class _Runner:
+    """Splits a budget's time and boxes equally among the searches still to run (one per group, or three for a
+    non-proportional ``Delta_J``), each over the pieces of :func:`_pieces`."""
+
+    def __init__(self, budget: Budget, calls: int, relative_gap: float, epsilon: float | None, lipschitz: bool):
+        self.budget, self.left, self.gap, self.epsilon, self.lipschitz = budget, calls, relative_gap, epsilon, lipschitz
+        self.t0, self.boxes = time.perf_counter(), 0
+
+    def run(
+        self,
+        f: IntervalFunction,
+        jac: IntervalFunction,
+        lo: np.ndarray,
+        hi: np.ndarray,
+        seeds: np.ndarray | None = None,
+    ) -> _Found:
+        seconds = max(self.budget.max_seconds - (time.perf_counter() - self.t0), 0.05) / self.left
+        boxes = max((self.budget.max_boxes - self.boxes) // self.left, 1)
+        self.left = max(self.left - 1, 1)
+        plo, phi = _pieces(lo, hi, self.epsilon)
+        found = _search(
+            f,
+            jac,
+            plo,
+            phi,
+            seconds=seconds,
+            max_boxes=boxes,
+            relative_gap=self.gap,
+            lipschitz=self.lipschitz,
+            seeds=_seeds(lo, hi) if seeds is None else seeds,
+            epsilon=self.epsilon,
+        )
+        self.boxes += found.boxes
+        return found
+
+
+def _seeds(lo: np.ndarray, hi: np.ndarray, n: int = 256) -> np.ndarray:
+    """``(15, 2n)`` seeded points of the box: random corners and uniform points (first witnesses of the search)."""
+    rng = np.random.default_rng(0)
+    x = lo[:, None] + (hi - lo)[:, None] * rng.integers(0, 2, (lo.size, n))
+    return np.hstack([x, lo[:, None] + (hi - lo)[:, None] * rng.uniform(0, 1, (lo.size, n))])
+
+
+LOCAL_STARTS = 4
+"""Starts per output of the float local search for the first witnesses: the best seeds, and the same with every
+``sigma_e`` component at 0 (the centre of the Remark 6 band, where its slope ``r1`` is largest)."""
+
+
+def _local_maxima(floats: ca.Function, lo: np.ndarray, hi: np.ndarray, seeds: np.ndarray) -> np.ndarray:
+    """Points of the box where each output of ``floats`` (``y -> (g, dg/dy)``) is locally maximal (L-BFGS-B in
+    floats: only candidates, evaluated rigorously by the search)."""
+    values = np.asarray(floats.map(seeds.shape[1])(seeds)[0])
+    out = []
+    bounds = list(zip(lo, hi, strict=True))
+    for k in range(values.shape[0]):
+        top = seeds[:, np.argsort(-values[k])[:LOCAL_STARTS]]
+        centred = top.copy()
+        centred[:3] = np.clip(0.0, lo[:3, None], hi[:3, None])
+        for start in np.hstack([top, centred]).T:
+
+            def minus(z, k=k):
+                v, jac = floats(z)
+                return -float(v[k]), -np.asarray(jac, float)[k]
+
+            r = optimize.minimize(minus, start, jac=True, bounds=bounds, method="L-BFGS-B", options={"maxiter": 50})
+            out.append(np.clip(r.x, lo, hi))
+    return np.stack(out, axis=1)
+
+
+def _lipschitz(rows: np.ndarray, region: t2.Region) -> bool:
+    """Every agent uses a device of :data:`LIPSCHITZ_FIXES` and ``|sigma| < 1`` on the region (no shadow switch)."""
+    fsm = t2._paper_law()
+    at_fix, _ = t2._offset(fsm, "singularity_fix")
+    known = [fsm.parameter("singularity_fix").values(name, "singularity_fix")[0] for name in LIPSCHITZ_FIXES]
+    return bool(np.all(np.isin(rows[:, at_fix], known))) and 3 * region.sigma**2 < 1
 
 
 def _band(scenario: Scenario, rows: np.ndarray) -> float | None:
@@ -456,36 +698,36 @@ def certified_delta_requirements(
     for i, agent in enumerate(scenario.agents):
         groups.setdefault(_group_key(agent, rows[i], agent.disturbance.bound()), []).append(i)
     kappas = [t2.proportional_kappa(a.J0_array, np.asarray(a.delta_J, float)) for a in scenario.agents]
-    calls = sum(3 if kappas[m[0]] is not None else 3 + 9 + 3 for m in groups.values())
-    sched = _Scheduler(budget, calls, relative_gap, _band(scenario, rows))
+    calls = sum(3 if kappas[m[0]] is not None else 5 for m in groups.values())
+    runner = _Runner(budget, calls, relative_gap, _band(scenario, rows), _lipschitz(rows, region))
     Ki, kj = scenario.topology.k_i_matrix(), scenario.topology.k_j_max_matrix()
     out = []
     for members in groups.values():
         i = members[0]
         agent = scenario.agents[i]
         lo, hi = _box(scenario, region, agent.disturbance.bound())
-        f, grads = requirement_functions(error_model, agent.J0_array, agent.J_true, rows[i])
-        ms = [sched.bound(f, lo, hi, k, grads[k]) for k in range(3)]
+        m = _requirement_search(runner, error_model, agent, rows[i], lo, hi)
+        lo, hi = lo[:9], hi[:9]
         kappa = kappas[i]
         if kappa is not None:
-            scaled = [_scaled(kappa, m) for m in ms]
+            scaled = [_scaled(kappa, m.lower[k], m.upper[k]) for k in range(3)]
         else:
             (fq, gq), (fs, gs) = _general_functions(error_model, agent.J0_array, agent.J_true, rows[i])
-            Q = np.array([sched.bound(fq, lo, hi, k, gq[k]).upper for k in range(9)]).reshape(3, 3, order="F")
-            s_up = max(sched.bound(fs, lo, hi, k, gs[k]).upper for k in range(3))
+            Q = runner.run(fq, gq, lo, hi).upper.reshape(3, 3, order="F")
+            s_up = float(runner.run(fs, gs, lo, hi).upper.max())
             cbar = float(Ki[i].sum() + kj[i].sum()) * s_up
-            upper = _general_upper(np.array([m.upper for m in ms]), Q, cbar)
-            scaled = [(max(float(m.lower), 0.0), float(u)) for m, u in zip(ms, upper, strict=True)]
+            upper = _general_upper(m.upper, Q, cbar)
+            scaled = [(max(float(m.lower[k]), 0.0), float(upper[k])) for k in range(3)]
         axes = tuple(
             AxisBound(
                 axis=k + 1,
                 configured=float(deltas[i][k]),
                 upper=scaled[k][1],
                 lower=scaled[k][0],
-                witness=tuple(float(v) for v in ms[k].witness),
-                converged=bool(ms[k].converged) and np.isfinite(scaled[k][1]),
-                boxes=int(ms[k].boxes),
-                seconds=float(ms[k].seconds),
+                witness=tuple(float(v) for v in m.witness[:, k]),
+                converged=bool(m.converged[k]) and np.isfinite(scaled[k][1]),
+                boxes=int(m.boxes),
+                seconds=float(m.seconds),
             )
             for k in range(3)
         )
