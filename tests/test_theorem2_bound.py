@@ -48,6 +48,22 @@ def test_paper_scenario_is_refuted_at_a_rigorous_point(paper):
     assert np.all(np.abs(x[0:3]) <= 0.05) and np.all(np.abs(x[3:6]) <= 0.05)
 
 
+def test_raised_delta_on_a_small_region_is_proved(paper):
+    """Region |sigma_e,k| <= 5e-5 (inside the Remark 6 band, epsilon = 1e-4), |omega_e,k| <= 1e-3: the requirement
+    there is ~0.003 (the certified lower bounds are 0.002-0.003); 2000 boxes per axis (the budget's box count binds,
+    not its time: deterministic) bring the certified upper bounds to ~0.04, so delta = 0.2 is proved with a margin
+    of ~5x.  Oracle: the sampled requirement (delta_requirements) stays below every certified upper bound."""
+    raised = paper.replace(controller={"delta": [0.2, 0.2, 0.2]})
+    region = Region(5e-5, 1e-3)
+    cert = certified_delta_requirements(raised, region, budget=Budget(max_boxes=36_000, max_seconds=300.0))
+    assert cert.verdict == "proved", [(a.lower, a.upper) for g in cert.groups for a in g.axes]
+    assert cert.reaching is None and "V = s^T s/2 decreases" in cert.reaching_note
+    sampled = delta_requirements(raised, region, n_random=300, seed=5, dt_reference=None, search_scale=False)
+    for g in cert.groups:
+        for agent in g.agents:
+            assert all(v <= a.upper for a, v in zip(g.axes, sampled.agents[agent - 1].region, strict=True))
+
+
 def test_a_larger_region_never_gives_a_smaller_bound(paper):
     """Soundness across regions: the larger box contains the smaller one's witness, so its certified upper bound is
     at least the smaller box's certified lower bound (upper_large >= sup_large >= sup_small >= lower_small)."""
