@@ -584,7 +584,7 @@ def _seeds(lo: np.ndarray, hi: np.ndarray, n: int = 256) -> np.ndarray:
     return np.hstack([x, lo[:, None] + (hi - lo)[:, None] * rng.uniform(0, 1, (lo.size, n))])
 
 
-LOCAL_STARTS = 2
+LOCAL_STARTS = 3
 """Starts per output of the float local search for the first witnesses: the best seeds, and the same with every
 ``sigma_e`` component at 0 (the centre of the Remark 6 band, where its slope ``r1`` is largest)."""
 
