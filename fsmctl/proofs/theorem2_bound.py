@@ -5,11 +5,15 @@
 ``delta = 0`` without coordination, ``Delta_J_i = kappa_i J0_i``) over the region box of ``(sigma_e, omega_e)`` and
 the bound boxes of ``omega_d``, the disturbance ``u_d`` and ``omega_d_dot``.  A sampled supremum is a lower
 estimate.  :func:`certified_delta_requirements` encloses the same quantity by branch and bound on interval
-arithmetic with outward rounding (:func:`fsmctl.enclosures.branch_bound.bound_maximum`) over the whole box
-``x = (sigma_e, omega_e, omega_d, u_d, omega_d_dot)`` (15 inputs; the true ``J`` of the agent, its ``J0`` and the
-law's parameters fixed): ``lower <= sup <= upper``, ``upper`` certified whatever the budget, ``lower`` a rigorous
-value at a witness point.  ``u_d`` and ``omega_d_dot`` enter ``d`` affinely, so the sup over their boxes is the
-one :func:`delta_requirements` computes exactly.
+arithmetic with outward rounding (:func:`fsmctl.proofs.theorem2_search.search_maxima`), the true ``J`` of the agent,
+its ``J0`` and the law's parameters fixed: ``lower <= sup <= upper``, ``upper`` certified whatever the budget,
+``lower`` a rigorous value at a witness point ``x = (sigma_e, omega_e, omega_d, u_d, omega_d_dot)`` (15 inputs).
+``d`` is affine in ``(u_d, omega_d_dot)``, so their maximum is exact (:func:`_reduced_functions`) and the search runs
+on the 9 inputs ``(sigma_e, omega_e, omega_d)``, one search per axis, over the box cut at the Remark 6 band.
+
+The mean-value form and the monotonicity test need the drift Lipschitz on a box: the evaluator proves it where no
+test of the law may switch; with the switch device of Remark 6 (:data:`LIPSCHITZ_FIXES`) it is known everywhere on
+the region (the device is C^1 across ``|sigma_e,k| = epsilon`` and ``|sigma| < 1`` keeps the MRP shadow switch out).
 
 Verdict per agent: *proved* when the configured ``delta_i`` exceeds ``upper`` on every axis (then on the region
 every ``s_k s_dot_k < 0`` outside the boundary layer: the reaching condition of Theorem 2 holds there, by the
@@ -36,12 +40,12 @@ from dataclasses import dataclass
 import casadi as ca
 import flint
 import numpy as np
-from scipy import optimize
 
 from fsmctl.enclosures.branch_bound import Budget
 from fsmctl.enclosures.intervals import IntervalFunction
 from fsmctl.model.scenario import Scenario
 from fsmctl.proofs import theorem2 as t2
+from fsmctl.proofs import theorem2_search as ts
 from fsmctl.proofs.theorem2 import Region
 
 __all__ = [
@@ -262,223 +266,11 @@ def _general_functions(error_model: str, J0, J, params):
     return (fq, gq), (fs, gs)
 
 
-BAND_SHRINK = 0.05
-"""The pieces of the Remark 6 band: ``|sigma_e,k| <= (1 - BAND_SHRINK) epsilon`` and the two outer pieces from that
-bound outwards (they overlap the band's piece at its end: the pieces cover the box).
-
-The law recomputes ``sigma_e`` from the state (an MRP-quaternion-MRP round trip, the identity for ``|sigma| < 1``),
-which interval arithmetic widens by a relative ``O(|sigma|^2)`` (below 1% on ``|sigma_e,k| <= 0.05``).  Cut 5%
-inside the band, the band's piece decides the law's test ``|sigma_e,k| >= epsilon`` false (the singular branch
-``|sigma_e,k|^(alpha-1)`` is dropped) and the outer pieces keep that branch away from 0: every piece is finite."""
-
 LIPSCHITZ_FIXES = ("switch",)
 """Remark 6 devices whose drift is known continuous across ``|sigma_e,k| = epsilon`` (the C^1 extension: value and
 slope of ``sig(x)^alpha`` match there; the shadow-set switch of the MRP stays outside ``|sigma| < 1``).  With such a
 device the mean-value form is used on every box whose gradient enclosure is finite, although the evaluator flags the
-box as possibly switching (see :func:`_search`)."""
-
-BATCH = 2048
-"""Boxes split per pass of the search (more when the queue is long: an eighth of it)."""
-
-
-def _pieces(lo: np.ndarray, hi: np.ndarray, epsilon: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """``(15, P)`` start boxes: the box cut along each ``sigma_e`` component at ``+-(1 - BAND_SHRINK) epsilon``
-    (None: not cut; :data:`BAND_SHRINK`)."""
-    per_dim = []
-    for k in range(3):
-        a, b = lo[k], hi[k]
-        c = (1 - BAND_SHRINK) * epsilon if epsilon else None
-        if c is None or b <= (1 + BAND_SHRINK) * epsilon:
-            per_dim.append([(a, b)] if c is None or b <= c else [(a, -c), (-c, c), (c, b)])
-            continue
-        z = (1 + BAND_SHRINK) * epsilon
-        per_dim.append([(a, -z), (-z, -c), (-c, c), (c, z), (z, b)])
-    los, his = [], []
-    for p0 in per_dim[0]:
-        for p1 in per_dim[1]:
-            for p2 in per_dim[2]:
-                L, H = lo.copy(), hi.copy()
-                L[:3], H[:3] = (p0[0], p1[0], p2[0]), (p0[1], p1[1], p2[1])
-                los.append(L)
-                his.append(H)
-    return np.stack(los, axis=1), np.stack(his, axis=1)
-
-
-@dataclass(frozen=True)
-class _Found:
-    """Per output ``k`` of a search: ``lower[k] <= max y_k <= upper[k]``, ``y_k(witness[:, k]) >= lower[k]``."""
-
-    upper: np.ndarray
-    lower: np.ndarray
-    witness: np.ndarray
-    boxes: int
-    converged: np.ndarray
-    seconds: float
-
-
-def _dn(x):
-    return np.nextafter(x, -np.inf)
-
-
-def _upr(x):
-    return np.nextafter(x, np.inf)
-
-
-def _product(alo, ahi, blo, bhi):
-    """Outward-rounded interval product (NaN from ``0 * inf`` taken as the infinite bound)."""
-    with np.errstate(invalid="ignore", over="ignore"):
-        p = np.stack([alo * blo, alo * bhi, ahi * blo, ahi * bhi])
-    return _dn(np.where(np.isnan(p), -np.inf, p).min(axis=0)), _upr(np.where(np.isnan(p), np.inf, p).max(axis=0))
-
-
-def _enclose(f: IntervalFunction, jac: IntervalFunction, lo, hi, lipschitz: bool, epsilon: float | None = None):
-    """Every output over ``(n, N)`` boxes: the natural extension intersected with the mean-value form about the
-    centre ``f(c) + J(X) (X - c)`` (outward rounding), valid where ``f`` is Lipschitz on the box: the evaluator
-    proves it continuous, or ``lipschitz`` (known continuous), and the Jacobian's enclosure is finite.
-
-    With ``epsilon``, a box meeting the zone ``(1 +- BAND_SHRINK) epsilon`` of ``|sigma_e,j|`` (where the evaluator
-    cannot decide the law's test ``|sigma_e,j| >= epsilon`` and adds both branches) is also enclosed by the mean-value
-    form about a face: ``f(X_F) + sum_j J_j(X) (X_j - b_j)``, ``X_F`` the box with each such ``sigma_e,j`` fixed at
-    the end ``b_j`` farther from the zone (there the test is decided), valid by the mean-value theorem on the
-    segments from ``x`` to its projection on ``X_F`` (they lie in the box).
-
-    Returns ``(upper (m, N), Jacobian lo and hi (n, m, N), valid (N,), centre (n, N), certified lower at the centre
-    (m, N))``.
-    """
-    m, n = f.n_out, f.n_in
-    e = f.enclose(lo, hi)
-    c = np.minimum(np.maximum(0.5 * (lo + hi), lo), hi)
-    ec = f.enclose(c, c)
-    g = jac.enclose(lo, hi)
-    glo, ghi = g.lo.reshape(n, m, -1), g.hi.reshape(n, m, -1)  # y = jacobian (m x n), column-major
-    dlo, dhi = _dn(lo - c), _upr(hi - c)
-    mhi = ec.hi.copy()
-    with np.errstate(invalid="ignore", over="ignore"):
-        for i in range(n):
-            _, thi = _product(glo[i], ghi[i], dlo[i], dhi[i])
-            mhi = _upr(mhi + thi)
-    finite = np.all(np.isfinite(glo) & np.isfinite(ghi), axis=(0, 1))
-    valid = (e.continuous | lipschitz) & finite
-    upper = np.where(valid & ~np.isnan(mhi), np.minimum(e.hi, mhi), e.hi)
-    if epsilon is not None:
-        upper = np.where(valid, np.minimum(upper, _face_form(f, lo, hi, glo, ghi, epsilon)), upper)
-    upper = np.where(np.isnan(upper), np.inf, upper)
-    at = np.where(np.isnan(ec.lo), -np.inf, ec.lo)
-    return upper, glo, ghi, valid, c, at
-
-
-def _face_form(f: IntervalFunction, lo, hi, glo, ghi, epsilon: float) -> np.ndarray:
-    """Upper bounds of the mean-value form about the faces of :func:`_enclose` (inf where no ``sigma_e`` component
-    meets the zone)."""
-    zlo, zhi = (1 - BAND_SHRINK) * epsilon, (1 + BAND_SHRINK) * epsilon
-    meets = ((hi[:3] >= zlo) & (lo[:3] <= zhi)) | ((hi[:3] >= -zhi) & (lo[:3] <= -zlo))
-    any_ = meets.any(axis=0)
-    if not any_.any():
-        return np.full((f.n_out, lo.shape[1]), np.inf)
-    far = np.where(np.abs(np.abs(lo[:3]) - epsilon) >= np.abs(np.abs(hi[:3]) - epsilon), lo[:3], hi[:3])
-    flo, fhi = lo.copy(), hi.copy()
-    flo[:3] = np.where(meets, far, lo[:3])
-    fhi[:3] = np.where(meets, far, hi[:3])
-    mhi = f.enclose(flo, fhi).hi
-    with np.errstate(invalid="ignore", over="ignore"):
-        for j in range(3):
-            dlo = np.where(meets[j], _dn(lo[j] - far[j]), 0.0)
-            dhi = np.where(meets[j], _upr(hi[j] - far[j]), 0.0)
-            _, thi = _product(glo[j], ghi[j], dlo, dhi)
-            mhi = _upr(mhi + thi)
-    return np.where(any_ & ~np.isnan(mhi), mhi, np.inf)
-
-
-def _to_faces(lo, hi, glo, ghi, valid) -> None:
-    """Monotonicity test (single output): where ``df/dx_i >= 0`` on a box on which ``f`` is Lipschitz, its maximum is
-    on the face ``x_i = hi_i`` (``<= 0``: ``x_i = lo_i``); the box is replaced by that face, in place."""
-    up = (glo[:, 0, :] >= 0) & valid[None, :]
-    down = (ghi[:, 0, :] <= 0) & valid[None, :] & ~up
-    lo[up] = hi[up]
-    hi[down] = lo[down]
-
-
-def _search(
-    f: IntervalFunction,
-    jac: IntervalFunction,
-    lo: np.ndarray,
-    hi: np.ndarray,
-    *,
-    seconds: float,
-    max_boxes: int,
-    relative_gap: float,
-    lipschitz: bool,
-    seeds: np.ndarray,
-    epsilon: float | None = None,
-) -> _Found:
-    """Best-first branch and bound of the maxima of all outputs of ``f`` at once over the union of the start boxes
-    ``(n, P)``.
-
-    One queue holds every box that may still hold the maximum of some output (its upper bound exceeds that output's
-    best certified value by more than the gap); each pass splits the boxes of largest relative excess, in two, along
-    the input of largest ``width x |gradient|`` (gradient of the output with the largest excess).  With one output a
-    box where ``f`` is monotone in an input is reduced to the face holding the maximum (:func:`_to_faces`).
-    ``upper[k]`` is the largest upper bound of output ``k`` over the queue and over every box dropped (a dropped box's
-    bound is kept); ``lower[k]`` the best certified value at a point: box centres and ``seeds`` ``(n, S)``.
-    """
-    t0 = time.perf_counter()
-    m = f.n_out
-    scale = np.where(hi.max(axis=1) > lo.min(axis=1), hi.max(axis=1) - lo.min(axis=1), 1.0)
-    qlo, qhi = lo.copy(), hi.copy()
-    qub, glo, ghi, valid, c, at = _enclose(f, jac, qlo, qhi, lipschitz, epsilon)
-    qmag = np.maximum(np.abs(glo), np.abs(ghi))
-    best, witness = np.full(m, -np.inf), np.zeros((f.n_in, m))
-    sv = f.enclose(seeds, seeds).lo
-    sv = np.where(np.isnan(sv), -np.inf, sv)
-    dropped = np.full(m, -np.inf)
-    boxes = qlo.shape[1]
-    for values, points in ((sv, seeds), (at, c)):
-        j = values.argmax(axis=1)
-        better = values[np.arange(m), j] > best
-        best = np.where(better, values[np.arange(m), j], best)
-        witness[:, better] = points[:, j[better]]
-    while True:
-        tol = relative_gap * np.maximum(best, 0.0)
-        upper = np.maximum(np.maximum(best, dropped), qub.max(axis=1) if qub.size else -np.inf)
-        converged = np.isfinite(upper) & (upper - best <= relative_gap * np.maximum(upper, 0.0))
-        if converged.all() or boxes >= max_boxes or time.perf_counter() - t0 > seconds or not qub.size:
-            return _Found(upper, best, witness, boxes, converged, time.perf_counter() - t0)
-        need = qub > (best + tol)[:, None]
-        keep = need.any(axis=0) & np.any(qhi > qlo, axis=0)  # a point box is final: its bound is kept
-        if not keep.all():
-            dropped = np.maximum(dropped, np.where(~keep[None, :], qub, -np.inf).max(axis=1))
-            qlo, qhi, qub, qmag, need = qlo[:, keep], qhi[:, keep], qub[:, keep], qmag[:, :, keep], need[:, keep]
-            if not qub.size:
-                continue
-        excess = np.where(need, (qub - best[:, None]) / np.maximum(np.abs(best), 1e-300)[:, None], -np.inf)
-        priority = excess.max(axis=0)
-        take = min(qub.shape[1], max(BATCH, qub.shape[1] // 8))
-        order = np.argpartition(-priority, take - 1)[:take] if take < priority.size else np.arange(priority.size)
-        rest = np.ones(priority.size, bool)
-        rest[order] = False
-        blo, bhi = qlo[:, order], qhi[:, order]
-        k = excess[:, order].argmax(axis=0)
-        mag = qmag[:, k, order]  # (n, take): the gradient of the output that most needs the box
-        width = (bhi - blo) / scale[:, None]
-        score = np.where(width > 0, width * np.where(np.isfinite(mag), mag, 1e300) * scale[:, None], -1.0)
-        dims = np.where(score.max(axis=0) > 0, score.argmax(axis=0), width.argmax(axis=0))
-        cols = np.arange(take)
-        mid = 0.5 * (blo[dims, cols] + bhi[dims, cols])
-        nlo, nhi = np.concatenate([blo, blo], axis=1), np.concatenate([bhi, bhi], axis=1)
-        nhi[dims, cols] = mid
-        nlo[dims, take + cols] = mid
-        nub, glo, ghi, valid, c, at = _enclose(f, jac, nlo, nhi, lipschitz, epsilon)
-        if m == 1:
-            _to_faces(nlo, nhi, glo, ghi, valid)
-        boxes += nlo.shape[1]
-        j = at.argmax(axis=1)
-        better = at[np.arange(m), j] > best
-        best = np.where(better, at[np.arange(m), j], best)
-        witness[:, better] = c[:, j[better]]
-        qlo = np.concatenate([qlo[:, rest], nlo], axis=1)
-        qhi = np.concatenate([qhi[:, rest], nhi], axis=1)
-        qub = np.concatenate([qub[:, rest], nub], axis=1)
-        qmag = np.concatenate([qmag[:, :, rest], np.maximum(np.abs(glo), np.abs(ghi))], axis=2)
+box as possibly switching (see :func:`fsmctl.proofs.theorem2_search.search_maxima`)."""
 
 
 def _up(x: flint.arb) -> float:
@@ -515,14 +307,14 @@ def _general_upper(dbar: np.ndarray, Q: np.ndarray, cbar: float) -> np.ndarray:
     return np.array([_up(sol[i, 0]) for i in range(3)])
 
 
-def _requirement_search(runner: _Runner, error_model: str, agent, params: np.ndarray, lo, hi) -> _Found:
+def _requirement_search(runner: _Runner, error_model: str, agent, params: np.ndarray, lo, hi) -> ts.Maxima:
     """The search of ``max |d_k|`` on the 9 inputs of :func:`_reduced_functions`; its witnesses lifted to the 15
     inputs, where the lower bounds are re-certified with the 15-input ``|d|`` (a rigorous value at the point)."""
     per_axis, parts, floats = _reduced_functions(error_model, agent.J0_array, agent.J_true, params, hi[9:])
-    seeds = _seeds(lo[:9], hi[:9])
-    seeds = np.hstack([seeds, _local_maxima(floats, lo[:9], hi[:9], seeds)])
+    seeds = ts.seed_points(lo[:9], hi[:9])
+    seeds = np.hstack([seeds, ts.local_maxima(floats, lo[:9], hi[:9], seeds)])
     found = [runner.run(g, grad, lo[:9], hi[:9], seeds) for g, grad in per_axis]
-    m = _Found(
+    m = ts.Maxima(
         np.concatenate([r.upper for r in found]),
         np.concatenate([r.lower for r in found]),
         np.hstack([r.witness for r in found]),
@@ -538,12 +330,14 @@ def _requirement_search(runner: _Runner, error_model: str, agent, params: np.nda
         .lo[np.arange(3), np.arange(3)]
     )
     lower = np.where(np.isnan(at), -np.inf, at)
-    return _Found(m.upper, lower, points, m.boxes, m.converged & (m.upper - lower <= runner.gap * m.upper), m.seconds)
+    return ts.Maxima(
+        m.upper, lower, points, m.boxes, m.converged & (m.upper - lower <= runner.gap * m.upper), m.seconds
+    )
 
 
 class _Runner:
     """Splits a budget's time and boxes equally among the searches still to run (one per group, or three for a
-    non-proportional ``Delta_J``), each over the pieces of :func:`_pieces`."""
+    non-proportional ``Delta_J``), each over the pieces of :func:`~fsmctl.proofs.theorem2_search.band_pieces`."""
 
     def __init__(self, budget: Budget, calls: int, relative_gap: float, epsilon: float | None, lipschitz: bool):
         self.budget, self.left, self.gap, self.epsilon, self.lipschitz = budget, calls, relative_gap, epsilon, lipschitz
@@ -556,12 +350,12 @@ class _Runner:
         lo: np.ndarray,
         hi: np.ndarray,
         seeds: np.ndarray | None = None,
-    ) -> _Found:
+    ) -> ts.Maxima:
         seconds = max(self.budget.max_seconds - (time.perf_counter() - self.t0), 0.05) / self.left
         boxes = max((self.budget.max_boxes - self.boxes) // self.left, 1)
         self.left = max(self.left - 1, 1)
-        plo, phi = _pieces(lo, hi, self.epsilon)
-        found = _search(
+        plo, phi = ts.band_pieces(lo, hi, self.epsilon)
+        found = ts.search_maxima(
             f,
             jac,
             plo,
@@ -570,44 +364,11 @@ class _Runner:
             max_boxes=boxes,
             relative_gap=self.gap,
             lipschitz=self.lipschitz,
-            seeds=_seeds(lo, hi) if seeds is None else seeds,
+            seeds=ts.seed_points(lo, hi) if seeds is None else seeds,
             epsilon=self.epsilon,
         )
         self.boxes += found.boxes
         return found
-
-
-def _seeds(lo: np.ndarray, hi: np.ndarray, n: int = 256) -> np.ndarray:
-    """``(15, 2n)`` seeded points of the box: random corners and uniform points (first witnesses of the search)."""
-    rng = np.random.default_rng(0)
-    x = lo[:, None] + (hi - lo)[:, None] * rng.integers(0, 2, (lo.size, n))
-    return np.hstack([x, lo[:, None] + (hi - lo)[:, None] * rng.uniform(0, 1, (lo.size, n))])
-
-
-LOCAL_STARTS = 3
-"""Starts per output of the float local search for the first witnesses: the best seeds, and the same with every
-``sigma_e`` component at 0 (the centre of the Remark 6 band, where its slope ``r1`` is largest)."""
-
-
-def _local_maxima(floats: ca.Function, lo: np.ndarray, hi: np.ndarray, seeds: np.ndarray) -> np.ndarray:
-    """Points of the box where each output of ``floats`` (``y -> (g, dg/dy)``) is locally maximal (L-BFGS-B in
-    floats: only candidates, evaluated rigorously by the search)."""
-    values = np.asarray(floats.map(seeds.shape[1])(seeds)[0])
-    out = []
-    bounds = list(zip(lo, hi, strict=True))
-    for k in range(values.shape[0]):
-        top = seeds[:, np.argsort(-values[k])[:LOCAL_STARTS]]
-        centred = top.copy()
-        centred[:3] = np.clip(0.0, lo[:3, None], hi[:3, None])
-        for start in np.hstack([top, centred]).T:
-
-            def minus(z, k=k):
-                v, jac = floats(z)
-                return -float(v[k]), -np.asarray(jac, float)[k]
-
-            r = optimize.minimize(minus, start, jac=True, bounds=bounds, method="L-BFGS-B", options={"maxiter": 50})
-            out.append(np.clip(r.x, lo, hi))
-    return np.stack(out, axis=1)
 
 
 def _lipschitz(rows: np.ndarray, region: t2.Region) -> bool:
