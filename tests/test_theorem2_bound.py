@@ -3,12 +3,14 @@
 import casadi as ca
 import numpy as np
 import pytest
+import sympy as sp
 
 from fsmctl.enclosures.branch_bound import Budget
 from fsmctl.model.scenario import paper_scenario
 from fsmctl.proofs.theorem2 import Region, _drift_expressions, delta_requirements, fsm_parameters
-from fsmctl.proofs.theorem2_bound import certified_delta_requirements, requirement_functions
+from fsmctl.proofs.theorem2_bound import LIPSCHITZ_FIXES, certified_delta_requirements, requirement_functions
 from fsmctl.proofs.theorem2_search import search_maxima
+from fsmctl.symbolic.controller import SingularityFix, surface_term_slope
 
 SMALL = Budget(max_boxes=200_000, max_seconds=4.0)
 
@@ -101,3 +103,15 @@ def test_box_enclosures_contain_float_samples(paper):
         x = lo[:, None] + (hi - lo)[:, None] * rng.uniform(0, 1, (15, 400))
         values = np.asarray(d(x, agent.J0_array, agent.J_true, params))
         assert np.all(values.max(axis=1) <= m.upper), (trial, values.max(axis=1), m.upper)
+
+
+@pytest.mark.parametrize("name", LIPSCHITZ_FIXES)
+def test_lipschitz_fixes_have_a_continuous_slope_at_the_band_edge(name):
+    """The search's mean-value form across ``|sigma_e,k| = epsilon`` assumes the Remark 6 device's slope (the gain of
+    sigma_e_dot in s_dot) continuous there: every branch of the trusted device's Piecewise takes the same value at
+    ``x = epsilon`` (symbolic alpha and epsilon)."""
+    alpha, eps, x = sp.symbols("alpha epsilon x", positive=True)
+    slope = surface_term_slope(x, alpha, SingularityFix[name.upper()], eps)
+    assert isinstance(slope, sp.Piecewise) and len(slope.args) == 2
+    at_edge = [sp.simplify(branch.subs(x, eps)) for branch, _ in slope.args]
+    assert sp.simplify(at_edge[0] - at_edge[1]) == 0
