@@ -876,8 +876,8 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
         "(automatic differentiation of the paper's law's generated law_local_*, law_control_* and the model's "
         "plant_rhs along the rigid-body motion)",
         f"certified upper bound (interval arithmetic with outward rounding, branch and bound: {cert.boxes} boxes in "
-        f"{cert.seconds:.1f} s; the Remark 6 band cut out of each sigma_e,k box); lower bound certified at a witness "
-        "point",
+        f"{cert.seconds:.1f} s; each sigma_e,k range cut at the Remark 6 band, the affine u_d and omega_d_dot maximised "
+        "exactly); lower bound certified at a witness point",
         f"coupling: {res.coupling}",
     ]
     lines += _certified_lines(cert)
