@@ -163,14 +163,62 @@ def test_monotone_in_the_uncertainty():
     assert unstable == ["counterexample", "counterexample"]
 
 
-def test_disturbance_gives_ultimate_boundedness_never_asymptotic():
+@pytest.fixture(scope="module")
+def ub_certificate(tmp_path_factory):
     cert = _certify(MY_LAW, region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(disturbance=0.005))
-    assert cert.kind in (None, "ultimately bounded")
-    assert cert.verdict in ("certified", "inconclusive")
-    if cert.verdict == "certified":
-        ub = cert.outcome["ultimate_bound"]
-        assert 0 < ub["sigma_e_max"] < 0.1
-        assert cert.outcome["inner_level"] < cert.outcome["level"]
+    path = tmp_path_factory.mktemp("ub") / "my_pd.certificate.json"
+    cert.write(path, path.with_suffix(".md"))
+    return cert, path
+
+
+def test_disturbance_gives_ultimate_boundedness_never_asymptotic(ub_certificate):
+    """Oracle: the equilibrium under a constant disturbance d along an axis, K sigma = d (MRP PD, J = J0, small
+    sigma: sigma* = d / K = 0.00125), lies inside the certified ultimate bound, which is well inside the region."""
+    cert, _ = ub_certificate
+    assert (cert.verdict, cert.kind) == ("certified", "ultimately bounded")
+    ub = cert.outcome["ultimate_bound"]
+    assert 0.005 / 4.0 < ub["sigma_e_max"] < 0.1
+    assert 0 < cert.outcome["inner_level"] < cert.outcome["level"]
+
+
+def test_ultimately_bounded_certificate_is_sound_and_rechecks(ub_certificate, tmp_path):
+    """V_dot < 0 at random points of {c_in < V <= c} (floats), the file re-checks, and a lowered c_in does not."""
+    cert, path = ub_certificate
+    code = resolve_law(str(MY_LAW))
+    p = build_problem(code, "exact", J0, np.array([4.0, 12.0, 1.0]), np.inf, cert.region, cert.uncertainty)
+    from fsmctl.proofs.certify_problem import candidate_from_record
+
+    fV, _, fW, _ = p.lyapunov(candidate_from_record(cert.candidate, 0))
+    rng = np.random.default_rng(11)
+    near = np.concatenate([np.full(3, 0.03), p.hi[3:]])  # the annulus is near sigma_e = 0: sample more there
+    x = rng.uniform(np.maximum(p.lo, -near), np.minimum(p.hi, near), size=(50_000, p.lo.size))
+    v = np.array(fV.map(x.shape[0])(x.T)).ravel()
+    annulus = (v > cert.outcome["inner_level"]) & (v <= cert.outcome["level"])
+    assert annulus.sum() > 100
+    assert np.array(fW.map(int(annulus.sum()))(x[annulus].T)).max() < 0
+    assert check_certificate(path, arb_sample=4).ok
+    d = json.loads(path.read_text())
+    d["outcome"]["inner_level"] *= 0.25
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(d))
+    result = check_certificate(bad, arb_sample=2)
+    assert not result.ok
+    assert any("FAILS" in line for line in result.lines)
+
+
+def test_core_keeps_the_largest_box_where_the_hessian_is_negative_definite():
+    """Analytic oracle: W = -(y1^2 + y2^2) + a y1^3 has the Hessian diag(-2 + 6 a y1, -2); the core test asks
+    H + 2 mu I negative definite with mu = 2/16, i.e. y1 < 1.75 / (6 a): the largest of the fractions 0.25, 0.5, 1
+    is 0.5 for a = 0.5 (bound 0.58) and 1 for a = 0.25 (bound 1.17)."""
+    import casadi as ca
+
+    from fsmctl.proofs.certify_core import quadratic_core
+
+    x = ca.SX.sym("x", 2)
+    for a, expected in ((0.5, 0.5), (0.25, 1.0)):
+        W = -(x[0] ** 2 + x[1] ** 2) + a * x[0] ** 3
+        core = quadratic_core(x, W, 2, np.array([-1.0, -1.0]), np.array([1.0, 1.0]), fractions=(0.25, 0.5, 1.0))
+        assert core["passed"] and core["fraction"] == expected and core["mu"] == 0.125
 
 
 def test_read_certificate_refuses_other_files(tmp_path):

@@ -14,7 +14,9 @@ The answer is one of three, and never upgraded from one to another:
     second-order argument: ``V_dot(0) = 0`` and ``grad V_dot(0) = 0`` proved in ball arithmetic and the Hessian
     of ``V_dot`` negative definite for every matrix of its interval enclosure over a core box (so
     ``V_dot < 0`` on the core except at 0); otherwise **ultimately bounded**: ``V_dot < 0`` on the region outside
-    an inner sublevel set ``{V <= c_in}``, whose extent is the certified ultimate error bound.  The largest
+    an inner sublevel set ``{V <= c_in}``, whose extent is the certified ultimate error bound (near the origin the
+    second-order argument proves ``V_dot < 0`` on the core outside a ball ``|y| <= r*``, and the search covers the
+    ball like the rest of the region: ``c_in`` is the largest ``V`` on the leaves where ``V_dot < 0`` is not proved).  The largest
     sublevel set ``{V <= c}`` inside the region (``c`` below ``V`` on the region's boundary) is the estimate of the
     region of attraction; the decrease ``V_dot <= -m`` on ``{c_in <= V <= c}`` bounds the time to reach the inner
     set.  No finite-time certificate is issued: the branch and bound cannot resolve ``V_dot <= -k V^a`` at the
@@ -81,10 +83,13 @@ ASYMPTOTIC, ULTIMATELY_BOUNDED = "asymptotic", "ultimately bounded"
 
 EPSILON_GRID = tuple(10.0 ** (k / 4) for k in range(-16, 5))
 """cross-term weights screened (1e-4 ... 10): the nominal Hessians at the origin pick the best"""
+INNER_FRACTION = 0.5
+"""ultimately bounded: leaves where ``V <= INNER_FRACTION c_bnd`` (``c_bnd`` the least ``V`` on the region's boundary)
+are left to the inner set unproved"""
 SCREEN_FRACTION = 0.1
 """share of the budget spent looking for a counterexample when the origin's argument fails (no certificate is
 possible then)"""
-BOUNDARY_BUDGET = Budget(max_boxes=20_000, max_seconds=3600.0, batch=4096)
+BOUNDARY_BUDGET = Budget(max_boxes=100_000, max_seconds=3600.0, batch=4096)
 """the search for V's minimum on the region's boundary: bounded by boxes only, so that a re-check reproduces it"""
 BALL_PRECISION = 256
 """bits of the ball arithmetic that confirms counterexamples and the origin's values"""
@@ -155,6 +160,8 @@ class CandidateOutcome:
     counterexample: dict | None = None
     search: SignSearch | None = None
     boundary_level: float = math.inf
+    inner_target: float | None = None
+    """ultimately bounded: the level below which leaves were left to the inner set unproved"""
     notes: list[str] = field(default_factory=list)
     difficulty: str = ""
     seconds: float = 0.0
@@ -277,6 +284,9 @@ class LyapunovPrograms:
     dW: IntervalFunction
     W_function: ca.Function
     V_sx: ca.SX
+    neg_V: IntervalFunction
+    """``-V`` (minima of ``V`` by :func:`fsmctl.enclosures.branch_bound.bound_maximum`)"""
+    neg_dV: IntervalFunction
 
     def v_bounds(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Enclosure of ``V`` on boxes given as rows ``(k, n_in)``."""
@@ -290,7 +300,10 @@ def lyapunov_programs(problem: CertifyProblem, V) -> LyapunovPrograms:
     """The evaluators of a candidate ``V`` (a SymPy expression in the state symbols) on ``problem``."""
     fV, gV, fW, gW = problem.lyapunov(V)
     progs = [IntervalFunction(f) for f in (fV, gV, fW, gW)]
-    return LyapunovPrograms(*progs, fW, fV(problem.x))
+    v = fV(problem.x)
+    neg = IntervalFunction(ca.Function("negV", [problem.x], [-v]))
+    neg_grad = IntervalFunction(ca.Function("negV_gradient", [problem.x], [ca.gradient(-v, problem.x)]))
+    return LyapunovPrograms(*progs, fW, v, neg, neg_grad)
 
 
 def origin_argument(problem: CertifyProblem, progs: LyapunovPrograms, fractions=CORE_FRACTIONS) -> QuadraticCore:
@@ -301,14 +314,75 @@ def origin_argument(problem: CertifyProblem, progs: LyapunovPrograms, fractions=
     )  # fmt: skip
 
 
-def inside_core(problem: CertifyProblem, core: dict) -> Callable | None:
+def inside_core(problem: CertifyProblem, core: dict, progs: LyapunovPrograms | None = None) -> Callable | None:
+    """``inside(lo, hi) -> (N,) bool`` on ``(n_in, N)`` boxes where the origin's argument proves ``V_dot < 0``; None
+    when the argument did not pass.
+
+    A box qualifies when it lies in the core box and either the origin is an equilibrium (``r_star = 0``: ``V_dot < 0``
+    on the core but at 0), or the box lies outside the ball ``|y| <= r_star``, or (with ``progs``) the concave bound
+    about the box's centre ``c`` is negative: ``H + 2 mu I`` negative definite on the core gives, for every
+    uncertainty ``u`` of the box, ``V_dot(y) <= V_dot(c) + g(c) . (y - c) - mu |y - c|^2`` (Taylor with the integral
+    remainder, scaled state), maximised axis by axis over the box with ``V_dot(c)`` and ``g(c)`` enclosed over the
+    box's uncertainty.  The few float operations of that maximum are covered by a relative margin of ``1e-12``.
+    """
     if not core.get("passed"):
         return None
     n = problem.n_state
     half = np.asarray(core["half_widths"])[:, None]
+    r_star, mu = float(core.get("r_star", 0.0)), float(core.get("mu", 0.0))
+    scale = np.maximum(np.abs(problem.lo[:n]), np.abs(problem.hi[:n]))[:, None]
 
     def inside(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        return np.all((lo[:n] >= -half) & (hi[:n] <= half), axis=0)
+        ok = np.all((lo[:n] >= -half) & (hi[:n] <= half), axis=0)
+        if r_star == 0 or not ok.any():
+            return ok
+        near = np.where(lo[:n] > 0, lo[:n], np.where(hi[:n] < 0, -hi[:n], 0.0))  # the box's point nearest 0
+        d = np.nextafter(np.nextafter(near / scale, 0.0) ** 2, 0.0)
+        outside = np.nextafter(d.sum(axis=0) * (1 - 1e-12), 0.0) > r_star * r_star * (1 + 1e-12)
+        if progs is None:
+            return ok & outside
+        cols = np.flatnonzero(ok & ~outside)
+        concave = np.zeros(lo.shape[1], bool)
+        if cols.size and mu > 0:
+            concave[cols] = _concave_upper(progs, lo[:, cols], hi[:, cols], n, scale, mu) < 0
+        return ok & (outside | concave)
+
+    return inside
+
+
+def _concave_upper(progs: LyapunovPrograms, lo, hi, n: int, scale: np.ndarray, mu: float) -> np.ndarray:
+    """``V_dot(c) + sum_k max_{d_k} (g_k d_k - mu d_k^2)`` over boxes (see :func:`inside_core`)."""
+    c_lo, c_hi = lo.copy(), hi.copy()
+    c = 0.5 * (lo[:n] + hi[:n])
+    c_lo[:n], c_hi[:n] = c, c  # the state at the centre, the uncertainty over the box
+    w = progs.W.enclose(c_lo, c_hi).hi[0]
+    g = progs.dW.enclose(c_lo, c_hi)
+    total = np.where(np.isnan(w), np.inf, w)
+    margin = np.abs(total)
+    with np.errstate(invalid="ignore", over="ignore"):
+        for k in range(n):
+            a, b = (lo[k] - c[k]) / scale[k], (hi[k] - c[k]) / scale[k]  # the scaled offsets, a <= 0 <= b
+            best = np.full(lo.shape[1], -np.inf)
+            for gk in (g.lo[k] * scale[k], g.hi[k] * scale[k]):
+                dk = np.clip(gk / (2 * mu), a, b)
+                best = np.maximum(best, gk * dk - mu * dk * dk)
+            best = np.where(np.isnan(best), np.inf, best)
+            total = total + best
+            margin = margin + np.abs(best) + mu * np.maximum(a * a, b * b)
+    return total + 1e-12 * margin + 1e-300
+
+
+def excluded(problem: CertifyProblem, progs: LyapunovPrograms, core: dict, inner_level: float | None) -> Callable | None:
+    """The search's exclusion: boxes of the core (:func:`inside_core`) and, with ``inner_level``, boxes on which
+    ``V <= inner_level`` is proved (they belong to the inner set of an ultimately bounded certificate)."""
+    in_core = inside_core(problem, core, progs)
+    if inner_level is None:
+        return in_core
+
+    def inside(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        _, vhi, _ = enclose_sharp(progs.V, lo, hi, gradient=progs.dV)
+        out = vhi <= inner_level
+        return out | in_core(lo, hi) if in_core is not None else out
 
     return inside
 
@@ -316,14 +390,14 @@ def inside_core(problem: CertifyProblem, core: dict) -> Callable | None:
 def boundary_level(problem: CertifyProblem, progs: LyapunovPrograms, budget: Budget) -> float:
     """A certified lower bound of ``V`` on the boundary of the state region (its faces, by :func:`bound_maximum`)."""
     n = problem.n_state
-    neg = IntervalFunction(ca.Function("negV", [problem.x], [-progs.V_sx]))
+    neg, neg_grad = progs.neg_V, progs.neg_dV
     best = math.inf
     for k in range(n):
         for side in (problem.lo[k], problem.hi[k]):
             lo, hi = problem.lo.copy(), problem.hi.copy()
             lo[n:], hi[n:] = 0.0, 0.0  # V does not depend on the uncertainty
             lo[k] = hi[k] = side
-            m = bound_maximum(neg, lo, hi, relative_gap=1e-3, budget=budget)
+            m = bound_maximum(neg, lo, hi, gradient=neg_grad, relative_gap=1e-3, budget=budget)
             best = min(best, -m.upper)
     return best
 
@@ -358,19 +432,23 @@ def certify_candidate(
     core = origin_argument(problem, progs)
     if asymptotic and core.get("passed") and core["r_star"] > 0:  # pragma: no cover - w0 = G = 0 at an equilibrium
         core = QuadraticCore(passed=False, why="V_dot(0) = 0 and grad V_dot(0) = 0 could not be proved")
-    if core.get("passed") and core["r_star"] >= core["fraction"]:
-        core = QuadraticCore(passed=False, why=f"the ball where V_dot may be >= 0 (radius {core['r_star']:.3g} of "
-                             f"the region) is not inside the core box ({core['fraction']:g} of the region)")  # fmt: skip
     # without the origin's argument an asymptotic certificate is out of reach: search only for a counterexample
-    seconds = settings.max_seconds * (SCREEN_FRACTION if asymptotic and not core.get("passed") else 1.0)
+    # nor, with a V_dot only semidefinite at the origin, an inner set: a short search for a counterexample
+    screen = not core.get("passed") and (asymptotic or core.get("semidefinite", False))
+    seconds = settings.max_seconds * (SCREEN_FRACTION if screen else 1.0)
+    c_bnd = boundary_level(problem, progs, BOUNDARY_BUDGET)
+    # ultimately bounded: the leaves with V <= INNER_FRACTION c_bnd join the inner set unproved (V_dot >= 0 is
+    # expected somewhere near the origin, the search need not resolve where)
+    c_target = INNER_FRACTION * c_bnd if not asymptotic and c_bnd > 0 else None
     search = prove_negative(
         progs.W, problem.lo, problem.hi, gradient=progs.dW, budget=settings.budget(seconds),
-        min_width=settings.min_width, exclude=inside_core(problem, core), progress=progress,
+        min_width=settings.min_width, exclude=excluded(problem, progs, core, c_target), progress=progress,
         stop_on_positive=asymptotic,  # any point with V_dot > 0 refutes an asymptotic claim
     )  # fmt: skip
     out = CandidateOutcome(candidate, INCONCLUSIVE, ASYMPTOTIC if asymptotic else ULTIMATELY_BOUNDED, core=core)
     out.search = search
-    out.boundary_level = boundary_level(problem, progs, BOUNDARY_BUDGET)
+    out.boundary_level = c_bnd
+    out.inner_target = c_target
     _judge(problem, progs, out, asymptotic)
     out.seconds = time.perf_counter() - t0
     return out
@@ -397,9 +475,10 @@ def _judge(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutco
         # V_dot > 0 at a point where V >= min V on the boundary: no inner set inside the region can exclude it
         pv_lo, _ = progs.v_bounds(s.positive_points, s.positive_points)
         refuting = s.positive_points[pv_lo >= c_bnd]
+        # the core's ball |y| <= r* (V_dot may be >= 0 there) was searched like the rest: its leaves are in bad_*
         c_all = float(vhi.max()) if vhi.size else 0.0
-        if out.core.get("passed"):  # V_dot < 0 on the core outside the ball |y| <= r*: the ball joins the inner set
-            c_all = max(c_all, _ball_level(problem, progs, out.core["r_star"]))
+        if out.inner_target is not None and s.excluded_lo.shape[0]:
+            c_all = max(c_all, out.inner_target)
         certified = c_all < c_bnd
         c_in, out.level = (c_all, c_bnd) if certified else split_levels(vlo, vhi, c_bnd)
         out.inner_level = c_in
@@ -415,16 +494,6 @@ def _judge(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutco
     if c_in is not None or out.level > 0:
         if out.level > (c_in or 0.0):
             _levels_report(problem, progs, out, c_in)
-
-
-def _ball_level(problem: CertifyProblem, progs: LyapunovPrograms, r_star: float) -> float:
-    """A certified upper bound of ``V`` on the box ``|y_k| <= r*`` (scaled state) that holds the ball of the core."""
-    n = problem.n_state
-    scale = np.maximum(np.abs(problem.lo[:n]), np.abs(problem.hi[:n]))
-    lo, hi = np.zeros(problem.lo.size), np.zeros(problem.lo.size)
-    lo[:n], hi[:n] = -r_star * scale, r_star * scale
-    f = IntervalFunction(ca.Function("V", [problem.x], [progs.V_sx]))
-    return bound_maximum(f, lo, hi, relative_gap=1e-3, budget=BOUNDARY_BUDGET).upper
 
 
 def split_levels(vlo: np.ndarray, vhi: np.ndarray, c_bnd: float) -> tuple[float | None, float]:
@@ -452,15 +521,7 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
     names = problem.names[:n]
 
     def extent(level: float) -> dict:
-        rows = vlo <= level
-        parts = [np.abs(lo[rows, :n]), np.abs(hi[rows, :n])]
-        if s.excluded_lo.shape[0]:
-            parts += [np.abs(s.excluded_lo[:, :n]), np.abs(s.excluded_hi[:, :n])]
-        if c_in is not None and level == c_in:
-            blo = np.concatenate([s.positive_lo, s.undecided_lo])
-            bhi = np.concatenate([s.positive_hi, s.undecided_hi])
-            parts += [np.abs(blo[:, :n]), np.abs(bhi[:, :n])]
-        m = np.max(np.concatenate(parts), axis=0) if any(p.size for p in parts) else np.zeros(n)
+        m = sublevel_extent(progs, problem.lo, problem.hi, level, n)
         return dict(zip(names, m.tolist(), strict=True))
 
     out.level_extent = extent(out.level)
@@ -482,6 +543,49 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
             "omega_e_max_rad_s": om,
             "attitude_error_max_deg": math.degrees(4 * math.atan(math.sqrt(3) * sig)),
         }
+
+
+EXTENT_STEPS = 7
+"""bisection steps per state input and side of :func:`sublevel_extent` (the bound is within 2^-7 of the region's
+half-width of the best this route can prove)"""
+EXTENT_BUDGET = Budget(max_boxes=20_000, max_seconds=60.0, batch=1024)
+"""per slab of :func:`sublevel_extent` (bounded by boxes: reproducible)"""
+
+
+def sublevel_extent(progs: LyapunovPrograms, lo: np.ndarray, hi: np.ndarray, level: float, n: int) -> np.ndarray:
+    """``(n,)``: for each state input ``k``, a ``t_k`` with ``|x_k| <= t_k`` on ``{V <= level}`` within the state box
+    ``[lo, hi]`` (full input vectors; ``V`` depends on the state alone).
+
+    By bisection on ``t``: ``V > level`` is proved on the slabs ``x_k >= t`` and ``x_k <= -t`` of the box (a certified
+    lower bound of ``min V`` there, :func:`fsmctl.enclosures.branch_bound.bound_maximum` of ``-V``)."""
+    lo, hi = lo.copy(), hi.copy()
+    lo[n:], hi[n:] = 0.0, 0.0
+    neg, neg_grad = progs.neg_V, progs.neg_dV
+    out = np.zeros(n)
+    for k in range(n):
+        top = max(abs(lo[k]), abs(hi[k]))
+
+        def above(t: float, k: int = k) -> bool:
+            """``V > level`` on both slabs ``|x_k| >= t``."""
+            for side in (1, -1):
+                slo, shi = lo.copy(), hi.copy()
+                if side > 0:
+                    slo[k] = max(lo[k], t)
+                else:
+                    shi[k] = min(hi[k], -t)
+                if slo[k] > shi[k]:
+                    continue
+                m = bound_maximum(neg, slo, shi, gradient=neg_grad, relative_gap=1e-3, budget=EXTENT_BUDGET)
+                if not -m.upper > level:
+                    return False
+            return True
+
+        a, b = 0.0, top  # V > level is known beyond top (outside the box)
+        for _ in range(EXTENT_STEPS):
+            mid = 0.5 * (a + b)
+            a, b = (a, mid) if above(mid) else (mid, b)
+        out[k] = b
+    return out
 
 
 def _counterexample(problem: CertifyProblem, progs: LyapunovPrograms, points: np.ndarray) -> dict:

@@ -30,6 +30,7 @@ from fsmctl.proofs.certify import (
     CERTIFIED,
     COUNTEREXAMPLE,
     boundary_level,
+    inside_core,
     lyapunov_programs,
     origin_argument,
 )
@@ -121,8 +122,9 @@ def recheck(problem: CertifyProblem, V, d: dict, *, arb_sample: int | None, seed
     olo = np.concatenate([leaves[POSITIVE][0], leaves[UNDECIDED][0]])
     ohi = np.concatenate([leaves[POSITIVE][1], leaves[UNDECIDED][1]])
     _, vhi = progs.v_bounds(olo, ohi)
+    if leaves[EXCLUDED][0].shape[0]:
+        _recheck_excluded(problem, progs, out, leaves, step)
     if d["kind"] == ASYMPTOTIC:
-        _recheck_core(problem, progs, out, leaves, step)
         step(olo.shape[0] == 0, f"{olo.shape[0]} leaves outside the core are not proved")
     else:
         c_in = out["inner_level"]
@@ -141,15 +143,27 @@ def recheck(problem: CertifyProblem, V, d: dict, *, arb_sample: int | None, seed
     return ok, lines
 
 
-def _recheck_core(problem, progs, out, leaves, step) -> None:
+def _recheck_excluded(problem, progs, out, leaves, step) -> None:
+    """The leaves the search left out: inside the core where the origin's argument proves ``V_dot < 0``, or (ultimately
+    bounded) where ``V <= c_in`` is proved, so that they belong to the inner set."""
     core = out["core"]
-    again = origin_argument(problem, progs, fractions=(core["fraction"],))
-    step(bool(again.get("passed")), "the origin's argument (ball arithmetic at 0, Hessian on the core box) holds")
-    half = np.asarray(core["half_widths"])
-    n = problem.n_state
     xlo, xhi = leaves[EXCLUDED]
-    inside = bool(np.all((xlo[:, :n] >= -half) & (xhi[:, :n] <= half))) if xlo.size else True
-    step(inside, f"{xlo.shape[0]} core leaves lie in the core box")
+    ok = np.zeros(xlo.shape[0], bool)
+    if core.get("passed"):
+        again = origin_argument(problem, progs, fractions=(core["fraction"],))
+        step(
+            bool(again.get("passed")) and again["r_star"] <= core["r_star"],
+            "the origin's argument (ball arithmetic at 0, Hessian on the core box) holds"
+            + (f", V_dot < 0 outside |y| <= {core['r_star']:.4g}" if core["r_star"] else ""),
+        )
+        ok |= inside_core(problem, core, progs)(xlo.T.copy(), xhi.T.copy())
+    in_core = int(ok.sum())
+    c_in = out.get("inner_level")
+    if c_in is not None and not ok.all():
+        _, vhi = progs.v_bounds(xlo[~ok], xhi[~ok])
+        ok[~ok] = vhi <= c_in
+    inner = f", {xlo.shape[0] - in_core} in {{V <= c_in}}" if c_in is not None else ""
+    step(bool(ok.all()), f"{in_core} leaves proved by the origin's argument{inner}, of {xlo.shape[0]} left out")
 
 
 def _recheck_arb(progs, plo, phi, arb_sample, seed, scale) -> tuple[int, int]:

@@ -12,10 +12,12 @@ If every matrix of the interval enclosure of ``H + 2 mu I`` is negative definite
 
 so ``W < 0`` on ``C`` outside the ball ``|y| <= r* = (G + sqrt(G^2 + 4 mu w0)) / (2 mu)`` (``r* = 0``: everywhere but
 the origin, when the origin is an equilibrium: ``w0 = G = 0``, proved in ball arithmetic).  The negative
-definiteness is proved box by box: Gershgorin's discs with outward rounding for many boxes at once, then the exact
-midpoint-radius test (:func:`fsmctl.proofs.quadratic_forms.interval_matrix_negative_definite`) for the boxes where
-the discs are too coarse; a box that passes neither is split.  Gershgorin's discs, Weyl's inequality and Rohn's
-midpoint-radius bound are the only facts used (Horn & Johnson, Matrix Analysis, 6.1 and 4.3; Rohn 1994).
+definiteness is proved box by box (:class:`_HessianTest`): after the congruence that makes the nominal Hessian
+``-I``, Weyl's inequality on the mean-value form of ``H`` (third derivatives enclosed on the box), else Gershgorin's
+discs of the natural enclosure; a box that passes neither is split along the input whose term of the mean-value bound
+is largest.  The core boxes are tried from the smallest up, the largest that passes is kept.  Sylvester's law of
+inertia, Weyl's inequality and Gershgorin's discs are the only facts used (Horn & Johnson, Matrix Analysis, 2nd ed.,
+4.5.8, 4.3.1 and 6.1.1).
 """
 
 from __future__ import annotations
@@ -28,28 +30,24 @@ import numpy as np
 
 from fsmctl.enclosures.branch_bound import Budget
 from fsmctl.enclosures.intervals import IntervalFunction
-from fsmctl.proofs.quadratic_forms import interval_matrix_negative_definite
 
 __all__ = ["CORE_FRACTIONS", "HESSIAN_BUDGET", "QuadraticCore", "quadratic_core"]
 
 CORE_FRACTIONS = (1.0, 0.5, 0.25, 0.125, 0.0625)
-"""core boxes tried, as fractions of the region's half-widths (largest first)"""
+"""core boxes tried, as fractions of the region's half-widths (smallest first, up to the first that fails)"""
 HESSIAN_BUDGET = Budget(max_boxes=20_000, max_seconds=600.0, batch=2048)
 """the box-by-box proof of negative definiteness on one core box (bounded by boxes: reproducible on re-check)"""
 MIN_WIDTH = 1.0 / 64
 """a core sub-box narrower than this (in the scaled coordinates) is not split: the core fraction fails"""
-UNCERTAINTY_SPLIT_WEIGHT = 0.25
-"""an uncertainty input is split only when it is this many times wider (relative to its range) than every state
-input: the Hessian depends on the uncertainty mildly and on the state strongly"""
-EXACT_PER_BATCH = 256
-"""boxes of a batch checked with the exact midpoint-radius test when Gershgorin's discs fail"""
 
 
 class QuadraticCore(dict):
     """The outcome of :func:`quadratic_core` (a dict, for the certificate's JSON).
 
     Keys: ``passed``; when passed ``fraction`` (of the region), ``half_widths`` (of the core box, unscaled),
-    ``mu``, ``w0``, ``G``, ``r_star`` (in scaled units), ``boxes``; otherwise ``why``.
+    ``mu``, ``w0``, ``G``, ``r_star`` (in scaled units), ``boxes``; otherwise ``why`` (and ``semidefinite`` when the
+    nominal Hessian at the origin is not negative definite: ``V_dot`` does not decrease quadratically in some
+    direction, so no certificate is expected near the origin).
     """
 
 
@@ -61,48 +59,106 @@ def _up(x):
     return np.nextafter(x, np.inf)
 
 
-def _gershgorin_negative(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """``(N,)`` bool: every matrix in each ``(n, n, N)`` interval matrix is negative definite by Gershgorin.
+U = 2.0**-53
+"""the unit roundoff of float64"""
 
-    Row ``i``: ``H_ii + sum_j!=i |H_ij| < 0`` with the upper bound ``hi_ii`` and ``max(|lo_ij|, |hi_ij|)``, summed
-    with upward rounding.
+
+class _HessianTest:
+    """Negative definiteness of ``D H D + 2 mu I`` on boxes, proved with the congruence ``T`` (Sylvester's law of
+    inertia: ``T^T M T`` is negative definite iff ``M`` is, for any invertible ``T``) that makes the nominal Hessian
+    ``-I``, so that Gershgorin's discs are sharp near it.
+
+    Two bounds, a box passing either is proved:
+
+    - *mean value* (Weyl): ``H(x) in H(c) + sum_k (x_k - c_k) dH/dx_k (X)``, so
+      ``lambda_max(T^T M(x) T) <= lambda_max(T^T M(c) T) + sum_k r_k rho(T^T dH/dx_k(X) T)``; the first term by
+      Gershgorin's discs, each ``rho`` by the infinity norm, the interval matrices in midpoint-radius form
+      (``T^T [m +- r] T`` is inside ``T^T m T +- |T|^T r |T|``).  Valid where ``H`` is Lipschitz on the box (the
+      evaluator proves no switch of ``dH`` flips there and the enclosure is finite).  The terms ``r_k rho_k`` say which
+      input to split;
+    - *natural*: Gershgorin's discs of ``T^T [H(X) + 2 mu I] T`` (only ``H`` continuous on the box).
+
+    The float products are enclosed with the a priori bound ``|fl(sum) - sum| <= gamma_k sum |terms|``,
+    ``gamma_k = k u / (1 - k u)`` (Higham, Accuracy and Stability of Numerical Algorithms, 2nd ed., eq 3.5), taken
+    with twice the number of terms.
     """
-    n = lo.shape[0]
-    mag = np.maximum(np.abs(lo), np.abs(hi))
-    ok = np.ones(lo.shape[2], bool)
-    for i in range(n):
-        total = hi[i, i].copy()
-        for j in range(n):
-            if j != i:
-                total = _up(total + mag[i, j])
-        ok &= total < 0
-    return ok & np.all(np.isfinite(lo) & np.isfinite(hi), axis=(0, 1))
+
+    def __init__(self, x: ca.SX, W: ca.SX, n: int, lo: np.ndarray, hi: np.ndarray, scale: np.ndarray, mu: float):
+        self.n, self.mu = n, mu
+        self.vary = np.flatnonzero(hi > lo)
+        D = ca.diag(ca.DM(scale))
+        Hs = ca.vec(D @ ca.hessian(W, x[:n])[0] @ D)
+        self.H = IntervalFunction(ca.Function("hessian_scaled", [x], [Hs]))
+        xv = ca.vertcat(*[x[int(k)] for k in self.vary]) if self.vary.size else ca.SX(0, 1)
+        self.dH = IntervalFunction(ca.Function("hessian_scaled_jacobian", [x], [ca.jacobian(Hs, xv)]))
+        nominal = 0.5 * (lo + hi)
+        h0 = np.array(ca.Function("h0", [x], [Hs])(nominal), float).reshape(n, n, order="F")
+        lam, Q = np.linalg.eigh(0.5 * (h0 + h0.T))
+        self.T = Q / np.sqrt(np.abs(lam))  # any invertible T is sound; this one makes T^T H0 T = -I
+        self.absT = np.abs(self.T)
+        self.gamma = 2 * (2 * n * n + 2) * U / (1 - 2 * (2 * n * n + 2) * U)
+
+    def _congruence(self, mid: np.ndarray, rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``T^T [mid +- rad] T`` as midpoint and radius (``(n, n, N)``), the products' rounding in the radius."""
+        T, A, g = self.T, self.absT, self.gamma
+        m = np.einsum("ki,kln,lj->ijn", T, mid, T)
+        r = np.einsum("ki,kln,lj->ijn", A, rad + g * np.abs(mid), A) * (1 + 2 * g)
+        return m, r
+
+    def _top(self, m: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Gershgorin's upper bound of the largest eigenvalue of every symmetric matrix in ``m +- r``."""
+        off = np.abs(m) + r
+        idx = np.arange(self.n)
+        diag = m[idx, idx] + r[idx, idx]
+        rows = off.sum(axis=1) - off[idx, idx]
+        return (diag + rows + self.gamma * (np.abs(diag) + rows)).max(axis=0)
+
+    def _rho(self, m: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """The infinity norm (a bound of the spectral radius) of every matrix in ``m +- r``."""
+        rows = (np.abs(m) + r).sum(axis=1)
+        return (rows * (1 + self.gamma)).max(axis=0)
+
+    def _matrices(self, lo: np.ndarray, hi: np.ndarray, shift: float) -> tuple[np.ndarray, np.ndarray]:
+        N, n = lo.shape[-1], self.n
+        L, H = lo.reshape(n, n, N, order="F"), hi.reshape(n, n, N, order="F")
+        L, H = np.maximum(L, L.transpose(1, 0, 2)), np.minimum(H, H.transpose(1, 0, 2))  # H is symmetric
+        mid = 0.5 * (L + H)
+        rad = _up(_up(0.5 * (H - L)) + U * np.abs(mid))
+        return mid + shift * np.eye(n)[:, :, None], rad
+
+    def __call__(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``(proved (N,), contributions (len(vary), N))`` on boxes (columns)."""
+        N = lo.shape[1]
+        c = np.minimum(np.maximum(0.5 * (lo + hi), lo), hi)
+        ec = self.H.enclose(c, c)
+        top = self._top(*self._congruence(*self._matrices(ec.lo, ec.hi, 2 * self.mu)))
+        g = self.dH.enclose(lo, hi)
+        nv = self.vary.size
+        glo = g.lo.reshape(self.n * self.n, nv, N, order="F")
+        ghi = g.hi.reshape(self.n * self.n, nv, N, order="F")
+        contrib = np.zeros((nv, N))
+        with np.errstate(invalid="ignore", over="ignore"):
+            for a, k in enumerate(self.vary):
+                r = _up(np.maximum(hi[k] - c[k], c[k] - lo[k]))
+                contrib[a] = self._rho(*self._congruence(*self._matrices(glo[:, a], ghi[:, a], 0.0))) * r
+            total = top + contrib.sum(axis=0)
+            total = total + self.gamma * (np.abs(top) + contrib.sum(axis=0))
+        valid = g.continuous & np.all(np.isfinite(glo) & np.isfinite(ghi), axis=(0, 1))
+        proved = valid & np.isfinite(total) & (total < 0)
+        rest = ~proved
+        if rest.any():
+            e = self.H.enclose(lo[:, rest], hi[:, rest])
+            with np.errstate(invalid="ignore", over="ignore"):
+                natural = self._top(*self._congruence(*self._matrices(e.lo, e.hi, 2 * self.mu)))
+            proved[rest] = e.continuous & np.isfinite(natural) & (natural < 0)
+        contrib = np.where(np.isfinite(contrib), contrib, np.inf)
+        return proved, contrib
 
 
-def _scaled_hessians(H: IntervalFunction, lo, hi, n: int, scale: np.ndarray, mu: float):
-    """Enclosures of ``D H D + 2 mu I`` on boxes (columns), symmetrised by intersection, and their continuity."""
-    e = H.enclose(lo, hi)
-    N = lo.shape[1]
-    hlo = e.lo.reshape(n, n, N, order="F")
-    hhi = e.hi.reshape(n, n, N, order="F")
-    hlo = np.maximum(hlo, hlo.transpose(1, 0, 2))  # H is symmetric: both enclosures hold
-    hhi = np.minimum(hhi, hhi.transpose(1, 0, 2))
-    s = np.outer(scale, scale)[:, :, None]
-    with np.errstate(invalid="ignore"):
-        a, b = hlo * s, hhi * s
-    hlo, hhi = _down(np.minimum(a, b)), _up(np.maximum(a, b))
-    idx = np.arange(n)
-    hlo[idx, idx] = _down(hlo[idx, idx] + 2 * mu)
-    hhi[idx, idx] = _up(hhi[idx, idx] + 2 * mu)
-    bad = np.isnan(hlo) | np.isnan(hhi)
-    hlo, hhi = np.where(bad, -np.inf, hlo), np.where(bad, np.inf, hhi)
-    return hlo, hhi, e.continuous
-
-
-def _negative_definite_on(H, lo0, hi0, n, scale, mu, budget: Budget) -> tuple[bool, int]:
-    """Whether ``D H D + 2 mu I`` is negative definite on every sub-box of ``[lo0, hi0]`` (split as needed)."""
+def _negative_definite_on(test: _HessianTest, lo0, hi0, budget: Budget) -> tuple[bool, int]:
+    """Whether ``D H D + 2 mu I`` is negative definite on every sub-box of ``[lo0, hi0]`` (split as needed: the
+    input with the largest term of the mean-value bound, else the widest relative to its range)."""
     width0 = np.where(hi0 > lo0, hi0 - lo0, 1.0)
-    weight = np.where(np.arange(lo0.size) < n, 1.0, UNCERTAINTY_SPLIT_WEIGHT)
     queue_lo, queue_hi = lo0[:, None].copy(), hi0[:, None].copy()
     boxes, t0 = 0, time.perf_counter()
     while queue_lo.shape[1]:
@@ -112,18 +168,16 @@ def _negative_definite_on(H, lo0, hi0, n, scale, mu, budget: Budget) -> tuple[bo
         blo, bhi = queue_lo[:, :take], queue_hi[:, :take]
         queue_lo, queue_hi = queue_lo[:, take:], queue_hi[:, take:]
         boxes += take
-        hlo, hhi, continuous = _scaled_hessians(H, blo, bhi, n, scale, mu)
-        ok = _gershgorin_negative(hlo, hhi) & continuous
-        for k in np.flatnonzero(~ok & continuous)[:EXACT_PER_BATCH]:
-            if np.all(np.isfinite(hlo[:, :, k])) and np.all(np.isfinite(hhi[:, :, k])):
-                ok[k] = interval_matrix_negative_definite(hlo[:, :, k], hhi[:, :, k])
-        blo, bhi = blo[:, ~ok], bhi[:, ~ok]
+        ok, contrib = test(blo, bhi)
+        blo, bhi, contrib = blo[:, ~ok], bhi[:, ~ok], contrib[:, ~ok]
         if blo.shape[1] == 0:
             continue
         rel = (bhi - blo) / width0[:, None]
         if np.any(rel.max(axis=0) <= MIN_WIDTH):
             return False, boxes
-        dims = (rel * weight[:, None]).argmax(axis=0)
+        smear = np.where(np.isfinite(contrib).all(axis=0), contrib.argmax(axis=0), -1)
+        widest = rel.argmax(axis=0)
+        dims = np.where(smear >= 0, test.vary[np.maximum(smear, 0)], widest)
         cols = np.arange(blo.shape[1])
         mid = 0.5 * (blo[dims, cols] + bhi[dims, cols])
         lo2, hi2 = np.concatenate([blo, blo], axis=1), np.concatenate([bhi, bhi], axis=1)
@@ -179,7 +233,6 @@ def quadratic_core(
     QuadraticCore
     """
     xs = x[:n]
-    H = IntervalFunction(ca.Function("H", [x], [ca.hessian(W, xs)[0]]))
     G = IntervalFunction(ca.Function("G", [x], [ca.gradient(W, xs)]))
     Wf = IntervalFunction(ca.Function("W", [x], [W]))
     scale = np.maximum(np.abs(lo[:n]), np.abs(hi[:n]))
@@ -190,20 +243,26 @@ def quadratic_core(
         return QuadraticCore(passed=False, why="V_dot has no Hessian at the origin (a switching or fractional term)")
     top = float(np.linalg.eigvalsh(0.5 * (h0 + h0.T)).max())
     if top >= 0:
-        return QuadraticCore(passed=False, why="the Hessian of V_dot at the origin is not negative definite")
-    t0, total = time.perf_counter(), 0
-    for frac in fractions:
-        for mu in (-top / 16,):
-            clo, chi = lo.copy(), hi.copy()
-            clo[:n], chi[:n] = lo[:n] * frac, hi[:n] * frac
-            ok, boxes = _negative_definite_on(H, clo, chi, n, scale, mu, budget)
-            total += boxes
-            if ok:
-                r = (g0 + math.sqrt(g0 * g0 + 4 * mu * w0)) / (2 * mu) if (g0 or w0) else 0.0
-                return QuadraticCore(
-                    passed=True, fraction=frac, half_widths=(scale * frac).tolist(), mu=mu, w0=w0, G=g0,
-                    r_star=_up(r * (1 + 1e-12)) if r > 0 else 0.0, boxes=total, seconds=time.perf_counter() - t0,
-                )  # fmt: skip
+        return QuadraticCore(
+            passed=False, why="the Hessian of V_dot at the origin is not negative definite", semidefinite=True
+        )
+    mu = -top / 16
+    test = _HessianTest(x, W, n, lo, hi, scale, mu)
+    t0, total, best = time.perf_counter(), 0, None
+    for frac in sorted(fractions):  # smallest first: the largest that passes is kept
+        clo, chi = lo.copy(), hi.copy()
+        clo[:n], chi[:n] = lo[:n] * frac, hi[:n] * frac
+        ok, boxes = _negative_definite_on(test, clo, chi, budget)
+        total += boxes
+        if not ok:
+            break
+        best = frac
+    if best is not None:
+        r = (g0 + math.sqrt(g0 * g0 + 4 * mu * w0)) / (2 * mu) if (g0 or w0) else 0.0
+        return QuadraticCore(
+            passed=True, fraction=best, half_widths=(scale * best).tolist(), mu=mu, w0=w0, G=g0,
+            r_star=_up(r * (1 + 1e-12)) if r > 0 else 0.0, boxes=total, seconds=time.perf_counter() - t0,
+        )  # fmt: skip
     return QuadraticCore(
         passed=False, why="the Hessian of V_dot is not negative definite on any core box tried", boxes=total
     )
