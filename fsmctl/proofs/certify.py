@@ -372,7 +372,9 @@ def _concave_upper(progs: LyapunovPrograms, lo, hi, n: int, scale: np.ndarray, m
     return total + 1e-12 * margin + 1e-300
 
 
-def excluded(problem: CertifyProblem, progs: LyapunovPrograms, core: dict, inner_level: float | None) -> Callable | None:
+def excluded(
+    problem: CertifyProblem, progs: LyapunovPrograms, core: dict, inner_level: float | None
+) -> Callable | None:
     """The search's exclusion: boxes of the core (:func:`inside_core`) and, with ``inner_level``, boxes on which
     ``V <= inner_level`` is proved (they belong to the inner set of an ultimately bounded certificate)."""
     in_core = inside_core(problem, core, progs)
