@@ -67,19 +67,20 @@ assert cert.verdict == "certified" and cert.kind == "asymptotic"
 # everything from the file alone.
 
 # %%
-folder = Path(tempfile.mkdtemp())
-cert.write(folder / "certificate.json", folder / "certificate.md")
-record = json.loads((folder / "certificate.json").read_text())
-print({k: record[k] for k in ("verdict", "kind", "headline")})
-print("level c =", record["outcome"]["level"], "; core:", record["outcome"]["core"]["fraction"], "x the region")
-check = check_certificate(folder / "certificate.json", arb_sample=8)
+with tempfile.TemporaryDirectory() as tmp:  # a folder of your own in practice: certify --out DIR
+    folder = Path(tmp)
+    cert.write(folder / "certificate.json", folder / "certificate.md")
+    record = json.loads((folder / "certificate.json").read_text())
+    print({k: record[k] for k in ("verdict", "kind", "headline")})
+    print("level c =", record["outcome"]["level"], "; core:", record["outcome"]["core"]["fraction"], "x the region")
+    check = check_certificate(folder / "certificate.json", arb_sample=8)
 print("\n".join(check.lines))
 assert check.ok
 
 # %% [markdown]
 # ## 3. A deliberately unstable law: the counterexample, flown
 #
-# `pd_unstable.py` applies the rate term with the wrong sign: $V_{dot} = +P|\omega|^2$.  Certify proves a point
+# `pd_unstable.py` applies the rate term with the wrong sign: $\dot V = +P|\omega|^2$.  Certify proves a point
 # where $\dot V > 0$ (confirmed in ball arithmetic); the simulator flies the isolated agent from there.
 
 # %%

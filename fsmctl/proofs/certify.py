@@ -518,8 +518,6 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
     """Extent of ``{V <= c}`` and ``{V <= c_in}``, the decrease on the annulus and the time to cross it."""
     s = out.search
     n = problem.n_state
-    lo, hi = s.proved_lo, s.proved_hi
-    vlo, _ = progs.v_bounds(lo, hi)
     names = problem.names[:n]
 
     def extent(level: float) -> dict:
@@ -527,8 +525,11 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
         return dict(zip(names, m.tolist(), strict=True))
 
     out.level_extent = extent(out.level)
-    annulus = (vlo <= out.level) & (vlo >= (c_in or 0.0))
-    if c_in is not None and c_in > 0 and np.any(annulus):
+    if c_in is None:
+        return
+    vlo, _ = progs.v_bounds(s.proved_lo, s.proved_hi)
+    annulus = (vlo <= out.level) & (vlo >= c_in)
+    if c_in > 0 and np.any(annulus):
         # V_dot <= -m on the leaves of {c_mid <= V <= c}: the time from {V <= c} down to c_mid is at most (c - c_mid)/m
         c_mid = 0.5 * (c_in + out.level)
         band = annulus & (vlo >= c_mid)
@@ -536,7 +537,7 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
             out.decrease = float(-s.proved_sup[band].max())
             if out.decrease > 0:
                 out.reach_time = float((out.level - c_mid) / out.decrease)
-    if c_in is not None and problem.hi[n:].any():
+    if problem.hi[n:].any():
         ext = extent(c_in)
         sig = max(ext[f"sigma_e[{k}]"] for k in range(3))
         om = max(ext[f"omega_e[{k}]"] for k in range(3))
@@ -547,8 +548,8 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
         }
 
 
-EXTENT_STEPS = 7
-"""bisection steps per state input and side of :func:`sublevel_extent` (the bound is within 2^-7 of the region's
+EXTENT_STEPS = 6
+"""bisection steps per state input and side of :func:`sublevel_extent` (the bound is within 2^-6 of the region's
 half-width of the best this route can prove)"""
 EXTENT_BUDGET = Budget(max_boxes=20_000, max_seconds=60.0, batch=1024)
 """per slab of :func:`sublevel_extent` (bounded by boxes: reproducible)"""

@@ -35,7 +35,7 @@ __all__ = ["CORE_FRACTIONS", "HESSIAN_BUDGET", "QuadraticCore", "quadratic_core"
 
 CORE_FRACTIONS = (1.0, 0.5, 0.25, 0.125, 0.0625)
 """core boxes tried, as fractions of the region's half-widths (smallest first, up to the first that fails)"""
-HESSIAN_BUDGET = Budget(max_boxes=20_000, max_seconds=600.0, batch=2048)
+HESSIAN_BUDGET = Budget(max_boxes=10_000, max_seconds=600.0, batch=2048)
 """the box-by-box proof of negative definiteness on one core box (bounded by boxes: reproducible on re-check)"""
 MIN_WIDTH = 1.0 / 64
 """a core sub-box narrower than this (in the scaled coordinates) is not split: the core fraction fails"""
