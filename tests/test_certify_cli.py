@@ -32,7 +32,7 @@ def test_certified_writes_and_rechecks(capsys, tmp_path):
     assert out.with_suffix(".md").read_text().startswith("# Certificate: my_pd")
     code, text, _ = _run(capsys, "--check", str(out))
     assert code == 0, text
-    assert text.startswith("re-checked: every statement holds")
+    assert text.startswith("re-checked: every statement holds; the file certifies its law")
 
 
 def test_counterexample_flown_exit_1(capsys, tmp_path):
@@ -43,6 +43,17 @@ def test_counterexample_flown_exit_1(capsys, tmp_path):
     assert text.startswith("counterexample: V_dot =")
     assert (tmp_path / "counterexample.png").is_file()
     assert "flown from the counterexample" in out.with_suffix(".md").read_text()
+    # the re-check holds (the counterexample is confirmed) but the file certifies nothing: exit 1, said first
+    code, text, _ = _run(capsys, "--check", str(out))
+    assert code == 1
+    assert text.splitlines()[0].endswith("the file's verdict is counterexample: it certifies nothing")
+    # a hand-edited verdict that does not match the file is bad input
+    d = json.loads(out.read_text())
+    d["outcome"]["counterexample"] = None
+    bad = tmp_path / "edited.json"
+    bad.write_text(json.dumps(d))
+    code, _, err = _run(capsys, "--check", str(bad))
+    assert code == 2 and "does not match" in err and len(err.strip().splitlines()) == 1
 
 
 def test_json_summary(capsys, tmp_path):
@@ -57,6 +68,7 @@ def test_json_summary(capsys, tmp_path):
     [
         (["--law", "nonexistent_law"], "nonexistent_law"),
         (["--law", "pid", "--region-sigma", "1.5"], "sigma"),
+        (["--law", "pid", "--region-sigma", "0.6"], "0.577"),  # the box's corners beyond |sigma_e| = 1
         (["--law", "pid", "--region-omega", "-1"], "--region-omega"),
         (["--check", "missing.json"], "missing.json"),
         ([], "--law"),

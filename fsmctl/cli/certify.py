@@ -7,8 +7,8 @@ stated sets (:func:`fsmctl.proofs.certificate.certify_law`, :mod:`fsmctl.proofs.
 as JSON (everything needed to re-check it) and Markdown; ``fsmctl certify --check FILE.json`` re-checks a file
 (:func:`fsmctl.proofs.certificate.check_certificate`).
 
-Exit codes: 0 certified (``--check``: every statement re-proved); 1 a counterexample or inconclusive (``--check``:
-a statement did not re-check); 2 usage or input error.
+Exit codes: 0 certified (``--check``: every statement re-proved and the file certifies); 1 a counterexample or
+inconclusive (``--check``: a statement did not re-check, or the file certifies nothing); 2 usage or input error.
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from fsmctl.cli.options import add_case_option, add_out_option, add_progress_opt
 __all__ = ["EXIT_CODES", "add_parser", "run"]
 
 EXIT_CODES = {
-    0: "certified (with --check: every statement of the file re-proved)",
-    1: "a counterexample, or inconclusive (with --check: a statement did not re-check)",
+    0: "certified (with --check: every statement of the file re-proved, and the file certifies)",
+    1: "a counterexample, or inconclusive (with --check: a statement did not re-check, or the file certifies nothing)",
 }
 """What ``fsmctl certify``'s exit codes 0 and 1 mean."""
 
@@ -102,7 +102,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="auto: the law's declared V, then the V fsmctl finds (cross term, quadratic); declared: only "
                    "the law's own V (default: auto)")  # fmt: skip
     s.add_argument("--seconds", type=float, default=search.max_seconds, metavar="S",
-                   help=f"budget of the branch and bound per candidate V (default: {search.max_seconds:g})")  # fmt: skip
+                   help=f"budget of the branch and bound per candidate V (default: {search.max_seconds:g}); up to 3 "
+                        "candidates, plus the origin's argument and the levels: the run takes longer")  # fmt: skip
     add_out_option(p, None, help="output folder: certificate.json, certificate.md and, for a counterexample, its "
                    "flight's figure (default: ./certify-<law>)")  # fmt: skip
     s.add_argument("--report", type=Path, default=None, metavar="FILE.md",
@@ -221,7 +222,12 @@ def _check(args) -> int:
     from fsmctl.proofs.certificate import check_certificate
 
     result = check_certificate(args.certificate_file)
-    first = "re-checked: every statement holds" if result.ok else "NOT re-checked: a statement fails"
+    if not result.ok:
+        first = "NOT re-checked: a statement fails"
+    elif result.certified:
+        first = "re-checked: every statement holds; the file certifies its law"
+    else:
+        first = f"re-checked: every statement holds, but the file's verdict is {result.verdict}: it certifies nothing"
     print(first)
     print("\n".join(result.lines))
-    return 0 if result.ok else 1
+    return 0 if result.certified else 1

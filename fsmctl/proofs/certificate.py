@@ -34,6 +34,7 @@ from fsmctl.proofs.certify import (
     CANDIDATE_CHOICES,
     CERTIFIED,
     COUNTEREXAMPLE,
+    INCONCLUSIVE,
     CandidateOutcome,
     SearchSettings,
     certify_candidate,
@@ -166,8 +167,21 @@ class Certificate:
                 f"on the core V_dot <= -{core['mu']:.4g} |y|^2, y = sigma_e, omega_e scaled by the region's half-widths"
             )
             if core.get("r_star"):
-                text += f", outside |y| <= {core['r_star']:.4g}"
+                text = (
+                    f"on the core V_dot <= {core['w0']:.4g} + {core['G']:.4g} |y| - {core['mu']:.4g} |y|^2, y = sigma_e,"
+                    f" omega_e scaled by the region's half-widths: V_dot < 0 outside |y| <= {core['r_star']:.4g}, and on"
+                    " each box of the core where V_dot(c) + grad V_dot(c).(y - c) - mu |y - c|^2 < 0 about its centre c"
+                )
             out.append(text)
+        if o.get("inner_target") is not None and self.verdict == CERTIFIED:
+            ub = o.get("ultimate_bound") or {}
+            out.append(
+                f"inner set: leaves with V <= {o['inner_target']:.6g} (half the least V on the region's boundary) are "
+                f"left to it unproved; {{V <= {o['inner_level']:.6g}}} lies in |sigma_e,k| <= "
+                f"{ub.get('sigma_e_max', float('nan')):.4g} (attitude error <= "
+                f"{ub.get('attitude_error_max_deg', float('nan')):.3g} deg), |omega_e,k| <= "
+                f"{ub.get('omega_e_max_rad_s', float('nan')):.4g} rad/s"
+            )
         if o.get("decrease") and o.get("reach_time") is not None:
             c_mid = 0.5 * (o["inner_level"] + o["level"])
             out.append(
@@ -177,11 +191,11 @@ class Certificate:
         cov = o.get("volume", {})
         out.append(
             f"search: {o.get('boxes', 0)} boxes in {o.get('seconds', 0):.1f} s; proved {100 * cov.get('proved', 0):.4g} %"
-            f", core {100 * cov.get('excluded', 0):.4g} %, undecided {100 * cov.get('undecided', 0):.4g} %, "
+            f", core or inner set {100 * cov.get('excluded', 0):.4g} %, undecided {100 * cov.get('undecided', 0):.4g} %, "
             f"V_dot > 0 {100 * cov.get('positive', 0):.4g} % of the region x uncertainty"
         )
         for a in self.attempts[:-1]:
-            out.append(f"tried first: {a['describe']}: {a['verdict']} ({a['why']})")
+            out.append(f"also tried: {a['describe']}: {a['verdict']} ({a['why']})")
         out.extend(f"note: {n}" for n in self.notes)
         return out
 
@@ -203,7 +217,7 @@ class Certificate:
         if o.get("inner_level") is not None:
             rows.append(("inner level c_in", f"{o['inner_level']:.9g}"))
         text = [f"# Certificate: {self.law['name']}", "", self.headline(), "", "| | |", "|---|---|"]
-        text += [f"| {k} | {v} |" for k, v in rows]
+        text += [f"| {k} | {_cell(v)} |" for k, v in rows]
         text += ["", "## V", "", "```", self.candidate["expression"], "```", "", "## Report", ""]
         text += [f"- {line}" for line in self.lines()[1:]]
         text += ["", "Re-check: `fsmctl certify --check certificate.json` (the JSON file beside this report)", ""]
@@ -274,6 +288,7 @@ def outcome_dict(o: CandidateOutcome) -> dict:
     return {
         "level": o.level,
         "inner_level": o.inner_level,
+        "inner_target": o.inner_target,
         "boundary_level": o.boundary_level,
         "level_extent": o.level_extent,
         "ultimate_bound": o.ultimate_bound,
@@ -301,7 +316,14 @@ def candidate_dict(c: Candidate) -> dict:
     }
 
 
+def _cell(text: str) -> str:
+    """A Markdown table cell: its ``|`` escaped (``|sigma_e,k|`` would split the row)."""
+    return text.replace("|", r"\|")
+
+
 def _why(o: CandidateOutcome) -> str:
+    if o.verdict == CERTIFIED:
+        return "the answer"
     if o.counterexample:
         return f"V_dot = {o.counterexample['V_dot']:.3g} > 0 at a point"
     return o.difficulty or "not proved"
@@ -313,14 +335,22 @@ def tree_of(o: CandidateOutcome) -> dict:
 
 
 def choose_outcome(outcomes: list[CandidateOutcome]) -> CandidateOutcome:
-    """The answer: the first certified candidate, else the declared candidate's counterexample, else the first."""
+    """The answer: the first certified candidate, else the declared candidate's counterexample, else the candidate
+    that left the least of the region undecided (the first of equals)."""
     for o in outcomes:
         if o.verdict == CERTIFIED:
             return o
     for o in outcomes:
         if o.verdict == COUNTEREXAMPLE and o.candidate.kind == "declared":
             return o
-    return outcomes[0]
+
+    def undecided(o: CandidateOutcome) -> float:
+        if o.search is None:
+            return math.inf
+        v = o.search.volume
+        return v.get("undecided", 0.0) + v.get("positive", 0.0)
+
+    return min(outcomes, key=undecided)
 
 
 # ----------------------------------------------------------------------------------------------- the question
@@ -521,7 +551,7 @@ def certify_law(
         return Certificate(
             "inconclusive", None, lawd, info, region, uncertainty,
             {"kind": "none", "describe": "no candidate", "expression": "", "epsilon": None, "P": None, "note": ""},
-            {"difficulty": "no Lyapunov candidate: " + "; ".join(notes), "level": 0.0}, [], notes, {},
+            {"difficulty": "no Lyapunov candidate: " + "; ".join(more), "level": 0.0}, [], notes, {},
             problem.names, _versions(), problem.route,
         )  # fmt: skip
     chosen = choose_outcome(outcomes)
@@ -549,10 +579,17 @@ def _by_name(code, params: np.ndarray) -> list:
 
 @dataclass(frozen=True)
 class CertificateCheck:
-    """What :func:`check_certificate` re-established: ``ok`` and one line per step."""
+    """What :func:`check_certificate` re-established: ``ok`` (every statement of the file holds), one line per step,
+    and the file's ``verdict`` (a file that holds may still certify nothing: ``certified`` is what to trust)."""
 
     ok: bool
     lines: tuple[str, ...]
+    verdict: str = CERTIFIED
+
+    @property
+    def certified(self) -> bool:
+        """Every statement holds and the file certifies its law."""
+        return self.ok and self.verdict == CERTIFIED
 
 
 def check_certificate(path: str | Path, *, arb_sample: int | None = ARB_SAMPLE, seed: int = 0) -> CertificateCheck:
@@ -609,8 +646,13 @@ def check_certificate(path: str | Path, *, arb_sample: int | None = ARB_SAMPLE, 
         raise CertificateError(f"{path}: the law's torque enters differently now ({problem.route})")
     if problem.names != d["inputs"]:
         raise CertificateError(f"{path}: the closed loop's inputs differ from the certificate's")
+    verdict = d["verdict"]
+    if verdict not in (CERTIFIED, COUNTEREXAMPLE, INCONCLUSIVE) or (
+        verdict == COUNTEREXAMPLE and not (d["outcome"] or {}).get("counterexample")
+    ):
+        raise CertificateError(f"{path}: the verdict {verdict!r} does not match the rest of the file")
     if not d["candidate"]["expression"]:
-        return CertificateCheck(d["verdict"] != CERTIFIED, ("no candidate: nothing to re-check",))
+        return CertificateCheck(verdict != CERTIFIED, ("no candidate: nothing to re-check",), verdict)
     V = candidate_from_record(d["candidate"], problem.n_state - 6)
     ok, lines = recheck(problem, V, d, arb_sample=arb_sample, seed=seed)
-    return CertificateCheck(ok, tuple(lines))
+    return CertificateCheck(ok, tuple(lines), verdict)

@@ -492,7 +492,7 @@ def _judge(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutco
     else:
         out.verdict = INCONCLUSIVE
         out.difficulty = out.core.get("why", "") if asymptotic and not out.core.get("passed") else ""
-        out.difficulty = out.difficulty or _difficulty(problem, progs, s)
+        out.difficulty = out.difficulty or _difficulty(problem, progs, s, bool(out.core.get("semidefinite")))
     if c_in is not None or out.level > 0:
         if out.level > (c_in or 0.0):
             _levels_report(problem, progs, out, c_in)
@@ -607,7 +607,7 @@ def _counterexample(problem: CertifyProblem, progs: LyapunovPrograms, points: np
     }
 
 
-def _difficulty(problem: CertifyProblem, progs: LyapunovPrograms, s: SignSearch) -> str:
+def _difficulty(problem: CertifyProblem, progs: LyapunovPrograms, s: SignSearch, screened: bool = False) -> str:
     """Where the undecided leaves are, in words."""
     if s.undecided_lo.shape[0] == 0:
         return ""
@@ -622,5 +622,8 @@ def _difficulty(problem: CertifyProblem, progs: LyapunovPrograms, s: SignSearch)
     if near > 0:
         parts.append(f"{100 * near:.0f} % lie within 10 % of the region around the origin")
     if s.exhausted:
-        parts.append("the budget ran out")
+        parts.append(
+            "the budget ran out"
+            + (" (the screening share: V_dot is not negative definite at the origin)" if screened else "")
+        )
     return "; ".join(parts)

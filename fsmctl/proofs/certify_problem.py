@@ -99,10 +99,10 @@ class StateRegion:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise CertifyInputError(f"region: {name} must be a finite number > 0, got {v!r}")
-        if self.sigma >= 1:
+        if 3 * self.sigma**2 >= 1:
             raise CertifyInputError(
-                f"region: sigma = {self.sigma:g} reaches |sigma_e| = 1 (a rotation of 180 deg, where MRPs switch "
-                "set): take sigma < 1"
+                f"region: sigma = {self.sigma:g} puts the box's corners at |sigma_e| = sqrt(3) sigma >= 1 (a rotation "
+                "of 180 deg, where MRPs switch set and the law's torque changes form): take sigma < 0.577"
             )
 
     def describe(self, n_states: int) -> str:

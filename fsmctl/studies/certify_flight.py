@@ -58,6 +58,8 @@ class CounterexampleFlight:
 
         fig, (a, b) = plt.subplots(2, 1, sharex=True, figsize=(7, 5), constrained_layout=True)
         a.plot(self.time, self.V, color="C3")
+        if np.all(self.V > 0):  # V grows by orders of magnitude along a divergent flight
+            a.set_yscale("log")
         a.set_ylabel("V along the flight")
         a.set_title("flown from the counterexample (V_dot > 0 at t = 0)")
         b.plot(self.time, self.attitude_error_deg, color="C0")
