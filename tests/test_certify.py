@@ -136,6 +136,21 @@ def test_wrong_candidate_refuted():
     assert np.isclose(c["V_dot"], analytic, rtol=1e-9, atol=1e-15)
 
 
+def test_known_region_of_attraction_certified_within_tolerance():
+    """``x_dot = -x (1 - x^2)`` attracts exactly |x| < 1: the declared V is certified on |x| <= 0.9 (the analytic
+    boundary within the stated tolerance 0.1); the core grows along the attitude inputs, not along x (the Hessian of
+    -x^2 (1 - x^2) is negative only for |x| < 1/sqrt(6))."""
+    cert = _certify(
+        LAWS / "pd_bistable_state.py",
+        region=StateRegion(0.02, 0.005, 0.9),
+        uncertainty=Uncertainty(),
+        candidates="declared",
+    )
+    assert (cert.verdict, cert.kind) == ("certified", "asymptotic")
+    f = cert.outcome["core"]["fractions"]
+    assert f[-1] * 0.9 < 1 / np.sqrt(6) and min(f[:6]) >= f[-1]
+
+
 def test_known_region_of_attraction_boundary_refuted_beyond_it():
     """``x_dot = -x (1 - x^2)`` attracts exactly |x| < 1: on |x| <= 1.05 the declared V is refuted at |x| > 1."""
     cert = _certify(

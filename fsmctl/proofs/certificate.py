@@ -154,7 +154,7 @@ class Certificate:
         if o.get("core", {}).get("passed"):
             out.append(
                 f"origin: V_dot(0) = 0, grad V_dot(0) = 0 (ball arithmetic), Hessian of V_dot negative definite on the "
-                f"core box of {o['core']['fraction']:g} x the region"
+                f"core box of {_fractions(o['core'])} x the region"
             )
         if o.get("level_extent"):
             ext = o["level_extent"]
@@ -314,6 +314,12 @@ def candidate_dict(c: Candidate) -> dict:
         "P": None if c.P is None else [list(r) for r in c.P],
         "note": c.note,
     }
+
+
+def _fractions(core: dict) -> str:
+    """The core box's size: one fraction of the region, or one per state input."""
+    f = core.get("fractions") or [core["fraction"]]
+    return f"{f[0]:g}" if len(set(f)) == 1 else "(" + ", ".join(f"{v:g}" for v in f) + ")"
 
 
 def _cell(text: str) -> str:

@@ -306,11 +306,14 @@ def lyapunov_programs(problem: CertifyProblem, V) -> LyapunovPrograms:
     return LyapunovPrograms(*progs, fW, v, neg, neg_grad)
 
 
-def origin_argument(problem: CertifyProblem, progs: LyapunovPrograms, fractions=CORE_FRACTIONS) -> QuadraticCore:
-    """The second-order argument near the origin (:func:`fsmctl.proofs.certify_core.quadratic_core`)."""
+def origin_argument(
+    problem: CertifyProblem, progs: LyapunovPrograms, fractions=CORE_FRACTIONS, box: np.ndarray | None = None
+) -> QuadraticCore:
+    """The second-order argument near the origin (:func:`fsmctl.proofs.certify_core.quadratic_core`; ``box``: on
+    exactly that core box, as fractions of the region per state input)."""
     return quadratic_core(
         problem.x, progs.W_function(problem.x), problem.n_state, problem.lo, problem.hi, fractions=fractions,
-        precision=BALL_PRECISION,
+        precision=BALL_PRECISION, box=box,
     )  # fmt: skip
 
 

@@ -150,7 +150,9 @@ def _recheck_excluded(problem, progs, out, leaves, step) -> None:
     xlo, xhi = leaves[EXCLUDED]
     ok = np.zeros(xlo.shape[0], bool)
     if core.get("passed"):
-        again = origin_argument(problem, progs, fractions=(core["fraction"],))
+        again = origin_argument(
+            problem, progs, box=np.asarray(core.get("fractions") or [core["fraction"]] * problem.n_state)
+        )
         step(
             bool(again.get("passed")) and again["r_star"] <= core["r_star"],
             "the origin's argument (ball arithmetic at 0, Hessian on the core box) holds"

@@ -15,7 +15,8 @@ the origin, when the origin is an equilibrium: ``w0 = G = 0``, proved in ball ar
 definiteness is proved box by box (:class:`_HessianTest`): after the congruence that makes the nominal Hessian
 ``-I``, Weyl's inequality on the mean-value form of ``H`` (third derivatives enclosed on the box), else Gershgorin's
 discs of the natural enclosure; a box that passes neither is split along the input whose term of the mean-value bound
-is largest.  The core boxes are tried from the smallest up, the largest that passes is kept.  Sylvester's law of
+is largest.  Uniform core boxes are tried from the smallest up, the largest that passes is kept, then grown along
+each state input on its own while the test holds.  Sylvester's law of
 inertia, Weyl's inequality and Gershgorin's discs are the only facts used (Horn & Johnson, Matrix Analysis, 2nd ed.,
 4.5.8, 4.3.1 and 6.1.1).
 """
@@ -44,7 +45,8 @@ MIN_WIDTH = 1.0 / 64
 class QuadraticCore(dict):
     """The outcome of :func:`quadratic_core` (a dict, for the certificate's JSON).
 
-    Keys: ``passed``; when passed ``fraction`` (of the region), ``half_widths`` (of the core box, unscaled),
+    Keys: ``passed``; when passed ``fractions`` (of the region's half-widths, per state input), ``fraction`` (their
+    least), ``half_widths`` (of the core box, unscaled),
     ``mu``, ``w0``, ``G``, ``r_star`` (in scaled units), ``boxes``; otherwise ``why`` (and ``semidefinite`` when the
     nominal Hessian at the origin is not negative definite: ``V_dot`` does not decrease quadratically in some
     direction, so no certificate is expected near the origin).
@@ -208,6 +210,7 @@ def quadratic_core(
     fractions=CORE_FRACTIONS,
     budget: Budget = HESSIAN_BUDGET,
     precision: int = 256,
+    box: np.ndarray | None = None,
 ) -> QuadraticCore:
     """The largest core box on which the second-order argument holds (see the module docstring).
 
@@ -225,6 +228,9 @@ def quadratic_core(
         Core boxes tried (fractions of the region's state half-widths).
     budget : Budget
         Per core box.
+    box : numpy.ndarray, optional
+        ``(n,)`` fractions of the region's half-widths per state input: test exactly this core box (a re-check)
+        instead of searching the largest.
     precision : int
         Bits of the ball arithmetic at the origin.
 
@@ -248,21 +254,56 @@ def quadratic_core(
         )
     mu = -top / 16
     test = _HessianTest(x, W, n, lo, hi, scale, mu)
-    t0, total, best = time.perf_counter(), 0, None
-    for frac in sorted(fractions):  # smallest first: the largest that passes is kept
-        clo, chi = lo.copy(), hi.copy()
-        clo[:n], chi[:n] = lo[:n] * frac, hi[:n] * frac
-        ok, boxes = _negative_definite_on(test, clo, chi, budget)
-        total += boxes
-        if not ok:
-            break
-        best = frac
-    if best is not None:
+    t0, total = time.perf_counter(), 0
+    if box is not None:  # the re-check: exactly this core box
+        f = np.asarray(box, float)
+        ok, total = _negative_definite_on(test, *_core_box(lo, hi, n, f), budget)
+    else:
+        f, total = _largest_core(test, lo, hi, n, fractions, budget)
+        ok = f is not None
+    if ok:
         r = (g0 + math.sqrt(g0 * g0 + 4 * mu * w0)) / (2 * mu) if (g0 or w0) else 0.0
         return QuadraticCore(
-            passed=True, fraction=best, half_widths=(scale * best).tolist(), mu=mu, w0=w0, G=g0,
-            r_star=_up(r * (1 + 1e-12)) if r > 0 else 0.0, boxes=total, seconds=time.perf_counter() - t0,
+            passed=True, fraction=float(f.min()), fractions=f.tolist(), half_widths=(scale * f).tolist(), mu=mu,
+            w0=w0, G=g0, r_star=_up(r * (1 + 1e-12)) if r > 0 else 0.0, boxes=total,
+            seconds=time.perf_counter() - t0,
         )  # fmt: skip
     return QuadraticCore(
         passed=False, why="the Hessian of V_dot is not negative definite on any core box tried", boxes=total
     )
+
+
+GROWTH_SHARE = 8
+"""a core box grown along one state input gets ``1 / GROWTH_SHARE`` of the budget (most such attempts fail)"""
+
+
+def _core_box(lo: np.ndarray, hi: np.ndarray, n: int, f: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    clo, chi = lo.copy(), hi.copy()
+    clo[:n], chi[:n] = lo[:n] * f, hi[:n] * f
+    return clo, chi
+
+
+def _largest_core(test, lo, hi, n: int, fractions, budget: Budget) -> tuple[np.ndarray | None, int]:
+    """The uniform fractions from the smallest up (the largest that passes), then each state input's fraction
+    doubled (up to 1) while the test still holds: ``(per-input fractions or None, boxes)``."""
+    best, total = None, 0
+    for frac in sorted(fractions):
+        ok, boxes = _negative_definite_on(test, *_core_box(lo, hi, n, np.full(n, frac)), budget)
+        total += boxes
+        if not ok:
+            break
+        best = frac
+    if best is None:
+        return None, total
+    f = np.full(n, float(best))
+    small = Budget(max_boxes=budget.max_boxes // GROWTH_SHARE, max_seconds=budget.max_seconds, batch=budget.batch)
+    for k in range(n):
+        while f[k] < 1:
+            g = f.copy()
+            g[k] = min(1.0, 2 * f[k])
+            ok, boxes = _negative_definite_on(test, *_core_box(lo, hi, n, g), small)
+            total += boxes
+            if not ok:
+                break
+            f = g
+    return f, total
