@@ -32,6 +32,15 @@ def _certify(law, **kw):
     return certify_law(str(law), **kw)
 
 
+def _recheck_scaled(path, tmp_path, key, factor):
+    """Re-check a copy of a certificate file whose ``outcome[key]`` is multiplied by ``factor``."""
+    d = json.loads(path.read_text())
+    d["outcome"][key] *= factor
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(d))
+    return check_certificate(bad, arb_sample=2)
+
+
 def _skew(v):
     return np.array([[0, -v[2], v[1]], [v[2], 0, -v[0]], [-v[1], v[0], 0]])
 
@@ -103,11 +112,7 @@ def test_certificate_file_rechecks(pd_certificate):
 def test_tampered_certificate_fails_recheck(pd_certificate, tmp_path):
     """A certificate whose level is raised past V's minimum on the region's boundary does not re-check."""
     _, path = pd_certificate
-    d = json.loads(path.read_text())
-    d["outcome"]["level"] *= 4
-    bad = tmp_path / "bad.json"
-    bad.write_text(json.dumps(d))
-    result = check_certificate(bad, arb_sample=2)
+    result = _recheck_scaled(path, tmp_path, "level", 4)
     assert not result.ok
     assert any("FAILS" in line and "boundary" in line for line in result.lines)
 
@@ -212,11 +217,7 @@ def test_ultimately_bounded_certificate_is_sound_and_rechecks(ub_certificate, tm
     assert annulus.sum() > 100
     assert np.array(fW.map(int(annulus.sum()))(x[annulus].T)).max() < 0
     assert check_certificate(path, arb_sample=4).ok
-    d = json.loads(path.read_text())
-    d["outcome"]["inner_level"] *= 0.25
-    bad = tmp_path / "bad.json"
-    bad.write_text(json.dumps(d))
-    result = check_certificate(bad, arb_sample=2)
+    result = _recheck_scaled(path, tmp_path, "inner_level", 0.25)
     assert not result.ok
     assert any("FAILS" in line for line in result.lines)
 
