@@ -85,7 +85,10 @@ class _HessianTest:
     with twice the number of terms.
     """
 
-    def __init__(self, x: ca.SX, W: ca.SX, n: int, lo: np.ndarray, hi: np.ndarray, scale: np.ndarray, mu: float):
+    def __init__(
+        self, x: ca.SX, W: ca.SX, n: int, lo: np.ndarray, hi: np.ndarray, scale: np.ndarray, mu: float, h0: np.ndarray
+    ):
+        """``h0``: the scaled Hessian at the nominal point (``(n, n)``), for the congruence."""
         self.n, self.mu = n, mu
         self.vary = np.flatnonzero(hi > lo)
         D = ca.diag(ca.DM(scale))
@@ -93,8 +96,6 @@ class _HessianTest:
         self.H = IntervalFunction(ca.Function("hessian_scaled", [x], [Hs]))
         xv = ca.vertcat(*[x[int(k)] for k in self.vary]) if self.vary.size else ca.SX(0, 1)
         self.dH = IntervalFunction(ca.Function("hessian_scaled_jacobian", [x], [ca.jacobian(Hs, xv)]))
-        nominal = 0.5 * (lo + hi)
-        h0 = np.array(ca.Function("h0", [x], [Hs])(nominal), float).reshape(n, n, order="F")
         lam, Q = np.linalg.eigh(0.5 * (h0 + h0.T))
         self.T = Q / np.sqrt(np.abs(lam))  # any invertible T is sound; this one makes T^T H0 T = -I
         self.absT = np.abs(self.T)
@@ -253,7 +254,7 @@ def quadratic_core(
             passed=False, why="the Hessian of V_dot at the origin is not negative definite", semidefinite=True
         )
     mu = -top / 16
-    test = _HessianTest(x, W, n, lo, hi, scale, mu)
+    test = _HessianTest(x, W, n, lo, hi, scale, mu, h0)
     t0, total = time.perf_counter(), 0
     if box is not None:  # the re-check: exactly this core box
         f = np.asarray(box, float)
