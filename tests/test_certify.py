@@ -102,11 +102,14 @@ def test_certificate_is_sound_against_dense_sampling(pd_certificate):
 
 
 def test_certificate_file_rechecks(pd_certificate):
-    _, path = pd_certificate
+    cert, path = pd_certificate
     result = check_certificate(path, arb_sample=8)
     assert result.ok, result.lines
     assert any("partition of the region" in line for line in result.lines)
-    assert "certified" in path.with_suffix(".md").read_text()
+    md = path.with_suffix(".md").read_text()
+    assert "certified" in md
+    assert r"| region | \|sigma_e,k\| <= 0.1" in md  # a table cell's | escaped
+    assert cert.attempts[-1] == {"describe": cert.candidate["describe"], "verdict": "certified", "why": "the answer"}
 
 
 def test_tampered_certificate_fails_recheck(pd_certificate, tmp_path):
