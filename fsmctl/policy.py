@@ -123,6 +123,11 @@ TUNE_BATCH = 8
 """Trials a tuning study proposes, flies (in parallel) and tells together; part of the study: its trials depend on
 it, not on the number of workers."""
 
+EXPORT_CONTROL_PERIOD = 0.01
+"""s: the control period of an exported law (``fsmctl export``) and of its software-in-the-loop flight when the
+scenario flies continuous control (the paper's scenario): 100 Hz, a common attitude-control rate on a flight
+computer, and ten of the paper scenario's 1 ms integrator steps."""
+
 DASK_TIMEOUT_S = 10.0
 """s: how long a Dask scheduler gets to accept the connection and send its handshake (``--dask-timeout``)."""
 

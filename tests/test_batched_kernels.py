@@ -196,9 +196,9 @@ def test_batched_and_scalar_simulations_are_bit_identical(library, paper_case1, 
 
 def _build_defines(macro: str) -> bool | None:
     """Whether the library's compiler, with the library's flags, predefines ``macro`` (None: cannot tell)."""
-    from fsmctl.model.generated_code import _compiler
+    from fsmctl.model.generated_code import c_compiler
 
-    cc, flags = _compiler(), [f for f in compiled_library().flags if f not in ("-shared", "-fPIC")]
+    cc, flags = c_compiler(), [f for f in compiled_library().flags if f not in ("-shared", "-fPIC")]
     try:
         proc = subprocess.run([cc, *flags, "-dM", "-E", "-x", "c", os.devnull], capture_output=True, text=True)
     except OSError:
@@ -248,9 +248,9 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     """Each operation the printer knows, compiled both ways with the library's compiler and flags, on every pair
     of special values (signed zeros, subnormals, huge, infinities, NaN): bit-identical, except fmin/fmax ties of
     +0 and -0 (unspecified in C99)."""
-    from fsmctl.model.generated_code import _compiler, _driver_dir, compile_flags, math_include_args
+    from fsmctl.model.generated_code import driver_source_dir, c_compiler, compile_flags, math_include_args
 
-    cc = _compiler()
+    cc = c_compiler()
     if cc is None:
         pytest.skip("no C compiler")
     x, y = ca.SX.sym("x"), ca.SX.sym("y")
@@ -273,9 +273,9 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     (tmp_path / "g_b.c").write_text(batched_source([("g", g)], "g_b.h"))
     flags, _ = compile_flags(cc)
     so = tmp_path / "g.so"
-    math = [str(_driver_dir() / f) for f in ("fsm_pow.c", "fsm_trig.c")]  # fsmctl's pow, sin, cos: as the library
+    math = [str(driver_source_dir() / f) for f in ("fsm_pow.c", "fsm_trig.c")]  # fsmctl's pow, sin, cos: as the library
     sources = [str(tmp_path / "g.c"), str(tmp_path / "g_b.c"), *math]
-    cmd = [cc, *flags, f"-I{tmp_path}", f"-I{_driver_dir()}", *math_include_args(), *sources, "-o", str(so), "-lm"]
+    cmd = [cc, *flags, f"-I{tmp_path}", f"-I{driver_source_dir()}", *math_include_args(), *sources, "-o", str(so), "-lm"]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     lib = ctypes.CDLL(str(so))

@@ -202,7 +202,7 @@ def _default_compiler(monkeypatch) -> str:
     """The compiler the subprocesses use without ``CC`` (the good build's)."""
     with monkeypatch.context() as m:
         m.delenv("CC", raising=False)
-        return generated_code._compiler()
+        return generated_code.c_compiler()
 
 
 def _wrapper(tmp_path: Path, real: str, body: str) -> str:

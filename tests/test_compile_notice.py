@@ -25,7 +25,7 @@ def empty_cache(tmp_path, monkeypatch):
     monkeypatch.setenv("FSMCTL_CACHE_DIR", str(tmp_path / "cache"))
     monkeypatch.delenv("FSMCTL_NO_COMPILE", raising=False)
     monkeypatch.delenv("FSMCTL_PORTABLE", raising=False)
-    if generated_code._compiler() is None:
+    if generated_code.c_compiler() is None:
         pytest.skip("no C compiler: nothing is ever compiled, so there is no notice to give")
     generated_code.compiled_library.cache_clear()
     yield tmp_path / "cache"

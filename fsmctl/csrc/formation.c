@@ -65,6 +65,7 @@ int fsm_abi(long long *out, int capacity) {
       FSM_FIELD(fsm_problem, wheel_allocation), FSM_FIELD(fsm_problem, wheel_gate),
       FSM_FIELD(fsm_problem, wheel_command),
       FSM_FIELD(fsm_problem, trigger_every), FSM_FIELD(fsm_problem, zeno_checks), /* ABI 5 */
+      FSM_FIELD(fsm_problem, controller), FSM_FIELD(fsm_problem, controller_context), /* ABI 6 */
       FSM_FIELD(fsm_output, capacity), FSM_FIELD(fsm_output, written), FSM_FIELD(fsm_output, t),
       FSM_FIELD(fsm_output, sigma_d), FSM_FIELD(fsm_output, sigma), FSM_FIELD(fsm_output, omega),
       FSM_FIELD(fsm_output, sigma_e), FSM_FIELD(fsm_output, omega_e), FSM_FIELD(fsm_output, u),
@@ -262,6 +263,9 @@ typedef struct {
   unsigned char *sent_now, *sent_hist;   /* n: sent at the current instant; hist_len x n (imperfect links) */
   long long *streak, *since_out;         /* n: consecutive checks with a message; messages since the last record */
   fsm_output *out;                       /* where the message counts go (NULL: not counted, e.g. fsm_rhs) */
+  /* software in the loop (P->controller): one receiver's links */
+  double *ext_k_own, *ext_k_sender;      /* n_links each */
+  const double **ext_received;           /* n_links */
   casadi_int *iw;
   double *w;
 } workspace;
@@ -290,6 +294,8 @@ static void free_workspace(workspace *W) {
   free(W->lanes);
   free(W->iw);
   free(W->w);
+  free(W->ext_k_own);
+  free(W->ext_received);
   memset(W, 0, sizeof(*W));
 }
 
@@ -554,6 +560,14 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   }
 #endif
   W->batched = P->kernels == FSM_KERNELS_BATCHED || (P->kernels == FSM_KERNELS_AUTO && fsm_batched_preferred());
+  if (P->controller) { /* an external controller, agent by agent */
+    const size_t L = P->n_links > 0 ? (size_t)P->n_links : 1;
+    W->batched = 0;
+    W->ext_k_own = calloc(2 * L, sizeof(double));
+    W->ext_received = calloc(L, sizeof(const double *));
+    if (!W->ext_k_own || !W->ext_received) { free_workspace(W); return FSM_NOMEM; }
+    W->ext_k_sender = W->ext_k_own + L;
+  }
   if (W->batched && !fsm_batched_available()) { free_workspace(W); return FSM_BAD_PROBLEM; }
   if (W->batched) {
     lane_rows(W);
@@ -665,7 +679,7 @@ double fsm_link_weight(const fsm_problem *P, int e, double t) { return link_weig
  * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij.  With the batched kernels
  * the sums go straight into the lane rows RW_RECV, RW_KSUM, RW_KRS (lanes past the last agent repeat it), else into
  * recv, ksum, krs. */
-static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
+static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
   const int n = W->n, nb = W->nb;
   if (!W->k_valid || W->k_time != t_link) {
     int changed = !W->k_valid;
@@ -702,6 +716,11 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
         }
     }
   }
+}
+
+static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
+  const int n = W->n, nb = W->nb;
+  link_weights(W, P, t_link);
   /* Receiver by receiver, its active links in link order: the same sums 0 + k b_1 + k b_2 + ... as adding link by
    * link into recv, with the partial sums in registers (no store-to-load chain through memory). */
   const double *src = P->links_imperfect ? W->link_val : W->b_tx; /* b_tx: b, or b_sent when event-triggered */
@@ -1088,6 +1107,49 @@ static void check_commands_lanes(workspace *W, double t) {
  * this evaluation only (the inner stages of a step: with the batched kernels and no wheels it then stays in the
  * lane rows).  The piecewise-constant link weights k^j_ij are evaluated at t_link (= t, except in the RK4 loop:
  * see simulate_rk4). */
+/* Software in the loop: the external controller's two phases for every agent (what the law would compute). */
+static void external_broadcast(workspace *W, const fsm_problem *P, double t, const double *x, int sensed) {
+  for (int i = 0; i < W->n; ++i) {
+    const double *xi = x + 3 + (size_t)W->stride * i;
+    const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
+    const fsm_controller_input in = {t, si, wi, xi + 6, x, W->wd, W->wdd, 0, NULL, NULL, NULL};
+    if (P->controller(P->controller_context, FSM_CONTROLLER_BROADCAST, i, &in, W->b + (size_t)W->nb * i, NULL, NULL,
+                      NULL) != 0 &&
+        W->bad_agent == -2) {
+      W->bad_agent = i;
+      W->bad_time = t;
+      W->bad_rc = FSM_CONTROLLER_FAILED;
+    }
+  }
+}
+
+static void external_control(workspace *W, const fsm_problem *P, double t, double t_link, const double *x,
+                             int sensed) {
+  const int nb = W->nb;
+  const double *src = P->links_imperfect ? W->link_val : W->b_tx; /* as aggregate() */
+  link_weights(W, P, t_link);
+  for (int i = 0; i < W->n; ++i) {
+    const double *xi = x + 3 + (size_t)W->stride * i;
+    const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
+    int c = 0;
+    for (int m = W->in_start[i]; m < W->in_start[i + 1]; ++m, ++c) {
+      const int e = W->in_links[m];
+      W->ext_k_own[c] = P->link_k_i[e];
+      W->ext_k_sender[c] = W->k_now[e];
+      W->ext_received[c] = src + (size_t)nb * (P->links_imperfect ? e : P->link_sender[e]);
+    }
+    const fsm_controller_input in = {t, si, wi, xi + 6, x, W->wd, W->wdd, c, W->ext_k_own, W->ext_k_sender,
+                                     W->ext_received};
+    if (P->controller(P->controller_context, FSM_CONTROLLER_STEP, i, &in, NULL, W->u + 3 * i, W->uu + 3 * i,
+                      W->zdot + (size_t)W->nz * i) != 0 &&
+        W->bad_agent == -2) {
+      W->bad_agent = i;
+      W->bad_time = t;
+      W->bad_rc = FSM_CONTROLLER_FAILED;
+    }
+  }
+}
+
 static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
                      int compute_control) {
   const int n = W->n, S = W->stride, nz = W->nz, nb = W->nb, nc = W->nc;
@@ -1125,6 +1187,8 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
           from_lane(W->b + (size_t)nb * (g * FSM_LANES + l), ROW(G, RW_B), nb, l); /* b_j for the links */
       }
     }
+  } else if (compute_control && P->controller) {
+    external_broadcast(W, P, t, x, sensed);
   } else if (compute_control) {
     for (int i = 0; i < n; ++i) {
       const double *xi = x + 3 + (size_t)S * i;
@@ -1138,8 +1202,11 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
   if (compute_control) {
     if (P->trigger_every > 0) event_trigger(W, P, t); /* what the agents send (b_sent) */
     if (P->links_imperfect) deliver_links(W, P);
-    aggregate(W, P, t_link); /* batched: into the lane rows */
-    if (W->batched) {
+    if (P->controller)
+      external_control(W, P, t, t_link, x, sensed);
+    else
+      aggregate(W, P, t_link); /* batched: into the lane rows */
+    if (W->batched) { /* (never with an external controller: it wrote u, uu and zdot) */
       for (int g = 0; g < W->n_groups; ++g) {
         double *G = group_block(W, g);
         const double *arg[N_CONTROL_IN];
@@ -1154,7 +1221,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
           from_lane(W->zdot + (size_t)nz * i, ROW(G, RW_ZDOT), nz, l);
         }
       }
-    } else {
+    } else if (!P->controller) {
       for (int i = 0; i < n; ++i) {
         const double *xi = x + 3 + (size_t)S * i;
         const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
@@ -1382,6 +1449,7 @@ static int validate(const fsm_problem *P) {
   if (P->wheel_command && (P->n_wheels <= 0 || P->hold_steps <= 0 || P->n_samples < P->n_steps / P->hold_steps + 1))
     return 0;
   if (P->trigger_every < 0 || P->zeno_checks < 0) return 0;
+  if (P->controller && P->hold_steps <= 0) return 0; /* an external controller runs at the control instants */
   if (P->trigger_every > 0 && (P->hold_steps <= 0 || !fsm_trigger_available())) return 0; /* checked at instants */
   if (P->sensors || P->links_imperfect) { /* they act at the control instants */
     if (P->hold_steps <= 0 || P->n_samples < P->n_steps / P->hold_steps + 1) return 0;

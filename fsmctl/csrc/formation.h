@@ -44,7 +44,25 @@
 extern "C" {
 #endif
 
-#define FSM_ABI_VERSION 5
+#define FSM_ABI_VERSION 6
+
+/* Software in the loop (ABI 6): an external controller evaluated at the control instants instead of the law's
+ * generated functions (fsmctl.export's check flies an exported C library this way).  Phase FSM_CONTROLLER_BROADCAST:
+ * agent i's broadcast from what it sees (write `broadcast`); phase FSM_CONTROLLER_STEP, after the links: its applied
+ * torque, commanded torque and law-state derivative (write `u`, `u_commanded`, `z_dot`) from its incoming links in
+ * link order (k^i_ij, k^j_ij(t), the broadcast each link delivers).  A nonzero return stops the run
+ * (FSM_CONTROLLER_FAILED at that time and agent). */
+typedef struct {
+  double t;
+  const double *sigma, *omega, *z;             /* what the law sees (the measurements with sensors) and its state */
+  const double *sigma_d, *omega_d, *omega_d_dot;
+  int n_links;                                 /* incoming links */
+  const double *k_own, *k_sender;              /* n_links each */
+  const double *const *received;               /* n_links pointers to n_broadcast numbers */
+} fsm_controller_input;
+typedef int (*fsm_controller_fn)(void *context, int phase, int agent, const fsm_controller_input *in,
+                                 double *broadcast, double *u, double *u_commanded, double *z_dot);
+enum { FSM_CONTROLLER_BROADCAST = 0, FSM_CONTROLLER_STEP = 1 };
 
 typedef struct {
   int n_agents;
@@ -108,6 +126,10 @@ typedef struct {
                                     checked at every m-th control instant (needs hold_steps > 0 and a library
                                     compiled with the law's trigger) */
   long long zeno_checks;         /* > 0: an agent that sends at this many consecutive checks stops the run (FSM_ZENO) */
+  /* software in the loop (ABI 6) */
+  fsm_controller_fn controller;  /* NULL: the law's generated functions; else this controller at the control instants
+                                    (needs hold_steps > 0; the per-agent functions then run agent by agent) */
+  void *controller_context;      /* its first argument */
 } fsm_problem;
 
 enum { FSM_WHEEL_SCALED = 0, FSM_WHEEL_CLIPPED = 1 };
@@ -162,7 +184,8 @@ enum {
   FSM_STEP_TOO_SMALL = 5,
   FSM_TOO_MANY_STEPS = 6,
   FSM_NONFINITE_CONTROL = 7, /* the control law returned a non-finite torque command (fail_time, fail_agent) */
-  FSM_ZENO = 8               /* an agent sent at zeno_checks consecutive trigger checks (fail_time, fail_agent) */
+  FSM_ZENO = 8,              /* an agent sent at zeno_checks consecutive trigger checks (fail_time, fail_agent) */
+  FSM_CONTROLLER_FAILED = 9  /* the external controller returned nonzero (fail_time, fail_agent) */
 };
 
 /* The ABI: out[0] = FSM_ABI_VERSION, out[1] = sizeof(fsm_problem), out[2] = sizeof(fsm_output), then the

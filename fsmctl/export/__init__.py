@@ -11,9 +11,12 @@ from fsmctl.export.c_library import (
     PRECISIONS,
     CLibrary,
     ExportError,
+    read_c_library,
     strict_flags,
     write_c_library,
 )
+from fsmctl.export.build import BuildError, compile_export
+from fsmctl.export.sil import ExportCheck, verify_export
 
 __all__ = [
     "ERROR_MODELS",
@@ -23,4 +26,9 @@ __all__ = [
     "ExportError",
     "strict_flags",
     "write_c_library",
+    "read_c_library",
+    "BuildError",
+    "compile_export",
+    "ExportCheck",
+    "verify_export",
 ]

@@ -42,6 +42,7 @@ __all__ = [
     "ExportError",
     "CLibrary",
     "write_c_library",
+    "read_c_library",
     "strict_flags",
 ]
 
@@ -156,14 +157,16 @@ def _c_string(text: str) -> str:
 
 
 def _parameter_code(law: LawCode, prefix: str, real: str) -> str:
-    """``P_pack_parameters``, ``P_check_parameters`` and ``P_default_parameters``."""
+    """``P_pack_parameters``, ``P_unpack_parameters``, ``P_check_parameters`` and ``P_default_parameters``."""
     pack = [f"void {prefix}_pack_parameters(const {prefix}_parameters *p, {prefix}_real *packed) {{"]
+    unpack = [f"void {prefix}_unpack_parameters(const {prefix}_real *packed, {prefix}_parameters *p) {{"]
     check = [f"const char *{prefix}_check_parameters(const {prefix}_real *packed) {{"]
     defaults = [f"void {prefix}_default_parameters({prefix}_parameters *p) {{"]
     index = 0
     for parameter in law.parameters:
         for k in range(parameter.size):
             pack.append(f"  packed[{index}] = {_component(parameter, k)};")
+            unpack.append(f"  {_component(parameter, k)} = packed[{index}];")
             condition = _range_condition(parameter, f"packed[{index}]", real)
             why = f"{parameter.name}: must be {parameter.range_text()}"
             check.append(f"  if (!({condition})) return {_c_string(why)};")
@@ -171,12 +174,14 @@ def _parameter_code(law: LawCode, prefix: str, real: str) -> str:
             index += 1
     if index == 0:
         pack.append("  (void)p;\n  (void)packed;")
+        unpack.append("  (void)p;\n  (void)packed;")
         check.append("  (void)packed;")
         defaults.append("  (void)p;")
     pack.append("}")
+    unpack.append("}")
     check += ["  return 0;", "}"]
     defaults.append("}")
-    return "\n".join(pack + [""] + check + [""] + defaults) + "\n"
+    return "\n".join(pack + [""] + unpack + [""] + check + [""] + defaults) + "\n"
 
 
 def _law_source(law: LawCode, prefix: str, real: str, error_model: str) -> str:
@@ -235,12 +240,12 @@ def _initial_states(law: LawCode) -> list[float]:
 _API = """
 /* Status codes (P_status_text) */
 enum {{
-  {PU}_OK = 0,
-  {PU}_BAD_PARAMETER = 1, /* P_init: a law parameter outside its declared range (P_error_text names it) */
-  {PU}_BAD_CONFIG = 2,    /* P_init: J0, torque_limit, control_period or law_state_substeps */
-  {PU}_BAD_INPUT = 3,     /* a non-finite input, a negative neighbour count */
-  {PU}_NONFINITE = 4,     /* the law commanded a non-finite torque (the command must not be applied) */
-  {PU}_NOT_READY = 5      /* P_step without P_broadcast at this instant (or P_wheel_commands without P_step) */
+  {PU}_STATUS_OK = 0,
+  {PU}_STATUS_BAD_PARAMETER = 1, /* P_init: a law parameter outside its declared range (P_error_text names it) */
+  {PU}_STATUS_BAD_CONFIG = 2,    /* P_init: J0, torque_limit, control_period or law_state_substeps */
+  {PU}_STATUS_BAD_INPUT = 3,     /* a non-finite input, a negative neighbour count */
+  {PU}_STATUS_NONFINITE = 4,     /* the law commanded a non-finite torque (the command must not be applied) */
+  {PU}_STATUS_NOT_READY = 5      /* P_step without P_broadcast at this instant (or P_wheel_commands without P_step) */
 }};
 
 /* What the spacecraft knows at a control instant */
@@ -297,12 +302,12 @@ typedef struct {{
  * one substep. */
 void {P}_default_config({P}_config *config);
 /* Check config (every parameter against its declared range) and start the controller: the law state at its
- * declared initial value.  Returns {PU}_OK, {PU}_BAD_PARAMETER or {PU}_BAD_CONFIG (P_error_text says which). */
+ * declared initial value.  Returns {PU}_STATUS_OK, {PU}_STATUS_BAD_PARAMETER or {PU}_STATUS_BAD_CONFIG (P_error_text says which). */
 int {P}_init({P}_controller *controller, const {P}_config *config);
 /* Phase 1 of a control instant: what this spacecraft sends its neighbours, from its measurement and reference. */
 int {P}_broadcast({P}_controller *controller, const {P}_input *input, {P}_real broadcast[{PU}_N_BROADCAST]);
 /* Phase 2, once per broadcast(): the torque from the same input and the neighbours' broadcasts; advances the law
- * state over the control period.  Returns {PU}_OK, {PU}_NOT_READY, {PU}_BAD_INPUT or {PU}_NONFINITE. */
+ * state over the control period.  Returns {PU}_STATUS_OK, {PU}_STATUS_NOT_READY, {PU}_STATUS_BAD_INPUT or {PU}_STATUS_NONFINITE. */
 int {P}_step({P}_controller *controller, const {P}_neighbours *neighbours, {P}_command *command);
 /* Set the law state (e.g. after a reset of the integrator); init() sets the declared initial value. */
 int {P}_reset_state({P}_controller *controller, const {P}_real z[{PU}_N_STATES_ALLOC]);
@@ -393,6 +398,7 @@ def _law_header(law: LawCode, prefix: str, error_model: str) -> str:
         "",
         f"extern const {P}_real {P}_initial_state[{PU}_N_STATES_ALLOC];",
         f"void {P}_pack_parameters(const {P}_parameters *p, {P}_real *packed);",
+        f"void {P}_unpack_parameters(const {P}_real *packed, {P}_parameters *p);",
         f"const char *{P}_check_parameters(const {P}_real *packed);",
         f"void {P}_default_parameters({P}_parameters *p);",
     ]
@@ -465,14 +471,14 @@ multiply-add changes results (not their accuracy), and the bit-for-bit check aga
 {P}_config config;
 {P}_default_config(&config);                 /* the law's declared defaults */
 /* config.J0[0] = ...; config.torque_limit = ...; config.parameters.<name> = ...; */
-if ({P}_init(&c, &config) != {PU}_OK) /* {P}_error_text(&c) names the bad field */;
+if ({P}_init(&c, &config) != {PU}_STATUS_OK) /* {P}_error_text(&c) names the bad field */;
 
 {P}_input in;                                /* t, sigma, omega, sigma_d, omega_d, omega_d_dot */
 {P}_real b[{PU}_N_BROADCAST];
 {P}_broadcast(&c, &in, b);
 {P}_neighbours nb = {{0, 0, 0, 0}};          /* count, broadcast (count x {PU}_N_BROADCAST), k_own, k_sender */
 {P}_command cmd;
-int status = {P}_step(&c, &nb, &cmd);        /* {PU}_NONFINITE: do not apply cmd.torque */
+int status = {P}_step(&c, &nb, &cmd);        /* {PU}_STATUS_NONFINITE: do not apply cmd.torque */
 ```
 {extras}
 Every function returns a status (`{P}_status_text`); `{P}_init` checks every parameter against its declared range.
@@ -625,3 +631,27 @@ def write_c_library(
         write_text(folder / "manifest.json", json.dumps(manifest, indent=2) + "\n")
     sources = tuple(folder / n for n in (f"{P}.c", f"{P}_law.c", f"{P}_math.c"))
     return CLibrary(folder, P, precision, error_model, code, sources, manifest)
+
+
+def read_c_library(folder: str | Path) -> CLibrary:
+    """An exported library from its folder (its ``manifest.json``), e.g. to verify it again.
+
+    Raises
+    ------
+    ExportError
+        The folder holds no export of this format, or its law is no longer available.
+    """
+    folder = Path(folder)
+    try:
+        manifest = json.loads((folder / "manifest.json").read_text())
+        prefix, precision = manifest["prefix"], manifest["precision"]
+        error_model, law_name = manifest["error_model"], manifest["law"]["name"]
+        fmt = manifest["format"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise ExportError(f"{folder}: not a folder written by `fsmctl export --target c` (no readable manifest.json)") from None
+    if fmt != EXPORT_FORMAT:
+        raise ExportError(f"{folder}: export format {fmt}, this fsmctl reads {EXPORT_FORMAT}; export the law again")
+    source = manifest["law"].get("source", "")
+    law = resolve_law(law_name if (resources.files("fsmctl") / "_generated" / "laws" / law_name).is_dir() else source)
+    sources = tuple(folder / n for n in (f"{prefix}.c", f"{prefix}_law.c", f"{prefix}_math.c"))
+    return CLibrary(folder, prefix, precision, error_model, law, sources, manifest)

@@ -115,7 +115,9 @@ __all__ = [
     "model_sx_function",
     "backend",
     "compile_flags",
+    "c_compiler",
     "law_defines",
+    "driver_source_dir",
 ]
 
 _log = logging.getLogger(__name__)
@@ -209,7 +211,8 @@ def layout(name: str) -> tuple[str, ...]:
     return tuple(manifest()["layouts"][name])
 
 
-def _driver_dir() -> Path:
+def driver_source_dir() -> Path:
+    """The folder of the hand-written C of the engine (``fsmctl/csrc``: formation.c/.h, fsm_pow, fsm_trig)."""
     return Path(__file__).resolve().parent.parent / "csrc"
 
 
@@ -226,7 +229,7 @@ def default_law_dir() -> Path:
 
 def _sources(law_dir: Path) -> list[Path]:
     gen = generated_dir()
-    return sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(_driver_dir().glob("*.c"))
+    return sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(driver_source_dir().glob("*.c"))
 
 
 TRIGGER_DEFINE = "-DFSM_LAW_TRIGGER"
@@ -268,7 +271,7 @@ def law_defines(law_dir: Path) -> tuple[str, ...]:
     )
 
 
-def _compiler() -> str | None:
+def c_compiler() -> str | None:
     """The C compiler's path: ``$CC`` if set (None if it is not found), else ``cc``, ``gcc`` or ``clang``."""
     cc = os.environ.get("CC")
     if cc:
@@ -335,7 +338,7 @@ def compile_flags(cc: str | None = None) -> tuple[tuple[str, ...], str]:
     >>> flags[: len(CFLAGS)] == CFLAGS
     True
     """
-    cc = cc or _compiler()
+    cc = cc or c_compiler()
     if cc is None or os.environ.get("FSMCTL_PORTABLE"):
         return CFLAGS, "portable"
     native = _native_target(cc)
@@ -384,7 +387,7 @@ def _check_hashes(folder: Path | None = None) -> None:
 
 def _library_key(sources: list[Path], flags: tuple[str, ...], target: str, cc: str) -> str:
     h = hashlib.sha256()
-    for p in sources + sorted(_driver_dir().glob("*.h")):
+    for p in sources + sorted(driver_source_dir().glob("*.h")):
         h.update(p.name.encode())
         h.update(p.read_bytes())
     h.update(" ".join(flags).encode())
@@ -653,7 +656,7 @@ def math_include_args() -> list[str]:
     """Compiler arguments that make every source's ``pow``, ``sin`` and ``cos`` fsmctl's (``fsmctl/csrc/fsm_pow.h``
     and ``fsm_trig.h``, defined in ``fsm_pow.c`` and ``fsm_trig.c``): the scalar and the batched paths of the
     library give the same bits."""
-    return ["-include", str(_driver_dir() / "fsm_pow.h"), "-include", str(_driver_dir() / "fsm_trig.h")]
+    return ["-include", str(driver_source_dir() / "fsm_pow.h"), "-include", str(driver_source_dir() / "fsm_trig.h")]
 
 
 def _build(cc: str, flags: tuple[str, ...], sources: list[Path], target: Path) -> _BuildResult:
@@ -886,7 +889,7 @@ def _compile_notice(law_dir: Path) -> Callable[[], None]:
 def _compiled_library(law_dir: Path) -> CompiledLibrary | None:
     if os.environ.get("FSMCTL_NO_COMPILE"):
         return None
-    cc = _compiler()
+    cc = c_compiler()
     if cc is None:
         if os.environ.get("CC"):
             _warn_unavailable(f"the C compiler CC={os.environ['CC']!r} was not found")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import ctypes
 import functools
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -83,6 +84,9 @@ class _Problem(ctypes.Structure):
         # event-triggered communication (ABI 5)
         ("trigger_every", ctypes.c_longlong),
         ("zeno_checks", ctypes.c_longlong),
+        # software in the loop (ABI 6)
+        ("controller", ctypes.c_void_p),
+        ("controller_context", ctypes.c_void_p),
     ]
 
 
@@ -123,7 +127,7 @@ class _Output(ctypes.Structure):
     ]
 
 
-ABI_VERSION = 5
+ABI_VERSION = 6
 """``FSM_ABI_VERSION`` of fsmctl/csrc/formation.h that these mirrors describe."""
 
 _PROGRESS = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_longlong, ctypes.c_longlong)
@@ -136,6 +140,7 @@ _RC = {
     6: "the adaptive integrator exceeded its step budget",
     7: "the control law returned a non-finite torque command",
     8: "the event trigger fired at every check (Zeno behaviour)",
+    9: "the external controller (software in the loop) reported a failure",
 }
 
 
@@ -208,11 +213,40 @@ def _ptr(a: np.ndarray, ctype=ctypes.c_double):
 _KERNELS = {"auto": 0, "batched": 1, "scalar": 2}
 
 
+@dataclass(frozen=True)
+class ExternalController:
+    """A controller in C that the engine calls at the control instants instead of the law's generated functions.
+
+    Software in the loop: :mod:`fsmctl.export` flies an exported C library this way (``fsm_controller_fn`` of
+    fsmctl/csrc/formation.h, called per agent for the broadcast, then, after the links, for the torque).
+
+    Parameters
+    ----------
+    function : int
+        The address of an ``fsm_controller_fn``.
+    context : int
+        Its first argument (an address).
+    owner : object
+        What keeps the function's library and the context alive while the engine holds their addresses.
+    """
+
+    function: int
+    context: int
+    owner: object = None
+
+
 class _CProblem:
     """Keeps the arrays alive while C holds pointers into them."""
 
-    def __init__(self, p: PackedProblem, max_steps: int = 0, kernels: str = "auto", members: int = 1):
-        self._keep = {}
+    def __init__(
+        self,
+        p: PackedProblem,
+        max_steps: int = 0,
+        kernels: str = "auto",
+        members: int = 1,
+        controller: ExternalController | None = None,
+    ):
+        self._keep = {"controller": controller}
 
         ctypes_of = {np.float64: ctypes.c_double, np.int32: ctypes.c_int, np.uint8: ctypes.c_ubyte}
 
@@ -278,4 +312,6 @@ class _CProblem:
             wheel_command=None if hw.wheel_command is None else f("wcmd", hw.wheel_command),
             trigger_every=p.trigger_every,
             zeno_checks=ZENO_CONSECUTIVE_CHECKS if p.trigger_every else 0,
+            controller=None if controller is None else controller.function,
+            controller_context=None if controller is None else controller.context,
         )

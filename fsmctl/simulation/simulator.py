@@ -43,7 +43,16 @@ from fsmctl.errors import EnvironmentProblem, ResourceLimitError
 from fsmctl.model.problem import PackedProblem, output_buffer_bytes, pack
 from fsmctl.model.scenario import Scenario
 from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
-from fsmctl.simulation.driver import _KERNELS, _RC, _CProblem, _driver, _Output, _ptr, batched_kernels_preferred
+from fsmctl.simulation.driver import (
+    _KERNELS,
+    _RC,
+    ExternalController,
+    _CProblem,
+    _driver,
+    _Output,
+    _ptr,
+    batched_kernels_preferred,
+)
 from fsmctl.simulation.failures import (
     DiscontinuousControlWarning,
     SimulationError,
@@ -222,6 +231,7 @@ def _fly(
     monitor=None,
     monitor_interval=None,
     members: int = 1,
+    controller: ExternalController | None = None,
 ) -> dict:
     """One call of the compiled loop: the raw arrays, or ``raw["rc"] != 0`` with ``fail_time``/``fail_agent``.
 
@@ -251,10 +261,10 @@ def _fly(
     stats = {k: np.zeros(n) for k in ("saturated_time", "u_total_variation", "u_unsat_max")}
     events = event_buffers(p, lead)  # event-triggered communication: the counts the loop writes
     out = _Output(capacity=cap, **{k: _ptr(v) for k, v in {**bufs, **stats}.items()}, **event_pointers(events))
-    cp = _CProblem(p, kernels=kernels, members=members)
+    cp = _CProblem(p, kernels=kernels, members=members, controller=controller)
     x0 = np.ascontiguousarray(p.x0, dtype=float)
     if kernels == "auto":
-        kernels = "batched" if dll.fsm_batched_preferred() else "scalar"
+        kernels = "batched" if dll.fsm_batched_preferred() and controller is None else "scalar"
     t_end = p.t0 + p.n_steps * p.dt
     started = 0.0  # set when the loop starts
 
@@ -358,6 +368,7 @@ def simulate_packed(
     kernels: str = "auto",
     monitor=None,
     monitor_interval: float | None = None,
+    controller: ExternalController | None = None,
 ) -> dict:
     """Run a packed problem on the compiled driver (or the CasADi fallback); returns raw arrays.
 
@@ -386,6 +397,11 @@ def simulate_packed(
     t_end = p.t0 + p.n_steps * p.dt
     dll = _driver(p.law)
     hw = p.hardware
+    if controller is not None and (dll is None or p.hold_steps <= 0):
+        raise SimulationError(
+            "a controller in the loop runs in the compiled simulator at the control instants: it needs a C compiler "
+            "and simulation.control_period > 0"
+        )
     if dll is None:
         if p.trigger_every:
             raise EnvironmentProblem(
@@ -416,7 +432,15 @@ def simulate_packed(
             "kernels='batched': this build of the library has no batched kernels (the C compiler lacks the "
             "GCC/Clang vector extension); use kernels='auto' or 'scalar'"
         )
-    raw = _fly(p, progress=progress, label=label, kernels=kernels, monitor=monitor, monitor_interval=monitor_interval)
+    raw = _fly(
+        p,
+        progress=progress,
+        label=label,
+        kernels=kernels,
+        monitor=monitor,
+        monitor_interval=monitor_interval,
+        controller=controller,
+    )
     if raw["rc"] == 8:
         raise ZenoError(_failure_message(p, raw))
     if raw["rc"] != 0:
@@ -480,6 +504,7 @@ def simulate(
     monitor=None,
     monitor_interval: float | None = None,
     wheel_commands=None,
+    controller_in_the_loop: ExternalController | None = None,
 ) -> SimulationResult:
     """Simulate ``scenario`` with the generated code; see :class:`SimulationResult`.
 
@@ -505,6 +530,10 @@ def simulate(
         the next, or the array ``(Q, n_agents, n_wheels)`` of those samples.  Added to what the wheels get from the
         law's body torque before the torque limit (``actuator.allocation``); the scenario must fly reaction wheels
         with ``simulation.control_period > 0`` and have no ``actuator.wheel_commands`` table.
+    controller_in_the_loop : ExternalController, optional
+        A controller in C evaluated at the control instants instead of the law's generated functions (software in
+        the loop; :func:`fsmctl.export.verify_export` builds one from an exported library).  Needs the compiled
+        simulator and ``simulation.control_period > 0``.
 
     Returns
     -------
@@ -561,7 +590,12 @@ def simulate(
             return bool(monitor(t, lambda: [_result(scenario, partial_raw())]))
 
     raw = simulate_packed(
-        p, progress=progress, label=scenario.label, monitor=raw_monitor, monitor_interval=monitor_interval
+        p,
+        progress=progress,
+        label=scenario.label,
+        monitor=raw_monitor,
+        monitor_interval=monitor_interval,
+        controller=controller_in_the_loop,
     )
     return _finish(scenario, raw)
 

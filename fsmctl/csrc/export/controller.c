@@ -23,12 +23,12 @@ static int all_finite(const @P@_real *x, int n) {
 
 const char *@P@_status_text(int status) {
   switch (status) {
-  case @PU@_OK: return "ok";
-  case @PU@_BAD_PARAMETER: return "a law parameter is outside its declared range";
-  case @PU@_BAD_CONFIG: return "J0, torque_limit, control_period or law_state_substeps is invalid";
-  case @PU@_BAD_INPUT: return "an input is not finite or the neighbour count is negative";
-  case @PU@_NONFINITE: return "the law commanded a non-finite torque";
-  case @PU@_NOT_READY: return "step() needs broadcast() first, once per control instant";
+  case @PU@_STATUS_OK: return "ok";
+  case @PU@_STATUS_BAD_PARAMETER: return "a law parameter is outside its declared range";
+  case @PU@_STATUS_BAD_CONFIG: return "J0, torque_limit, control_period or law_state_substeps is invalid";
+  case @PU@_STATUS_BAD_INPUT: return "an input is not finite or the neighbour count is negative";
+  case @PU@_STATUS_NONFINITE: return "the law commanded a non-finite torque";
+  case @PU@_STATUS_NOT_READY: return "step() needs broadcast() first, once per control instant";
   default: return "unknown status";
   }
 }
@@ -68,25 +68,25 @@ int @P@_init(@P@_controller *controller, const @P@_config *config) {
   controller->stepped = 0;
   @P@_pack_parameters(&config->parameters, controller->params);
   controller->error = @P@_check_parameters(controller->params);
-  if (controller->error) return @PU@_BAD_PARAMETER;
+  if (controller->error) return @PU@_STATUS_BAD_PARAMETER;
   why = config_problem(config);
   if (why) {
     controller->error = config_errors[why];
-    return @PU@_BAD_CONFIG;
+    return @PU@_STATUS_BAD_CONFIG;
   }
   controller->config = *config;
   arg[0] = controller->params;
   res[0] = controller->constants;
   @P@_law_constants(arg, res);
   for (k = 0; k < @PU@_N_STATES; ++k) controller->z[k] = @P@_initial_state[k];
-  return @PU@_OK;
+  return @PU@_STATUS_OK;
 }
 
 int @P@_reset_state(@P@_controller *controller, const @P@_real z[@PU@_N_STATES_ALLOC]) {
   int k;
-  if (!all_finite(z, @PU@_N_STATES)) return @PU@_BAD_INPUT;
+  if (!all_finite(z, @PU@_N_STATES)) return @PU@_STATUS_BAD_INPUT;
   for (k = 0; k < @PU@_N_STATES; ++k) controller->z[k] = z[k];
-  return @PU@_OK;
+  return @PU@_STATUS_OK;
 }
 
 static void law_arguments(@P@_controller *c, const @P@_real **arg) {
@@ -114,7 +114,7 @@ int @P@_broadcast(@P@_controller *controller, const @P@_input *input, @P@_real b
   const @P@_input *in = input;
   if (!is_finite(in->t) || !all_finite(in->sigma, 3) || !all_finite(in->omega, 3) || !all_finite(in->sigma_d, 3) ||
       !all_finite(in->omega_d, 3) || !all_finite(in->omega_d_dot, 3))
-    return @PU@_BAD_INPUT;
+    return @PU@_STATUS_BAD_INPUT;
   controller->input = *input;
   law_arguments(controller, arg);
   res[0] = broadcast;
@@ -122,7 +122,7 @@ int @P@_broadcast(@P@_controller *controller, const @P@_input *input, @P@_real b
   @P@_law_local(arg, res);
   controller->ready = 1;
   controller->stepped = 0;
-  return @PU@_OK;
+  return @PU@_STATUS_OK;
 }
 
 /* eq 19 for one agent, in link order (the engine's aggregate()) */
@@ -157,12 +157,12 @@ int @P@_step(@P@_controller *controller, const @P@_neighbours *neighbours, @P@_c
   const @P@_real *arg[15];
   @P@_real *res[3];
   int k;
-  if (!controller->ready) return @PU@_NOT_READY;
-  if (neighbours->count < 0) return @PU@_BAD_INPUT;
+  if (!controller->ready) return @PU@_STATUS_NOT_READY;
+  if (neighbours->count < 0) return @PU@_STATUS_BAD_INPUT;
   for (k = 0; k < neighbours->count; ++k)
     if (!is_finite(neighbours->k_own[k]) || !is_finite(neighbours->k_sender[k]) ||
         !all_finite(neighbours->broadcast + (long)k * @PU@_N_BROADCAST, @PU@_N_BROADCAST))
-      return @PU@_BAD_INPUT;
+      return @PU@_STATUS_BAD_INPUT;
   controller->ready = 0;
   aggregate(controller, neighbours);
   law_arguments(controller, arg);
@@ -172,10 +172,10 @@ int @P@_step(@P@_controller *controller, const @P@_neighbours *neighbours, @P@_c
   @P@_law_control(arg, res);
   for (k = 0; k < @PU@_N_STATES; ++k) controller->z_used[k] = controller->z[k];
   controller->stepped = 1;
-  if (!all_finite(command->torque_commanded, 3)) return @PU@_NONFINITE;
+  if (!all_finite(command->torque_commanded, 3)) return @PU@_STATUS_NONFINITE;
   advance(controller, command->z_dot);
   for (k = 0; k < @PU@_N_STATES; ++k) command->z[k] = controller->z[k];
-  return @PU@_OK;
+  return @PU@_STATUS_OK;
 }
 
 #if @PU@_N_WHEELS > 0
@@ -185,7 +185,7 @@ int @P@_wheel_commands(const @P@_controller *controller, const @P@_real spin_axe
   const @P@_real *arg[18];
   @P@_real *res[1];
   @P@_controller *c = (@P@_controller *)controller; /* the arguments are read only */
-  if (!controller->stepped) return @PU@_NOT_READY;
+  if (!controller->stepped) return @PU@_STATUS_NOT_READY;
   law_arguments(c, arg);
   arg[3] = c->z_used; /* the law state step() used */
   arg[15] = spin_axes;
@@ -193,7 +193,7 @@ int @P@_wheel_commands(const @P@_controller *controller, const @P@_real spin_axe
   arg[17] = spin_inertia;
   res[0] = u_wheels;
   @P@_law_wheels(arg, res);
-  return all_finite(u_wheels, @PU@_N_WHEELS) ? @PU@_OK : @PU@_NONFINITE;
+  return all_finite(u_wheels, @PU@_N_WHEELS) ? @PU@_STATUS_OK : @PU@_STATUS_NONFINITE;
 }
 #endif
 

@@ -1,0 +1,99 @@
+"""Compile an exported C library: with the strict flags of the export's promise, into objects or a shared library.
+
+One place where fsmctl runs a C compiler on an export (the tests' strict-flag checks, the software-in-the-loop
+check, the FMUs, the benchmarks).  The compiler is the engine's (:func:`fsmctl.model.generated_code.c_compiler`:
+``$CC``, else ``cc``, ``gcc`` or ``clang``) unless one is given.
+"""
+
+from __future__ import annotations
+
+import subprocess
+from collections.abc import Sequence
+from pathlib import Path
+
+from fsmctl.errors import EnvironmentProblem
+from fsmctl.export.c_library import CLibrary, ExportError, strict_flags
+from fsmctl.model.generated_code import c_compiler
+
+__all__ = ["BUILD_TIMEOUT_S", "BuildError", "compile_export"]
+
+BUILD_TIMEOUT_S = 300.0
+"""The longest a compiler call on an export may take (s)."""
+
+
+class BuildError(ExportError):
+    """The compiler refused the exported code (its first error line is in the message)."""
+
+
+def _compiler(compiler: str | None) -> str:
+    cc = compiler or c_compiler()
+    if not cc:
+        raise EnvironmentProblem("no C compiler found (install gcc or clang, or set CC)")
+    return cc
+
+
+def compile_export(
+    library: CLibrary,
+    output: str | Path,
+    *,
+    compiler: str | None = None,
+    shared: bool = True,
+    extra_flags: Sequence[str] = (),
+    extra_sources: Sequence[Path] = (),
+    include_dirs: Sequence[Path] = (),
+) -> Path:
+    """Compile ``library``'s sources (and ``extra_sources``) with its strict flags.
+
+    Parameters
+    ----------
+    library : CLibrary
+        What :func:`fsmctl.export.write_c_library` wrote.
+    output : path
+        The shared library (``shared``) or the folder of the object files.
+    compiler : str, optional
+        The compiler (default: the engine's).
+    shared : bool
+        A position-independent shared library (for ctypes), else one object file per source in ``output``.
+    extra_flags, extra_sources, include_dirs
+        Added to the command line (e.g. ``-O2``, ``-ffreestanding``, a test harness).
+
+    Returns
+    -------
+    pathlib.Path
+        ``output``.
+
+    Raises
+    ------
+    BuildError
+        The compiler failed (a warning is an error: ``-Werror``).
+    EnvironmentProblem
+        No C compiler.
+
+    Examples
+    --------
+    >>> from fsmctl.export import write_c_library, compile_export
+    >>> lib = write_c_library("fsm", "fsm_c", control_period=0.01, precision="float32")
+    >>> compile_export(lib, "objects", shared=False, extra_flags=["-O2", "-ffreestanding"]).name
+    'objects'
+    >>> sorted(p.name for p in Path("objects").iterdir())
+    ['fsm.o', 'fsm_law.o', 'fsm_math.o']
+    """
+    cc = _compiler(compiler)
+    output = Path(output)
+    flags = [*strict_flags(library.precision), *extra_flags, f"-I{library.folder}", *(f"-I{d}" for d in include_dirs)]
+    sources = [str(s) for s in (*library.sources, *extra_sources)]
+    if shared:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        commands = [[cc, *flags, "-fPIC", "-shared", *sources, "-o", str(output)]]
+    else:
+        output.mkdir(parents=True, exist_ok=True)
+        commands = [[cc, *flags, "-c", s, "-o", str(output / (Path(s).stem + ".o"))] for s in sources]
+    for command in commands:
+        try:
+            done = subprocess.run(command, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+        except (OSError, subprocess.SubprocessError) as exc:
+            raise EnvironmentProblem(f"{cc}: could not run the compiler ({exc})") from None
+        if done.returncode != 0:
+            first = next((ln for ln in done.stderr.splitlines() if "error" in ln), done.stderr.strip()[:300])
+            raise BuildError(f"{Path(cc).name} refused the export in {library.folder}: {first}")
+    return output
