@@ -248,7 +248,7 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     """Each operation the printer knows, compiled both ways with the library's compiler and flags, on every pair
     of special values (signed zeros, subnormals, huge, infinities, NaN): bit-identical, except fmin/fmax ties of
     +0 and -0 (unspecified in C99)."""
-    from fsmctl.model.generated_code import driver_source_dir, c_compiler, compile_flags, math_include_args
+    from fsmctl.model.generated_code import c_compiler, compile_flags, driver_source_dir, math_include_args
 
     cc = c_compiler()
     if cc is None:
@@ -275,7 +275,17 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     so = tmp_path / "g.so"
     math = [str(driver_source_dir() / f) for f in ("fsm_pow.c", "fsm_trig.c")]  # fsmctl's pow, sin, cos: as the library
     sources = [str(tmp_path / "g.c"), str(tmp_path / "g_b.c"), *math]
-    cmd = [cc, *flags, f"-I{tmp_path}", f"-I{driver_source_dir()}", *math_include_args(), *sources, "-o", str(so), "-lm"]
+    cmd = [
+        cc,
+        *flags,
+        f"-I{tmp_path}",
+        f"-I{driver_source_dir()}",
+        *math_include_args(),
+        *sources,
+        "-o",
+        str(so),
+        "-lm",
+    ]
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     lib = ctypes.CDLL(str(so))

@@ -14,6 +14,7 @@ Subcommands live in their own modules, each exposing ``add_parser(subparsers)``
 ``fsmctl tune``               search a law's parameters under the actuator limits (:mod:`fsmctl.cli.tune`)
 ``fsmctl laws``               the built-in laws and their parameters (:mod:`fsmctl.cli.laws`)
 ``fsmctl derive``             check and generate a law from a derivation script (:mod:`fsmctl.cli.derive`)
+``fsmctl export``             a law as C99 or an FMU, checked in the loop; results as CCSDS AEM (:mod:`fsmctl.cli.export`)
 ``fsmctl scenario show``      a scenario with every default and where each value came from (:mod:`fsmctl.cli.scenario`)
 ============================  ======================================================================
 
@@ -88,6 +89,7 @@ SUBCOMMAND_MODULES = (
     "fsmctl.cli.tune",
     "fsmctl.cli.laws",
     "fsmctl.cli.derive",
+    "fsmctl.cli.export",
     "fsmctl.cli.scenario",
 )
 """Modules of the subcommands, in the order ``fsmctl --help`` lists them; each has ``add_parser(subparsers)``

@@ -5,6 +5,7 @@ A layer between :mod:`fsmctl.studies` and the engine (:mod:`fsmctl.simulation`):
 code in the loop.
 """
 
+from fsmctl.export.build import BuildError, compile_export
 from fsmctl.export.c_library import (
     ERROR_MODELS,
     EXPORT_FORMAT,
@@ -15,7 +16,6 @@ from fsmctl.export.c_library import (
     strict_flags,
     write_c_library,
 )
-from fsmctl.export.build import BuildError, compile_export
 from fsmctl.export.sil import ExportCheck, verify_export
 
 __all__ = [

@@ -181,7 +181,7 @@ def _parameter_code(law: LawCode, prefix: str, real: str) -> str:
     unpack.append("}")
     check += ["  return 0;", "}"]
     defaults.append("}")
-    return "\n".join(pack + [""] + unpack + [""] + check + [""] + defaults) + "\n"
+    return "\n".join([*pack, "", *unpack, "", *check, "", *defaults]) + "\n"
 
 
 def _law_source(law: LawCode, prefix: str, real: str, error_model: str) -> str:
@@ -368,7 +368,7 @@ def _public_header(law: LawCode, prefix: str, real: str, precision: str, error_m
         if key != "N_BROADCAST" and key != "N_WHEELS":
             lines.append(f"#define {PU}_{key}_ALLOC {_alloc(value)}")
     lines += [f"#define {PU}_HAS_TRIGGER {int(law.trigger is not None)}"]
-    lines += [f"#define {PU}_DEFAULT_CONTROL_PERIOD {repr(float(period))} /* s */", ""]
+    lines += [f"#define {PU}_DEFAULT_CONTROL_PERIOD {float(period)!r} /* s */", ""]
     for parameter in law.parameters:
         for k, choice in enumerate(parameter.choices):
             word = re.sub(r"\W", "_", choice).upper()
@@ -383,7 +383,7 @@ def _public_header(law: LawCode, prefix: str, real: str, precision: str, error_m
     text = "\n".join(lines) + "\n" + _API.format(P=P, PU=PU)
     text += _WHEELS_API.format(P=P, PU=PU) if law.n_wheels else ""
     text += _TRIGGER_API.format(P=P, PU=PU) if law.trigger is not None else ""
-    return text + f'\n#ifdef __cplusplus\n}}\n#endif\n#endif /* {PU}_H */\n'
+    return text + f"\n#ifdef __cplusplus\n}}\n#endif\n#endif /* {PU}_H */\n"
 
 
 def _law_header(law: LawCode, prefix: str, error_model: str) -> str:
@@ -648,7 +648,9 @@ def read_c_library(folder: str | Path) -> CLibrary:
         error_model, law_name = manifest["error_model"], manifest["law"]["name"]
         fmt = manifest["format"]
     except (OSError, ValueError, KeyError, TypeError):
-        raise ExportError(f"{folder}: not a folder written by `fsmctl export --target c` (no readable manifest.json)") from None
+        raise ExportError(
+            f"{folder}: not a folder written by `fsmctl export --target c` (no readable manifest.json)"
+        ) from None
     if fmt != EXPORT_FORMAT:
         raise ExportError(f"{folder}: export format {fmt}, this fsmctl reads {EXPORT_FORMAT}; export the law again")
     source = manifest["law"].get("source", "")

@@ -11,6 +11,7 @@ instant); in float32 the differences are measured and reported, with whether eac
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import json
 import tempfile
 import warnings
@@ -122,7 +123,12 @@ class ExportCheck:
             f"{self.max_attitude_error_deg:.3g} deg"
         )
         ref, sil = self.converged
-        lines.append(f"  converges: engine {'yes' if ref else 'no'}, exported code {'yes' if sil else 'no'}")
+        a, b = self.reference.summary(), self.in_the_loop.summary()
+        lines.append(
+            f"  converges: engine {'yes' if ref else 'no'}, exported code {'yes' if sil else 'no'}; steady AAEM "
+            f"(the last {a['steady_window_s']:g} s): engine {a['aaem_steady_max_deg']:.3g} deg, exported code "
+            f"{b['aaem_steady_max_deg']:.3g} deg"
+        )
         return lines
 
 
@@ -187,12 +193,9 @@ def _controller(library: CLibrary, dll: ctypes.CDLL, scenario: Scenario) -> tupl
 
 
 def _files_match(library: CLibrary) -> bool:
-    import hashlib
-
     listed = json.loads((library.folder / "manifest.json").read_text()).get("sha256", {})
     return all(
-        (library.folder / name).is_file()
-        and hashlib.sha256((library.folder / name).read_bytes()).hexdigest() == digest
+        (library.folder / name).is_file() and hashlib.sha256((library.folder / name).read_bytes()).hexdigest() == digest
         for name, digest in listed.items()
     )
 

@@ -229,7 +229,9 @@ def default_law_dir() -> Path:
 
 def _sources(law_dir: Path) -> list[Path]:
     gen = generated_dir()
-    return sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(driver_source_dir().glob("*.c"))
+    return (
+        sorted((gen / "c").glob("*.c")) + sorted((law_dir / "c").glob("*.c")) + sorted(driver_source_dir().glob("*.c"))
+    )
 
 
 TRIGGER_DEFINE = "-DFSM_LAW_TRIGGER"

@@ -1,0 +1,180 @@
+"""``fsmctl export``: a law as a C library for a flight computer, an FMU for another simulator, results as CCSDS AEM.
+
+``--target c`` (default) writes one spacecraft's controller as a self-contained strict C99 library
+(:func:`fsmctl.export.write_c_library`); ``--verify`` then flies the scenario (default: the paper's Case 1) in the
+engine with the exported object code in the loop at the control period and compares it with the engine's own law
+(:func:`fsmctl.export.verify_export`: bit-identical in float64, the measured differences in float32).
+``--target fmu`` writes an FMI 2.0 co-simulation FMU of the controller (:mod:`fsmctl.export.fmu`); ``--target aem``
+writes a result file's attitude histories as CCSDS Attitude Ephemeris Messages (:mod:`fsmctl.export.aem`).
+
+Exit codes: 0 written (and, with ``--verify``, the check passed); 1 the software-in-the-loop check failed; 2 usage or
+input error.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+from fsmctl.cli.exit_codes import epilog
+from fsmctl.cli.law_options import add_law_options, law_changes
+from fsmctl.cli.options import add_case_option, add_out_option, add_scenario_option
+from fsmctl.policy import EXPORT_CONTROL_PERIOD
+
+__all__ = ["EXIT_CODES", "TARGETS", "add_parser", "run"]
+
+EXIT_CODES = {
+    0: "written (with --verify: the exported code flew as the engine's own law)",
+    1: "with --verify: the software-in-the-loop check failed",
+}
+"""What ``fsmctl export``'s exit codes 0 and 1 mean."""
+
+TARGETS = ("c", "fmu", "aem")
+"""``--target`` choices."""
+
+EPILOG = epilog(
+    EXIT_CODES,
+    text="""targets: c, a strict C99 library of one spacecraft's controller (no allocation, no globals, no libm;
+init / broadcast / step; README.md with units and frames; manifest.json); fmu, an FMI 2.0 co-simulation FMU of the
+same controller; aem, the attitude histories of a result file (--result) as CCSDS Attitude Ephemeris Messages.
+
+--verify (target c): the scenario flies twice at the control period, with the engine's own law and with the exported
+object code in the loop; float64 must be bit-identical, float32 is measured (torque, attitude, convergence).""",
+)
+
+
+def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Register ``fsmctl export``.
+
+    Parameters
+    ----------
+    subparsers : argparse subparsers action
+        From :func:`fsmctl.cli.main.build_parser`.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The ``export`` parser, with ``func = run``.
+    """
+    from fsmctl.export import ERROR_MODELS, PRECISIONS
+
+    p = subparsers.add_parser(
+        "export",
+        help="a law as a C99 library for a flight computer or an FMU, checked in the loop; results as CCSDS AEM",
+        description="Export a law for one spacecraft as strict C99 (or an FMI 2.0 FMU), checked against the engine "
+        "by software in the loop, or a result's attitudes as CCSDS AEM.",
+        epilog=EPILOG,
+    )
+    add_law_options(p, what="the export holds (--set: the parameters --verify flies; the C defaults stay the "
+                    "law's declared ones)")  # fmt: skip
+    p.add_argument("--target", choices=TARGETS, default="c", help="what to write (default: c)")
+    add_out_option(p, None, help="output folder (default: ./export-<law>-<target>)")
+    g = p.add_argument_group("the exported controller (targets c and fmu)")
+    g.add_argument("--precision", choices=tuple(PRECISIONS), default="float64",
+                   help="the arithmetic of the exported code (default: float64)")  # fmt: skip
+    g.add_argument("--error-model", choices=ERROR_MODELS, default=None,
+                   help="the error kinematics of the exported law (default: the scenario's)")  # fmt: skip
+    g.add_argument("--control-period", type=float, default=None, metavar="S",
+                   help="the control period (s; default: the scenario's control period, else "
+                   f"{EXPORT_CONTROL_PERIOD:g})")  # fmt: skip
+    g.add_argument("--prefix", default=None, metavar="NAME", help="prefix of every C name (default: the law's name)")
+    g.add_argument("--verify", action="store_true",
+                   help="fly the scenario with the exported code in the loop and compare with the engine (target c)")  # fmt: skip
+    add_scenario_option(g, default=None, note="(--verify flies it; its controller gives the defaults)")
+    add_case_option(g)
+    a = p.add_argument_group("results (target aem)")
+    a.add_argument("--result", type=Path, default=None, metavar="FILE.nc",
+                   help="a result file of fsmctl simulate (target aem)")  # fmt: skip
+    p.set_defaults(func=run)
+    return p
+
+
+def _check_args(args: argparse.Namespace) -> None:
+    from fsmctl.cli.main import UsageError
+
+    if args.control_period is not None and not (math.isfinite(args.control_period) and args.control_period > 0):
+        raise UsageError(f"--control-period must be a finite number > 0 s, got {args.control_period}")
+    if args.target == "aem":
+        if args.result is None:
+            raise UsageError("--target aem writes a result file's attitudes: give --result FILE.nc")
+        if args.law or args.verify or args.law_set:
+            raise UsageError("--target aem takes --result and --out only")
+    elif args.result is not None:
+        raise UsageError("--result is for --target aem")
+    if args.verify and args.target != "c":
+        raise UsageError("--verify checks --target c (the FMU is built from the same C)")
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``fsmctl export`` (see the module docstring).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed options.
+
+    Returns
+    -------
+    int
+        0 written (and verified), 1 the check failed; bad input raises :class:`fsmctl.cli.main.UsageError`.
+    """
+    _check_args(args)
+    if args.target == "aem":
+        return _aem(args)
+    from fsmctl.model.laws import resolve_law
+    from fsmctl.model.scenario import load_scenario
+
+    law, parameters, controller = law_changes(args)
+    scenario = load_scenario(args.scenario or "paper", case=args.case)
+    if law or parameters:
+        scenario = scenario.with_law(law, parameters)
+    if controller:
+        scenario = scenario.replace(controller=controller)
+    code = resolve_law(law) if law else scenario.law
+    period = args.control_period or scenario.simulation.control_period or EXPORT_CONTROL_PERIOD
+    error_model = args.error_model or scenario.controller.error_model
+    folder = args.out or Path(f"export-{code.name}-{args.target}")
+    if args.target == "fmu":
+        return _fmu(args, code, folder, period, error_model)
+    return _c(args, code, scenario, folder, period, error_model)
+
+
+def _c(args, code, scenario, folder: Path, period: float, error_model: str) -> int:
+    from fsmctl.export import strict_flags, verify_export, write_c_library
+
+    command = "fsmctl " + " ".join(sys.argv[1:]) if sys.argv[1:] else "fsmctl export"
+    lib = write_c_library(
+        code, folder, control_period=period, precision=args.precision, error_model=error_model, prefix=args.prefix,
+        command=command,
+    )  # fmt: skip
+    print(f"wrote {lib.folder}/: {', '.join(sorted(lib.manifest['sha256']))}")
+    print(f"compile: cc {' '.join(strict_flags(lib.precision))} -O2 -c {' '.join(s.name for s in lib.sources)}")
+    if not args.verify:
+        return 0
+    check = verify_export(lib, scenario, control_period=period)
+    print("\n".join(check.report_lines()))
+    return 0 if check.passed else 1
+
+
+def _fmu(args, code, folder: Path, period: float, error_model: str) -> int:
+    from fsmctl.export.fmu import write_controller_fmu
+
+    path = write_controller_fmu(
+        code, folder / f"{args.prefix or code.name}_controller.fmu", precision=args.precision,
+        error_model=error_model, control_period=period,
+    )  # fmt: skip
+    print(f"wrote {path}")
+    return 0
+
+
+def _aem(args) -> int:
+    from fsmctl.export.aem import write_aem
+    from fsmctl.simulation import load_result
+
+    result = load_result(args.result)
+    folder = args.out or Path(f"export-{Path(args.result).stem}-aem")
+    paths = write_aem(result, folder)
+    print(f"wrote {len(paths)} CCSDS AEM file(s) to {folder}/: {', '.join(p.name for p in paths)}")
+    return 0
