@@ -1683,6 +1683,7 @@ def markdown(res: dict) -> str:
     lines += _markdown_tools(res)
     lines += _markdown_throughput_and_montecarlo(res)
     lines += _markdown_certify(res)
+    lines += _markdown_export(res)
     return "\n".join(lines) + "\n"
 
 
@@ -2292,9 +2293,133 @@ def _markdown_certify(res: dict) -> list[str]:
     return lines
 
 
+_EXPORT_BENCH = r"""
+#define _POSIX_C_SOURCE 199309L
+#include <stdio.h>
+#include <time.h>
+#include "fsm.h"
+
+#define STATES 1024
+#define NEIGHBOURS 5
+
+static double now(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return ts.tv_sec + 1e-9 * ts.tv_nsec;
+}
+
+int main(int argc, char **argv) {
+  static fsm_input in[STATES];
+  fsm_controller c;
+  fsm_config config;
+  fsm_real b[FSM_N_BROADCAST], nb_b[NEIGHBOURS * FSM_N_BROADCAST], k_own[NEIGHBOURS], k_send[NEIGHBOURS];
+  fsm_neighbours nb = {NEIGHBOURS, nb_b, k_own, k_send};
+  fsm_command cmd;
+  unsigned long long seed = 12345;
+  long long iterations = argc > 1 ? atoll(argv[1]) : 1000000, k;
+  double best = 1e30, sink = 0;
+  int r, i, j;
+  fsm_default_config(&config);
+  config.J0[0] = 100; config.J0[4] = 150; config.J0[8] = 200; config.J0[1] = config.J0[3] = 1;
+  config.J0[2] = config.J0[6] = 2; config.J0[5] = config.J0[7] = 1;
+  config.torque_limit = 2;
+  if (fsm_init(&c, &config) != FSM_STATUS_OK) return 1;
+  for (i = 0; i < STATES; ++i) { /* attitudes and rates around the reference, as in a flight */
+    for (j = 0; j < 3; ++j) {
+      seed = seed * 6364136223846793005ULL + 1442695040888963407ULL;
+      in[i].sigma[j] = (fsm_real)(((seed >> 11) * (1.0 / 9007199254740992.0) - 0.5) * 0.6);
+      in[i].omega[j] = (fsm_real)(in[i].sigma[j] * 0.05);
+      in[i].sigma_d[j] = in[i].omega_d[j] = in[i].omega_d_dot[j] = 0;
+    }
+    in[i].t = (fsm_real)(0.01 * i);
+  }
+  for (j = 0; j < NEIGHBOURS; ++j) {
+    k_own[j] = 1; k_send[j] = 1;
+    for (i = 0; i < FSM_N_BROADCAST; ++i) nb_b[j * FSM_N_BROADCAST + i] = (fsm_real)(0.01 * (i + j));
+  }
+  for (r = 0; r < 5; ++r) {
+    double t0 = now();
+    for (k = 0; k < iterations; ++k) {
+      fsm_broadcast(&c, &in[k & (STATES - 1)], b);
+      fsm_step(&c, &nb, &cmd);
+      sink += cmd.torque[0];
+    }
+    double ns = (now() - t0) / iterations * 1e9;
+    if (ns < best) best = ns;
+  }
+  printf("%.3f %g\n", best, sink);
+  return 0;
+}
+"""
+
+
+def export_section(quick: bool, log) -> dict:
+    """``fsmctl export`` (issue 30): the exported controller of the paper's law, one agent's control instant
+    (``fsm_broadcast`` + ``fsm_step`` with 5 neighbours) in ns, float64 and float32 side by side in one run (min of 5
+    repeats of a loop over 1024 stored attitudes), compiled with gcc -O2 at the export's strict flags; the stack
+    frames from ``-fstack-usage`` and their sum over the library (a bound on its stack use: no recursion)."""
+    import subprocess
+    import tempfile
+
+    from fsmctl.export import compile_export, strict_flags, write_c_library
+    from fsmctl.model.generated_code import c_compiler
+
+    cc = c_compiler()
+    out: dict = {"compiler": subprocess.run([cc, "--version"], capture_output=True, text=True).stdout.splitlines()[0]}
+    iterations = 200_000 if quick else 2_000_000
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for precision in ("float64", "float32"):
+            lib = write_c_library("fsm", tmp / precision, control_period=0.01, precision=precision, error_model="exact")
+            objects = compile_export(lib, tmp / f"o-{precision}", shared=False, extra_flags=["-O2", "-fstack-usage"])
+            frames = {}
+            for su in objects.glob("*.su"):
+                for line in su.read_text().splitlines():
+                    where, size, _kind = line.split("\t")
+                    frames[where.rsplit(":", 1)[-1]] = int(size)
+            harness = tmp / f"bench-{precision}.c"
+            harness.write_text(_EXPORT_BENCH.replace("#include <time.h>", "#include <time.h>\n#include <stdlib.h>"))
+            exe = tmp / f"bench-{precision}"
+            flags = [f for f in strict_flags(precision) if f not in ("-Werror", "-pedantic", "-Wconversion")]
+            subprocess.run([cc, *flags, "-O2", f"-I{lib.folder}", str(harness), *map(str, objects.glob("*.o")), "-o",
+                            str(exe)], check=True)  # fmt: skip
+            ns = float(
+                subprocess.run([str(exe), str(iterations)], capture_output=True, text=True, check=True).stdout.split()[
+                    0
+                ]
+            )
+            api = {k: v for k, v in frames.items() if k in ("fsm_broadcast", "fsm_step", "fsm_init")}
+            out[precision] = {"ns_per_agent_instant": ns, "frames": frames, "api_frames": api,
+                              "stack_bound_bytes": sum(frames.values())}  # fmt: skip
+            log(f"export {precision}: {ns:.0f} ns per agent and control instant, stack bound {sum(frames.values())} B")
+    return out
+
+
+def _markdown_export(res: dict) -> list[str]:
+    e = res.get("export")
+    if not e:
+        return []
+    lines = ["", "## fsmctl export (issue 30): the paper's law as C99 on one spacecraft", "",
+             "| precision | broadcast + step (ns per agent and control instant) | frames of broadcast / step / init (B) "
+             "| stack bound (B) |", "|---|---|---|---|"]  # fmt: skip
+    for p in ("float64", "float32"):
+        r = e[p]
+        f = r["api_frames"]
+        lines.append(
+            f"| {p} | {r['ns_per_agent_instant']:.0f} | {f.get('fsm_broadcast', 0)} / {f.get('fsm_step', 0)} / "
+            f"{f.get('fsm_init', 0)} | {r['stack_bound_bytes']} |"
+        )
+    lines += [
+        "",
+        f"{e['compiler']}, -O2 at the export's strict flags, 5 neighbours, min of 5 repeats; the stack bound is the sum "
+        "of every frame of the library (`-fstack-usage`; no recursion, so no call chain is deeper).",
+    ]
+    return lines
+
+
 SECTIONS = (
     "compare", "kernels", "laws", "hardware", "flight", "scale", "smooth_ring", "flops", "subprocess", "throughput", "montecarlo",
-    "certify",
+    "certify", "export",
 )  # fmt: skip
 """The sections of a run, in order (``--only`` selects some)."""
 
@@ -2355,6 +2480,7 @@ def main(argv=None) -> int:
     runs = args.montecarlo_runs if args.montecarlo_runs is not None else (20 if args.quick else 1000)
     section("throughput", lambda: throughput_section(args.quick, log))
     section("certify", lambda: certify_section(args.quick, log))
+    section("export", lambda: export_section(args.quick, log))
     previous_mc = res.get("montecarlo")
     if previous_mc and not previous_mc.get("before"):
         previous_mc = {**previous_mc, "date": res.get("measured", {}).get("montecarlo") or previous_date}
