@@ -56,6 +56,7 @@ _PUBLIC_MODULES = (
     "fsmctl.plugin",
     "fsmctl.proofs",
     "fsmctl.studies",
+    "fsmctl.export",
     "fsmctl.errors",
     "fsmctl.outputs",
     "fsmctl.policy",

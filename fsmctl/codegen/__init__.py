@@ -6,6 +6,8 @@
 * :func:`load_derivation_script`, :func:`law_functions`, :func:`write_law`, :func:`check_law`: a control law's
   folder, what ``fsmctl derive FILE.py`` (and ``--check``) runs.
 
+* :func:`c99_function`: a CasADi graph as library-free strict C99 (what ``fsmctl export`` prints).
+
 The lane-batched SIMD kernels (:mod:`fsmctl.codegen.batched`) are written by the same generator.  Names load
 on first use (SPEC 1 lazy loading): ``import fsmctl.codegen`` does not import CasADi or SymPy.
 """
@@ -18,6 +20,7 @@ _ATTRS = {
     "casadi_bridge": ["to_casadi_function"],
     "writer": ["GeneratedFunction", "build_functions", "write_generated", "check_generated"],
     "laws": ["load_derivation_script", "law_functions", "write_law", "check_law"],
+    "c99": ["c99_function"],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]

@@ -1,34 +1,40 @@
 """Export: a law to a flight computer (strict C99), to other simulators (FMI), results to CCSDS messages.
 
-A layer between :mod:`fsmctl.studies` and the engine (:mod:`fsmctl.simulation`): it reads laws
-(:mod:`fsmctl.model`), prints their CasADi graphs (:mod:`fsmctl.codegen.c99`) and flies the engine with the exported
-code in the loop.
+A layer between :mod:`fsmctl.studies` and the engine (:mod:`fsmctl.simulation`): it reads laws (:mod:`fsmctl.model`),
+prints their CasADi graphs as C99 (:mod:`fsmctl.codegen.c99`) and flies the engine with the exported code in the loop.
+
+* :func:`write_c_library`, :func:`read_c_library`, :class:`CLibrary`: one spacecraft's controller as a strict C99
+  library (``fsmctl export --target c``);
+* :func:`compile_export`: the export compiled at its strict flags;
+* :func:`verify_export`, :class:`ExportCheck`: software in the loop (``fsmctl export --verify``).
+
+Names load on first use (SPEC 1 lazy loading).
 """
 
-from fsmctl.export.build import BuildError, compile_export
-from fsmctl.export.c_library import (
-    ERROR_MODELS,
-    EXPORT_FORMAT,
-    PRECISIONS,
-    CLibrary,
-    ExportError,
-    read_c_library,
-    strict_flags,
-    write_c_library,
-)
-from fsmctl.export.sil import ExportCheck, verify_export
+from __future__ import annotations
 
-__all__ = [
-    "ERROR_MODELS",
-    "EXPORT_FORMAT",
-    "PRECISIONS",
-    "CLibrary",
-    "ExportError",
-    "strict_flags",
-    "write_c_library",
-    "read_c_library",
-    "BuildError",
-    "compile_export",
-    "ExportCheck",
-    "verify_export",
-]
+import lazy_loader
+
+_ATTRS = {
+    "c_library": [
+        "ERROR_MODELS",
+        "EXPORT_FORMAT",
+        "PRECISIONS",
+        "CLibrary",
+        "ExportError",
+        "read_c_library",
+        "strict_flags",
+        "write_c_library",
+    ],
+    "build": ["BuildError", "compile_export"],
+    "sil": ["ExportCheck", "sil_scenario", "verify_export"],
+}
+
+__all__ = [name for names in _ATTRS.values() for name in names]
+
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(__name__, submod_attrs=_ATTRS)
+
+
+def __dir__() -> list[str]:
+    """The public names, loaded or not (for tab completion and ``dir(fsmctl.export)``)."""
+    return sorted(set(__all__) | set(_lazy_all))

@@ -22,7 +22,19 @@ BUILD_TIMEOUT_S = 300.0
 
 
 class BuildError(ExportError):
-    """The compiler refused the exported code (its first error line is in the message)."""
+    """The compiler refused the exported code (its first error line is in the message).
+
+    Examples
+    --------
+    >>> from fsmctl.export import write_c_library
+    >>> lib = write_c_library("pid", "pid_c", control_period=0.01)
+    >>> _ = (lib.folder / "pid_law.c").write_text("not C")
+    >>> try:
+    ...     compile_export(lib, "pid.so")
+    ... except BuildError as exc:
+    ...     print(str(exc).split(":")[0])
+    cc refused the export in pid_c
+    """
 
 
 def _compiler(compiler: str | None) -> str:

@@ -59,7 +59,16 @@ _TEMPLATES = ("controller.c", "export_math.c", "export_math.h")
 
 
 class ExportError(InputError):
-    """A law cannot be exported as asked (an unknown option, an operation the C99 export cannot print)."""
+    """A law cannot be exported as asked (an unknown option, an operation the C99 export cannot print).
+
+    Examples
+    --------
+    >>> try:
+    ...     write_c_library("pid", "out", control_period=0.01, precision="float16")
+    ... except ExportError as exc:
+    ...     print(exc)
+    precision: must be one of float64, float32, got 'float16'
+    """
 
 
 @dataclass(frozen=True)
@@ -82,6 +91,12 @@ class CLibrary:
         The C sources to compile (``P.c``, ``P_law.c``, ``P_math.c``).
     manifest : dict
         ``manifest.json``.
+
+    Examples
+    --------
+    >>> lib = write_c_library("fsm", "fsm_c", control_period=0.01, precision="float32")
+    >>> lib.prefix, lib.header.name, [s.name for s in lib.sources]
+    ('fsm', 'fsm.h', ['fsm.c', 'fsm_law.c', 'fsm_math.c'])
     """
 
     folder: Path
@@ -100,6 +115,16 @@ class CLibrary:
 
 def strict_flags(precision: str) -> tuple[str, ...]:
     """The compiler flags the export must compile cleanly with (issue 30's bar), for ``precision``.
+
+    Parameters
+    ----------
+    precision : {"float64", "float32"}
+        The export's arithmetic (float32 adds ``-Wconversion``).
+
+    Returns
+    -------
+    tuple of str
+        The flags (strict C99, every warning an error, no floating-point contraction).
 
     Examples
     --------
@@ -636,10 +661,26 @@ def write_c_library(
 def read_c_library(folder: str | Path) -> CLibrary:
     """An exported library from its folder (its ``manifest.json``), e.g. to verify it again.
 
+    Parameters
+    ----------
+    folder : path
+        A folder written by :func:`write_c_library` (``fsmctl export --target c``).
+
+    Returns
+    -------
+    CLibrary
+        The library as it is now (its files are not checked against the manifest here).
+
     Raises
     ------
     ExportError
         The folder holds no export of this format, or its law is no longer available.
+
+    Examples
+    --------
+    >>> lib = write_c_library("pid", "pid_c", control_period=0.01)
+    >>> read_c_library("pid_c").manifest == lib.manifest
+    True
     """
     folder = Path(folder)
     try:

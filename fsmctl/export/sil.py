@@ -53,6 +53,15 @@ class ExportCheck:
         Control instants where the library's own law state differed from the engine's (float64 only).
     files_match_manifest : bool
         Whether every file of the library still has the sha256 of its ``manifest.json``.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.export import write_c_library
+    >>> lib = write_c_library("fsm", "fsm_c", control_period=0.01, precision="float32", error_model="paper")
+    >>> check = verify_export(lib, fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0}))
+    >>> check.bit_identical, check.max_torque_error < 5.0, check.report_lines()[1].split(",")[0]
+    (False, True, '  largest torque difference ...')
     """
 
     library: CLibrary
@@ -135,7 +144,28 @@ class ExportCheck:
 def sil_scenario(scenario: Scenario, library: CLibrary, control_period: float | None = None) -> Scenario:
     """``scenario`` flying the library's law and error model with zero-order hold at ``control_period``.
 
-    The period: ``control_period``, else the scenario's (when it has one), else :data:`fsmctl.policy.EXPORT_CONTROL_PERIOD`.
+    Parameters
+    ----------
+    scenario : Scenario
+        What to fly.
+    library : CLibrary
+        The export (its law replaces the scenario's, with the law's own parameters; its error model too).
+    control_period : float, optional
+        The period (s); default the scenario's when it has one, else :data:`fsmctl.policy.EXPORT_CONTROL_PERIOD`.
+
+    Returns
+    -------
+    Scenario
+        The scenario both runs of :func:`verify_export` fly.
+
+    Examples
+    --------
+    >>> import fsmctl
+    >>> from fsmctl.export import write_c_library
+    >>> lib = write_c_library("pid", "pid_c", control_period=0.01, error_model="exact")
+    >>> s = sil_scenario(fsmctl.paper_scenario("1"), lib)
+    >>> s.law.name, s.controller.error_model, s.simulation.control_period
+    ('pid', 'exact', 0.01)
     """
     period = control_period or scenario.simulation.control_period or EXPORT_CONTROL_PERIOD
     law = library.law.name if library.law.builtin else library.law.folder
