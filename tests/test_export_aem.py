@@ -30,6 +30,7 @@ from fsmctl.export import (
     read_aem,
     write_aem,
 )
+from fsmctl.simulation.results_io import load_result
 
 SETTINGS = settings(max_examples=200, derandomize=True, deadline=None)
 SIGMA_ATOL = 1e-13
@@ -206,3 +207,21 @@ def test_files_that_are_not_an_aem(run, tmp_path):
     two.write_text(text + segment)
     with pytest.raises(AemError, match="2 segments"):
         read_aem(two)
+
+
+def test_a_result_file_exports_as_the_run_does(run, tmp_path):
+    saved = run.save(tmp_path / "run.nc", command=["fsmctl", "simulate"])
+    ds = load_result(saved)
+    from_file = write_aem(ds, tmp_path / "file", command="fsmctl export --target aem")
+    from_run = write_aem(run, tmp_path / "run")
+    assert [p.name for p in from_file] == [p.name for p in from_run]
+    for a, b in zip(from_file, from_run, strict=True):
+        ea, eb = read_aem(a), read_aem(b)
+        np.testing.assert_array_equal(ea.time, eb.time)
+        np.testing.assert_array_equal(ea.quaternion, eb.quaternion)
+        assert (ea.angular_velocity is None) == (eb.angular_velocity is None)
+        assert ea.provenance["scenario_toml"] == eb.provenance["scenario_toml"]
+        assert ea.provenance["command"] == "fsmctl simulate"
+        assert ea.provenance["export_command"] == "fsmctl export --target aem"
+    with pytest.raises(AemError, match="not an fsmctl result"):
+        write_aem(ds.drop_vars("sigma"), tmp_path / "bad")

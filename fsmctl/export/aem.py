@@ -27,7 +27,7 @@ The conventions, stated once here and in every file's comments:
 * **digits**: the library writes each float as its shortest round-trip decimal (up to 17 significant digits),
   so the quaternions and rates read back are the float64 numbers written.
 * **provenance**: the header comments hold :func:`fsmctl.simulation.results_io.provenance` (scenario, law,
-  versions, command) as ``key = <JSON value>`` lines, as the CSV result files do; the scenario TOML follows as
+  versions, command; for a result file, the provenance it recorded) as ``key = <JSON value>`` lines, as the CSV result files do; the scenario TOML follows as
   ``scenario_toml | <line>`` comments.  :attr:`AttitudeEphemeris.provenance` gives them back.
 
 Examples
@@ -49,6 +49,7 @@ from __future__ import annotations
 
 import json
 import re
+import shlex
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import UTC, date, datetime, timedelta
@@ -58,6 +59,7 @@ from typing import TYPE_CHECKING
 
 import ccsds_ndm
 import numpy as np
+import xarray as xr
 
 from fsmctl.errors import InputError
 from fsmctl.model.attitude import mrp_from_quaternion, quaternion_from_mrp
@@ -112,6 +114,8 @@ _TOML_PREFIX = "scenario_toml |"
 _QUATERNION_TYPES = {"QUATERNION": 0, "QUATERNION/ANGVEL": 3}
 """the attitude types read, and the number of rate columns after the quaternion"""
 _EPOCH = re.compile(r"^(\d{4})-(?:(\d{2})-(\d{2})|(\d{3}))T(\d{2}):(\d{2}):(\d{2})(\.\d*)?Z?$")
+_DATASET_VARIABLES = ("time_s", "sigma", "omega_rad_per_s", "sigma_d")
+"""the variables of a result file (:func:`fsmctl.simulation.results_io.load_result`) an AEM is made of"""
 _KEY_VALUE = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*) = (.*)$")
 _DECIMAL = Context(prec=60)
 
@@ -283,10 +287,37 @@ def _agent_numbers(agents: Iterable[int] | None, n: int) -> list[int]:
     return [int(k) for k in numbers]
 
 
-def _header_comments(result: SimulationResult, command) -> list[str]:
-    attrs = provenance(result.scenario, command=command)
-    toml = attrs.pop("scenario_toml")
-    lines = [f"{key} = {json.dumps(value)}" for key, value in attrs.items()]
+@dataclass(frozen=True, eq=False)
+class _History:
+    """What an AEM needs of a run, from a :class:`SimulationResult` or a result file's dataset."""
+
+    label: str
+    time: np.ndarray
+    sigma: np.ndarray
+    omega: np.ndarray
+    sigma_d: np.ndarray
+    attrs: dict[str, object]
+
+
+def _history(result: SimulationResult | xr.Dataset, command) -> _History:
+    if isinstance(result, xr.Dataset):
+        missing = [v for v in _DATASET_VARIABLES if v not in result.variables]
+        if missing or "scenario_label" not in result.attrs:
+            what = ", ".join(missing) or "the attribute scenario_label"
+            raise AemError(f"the dataset is not an fsmctl result (no {what}): read it with load_result")
+        attrs = {k: v for k, v in result.attrs.items() if isinstance(v, (str, int, float, bool))}
+        if command is not None:
+            attrs["export_command"] = command if isinstance(command, str) else shlex.join(str(c) for c in command)
+        time, sigma, omega, sigma_d = (np.asarray(result[v].values, dtype=float) for v in _DATASET_VARIABLES)
+        return _History(str(attrs["scenario_label"]), time, sigma, omega, sigma_d, attrs)
+    attrs = dict(provenance(result.scenario, command=command))
+    arrays = (np.asarray(a, dtype=float) for a in (result.time, result.sigma, result.omega, result.sigma_d))
+    return _History(result.scenario.label, *arrays, attrs)
+
+
+def _header_comments(attrs: Mapping[str, object]) -> list[str]:
+    toml = str(attrs.get("scenario_toml", ""))
+    lines = [f"{key} = {json.dumps(value)}" for key, value in attrs.items() if key != "scenario_toml"]
     return lines + [f"{_TOML_PREFIX} {line}".rstrip() for line in toml.splitlines()]
 
 
@@ -308,7 +339,7 @@ def _message(header: ccsds_ndm.AdmHeader, meta: dict, comments: list[str], epoch
 
 
 def write_aem(
-    result: SimulationResult,
+    result: SimulationResult | xr.Dataset,
     out_dir: str | Path,
     *,
     agents: Iterable[int] | None = None,
@@ -325,8 +356,10 @@ def write_aem(
 
     Parameters
     ----------
-    result : SimulationResult
-        The run (:func:`fsmctl.simulate`).
+    result : SimulationResult or xarray.Dataset
+        The run (:func:`fsmctl.simulate`), or a result file as read by
+        :func:`fsmctl.simulation.results_io.load_result` (its recorded provenance is written as it is, with
+        ``export_command``; a float32 file gives the quaternions of its float32 MRPs).
     out_dir : str or Path
         The folder (created when missing); each file is ``<object name><suffix>`` (characters other than
         letters, digits, ``.``, ``_``, ``-`` become ``-``), written atomically.
@@ -347,7 +380,7 @@ def write_aem(
     format : {"kvn", "xml"}
         The encoding (:data:`FORMATS`).
     command : sequence of str or str, optional
-        The command line, recorded in the provenance comments.
+        The command line, recorded in the provenance comments (``command``; ``export_command`` for a dataset).
     creation_date : datetime.datetime, optional
         The header's ``CREATION_DATE`` (UTC); now by default.
 
@@ -363,7 +396,7 @@ def write_aem(
     UnknownAgentError
         An agent number outside ``1..n``.
     AemError
-        An object name format with an unknown field, two objects with one file name, an unknown format.
+        A dataset that is not an fsmctl result, an object name format with an unknown field, two objects with one file name, an unknown format.
     EnvironmentProblem
         A file cannot be written.
 
@@ -379,18 +412,16 @@ def write_aem(
     """
     if format not in FORMATS:
         raise AemError(f"format {format!r}: choose one of {', '.join(FORMATS)}")
-    sigma = np.asarray(result.sigma, dtype=float)
-    if len(result.time) == 0 or sigma.shape[0] == 0:
-        raise EmptyResultError(f"{result.scenario.label}: the result has no time sample, so no attitude history")
-    n = sigma.shape[1]
+    run = _history(result, command)
+    if run.time.shape[0] == 0 or run.sigma.shape[0] == 0:
+        raise EmptyResultError(f"{run.label}: the result has no time sample, so no attitude history")
+    n = run.sigma.shape[1]
     numbers = _agent_numbers(agents, n)
-    fields = {"scenario": _slug(result.scenario.label), "n": n}
+    fields = {"scenario": _slug(run.label), "n": n}
     origin = _utc_naive(epoch)
     created = _utc_naive(creation_date or datetime.now(UTC)).strftime("%Y-%m-%dT%H:%M:%S")
-    header = ccsds_ndm.AdmHeader(
-        creation_date=created, originator=originator, comment=_header_comments(result, command)
-    )
-    epochs = [_epoch_text(origin, t) for t in np.asarray(result.time, dtype=float)]
+    header = ccsds_ndm.AdmHeader(creation_date=created, originator=originator, comment=_header_comments(run.attrs))
+    epochs = [_epoch_text(origin, t) for t in run.time]
     common = [
         f"{_ORIGIN_KEY} = {json.dumps(origin.isoformat())}",
         f"quaternion: {QUATERNION_CONVENTION}; sign continuous (nearest the previous sample)",
@@ -399,14 +430,14 @@ def write_aem(
     jobs: list[tuple[str, dict, list[str], np.ndarray]] = []
     for k in numbers:
         name = _object_name(object_name_format, k=k, **fields)
-        rows = np.hstack([aem_quaternions(sigma[:, k - 1]), np.degrees(np.asarray(result.omega)[:, k - 1])])
+        rows = np.hstack([aem_quaternions(run.sigma[:, k - 1]), np.degrees(run.omega[:, k - 1])])
         meta = {"attitude_type": "QUATERNION/ANGVEL", "angvel_frame": BODY_FRAME}
         lines = [f"agent {k} of {n}: body frame B = REF_FRAME_B; ANGVEL = omega of B relative to N, in B, deg/s"]
         jobs.append((name, meta, lines + common, rows))
     if reference_name_format is not None:
         name = _object_name(reference_name_format, **fields)
         lines = ["reference attitude sigma_d: the desired frame R = REF_FRAME_B"]
-        jobs.append((name, {"attitude_type": "QUATERNION"}, lines + common, aem_quaternions(result.sigma_d)))
+        jobs.append((name, {"attitude_type": "QUATERNION"}, lines + common, aem_quaternions(run.sigma_d)))
     return _write_all(Path(out_dir), header, inertial_frame, epochs, jobs, FORMATS[format], format)
 
 
