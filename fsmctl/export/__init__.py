@@ -6,7 +6,9 @@ prints their CasADi graphs as C99 (:mod:`fsmctl.codegen.c99`) and flies the engi
 * :func:`write_c_library`, :func:`read_c_library`, :class:`CLibrary`: one spacecraft's controller as a strict C99
   library (``fsmctl export --target c``);
 * :func:`compile_export`: the export compiled at its strict flags;
-* :func:`verify_export`, :class:`ExportCheck`: software in the loop (``fsmctl export --verify``).
+* :func:`verify_export`, :class:`ExportCheck`: software in the loop (``fsmctl export --verify``);
+* :func:`write_aem`, :func:`read_aem`, :class:`AttitudeEphemeris`: attitude histories as CCSDS Attitude Ephemeris
+  Messages (``fsmctl export --target aem``).
 
 Names load on first use (SPEC 1 lazy loading).
 """
@@ -28,6 +30,17 @@ _ATTRS = {
     ],
     "build": ["BuildError", "compile_export"],
     "sil": ["ExportCheck", "sil_scenario", "verify_export"],
+    "aem": [
+        "AemError",
+        "AttitudeEphemeris",
+        "EmptyResultError",
+        "NotAnAemError",
+        "UnknownAgentError",
+        "aem_quaternions",
+        "mrp_from_aem_quaternions",
+        "read_aem",
+        "write_aem",
+    ],
 }
 
 __all__ = [name for names in _ATTRS.values() for name in names]
