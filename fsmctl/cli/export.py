@@ -87,6 +87,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     a = p.add_argument_group("results (target aem)")
     a.add_argument("--result", type=Path, default=None, metavar="FILE.nc",
                    help="a result file of fsmctl simulate (target aem)")  # fmt: skip
+    a.add_argument("--aem-format", choices=("kvn", "xml"), default="kvn",
+                   help="the AEM encoding: KVN text or XML (default: kvn)")  # fmt: skip
     p.set_defaults(func=run)
     return p
 
@@ -170,11 +172,17 @@ def _fmu(args, code, folder: Path, period: float, error_model: str) -> int:
 
 
 def _aem(args) -> int:
-    from fsmctl.export.aem import write_aem
+    from fsmctl.export.aem import DEFAULT_EPOCH, INERTIAL_FRAME, write_aem
     from fsmctl.simulation import load_result
 
     result = load_result(args.result)
     folder = args.out or Path(f"export-{Path(args.result).stem}-aem")
-    paths = write_aem(result, folder)
-    print(f"wrote {len(paths)} CCSDS AEM file(s) to {folder}/: {', '.join(p.name for p in paths)}")
+    command = "fsmctl " + " ".join(sys.argv[1:]) if sys.argv[1:] else "fsmctl export --target aem"
+    paths = write_aem(result, folder, format=args.aem_format, command=command)
+    for p in paths:
+        print(f"wrote {p}")
+    print(
+        f"{len(paths)} CCSDS AEM files (the agents, then the reference): quaternions Q1 Q2 Q3 QC (scalar last) from "
+        f"{INERTIAL_FRAME} (the scenario's inertial frame) to the body; t = 0 at {DEFAULT_EPOCH.isoformat()} UTC"
+    )
     return 0
