@@ -21,6 +21,7 @@ from pathlib import Path
 from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.law_options import add_law_options, law_changes
 from fsmctl.cli.options import add_case_option, add_out_option, add_scenario_option
+from fsmctl.cli.types import number
 from fsmctl.policy import EXPORT_CONTROL_PERIOD
 
 __all__ = ["EXIT_CODES", "TARGETS", "add_parser", "run"]
@@ -76,8 +77,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="the arithmetic of the exported code (default: float64)")  # fmt: skip
     g.add_argument("--error-model", choices=ERROR_MODELS, default=None,
                    help="the error kinematics of the exported law (default: the scenario's)")  # fmt: skip
-    g.add_argument("--control-period", type=float, default=None, metavar="S",
-                   help="the control period (s; default: the scenario's control period, else "
+    g.add_argument("--control-period", type=number, default=None, metavar="SECONDS",
+                   help="the control period in s (> 0; default: the scenario's simulation.control_period, else "
                    f"{EXPORT_CONTROL_PERIOD:g})")  # fmt: skip
     g.add_argument("--prefix", default=None, metavar="NAME", help="prefix of every C name (default: the law's name)")
     g.add_argument("--verify", action="store_true",
@@ -96,7 +97,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
 def _check_args(args: argparse.Namespace) -> None:
     from fsmctl.cli.main import UsageError
 
-    if args.control_period is not None and not (math.isfinite(args.control_period) and args.control_period > 0):
+    period = args.control_period
+    if period is not None and not (isinstance(period, (int, float)) and math.isfinite(period) and period > 0):
         raise UsageError(f"--control-period must be a finite number > 0 s, got {args.control_period}")
     if args.target == "aem":
         if args.result is None:

@@ -228,6 +228,18 @@ class ExternalController:
         Its first argument (an address).
     owner : object
         What keeps the function's library and the context alive while the engine holds their addresses.
+
+    Examples
+    --------
+    :func:`fsmctl.export.verify_export` builds one from an exported C library and flies it with
+    ``fsmctl.simulate(scenario, controller_in_the_loop=controller)``; the fields are plain addresses:
+
+    >>> import ctypes
+    >>> from fsmctl.simulation import ExternalController
+    >>> context = ctypes.create_string_buffer(64)
+    >>> c = ExternalController(function=0, context=ctypes.addressof(context), owner=context)
+    >>> c.context == ctypes.addressof(context)
+    True
     """
 
     function: int
