@@ -393,6 +393,11 @@ def _public_header(law: LawCode, prefix: str, real: str, precision: str, error_m
         if key != "N_BROADCAST" and key != "N_WHEELS":
             lines.append(f"#define {PU}_{key}_ALLOC {_alloc(value)}")
     lines += [f"#define {PU}_HAS_TRIGGER {int(law.trigger is not None)}"]
+    lines += [
+        f'#define {PU}_LAW_NAME "{law.name}"',
+        f'#define {PU}_LAW_MANIFEST_SHA256 "{_sha256(law.folder / "manifest.json")}" /* the law folder it came from */',
+        f'#define {PU}_FSMCTL_VERSION "{__version__}"',
+    ]
     lines += [f"#define {PU}_DEFAULT_CONTROL_PERIOD {float(period)!r} /* s */", ""]
     for parameter in law.parameters:
         for k, choice in enumerate(parameter.choices):
