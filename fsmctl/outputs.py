@@ -162,6 +162,7 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     tmp = Path(name)
     try:
         yield tmp
+        os.chmod(tmp, _default_mode())  # mkstemp's file is private (0600): a file written here is like any other
         fd = os.open(tmp, os.O_RDONLY)  # on disk before the rename makes it visible
         try:
             os.fsync(fd)
@@ -174,6 +175,13 @@ def atomic_path(path: str | os.PathLike) -> Iterator[Path]:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
+
+
+def _default_mode() -> int:
+    """The mode a new file gets here: ``0o666`` less the process's umask (as ``open`` would create it)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return 0o666 & ~mask
 
 
 def write_text(path: str | os.PathLike, text: str) -> Path:

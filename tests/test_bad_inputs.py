@@ -550,3 +550,18 @@ def test_workers_is_the_one_keyword_and_is_checked(tmp_path):
     with pytest.raises(InputError, match="workers must be a whole number >= 1"):
         reproduce("paper", tmp_path / "r", workers=0)
     assert not (tmp_path / "r").exists()
+
+
+def test_output_files_get_the_usual_permissions(tmp_path):
+    """Files written atomically (through a private temporary file) end with the mode ``open`` would give them:
+    readable by the group and others under the usual umask 022, not 0600."""
+    import os
+
+    from fsmctl.outputs import write_text
+
+    old = os.umask(0o022)
+    try:
+        path = write_text(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(old)
+    assert path.stat().st_mode & 0o777 == 0o644

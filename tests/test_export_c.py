@@ -180,7 +180,8 @@ int main(void) {
   printf("%.17g %.17g\n", cmd.z[0], cmd.z_dot[0]);
   printf("%d\n", pid_step(&c, &nb, &cmd)); /* a second step needs a new broadcast */
   in.omega[1] = 0.0 / 0.0;
-  printf("%d\n", pid_broadcast(&c, &in, b));
+  status = pid_broadcast(&c, &in, b);
+  printf("%d %s\n", status, pid_error_text(&c));
   return 0;
 }
 """
@@ -198,7 +199,8 @@ def test_the_c_api_checks_its_inputs_and_computes_the_law(tmp_path):
     lines = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.splitlines()
     assert lines[0].startswith("2 J0: must be")
     assert lines[1] == "1 K: must be 0 < x" or lines[1].startswith("1 K: must be")
-    assert lines[2] == "0" and lines[3] == "5" and lines[7] == "5" and lines[8] == "3"
+    assert lines[2] == "0" and lines[3] == "5" and lines[7] == "5"
+    assert lines[8].startswith("3 an input is not finite")  # the error text names what failed
     code = lib.law
     local, control = code.casadi("law_local_paper"), code.casadi("law_control_paper")
     params = [p.default[0] for p in code.parameters]
@@ -330,4 +332,8 @@ def test_cli_export_aem_round_trip(tmp_path, capsys):
     back = read_aem(tmp_path / "aem" / "paper-case-1-agent-3.aem")
     result = load_result(nc)
     np.testing.assert_allclose(back.sigma, np.asarray(result["sigma"])[:, 2, :], atol=1e-13)
+    assert back.provenance["scenario_toml"] and back.ref_frame_b == "SC_BODY_1"
+    assert read_aem(tmp_path / "aem" / "paper-case-1-reference.aem").ref_frame_b == "REFERENCE"
+    for path in (tmp_path / "aem").iterdir():  # the NDM/KVN line limit: 254 characters
+        assert max(len(line) for line in path.read_text().splitlines()) <= 254, path.name
     assert main(["export", "--target", "aem", "--result", str(nc), "--law", "pid"]) == 2

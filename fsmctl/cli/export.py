@@ -68,8 +68,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "by software in the loop, or a result's attitudes as CCSDS AEM.",
         epilog=EPILOG,
     )
-    add_law_options(p, what="the export holds (--set: the parameters --verify flies; the C defaults stay the "
-                    "law's declared ones)")  # fmt: skip
+    add_law_options(p, what="the export holds and --verify")
     p.add_argument("--target", choices=TARGETS, default="c", help="what to write (default: c)")
     add_out_option(p, None, help="output folder (default: ./export-<law>-<target>)")
     g = p.add_argument_group("the exported controller (targets c and fmu)")
@@ -90,6 +89,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="a result file of fsmctl simulate (target aem)")  # fmt: skip
     a.add_argument("--aem-format", choices=("kvn", "xml"), default="kvn",
                    help="the AEM encoding: KVN text or XML (default: kvn)")  # fmt: skip
+    a.add_argument("--epoch", default=None, metavar="YYYY-MM-DDTHH:MM:SS",
+                   help="the UTC date and time of t = 0 (default: 2000-01-01T12:00:00)")  # fmt: skip
+    a.add_argument("--inertial-frame", default=None, metavar="NAME",
+                   help="the name of the scenario's inertial frame N in the files, REF_FRAME_A (default: EME2000)")  # fmt: skip
     p.set_defaults(func=run)
     return p
 
@@ -104,9 +107,9 @@ def _check_args(args: argparse.Namespace) -> None:
         if args.result is None:
             raise UsageError("--target aem writes a result file's attitudes: give --result FILE.nc")
         if args.law or args.verify or args.law_set:
-            raise UsageError("--target aem takes --result and --out only")
-    elif args.result is not None:
-        raise UsageError("--result is for --target aem")
+            raise UsageError("--target aem takes --result, --out, --aem-format, --epoch and --inertial-frame")
+    elif args.result is not None or args.epoch is not None or args.inertial_frame is not None:
+        raise UsageError("--result, --epoch and --inertial-frame are for --target aem")
     if args.verify and args.target != "c":
         raise UsageError("--verify checks --target c (the FMU is built from the same C)")
 
@@ -132,20 +135,42 @@ def run(args: argparse.Namespace) -> int:
 
     law, parameters, controller = law_changes(args)
     scenario = load_scenario(args.scenario or "paper", case=args.case)
+    code = resolve_law(law) if law else scenario.law
+    period = args.control_period or scenario.simulation.control_period or EXPORT_CONTROL_PERIOD
+    error_model = args.error_model or scenario.controller.error_model
+    suffix = "" if args.precision == "float64" else f"-{args.precision}"
+    folder = args.out or Path(f"export-{code.name}-{args.target}{suffix}")
+    if args.target == "fmu":
+        return _fmu(args, code, folder, period, error_model)
+    _check_folder(folder)
+    flown = _verify_scenario(scenario, law, parameters, controller, period) if args.verify else None
+    return _c(args, code, flown, folder, period, error_model)
+
+
+def _check_folder(folder: Path) -> None:
+    """An existing ``--out`` must be empty or an earlier export (its files are replaced)."""
+    from fsmctl.cli.main import UsageError
+
+    if folder.is_dir() and any(folder.iterdir()) and not (folder / "manifest.json").is_file():
+        raise UsageError(f"--out {folder}: a folder that is neither empty nor an earlier export; give another one")
+
+
+def _verify_scenario(scenario, law, parameters, controller, period: float):
+    """The scenario ``--verify`` flies, checked before anything is written."""
+    from fsmctl.cli.main import UsageError
+    from fsmctl.model.scenario import ScenarioError
+
     if law or parameters:
         scenario = scenario.with_law(law, parameters)
     if controller:
         scenario = scenario.replace(controller=controller)
-    code = resolve_law(law) if law else scenario.law
-    period = args.control_period or scenario.simulation.control_period or EXPORT_CONTROL_PERIOD
-    error_model = args.error_model or scenario.controller.error_model
-    folder = args.out or Path(f"export-{code.name}-{args.target}")
-    if args.target == "fmu":
-        return _fmu(args, code, folder, period, error_model)
-    return _c(args, code, scenario, folder, period, error_model)
+    try:
+        return scenario.replace(simulation={"control_period": period})
+    except ScenarioError as exc:
+        raise UsageError(f"--control-period {period:g} s: {exc}") from None
 
 
-def _c(args, code, scenario, folder: Path, period: float, error_model: str) -> int:
+def _c(args, code, flown, folder: Path, period: float, error_model: str) -> int:
     from fsmctl.export import strict_flags, verify_export, write_c_library
 
     command = "fsmctl " + " ".join(sys.argv[1:]) if sys.argv[1:] else "fsmctl export"
@@ -153,11 +178,11 @@ def _c(args, code, scenario, folder: Path, period: float, error_model: str) -> i
         code, folder, control_period=period, precision=args.precision, error_model=error_model, prefix=args.prefix,
         command=command,
     )  # fmt: skip
-    print(f"wrote {lib.folder}/: {', '.join(sorted(lib.manifest['sha256']))}")
+    print(f"wrote {lib.folder}/: {', '.join(sorted([*lib.manifest['sha256'], 'manifest.json']))}")
     print(f"compile: cc {' '.join(strict_flags(lib.precision))} -O2 -c {' '.join(s.name for s in lib.sources)}")
-    if not args.verify:
+    if flown is None:
         return 0
-    check = verify_export(lib, scenario, control_period=period)
+    check = verify_export(lib, flown, control_period=period)
     print("\n".join(check.report_lines()))
     return 0 if check.passed else 1
 
@@ -174,17 +199,27 @@ def _fmu(args, code, folder: Path, period: float, error_model: str) -> int:
 
 
 def _aem(args) -> int:
+    from datetime import datetime
+
+    from fsmctl.cli.main import UsageError
     from fsmctl.export.aem import DEFAULT_EPOCH, INERTIAL_FRAME, write_aem
     from fsmctl.simulation import load_result
 
     result = load_result(args.result)
     folder = args.out or Path(f"export-{Path(args.result).stem}-aem")
     command = "fsmctl " + " ".join(sys.argv[1:]) if sys.argv[1:] else "fsmctl export --target aem"
-    paths = write_aem(result, folder, format=args.aem_format, command=command)
+    epoch = DEFAULT_EPOCH
+    if args.epoch is not None:
+        try:
+            epoch = datetime.fromisoformat(args.epoch)
+        except ValueError:
+            raise UsageError(f"--epoch {args.epoch!r}: not a date and time such as 2026-11-28T12:00:00") from None
+    frame = args.inertial_frame or INERTIAL_FRAME
+    paths = write_aem(result, folder, format=args.aem_format, command=command, epoch=epoch, inertial_frame=frame)
     for p in paths:
         print(f"wrote {p}")
     print(
         f"{len(paths)} CCSDS AEM files (the agents, then the reference): quaternions Q1 Q2 Q3 QC (scalar last) from "
-        f"{INERTIAL_FRAME} (the scenario's inertial frame) to the body; t = 0 at {DEFAULT_EPOCH.isoformat()} UTC"
+        f"{frame} (the scenario's inertial frame) to the body; t = 0 at {epoch.isoformat()} UTC"
     )
     return 0

@@ -83,6 +83,8 @@ __all__ = [
     "TIME_SYSTEM",
     "INERTIAL_FRAME",
     "BODY_FRAME",
+    "REFERENCE_FRAME",
+    "COMMENT_WIDTH",
     "FORMATS",
     "MIN_FRACTION_DIGITS",
     "QUATERNION_CONVENTION",
@@ -98,7 +100,13 @@ INERTIAL_FRAME = "EME2000"
 """The default ``REF_FRAME_A``: the label given to the scenario's inertial frame ``N`` (fsmctl's ``N`` is an
 abstract inertial frame; pass ``inertial_frame=`` to name the one it stands for)."""
 BODY_FRAME = "SC_BODY_1"
-"""``REF_FRAME_B``: each agent's body frame ``B`` (the reference's own frame ``R`` for the reference message)."""
+"""``REF_FRAME_B`` of an agent's message: its body frame ``B``."""
+REFERENCE_FRAME = "REFERENCE"
+"""``REF_FRAME_B`` of the reference's message: the reference frame ``D`` of ``sigma_d`` (no SANA frame name stands for
+a desired attitude; the comments say what it is)."""
+COMMENT_WIDTH = 200
+"""Characters of a provenance value or a scenario line per comment line: a longer one continues on the next
+(``key += ...``, ``scenario_toml + ...``), so that every KVN line stays under the 254 characters of the NDM/KVN rules."""
 FORMATS = {"kvn": ".aem", "xml": ".xml"}
 """The encodings :func:`write_aem` writes, and the file suffix of each (:func:`read_aem` reads both)."""
 MIN_FRACTION_DIGITS = 6
@@ -111,12 +119,13 @@ QUATERNION_CONVENTION = (
 
 _ORIGIN_KEY = "time_origin_utc"
 _TOML_PREFIX = "scenario_toml |"
+_TOML_MORE = "scenario_toml +"
 _QUATERNION_TYPES = {"QUATERNION": 0, "QUATERNION/ANGVEL": 3}
 """the attitude types read, and the number of rate columns after the quaternion"""
 _EPOCH = re.compile(r"^(\d{4})-(?:(\d{2})-(\d{2})|(\d{3}))T(\d{2}):(\d{2}):(\d{2})(\.\d*)?Z?$")
 _DATASET_VARIABLES = ("time_s", "sigma", "omega_rad_per_s", "sigma_d")
 """the variables of a result file (:func:`fsmctl.simulation.results_io.load_result`) an AEM is made of"""
-_KEY_VALUE = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*) = (.*)$")
+_KEY_VALUE = re.compile(r"^([A-Za-z_][A-Za-z0-9_]*) (\+?=) (.*)$")
 _DECIMAL = Context(prec=60)
 
 # ----------------------------------------------------------------------------- errors
@@ -315,10 +324,21 @@ def _history(result: SimulationResult | xr.Dataset, command) -> _History:
     return _History(result.scenario.label, *arrays, attrs)
 
 
+def _chunks(text: str) -> list[str]:
+    return [text[i : i + COMMENT_WIDTH] for i in range(0, len(text), COMMENT_WIDTH)] or [""]
+
+
 def _header_comments(attrs: Mapping[str, object]) -> list[str]:
     toml = str(attrs.get("scenario_toml", ""))
-    lines = [f"{key} = {json.dumps(value)}" for key, value in attrs.items() if key != "scenario_toml"]
-    return lines + [f"{_TOML_PREFIX} {line}".rstrip() for line in toml.splitlines()]
+    lines = []
+    for key, value in attrs.items():
+        if key != "scenario_toml":
+            first, *rest = _chunks(json.dumps(value))
+            lines += [f"{key} = {first}", *(f"{key} += {c}" for c in rest)]
+    for line in toml.splitlines():
+        first, *rest = _chunks(line)
+        lines += [f"{_TOML_PREFIX} {first}".rstrip(), *(f"{_TOML_MORE} {c}" for c in rest)]
+    return lines
 
 
 def _object_name(fmt: str, **fields) -> str:
@@ -436,8 +456,9 @@ def write_aem(
         jobs.append((name, meta, lines + common, rows))
     if reference_name_format is not None:
         name = _object_name(reference_name_format, **fields)
-        lines = ["reference attitude sigma_d: the desired frame R = REF_FRAME_B"]
-        jobs.append((name, {"attitude_type": "QUATERNION"}, lines + common, aem_quaternions(run.sigma_d)))
+        lines = [f"reference attitude sigma_d: the reference frame D = REF_FRAME_B = {REFERENCE_FRAME}"]
+        meta = {"attitude_type": "QUATERNION", "ref_frame_b": REFERENCE_FRAME}
+        jobs.append((name, meta, lines + common, aem_quaternions(run.sigma_d)))
     return _write_all(Path(out_dir), header, inertial_frame, epochs, jobs, FORMATS[format], format)
 
 
@@ -541,15 +562,22 @@ def _parse(path: Path) -> ccsds_ndm.Aem:
 
 
 def _provenance(comments: Sequence[str]) -> dict[str, object]:
-    out: dict[str, object] = {}
-    toml = [c[len(_TOML_PREFIX) :].removeprefix(" ") for c in comments if c.startswith(_TOML_PREFIX)]
+    texts: dict[str, str] = {}
+    toml: list[str] = []
     for c in comments:
-        m = _KEY_VALUE.match(c)
-        if m is not None:
-            try:
-                out[m.group(1)] = json.loads(m.group(2))
-            except ValueError:
-                continue
+        if c.startswith(_TOML_PREFIX):
+            toml.append(c[len(_TOML_PREFIX) :].removeprefix(" "))
+        elif c.startswith(_TOML_MORE) and toml:
+            toml[-1] += c[len(_TOML_MORE) :].removeprefix(" ")
+        elif (m := _KEY_VALUE.match(c)) is not None:
+            key, op, value = m.groups()
+            texts[key] = texts.get(key, "") + value if op == "+=" else value
+    out: dict[str, object] = {}
+    for key, text in texts.items():
+        try:
+            out[key] = json.loads(text)
+        except ValueError:
+            continue
     if toml:
         out["scenario_toml"] = "\n".join(toml) + "\n"
     return out

@@ -510,8 +510,27 @@ if ({P}_init(&c, &config) != {PU}_STATUS_OK) /* {P}_error_text(&c) names the bad
 {P}_command cmd;
 int status = {P}_step(&c, &nb, &cmd);        /* {PU}_STATUS_NONFINITE: do not apply cmd.torque */
 ```
+
+The neighbours: one entry per incoming link, in any fixed order: the broadcast that neighbour sent at this instant,
+`k_own` = k^i_ij (the receiving spacecraft's coupling gain for that link) and `k_sender` = k^j_ij(t) (the link's
+weight now; 0 when the link is off). An always-on link of the paper's Case 1 has k_own = 8, k_sender = 5; a plain
+unit link 1 and 1. With no neighbours, `count = 0`.
 {extras}
-Every function returns a status (`{P}_status_text`); `{P}_init` checks every parameter against its declared range.
+## Status codes
+Every function returns one (`{P}_status_text(status)` says it in words; after a failed `{P}_init`,
+`{P}_broadcast` or `{P}_step`, `{P}_error_text(&c)` names what was wrong):
+
+| code | value | meaning |
+|---|---|---|
+| `{PU}_STATUS_OK` | 0 | done |
+| `{PU}_STATUS_BAD_PARAMETER` | 1 | `init`: a law parameter outside its declared range |
+| `{PU}_STATUS_BAD_CONFIG` | 2 | `init`: J0 (finite, symmetric, positive definite), `torque_limit` (> 0), `control_period` (> 0) or `law_state_substeps` (>= 1) |
+| `{PU}_STATUS_BAD_INPUT` | 3 | a non-finite input or weight, a negative neighbour count |
+| `{PU}_STATUS_NONFINITE` | 4 | the law commanded a non-finite torque: do not apply it |
+| `{PU}_STATUS_NOT_READY` | 5 | `step` without `broadcast` at this instant (or `wheel_commands` without `step`) |
+
+`{P}_default_config` sets the declared defaults of the parameters, `J0` = 0 (you must set it), no torque limit
+(`torque_limit` = +inf), the exported control period ({period} s) and one law-state substep.
 """
 
 

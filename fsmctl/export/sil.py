@@ -118,7 +118,7 @@ class ExportCheck:
         hold = s.simulation.control_period
         lines = [
             f"software in the loop: {s.label}, {s.n_agents} agents, {s.simulation.t_final:g} s, control period "
-            f"{hold:g} s ({round(hold / s.simulation.dt)} steps of {s.simulation.dt:g} s), law {lib.law.name} "
+            f"{hold:g} s ({_steps(round(hold / s.simulation.dt))} of {s.simulation.dt:g} s), law {lib.law.name} "
             f"({lib.error_model} error kinematics) as {lib.precision} C from {lib.folder}"
         ]
         if not self.files_match_manifest:
@@ -139,6 +139,10 @@ class ExportCheck:
             f"{b['aaem_steady_max_deg']:.3g} deg"
         )
         return lines
+
+
+def _steps(k: int) -> str:
+    return f"{k} step" if k == 1 else f"{k} steps"
 
 
 def sil_scenario(scenario: Scenario, library: CLibrary, control_period: float | None = None) -> Scenario:

@@ -33,6 +33,12 @@ const char *@P@_status_text(int status) {
   }
 }
 
+/* a failed call: its status, and the words P_error_text gives until the next call that succeeds */
+static int fail(@P@_controller *controller, int status) {
+  controller->error = @P@_status_text(status);
+  return status;
+}
+
 const char *@P@_error_text(const @P@_controller *controller) {
   return controller->error ? controller->error : "ok";
 }
@@ -114,8 +120,9 @@ int @P@_broadcast(@P@_controller *controller, const @P@_input *input, @P@_real b
   const @P@_input *in = input;
   if (!is_finite(in->t) || !all_finite(in->sigma, 3) || !all_finite(in->omega, 3) || !all_finite(in->sigma_d, 3) ||
       !all_finite(in->omega_d, 3) || !all_finite(in->omega_d_dot, 3))
-    return @PU@_STATUS_BAD_INPUT;
+    return fail(controller, @PU@_STATUS_BAD_INPUT);
   controller->input = *input;
+  controller->error = 0;
   law_arguments(controller, arg);
   res[0] = broadcast;
   res[1] = controller->cache;
@@ -157,13 +164,14 @@ int @P@_step(@P@_controller *controller, const @P@_neighbours *neighbours, @P@_c
   const @P@_real *arg[15];
   @P@_real *res[3];
   int k;
-  if (!controller->ready) return @PU@_STATUS_NOT_READY;
-  if (neighbours->count < 0) return @PU@_STATUS_BAD_INPUT;
+  if (!controller->ready) return fail(controller, @PU@_STATUS_NOT_READY);
+  if (neighbours->count < 0) return fail(controller, @PU@_STATUS_BAD_INPUT);
   for (k = 0; k < neighbours->count; ++k)
     if (!is_finite(neighbours->k_own[k]) || !is_finite(neighbours->k_sender[k]) ||
         !all_finite(neighbours->broadcast + (long)k * @PU@_N_BROADCAST, @PU@_N_BROADCAST))
-      return @PU@_STATUS_BAD_INPUT;
+      return fail(controller, @PU@_STATUS_BAD_INPUT);
   controller->ready = 0;
+  controller->error = 0;
   aggregate(controller, neighbours);
   law_arguments(controller, arg);
   res[0] = command->torque;
@@ -172,7 +180,7 @@ int @P@_step(@P@_controller *controller, const @P@_neighbours *neighbours, @P@_c
   @P@_law_control(arg, res);
   for (k = 0; k < @PU@_N_STATES; ++k) controller->z_used[k] = controller->z[k];
   controller->stepped = 1;
-  if (!all_finite(command->torque_commanded, 3)) return @PU@_STATUS_NONFINITE;
+  if (!all_finite(command->torque_commanded, 3)) return fail(controller, @PU@_STATUS_NONFINITE);
   advance(controller, command->z_dot);
   for (k = 0; k < @PU@_N_STATES; ++k) command->z[k] = controller->z[k];
   return @PU@_STATUS_OK;
