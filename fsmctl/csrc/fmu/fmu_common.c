@@ -18,6 +18,8 @@
 enum { ACCESS_NONE = 0, ACCESS_PARAMETER = 1, ACCESS_INPUT = 2 };
 enum { INSTANTIATED = 1, INITIALIZATION = 2, STEPPING = 3, TERMINATED = 4, FAILED = 5 };
 
+static const fmi2ValueReference n_real = FSMFMU_N_REAL, n_integer = FSMFMU_N_INTEGER; /* (no constant compare) */
+
 typedef struct {
   fmi2CallbackFunctions callbacks;
   char name[64];
@@ -150,7 +152,7 @@ fmi2Status fmi2GetReal(fmi2Component component, const fmi2ValueReference vr[], s
   size_t k;
   if (c->state == FAILED) return fmi2Error;
   for (k = 0; k < nvr; ++k) {
-    if (vr[k] >= FSMFMU_N_REAL) return refuse(c, "fmi2GetReal: unknown value reference");
+    if (vr[k] >= n_real) return refuse(c, "fmi2GetReal: unknown value reference");
     value[k] = c->r[vr[k]];
   }
   return fmi2OK;
@@ -162,7 +164,7 @@ fmi2Status fmi2GetInteger(fmi2Component component, const fmi2ValueReference vr[]
   size_t k;
   if (c->state == FAILED) return fmi2Error;
   for (k = 0; k < nvr; ++k) {
-    if (vr[k] >= FSMFMU_N_INTEGER) return refuse(c, "fmi2GetInteger: unknown value reference");
+    if (vr[k] >= n_integer) return refuse(c, "fmi2GetInteger: unknown value reference");
     value[k] = c->integers[vr[k]];
   }
   return fmi2OK;
@@ -187,7 +189,7 @@ fmi2Status fmi2SetReal(fmi2Component component, const fmi2ValueReference vr[], s
   size_t k;
   if (c->state == FAILED) return fmi2Error;
   for (k = 0; k < nvr; ++k) {
-    if (vr[k] >= FSMFMU_N_REAL) return refuse(c, "fmi2SetReal: unknown value reference");
+    if (vr[k] >= n_real) return refuse(c, "fmi2SetReal: unknown value reference");
     if (!settable(c, fsmfmu_real_access[vr[k]]))
       return refuse(c, "fmi2SetReal: not settable now (an output, or a parameter after initialization)");
   }
@@ -201,7 +203,7 @@ fmi2Status fmi2SetInteger(fmi2Component component, const fmi2ValueReference vr[]
   size_t k;
   if (c->state == FAILED) return fmi2Error;
   for (k = 0; k < nvr; ++k) {
-    if (vr[k] >= FSMFMU_N_INTEGER) return refuse(c, "fmi2SetInteger: unknown value reference");
+    if (vr[k] >= n_integer) return refuse(c, "fmi2SetInteger: unknown value reference");
     if (!settable(c, fsmfmu_integer_access[vr[k]]))
       return refuse(c, "fmi2SetInteger: not settable now (a parameter after initialization)");
   }
