@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
 
+from fsmctl.export import CoSimulationError, FMUError, cosimulate, write_controller_fmu, write_plant_fmu
 from fsmctl.export.c_library import ExportError
-from fsmctl.export.fmu import CoSimulationError, FMUError, cosimulate, write_controller_fmu, write_plant_fmu
 from fsmctl.model.generated_code import c_compiler
 from fsmctl.model.problem import pack
 from fsmctl.model.scenario import scenario_from_dict

@@ -7,6 +7,9 @@ prints their CasADi graphs as C99 (:mod:`fsmctl.codegen.c99`) and flies the engi
   library (``fsmctl export --target c``);
 * :func:`compile_export`: the export compiled at its strict flags;
 * :func:`verify_export`, :class:`ExportCheck`: software in the loop (``fsmctl export --verify``);
+* :func:`write_controller_fmu`, :func:`write_plant_fmu`, :func:`cosimulate`: FMI 2.0 co-simulation FMUs of the
+  controller (the same C) and of the plant (the engine's generated C), flown together with FMPy
+  (``fsmctl export --target fmu``);
 * :func:`write_aem`, :func:`read_aem`, :class:`AttitudeEphemeris`: attitude histories as CCSDS Attitude Ephemeris
   Messages (``fsmctl export --target aem``).
 
@@ -30,6 +33,16 @@ _ATTRS = {
     ],
     "build": ["BuildError", "compile_export"],
     "sil": ["ExportCheck", "sil_scenario", "verify_export"],
+    "cosim": ["CoSimulation", "CoSimulationError", "cosimulate"],
+    "fmu": [
+        "FMUError",
+        "write_controller_fmu",
+        "write_plant_fmu",
+        "DEFAULT_NEIGHBOURS",
+        "DEFAULT_PLANT_DT",
+        "GRID_TOLERANCE",
+        "PLANT_FLAGS",
+    ],
     "aem": [
         "AemError",
         "AttitudeEphemeris",
