@@ -337,3 +337,22 @@ def test_cli_export_aem_round_trip(tmp_path, capsys):
     for path in (tmp_path / "aem").iterdir():  # the NDM/KVN line limit: 254 characters
         assert max(len(line) for line in path.read_text().splitlines()) <= 254, path.name
     assert main(["export", "--target", "aem", "--result", str(nc), "--law", "pid"]) == 2
+
+
+def test_cli_export_fmu_with_plant(tmp_path, capsys):
+    """``fsmctl export --target fmu --with-plant``: both FMUs pass FMPy's validation and fly together (the scenario's
+    first spacecraft under PD, its torque within the limit set in the importing tool; the match with the engine, bit
+    for bit, is tests/test_export_fmu.py's)."""
+    fmpy_validation = pytest.importorskip("fmpy.validation")
+    from fsmctl.cli.main import main
+    from fsmctl.export import cosimulate
+
+    out = tmp_path / "fmu"
+    rc = main(["export", "--law", "pid", "--target", "fmu", "--with-plant", "--neighbours", "2", "--out", str(out)])
+    assert rc == 0 and "plant.fmu" in capsys.readouterr().out
+    for fmu in ("pid_controller.fmu", "plant.fmu"):
+        assert fmpy_validation.validate_fmu(str(out / fmu)) == [], fmu
+    run = cosimulate(out / "plant.fmu", out / "pid_controller.fmu", t_final=2.0, step=0.01,
+                     controller_parameters={"J0": np.diag([100.0, 150.0, 200.0]), "torque_limit": 2.0})  # fmt: skip
+    assert np.all(np.isfinite(run.sigma)) and np.abs(run.torque).max() == 2.0  # saturated, as Case 1 starts
+    assert main(["export", "--law", "pid", "--with-plant"]) == 2  # target c takes no plant

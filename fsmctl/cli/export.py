@@ -84,6 +84,12 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="fly the scenario with the exported code in the loop and compare with the engine (target c)")  # fmt: skip
     add_scenario_option(g, default=None, note="(--verify flies it; its controller gives the defaults)")
     add_case_option(g)
+    f = p.add_argument_group("the FMUs (target fmu)")
+    f.add_argument("--neighbours", type=int, default=None, metavar="N",
+                   help="neighbour input slots of the controller FMU (default: 5)")  # fmt: skip
+    f.add_argument("--with-plant", action="store_true",
+                   help="also write plant.fmu: the scenario's first spacecraft (true inertia, initial state, "
+                   "disturbance) integrated with RK4 at the scenario's dt")  # fmt: skip
     a = p.add_argument_group("results (target aem)")
     a.add_argument("--result", type=Path, default=None, metavar="FILE.nc",
                    help="a result file of fsmctl simulate (target aem)")  # fmt: skip
@@ -112,6 +118,10 @@ def _check_args(args: argparse.Namespace) -> None:
         raise UsageError("--result, --epoch and --inertial-frame are for --target aem")
     if args.verify and args.target != "c":
         raise UsageError("--verify checks --target c (the FMU is built from the same C)")
+    if (args.neighbours is not None or args.with_plant) and args.target != "fmu":
+        raise UsageError("--neighbours and --with-plant are for --target fmu")
+    if args.neighbours is not None and args.neighbours < 0:
+        raise UsageError(f"--neighbours must be >= 0, got {args.neighbours}")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -141,7 +151,7 @@ def run(args: argparse.Namespace) -> int:
     suffix = "" if args.precision == "float64" else f"-{args.precision}"
     folder = args.out or Path(f"export-{code.name}-{args.target}{suffix}")
     if args.target == "fmu":
-        return _fmu(args, code, folder, period, error_model)
+        return _fmu(args, code, scenario, folder, period, error_model)
     _check_folder(folder)
     flown = _verify_scenario(scenario, law, parameters, controller, period) if args.verify else None
     return _c(args, code, flown, folder, period, error_model)
@@ -187,14 +197,23 @@ def _c(args, code, flown, folder: Path, period: float, error_model: str) -> int:
     return 0 if check.passed else 1
 
 
-def _fmu(args, code, folder: Path, period: float, error_model: str) -> int:
-    from fsmctl.export.fmu import write_controller_fmu
+def _fmu(args, code, scenario, folder: Path, period: float, error_model: str) -> int:
+    from fsmctl.export import DEFAULT_NEIGHBOURS, write_controller_fmu, write_plant_fmu
+    from fsmctl.model.problem import pack
 
     path = write_controller_fmu(
         code, folder / f"{args.prefix or code.name}_controller.fmu", precision=args.precision,
-        error_model=error_model, control_period=period,
+        error_model=error_model, control_period=period, prefix=args.prefix,
+        n_neighbours=DEFAULT_NEIGHBOURS if args.neighbours is None else args.neighbours,
     )  # fmt: skip
-    print(f"wrote {path}")
+    print(f"wrote {path} (FMI 2.0 co-simulation, communication step {period:g} s)")
+    if args.with_plant:
+        p, agent = pack(scenario), scenario.agents[0]
+        plant = write_plant_fmu(
+            folder / "plant.fmu", dt=scenario.simulation.dt, inertia=p.J_true[0].reshape(3, 3),
+            sigma0=agent.sigma0, omega0=agent.omega0, disturbance=p.dist_params[0],
+        )  # fmt: skip
+        print(f"wrote {plant} ({scenario.label}, agent 1; RK4 at dt = {scenario.simulation.dt:g} s)")
     return 0
 
 
