@@ -356,3 +356,21 @@ def test_cli_export_fmu_with_plant(tmp_path, capsys):
                      controller_parameters={"J0": np.diag([100.0, 150.0, 200.0]), "torque_limit": 2.0})  # fmt: skip
     assert np.all(np.isfinite(run.sigma)) and np.abs(run.torque).max() == 2.0  # saturated, as Case 1 starts
     assert main(["export", "--law", "pid", "--with-plant"]) == 2  # target c takes no plant
+
+
+def test_set_bakes_the_exported_defaults(tmp_path, capsys):
+    """``--set`` values become the export's defaults (C and FMU), checked against the law's declared ranges first;
+    without ``--set`` the declared defaults stay."""
+    from fsmctl.cli.main import main
+
+    assert main(["export", "--law", "fsm", "--out", str(tmp_path / "c"), "--set", "alpha=0.6",
+                 "--set", "torque_limit=2"]) == 0  # fmt: skip
+    text = (tmp_path / "c" / "fsm_law.c").read_text()
+    assert "p->alpha = 0.6;" in text and "config->torque_limit = 2.0;" in text
+    assert read_c_library(tmp_path / "c").manifest["defaults_set"] == {"alpha": [0.6]}
+    assert main(["export", "--law", "fsm", "--out", str(tmp_path / "d")]) == 0
+    assert "p->alpha = 0.7;" in (tmp_path / "d" / "fsm_law.c").read_text()  # the declared default
+    capsys.readouterr()
+    assert main(["export", "--law", "fsm", "--target", "fmu", "--out", str(tmp_path / "f"), "--set", "alpha=1.5"]) == 2
+    assert "alpha: must be < 1" in capsys.readouterr().err
+    assert not (tmp_path / "f").exists()

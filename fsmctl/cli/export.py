@@ -68,7 +68,7 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         "by software in the loop, or a result's attitudes as CCSDS AEM.",
         epilog=EPILOG,
     )
-    add_law_options(p, what="the export holds and --verify")
+    add_law_options(p, what="the export holds and --verify")  # --set: the exported defaults (and what --verify flies)
     p.add_argument("--target", choices=TARGETS, default="c", help="what to write (default: c)")
     add_out_option(p, None, help="output folder (default: ./export-<law>-<target>)")
     g = p.add_argument_group("the exported controller (targets c and fmu)")
@@ -150,11 +150,30 @@ def run(args: argparse.Namespace) -> int:
     error_model = args.error_model or scenario.controller.error_model
     suffix = "" if args.precision == "float64" else f"-{args.precision}"
     folder = args.out or Path(f"export-{code.name}-{args.target}{suffix}")
+    baked = _baked(code, parameters, controller, scenario)
     if args.target == "fmu":
-        return _fmu(args, code, scenario, folder, period, error_model)
+        return _fmu(args, code, scenario, folder, period, error_model, baked)
     _check_folder(folder)
     flown = _verify_scenario(scenario, law, parameters, controller, period) if args.verify else None
-    return _c(args, code, flown, folder, period, error_model)
+    return _c(args, code, flown, folder, period, error_model, baked)
+
+
+def _baked(code, parameters, controller, scenario) -> dict:
+    """What ``--set`` bakes into the export: the law parameters as its defaults, checked now (one line, exit 2), and
+    the torque limit (``--set torque_limit=...``, else none)."""
+    from fsmctl.cli.main import UsageError
+    from fsmctl.export import with_defaults
+    from fsmctl.model.laws import LawError
+
+    try:
+        with_defaults(code, parameters)
+    except LawError as exc:
+        raise UsageError(f"--set: {exc}") from None
+    limit = controller.get("torque_limit", math.inf) if controller else math.inf
+    limit = math.inf if isinstance(limit, str) and limit.lower() == "inf" else limit
+    if not (isinstance(limit, (int, float)) and limit > 0):
+        raise UsageError(f"--set torque_limit: must be > 0 N m or 'inf', got {limit!r}")
+    return {"parameters": parameters or None, "torque_limit": float(limit)}
 
 
 def _check_folder(folder: Path) -> None:
@@ -180,13 +199,13 @@ def _verify_scenario(scenario, law, parameters, controller, period: float):
         raise UsageError(f"--control-period {period:g} s: {exc}") from None
 
 
-def _c(args, code, flown, folder: Path, period: float, error_model: str) -> int:
+def _c(args, code, flown, folder: Path, period: float, error_model: str, baked: dict) -> int:
     from fsmctl.export import strict_flags, verify_export, write_c_library
 
     command = "fsmctl " + " ".join(sys.argv[1:]) if sys.argv[1:] else "fsmctl export"
     lib = write_c_library(
         code, folder, control_period=period, precision=args.precision, error_model=error_model, prefix=args.prefix,
-        command=command,
+        command=command, **baked,
     )  # fmt: skip
     print(f"wrote {lib.folder}/: {', '.join(sorted([*lib.manifest['sha256'], 'manifest.json']))}")
     print(f"compile: cc {' '.join(strict_flags(lib.precision))} -O2 -c {' '.join(s.name for s in lib.sources)}")
@@ -197,14 +216,14 @@ def _c(args, code, flown, folder: Path, period: float, error_model: str) -> int:
     return 0 if check.passed else 1
 
 
-def _fmu(args, code, scenario, folder: Path, period: float, error_model: str) -> int:
+def _fmu(args, code, scenario, folder: Path, period: float, error_model: str, baked: dict) -> int:
     from fsmctl.export import DEFAULT_NEIGHBOURS, write_controller_fmu, write_plant_fmu
     from fsmctl.model.problem import pack
 
     path = write_controller_fmu(
         code, folder / f"{args.prefix or code.name}_controller.fmu", precision=args.precision,
         error_model=error_model, control_period=period, prefix=args.prefix,
-        n_neighbours=DEFAULT_NEIGHBOURS if args.neighbours is None else args.neighbours,
+        n_neighbours=DEFAULT_NEIGHBOURS if args.neighbours is None else args.neighbours, **baked,
     )  # fmt: skip
     print(f"wrote {path} (FMI 2.0 co-simulation, communication step {period:g} s)")
     if args.with_plant:

@@ -28,6 +28,7 @@ _ATTRS = {
         "CLibrary",
         "ExportError",
         "read_c_library",
+        "with_defaults",
         "strict_flags",
         "write_c_library",
     ],

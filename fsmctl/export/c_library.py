@@ -19,9 +19,12 @@ Layout of the folder (``P`` is the prefix, the law's name by default)::
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
+import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -44,6 +47,7 @@ __all__ = [
     "write_c_library",
     "read_c_library",
     "strict_flags",
+    "with_defaults",
 ]
 
 EXPORT_FORMAT = 1
@@ -150,6 +154,47 @@ def _function_names(law: LawCode, error_model: str) -> dict[str, str]:
     if law.trigger is not None:
         names["trigger"] = "law_trigger"
     return names
+
+
+def with_defaults(law: LawCode, parameters: Mapping[str, object] | None) -> LawCode:
+    """``law`` with some parameters' defaults replaced (what ``fsmctl export --set`` bakes into an export).
+
+    Parameters
+    ----------
+    law : LawCode
+        The law.
+    parameters : mapping, optional
+        Parameter name -> value, as a scenario's ``[controller]`` writes it (a number, ``size`` numbers, an
+        option's name); checked against the law's declaration.
+
+    Returns
+    -------
+    LawCode
+        The same law (its code, its folder) with those defaults.
+
+    Raises
+    ------
+    LawError
+        An unknown parameter or a value outside its declared range.
+
+    Examples
+    --------
+    >>> from fsmctl.model import resolve_law
+    >>> law = with_defaults(resolve_law("fsm"), {"alpha": 0.6, "singularity_fix": "clamp"})
+    >>> law.parameter("alpha").default, law.parameter("singularity_fix").default
+    ((0.6,), (2.0,))
+    """
+    if not parameters:
+        return law
+    for name in parameters:
+        law.parameter(name)  # an unknown name: LawError with "did you mean"
+    new = tuple(
+        dataclasses.replace(p, default=p.values(parameters[p.name], f"parameter {p.name}"))
+        if p.name in parameters
+        else p
+        for p in law.parameters
+    )
+    return dataclasses.replace(law, parameters=new)
 
 
 def _literal(value: float, real: str) -> str:
@@ -323,8 +368,8 @@ typedef struct {{
   const char *error;
 }} {P}_controller;
 
-/* The declared defaults of the law's parameters, J0 = 0 (set it), no torque limit, the exported control period,
- * one substep. */
+/* The exported defaults of the law's parameters (its declared ones unless set at export), J0 = 0 (set it), the
+ * exported torque limit (+inf: none), the exported control period, one substep. */
 void {P}_default_config({P}_config *config);
 /* Check config (every parameter against its declared range) and start the controller: the law state at its
  * declared initial value.  Returns {PU}_STATUS_OK, {PU}_STATUS_BAD_PARAMETER or {PU}_STATUS_BAD_CONFIG (P_error_text says which). */
@@ -444,9 +489,10 @@ _DEFAULT_CONFIG = """void {P}_default_config({P}_config *config) {{
   }} inf;
   int k;
   inf.u = 0x7ff0000000000000ULL;
+  (void)inf;
   {P}_default_parameters(&config->parameters);
   for (k = 0; k < 9; ++k) config->J0[k] = 0;
-  config->torque_limit = ({P}_real)inf.d;
+  config->torque_limit = {torque_limit};
   config->control_period = ({P}_real){PU}_DEFAULT_CONTROL_PERIOD;
   config->law_state_substeps = 1;
 }}
@@ -529,8 +575,9 @@ Every function returns one (`{P}_status_text(status)` says it in words; after a 
 | `{PU}_STATUS_NONFINITE` | 4 | the law commanded a non-finite torque: do not apply it |
 | `{PU}_STATUS_NOT_READY` | 5 | `step` without `broadcast` at this instant (or `wheel_commands` without `step`) |
 
-`{P}_default_config` sets the declared defaults of the parameters, `J0` = 0 (you must set it), no torque limit
-(`torque_limit` = +inf), the exported control period ({period} s) and one law-state substep.
+`{P}_default_config` sets the parameters' defaults of the table above (the law's declared ones unless set at
+export: {defaults_set}), `J0` = 0 (you must set it), `torque_limit` = {torque_limit} N m, the exported control
+period ({period} s) and one law-state substep.
 """
 
 
@@ -544,7 +591,9 @@ def _parameter_rows(law: LawCode) -> str:
     return "\n".join(rows) if rows else "| (none) | | | | | |"
 
 
-def _readme(law: LawCode, prefix: str, precision: str, error_model: str, period: float, command: str) -> str:
+def _readme(
+    law: LawCode, prefix: str, precision: str, error_model: str, period: float, command: str, limit: float, set_: list
+) -> str:
     extras = []
     if law.n_wheels:
         extras.append(
@@ -574,6 +623,8 @@ def _readme(law: LawCode, prefix: str, precision: str, error_model: str, period:
         broadcast_unit=law.broadcast_unit,
         parameter_rows=_parameter_rows(law),
         extras="\n" + "\n".join(extras) if extras else "",
+        defaults_set=", ".join(f"`{n}`" for n in set_) or "none was",
+        torque_limit="+inf (none)" if math.isinf(limit) else repr(float(limit)),
     )
 
 
@@ -600,6 +651,8 @@ def write_c_library(
     precision: str = "float64",
     error_model: str = "exact",
     prefix: str | None = None,
+    parameters: Mapping[str, object] | None = None,
+    torque_limit: float = math.inf,
     command: str = "fsmctl.export.write_c_library",
 ) -> CLibrary:
     """Write one spacecraft's controller for ``law`` as a self-contained strict C99 library.
@@ -618,6 +671,10 @@ def write_c_library(
         The error kinematics of the law variant exported (the engine's ``controller.error_model``).
     prefix : str, optional
         The prefix of every C name (default: the law's name).
+    parameters : mapping, optional
+        Defaults that replace the law's declared ones (:func:`with_defaults`): what ``P_default_config`` sets.
+    torque_limit : float
+        The default torque limit (N m; ``inf``: none).
     command : str
         What the README says wrote the folder.
 
@@ -642,21 +699,28 @@ def write_c_library(
     >>> lib.manifest["law"]["name"], lib.manifest["precision"]
     ('pid', 'float64')
     """
-    code = resolve_law(law) if not isinstance(law, LawCode) else law
+    code = with_defaults(resolve_law(law) if not isinstance(law, LawCode) else law, parameters)
     prefix = prefix or code.name
     _check_options(code, prefix, precision, error_model, control_period)
+    if not (torque_limit > 0):
+        raise ExportError(f"torque limit: must be > 0 N m (inf: none), got {torque_limit!r}")
+    limit = "(" + prefix + "_real)inf.d" if math.isinf(torque_limit) else _literal(torque_limit, PRECISIONS[precision])
     real = PRECISIONS[precision]
     P, PU = prefix, prefix.upper()
     texts = {
         f"{P}.h": _public_header(code, P, real, precision, error_model, control_period),
         f"{P}_law.h": _law_header(code, P, error_model),
-        f"{P}_law.c": _law_source(code, P, real, error_model) + "\n" + _DEFAULT_CONFIG.format(P=P, PU=PU),
+        f"{P}_law.c": _law_source(code, P, real, error_model)
+        + "\n"
+        + _DEFAULT_CONFIG.format(P=P, PU=PU, torque_limit=limit),
     }
     templates = resources.files("fsmctl") / "csrc" / "export"
     names = {"controller.c": f"{P}.c", "export_math.c": f"{P}_math.c", "export_math.h": f"{P}_math.h"}
     for template in _TEMPLATES:
         texts[names[template]] = (templates / template).read_text().replace("@PU@", PU).replace("@P@", P)
-    texts["README.md"] = _readme(code, P, precision, error_model, control_period, command)
+    texts["README.md"] = _readme(
+        code, P, precision, error_model, control_period, command, torque_limit, sorted(parameters or {})
+    )
     with output_folder(out_dir) as folder:
         for name, text in texts.items():
             write_text(folder / name, text)
@@ -674,6 +738,8 @@ def write_c_library(
             "precision": precision,
             "error_model": error_model,
             "control_period": float(control_period),
+            "defaults_set": {k: list(code.parameter(k).default) for k in sorted(parameters or {})},
+            "torque_limit": float(torque_limit),
             "versions": {"fsmctl": __version__, **law_manifest.get("versions", {}), "sympy_installed": sp.__version__},
             "sha256": {name: _sha256(folder / name) for name in sorted(texts)},
         }

@@ -143,7 +143,11 @@ class _Slave:
 
     def set(self, name: str, value) -> None:
         refs, kind = self.refs(name)
-        values = np.asarray(value, dtype=float).reshape(-1)
+        try:
+            values = np.asarray(value, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            what = "an option's index (an Integer)" if kind == "Integer" else "numbers"
+            raise FMUError(f"{name}: {self.path.name} takes {what}, got {value!r}") from None
         if values.size != len(refs):
             raise FMUError(f"{name}: {self.path.name} takes {len(refs)} values, got {values.size}")
         if kind == "Integer":

@@ -23,6 +23,7 @@ GUID hashes the sources and the variable table.
 from __future__ import annotations
 
 import hashlib
+import math
 import platform
 import shutil
 import subprocess
@@ -38,7 +39,7 @@ import numpy as np
 
 from fsmctl.errors import EnvironmentProblem
 from fsmctl.export.build import BUILD_TIMEOUT_S, BuildError, compile_export
-from fsmctl.export.c_library import ExportError, write_c_library
+from fsmctl.export.c_library import ExportError, with_defaults, write_c_library
 from fsmctl.model import ActuatorSettings
 from fsmctl.model.generated_code import c_compiler, driver_source_dir
 from fsmctl.model.generated_paths import generated_dir
@@ -449,13 +450,15 @@ def _wheel_defaults(n_wheels: int) -> tuple[np.ndarray, np.ndarray]:
     return np.eye(3)[np.arange(n_wheels) % 3].reshape(-1), np.full(n_wheels, 0.01)
 
 
-def _controller_table(law: LawCode, n_neighbours: int, control_period: float) -> tuple[_Table, list]:
+def _controller_table(
+    law: LawCode, n_neighbours: int, control_period: float, torque_limit: float
+) -> tuple[_Table, list]:
     t = _Table()
     packing = _law_parameters(t, law)
     p = ("parameter", "fixed")
     t.block("J0", _matrix_names("J0", 3, 3), *p, np.eye(3).reshape(-1) * 100.0, unit="kg m^2",
             description="nominal inertia (body frame; symmetric positive definite)")  # fmt: skip
-    t.block("TORQUE_LIMIT", ["torque_limit"], *p, float("inf"), unit="N m", minimum=0.0,
+    t.block("TORQUE_LIMIT", ["torque_limit"], *p, torque_limit, unit="N m", minimum=0.0,
             description="per-axis torque limit u_max (> 0; inf: none)")  # fmt: skip
     t.block("CONTROL_PERIOD", ["control_period"], *p, control_period, unit="s", minimum=0.0,
             description="h: each doStep (of control_period * law_state_substeps) is one control instant")  # fmt: skip
@@ -512,6 +515,8 @@ def write_controller_fmu(
     control_period: float = EXPORT_CONTROL_PERIOD,
     n_neighbours: int = DEFAULT_NEIGHBOURS,
     prefix: str | None = None,
+    parameters: Mapping[str, object] | None = None,
+    torque_limit: float = math.inf,
 ) -> Path:
     """Write an FMI 2.0 co-simulation FMU of one spacecraft's controller, built from the exported C library.
 
@@ -531,6 +536,10 @@ def write_controller_fmu(
         The neighbour slots (incoming links) the FMU has inputs for (>= 0).
     prefix : str, optional
         The C prefix (default: the law's name); the model identifier is ``<prefix>_controller``.
+    parameters : mapping, optional
+        Start values that replace the law's declared defaults (:func:`fsmctl.export.with_defaults`).
+    torque_limit : float
+        The start value of ``torque_limit`` (N m; ``inf``: none).
 
     Returns
     -------
@@ -555,8 +564,10 @@ def write_controller_fmu(
     _check_platform()
     if isinstance(n_neighbours, bool) or not isinstance(n_neighbours, int | np.integer) or n_neighbours < 0:
         raise FMUError(f"n_neighbours: must be an integer >= 0, got {n_neighbours!r}")
-    code = law if isinstance(law, LawCode) else resolve_law(law)
+    code = with_defaults(law if isinstance(law, LawCode) else resolve_law(law), parameters)
     period = _positive("control_period", control_period)
+    if not (torque_limit > 0):
+        raise FMUError(f"torque_limit: must be > 0 N m (inf: none), got {torque_limit!r}")
     with tempfile.TemporaryDirectory(prefix="fsmctl-fmu-") as tmp:
         stage = Path(tmp)
         sources = stage / "sources"
@@ -567,7 +578,7 @@ def write_controller_fmu(
         _copy_common(sources)
         template = (resources.files("fsmctl") / "csrc" / "fmu" / "controller_model.c").read_text()
         (sources / f"{P}_fmu.c").write_text(template.replace("@PU@", P.upper()).replace("@P@", P))
-        table, packing = _controller_table(code, int(n_neighbours), period)
+        table, packing = _controller_table(code, int(n_neighbours), period, float(torque_limit))
         (sources / "fmu_parameters.h").write_text(_parameters_header(packing))
         identifier = f"{P}_controller"
         compiled = [s.name for s in lib.sources] + ["fmu_common.c", f"{P}_fmu.c"]

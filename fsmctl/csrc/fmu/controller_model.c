@@ -14,6 +14,7 @@
  * they are the neighbours' broadcasts of the previous instant (one control period late).
  */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "@P@.h"
@@ -27,6 +28,7 @@ typedef struct {
   @P@_real broadcast[FSMFMU_N_NEIGHBOURS_ALLOC * @PU@_N_BROADCAST];
   @P@_real k_own[FSMFMU_N_NEIGHBOURS_ALLOC], k_sender[FSMFMU_N_NEIGHBOURS_ALLOC];
   double period;
+  char message[200]; /* the last refusal, with its numbers */
 } model;
 
 size_t fsmfmu_model_bytes(void) { return sizeof(model); }
@@ -109,7 +111,10 @@ int fsmfmu_model_step(void *memory, double *r, const int *integers, double t, do
   int status;
   (void)integers;
   if (!(fabs(h - m->period) <= FSMFMU_GRID_TOLERANCE * m->period)) {
-    *why = "doStep: the step size must be control_period * law_state_substeps (one control instant per step)";
+    snprintf(m->message, sizeof m->message,
+             "doStep: the step size must be control_period * law_state_substeps = %.17g s (one control instant per "
+             "step), got %.17g s", m->period, h);
+    *why = m->message;
     return 1;
   }
   read_input(r, t, &in);

@@ -12,6 +12,7 @@
  *   - doStep(t, h) takes round(h / dt) internal steps; t must be on the grid and h a multiple of dt.
  */
 #include <math.h>
+#include <stdio.h>
 #include <string.h>
 
 #include "disturbance_torque.h"
@@ -30,6 +31,7 @@ typedef struct {
   long long k; /* internal steps taken: the state is at t0 + k dt */
   casadi_int iw[WORK];
   double w[WORK];
+  char message[200]; /* the last refusal, with its numbers */
 } plant;
 
 size_t fsmfmu_model_bytes(void) { return sizeof(plant); }
@@ -162,7 +164,9 @@ int fsmfmu_model_step(void *model, double *r, const int *integers, double t, dou
     return 1;
   }
   if (!(steps >= 1) || !(fabs(steps * p->dt - h) <= slack) || steps > 1e12) {
-    *why = "doStep: the step size must be a positive multiple of the internal step dt";
+    snprintf(p->message, sizeof p->message,
+             "doStep: the step size must be a positive multiple of the internal step dt = %.17g s, got %.17g s", p->dt, h);
+    *why = p->message;
     return 1;
   }
   n = (long long)steps;
