@@ -78,24 +78,21 @@ def test_compiles_strictly_freestanding_without_libraries(exports, tmp_path, law
     assert undefined and all(s.startswith(lib.prefix + "_") for s in undefined), undefined
 
 
-@pytest.mark.parametrize("law", ["fsm", "pid", "fsm_event", "fsm_wheels"])
+@pytest.mark.parametrize("law", LAWS)
 def test_compiles_with_clang(exports, tmp_path, law):
+    """clang (on the PATH, or zig's from the test extra) at the same strict flags, freestanding, both precisions."""
+    from fsmctl.export import strict_flags
+
     clang = _clang()
     if clang is None:
         pytest.skip("no clang (install the test extra: ziglang)")
     for precision in ("float64", "float32"):
         lib = exports[law, precision]
-        compile_export(lib, tmp_path / precision, shared=False, compiler=" ".join(clang) if len(clang) == 1 else None,
-                       extra_flags=["-O2", "-ffreestanding"]) if len(clang) == 1 else _zig_compile(clang, lib, tmp_path)  # fmt: skip
-
-
-def _zig_compile(clang, lib, tmp_path):
-    from fsmctl.export import strict_flags
-
-    for source in lib.sources:
-        cmd = [*clang, *strict_flags(lib.precision), "-O2", "-ffreestanding", "-c", str(source)]
-        done = subprocess.run([*cmd, "-o", str(tmp_path / (source.stem + ".o"))], capture_output=True, text=True)
-        assert done.returncode == 0, done.stderr
+        for source in lib.sources:
+            cmd = [*clang, *strict_flags(precision), "-O2", "-ffreestanding", "-c", str(source)]
+            done = subprocess.run([*cmd, "-o", str(tmp_path / f"{precision}-{source.stem}.o")], capture_output=True,
+                                  text=True)  # fmt: skip
+            assert done.returncode == 0, done.stderr
 
 
 def test_export_is_byte_reproducible(tmp_path):
