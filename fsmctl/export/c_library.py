@@ -34,7 +34,7 @@ import sympy as sp
 
 from fsmctl.codegen.c99 import UnsupportedExportInstructionError, c99_function, c99_signature
 from fsmctl.errors import InputError
-from fsmctl.model.laws import LawCode, LawParameterInfo, resolve_law
+from fsmctl.model.laws import LawCode, LawError, LawParameterInfo, builtin_laws, resolve_law
 from fsmctl.outputs import output_folder, write_text
 from fsmctl.version import __version__
 
@@ -748,13 +748,15 @@ def write_c_library(
     return CLibrary(folder, P, precision, error_model, code, sources, manifest)
 
 
-def read_c_library(folder: str | Path) -> CLibrary:
+def read_c_library(folder: str | Path, law: str | Path | LawCode | None = None) -> CLibrary:
     """An exported library from its folder (its ``manifest.json``), e.g. to verify it again.
 
     Parameters
     ----------
     folder : path
         A folder written by :func:`write_c_library` (``fsmctl export --target c``).
+    law : str, path or LawCode, optional
+        The exported law (default: the built-in law of that name, else the script the manifest names).
 
     Returns
     -------
@@ -784,7 +786,15 @@ def read_c_library(folder: str | Path) -> CLibrary:
         ) from None
     if fmt != EXPORT_FORMAT:
         raise ExportError(f"{folder}: export format {fmt}, this fsmctl reads {EXPORT_FORMAT}; export the law again")
-    source = manifest["law"].get("source", "")
-    law = resolve_law(law_name if (resources.files("fsmctl") / "_generated" / "laws" / law_name).is_dir() else source)
+    if law is None:
+        source = manifest["law"].get("source", "")
+        try:
+            law = resolve_law(law_name if law_name in builtin_laws() else source)
+        except LawError:
+            raise ExportError(
+                f"{folder}: its law {law_name!r} ({source}) is not found from here: pass law= (its script or folder)"
+            ) from None
+    elif not isinstance(law, LawCode):
+        law = resolve_law(law)
     sources = tuple(folder / n for n in (f"{prefix}.c", f"{prefix}_law.c", f"{prefix}_math.c"))
     return CLibrary(folder, prefix, precision, error_model, law, sources, manifest)
