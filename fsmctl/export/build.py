@@ -15,7 +15,7 @@ from fsmctl.errors import EnvironmentProblem
 from fsmctl.export.c_library import CLibrary, ExportError, strict_flags
 from fsmctl.model.generated_code import c_compiler
 
-__all__ = ["BUILD_TIMEOUT_S", "BuildError", "compile_export"]
+__all__ = ["BUILD_TIMEOUT_S", "BuildError", "compile_export", "compiler_path", "run_compiler"]
 
 BUILD_TIMEOUT_S = 300.0
 """The longest a compiler call on an export may take (s)."""
@@ -37,11 +37,70 @@ class BuildError(ExportError):
     """
 
 
-def _compiler(compiler: str | None) -> str:
+def compiler_path(compiler: str | None = None) -> str:
+    """``compiler``, else the engine's (:func:`fsmctl.model.generated_code.c_compiler`).
+
+    Parameters
+    ----------
+    compiler : str, optional
+        A compiler to use as given.
+
+    Returns
+    -------
+    str
+        The compiler's path (or the name given).
+
+    Raises
+    ------
+    EnvironmentProblem
+        No C compiler.
+
+    Examples
+    --------
+    >>> Path(compiler_path("gcc")).name
+    'gcc'
+    """
     cc = compiler or c_compiler()
     if not cc:
         raise EnvironmentProblem("no C compiler found (install gcc or clang, or set CC)")
     return cc
+
+
+def run_compiler(command: Sequence[str], what: str) -> None:
+    """Run one compiler command line; the compiler's first error line becomes a :class:`BuildError`.
+
+    Parameters
+    ----------
+    command : sequence of str
+        The command line (the compiler first).
+    what : str
+        What is compiled, for the message (``"the export in DIR"``).
+
+    Raises
+    ------
+    BuildError
+        The compiler refused the sources.
+    EnvironmentProblem
+        The compiler could not be run.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> src = Path(tempfile.mkdtemp()) / "bad.c"
+    >>> _ = src.write_text("not C")
+    >>> try:
+    ...     run_compiler([compiler_path(), "-c", str(src), "-o", str(src.with_suffix(".o"))], "bad.c")
+    ... except BuildError as exc:
+    ...     print(str(exc).split(":")[0].split()[-1])
+    bad.c
+    """
+    try:
+        done = subprocess.run(list(command), capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise EnvironmentProblem(f"{command[0]}: could not run the compiler ({exc})") from None
+    if done.returncode != 0:
+        first = next((ln for ln in done.stderr.splitlines() if "error" in ln), done.stderr.strip()[:300])
+        raise BuildError(f"{Path(command[0]).name} refused {what}: {first}")
 
 
 def compile_export(
@@ -90,7 +149,7 @@ def compile_export(
     >>> sorted(p.name for p in Path("objects").iterdir())
     ['fsm.o', 'fsm_law.o', 'fsm_math.o']
     """
-    cc = _compiler(compiler)
+    cc = compiler_path(compiler)
     output = Path(output)
     flags = [*strict_flags(library.precision), *extra_flags, f"-I{library.folder}", *(f"-I{d}" for d in include_dirs)]
     sources = [str(s) for s in (*library.sources, *extra_sources)]
@@ -101,11 +160,5 @@ def compile_export(
         output.mkdir(parents=True, exist_ok=True)
         commands = [[cc, *flags, "-c", s, "-o", str(output / (Path(s).stem + ".o"))] for s in sources]
     for command in commands:
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
-        except (OSError, subprocess.SubprocessError) as exc:
-            raise EnvironmentProblem(f"{cc}: could not run the compiler ({exc})") from None
-        if done.returncode != 0:
-            first = next((ln for ln in done.stderr.splitlines() if "error" in ln), done.stderr.strip()[:300])
-            raise BuildError(f"{Path(cc).name} refused the export in {library.folder}: {first}")
+        run_compiler(command, f"the export in {library.folder}")
     return output

@@ -34,7 +34,7 @@ import sympy as sp
 
 from fsmctl.codegen.c99 import UnsupportedExportInstructionError, c99_function, c99_signature
 from fsmctl.errors import InputError
-from fsmctl.model.laws import LawCode, LawError, LawParameterInfo, builtin_laws, resolve_law
+from fsmctl.model.laws import LawCode, LawError, LawParameterInfo, builtin_laws, initial_law_states, resolve_law
 from fsmctl.outputs import output_folder, write_text
 from fsmctl.version import __version__
 
@@ -48,6 +48,7 @@ __all__ = [
     "read_c_library",
     "strict_flags",
     "with_defaults",
+    "file_sha256",
 ]
 
 EXPORT_FORMAT = 1
@@ -260,19 +261,19 @@ def _law_source(law: LawCode, prefix: str, real: str, error_model: str) -> str:
         f'#include "{prefix}_math.h"',
         "",
         f"const {prefix}_real {prefix}_initial_state[{prefix.upper()}_N_STATES_ALLOC] = {{"
-        + ", ".join(_literal(v, real) for v in (_initial_states(law) or [0.0]))
+        + ", ".join(_literal(v, real) for v in (initial_law_states(law).tolist() or [0.0]))
         + "};",
         "",
         _parameter_code(law, prefix, real),
     ]
-    uses_infinity = False
+    uses_infinity, docs = False, _function_docs(law)
     for suffix, name in _function_names(law, error_model).items():
         try:
             text = c99_function(f"{prefix}_law_{suffix}", _sx_function(law, name), real=real, math_prefix=prefix)
         except UnsupportedExportInstructionError as exc:
             raise ExportError(f"law {law.name!r}: {exc}") from None
         uses_infinity |= f"{real}_infinity()" in text
-        body += [f"/* {name}: {_function_doc(law, name)} */", text]
+        body += [f"/* {name}: {docs.get(name, '')} */", text]
     if uses_infinity:
         body.insert(3, _INFINITY.format(real=real))
     return "\n".join(body)
@@ -289,20 +290,10 @@ _INFINITY = """static {real} {real}_infinity(void) {{
 """
 
 
-def _function_doc(law: LawCode, name: str) -> str:
-    manifest = json.loads((law.folder / "manifest.json").read_text())
-    for entry in manifest.get("functions", []):
-        if entry["name"] == name:
-            return entry.get("doc", "").replace("*/", "* /")
-    return ""
-
-
-def _initial_states(law: LawCode) -> list[float]:
-    values: list[float] = []
-    for state in law.states:
-        initial = state.get("initial", [0.0] * int(state["size"]))
-        values += [float(v) for v in (initial if isinstance(initial, list) else [initial] * int(state["size"]))]
-    return values
+def _function_docs(law: LawCode) -> dict[str, str]:
+    """Each generated function's one-line doc, from the law folder's manifest (read once)."""
+    entries = json.loads((law.folder / "manifest.json").read_text()).get("functions", [])
+    return {e["name"]: e.get("doc", "").replace("*/", "* /") for e in entries}
 
 
 # ----------------------------------------------------------------------------- headers
@@ -440,7 +431,7 @@ def _public_header(law: LawCode, prefix: str, real: str, precision: str, error_m
     lines += [f"#define {PU}_HAS_TRIGGER {int(law.trigger is not None)}"]
     lines += [
         f'#define {PU}_LAW_NAME "{law.name}"',
-        f'#define {PU}_LAW_MANIFEST_SHA256 "{_sha256(law.folder / "manifest.json")}" /* the law folder it came from */',
+        f'#define {PU}_LAW_MANIFEST_SHA256 "{file_sha256(law.folder / "manifest.json")}" /* the law folder it came from */',
         f'#define {PU}_FSMCTL_VERSION "{__version__}"',
     ]
     lines += [f"#define {PU}_DEFAULT_CONTROL_PERIOD {float(period)!r} /* s */", ""]
@@ -628,7 +619,8 @@ def _readme(
     )
 
 
-def _sha256(path: Path) -> str:
+def file_sha256(path: Path) -> str:
+    """The hex sha256 of a file (the manifests' digests)."""
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
@@ -731,7 +723,7 @@ def write_c_library(
             "law": {
                 "name": code.name,
                 "source": code.source,
-                "manifest_sha256": _sha256(code.folder / "manifest.json"),
+                "manifest_sha256": file_sha256(code.folder / "manifest.json"),
                 "functions": _function_names(code, error_model),
             },
             "prefix": P,
@@ -741,7 +733,7 @@ def write_c_library(
             "defaults_set": {k: list(code.parameter(k).default) for k in sorted(parameters or {})},
             "torque_limit": float(torque_limit),
             "versions": {"fsmctl": __version__, **law_manifest.get("versions", {}), "sympy_installed": sp.__version__},
-            "sha256": {name: _sha256(folder / name) for name in sorted(texts)},
+            "sha256": {name: file_sha256(folder / name) for name in sorted(texts)},
         }
         write_text(folder / "manifest.json", json.dumps(manifest, indent=2) + "\n")
     sources = tuple(folder / n for n in (f"{P}.c", f"{P}_law.c", f"{P}_math.c"))

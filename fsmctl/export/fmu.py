@@ -26,7 +26,6 @@ import hashlib
 import math
 import platform
 import shutil
-import subprocess
 import tempfile
 import xml.etree.ElementTree as ET
 import zipfile
@@ -37,11 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-from fsmctl.errors import EnvironmentProblem
-from fsmctl.export.build import BUILD_TIMEOUT_S, BuildError, compile_export
+from fsmctl.export.build import compile_export, compiler_path, run_compiler
 from fsmctl.export.c_library import ExportError, with_defaults, write_c_library
 from fsmctl.model import ActuatorSettings
-from fsmctl.model.generated_code import c_compiler, driver_source_dir
+from fsmctl.model.generated_code import driver_source_dir
 from fsmctl.model.generated_paths import generated_dir
 from fsmctl.model.laws import LawCode, resolve_law
 from fsmctl.outputs import atomic_path
@@ -344,16 +342,6 @@ def _plant_sources(sources: Path) -> list[str]:
     return ["fmu_common.c", "plant_model.c", *compiled]
 
 
-def _run_compiler(command: list[str], what: str) -> None:
-    try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=BUILD_TIMEOUT_S)
-    except (OSError, subprocess.SubprocessError) as exc:
-        raise EnvironmentProblem(f"{command[0]}: could not run the compiler ({exc})") from None
-    if done.returncode != 0:
-        first = next((ln for ln in done.stderr.splitlines() if "error" in ln), done.stderr.strip()[:300])
-        raise BuildError(f"{Path(command[0]).name} refused {what}: {first}")
-
-
 def write_plant_fmu(
     path: str | Path,
     *,
@@ -401,9 +389,7 @@ def write_plant_fmu(
     """
     _check_platform()
     table = _plant_table(_positive("dt", dt), inertia, sigma0, omega0, disturbance)
-    cc = c_compiler()
-    if not cc:
-        raise EnvironmentProblem("no C compiler found (install gcc or clang, or set CC)")
+    cc = compiler_path()
     with tempfile.TemporaryDirectory(prefix="fsmctl-fmu-") as tmp:
         stage = Path(tmp)
         sources = stage / "sources"
@@ -415,7 +401,7 @@ def write_plant_fmu(
                 step=10 * float(dt), compiled=compiled)  # fmt: skip
         so = stage / "binaries" / _PLATFORM / f"{PLANT_IDENTIFIER}.so"
         command = [cc, *PLANT_FLAGS, f"-I{sources}", *(str(sources / c) for c in compiled), "-o", str(so), "-lm"]
-        _run_compiler(command, "the plant FMU's sources")
+        run_compiler(command, "the plant FMU's sources")
         return _zip(stage, Path(path))
 
 

@@ -11,7 +11,6 @@ instant); in float32 the differences are measured and reported, with whether eac
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import json
 import tempfile
 import warnings
@@ -23,7 +22,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.export.build import compile_export
-from fsmctl.export.c_library import CLibrary, ExportError, read_c_library
+from fsmctl.export.c_library import CLibrary, ExportError, file_sha256, read_c_library
 from fsmctl.model.generated_code import driver_source_dir
 from fsmctl.model.laws import LawSwitchWarning
 from fsmctl.model.problem import pack
@@ -229,7 +228,7 @@ def _controller(library: CLibrary, dll: ctypes.CDLL, scenario: Scenario) -> tupl
 def _files_match(library: CLibrary) -> bool:
     listed = json.loads((library.folder / "manifest.json").read_text()).get("sha256", {})
     return all(
-        (library.folder / name).is_file() and hashlib.sha256((library.folder / name).read_bytes()).hexdigest() == digest
+        (library.folder / name).is_file() and file_sha256(library.folder / name) == digest
         for name, digest in listed.items()
     )
 

@@ -112,8 +112,8 @@ int fsmfmu_model_step(void *memory, double *r, const int *integers, double t, do
   (void)integers;
   if (!(fabs(h - m->period) <= FSMFMU_GRID_TOLERANCE * m->period)) {
     snprintf(m->message, sizeof m->message,
-             "doStep: the step size must be control_period * law_state_substeps = %.17g s (one control instant per "
-             "step), got %.17g s", m->period, h);
+             "doStep: the step size must be control_period * law_state_substeps = %.15g s (one control instant per "
+             "step), got %.15g s", m->period, h);
     *why = m->message;
     return 1;
   }

@@ -165,7 +165,7 @@ int fsmfmu_model_step(void *model, double *r, const int *integers, double t, dou
   }
   if (!(steps >= 1) || !(fabs(steps * p->dt - h) <= slack) || steps > 1e12) {
     snprintf(p->message, sizeof p->message,
-             "doStep: the step size must be a positive multiple of the internal step dt = %.17g s, got %.17g s", p->dt, h);
+             "doStep: the step size must be a positive multiple of the internal step dt = %.15g s, got %.15g s", p->dt, h);
     *why = p->message;
     return 1;
   }
