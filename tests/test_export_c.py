@@ -371,3 +371,19 @@ def test_set_bakes_the_exported_defaults(tmp_path, capsys):
     assert main(["export", "--law", "fsm", "--target", "fmu", "--out", str(tmp_path / "f"), "--set", "alpha=1.5"]) == 2
     assert "alpha: must be < 1" in capsys.readouterr().err
     assert not (tmp_path / "f").exists()
+
+
+def test_cli_export_refuses_before_writing(tmp_path, capsys):
+    """A control period the scenario cannot fly is refused (naming --control-period) before anything is written;
+    --out refuses a folder that holds other files; an option parameter given as text to cosimulate is named."""
+    from fsmctl.cli.main import main
+
+    out = tmp_path / "bad"
+    assert main(["export", "--law", "fsm", "--control-period", "0.0015", "--verify", "--out", str(out)]) == 2
+    assert "--control-period 0.0015 s" in capsys.readouterr().err and not out.exists()
+    foreign = tmp_path / "mine"
+    foreign.mkdir()
+    (foreign / "notes.txt").write_text("mine")
+    assert main(["export", "--law", "fsm", "--out", str(foreign)]) == 2
+    assert "neither empty nor an earlier export" in capsys.readouterr().err
+    assert sorted(p.name for p in foreign.iterdir()) == ["notes.txt"]

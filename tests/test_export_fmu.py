@@ -170,8 +170,20 @@ def test_bad_options_are_one_line_input_errors(plant, pid, folder):
     [
         ({"J": np.diag([1.0, -1.0, 1.0])}, {}, 0.01, "plant.fmu: exitInitializationMode failed: J: must be finite"),
         ({}, {"K": -1.0}, 0.01, "pid.fmu: exitInitializationMode failed: K: must be 0 < x"),
-        ({}, {}, 0.02, "pid.fmu: doStep failed: doStep: the step size must be control_period"),
-        ({"dt": 0.003}, {}, 0.01, "plant.fmu: doStep failed: doStep: the step size must be a positive multiple"),
+        (
+            {},
+            {},
+            0.02,
+            "pid.fmu: doStep failed: doStep: the step size must be control_period * law_state_substeps = "
+            "0.01 s (one control instant per step), got 0.02 s",
+        ),
+        (
+            {"dt": 0.003},
+            {},
+            0.01,
+            "plant.fmu: doStep failed: doStep: the step size must be a positive multiple of the "
+            "internal step dt = 0.003 s, got 0.01 s",
+        ),
     ],
 )
 def test_a_refused_call_reports_the_fmu_reason(plant, pid, plant_parameters, controller_parameters, step, reason):
