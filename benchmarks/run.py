@@ -1480,7 +1480,7 @@ def _loop_profile(count: int, log) -> dict | None:
             kind = "sin/cos (glibc's: the lanes off fsmctl's fast path)"
         elif sym in ("fsmctl_sin", "fsmctl_cos"):
             kind = "sin/cos (fsmctl's scalar calls: the reference)"
-        elif sym.endswith(("_x4", "_x4.localalias")):
+        elif sym.endswith(("_batched", "_batched.localalias")):
             kind = (
                 "generated batched kernels (law_local with fsmctl's 4-lane pow, law_control, plant_rhs, "
                 "disturbance_torque with fsmctl's 4-lane cos)"

@@ -1,10 +1,11 @@
 """Lane-batched kernels (fsmctl/codegen/batched.py) equal the scalar CasADi C bit for bit, for every law.
 
-Two levels: each kernel (the model's ``plant_rhs`` and every built-in law's ``law_local_*``/``law_control_*``)
+Three levels: each kernel (the model's ``plant_rhs`` and every built-in law's ``law_local_*``/``law_control_*``)
 against its scalar CasADi-generated function (both from the law's compiled library) on random and edge-case
 inputs, lane by lane; and whole simulations with
 ``kernels="batched"`` against ``kernels="scalar"`` (agent counts that do and do not fill the
-lanes, both error models, zero-order hold, the adaptive integrator).
+lanes, both error models, zero-order hold, the adaptive integrator); and the same runs at both lane widths
+(``FSMCTL_LANES=4`` and ``8``, each in its own process: a build per width) with identical bits.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ import pytest
 from formations import with_agents
 
 import fsmctl
-from fsmctl.codegen.batched import LANES, UnsupportedInstructionError, batched_header, batched_source, kernel_name
+from fsmctl.codegen.batched import LANE_WIDTHS, UnsupportedInstructionError, batched_header, batched_source, kernel_name
 from fsmctl.model.generated_code import compiled_library, manifest
 from fsmctl.model.laws import builtin_laws
 from fsmctl.model.problem import pack
@@ -43,7 +44,9 @@ def _law_library(law: str):
     lib = compiled_library(LAWS[law].folder)
     if lib is None:
         pytest.skip("no C compiler: the compiled library is not available")
-    return ctypes.CDLL(str(lib.path))
+    dll = ctypes.CDLL(str(lib.path))
+    assert dll.fsm_lane_width() == lib.lanes in LANE_WIDTHS
+    return dll
 
 
 @pytest.fixture(scope="module")
@@ -77,7 +80,7 @@ def _scalar(library, name: str, inputs: list[np.ndarray], n_out: list[int]) -> l
 
 def _batched(library, name: str, inputs: list[np.ndarray], n_out: list[int], lanes: int) -> list[np.ndarray]:
     fn = getattr(library, kernel_name(name))
-    outs = [np.zeros((m, LANES)) for m in n_out]
+    outs = [np.zeros((m, library.fsm_lane_width())) for m in n_out]
     keep = [np.ascontiguousarray(x) for x in inputs]
     args = (_P * len(keep))(*[x.ctypes.data_as(_P) for x in keep])
     res = (_P * len(outs))(*[o.ctypes.data_as(_P) for o in outs])
@@ -104,18 +107,19 @@ def test_batched_kernel_equals_scalar_function_bit_for_bit(law, name):
     library = _law_library(law)
     n_in, n_out = _sizes(law, name)
     rng = np.random.default_rng(sum(map(ord, name)))
+    width = library.fsm_lane_width()
     compared = 0
     for trial in range(300):
         inputs = []
         for m in n_in:
-            x = rng.normal(size=(m, LANES)) * rng.choice([1e-3, 1.0, 30.0])
+            x = rng.normal(size=(m, width)) * rng.choice([1e-3, 1.0, 30.0])
             if trial % 3:  # edge cases: zeros of both signs, tiny, huge, inf, nan
-                mask = rng.random((m, LANES)) < 0.25
+                mask = rng.random((m, width)) < 0.25
                 x[mask] = rng.choice(SPECIAL, size=int(mask.sum()))
             if trial % 5 == 0:  # ties for fmin/fmax/sign and the Remark 6 band
                 x = np.round(x, 1)
             inputs.append(x)
-        lanes = LANES if trial % 4 else 1 + (trial // 4) % LANES  # every trial % 4 == 0: 1, 2, 3, 4 lanes
+        lanes = width if trial % 4 else 1 + (trial // 4) % width  # every trial % 4 == 0: 1, 2, ..., width lanes
         batched = _batched(library, name, inputs, n_out, lanes)
         for lane in range(lanes):
             lane_inputs = [x[:, lane] for x in inputs]
@@ -241,10 +245,12 @@ def test_printer_writes_exact_constants_and_every_lane_rule():
     assert "fsm_splat(0.1)" in source and "fsm_splat((-1e-300))" in source and "fsm_splat(INFINITY)" in source
     helpers = ("fsm_fmin", "fsm_fmax", "fsm_sign", "fsm_fabs", "fsm_if_else_zero", "fsm_pow", "fsm_sqrt", "fsm_cos")
     for helper in helpers:
-        assert f"{helper}(" in source.split("int g_x4")[1], helper
+        assert f"{helper}(" in source.split("int g_batched")[1], helper
+    assert "FSM_LANES * 0" in source and "vector_size" not in source  # the width is the build's, not the text's
 
 
-def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
+@pytest.mark.parametrize("width", LANE_WIDTHS)
+def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path, width):
     """Each operation the printer knows, compiled both ways with the library's compiler and flags, on every pair
     of special values (signed zeros, subnormals, huge, infinities, NaN): bit-identical, except fmin/fmax ties of
     +0 and -0 (unspecified in C99)."""
@@ -272,6 +278,7 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     (tmp_path / "g_b.h").write_text(batched_header(["g"]))
     (tmp_path / "g_b.c").write_text(batched_source([("g", g)], "g_b.h"))
     flags, _ = compile_flags(cc)
+    flags = (*(f for f in flags if not f.startswith("-DFSM_LANES=")), f"-DFSM_LANES={width}")
     so = tmp_path / "g.so"
     math = [str(driver_source_dir() / f) for f in ("fsm_pow.c", "fsm_trig.c")]  # fsmctl's pow, sin, cos: as the library
     sources = [str(tmp_path / "g.c"), str(tmp_path / "g_b.c"), *math]
@@ -289,17 +296,17 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path):
     proc = subprocess.run(cmd, capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     lib = ctypes.CDLL(str(so))
-    if not hasattr(lib, "g_x4"):
+    if not hasattr(lib, "g_batched"):
         pytest.skip(f"{cc} has no vector extension: no batched kernels to compare")
     special = [0.0, -0.0, 1.0, -1.0, 0.5, -2.0, 3.0, 5e-324, -5e-324, 1e308, np.inf, -np.inf, np.nan]
     pairs = np.array(list(itertools.product(special, special)))
     m, checked = len(names), 0
-    for start in range(0, len(pairs), LANES):
-        chunk = pairs[start : start + LANES]
-        xb, yb = np.zeros(LANES), np.zeros(LANES)
+    for start in range(0, len(pairs), width):
+        chunk = pairs[start : start + width]
+        xb, yb = np.zeros(width), np.zeros(width)
         xb[: len(chunk)], yb[: len(chunk)] = chunk[:, 0], chunk[:, 1]
-        out = np.zeros((m, LANES))
-        lib.g_x4((_P * 2)(xb.ctypes.data_as(_P), yb.ctypes.data_as(_P)), (_P * 1)(out.ctypes.data_as(_P)), len(chunk))
+        out = np.zeros((m, width))
+        lib.g_batched((_P * 2)(xb.ctypes.data_as(_P), yb.ctypes.data_as(_P)), (_P * 1)(out.ctypes.data_as(_P)), len(chunk))
         for lane, (a, b) in enumerate(chunk):
             xs, ys, want = np.array([a]), np.array([b]), np.zeros(m)
             args = (_P * 2)(xs.ctypes.data_as(_P), ys.ctypes.data_as(_P))

@@ -2,23 +2,27 @@
 
 CasADi's own code generator prints one scalar statement per instruction of an
 ``SX`` function.  This module prints the *same instruction list* once more, on
-a C vector type of :data:`LANES` doubles (GCC/Clang ``vector_size``
-extension), so one call evaluates the function for ``LANES`` agents with SIMD
-arithmetic.  Every lane performs exactly the scalar program: the same IEEE
+a C vector type of ``FSM_LANES`` doubles (GCC/Clang ``vector_size``
+extension), so one call evaluates the function for ``FSM_LANES`` agents with SIMD
+arithmetic.  The width is a compile-time constant of the C code, not of the
+printed text: ``fsmctl/csrc/fsm_pow.h`` defines it (4 unless the build says
+otherwise; :func:`fsmctl.model.generated_code.compile_flags` asks for 8 on CPUs
+with 512-bit vectors), so one generated file serves every width.  Every lane
+performs exactly the scalar program: the same IEEE
 operations in the same order (``+ - * /`` are correctly rounded per lane, ``pow``,
 ``sin`` and ``cos`` are fsmctl's (``fsmctl/csrc/fsm_pow.h`` and ``fsm_trig.h``, those of
-every compiled path) on four lanes at once, the other library functions
+every compiled path) on all lanes at once, the other library functions
 (``sqrt``, ``exp``, ...) are called per lane, and
 comparisons, ``if_else``, ``sign``, ``fmin``/``fmax`` and ``fabs`` are bit
 selections with the C99 semantics of CasADi's scalar helpers), so with FMA
 contraction off a lane's result is bit-identical to the scalar CasADi C
-function.  The one latitude is the sign of a zero from ``fmin``/``fmax`` of
+function, whatever the width.  The one latitude is the sign of a zero from ``fmin``/``fmax`` of
 ``+0`` and ``-0``, which C99 leaves unspecified (the compiler may resolve the
 scalar call either way).  ``tests/test_batched_kernels.py`` checks this on
-random and edge-case inputs and on whole simulations.
+random and edge-case inputs and on whole simulations, at every width.
 
 Memory layout ("lane-major"): argument ``i`` of a kernel is a block of
-``nnz_i * LANES`` doubles with element ``(k, lane)`` at ``arg[i][LANES*k + lane]``;
+``nnz_i * FSM_LANES`` doubles with element ``(k, lane)`` at ``arg[i][FSM_LANES*k + lane]``;
 results likewise.  Every argument and result pointer must be non-null.  The
 last argument, ``lanes``, is the number of active lanes: the per-lane library
 calls (the expensive part) skip the others, whose results are unspecified.
@@ -33,11 +37,11 @@ from collections.abc import Sequence
 
 import casadi as ca
 
-__all__ = ["LANES", "UnsupportedInstructionError", "batched_source", "batched_header", "kernel_name"]
+__all__ = ["LANE_WIDTHS", "UnsupportedInstructionError", "batched_source", "batched_header", "kernel_name"]
 
-LANES = 4
-"""Lanes per kernel call: 4 doubles = one 256-bit AVX register (two SSE2 registers without AVX); fsm_pow.h's
-``fsm_pow_v4`` and fsm_trig.h's ``fsm_sincos_v4`` are written for 4."""
+LANE_WIDTHS = (4, 8)
+"""The values ``FSM_LANES`` may take (``fsmctl/csrc/fsm_pow.h`` refuses others): 4 doubles = one 256-bit AVX register
+(two SSE2 registers without AVX), 8 = one AVX-512 register (two interleaved AVX registers without it)."""
 
 
 class UnsupportedInstructionError(ValueError):
@@ -45,8 +49,8 @@ class UnsupportedInstructionError(ValueError):
 
 
 def kernel_name(function_name: str) -> str:
-    """C name of the batched kernel of a generated function (``plant_rhs`` -> ``plant_rhs_x4``)."""
-    return f"{function_name}_x{LANES}"
+    """C name of the batched kernel of a generated function (``plant_rhs`` -> ``plant_rhs_batched``)."""
+    return f"{function_name}_batched"
 
 
 def _literal(value: float) -> str:
@@ -114,12 +118,12 @@ _PRELUDE = """\
 #pragma GCC diagnostic ignored "-Wpsabi" /* static helpers: the vector-ABI note does not apply */
 #endif
 
-typedef double fsm_v __attribute__((vector_size({bytes})));
-typedef long long fsm_m __attribute__((vector_size({bytes})));
+typedef fsm_pow_v fsm_v; /* FSM_LANES doubles (fsm_pow.h) */
+typedef fsm_pow_m fsm_m;
 
 static inline fsm_v fsm_load(const double *p) {{ fsm_v v; memcpy(&v, p, sizeof v); return v; }}
 static inline void fsm_store(double *p, fsm_v v) {{ memcpy(p, &v, sizeof v); }}
-static inline fsm_v fsm_splat(double c) {{ fsm_v v = {{{splat}}}; return v; }}
+static inline fsm_v fsm_splat(double c) {{ return fsm_pow_splat(c); }}
 /* mask (-1 / 0 per lane) -> 1.0 / 0.0, as C's comparison result converted to double */
 static inline fsm_v fsm_bool(fsm_m m) {{ return (fsm_v)(m & (fsm_m)fsm_splat(1.0)); }}
 static inline fsm_v fsm_select(fsm_m m, fsm_v a, fsm_v b) {{ return (fsm_v)(((fsm_m)a & m) | ((fsm_m)b & ~m)); }}
@@ -135,11 +139,11 @@ static inline fsm_v fsm_sign(fsm_v x) {{
 static inline fsm_v fsm_fmax(fsm_v x, fsm_v y) {{ return fsm_select((x > y) | (y != y), x, y); }}
 static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) {{ return fsm_select((x < y) | (y != y), x, y); }}
 /* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
- * four lanes at once */
-static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {{ return fsm_pow_v4(x, y, lanes); }}
-/* sin, cos: fsmctl's (fsmctl/csrc/fsm_trig.h, likewise), four lanes at once */
-static inline fsm_v fsm_sin(fsm_v x, int lanes) {{ return fsm_sincos_v4(x, 1, lanes); }}
-static inline fsm_v fsm_cos(fsm_v x, int lanes) {{ return fsm_sincos_v4(x, 0, lanes); }}
+ * FSM_LANES lanes at once */
+static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) {{ return fsm_pow_vec(x, y, lanes); }}
+/* sin, cos: fsmctl's (fsmctl/csrc/fsm_trig.h, likewise), FSM_LANES lanes at once */
+static inline fsm_v fsm_sin(fsm_v x, int lanes) {{ return fsm_sincos_vec(x, 1, lanes); }}
+static inline fsm_v fsm_cos(fsm_v x, int lanes) {{ return fsm_sincos_vec(x, 0, lanes); }}
 /* the other library functions: called per active lane (l < lanes), so every lane gets exactly the scalar libm
  * result; inactive lanes keep x (their results are unspecified and never read) */
 #define FSM_LANEWISE(name, fn) \\
@@ -173,12 +177,12 @@ HEADER = """\
 /*
  * DO NOT EDIT: generated by `{generator}` (fsmctl/codegen/batched.py) from the CasADi graphs of the
  * functions named below; the same instruction lists as their CasADi-generated scalar C, evaluated
- * for {lanes} agents per call.
+ * for FSM_LANES agents per call (4 or 8: fsm_pow.h, set when the library is compiled).
  * Regenerate with `{generator}`; `{generator} --check` verifies this file is current.
  *
  * Needs the GCC/Clang vector extension: other compilers get no kernels (FSM_HAVE_BATCHED undefined).
- * Layout: argument/result i is a block of nnz_i*{lanes} doubles, element (k, lane) at p[{lanes}*k + lane].
- * All pointers must be non-null.  `lanes` (1..{lanes}) is the number of active lanes: library functions
+ * Layout: argument/result i is a block of nnz_i*FSM_LANES doubles, element (k, lane) at p[FSM_LANES*k + lane].
+ * All pointers must be non-null.  `lanes` (1..FSM_LANES) is the number of active lanes: library functions
  * (pow, sin, ...) are evaluated for those only; results in the other lanes are unspecified.  Returns 0.
  */
 """
@@ -192,7 +196,7 @@ def _kernel(name: str, function: ca.Function) -> str:
     if not function.is_a("SXFunction"):
         raise UnsupportedInstructionError(f"{name}: batched kernels need an SX function")
     op_names = {getattr(ca, n): n for n in dir(ca) if n.startswith("OP_")}
-    lines = [f"{_signature(name)} {{", f"  if (lanes > {LANES}) lanes = {LANES}; /* never index past the vector */"]
+    lines = [f"{_signature(name)} {{", "  if (lanes > FSM_LANES) lanes = FSM_LANES; /* never index past the vector */"]
     n_work = function.sz_w()
     for start in range(0, n_work, 12):
         names = ", ".join(f"w{k}" for k in range(start, min(n_work, start + 12)))
@@ -201,9 +205,9 @@ def _kernel(name: str, function: ca.Function) -> str:
         op = function.instruction_id(k)
         ins, outs = function.instruction_input(k), function.instruction_output(k)
         if op == ca.OP_INPUT:
-            lines.append(f"  w{outs[0]} = fsm_load(arg[{ins[0]}] + {LANES * ins[1]});")
+            lines.append(f"  w{outs[0]} = fsm_load(arg[{ins[0]}] + FSM_LANES * {ins[1]});")
         elif op == ca.OP_OUTPUT:
-            lines.append(f"  fsm_store(res[{outs[0]}] + {LANES * outs[1]}, w{ins[0]});")
+            lines.append(f"  fsm_store(res[{outs[0]}] + FSM_LANES * {outs[1]}, w{ins[0]});")
         elif op == ca.OP_CONST:
             lines.append(f"  w{outs[0]} = fsm_splat({_literal(function.instruction_constant(k))});")
         elif op in _BINARY:
@@ -221,8 +225,8 @@ def _kernel(name: str, function: ca.Function) -> str:
 
 def batched_header(names: Sequence[str], guard: str = "FSMCTL_BATCHED_H", generator: str = "python -m derive") -> str:
     """C header declaring the batched kernels of ``names``."""
-    body = [HEADER.format(lanes=LANES, generator=generator), f"#ifndef {guard}", f"#define {guard}", ""]
-    body += ["#ifndef FSM_LANES", f"#define FSM_LANES {LANES}", "#endif", ""]
+    body = [HEADER.format(generator=generator), f"#ifndef {guard}", f"#define {guard}", ""]
+    body += ['#include "fsm_pow.h" /* FSM_LANES */', ""]
     body += ["#if defined(__GNUC__) || defined(__clang__)", "#define FSM_HAVE_BATCHED 1", "#ifdef __cplusplus"]
     body += ['extern "C" {', "#endif"]
     body += [f"{_signature(n)};" for n in names]
@@ -234,6 +238,6 @@ def batched_source(
     functions: Sequence[tuple[str, ca.Function]], header: str, generator: str = "python -m derive"
 ) -> str:
     """C source with one batched kernel per ``(name, function)``, including ``header``."""
-    prelude = _PRELUDE.format(header=header, bytes=8 * LANES, lanes=LANES, splat=", ".join(["c"] * LANES))
+    prelude = _PRELUDE.format(header=header)
     kernels = "\n".join(_kernel(n, f) for n, f in functions)
-    return HEADER.format(lanes=LANES, generator=generator) + prelude + "\n" + kernels + _EPILOGUE
+    return HEADER.format(generator=generator) + prelude + "\n" + kernels + _EPILOGUE

@@ -311,6 +311,8 @@ int fsm_batched_available(void) {
 #endif
 }
 
+int fsm_lane_width(void) { return FSM_LANES; }
+
 int fsm_batched_preferred(void) {
 #if defined(__AVX__) && defined(FSM_HAVE_BATCHED)
   return 1;
@@ -326,16 +328,16 @@ static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes
   (void)arg, (void)res, (void)lanes;
   return 1;
 }
-#define law_local_paper_x4 fsm_no_kernel
-#define law_local_exact_x4 fsm_no_kernel
-#define law_control_paper_x4 fsm_no_kernel
-#define law_control_exact_x4 fsm_no_kernel
-#define plant_rhs_x4 fsm_no_kernel
-#define disturbance_torque_x4 fsm_no_kernel
-#define gyrostat_rhs_x4 fsm_no_kernel
-#define wheel_torque_x4 fsm_no_kernel
-#define wheel_acceleration_x4 fsm_no_kernel
-#define wheel_net_torque_x4 fsm_no_kernel
+#define law_local_paper_batched fsm_no_kernel
+#define law_local_exact_batched fsm_no_kernel
+#define law_control_paper_batched fsm_no_kernel
+#define law_control_exact_batched fsm_no_kernel
+#define plant_rhs_batched fsm_no_kernel
+#define disturbance_torque_batched fsm_no_kernel
+#define gyrostat_rhs_batched fsm_no_kernel
+#define wheel_torque_batched fsm_no_kernel
+#define wheel_acceleration_batched fsm_no_kernel
+#define wheel_net_torque_batched fsm_no_kernel
 #endif
 
 
@@ -571,8 +573,8 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   if (W->batched && !fsm_batched_available()) { free_workspace(W); return FSM_BAD_PROBLEM; }
   if (W->batched) {
     lane_rows(W);
-    W->local_x = P->error_model == 1 ? law_local_exact_x4 : law_local_paper_x4;
-    W->control_x = P->error_model == 1 ? law_control_exact_x4 : law_control_paper_x4;
+    W->local_x = P->error_model == 1 ? law_local_exact_batched : law_local_paper_batched;
+    W->control_x = P->error_model == 1 ? law_control_exact_batched : law_control_paper_batched;
     W->n_groups = (n + FSM_LANES - 1) / FSM_LANES;
     W->lanes = calloc((size_t)W->n_groups * W->row[RW_END] * FSM_LANES, sizeof(double));
     if (!W->lanes) { free_workspace(W); return FSM_NOMEM; }
@@ -939,7 +941,7 @@ static void wheel_net_torques(workspace *W, const fsm_problem *P, const double *
       for (int l = 0; l < FSM_LANES; ++l) L[FSM_LANES * WL_OM + l] = x[W->wheel_x[m0 + l]];
       const double *arg[3] = {L + FSM_LANES * WL_UM, L + FSM_LANES * WL_OM, L + FSM_LANES * WL_PAR};
       double *res[1] = {L + FSM_LANES * WL_UNET};
-      wheel_net_torque_x4(arg, res, lanes);
+      wheel_net_torque_batched(arg, res, lanes);
       for (int l = 0; l < lanes; ++l) W->u_net[m0 + l] = L[FSM_LANES * WL_UNET + l];
     }
   }
@@ -984,7 +986,7 @@ static void wheel_torques(workspace *W, const fsm_problem *P, const double *x, c
       }
       const double *arg[3] = {L + FSM_LANES * WL_U, L + FSM_LANES * WL_OM, L + FSM_LANES * WL_PAR};
       double *res[2] = {L + FSM_LANES * WL_UM, L + FSM_LANES * WL_UNET};
-      wheel_torque_x4(arg, res, lanes);
+      wheel_torque_batched(arg, res, lanes);
       for (int l = 0; l < lanes; ++l) {
         W->u_motor[m0 + l] = L[FSM_LANES * WL_UM + l];
         W->u_net[m0 + l] = L[FSM_LANES * WL_UNET + l];
@@ -1027,7 +1029,7 @@ static void wheel_rates(workspace *W, const fsm_problem *P, double *dx) {
       const double *arg[4] = {L + FSM_LANES * WL_G, L + FSM_LANES * WL_JS, L + FSM_LANES * WL_UNET,
                               L + FSM_LANES * WL_WD};
       double *res[1] = {L + FSM_LANES * WL_OD};
-      wheel_acceleration_x4(arg, res, lanes);
+      wheel_acceleration_batched(arg, res, lanes);
       for (int l = 0; l < lanes; ++l) dx[W->wheel_x[m0 + l]] = L[FSM_LANES * WL_OD + l];
     }
     return;
@@ -1073,7 +1075,7 @@ static void plant_with_wheels(workspace *W, const fsm_problem *P, const double *
       const double *arg[7] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_HW), ROW(G, RW_TAUW),
                               ROW(G, RW_TAU),   ROW(G, RW_JTRUE), ROW(G, RW_JSPIN)};
       double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
-      gyrostat_rhs_x4(arg, res, active_lanes(g, n));
+      gyrostat_rhs_batched(arg, res, active_lanes(g, n));
       for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
         const int i = g * FSM_LANES + l;
         from_lane(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), 3, l);
@@ -1249,7 +1251,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         const int lanes = active_lanes(g, W->n_ddistinct);
         const double *arg[2] = {LANE(W->common, CM_T), LANE(D, DL_PAR)};
         double *res[1] = {LANE(D, DL_D)};
-        disturbance_torque_x4(arg, res, lanes);
+        disturbance_torque_batched(arg, res, lanes);
         for (int l = 0; l < lanes; ++l) from_lane3(W->d + 3 * W->d_lane[g * FSM_LANES + l], LANE(D, DL_D), l);
       }
     } else {
@@ -1285,7 +1287,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       if (sensed) reload_state_lanes(W, G, g, x); /* rows RW_SIGMA, RW_OMEGA hold this x unless sensed */
       const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
       double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
-      plant_rhs_x4(arg, res, active_lanes(g, n));
+      plant_rhs_batched(arg, res, active_lanes(g, n));
       for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
         const int i = g * FSM_LANES + l;
         from_lane3(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), l);

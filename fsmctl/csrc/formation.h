@@ -196,6 +196,7 @@ int fsm_abi(long long *out, int capacity);
 void fsm_law_sizes(long long *out);
 int fsm_batched_available(void); /* 1 if this build has the batched kernels (GCC/Clang vector extension) */
 int fsm_batched_preferred(void); /* 1 if FSM_KERNELS_AUTO means batched in this build (available and AVX) */
+int fsm_lane_width(void);       /* FSM_LANES of this build: agents per call of the batched kernels (4 or 8) */
 int fsm_trigger_available(void); /* 1 if this build has the law's event trigger (compiled with -DFSM_LAW_TRIGGER) */
 int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every);
 

@@ -3,8 +3,13 @@
  *
  * fsmctl.model.generated_code compiles every source of the library with `-include fsm_pow.h`, so `pow` in the
  * CasADi-generated scalar C, the lane-batched kernels and the driver all mean fsmctl_pow, whose lanes are computed by
- * fsm_pow_v4: a scalar call and a lane of a batched call give the same bits (the library's pow used to be glibc's,
- * called lane by lane; this one evaluates four lanes at once with SIMD arithmetic).  Only the CasADi virtual machine
+ * fsm_pow_vec: a scalar call and a lane of a batched call give the same bits (the library's pow used to be glibc's,
+ * called lane by lane; this one evaluates FSM_LANES lanes at once with SIMD arithmetic).
+ *
+ * FSM_LANES, the width of fsmctl's vectors (this pow's and the batched kernels' of fsmctl/codegen/batched.py), is
+ * defined here: 4 (one 256-bit register) unless the build sets it (-DFSM_LANES=8 on CPUs with AVX-512:
+ * fsmctl.model.generated_code.compile_flags).  Each lane's operations are the same at every width, so the width
+ * never changes a result.  Only the CasADi virtual machine
  * (the fallback without a C compiler) uses its own pow; it agrees to about 1 ulp.
  *
  * Method (no tables; plain IEEE + - * / and exact products, fma(a, b, -a b) where the CPU has FMA, else Dekker's
@@ -24,6 +29,13 @@
 
 #include <math.h>
 
+#ifndef FSM_LANES
+#define FSM_LANES 4
+#endif
+#if FSM_LANES != 4 && FSM_LANES != 8
+#error "FSM_LANES must be 4 or 8 (fsmctl.codegen.batched.LANE_WIDTHS)"
+#endif
+
 double fsmctl_pow(double x, double y);
 
 #ifdef __GNUC__
@@ -31,20 +43,39 @@ double fsmctl_pow(double x, double y);
 #if defined(__FMA__) && defined(__AVX__)
 #include <immintrin.h>
 #endif
-typedef double fsm_pow_v __attribute__((vector_size(32)));
-typedef long long fsm_pow_m __attribute__((vector_size(32)));
+typedef double fsm_pow_v __attribute__((vector_size(8 * FSM_LANES)));
+typedef long long fsm_pow_m __attribute__((vector_size(8 * FSM_LANES)));
 
 static inline fsm_pow_v fsm_pow_splat(double c) {
+#if FSM_LANES == 8
+  fsm_pow_v v = {c, c, c, c, c, c, c, c};
+#else
   fsm_pow_v v = {c, c, c, c};
+#endif
   return v;
 }
 
 /* a b = p + *e exactly (|a|, |b| < 2^995, no underflow): with FMA e = fma(a, b, -p), else Dekker/Veltkamp's
  * splitting; both give the exact error, so the same bits */
 static inline fsm_pow_v fsm_pow_two_prod(fsm_pow_v a, fsm_pow_v b, fsm_pow_v *e) {
-#if defined(__FMA__) && defined(__AVX__)
+#if defined(__FMA__) && defined(__AVX512F__) && FSM_LANES == 8
+  fsm_pow_v p = a * b;
+  *e = (fsm_pow_v)_mm512_fmsub_pd((__m512d)a, (__m512d)b, (__m512d)p);
+  return p;
+#elif defined(__FMA__) && defined(__AVX__) && FSM_LANES == 4
   fsm_pow_v p = a * b;
   *e = (fsm_pow_v)_mm256_fmsub_pd((__m256d)a, (__m256d)b, (__m256d)p);
+  return p;
+#elif defined(__FMA__) && defined(__AVX__) /* 8 lanes in two 256-bit halves */
+  fsm_pow_v p = a * b;
+  typedef double half __attribute__((vector_size(32)));
+  half ah, bh, ph, r0, r1;
+  __builtin_memcpy(&ah, &a, 32), __builtin_memcpy(&bh, &b, 32), __builtin_memcpy(&ph, &p, 32);
+  r0 = (half)_mm256_fmsub_pd((__m256d)ah, (__m256d)bh, (__m256d)ph);
+  __builtin_memcpy(&ah, (const double *)&a + 4, 32), __builtin_memcpy(&bh, (const double *)&b + 4, 32);
+  __builtin_memcpy(&ph, (const double *)&p + 4, 32);
+  r1 = (half)_mm256_fmsub_pd((__m256d)ah, (__m256d)bh, (__m256d)ph);
+  __builtin_memcpy(e, &r0, 32), __builtin_memcpy((double *)e + 4, &r1, 32);
   return p;
 #else
   const fsm_pow_v split = fsm_pow_splat(134217729.0); /* 2^27 + 1 */
@@ -58,7 +89,7 @@ static inline fsm_pow_v fsm_pow_two_prod(fsm_pow_v a, fsm_pow_v b, fsm_pow_v *e)
 }
 
 /* x^y in the lanes l < lanes (the others are unspecified) */
-static inline fsm_pow_v fsm_pow_v4(fsm_pow_v x, fsm_pow_v y, int lanes) {
+static inline fsm_pow_v fsm_pow_vec(fsm_pow_v x, fsm_pow_v y, int lanes) {
   const double LN2_HI = 0x1.62e42fefa3800p-1, LN2_LO = 0x1.ef35793c76730p-45; /* LN2_HI: 42 bits */
   const fsm_pow_m bits = (fsm_pow_m)x;
   /* log x = e log 2 + log m */

@@ -3,8 +3,8 @@
  *
  * fsmctl.model.generated_code compiles every source of the library with `-include fsm_trig.h` (next to fsm_pow.h),
  * so `sin` and `cos` in the CasADi-generated scalar C (the disturbance d_i(t) and the reference omega_d(t)) mean
- * fsm_sin1 and fsm_cos1 (one lane of fsm_sincos_v4, inlined; fsmctl_sin and fsmctl_cos are the same as exported
- * functions), and the lane-batched kernels evaluate four lanes at once with it: a scalar call and a lane of a
+ * fsm_sin1 and fsm_cos1 (one lane of fsm_sincos_vec, inlined; fsmctl_sin and fsmctl_cos are the same as exported
+ * functions), and the lane-batched kernels evaluate FSM_LANES lanes at once with it: a scalar call and a lane of a
  * batched call give the same bits.  Each run's own disturbance (a Monte Carlo campaign draws one per run) costs
  * three cosines per agent and time; with the C library's cos called lane by lane they were a sixth of a campaign's
  * compiled loop.  Only the CasADi virtual machine (the fallback without a C compiler) uses its own sin and cos; they
@@ -33,21 +33,20 @@
 
 #include <math.h>
 
+#include "fsm_pow.h" /* FSM_LANES and its vector types */
+
 double fsmctl_sin(double x);
 double fsmctl_cos(double x);
 
 #ifdef __GNUC__
 #pragma GCC diagnostic ignored "-Wpsabi" /* static helpers: the vector-ABI note does not apply */
-typedef double fsm_trig_v __attribute__((vector_size(32)));
-typedef long long fsm_trig_m __attribute__((vector_size(32)));
+typedef fsm_pow_v fsm_trig_v; /* FSM_LANES doubles (fsm_pow.h) */
+typedef fsm_pow_m fsm_trig_m;
 
-static inline fsm_trig_v fsm_trig_splat(double c) {
-  fsm_trig_v v = {c, c, c, c};
-  return v;
-}
+static inline fsm_trig_v fsm_trig_splat(double c) { return fsm_pow_splat(c); }
 
 /* sin x (want_sin != 0) or cos x in the lanes l < lanes (the others are unspecified) */
-static inline fsm_trig_v fsm_sincos_v4(fsm_trig_v x, int want_sin, int lanes) {
+static inline fsm_trig_v fsm_sincos_vec(fsm_trig_v x, int want_sin, int lanes) {
   const double INVPIO2 = 0x1.45f306dc9c883p-1; /* 2/pi */
   const double PIO2_1 = 0x1.921fb544p+0;       /* the first 33 bits of pi/2 */
   const double PIO2_2 = 0x1.0b4611a6p-34;      /* the next 33 bits */
@@ -88,8 +87,8 @@ static inline fsm_trig_v fsm_sincos_v4(fsm_trig_v x, int want_sin, int lanes) {
 
 /* one lane, inlined where the generated scalar C calls sin or cos: a sin and a cos of the same argument (the
  * reference's omega_d and omega_d_dot) share the reduction and the kernels after inlining */
-static inline double fsm_sin1(double x) { return fsm_sincos_v4(fsm_trig_splat(x), 1, 1)[0]; }
-static inline double fsm_cos1(double x) { return fsm_sincos_v4(fsm_trig_splat(x), 0, 1)[0]; }
+static inline double fsm_sin1(double x) { return fsm_sincos_vec(fsm_trig_splat(x), 1, 1)[0]; }
+static inline double fsm_cos1(double x) { return fsm_sincos_vec(fsm_trig_splat(x), 0, 1)[0]; }
 #else
 static inline double fsm_sin1(double x) { return sin(x); }
 static inline double fsm_cos1(double x) { return cos(x); }

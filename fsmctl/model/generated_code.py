@@ -22,6 +22,9 @@ not safe in a cache shared across machines, so the cache key includes the
 compiler's resolution of ``-march=native`` (the concrete ``-march``/feature
 list, e.g. ``-march=znver3 -mavx2 ...``): another CPU gets its own build.
 ``FSMCTL_PORTABLE=1`` drops the native and optimisation flags (plain ``CFLAGS``).
+A native build on a CPU with AVX-512 also gets ``-DFSM_LANES=8`` (:func:`lane_width`): the batched kernels, pow,
+sin and cos take 8 agents per call instead of 4, with the same results bit for bit; ``FSMCTL_LANES=4`` or ``8``
+chooses the width (benchmarks and tests compare them).
 
 The first compile of a library (model + one law + driver) takes about ten seconds.  Right before it
 starts, one INFO record is logged on the ``fsmctl.model.generated_code`` logger (a child of ``"fsmctl"``),
@@ -37,7 +40,7 @@ handler takes ``"fsmctl"``'s INFO records, e.g.::
 Environment: ``FSMCTL_CACHE_DIR`` (default ``$XDG_CACHE_HOME/fsmctl`` or
 ``~/.cache/fsmctl``), ``CC`` (default: the first of ``cc``, ``gcc``, ``clang`` on the ``PATH``; a
 ``CC`` that is set is used as given, never replaced by another compiler), ``FSMCTL_NO_COMPILE``,
-``FSMCTL_PORTABLE``.
+``FSMCTL_PORTABLE``, ``FSMCTL_LANES``.
 
 The cache is verified, repaired and never fatal:
 
@@ -97,6 +100,8 @@ from pathlib import Path
 
 import casadi as ca
 
+from fsmctl.codegen.batched import LANE_WIDTHS
+from fsmctl.errors import EnvironmentProblem
 from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
 
 try:
@@ -329,7 +334,7 @@ def compile_flags(cc: str | None = None) -> tuple[tuple[str, ...], str]:
     -------
     flags : tuple of str
         :data:`CFLAGS`, plus :data:`OPTIMIZE_FLAGS` and :data:`NATIVE_FLAGS` when available and
-        ``FSMCTL_PORTABLE`` is not set.
+        ``FSMCTL_PORTABLE`` is not set, plus ``-DFSM_LANES=8`` where :func:`lane_width` says 8.
     target : str
         ``"portable"`` when no CPU-specific flag is used, else the machine and what ``-march=native`` resolves to.
 
@@ -342,11 +347,50 @@ def compile_flags(cc: str | None = None) -> tuple[tuple[str, ...], str]:
     """
     cc = cc or c_compiler()
     if cc is None or os.environ.get("FSMCTL_PORTABLE"):
-        return CFLAGS, "portable"
+        return (*CFLAGS, *_lane_flags("portable")), "portable"
     native = _native_target(cc)
     if native is None:
-        return (*CFLAGS, *OPTIMIZE_FLAGS), "portable"
-    return (*CFLAGS, *OPTIMIZE_FLAGS, *NATIVE_FLAGS), native
+        return (*CFLAGS, *OPTIMIZE_FLAGS, *_lane_flags("portable")), "portable"
+    return (*CFLAGS, *OPTIMIZE_FLAGS, *NATIVE_FLAGS, *_lane_flags(native)), native
+
+
+LANES_VARIABLE = "FSMCTL_LANES"
+"""Environment variable that chooses the lane width of a build (one of :data:`fsmctl.codegen.batched.LANE_WIDTHS`)."""
+
+
+def lane_width(target: str) -> int:
+    """``FSM_LANES`` of a build for ``target`` (the CPU part of :func:`compile_flags`' answer).
+
+    8 (one 512-bit register per kernel call) when the CPU has AVX-512F, else 4 (one 256-bit register; a portable
+    build is always 4); :data:`LANES_VARIABLE` overrides.  The width changes the speed, never a result: each lane
+    performs the same operations (``tests/test_batched_kernels.py`` flies the same runs at both widths).
+
+    Raises
+    ------
+    fsmctl.errors.EnvironmentProblem
+        ``FSMCTL_LANES`` is set to something else than a width of :data:`fsmctl.codegen.batched.LANE_WIDTHS`.
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import lane_width
+    >>> lane_width("x86_64 -march=skylake-avx512 -mavx2 -mavx512f") in (4, 8)  # 8 unless FSMCTL_LANES says 4
+    True
+    """
+    env = os.environ.get(LANES_VARIABLE, "").strip()
+    if env:
+        if env not in {str(w) for w in LANE_WIDTHS}:
+            allowed = " or ".join(map(str, LANE_WIDTHS))
+            raise EnvironmentProblem(f"{LANES_VARIABLE}={env!r}: the lane width must be {allowed}")
+        return int(env)
+    if target == "portable":
+        return LANE_WIDTHS[0]
+    return LANE_WIDTHS[1] if "-mavx512f" in target.split() or "+avx512f" in target else LANE_WIDTHS[0]
+
+
+def _lane_flags(target: str) -> tuple[str, ...]:
+    """``-DFSM_LANES=w`` unless ``w`` is fsm_pow.h's default (the first of :data:`LANE_WIDTHS`)."""
+    width = lane_width(target)
+    return () if width == LANE_WIDTHS[0] else (f"-DFSM_LANES={width}",)
 
 
 @dataclass(frozen=True)
@@ -367,6 +411,13 @@ class CompiledLibrary:
     key: str
     flags: tuple[str, ...] = CFLAGS
     """compiler flags the library was built with"""
+
+    @property
+    def lanes(self) -> int:
+        """``FSM_LANES`` of this build (agents per call of its batched kernels): from its ``-DFSM_LANES`` flag, else
+        fsm_pow.h's default; the driver checks the library agrees when it loads it."""
+        widths = [int(f.split("=", 1)[1]) for f in self.flags if f.startswith("-DFSM_LANES=")]
+        return widths[-1] if widths else LANE_WIDTHS[0]
 
 
 _lock = threading.Lock()

@@ -21,7 +21,7 @@ _ATTRS = {
     "failures": ["SimulationError", "ZenoError", "StepSizeWarning", "DiscontinuousControlWarning"],
     "messages": ["periodic_messages", "MESSAGE_FIELDS", "message_metrics", "MESSAGE_METRICS"],
     "step_size": ["step_size_report"],
-    "driver": ["ExternalController"],
+    "driver": ["ExternalController", "lane_width"],
     "metrics": [
         "principal_angles",
         "relative_principal_angles",

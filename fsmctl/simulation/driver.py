@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from fsmctl.model.generated_code import compiled_library, default_law_dir
+from fsmctl.model.generated_paths import GeneratedCodeError
 from fsmctl.model.problem import PackedProblem
 from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
 from fsmctl.simulation.failures import SimulationError
@@ -185,9 +186,14 @@ def _driver_for(law_dir: Path) -> ctypes.CDLL | None:
     dll.fsm_link_weight.restype = ctypes.c_double
     dll.fsm_law_sizes.argtypes = [ctypes.POINTER(ctypes.c_longlong)]
     dll.fsm_law_sizes.restype = None
-    for name in ("fsm_batched_available", "fsm_batched_preferred", "fsm_trigger_available"):
+    for name in ("fsm_batched_available", "fsm_batched_preferred", "fsm_trigger_available", "fsm_lane_width"):
         getattr(dll, name).argtypes = []
         getattr(dll, name).restype = ctypes.c_int
+    if dll.fsm_lane_width() != lib.lanes:
+        raise GeneratedCodeError(
+            f"{lib.path}: built for {lib.lanes} lanes (its flags) but its driver says {dll.fsm_lane_width()}; "
+            "delete the cache folder and run again"
+        )
     return dll
 
 
@@ -198,6 +204,20 @@ def _driver(law=None) -> ctypes.CDLL | None:
 
 
 _driver.cache_clear = _driver_for.cache_clear  # type: ignore[attr-defined]
+
+
+def lane_width(law=None) -> int:
+    """Agents per call of the compiled library's batched kernels (``FSM_LANES``: 4, or 8 on CPUs with AVX-512;
+    :func:`fsmctl.model.generated_code.lane_width`); 0 without a C compiler.
+
+    Examples
+    --------
+    >>> from fsmctl.simulation.driver import lane_width
+    >>> lane_width() in (0, 4, 8)
+    True
+    """
+    dll = _driver(law)
+    return int(dll.fsm_lane_width()) if dll is not None else 0
 
 
 def batched_kernels_preferred() -> bool:

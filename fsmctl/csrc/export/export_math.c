@@ -3,7 +3,7 @@
  * doubles and a 64-bit unsigned long long are assumed (checked below); no library function is called.
  * Copied by `fsmctl export` from fsmctl/csrc/export/export_math.c (do not edit the copy).
  *
- * pow: the operations of fsm_pow_v4 (fsmctl/csrc/fsm_pow.h, one lane), whose method and measured error are
+ * pow: the operations of fsm_pow_vec (fsmctl/csrc/fsm_pow.h, one lane), whose method and measured error are
  * documented there: x = 2^e m, log m by the atanh series in double-double, z = y log x (Dekker's exact product, the
  * splitting form: the same bits as the FMA form), exp z = 2^n exp(r).  Compile with -ffp-contract=off (GCC's default
  * in -std=c99 mode): a fused multiply-add would change the bits.
