@@ -1482,8 +1482,8 @@ def _loop_profile(count: int, log) -> dict | None:
             kind = "sin/cos (fsmctl's scalar calls: the reference)"
         elif sym.endswith(("_batched", "_batched.localalias")):
             kind = (
-                "generated batched kernels (law_local with fsmctl's 4-lane pow, law_control, plant_rhs, "
-                "disturbance_torque with fsmctl's 4-lane cos)"
+                "generated batched kernels (law_local with fsmctl's vector pow, law_control, plant_rhs, "
+                "disturbance_torque with fsmctl's vector cos)"
             )
         elif sym in ("eval_rhs", "aggregate", "link_weight", "check_commands_lanes"):
             kind = "driver: eval_rhs (lane packing, neighbour sums, link weights)"
@@ -1684,6 +1684,7 @@ def markdown(res: dict) -> str:
     lines += _markdown_throughput_and_montecarlo(res)
     lines += _markdown_certify(res)
     lines += _markdown_export(res)
+    lines += _markdown_roofline(res)
     return "\n".join(lines) + "\n"
 
 
@@ -2417,9 +2418,290 @@ def _markdown_export(res: dict) -> list[str]:
     return lines
 
 
+# ----------------------------------------------------------------------------- roofline (issue 31)
+
+_PEAK_PROBE = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+typedef double v __attribute__((vector_size(8 * W)));
+static double now(void) { struct timespec t; clock_gettime(CLOCK_MONOTONIC, &t); return t.tv_sec + 1e-9 * t.tv_nsec; }
+int main(int argc, char **argv) {
+  const long n = atol(argv[1]);
+  v a[12], m, c;
+  for (int l = 0; l < W; ++l) m[l] = 0.999999, c[l] = 1e-7;
+  for (int k = 0; k < 12; ++k) for (int l = 0; l < W; ++l) a[k][l] = 1.0 + 0.01 * k;
+  for (int mode = 0; mode < 3; ++mode) { /* 12 independent chains: throughput, not latency */
+    double t = now();
+    for (long i = 0; i < n; ++i) {
+#pragma GCC unroll 12
+      for (int k = 0; k < 12; ++k) a[k] = mode == 0 ? a[k] * m : mode == 1 ? a[k] + c : a[k] * m + c;
+    }
+    t = now() - t;
+    double s = 0;
+    for (int k = 0; k < 12; ++k) for (int l = 0; l < W; ++l) s += a[k][l];
+    printf("%.6e %.3g\n", n * 12.0 * W / t, s); /* operations per second (an FMA is one) */
+  }
+  return 0;
+}
+"""
+
+_KERNEL_PROBE = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include <time.h>
+#include "batched.h"
+#include "law_batched.h"
+static double now(void) { struct timespec t; clock_gettime(CLOCK_MONOTONIC, &t); return t.tv_sec + 1e-9 * t.tv_nsec; }
+static double in[32][1024], out[32][1024];
+typedef int (*kernel)(const double *const *, double *const *, int);
+int main(int argc, char **argv) {
+  const long n = atol(argv[1]);
+  const double *arg[32];
+  double *res[32];
+  for (int i = 0; i < 32; ++i) {
+    for (int k = 0; k < 1024; ++k) in[i][k] = 0.05 + 0.001 * ((7 * k + i) % 13); /* pow's fast path, as in flight */
+    arg[i] = in[i], res[i] = out[i];
+  }
+  const kernel fns[4] = {law_local_paper_batched, law_control_paper_batched, plant_rhs_batched,
+                         disturbance_torque_batched};
+  for (int f = 0; f < 4; ++f) {
+    double best = 1e30;
+    for (int r = 0; r < 5; ++r) {
+      double t = now();
+      for (long i = 0; i < n; ++i) {
+        fns[f](arg, res, FSM_LANES);
+        __asm__ volatile("" ::"r"(res[0][0]) : "memory");
+      }
+      t = now() - t;
+      best = t < best ? t : best;
+    }
+    printf("%.6e\n", best / n); /* seconds per call of FSM_LANES agents */
+  }
+  return 0;
+}
+"""
+
+ROOFLINE_KERNELS = ("law_local_paper", "law_control_paper", "plant_rhs", "disturbance_torque")
+"""The kernels of one Case 1 right-hand side, per agent (the paper's law, its paper error model)."""
+
+
+def _vector_flops(objdump: str, binary: Path, symbol: str) -> int:
+    """Double-precision operations in ``symbol``'s machine code, counted per lane: packed add/sub/mul/div/sqrt/min/max
+    once, fused multiply-adds twice (the kernels are straight-line code: each instruction runs once per call, except
+    the lanes off pow's fast path, which the probe's inputs never take)."""
+    import re
+
+    text = subprocess.run([objdump, "-d", "--no-show-raw-insn", f"--disassemble={symbol}", str(binary)],
+                          capture_output=True, text=True, timeout=120, check=True).stdout  # fmt: skip
+    count = 0
+    for line in text.splitlines():
+        m = re.search(r"\t(v(?:add|sub|mul|div|sqrt|min|max|fn?m(?:add|sub)\d+)pd)\s", line)
+        if m:
+            count += 2 if re.match(r"vfn?m", m.group(1)) else 1
+    return count
+
+
+def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
+    """Issue 31: the ensemble right-hand side against this core's measured peak, at both lane widths side by side.
+
+    The peak: an FMA-throughput probe (12 independent chains of packed multiplies, adds and fused multiply-adds, 4
+    and 8 lanes) compiled with the library's compiler and ``-march=native``.  The kernels: each of a Case 1
+    right-hand side's four per-agent kernels in a loop (min of 5 repeats), flops per agent counted in their machine
+    code (pow's and cos' arithmetic included; ``_vector_flops``).  The whole loop: a Monte Carlo chunk of 10 Case 1
+    runs flown together (``fsmctl.simulate_many``, 100 s at 1 ms), each width in its own process
+    (``FSMCTL_LANES``), min of 2; then what the kernels alone would allow if the driver cost nothing."""
+    import shutil
+
+    from fsmctl.model.generated_code import (
+        c_compiler,
+        compile_flags,
+        driver_source_dir,
+        generated_dir,
+        math_include_args,
+    )
+    from fsmctl.model.laws import builtin_laws
+
+    cc, objdump = c_compiler(), shutil.which("objdump")
+    if cc is None or objdump is None:
+        return {"skipped": "no C compiler or objdump"}
+    out: dict = {"widths": {}}
+    law_c, gen_c, csrc = builtin_laws()["fsm"].folder / "c", generated_dir() / "c", driver_source_dir()
+    base_flags = [f for f in compile_flags(cc)[0] if f not in ("-shared", "-fPIC") and not f.startswith("-DFSM_LANES")]
+    n_probe = 2_000_000 if quick else 20_000_000
+    n_kernel = 100_000 if quick else 1_000_000
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        (tmp / "peak.c").write_text(_PEAK_PROBE)
+        (tmp / "kernels.c").write_text(_KERNEL_PROBE)
+        for width in (4, 8):
+            peak_exe, kern_exe = tmp / f"peak{width}", tmp / f"kernels{width}"
+            subprocess.run([cc, "-O2", "-march=native", "-ffp-contract=fast", f"-DW={width}", str(tmp / "peak.c"),
+                            "-o", str(peak_exe)], check=True, capture_output=True)  # fmt: skip
+            rates = [float(x.split()[0]) for x in subprocess.run([str(peak_exe), str(n_probe // width)],
+                     capture_output=True, text=True, check=True).stdout.splitlines()]  # fmt: skip
+            sources = [gen_c / "batched.c", law_c / "law_batched.c", csrc / "fsm_pow.c", csrc / "fsm_trig.c"]
+            build = subprocess.run([cc, *base_flags, "-D_POSIX_C_SOURCE=199309L", f"-DFSM_LANES={width}", f"-I{gen_c}", f"-I{law_c}", f"-I{csrc}",
+                                    *math_include_args(), str(tmp / "kernels.c"), *map(str, sources), "-o",
+                                    str(kern_exe), "-lm"], capture_output=True, text=True)  # fmt: skip
+            if build.returncode != 0:
+                raise RuntimeError(f"roofline: the kernel probe did not compile: {build.stderr[-2000:]}")
+            per_call = [float(x) for x in subprocess.run([str(kern_exe), str(n_kernel // width)], capture_output=True,
+                        text=True, check=True).stdout.split()]  # fmt: skip
+            kernels = {}
+            for name, t in zip(ROOFLINE_KERNELS, per_call, strict=True):
+                flops = _vector_flops(objdump, kern_exe, f"{name}_batched")  # per call, per lane
+                kernels[name] = {"ns_per_agent": 1e9 * t / width, "flops_per_agent": flops,
+                                 "gflops": flops * width / t / 1e9}  # fmt: skip
+            out["widths"][width] = {
+                "mul_gops": rates[0] / 1e9, "add_gops": rates[1] / 1e9, "fma_gflops": 2 * rates[2] / 1e9,
+                "kernels": kernels,
+            }  # fmt: skip
+            log(f"roofline {width} lanes: peak FMA {2 * rates[2] / 1e9:.1f} GFLOP/s; "
+                + ", ".join(f"{k} {v['ns_per_agent']:.1f} ns/agent ({v['gflops']:.1f} GFLOP/s)" for k, v in kernels.items()))  # fmt: skip
+    for width in (4, 8):
+        walls = []
+        for _ in range(1 if quick else 2):
+            proc = subprocess.run([sys.executable, "-c", _CHUNK_SCRIPT.format(runs=10, t_final=20.0 if quick else 100.0)],
+                                  capture_output=True, text=True, timeout=1800, check=True,
+                                  env={**os.environ, "FSMCTL_LANES": str(width), "OPENBLAS_NUM_THREADS": "1"})  # fmt: skip
+            walls.append(json.loads(proc.stdout))
+        best = min(walls, key=lambda r: r["loop_s_per_run"])
+        out["widths"][width]["chunk"] = best
+        log(f"roofline {width} lanes: Monte Carlo chunk {best['loop_s_per_run']:.3f} s per run (loop)")
+    for width in (4, 8):
+        proc = subprocess.run([sys.executable, "-c", _SINGLE_RUNS_SCRIPT.format(repeats=1 if quick else 3,
+                               t_final=20.0 if quick else 100.0)], capture_output=True, text=True, timeout=1800,
+                              check=True, env={**os.environ, "FSMCTL_LANES": str(width), "OPENBLAS_NUM_THREADS": "1"})  # fmt: skip
+        out["widths"][width]["single_runs"] = json.loads(proc.stdout)
+        log(f"roofline {width} lanes: single runs {out['widths'][width]['single_runs']}")
+    for w in out["widths"].values():
+        c = w["chunk"]
+        per_rhs_agent = sum(k["flops_per_agent"] for k in w["kernels"].values())
+        kernel_ns = sum(k["ns_per_agent"] for k in w["kernels"].values())
+        evals = c["rhs_evaluations"] * c["agents"]  # agent right-hand sides per run
+        w["loop_gflops"] = per_rhs_agent * evals / c["loop_s_per_run"] / 1e9
+        w["kernels_only_s_per_run"] = kernel_ns * 1e-9 * evals
+        w["flops_per_run"] = per_rhs_agent * evals
+        w["peak_fraction"] = w["loop_gflops"] / max(v["fma_gflops"] for v in out["widths"].values())
+    out["peak_gflops"] = max(v["fma_gflops"] for v in out["widths"].values())
+    out["no_fma_peak_gflops"] = max(max(v["mul_gops"], v["add_gops"]) for v in out["widths"].values())
+    # the kernels' flops at the ceiling of code without contraction: no kernel, however written, runs faster
+    out["ceiling_s_per_run"] = max(w["flops_per_run"] for w in out["widths"].values()) / out["no_fma_peak_gflops"] / 1e9
+    out["figure"] = _roofline_figure(out, out_dir)
+    return out
+
+
+_CHUNK_SCRIPT = """
+import json, time, numpy as np
+from fsmctl.simulation.simulator import simulate_many
+from fsmctl.studies import montecarlo as mc
+settings, base = mc.campaign_base(mc.CampaignSettings(runs={runs}, seed=2012, chunk_size={runs}, t_final={t_final}))
+seeds = np.random.SeedSequence(settings.seed).spawn(settings.runs)
+mc.run_one(base, settings, 0, seeds[0])  # the library, imports
+drawn = [mc.sample_run_scenario(base, settings, seeds[k]) for k in range({runs})]
+t = time.perf_counter()
+results = simulate_many(drawn)
+wall = time.perf_counter() - t
+steps = results[0].steps_taken
+print(json.dumps(dict(runs={runs}, t_final={t_final}, wall_s_per_run=wall / {runs},
+    loop_s_per_run=sum(r.wall_time for r in results) / {runs}, rhs_evaluations=4 * int(steps), agents=base.n_agents)))
+"""
+
+
+_SINGLE_RUNS_SCRIPT = """
+import json, time
+import fsmctl
+case1 = fsmctl.paper_scenario("1").replace(simulation={{"t_final": {t_final}}})
+hw = fsmctl.load_scenario("paper-hardware").replace(simulation={{"t_final": {t_final}}})
+cases = {{law: case1.replace(controller={{"law": law}}) for law in ("fsm", "adaptive_fsm", "super_twisting", "pid")}}
+cases.update({{"hardware " + law: hw.replace(controller={{"law": law}}) for law in ("fsm", "fsm_wheels", "fsm_event")}})
+out = {{}}
+for name, s in cases.items():
+    fsmctl.simulate(s.replace(simulation={{"t_final": 1.0}}))  # the library
+    out[name] = min(fsmctl.simulate(s).wall_time for _ in range({repeats}))
+print(json.dumps(out))
+"""
+
+
+def _roofline_figure(r: dict, out_dir: Path) -> str:
+    """roofline.png beside results.md: achieved GFLOP/s per kernel and of the whole loop, at 4 and 8 lanes, under the measured
+    ceilings (FMA peak; the packed multiply rate, the ceiling of code without contraction, as the engine's)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = [*ROOFLINE_KERNELS, "whole loop (MC chunk)"]
+    fig, ax = plt.subplots(figsize=(8, 4.2), layout="constrained")
+    x = np.arange(len(labels))
+    for k, (width, w) in enumerate(sorted(r["widths"].items())):
+        values = [w["kernels"][n]["gflops"] for n in ROOFLINE_KERNELS] + [w["loop_gflops"]]
+        ax.bar(x + (k - 0.5) * 0.38, values, 0.38, label=f"{width} lanes")
+    ax.axhline(r["peak_gflops"], color="k", lw=1.2, label=f"peak (FMA) {r['peak_gflops']:.0f} GFLOP/s")
+    ax.axhline(r["no_fma_peak_gflops"], color="k", ls="--", lw=1.0,
+               label=f"packed adds (no FMA) {r['no_fma_peak_gflops']:.0f} GFLOP/s")  # fmt: skip
+    ax.set_xticks(x, labels, rotation=12)
+    ax.set_ylabel("GFLOP/s (double, one core)")
+    ax.set_title("Case 1 right-hand side: achieved vs this core's measured peak")
+    ax.legend(fontsize=8)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    path = out_dir / "roofline.png"
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path.name
+
+
+def _markdown_roofline(res: dict) -> list[str]:
+    r = res.get("roofline")
+    if not r or "widths" not in r:
+        return []
+    w4, w8 = r["widths"].get(4) or r["widths"].get("4"), r["widths"].get(8) or r["widths"].get("8")
+    lines = ["", "## Roofline (issue 31): the ensemble right-hand side against this core's peak", "",
+             f"Peak measured here (12 independent chains, `-march=native`): FMA {r['peak_gflops']:.1f} GFLOP/s; packed "
+             f"multiplies {max(w4['mul_gops'], w8['mul_gops']):.1f}, adds {max(w4['add_gops'], w8['add_gops']):.1f} "
+             "Gop/s (the ceiling of code without FMA contraction, as the engine's: its bit identity forbids it). "
+             "Flops counted in the kernels' machine code, pow's and cos' arithmetic included.", "",
+             "| kernel (per agent) | 4 lanes: ns | 8 lanes: ns | flops | 4 lanes: GFLOP/s | 8 lanes: GFLOP/s |",
+             "|---|---|---|---|---|---|"]  # fmt: skip
+    for n in ROOFLINE_KERNELS:
+        a, b = w4["kernels"][n], w8["kernels"][n]
+        lines.append(f"| {n} | {a['ns_per_agent']:.1f} | {b['ns_per_agent']:.1f} | {a['flops_per_agent']} | "
+                     f"{a['gflops']:.1f} | {b['gflops']:.1f} |")  # fmt: skip
+    c4, c8 = w4["chunk"], w8["chunk"]
+    lines += [
+        "",
+        f"Monte Carlo chunk (10 Case 1 runs flown together, {c4['t_final']:.0f} s at 1 ms, {c4['agents']} agents each): "
+        f"compiled loop {c4['loop_s_per_run']:.3f} s per run at 4 lanes, {c8['loop_s_per_run']:.3f} s at 8 lanes "
+        f"({c4['loop_s_per_run'] / c8['loop_s_per_run']:.2f}x); the whole loop at {w4['loop_gflops']:.1f} / "
+        f"{w8['loop_gflops']:.1f} GFLOP/s = {100 * w4['peak_fraction']:.0f} % / {100 * w8['peak_fraction']:.0f} % of the "
+        "FMA peak (target of issue 31: >= 25 %).",
+        f"The kernels alone (the driver free): {w4['kernels_only_s_per_run']:.3f} s per run at 4 lanes, "
+        f"{w8['kernels_only_s_per_run']:.3f} s at 8 lanes. 1000 runs in 40 s on 2 cores needs <= 0.080 s per run; "
+        f"7500 tuner evaluations in 5 minutes on 2 cores, <= 0.080 s per evaluation. Even at the ceiling of code without "
+        f"FMA ({r['no_fma_peak_gflops']:.1f} GFLOP/s) in every kernel, a run's {w8['flops_per_run'] / 1e9:.2f} GFLOP "
+        f"take {r['ceiling_s_per_run']:.3f} s: the 40 s target would need "
+        f"{100 * r['ceiling_s_per_run'] / 0.080:.0f} % of that ceiling sustained over the whole loop with a driver that "
+        "costs nothing.",
+        "",
+        "Single runs (one scenario per compiled loop, min of 3; compiled loop wall s), each width in its own process:",
+        "",
+        "| run, 100 s at 1 ms | 4 lanes | 8 lanes | 8 / 4 |",
+        "|---|---|---|---|",
+        *(
+            f"| {k} | {w4['single_runs'][k]:.3f} | {w8['single_runs'][k]:.3f} | "
+            f"{w8['single_runs'][k] / w4['single_runs'][k]:.2f} |"
+            for k in w4.get("single_runs", {})
+        ),
+        "",
+        f"![roofline]({r['figure']})",
+    ]
+    return lines
+
+
 SECTIONS = (
     "compare", "kernels", "laws", "hardware", "flight", "scale", "smooth_ring", "flops", "subprocess", "throughput", "montecarlo",
-    "certify", "export",
+    "certify", "export", "roofline",
 )  # fmt: skip
 """The sections of a run, in order (``--only`` selects some)."""
 
@@ -2481,6 +2763,7 @@ def main(argv=None) -> int:
     section("throughput", lambda: throughput_section(args.quick, log))
     section("certify", lambda: certify_section(args.quick, log))
     section("export", lambda: export_section(args.quick, log))
+    section("roofline", lambda: roofline_section(args.quick, log, Path(args.out)))
     previous_mc = res.get("montecarlo")
     if previous_mc and not previous_mc.get("before"):
         previous_mc = {**previous_mc, "date": res.get("measured", {}).get("montecarlo") or previous_date}

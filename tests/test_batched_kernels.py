@@ -306,7 +306,9 @@ def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path, wid
         xb, yb = np.zeros(width), np.zeros(width)
         xb[: len(chunk)], yb[: len(chunk)] = chunk[:, 0], chunk[:, 1]
         out = np.zeros((m, width))
-        lib.g_batched((_P * 2)(xb.ctypes.data_as(_P), yb.ctypes.data_as(_P)), (_P * 1)(out.ctypes.data_as(_P)), len(chunk))
+        lib.g_batched(
+            (_P * 2)(xb.ctypes.data_as(_P), yb.ctypes.data_as(_P)), (_P * 1)(out.ctypes.data_as(_P)), len(chunk)
+        )
         for lane, (a, b) in enumerate(chunk):
             xs, ys, want = np.array([a]), np.array([b]), np.zeros(m)
             args = (_P * 2)(xs.ctypes.data_as(_P), ys.ctypes.data_as(_P))

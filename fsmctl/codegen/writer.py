@@ -10,7 +10,7 @@ Layout of the output folder::
 
     c/<function>.c, c/<function>.h     CasADi-generated C (do-not-edit header)
     c/batched.c, c/batched.h           lane-batched kernels of the simulator's per-agent functions
-                                       (fsmctl.codegen.batched: same instruction lists, 4 agents per call)
+                                       (fsmctl.codegen.batched: same instruction lists, FSM_LANES agents per call)
     casadi/<function>.casadi           serialized CasADi Function (fallback without a C compiler)
     identities.json                    the identities proved by fsmctl.proofs.identities
     errata.json                        the errata found by fsmctl.proofs.errata

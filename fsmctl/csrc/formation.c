@@ -299,7 +299,8 @@ static void free_workspace(workspace *W) {
   memset(W, 0, sizeof(*W));
 }
 
-/* The batched kernels pay off with 256-bit vector registers (AVX: one register per 4 lanes).  Without AVX the
+/* The batched kernels pay off with 256-bit vector registers (AVX: one register per 4 lanes; with AVX-512 the build
+ * takes 8 lanes per call, fsmctl.model.generated_code.lane_width).  Without AVX the
  * compiler splits each 4-lane operation into SSE2 halves and the scalar functions are faster (measured with
  * FSMCTL_PORTABLE=1 builds), so "auto" picks the scalar path there.  Both paths give the same results, bit for
  * bit, except the sign of a zero from fmin/fmax of +0 and -0, which C99 leaves unspecified. */

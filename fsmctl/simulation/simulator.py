@@ -373,7 +373,7 @@ def simulate_packed(
     """Run a packed problem on the compiled driver (or the CasADi fallback); returns raw arrays.
 
     ``kernels`` (compiled driver only): ``"batched"`` evaluates the per-agent functions through the
-    lane-batched kernels of ``generated/c/batched.c`` (4 agents per call, SIMD); ``"scalar"`` calls
+    lane-batched kernels of ``generated/c/batched.c`` (4 agents per call, 8 with AVX-512: :func:`~fsmctl.simulation.driver.lane_width`; SIMD); ``"scalar"`` calls
     the CasADi-generated scalar functions agent by agent; ``"auto"`` (default) is ``"batched"`` when the
     library was built with AVX (see :func:`batched_kernels_preferred`), else ``"scalar"``.  The results are
     bit-identical (up to the sign of a zero from ``fmin``/``fmax`` of ``+0`` and ``-0``).
