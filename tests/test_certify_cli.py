@@ -56,6 +56,15 @@ def test_counterexample_flown_exit_1(capsys, tmp_path):
     assert code == 2 and "does not match" in err and len(err.strip().splitlines()) == 1
 
 
+@pytest.mark.parametrize("fly", ["0.0001", "0.015"])  # below the output interval; not a multiple of it
+def test_a_flight_the_scenario_cannot_fly_is_refused_before_the_search(capsys, tmp_path, fly):
+    code, _, err = _run(capsys, "--law", str(EXAMPLES / "pd_unstable.py"), *SMALL, "--out", str(tmp_path),
+                        "--fly", fly)  # fmt: skip
+    errors = [line for line in err.splitlines() if "error:" in line]
+    assert code == 2 and len(errors) == 1 and f"--fly {fly}: simulation." in errors[0]
+    assert "certify pd_unstable:" not in err and not any(tmp_path.iterdir())  # no search started, nothing written
+
+
 def test_json_summary(capsys, tmp_path):
     code, text, _ = _run(capsys, "--law", str(EXAMPLES / "pd_unstable.py"), *SMALL, "--inertia-uncertainty", "0",
                          "--out", str(tmp_path), "--fly", "0", "--json")  # fmt: skip

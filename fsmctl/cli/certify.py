@@ -172,7 +172,8 @@ def _certify(args) -> int:
     from fsmctl.proofs.certificate import certify_law
     from fsmctl.proofs.certify import SearchSettings
     from fsmctl.proofs.certify_problem import StateRegion
-    from fsmctl.studies.certify_flight import fly_counterexample
+    from fsmctl.errors import InputError
+    from fsmctl.studies.certify_flight import flight_scenario, fly_counterexample
     from fsmctl.studies.figures import save_figure
 
     region = StateRegion(args.region_sigma, args.region_omega, args.region_z)  # bad input first, before any work
@@ -183,6 +184,11 @@ def _certify(args) -> int:
     if not 1 <= args.agent <= scenario.n_agents:
         raise UsageError(f"--agent must be in 1..{scenario.n_agents}, got {args.agent}")
     uncertainty = _uncertainty(args, scenario, args.agent - 1)
+    if args.fly > 0:  # a horizon the scenario cannot fly: refused now, not after the search
+        try:
+            flight_scenario(scenario, args.fly)
+        except InputError as exc:
+            raise UsageError(f"--fly {args.fly:g}: {exc}") from None
     settings = SearchSettings(max_seconds=args.seconds)
     print(f"certify {code.name}: region {region.describe(code.n_states)}; {uncertainty.describe()}", file=sys.stderr)
     shown = sys.stderr.isatty() if args.progress is None else args.progress

@@ -207,8 +207,20 @@ _driver.cache_clear = _driver_for.cache_clear  # type: ignore[attr-defined]
 
 
 def lane_width(law=None) -> int:
-    """Agents per call of the compiled library's batched kernels (``FSM_LANES``: 4, or 8 on CPUs with AVX-512;
-    :func:`fsmctl.model.generated_code.lane_width`); 0 without a C compiler.
+    """Agents per call of the compiled library's batched kernels (``FSM_LANES``: 4, or 8 on CPUs with AVX-512).
+
+    The width is chosen when the library is compiled (:func:`fsmctl.model.generated_code.lane_width`;
+    ``FSMCTL_LANES=4`` or ``8`` overrides it) and never changes a result, only the speed.
+
+    Parameters
+    ----------
+    law : LawCode, optional
+        The law whose library is asked (default the paper's FSM law; every law's library is built the same way).
+
+    Returns
+    -------
+    int
+        4 or 8; 0 without a C compiler (the CasADi fallback has no lanes).
 
     Examples
     --------

@@ -26,7 +26,7 @@ from fsmctl.proofs.certificate import Certificate
 from fsmctl.proofs.certify_problem import candidate_from_record, state_symbols
 from fsmctl.simulation.simulator import simulate
 
-__all__ = ["CounterexampleFlight", "fly_counterexample"]
+__all__ = ["CounterexampleFlight", "fly_counterexample", "flight_scenario"]
 
 FLIGHT_SECONDS = 20.0
 """default horizon of the flight (s)"""
@@ -80,6 +80,26 @@ def _dcm(s: np.ndarray) -> np.ndarray:
     S = np.array([[0, -s[2], s[1]], [s[2], 0, -s[0]], [-s[1], s[0], 0]])
     s2 = float(s @ s)
     return np.eye(3) + (8 * S @ S - 4 * (1 - s2) * S) / (1 + s2) ** 2
+
+
+def flight_scenario(scenario: Scenario, t_final: float = FLIGHT_SECONDS) -> Scenario:
+    """``scenario`` with the horizon of a counterexample's flight, validated like any scenario: call it before a
+    search whose counterexample is to be flown, so that a horizon the scenario cannot fly (shorter than its step, not
+    a multiple of its output interval) is refused before the search, not after it.
+
+    Raises
+    ------
+    fsmctl.model.scenario_values.ScenarioError
+        ``t_final`` does not fit the scenario's grid.
+
+    Examples
+    --------
+    >>> from fsmctl import paper_scenario
+    >>> from fsmctl.studies.certify_flight import flight_scenario
+    >>> flight_scenario(paper_scenario("1"), 5.0).simulation.t_final
+    5.0
+    """
+    return scenario.replace(simulation={"t_final": float(t_final)})
 
 
 def fly_counterexample(
@@ -158,11 +178,8 @@ def fly_counterexample(
             "phase": [-math.pi / 2] * 3,
         },
     }
-    one = scenario.replace(
-        agents=[one_agent],
-        topology=all_to_all(1, 0.0, 0.0),
-        reference=reference,
-        simulation={"t_final": float(t_final)},
+    one = flight_scenario(scenario, t_final).replace(
+        agents=[one_agent], topology=all_to_all(1, 0.0, 0.0), reference=reference
     )
     result = simulate(one, progress=False)
     s, w, zs = state_symbols(len(z))
