@@ -167,12 +167,12 @@ def _certify(args) -> int:
     from tqdm.auto import tqdm
 
     from fsmctl.cli.main import UsageError
+    from fsmctl.errors import InputError
     from fsmctl.model.laws import resolve_law
     from fsmctl.model.scenario import load_scenario
     from fsmctl.proofs.certificate import certify_law
     from fsmctl.proofs.certify import SearchSettings
     from fsmctl.proofs.certify_problem import StateRegion
-    from fsmctl.errors import InputError
     from fsmctl.studies.certify_flight import flight_scenario, fly_counterexample
     from fsmctl.studies.figures import save_figure
 
