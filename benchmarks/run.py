@@ -2431,11 +2431,12 @@ int main(int argc, char **argv) {
   v a[12], m, c;
   for (int l = 0; l < W; ++l) m[l] = 0.999999, c[l] = 1e-7;
   for (int k = 0; k < 12; ++k) for (int l = 0; l < W; ++l) a[k][l] = 1.0 + 0.01 * k;
-  for (int mode = 0; mode < 3; ++mode) { /* 12 independent chains: throughput, not latency */
+  for (int mode = 0; mode < 4; ++mode) { /* 12 independent chains: throughput, not latency */
     double t = now();
     for (long i = 0; i < n; ++i) {
 #pragma GCC unroll 12
-      for (int k = 0; k < 12; ++k) a[k] = mode == 0 ? a[k] * m : mode == 1 ? a[k] + c : a[k] * m + c;
+      for (int k = 0; k < 12; ++k)
+        a[k] = mode == 0 ? a[k] * m : mode == 1 ? a[k] + c : mode == 2 ? a[k] * m + c : (k & 1 ? a[k] * m : a[k] + c);
     }
     t = now() - t;
     double s = 0;
@@ -2538,8 +2539,11 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
             peak_exe, kern_exe = tmp / f"peak{width}", tmp / f"kernels{width}"
             subprocess.run([cc, "-O2", "-march=native", "-ffp-contract=fast", f"-DW={width}", str(tmp / "peak.c"),
                             "-o", str(peak_exe)], check=True, capture_output=True)  # fmt: skip
-            rates = [float(x.split()[0]) for x in subprocess.run([str(peak_exe), str(n_probe // width)],
-                     capture_output=True, text=True, check=True).stdout.splitlines()]  # fmt: skip
+            rates = [0.0] * 4
+            for _ in range(5):  # the best of 5: the peak is what the core can do, not what a busy moment allowed
+                got = subprocess.run([str(peak_exe), str(n_probe // width)], capture_output=True, text=True,
+                                     check=True).stdout.splitlines()  # fmt: skip
+                rates = [max(a, float(x.split()[0])) for a, x in zip(rates, got, strict=True)]
             sources = [gen_c / "batched.c", law_c / "law_batched.c", csrc / "fsm_pow.c", csrc / "fsm_trig.c"]
             build = subprocess.run([cc, *base_flags, "-D_POSIX_C_SOURCE=199309L", f"-DFSM_LANES={width}", f"-I{gen_c}", f"-I{law_c}", f"-I{csrc}",
                                     *math_include_args(), str(tmp / "kernels.c"), *map(str, sources), "-o",
@@ -2555,6 +2559,7 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
                                  "gflops": flops * width / t / 1e9}  # fmt: skip
             out["widths"][width] = {
                 "mul_gops": rates[0] / 1e9, "add_gops": rates[1] / 1e9, "fma_gflops": 2 * rates[2] / 1e9,
+                "mixed_gops": rates[3] / 1e9,
                 "kernels": kernels,
             }  # fmt: skip
             log(f"roofline {width} lanes: peak FMA {2 * rates[2] / 1e9:.1f} GFLOP/s; "
@@ -2585,9 +2590,14 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
         w["flops_per_run"] = per_rhs_agent * evals
         w["peak_fraction"] = w["loop_gflops"] / max(v["fma_gflops"] for v in out["widths"].values())
     out["peak_gflops"] = max(v["fma_gflops"] for v in out["widths"].values())
-    out["no_fma_peak_gflops"] = max(max(v["mul_gops"], v["add_gops"]) for v in out["widths"].values())
-    # the kernels' flops at the ceiling of code without contraction: no kernel, however written, runs faster
-    out["ceiling_s_per_run"] = max(w["flops_per_run"] for w in out["widths"].values()) / out["no_fma_peak_gflops"] / 1e9
+    out["no_fma_peak_gflops"] = max(
+        max(v["mul_gops"], v["add_gops"], v["mixed_gops"], *(k["gflops"] for k in v["kernels"].values()))
+        for v in out["widths"].values()
+    )  # the best rate without FMA measured here, by a probe or by a kernel
+    # a 100 s run's kernel flops at the best rate without contraction measured here (the targets are for 100 s runs)
+    scale = 100.0 / next(iter(out["widths"].values()))["chunk"]["t_final"]
+    out["flops_per_100s_run"] = scale * max(w["flops_per_run"] for w in out["widths"].values())
+    out["ceiling_s_per_run"] = out["flops_per_100s_run"] / out["no_fma_peak_gflops"] / 1e9
     out["figure"] = _roofline_figure(out, out_dir)
     return out
 
@@ -2639,8 +2649,14 @@ def _roofline_figure(r: dict, out_dir: Path) -> str:
         values = [w["kernels"][n]["gflops"] for n in ROOFLINE_KERNELS] + [w["loop_gflops"]]
         ax.bar(x + (k - 0.5) * 0.38, values, 0.38, label=f"{width} lanes")
     ax.axhline(r["peak_gflops"], color="k", lw=1.2, label=f"peak (FMA) {r['peak_gflops']:.0f} GFLOP/s")
-    ax.axhline(r["no_fma_peak_gflops"], color="k", ls="--", lw=1.0,
-               label=f"packed adds (no FMA) {r['no_fma_peak_gflops']:.0f} GFLOP/s")  # fmt: skip
+    ax.axhline(
+        r["no_fma_peak_gflops"],
+        color="k",
+        ls="--",
+        lw=1.0,
+        label=f"best rate without FMA {r['no_fma_peak_gflops']:.0f} GFLOP/s",
+    )
+    ax.axhline(0.25 * r["peak_gflops"], color="tab:red", ls=":", lw=1.2, label="issue 31's target: 25 % of peak")  # fmt: skip
     ax.set_xticks(x, labels, rotation=12)
     ax.set_ylabel("GFLOP/s (double, one core)")
     ax.set_title("Case 1 right-hand side: achieved vs this core's measured peak")
@@ -2658,9 +2674,11 @@ def _markdown_roofline(res: dict) -> list[str]:
         return []
     w4, w8 = r["widths"].get(4) or r["widths"].get("4"), r["widths"].get(8) or r["widths"].get("8")
     lines = ["", "## Roofline (issue 31): the ensemble right-hand side against this core's peak", "",
-             f"Peak measured here (12 independent chains, `-march=native`): FMA {r['peak_gflops']:.1f} GFLOP/s; packed "
-             f"multiplies {max(w4['mul_gops'], w8['mul_gops']):.1f}, adds {max(w4['add_gops'], w8['add_gops']):.1f} "
-             "Gop/s (the ceiling of code without FMA contraction, as the engine's: its bit identity forbids it). "
+             f"Peak measured here (12 independent chains, `-march=native`, the best of 5 probes at 4 and at 8 lanes): FMA "
+             f"{r['peak_gflops']:.1f} GFLOP/s; packed multiplies {max(w4['mul_gops'], w8['mul_gops']):.1f}, adds "
+             f"{max(w4['add_gops'], w8['add_gops']):.1f}, both mixed {max(w4['mixed_gops'], w8['mixed_gops']):.1f} Gop/s "
+             "(code without FMA contraction, as the engine's: its bit identity forbids it; the kernels' mix of "
+             "operations can run faster than a probe of one kind, the heavy FMA probe may run at a lower clock). "
              "Flops counted in the kernels' machine code, pow's and cos' arithmetic included.", "",
              "| kernel (per agent) | 4 lanes: ns | 8 lanes: ns | flops | 4 lanes: GFLOP/s | 8 lanes: GFLOP/s |",
              "|---|---|---|---|---|---|"]  # fmt: skip
@@ -2673,20 +2691,21 @@ def _markdown_roofline(res: dict) -> list[str]:
         "",
         f"Monte Carlo chunk (10 Case 1 runs flown together, {c4['t_final']:.0f} s at 1 ms, {c4['agents']} agents each): "
         f"compiled loop {c4['loop_s_per_run']:.3f} s per run at 4 lanes, {c8['loop_s_per_run']:.3f} s at 8 lanes "
-        f"({c4['loop_s_per_run'] / c8['loop_s_per_run']:.2f}x); the whole loop at {w4['loop_gflops']:.1f} / "
+        f"({c4['loop_s_per_run'] / c8['loop_s_per_run']:.2f}x; compiled loop wall time, min of 2); the whole loop at {w4['loop_gflops']:.1f} / "
         f"{w8['loop_gflops']:.1f} GFLOP/s = {100 * w4['peak_fraction']:.0f} % / {100 * w8['peak_fraction']:.0f} % of the "
         "FMA peak (target of issue 31: >= 25 %).",
         f"The kernels alone (the driver free): {w4['kernels_only_s_per_run']:.3f} s per run at 4 lanes, "
-        f"{w8['kernels_only_s_per_run']:.3f} s at 8 lanes. 1000 runs in 40 s on 2 cores needs <= 0.080 s per run; "
-        f"7500 tuner evaluations in 5 minutes on 2 cores, <= 0.080 s per evaluation. Even at the ceiling of code without "
-        f"FMA ({r['no_fma_peak_gflops']:.1f} GFLOP/s) in every kernel, a run's {w8['flops_per_run'] / 1e9:.2f} GFLOP "
-        f"take {r['ceiling_s_per_run']:.3f} s: the 40 s target would need "
-        f"{100 * r['ceiling_s_per_run'] / 0.080:.0f} % of that ceiling sustained over the whole loop with a driver that "
-        "costs nothing.",
+        f"{w8['kernels_only_s_per_run']:.3f} s at 8 lanes ({c4['t_final']:.0f} s runs). Issue 31's targets, 1000 runs of "
+        "100 s in 40 s on 2 cores and 7500 tuner evaluations in 5 minutes, allow <= 0.080 s per 100 s run. A 100 s "
+        f"run is {r['flops_per_100s_run'] / 1e9:.2f} GFLOP of kernel arithmetic; at the best rate without FMA measured "
+        f"here ({r['no_fma_peak_gflops']:.1f} GFLOP/s, probes and kernels alike) that is {r['ceiling_s_per_run']:.3f} s: "
+        f"the targets would need {100 * r['ceiling_s_per_run'] / 0.080:.0f} % of that rate in every kernel, sustained "
+        "over the whole loop, with a driver that costs nothing.",
         "",
-        "Single runs (one scenario per compiled loop, min of 3; compiled loop wall s), each width in its own process:",
+        "Single runs (one scenario per compiled loop, min of 3; compiled loop wall s), each width in its own process "
+        "(differences of a few % are the shared machine's noise):",
         "",
-        "| run, 100 s at 1 ms | 4 lanes | 8 lanes | 8 / 4 |",
+        f"| run, {c4['t_final']:.0f} s at 1 ms | 4 lanes | 8 lanes | 8 / 4 |",
         "|---|---|---|---|",
         *(
             f"| {k} | {w4['single_runs'][k]:.3f} | {w8['single_runs'][k]:.3f} | "

@@ -68,7 +68,8 @@ class ResourceLimitError(InputError):
 
 
 class EnvironmentProblem(FsmctlError, OSError):
-    """The environment cannot do what was asked (output folder not writable, disk full, scheduler address).
+    """The environment cannot do what was asked (output folder not writable, disk full, scheduler address, an
+    environment variable such as ``FSMCTL_LANES`` set to a value fsmctl does not know).
 
     Also an :class:`OSError` (with ``errno`` and ``filename``); the command line exits 2 on it.
 

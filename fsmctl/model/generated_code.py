@@ -361,8 +361,9 @@ LANES_VARIABLE = "FSMCTL_LANES"
 def lane_width(target: str) -> int:
     """``FSM_LANES`` of a build for ``target`` (the CPU part of :func:`compile_flags`' answer).
 
-    8 (one 512-bit register per kernel call) when the CPU has AVX-512F, else 4 (one 256-bit register; a portable
-    build is always 4); :data:`LANES_VARIABLE` overrides.  The width changes the speed, never a result: each lane
+    8 (one 512-bit register per kernel call) when the CPU has AVX-512F, else 4 (one 256-bit register, and for a
+    portable build); :data:`LANES_VARIABLE` overrides both.  It is read when a process first loads a library: set it
+    before the first run.  The width changes the speed, never a result: each lane
     performs the same operations (``tests/test_batched_kernels.py`` flies the same runs at both widths).
 
     Raises

@@ -222,6 +222,11 @@ def lane_width(law=None) -> int:
     int
         4 or 8; 0 without a C compiler (the CasADi fallback has no lanes).
 
+    Raises
+    ------
+    fsmctl.errors.EnvironmentProblem
+        ``FSMCTL_LANES`` is set to something else than 4 or 8 (when the library is first loaded in this process).
+
     Examples
     --------
     >>> from fsmctl.simulation.driver import lane_width
