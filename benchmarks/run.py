@@ -2557,7 +2557,7 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
                 flops = _vector_flops(objdump, kern_exe, f"{name}_batched")  # per call, per lane
                 kernels[name] = {"ns_per_agent": 1e9 * t / width, "flops_per_agent": flops,
                                  "gflops": flops * width / t / 1e9}  # fmt: skip
-            out["widths"][width] = {
+            out["widths"][str(width)] = {  # str keys: the same dict before and after JSON
                 "mul_gops": rates[0] / 1e9, "add_gops": rates[1] / 1e9, "fma_gflops": 2 * rates[2] / 1e9,
                 "mixed_gops": rates[3] / 1e9,
                 "kernels": kernels,
@@ -2572,14 +2572,14 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
                                   env={**os.environ, "FSMCTL_LANES": str(width), "OPENBLAS_NUM_THREADS": "1"})  # fmt: skip
             walls.append(json.loads(proc.stdout))
         best = min(walls, key=lambda r: r["loop_s_per_run"])
-        out["widths"][width]["chunk"] = best
+        out["widths"][str(width)]["chunk"] = best
         log(f"roofline {width} lanes: Monte Carlo chunk {best['loop_s_per_run']:.3f} s per run (loop)")
     for width in (4, 8):
         proc = subprocess.run([sys.executable, "-c", _SINGLE_RUNS_SCRIPT.format(repeats=1 if quick else 3,
                                t_final=20.0 if quick else 100.0)], capture_output=True, text=True, timeout=1800,
                               check=True, env={**os.environ, "FSMCTL_LANES": str(width), "OPENBLAS_NUM_THREADS": "1"})  # fmt: skip
-        out["widths"][width]["single_runs"] = json.loads(proc.stdout)
-        log(f"roofline {width} lanes: single runs {out['widths'][width]['single_runs']}")
+        out["widths"][str(width)]["single_runs"] = json.loads(proc.stdout)
+        log(f"roofline {width} lanes: single runs {out['widths'][str(width)]['single_runs']}")
     for w in out["widths"].values():
         c = w["chunk"]
         per_rhs_agent = sum(k["flops_per_agent"] for k in w["kernels"].values())
@@ -2672,7 +2672,7 @@ def _markdown_roofline(res: dict) -> list[str]:
     r = res.get("roofline")
     if not r or "widths" not in r:
         return []
-    w4, w8 = r["widths"].get(4) or r["widths"].get("4"), r["widths"].get(8) or r["widths"].get("8")
+    w4, w8 = r["widths"]["4"], r["widths"]["8"]
     lines = ["", "## Roofline (issue 31): the ensemble right-hand side against this core's peak", "",
              f"Peak measured here (12 independent chains, `-march=native`, the best of 5 probes at 4 and at 8 lanes): FMA "
              f"{r['peak_gflops']:.1f} GFLOP/s; packed multiplies {max(w4['mul_gops'], w8['mul_gops']):.1f}, adds "

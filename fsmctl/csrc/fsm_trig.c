@@ -16,7 +16,7 @@ void fsm_trig_lanes(const double *x, double *out, long long n, int want_sin) {
   for (long long i = 0; i < n; i += FSM_LANES) {
     const int lanes = n - i < FSM_LANES ? (int)(n - i) : FSM_LANES;
 #ifdef __GNUC__
-    fsm_trig_v vx = fsm_trig_splat(0.0);
+    fsm_trig_v vx = fsm_pow_splat(0.0);
     memcpy(&vx, x + i, sizeof(double) * lanes);
     const fsm_trig_v r = fsm_sincos_vec(vx, want_sin, lanes);
     memcpy(out + i, &r, sizeof(double) * lanes);

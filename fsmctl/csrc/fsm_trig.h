@@ -43,8 +43,6 @@ double fsmctl_cos(double x);
 typedef fsm_pow_v fsm_trig_v; /* FSM_LANES doubles (fsm_pow.h) */
 typedef fsm_pow_m fsm_trig_m;
 
-static inline fsm_trig_v fsm_trig_splat(double c) { return fsm_pow_splat(c); }
-
 /* sin x (want_sin != 0) or cos x in the lanes l < lanes (the others are unspecified) */
 static inline fsm_trig_v fsm_sincos_vec(fsm_trig_v x, int want_sin, int lanes) {
   const double INVPIO2 = 0x1.45f306dc9c883p-1; /* 2/pi */
@@ -52,7 +50,7 @@ static inline fsm_trig_v fsm_sincos_vec(fsm_trig_v x, int want_sin, int lanes) {
   const double PIO2_2 = 0x1.0b4611a6p-34;      /* the next 33 bits */
   const double PIO2_2T = 0x1.3198a2e037073p-69; /* pi/2 - PIO2_1 - PIO2_2 */
   /* n = x 2/pi rounded to the nearest integer (|x| < 2^20 on the fast path) */
-  const fsm_trig_v shift = fsm_trig_splat(0x1.8p52);
+  const fsm_trig_v shift = fsm_pow_splat(0x1.8p52);
   const fsm_trig_v n = (x * INVPIO2 + shift) - shift;
   /* r = x - n pi/2 = rh + rl */
   const fsm_trig_v r1 = x - n * PIO2_1; /* exact: n P1 has <= 53 bits, and n P1 / 2 <= x <= 2 n P1 for n >= 1 */
@@ -74,7 +72,7 @@ static inline fsm_trig_v fsm_sincos_vec(fsm_trig_v x, int want_sin, int lanes) {
   /* the quadrant: sin x = cos(x - pi/2), so sin takes quadrant n + 3 */
   const fsm_trig_m q = __builtin_convertvector(n, fsm_trig_m) + (want_sin ? 3 : 0);
   const fsm_trig_m odd = (q & 1) != 0, negative = ((q + 1) & 2) != 0;
-  const fsm_trig_m sign = (fsm_trig_m)fsm_trig_splat(-0.0) & negative;
+  const fsm_trig_m sign = (fsm_trig_m)fsm_pow_splat(-0.0) & negative;
   fsm_trig_v res = (fsm_trig_v)((((fsm_trig_m)ks & odd) | ((fsm_trig_m)kc & ~odd)) ^ sign);
   /* the fast path: 0 < |x| < 2^20, and |r| >= 2^-10 unless n = 0 (then r = x exactly) */
   const fsm_trig_v ax = (fsm_trig_v)((fsm_trig_m)x & 0x7fffffffffffffffLL);
@@ -87,8 +85,8 @@ static inline fsm_trig_v fsm_sincos_vec(fsm_trig_v x, int want_sin, int lanes) {
 
 /* one lane, inlined where the generated scalar C calls sin or cos: a sin and a cos of the same argument (the
  * reference's omega_d and omega_d_dot) share the reduction and the kernels after inlining */
-static inline double fsm_sin1(double x) { return fsm_sincos_vec(fsm_trig_splat(x), 1, 1)[0]; }
-static inline double fsm_cos1(double x) { return fsm_sincos_vec(fsm_trig_splat(x), 0, 1)[0]; }
+static inline double fsm_sin1(double x) { return fsm_sincos_vec(fsm_pow_splat(x), 1, 1)[0]; }
+static inline double fsm_cos1(double x) { return fsm_sincos_vec(fsm_pow_splat(x), 0, 1)[0]; }
 #else
 static inline double fsm_sin1(double x) { return sin(x); }
 static inline double fsm_cos1(double x) { return cos(x); }
