@@ -188,16 +188,45 @@ class Certificate:
                 f"V_dot <= -{o['decrease']:.4g} on {{{c_mid:.4g} <= V <= {o['level']:.4g}}}: from {{V <= {o['level']:.4g}}}"
                 f" the level {c_mid:.4g} is reached within {o['reach_time']:.4g} s"
             )
+        if o.get("sos"):
+            ub = o.get("ultimate_bound") or {}
+            out.append(
+                f"V_dot <= -{o['sos']['rate']:.4g} (V - {o['inner_level']:.6g}) wherever {o['inner_level']:.6g} <= V <= "
+                f"{o['level']:.6g}, for every admissible disturbance: {o['sos']['detail']} ({o['sos']['seconds']:.1f} s)"
+            )
+            out.append(
+                f"inner set {{V <= {o['inner_level']:.6g}}} lies in |sigma_e,k| <= {ub.get('sigma_e_max', float('nan')):.4g}"
+                f" (attitude error <= {ub.get('attitude_error_max_deg', float('nan')):.3g} deg), |omega_e,k| <= "
+                f"{ub.get('omega_e_max_rad_s', float('nan')):.4g} rad/s"
+            )
+            out.extend(self._tail())
+            return out
         cov = o.get("volume", {})
         out.append(
             f"search: {o.get('boxes', 0)} boxes in {o.get('seconds', 0):.1f} s; proved {100 * cov.get('proved', 0):.4g} %"
             f", core or inner set {100 * cov.get('excluded', 0):.4g} %, undecided {100 * cov.get('undecided', 0):.4g} %, "
             f"V_dot > 0 {100 * cov.get('positive', 0):.4g} % of the region x uncertainty"
         )
-        for a in self.attempts[:-1]:
-            out.append(f"also tried: {a['describe']}: {a['verdict']} ({a['why']})")
-        out.extend(f"note: {n}" for n in self.notes)
+        out.extend(self._tail())
         return out
+
+    def _tail(self) -> list[str]:
+        out = [f"also tried: {a['describe']}: {a['verdict']} ({a['why']})" for a in self.attempts[:-1]]
+        return out + [f"note: {n}" for n in self.notes]
+
+    def arithmetic(self) -> str:
+        """The arithmetic of the proof."""
+        if self.outcome.get("sos"):
+            return f"the identity: exact rationals (Python fractions); V's minimum on the boundary and the extents: {ARITHMETIC}"
+        return ARITHMETIC
+
+    def method(self) -> str:
+        """How the statement was proved, in words."""
+        if self.outcome.get("sos"):
+            return (
+                "a sum-of-squares (Putinar) identity from a semidefinite program, checked in exact rational arithmetic"
+            )
+        return "branch and bound on rigorous enclosures of V_dot (fsmctl.enclosures)"
 
     def markdown(self) -> str:
         """The Markdown report (what a reader of the file sees)."""
@@ -210,8 +239,8 @@ class Certificate:
             ("region", self.region.describe(self.agent["n_states"])),
             ("uncertainty", self.uncertainty.describe()),
             ("candidate", self.candidate["describe"]),
-            ("method", "branch and bound on rigorous enclosures of V_dot (fsmctl.enclosures)"),
-            ("arithmetic", ARITHMETIC),
+            ("method", self.method()),
+            ("arithmetic", self.arithmetic()),
             ("level c", f"{o.get('level', 0):.9g}"),
         ]
         if o.get("inner_level") is not None:
@@ -235,8 +264,8 @@ class Certificate:
             "region": {"sigma": self.region.sigma, "omega": self.region.omega, "z": self.region.z},
             "uncertainty": self.uncertainty.as_dict(),
             "candidate": self.candidate,
-            "method": "branch and bound on rigorous enclosures of V_dot",
-            "arithmetic": ARITHMETIC,
+            "method": self.method(),
+            "arithmetic": self.arithmetic(),
             "outcome": self.outcome,
             "attempts": self.attempts,
             "notes": self.notes,
@@ -299,6 +328,7 @@ def outcome_dict(o: CandidateOutcome) -> dict:
         "difficulty": o.difficulty,
         "boxes": 0 if s is None else s.boxes,
         "seconds": o.seconds,
+        "sos": o.sos,
         "exhausted": False if s is None else s.exhausted,
         "volume": {} if s is None else s.volume,
     }

@@ -28,7 +28,15 @@ The answer is one of three, and never upgraded from one to another:
     the budget ran out, or boxes were too small to split further, with the covered fraction and where the
     difficulty lies (e.g. the switching surfaces of ``sgn``).
 
-Candidates, in order: the law's declared ``V`` (:meth:`fsmctl.symbolic.law.LawBuilder.lyapunov`); when its
+An ultimately bounded question whose closed loop and candidate are polynomial (:attr:`fsmctl.proofs.certify_problem.CertifyProblem.polynomial_field`:
+the nominal inertia, the reference at rest, no torque limit) is first answered by a sum-of-squares identity checked
+in exact rational arithmetic (:mod:`fsmctl.proofs.certify_sos`, :func:`sos_outcome`): ``V_dot <= -lambda (V - c_in)``
+on the whole annulus ``{c_in <= V <= c}`` at once; the branch and bound answers when it does not apply or finds
+nothing.
+
+Candidates, in order: the law's declared ``V`` (:meth:`fsmctl.symbolic.law.LawBuilder.lyapunov`); with a
+disturbance or a moving reference, the attracting invariant ellipsoid of the linearisation under the bounded inputs
+(:func:`fsmctl.proofs.quadratic_forms.invariant_ellipsoid`); when the declared
 ``V_dot`` is only negative semidefinite at the origin (e.g. ``-P |omega|^2``), the declared ``V`` plus a cross
 term ``epsilon sigma_e^T J0 omega_e`` with ``epsilon`` chosen where the nominal Hessian of ``V_dot`` at the origin
 is most negative relative to that of ``V``; a quadratic ``x^T P x`` from a semidefinite program on the
@@ -42,9 +50,11 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from fractions import Fraction
 
 import casadi as ca
 import numpy as np
+import sympy as sp
 
 from fsmctl.enclosures.branch_bound import Budget, SignSearch, bound_maximum, enclose_sharp, prove_negative
 from fsmctl.enclosures.intervals import IntervalFunction
@@ -53,8 +63,11 @@ from fsmctl.proofs.certify_problem import (
     Candidate,
     CertifyProblem,
     candidate_expression,
+    disturbance_symbols,
+    state_symbols,
 )
-from fsmctl.proofs.quadratic_forms import quadratic_lyapunov
+from fsmctl.proofs.certify_sos import exact_polynomial, sos_ultimate_bound
+from fsmctl.proofs.quadratic_forms import invariant_ellipsoid, quadratic_lyapunov
 from fsmctl.symbolic.law import Law
 
 __all__ = [
@@ -75,6 +88,8 @@ __all__ = [
     "inside_core",
     "lyapunov_programs",
     "origin_argument",
+    "sos_outcome",
+    "sos_polynomials",
     "split_levels",
 ]
 
@@ -165,6 +180,8 @@ class CandidateOutcome:
     notes: list[str] = field(default_factory=list)
     difficulty: str = ""
     seconds: float = 0.0
+    sos: dict | None = None
+    """an ultimately bounded certificate by sum of squares (:mod:`fsmctl.proofs.certify_sos`): the exact identity"""
 
 
 # ----------------------------------------------------------------------------------------------- candidates
@@ -228,6 +245,7 @@ def choose_candidates(
         out.append(Candidate("declared", V0, note=law.lyapunov.doc))
         if which == "declared":
             return out, notes
+        _ellipsoid_candidate(problem, law, params, J0, inertia_vertices, out, notes)
         HV, HW = _hessians_at_origin(problem, V0)
         if _score(HV, HW) == -math.inf and np.all(np.isfinite(HW)):
             scored = []
@@ -245,10 +263,39 @@ def choose_candidates(
         notes.append(f"law {law.name!r} declares no Lyapunov candidate (LawBuilder.lyapunov)")
         if which == "declared":
             return out, notes
+        _ellipsoid_candidate(problem, law, params, J0, inertia_vertices, out, notes)
     quad = _quadratic_candidate(problem, law, params, J0, inertia_vertices, notes)
     if quad is not None:
         out.append(quad)
     return out, notes
+
+
+def _ellipsoid_candidate(problem, law, params, J0, vertices, out: list[Candidate], notes: list[str]) -> None:
+    """For a question with a disturbance or a moving reference: the attracting ellipsoid of the linearisation
+    (:func:`fsmctl.proofs.quadratic_forms.invariant_ellipsoid`) as a candidate, tried right after the law's own."""
+    n = problem.n_state
+    motion = np.flatnonzero(_motion_mask(problem) & (problem.hi[n:] > 0)) + n
+    if motion.size == 0:
+        return
+    xs = problem.x[:n]
+    AB = ca.Function("AB", [problem.x], [ca.jacobian(problem.field, xs), ca.jacobian(problem.field, problem.x[motion])])
+    A, B = [], []
+    for v in vertices:
+        a, b = (np.array(m, float) for m in AB(np.concatenate([np.zeros(n), v])))
+        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+            notes.append("no invariant-ellipsoid candidate: the closed loop has no linearisation at the origin")
+            return
+        A.append(a)
+        B.append(b)
+    found = invariant_ellipsoid(A, B, problem.hi[motion], problem.hi[:n])
+    if found is None:
+        notes.append("no invariant-ellipsoid candidate: its linear matrix inequalities are infeasible")
+        return
+    P, alpha = found
+    V = candidate_expression(law, params, J0, P=P)
+    out.append(
+        Candidate("invariant ellipsoid", V, P=tuple(map(tuple, P.tolist())), note=f"S-procedure rate {alpha:.3g}")
+    )
 
 
 def _quadratic_candidate(problem, law, params, J0, vertices, notes) -> Candidate | None:
@@ -434,6 +481,14 @@ def certify_candidate(
     t0 = time.perf_counter()
     progs = lyapunov_programs(problem, candidate.expression)
     asymptotic = not np.any(problem.hi[problem.n_state :][_motion_mask(problem)] > 0)
+    c_bnd = boundary_level(problem, progs, BOUNDARY_BUDGET)
+    sos_why = ""
+    if not asymptotic and c_bnd > 0:
+        sos = sos_outcome(problem, candidate, progs, c_bnd)
+        if isinstance(sos, CandidateOutcome):
+            sos.seconds = time.perf_counter() - t0
+            return sos
+        sos_why = sos
     core = origin_argument(problem, progs)
     if asymptotic and core.get("passed") and core["r_star"] > 0:  # pragma: no cover - w0 = G = 0 at an equilibrium
         core = QuadraticCore(passed=False, why="V_dot(0) = 0 and grad V_dot(0) = 0 could not be proved")
@@ -441,7 +496,6 @@ def certify_candidate(
     # nor, with a V_dot only semidefinite at the origin, an inner set: a short search for a counterexample
     screen = not core.get("passed") and (asymptotic or core.get("semidefinite", False))
     seconds = settings.max_seconds * (SCREEN_FRACTION if screen else 1.0)
-    c_bnd = boundary_level(problem, progs, BOUNDARY_BUDGET)
     # ultimately bounded: the leaves with V <= INNER_FRACTION c_bnd join the inner set unproved (V_dot >= 0 is
     # expected somewhere near the origin, the search need not resolve where)
     c_target = INNER_FRACTION * c_bnd if not asymptotic and c_bnd > 0 else None
@@ -455,8 +509,96 @@ def certify_candidate(
     out.boundary_level = c_bnd
     out.inner_target = c_target
     _judge(problem, progs, out, asymptotic)
+    if sos_why and out.verdict == INCONCLUSIVE:
+        out.difficulty = (
+            f"{out.difficulty}; sum of squares: {sos_why}" if out.difficulty else f"sum of squares: {sos_why}"
+        )
     out.seconds = time.perf_counter() - t0
     return out
+
+
+SOS_AGREEMENT_POINTS = 32
+"""seeded points of the region at which the sum-of-squares route's polynomial ``V_dot`` must agree with the closed
+loop's graphs (to ``1e-9``) before it is used"""
+
+
+def sos_polynomials(
+    problem: CertifyProblem, V, W_function: ca.Function
+) -> tuple[dict, dict, np.ndarray, list[str]] | str:
+    """``(V, V_dot, half_widths, names)`` as exact polynomials in the state and disturbance inputs of positive width
+    (:func:`fsmctl.proofs.certify_sos.exact_polynomial`), or why the sum-of-squares route does not apply."""
+    if problem.polynomial_field is None:
+        return (
+            "the closed loop is not polynomial here (it needs the law's torque reduced symbolically, the nominal "
+            "inertia, the reference at rest and no torque limit)"
+        )
+    n = problem.n_state
+    s, w, z = state_symbols(n - 6)
+    d = disturbance_symbols()
+    symbols = [*s, *w, *z, *d]
+    rows = list(range(n)) + [problem.names.index(f"d[{k}]") for k in range(3)]
+    half = problem.hi[rows]
+    zero = {x: 0 for x, h in zip(symbols, half, strict=True) if h == 0}
+    keep = [x for x, h in zip(symbols, half, strict=True) if h > 0]
+    Vr = sp.sympify(V).xreplace({f: sp.Rational(f) for f in sp.sympify(V).atoms(sp.Float)}).xreplace(zero)
+    field_ = problem.polynomial_field.xreplace(zero)
+    Vp = exact_polynomial(Vr, keep)
+    if Vp is None:
+        return "V is not a polynomial"
+    V_dot = sum((sp.diff(Vr, x) * f for x, f in zip([*s, *w, *z], field_, strict=True)), sp.S.Zero)
+    Wp = exact_polynomial(V_dot, keep)
+    if Wp is None:
+        return "V_dot is not a polynomial"
+    # the polynomial model and the graphs the branch and bound encloses are built apart: they must agree
+    f = sp.lambdify(keep, V_dot, "numpy")
+    rng = np.random.default_rng(29)
+    pos = [rows[k] for k, h in enumerate(half) if h > 0]
+    for _ in range(SOS_AGREEMENT_POINTS):
+        x = np.zeros(problem.lo.size)
+        x[pos] = rng.uniform(problem.lo[pos], problem.hi[pos])
+        a, b = float(f(*x[pos])), float(W_function(x))
+        if not abs(a - b) <= 1e-9 * (1 + abs(b)):
+            return f"the polynomial V_dot disagrees with the closed loop's graphs ({a:.17g} vs {b:.17g})"
+    names = [problem.names[r] for r in pos]
+    return Vp, Wp, half[half > 0], names
+
+
+def sos_outcome(
+    problem: CertifyProblem, candidate: Candidate, progs: LyapunovPrograms, c_bnd: float
+) -> CandidateOutcome | str:
+    """An ultimately bounded certificate by sum of squares (:mod:`fsmctl.proofs.certify_sos`) on
+    ``{c_in <= V <= c_bnd}``, or why there is none."""
+    polys = sos_polynomials(problem, candidate.expression, progs.W_function)
+    if isinstance(polys, str):
+        return polys
+    Vp, Wp, half, names = polys
+    res = sos_ultimate_bound(Vp, Wp, half, c_bnd, names)
+    if isinstance(res, str):
+        return res
+    out = CandidateOutcome(candidate, CERTIFIED, ULTIMATELY_BOUNDED)
+    out.boundary_level = c_bnd
+    out.level = float(res.level)
+    c_in = _float_above(res.inner_level)
+    out.inner_level = c_in
+    rate = _float_below(res.rate)
+    out.sos = {**res.record, "detail": res.detail, "rate": rate, "seconds": res.seconds}
+    # V_dot <= -lambda (V - c_in) <= -lambda (c_mid - c_in) on {c_mid <= V <= c}
+    c_mid = 0.5 * (c_in + out.level)
+    out.decrease = rate * (c_mid - c_in) * (1 - 1e-12)
+    if out.decrease > 0:
+        out.reach_time = (out.level - c_mid) / out.decrease * (1 + 1e-12)
+    _levels_report(problem, progs, out, c_in)
+    return out
+
+
+def _float_above(x: Fraction) -> float:
+    f = float(x)
+    return f if Fraction(f) >= x else math.nextafter(f, math.inf)
+
+
+def _float_below(x: Fraction) -> float:
+    f = float(x)
+    return f if Fraction(f) <= x else math.nextafter(f, -math.inf)
 
 
 def _motion_mask(problem: CertifyProblem) -> np.ndarray:
@@ -530,7 +672,7 @@ def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: Candid
     out.level_extent = extent(out.level)
     if c_in is None:
         return
-    vlo, _ = progs.v_bounds(s.proved_lo, s.proved_hi)
+    vlo, _ = progs.v_bounds(s.proved_lo, s.proved_hi) if s is not None else (np.zeros(0), None)
     annulus = (vlo <= out.level) & (vlo >= c_in)
     if c_in > 0 and np.any(annulus):
         # V_dot <= -m on the leaves of {c_mid <= V <= c}: the time from {V <= c} down to c_mid is at most (c - c_mid)/m

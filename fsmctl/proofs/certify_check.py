@@ -12,6 +12,8 @@ from the file's exact expression; it re-proves what the certificate states from 
    certificate, than ``V`` on the leaves not proved; for an ultimately bounded one, every leaf not proved lies in
    ``{V <= c_in}``;
 5. a counterexample's ``V_dot > 0`` in 256-bit ball arithmetic;
+   (an ultimately bounded certificate by sum of squares instead: its Putinar identity re-checked in exact rational
+   arithmetic from the law's equations, and its level against ``V`` on the region's boundary;)
 6. a sample of the proved leaves (or all of them) re-proved in python-flint's ball arithmetic, the formally
    rigorous route (the natural extension intersected with the mean-value form, combined with outward rounding).
 """
@@ -19,6 +21,7 @@ from the file's exact expression; it re-proves what the certificate states from 
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 
@@ -33,8 +36,10 @@ from fsmctl.proofs.certify import (
     inside_core,
     lyapunov_programs,
     origin_argument,
+    sos_polynomials,
 )
 from fsmctl.proofs.certify_problem import CertifyProblem
+from fsmctl.proofs.certify_sos import verify_sos
 
 __all__ = ["recheck"]
 
@@ -104,6 +109,9 @@ def recheck(problem: CertifyProblem, V, d: dict, *, arb_sample: int | None, seed
     if verdict != CERTIFIED:
         lines.append(f"the certificate is {verdict}: nothing is claimed to re-check")
         return True, lines
+    if out.get("sos"):
+        _recheck_sos(problem, progs, V, out, step)
+        return ok, lines
     tree = d.get("tree") or {}
     try:
         leaves = bisection_leaves(problem.lo, problem.hi, tree["codes"], tree["batch"])
@@ -176,3 +184,24 @@ def _recheck_arb(progs, plo, phi, arb_sample, seed, scale) -> tuple[int, int]:
         rows = np.sort(np.random.default_rng(seed).choice(k, size=arb_sample, replace=False))
     bad = sum(1 for r in rows if not _arb_proves(progs, plo[r], phi[r], scale, ARB_SPLIT_DEPTH))
     return len(rows) - bad, len(rows)
+
+
+def _recheck_sos(problem: CertifyProblem, progs, V, out: dict, step) -> None:
+    """An ultimately bounded certificate by sum of squares: the identity re-checked exactly from the law's equations
+    (:func:`fsmctl.proofs.certify_sos.verify_sos`), its levels against the file's and ``V`` on the boundary."""
+    polys = sos_polynomials(problem, V, progs.W_function)
+    if isinstance(polys, str):
+        step(False, f"the sum-of-squares question cannot be rebuilt: {polys}")
+        return
+    Vp, Wp, half, names = polys
+    record = out["sos"]
+    step(names == record["variables"], f"the identity's variables are the closed loop's ({', '.join(names)})")
+    good, text = verify_sos(Vp, Wp, half, record)
+    step(good, text)
+    c_in, c = Fraction(record["inner_level"]), Fraction(record["level"])
+    step(
+        float(c_in) <= out["inner_level"] and Fraction(out["level"]) <= c,
+        f"the file's levels c_in = {out['inner_level']:.9g}, c = {out['level']:.9g} are the identity's",
+    )
+    c_bnd = boundary_level(problem, progs, BOUNDARY_BUDGET)
+    step(c <= Fraction(c_bnd), f"level c = {float(c):.9g} <= min V on the region's boundary ({c_bnd:.9g})")

@@ -39,6 +39,7 @@ from fsmctl.model.generated_code import law_sx_function
 from fsmctl.model.laws import LawCode
 from fsmctl.proofs.certify_symbolic import ReducedTorque
 from fsmctl.symbolic.law import Law, contract_names
+from fsmctl.symbolic.model import plant_rhs
 from fsmctl.symbolic.mrp import mrp_G
 
 __all__ = [
@@ -50,7 +51,9 @@ __all__ = [
     "build_problem",
     "candidate_expression",
     "candidate_from_record",
+    "disturbance_symbols",
     "expression_tree",
+    "polynomial_field",
     "state_symbols",
 ]
 
@@ -237,7 +240,8 @@ class Candidate:
     """A Lyapunov candidate: how it was obtained and its SymPy expression in ``sigma_e, omega_e, z``.
 
     ``kind``: ``"declared"`` (the law's own), ``"declared + cross term"`` (``+ epsilon sigma_e^T J0 omega_e``) or
-    ``"quadratic"`` (``x^T P x`` with ``P`` from :func:`fsmctl.proofs.quadratic_forms.quadratic_lyapunov`).
+    ``"quadratic"`` (``x^T P x`` with ``P`` from :func:`fsmctl.proofs.quadratic_forms.quadratic_lyapunov`) or
+    ``"invariant ellipsoid"`` (``x^T P x`` with ``P`` from :func:`fsmctl.proofs.quadratic_forms.invariant_ellipsoid`).
     """
 
     kind: str
@@ -252,6 +256,11 @@ class Candidate:
         if self.kind == "quadratic":
             return "V = x^T P x, x = (sigma_e, omega_e, z), P from a semidefinite program" + (
                 f" ({self.note})" if self.note else ""
+            )
+        if self.kind == "invariant ellipsoid":
+            return (
+                "V = x^T P x, x = (sigma_e, omega_e, z), P of an attracting ellipsoid of the linearisation under the "
+                + (f"bounded disturbance ({self.note})" if self.note else "bounded disturbance")
             )
         if self.kind == "declared + cross term":
             return f"the law's V + {self.epsilon:g} sigma_e^T J0 omega_e"
@@ -446,6 +455,9 @@ class CertifyProblem:
     inertia_pairs: list[tuple[int, int]] = field(default_factory=list)
     route: str = "the generated code's graphs"
     """how the law's torque enters: its generated graphs, or its SymPy stages reduced at sigma_d = 0"""
+    polynomial_field: sp.ImmutableMatrix | None = None
+    """``(sigma_e_dot, omega_e_dot, z_dot)`` in SymPy, in the state symbols and ``d[k]`` (floats exact), when the
+    closed loop is that simple (:func:`polynomial_field`): the sum-of-squares route's model"""
 
     def state_slice(self) -> slice:
         return slice(0, self.n_state)
@@ -572,7 +584,61 @@ def build_problem(
         + [f"omega_d[{k}]" for k in range(3)]
         + [f"omega_d_dot[{k}]" for k in range(3)]
     )
-    return CertifyProblem(names, 6 + nz, -hi, hi.copy(), x, field_, u, pairs, route)
+    poly = None
+    if route != "the generated code's graphs" and law is not None and reduced is not None:
+        poly = polynomial_field(law, reduced, J0, uncertainty, torque_limit)
+    return CertifyProblem(names, 6 + nz, -hi, hi.copy(), x, field_, u, pairs, route, poly)
+
+
+def disturbance_symbols() -> sp.Matrix:
+    """The SymPy column ``d[0:3]`` (N m) of :attr:`CertifyProblem.polynomial_field`."""
+    return sp.Matrix(sp.symbols("d[0:3]", real=True))
+
+
+def polynomial_field(
+    law: Law, reduced: ReducedTorque, J0: np.ndarray, uncertainty: Uncertainty, torque_limit: float
+) -> sp.ImmutableMatrix | None:
+    """The closed loop ``(sigma_e_dot, omega_e_dot, z_dot)`` as SymPy expressions in the state symbols and ``d``
+    (eqs 3-4 by :func:`fsmctl.symbolic.model.plant_rhs`, the reduced torque, every float as its exact rational),
+    for the nominal inertia, the reference at rest and no torque limit; None otherwise.
+
+    Parameters
+    ----------
+    law : fsmctl.symbolic.law.Law
+        The law's symbols.
+    reduced : ReducedTorque
+        Its torque at ``sigma_d = 0`` (``sigma_e = sigma``).
+    J0 : numpy.ndarray
+        3x3.
+    uncertainty : Uncertainty
+        Must have no inertia uncertainty and the reference at rest.
+    torque_limit : float
+        Must be infinite.
+
+    Returns
+    -------
+    sympy.ImmutableMatrix or None
+    """
+    if uncertainty.inertia or any(uncertainty.reference_rate) or any(uncertainty.reference_acceleration):
+        return None
+    if math.isfinite(torque_limit):
+        return None
+    s, w, z = state_symbols(law.n_states)
+    sym = law.symbols
+    rep = dict(zip(list(sym["sigma"]), list(s), strict=True))
+    rep.update(zip(list(sym["omega"]), list(w), strict=True))
+    rep.update(zip(list(sym["z"]), list(z), strict=True))
+    exact = {}
+
+    def rational(e: sp.Expr) -> sp.Expr:
+        e = sp.sympify(e).xreplace(rep)
+        return e.xreplace({f: exact.setdefault(f, sp.Rational(f)) for f in e.atoms(sp.Float)})
+
+    u = sp.Matrix(reduced.u).applyfunc(rational)
+    z_dot = sp.Matrix(reduced.z_dot).applyfunc(rational) if reduced.z_dot.rows else sp.zeros(0, 1)
+    J = sp.Matrix(3, 3, [sp.Rational(float(v)) for v in np.asarray(J0, float).ravel()])
+    sigma_dot, omega_dot = plant_rhs(J, s, w, u + disturbance_symbols())
+    return sp.ImmutableMatrix(sp.Matrix.vstack(sp.Matrix(sigma_dot), sp.Matrix(omega_dot), z_dot))
 
 
 def _reduced_graphs(law: Law, reduced: ReducedTorque, se, omega, z, wd, wdd, torque_limit: float):

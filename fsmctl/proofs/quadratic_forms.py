@@ -64,6 +64,8 @@ import numpy as np
 __all__ = [
     "QuadraticLyapunov",
     "quadratic_lyapunov",
+    "invariant_ellipsoid",
+    "ELLIPSOID_RATES",
     "positive_definite_exact",
     "interval_matrix_negative_definite",
     "interval_matrix_positive_definite",
@@ -93,6 +95,9 @@ as only :data:`DECAY_FRACTION` of the result is used; each step is one SDP solve
 
 FALLBACK_SOLVER = "SCS"
 """The SDP solver tried when the requested one is missing or fails (error or an unusable status)."""
+
+ELLIPSOID_RATES = tuple(10.0 ** (k / 4) for k in range(-8, 5))
+"""S-procedure rates ``alpha`` tried by :func:`invariant_ellipsoid` (0.01 ... 10): its LMI is linear for each"""
 
 _SCS_OPTIONS = {"eps_abs": 1e-8, "eps_rel": 1e-8, "max_iters": 20_000}
 _FEASIBLE = {cp.OPTIMAL, cp.OPTIMAL_INACCURATE}
@@ -505,3 +510,81 @@ def _verify(A: list[np.ndarray], P: np.ndarray, target: float, label: str, what:
     if target > 0 and _decay_certified(A, P, 0.0):
         return QuadraticLyapunov(P, 0.0, True, label, f"{what}; {checked}: P > 0, A^T P + P A < 0 (decay not)")
     return QuadraticLyapunov(P, 0.0, False, label, f"{what}; {checked}: failed")
+
+
+def invariant_ellipsoid(
+    jacobians: Sequence[np.ndarray],
+    inputs: Sequence[np.ndarray],
+    bounds: Sequence[float],
+    half_widths: Sequence[float],
+    *,
+    solver: str = "CLARABEL",
+) -> tuple[np.ndarray, float] | None:
+    """An attracting invariant ellipsoid of ``x' = A_i x + B_i w``, ``|w_k| <= bounds_k``, small in the box ``|x_k| <=
+    half_widths_k``: the search for a quadratic candidate shaped by a bounded disturbance.
+
+    With ``Q = P^-1``, the LMI ``[[A Q + Q A^T + alpha Q, B W], [W B^T, -diag(l)]] <= 0``, ``sum l <= alpha``
+    (``W = diag(bounds)``) gives ``V_dot <= -alpha (V - 1)`` for ``V = x^T P x`` and every admissible ``w`` (the
+    S-procedure, Boyd et al. 1994, section 6.1.3): ``{V <= 1}`` attracts and is invariant.  Minimising ``t`` with
+    ``Q_kk <= t h_k^2`` (over a grid of ``alpha``, :data:`ELLIPSOID_RATES`) makes it small relative to the box, so
+    that ``{V <= 1}`` sits well inside ``{V <= c}``, ``c`` the least ``V`` on the box's boundary (``c >= 1/t``).
+
+    Only a search: the nonlinear closed loop is certified (or not) with this ``P`` afterwards.
+
+    Parameters
+    ----------
+    jacobians, inputs : sequence of numpy.ndarray
+        ``A_i`` ``(n, n)`` and ``B_i`` ``(n, m)``, e.g. at the vertices of an uncertainty set.
+    bounds : sequence of float
+        ``(m,)``: ``|w_k| <= bounds_k``.
+    half_widths : sequence of float
+        ``(n,)``: the box.
+    solver : str
+        The cvxpy SDP solver.
+
+    Returns
+    -------
+    (numpy.ndarray, float) or None
+        ``P`` (symmetric, rounded to :data:`ROUND_BITS` bits and positive definite, checked exactly) and the rate
+        ``alpha``; None when no rate gives a feasible LMI.
+
+    Examples
+    --------
+    ``x' = -x + w``, ``|w| <= 1/2`` in ``|x| <= 2``: the smallest attracting interval is ``|x| <= 1/2``:
+
+    >>> import numpy as np
+    >>> P, alpha = invariant_ellipsoid([np.array([[-1.0]])], [np.array([[1.0]])], [0.5], [2.0])
+    >>> bool(abs(1 / np.sqrt(P[0, 0]) - 0.5) < 0.05)
+    True
+    """
+    A = _check_jacobians(jacobians)
+    n = A[0].shape[0]
+    B = [np.asarray(b, dtype=float).reshape(n, -1) for b in inputs]
+    W = np.diag(np.asarray(bounds, dtype=float))
+    h = np.asarray(half_widths, dtype=float)
+    best: tuple[float, float, np.ndarray] | None = None
+    for alpha in ELLIPSOID_RATES:
+        Q, lam, t = cp.Variable((n, n), symmetric=True), cp.Variable(W.shape[0], nonneg=True), cp.Variable()
+        constraints = [Q >> 1e-9 * np.eye(n), cp.sum(lam) <= alpha, cp.diag(Q) <= t * h**2]
+        for Ai, Bi in zip(A, B, strict=True):
+            BW = Bi @ W
+            M = cp.bmat([[Ai @ Q + Q @ Ai.T + alpha * Q, BW], [BW.T, -cp.diag(lam)]])
+            constraints.append(0.5 * (M + M.T) << 0)
+        problem = cp.Problem(cp.Minimize(t), constraints)
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore", UserWarning)
+                problem.solve(solver=solver)
+        except (cp.SolverError, ValueError):
+            continue
+        if problem.status in _FEASIBLE and Q.value is not None and (best is None or t.value < best[0]):
+            best = (float(t.value), alpha, np.array(Q.value, float))
+    if best is None:
+        return None
+    try:
+        P = _round_dyadic(np.linalg.inv(0.5 * (best[2] + best[2].T)))
+    except np.linalg.LinAlgError:
+        return None
+    if not positive_definite_exact(P):
+        return None
+    return P, best[1]
