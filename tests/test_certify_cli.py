@@ -80,6 +80,8 @@ def test_json_summary(capsys, tmp_path):
         (["--law", "pid", "--region-sigma", "0.6"], "0.577"),  # the box's corners beyond |sigma_e| = 1
         (["--law", "pid", "--region-omega", "-1"], "--region-omega"),
         (["--check", "missing.json"], "missing.json"),
+        (["--law", "pid", "--disturbance", "0.2", "0.24"], "--disturbance takes one bound or three"),
+        (["--law", "pid", "--reference-rate", "1", "2", "3", "4"], "--reference-rate takes one bound or three"),
         ([], "--law"),
     ],
 )
@@ -88,3 +90,12 @@ def test_bad_input_one_line_exit_2(capsys, argv, message):
     assert code == 2
     assert message in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_disturbance_per_axis_reaches_the_certificate(capsys, tmp_path):
+    """Three --disturbance bounds are the three axes' (as in the paper's (0.2, 0.24, 0.22) N m)."""
+    code, text, _ = _run(capsys, "--law", str(EXAMPLES / "my_law.py"), *SMALL, "--inertia-uncertainty", "0",
+                         "--disturbance", "0.001", "0.002", "0.003", "--json", "--out", str(tmp_path))  # fmt: skip
+    d = json.loads((tmp_path / "certificate.json").read_text())
+    assert code == 0, text
+    assert d["uncertainty"]["disturbance_N_m"] == [0.001, 0.002, 0.003]

@@ -85,18 +85,14 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="the true inertia J_kl = J0_kl (1 + theta_kl) with theta_kl within [-REL, REL] (0: J = J0)")  # fmt: skip
     u.add_argument("--inertia-set", choices=INERTIA_SETS, default=None,
                    help="each non-zero entry of J0 on its own (entries) or J = (1 + theta) J0 (proportional)")  # fmt: skip
-    u.add_argument(
-        "--disturbance",
-        type=float,
-        default=None,
-        metavar="N_M",
-        help="every disturbance component within [-N_M, N_M] N m (0: none)",
-    )
-    u.add_argument("--reference-rate", type=float, default=None, metavar="RAD_S",
-                   help="every reference rate component within [-RAD_S, RAD_S] rad/s (0 with --reference-acceleration 0: the "
-                   "reference at rest)")  # fmt: skip
-    u.add_argument("--reference-acceleration", type=float, default=None, metavar="RAD_S2",
-                   help="every reference acceleration component within [-RAD_S2, RAD_S2] rad/s^2")  # fmt: skip
+    u.add_argument("--disturbance", type=float, nargs="+", default=None, metavar="N_M",
+                   help="each disturbance component within [-N_M, N_M] N m: one bound for all three axes or one per axis "
+                   "(e.g. the paper's 0.2 0.24 0.22); 0: none")  # fmt: skip
+    u.add_argument("--reference-rate", type=float, nargs="+", default=None, metavar="RAD_S",
+                   help="each reference rate component within [-RAD_S, RAD_S] rad/s (one or three bounds; 0 with "
+                   "--reference-acceleration 0: the reference at rest)")  # fmt: skip
+    u.add_argument("--reference-acceleration", type=float, nargs="+", default=None, metavar="RAD_S2",
+                   help="each reference acceleration component within [-RAD_S2, RAD_S2] rad/s^2 (one or three bounds)")  # fmt: skip
     s = p.add_argument_group("the search and the files")
     s.add_argument("--candidate", choices=CANDIDATE_CHOICES, default="auto",
                    help="auto: the law's declared V, then the V fsmctl finds (cross term, quadratic); declared: only "
@@ -140,6 +136,10 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("give --law NAME|FILE.py (or --check FILE.json)")
     if not (math.isfinite(args.fly) and args.fly >= 0):
         raise UsageError(f"--fly must be a finite number >= 0, got {args.fly}")
+    for name in ("disturbance", "reference_rate", "reference_acceleration"):
+        v = getattr(args, name)
+        if v is not None and len(v) not in (1, 3):
+            raise UsageError(f"--{name.replace('_', '-')} takes one bound or three (one per axis), got {len(v)}")
     for name in ("region_sigma", "region_omega", "region_z", "seconds"):
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):
@@ -155,10 +155,10 @@ def _uncertainty(args, scenario, agent: int):
     return Uncertainty(
         inertia=base.inertia if args.inertia_uncertainty is None else args.inertia_uncertainty,
         inertia_set=args.inertia_set or base.inertia_set,
-        disturbance=base.disturbance if args.disturbance is None else args.disturbance,
-        reference_rate=base.reference_rate if args.reference_rate is None else args.reference_rate,
+        disturbance=base.disturbance if args.disturbance is None else tuple(args.disturbance),
+        reference_rate=base.reference_rate if args.reference_rate is None else tuple(args.reference_rate),
         reference_acceleration=(
-            base.reference_acceleration if args.reference_acceleration is None else args.reference_acceleration
+            base.reference_acceleration if args.reference_acceleration is None else tuple(args.reference_acceleration)
         ),
     )
 
