@@ -149,8 +149,13 @@ def test_pd_example_ultimately_bounded_by_sum_of_squares(tmp_path):
     path = tmp_path / "c.json"
     c.write(path)
     assert check_certificate(path).certified
-    d = json.loads(path.read_text())
+    original = json.loads(path.read_text())
+    d = copy.deepcopy(original)
     d["outcome"]["sos"]["Q0"][3][3] = str(Fraction(d["outcome"]["sos"]["Q0"][3][3]) * 2)
+    path.write_text(json.dumps(d))
+    assert not check_certificate(path).ok
+    d = copy.deepcopy(original)
+    d["outcome"]["ultimate_bound"]["sigma_e_max"] /= 2  # a tighter ultimate bound than the one proved
     path.write_text(json.dumps(d))
     assert not check_certificate(path).ok
 

@@ -91,6 +91,7 @@ __all__ = [
     "sos_outcome",
     "sos_polynomials",
     "split_levels",
+    "sublevel_extent",
 ]
 
 CERTIFIED, COUNTEREXAMPLE, INCONCLUSIVE = "certified", "counterexample", "inconclusive"

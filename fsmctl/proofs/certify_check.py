@@ -37,6 +37,7 @@ from fsmctl.proofs.certify import (
     lyapunov_programs,
     origin_argument,
     sos_polynomials,
+    sublevel_extent,
 )
 from fsmctl.proofs.certify_problem import CertifyProblem
 from fsmctl.proofs.certify_sos import verify_sos
@@ -205,3 +206,12 @@ def _recheck_sos(problem: CertifyProblem, progs, V, out: dict, step) -> None:
     )
     c_bnd = boundary_level(problem, progs, BOUNDARY_BUDGET)
     step(c <= Fraction(c_bnd), f"level c = {float(c):.9g} <= min V on the region's boundary ({c_bnd:.9g})")
+    n = problem.n_state
+    ext = sublevel_extent(progs, problem.lo, problem.hi, out["inner_level"], n)
+    ub = out.get("ultimate_bound") or {}
+    sig, om = float(np.max(ext[:3])), float(np.max(ext[3:6]))
+    step(
+        ub.get("sigma_e_max", -1.0) >= sig and ub.get("omega_e_max_rad_s", -1.0) >= om,
+        f"the ultimate bound: {{V <= c_in}} lies in |sigma_e,k| <= {sig:.4g}, |omega_e,k| <= {om:.4g} rad/s "
+        "(re-proved; the file's bound is no smaller)",
+    )
