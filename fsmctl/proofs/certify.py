@@ -278,16 +278,11 @@ def _ellipsoid_candidate(problem, law, params, J0, vertices, out: list[Candidate
     motion = np.flatnonzero(_motion_mask(problem) & (problem.hi[n:] > 0)) + n
     if motion.size == 0:
         return
-    xs = problem.x[:n]
-    AB = ca.Function("AB", [problem.x], [ca.jacobian(problem.field, xs), ca.jacobian(problem.field, problem.x[motion])])
-    A, B = [], []
-    for v in vertices:
-        a, b = (np.array(m, float) for m in AB(np.concatenate([np.zeros(n), v])))
-        if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
-            notes.append("no invariant-ellipsoid candidate: the closed loop has no linearisation at the origin")
-            return
-        A.append(a)
-        B.append(b)
+    A = _linearisations(problem, vertices, problem.x[:n])
+    B = _linearisations(problem, vertices, problem.x[motion])
+    if A is None or B is None:
+        notes.append("no invariant-ellipsoid candidate: the closed loop has no linearisation at the origin")
+        return
     found = invariant_ellipsoid(A, B, problem.hi[motion], problem.hi[:n])
     if found is None:
         notes.append("no invariant-ellipsoid candidate: its linear matrix inequalities are infeasible")
@@ -299,17 +294,19 @@ def _ellipsoid_candidate(problem, law, params, J0, vertices, out: list[Candidate
     )
 
 
+def _linearisations(problem: CertifyProblem, vertices, inputs: ca.SX) -> list[np.ndarray] | None:
+    """The Jacobian of the closed loop in ``inputs`` at the origin, at each vertex of the uncertainty (None when one
+    is not finite: a switching or fractional-power term)."""
+    f = ca.Function("linearisation", [problem.x], [ca.jacobian(problem.field, inputs)])
+    mats = [np.array(f(np.concatenate([np.zeros(problem.n_state), v])), float) for v in vertices]
+    return mats if all(np.all(np.isfinite(m)) for m in mats) else None
+
+
 def _quadratic_candidate(problem, law, params, J0, vertices, notes) -> Candidate | None:
-    xs = problem.x[: problem.n_state]
-    A = ca.Function("A", [problem.x], [ca.jacobian(problem.field, xs)])
-    mats = []
-    for v in vertices:
-        x0 = np.concatenate([np.zeros(problem.n_state), v])
-        m = np.array(A(x0), float)
-        if not np.all(np.isfinite(m)):
-            notes.append("the closed loop has no linearisation at the origin (a switching or fractional-power term)")
-            return None
-        mats.append(m)
+    mats = _linearisations(problem, vertices, problem.x[: problem.n_state])
+    if mats is None:
+        notes.append("the closed loop has no linearisation at the origin (a switching or fractional-power term)")
+        return None
     q = quadratic_lyapunov(mats)
     if not q.verified:
         notes.append(f"no quadratic Lyapunov function of the linearisation: {q.detail}")

@@ -34,7 +34,6 @@ P. A. Parrilo, "Semidefinite programming relaxations for semialgebraic problems"
 from __future__ import annotations
 
 import itertools
-import math
 import time
 import warnings
 from collections.abc import Sequence
@@ -46,7 +45,7 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
-from fsmctl.proofs.quadratic_forms import positive_definite_exact
+from fsmctl.proofs.quadratic_forms import positive_definite_exact, round_dyadic
 
 __all__ = [
     "SOS_BISECTION_STEPS",
@@ -279,11 +278,7 @@ class _Program:
 
 
 def _round(M: np.ndarray) -> list[list[Fraction]]:
-    S = 0.5 * (np.asarray(M, float) + np.asarray(M, float).T)
-    top = float(np.max(np.abs(S))) or 1.0
-    quantum = math.ldexp(1.0, math.frexp(top)[1] - SOS_ROUND_BITS)
-    R = np.round(S / quantum) * quantum
-    return [[Fraction(float(v)) for v in row] for row in R]
+    return [[Fraction(float(v)) for v in row] for row in round_dyadic(np.asarray(M, float), SOS_ROUND_BITS)]
 
 
 def _gram_polynomial(basis: list[Monomial], Q: list[list[Fraction]], multiplier: Polynomial) -> Polynomial:

@@ -65,6 +65,7 @@ __all__ = [
     "QuadraticLyapunov",
     "quadratic_lyapunov",
     "invariant_ellipsoid",
+    "round_dyadic",
     "ELLIPSOID_RATES",
     "positive_definite_exact",
     "interval_matrix_negative_definite",
@@ -385,11 +386,19 @@ class _LyapunovSDP:
         return None, label
 
 
-def _round_dyadic(P: np.ndarray) -> np.ndarray:
-    """``P`` symmetrised and rounded to :data:`ROUND_BITS` significant bits of its largest entry (exact dyadics)."""
+def round_dyadic(P: np.ndarray, bits: int = ROUND_BITS) -> np.ndarray:
+    """``P`` symmetrised and rounded to ``bits`` significant bits of its largest entry: exact dyadic rationals (a zero
+    matrix stays zero).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> round_dyadic(np.array([[1.0, 1 / 3], [0.0, 2.0]]), bits=4).tolist()
+    [[1.0, 0.25], [0.25, 2.0]]
+    """
     S = (P + P.T) / 2
-    exponent = math.frexp(float(np.max(np.abs(S))))[1]
-    quantum = math.ldexp(1.0, exponent - ROUND_BITS)
+    top = float(np.max(np.abs(S))) or 1.0
+    quantum = math.ldexp(1.0, math.frexp(top)[1] - bits)
     return np.round(S / quantum) * quantum
 
 
@@ -499,7 +508,7 @@ def quadratic_lyapunov(
         what = f"SDP for {len(A)} Jacobian(s) of order {n} at decay {target:.6g}"
     if P is None:
         return QuadraticLyapunov(np.zeros((n, n)), 0.0, False, label, f"{what}: infeasible or failed ({label})")
-    return _verify(A, _round_dyadic(P), target, label, what)
+    return _verify(A, round_dyadic(P), target, label, what)
 
 
 def _verify(A: list[np.ndarray], P: np.ndarray, target: float, label: str, what: str) -> QuadraticLyapunov:
@@ -582,7 +591,7 @@ def invariant_ellipsoid(
     if best is None:
         return None
     try:
-        P = _round_dyadic(np.linalg.inv(0.5 * (best[2] + best[2].T)))
+        P = round_dyadic(np.linalg.inv(0.5 * (best[2] + best[2].T)))
     except np.linalg.LinAlgError:
         return None
     if not positive_definite_exact(P):
