@@ -93,8 +93,11 @@ def test_open_verdict_states_certified_intervals_and_ranges():
     axis: neither proved nor refuted (NUMERIC, open); the sampled numbers stay as context."""
     r = run_claims(["theorem2-delta"], ProofContext(paper_scenario("1"), Region(0.0, 0.0), n_random=0))[0]
     assert r.verdict == C.NUMERIC and r.holds
-    assert "certified requirement" in r.detail and "|sigma_e,k| <= 0" in r.detail and "[OPEN]" in r.detail
-    assert "sampling (context)" in r.detail
+    assert r.detail.splitlines()[0].startswith(
+        "does delta_i exceed Theorem 2's certified requirement on every axis? OPEN"
+    )
+    assert "required [lower, upper] (1/s^2)" in r.detail and "|sigma_e,k| <= 0" in r.detail
+    assert "open: lower <= delta <= upper" in r.detail and "sampled requirement (context" in r.detail
     traj = [max(a["reference_trajectory"]) for a in r.data["agents"]]
     assert max(traj) < 1e-3  # on the reference trajectory: well below the configured 0.005
 

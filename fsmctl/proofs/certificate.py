@@ -104,6 +104,7 @@ class Certificate:
     kind: str | None
     law: dict
     agent: dict
+    """the agent's record; ``number`` is 1-based, as the paper's agents 1..n and ``fsmctl certify --agent``"""
     region: StateRegion
     uncertainty: Uncertainty
     candidate: dict
@@ -145,7 +146,7 @@ class Certificate:
         out = [
             self.headline(),
             f"law {self.law['name']} ({self.law['spec']}, {self.law['error_model']} error model), agent "
-            f"{self.agent['index'] + 1} of {self.agent['scenario']}",
+            f"{self.agent['number']} of {self.agent['scenario']}",
             f"region: {self.region.describe(len(self.names) and self.agent['n_states'])}",
             f"uncertainty: {self.uncertainty.describe()}",
             f"V: {self.candidate['describe']}",
@@ -235,7 +236,7 @@ class Certificate:
             ("verdict", f"**{self.verdict}**" + (f" ({self.kind})" if self.verdict == CERTIFIED else "")),
             ("law", f"`{self.law['name']}` (`{self.law['spec']}`), {self.law['error_model']} error model"),
             ("generated code", f"manifest sha256 `{self.law['manifest_sha256'][:16]}...`"),
-            ("agent", f"{self.agent['index'] + 1} of `{self.agent['scenario']}`"),
+            ("agent", f"{self.agent['number']} of `{self.agent['scenario']}`"),
             ("region", self.region.describe(self.agent["n_states"])),
             ("uncertainty", self.uncertainty.describe()),
             ("candidate", self.candidate["describe"]),
@@ -569,7 +570,7 @@ def certify_law(
             break
     names = [p.name for p in code.parameters]
     info = {
-        "index": agent,
+        "number": agent + 1,
         "scenario": sc.label,
         "J0_kg_m2": J0.tolist(),
         "parameters": dict(zip(names, _by_name(code, params), strict=True)),

@@ -38,6 +38,7 @@ import sympy as sp
 import fsmctl.proofs.theorem1 as t1
 import fsmctl.proofs.theorem2 as t2
 import fsmctl.proofs.theorem2_bound as t2b
+import fsmctl.proofs.theorem2_report as t2r
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.policy import default_workers
@@ -868,27 +869,19 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
     sc = ctx.scenario
     res = t2.delta_requirements(sc, ctx.region, n_random=ctx.n_random, seed=ctx.seed)
     cert = t2b.certified_delta_requirements(sc, ctx.region)
-    fv = t2.format_vector
     lines = [
-        f"scenario {sc.label}, region {ctx.region.describe()} (contains the reference sigma_e = 0, omega_e = 0), "
-        "times the bound boxes of omega_d, u_d and omega_d_dot",
-        "requirement: (delta_i)_k > sup (1+kappa_i) |d_i|_k, d_i = s_i_dot at delta = 0 without coordination "
+        t2r.verdict_line(cert),
+        f"scenario {sc.label}; region {ctx.region.describe()} around the reference sigma_e = 0, omega_e = 0, times the "
+        "bound boxes of omega_d, u_d and omega_d_dot",
+        "requirement (1/s^2): (delta_i)_k > sup (1+kappa_i) |d_i|_k, d_i = s_i_dot at delta = 0 without coordination "
         "(automatic differentiation of the paper's law's generated law_local_*, law_control_* and the model's "
-        "plant_rhs along the rigid-body motion)",
-        f"certified upper bound (interval arithmetic with outward rounding, branch and bound: {cert.boxes} boxes in "
-        f"{cert.seconds:.1f} s; each sigma_e,k range cut at the Remark 6 band, the affine u_d and omega_d_dot maximised "
-        "exactly); lower bound certified at a witness point",
+        "plant_rhs along the rigid-body motion); certified [lower, upper] per agent and axis, rounded outward:",
+        *t2r.requirement_table(cert),
+        t2r.search_line(cert),
+        *t2r.reaching_lines(cert),
+        "the guarantee also needs the trajectory to stay in the region, which is not checked",
         f"coupling: {res.coupling}",
     ]
-    lines += _certified_lines(cert)
-    lines.append(_reaching_line(cert))
-    lines.append(f"sampling (context): {res.description}")
-    for a in res.agents:
-        lines.append(
-            f"agent {a.agent} sampled: over the region {fv(a.region)}; on the reference trajectory (actual signals, "
-            f"max over t in [0, {sc.simulation.t_final:g}] s, {res.trajectory_samples} times) "
-            f"{fv(a.reference_trajectory)}; at the reference under the bound boxes {fv(a.reference_bound)}"
-        )
     if res.agents:
         lines.append(f"{res.agents[0].note}")
     lines.append(_slope_line(sc))
@@ -899,7 +892,11 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
             f"(|sigma_e,k| <= {f * ctx.region.sigma:.3g}, |omega_e,k| <= {f * ctx.region.omega:.3g} rad/s; bisection on "
             "the grid)"
         )
-    lines.append("the guarantee also needs the trajectory to stay in the region, which is not checked")
+    lines.append(
+        f"sampled requirement (context, a lower estimate; 1/s^2 per axis; on the reference trajectory: the actual "
+        f"signals, max over t in [0, {sc.simulation.t_final:g}] s, {res.trajectory_samples} times): {res.description}"
+    )
+    lines += t2r.sampled_table(res)
     data = {
         "region": {"sigma": ctx.region.sigma, "omega": ctx.region.omega},
         "samples_per_agent": res.samples,
@@ -928,35 +925,6 @@ def _theorem2_delta(ctx: ProofContext) -> _Outcome:
     if cert.verdict == "refuted":
         return _Outcome(FAILS, lines, latex, holds=False, data=data)
     return _Outcome(NUMERIC, lines, latex, holds=res.ok, data=data)
-
-
-def _certified_lines(cert: t2b.Theorem2Bound) -> list[str]:
-    lines = []
-    for g in cert.groups:
-        who = "agent" + ("s " if len(g.agents) > 1 else " ") + ", ".join(str(a) for a in g.agents)
-        axes = "; ".join(
-            f"axis {a.axis}: [{a.lower:.4g}, {a.upper:.4g}] (gap {a.gap:.3g}, {a.boxes} boxes"
-            + (", converged" if a.converged else "")
-            + ")"
-            for a in g.axes
-        )
-        configured = t2.format_vector([a.configured for a in g.axes])
-        lines.append(f"{who}: configured {configured}; certified requirement {axes} [{g.verdict.upper()}]")
-    return lines
-
-
-def _reaching_line(cert: t2b.Theorem2Bound) -> str:
-    p = cert.reaching
-    if p is None:
-        return f"reaching condition: {cert.reaching_note}"
-    x = np.asarray(p.point)
-    names = t2b.VARIABLES
-    where = ", ".join(f"{n} = {t2.format_vector(x[3 * i : 3 * i + 3])}" for i, n in enumerate(names))
-    return (
-        f"reaching condition REFUTED (agent {p.agent}, full law with the configured delta, no coordination): at "
-        f"{where} (found at {p.how}) ball arithmetic proves s_{p.axis} s_dot_{p.axis} > 0 and s^T s_dot = "
-        f"{p.s_dot_s} > 0: V = s^T s/2 increases there; s = ({', '.join(p.s)}), s_dot = ({', '.join(p.s_dot)})"
-    )
 
 
 def _certified_data(cert: t2b.Theorem2Bound) -> dict:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 from fsmctl.model.scenario import Scenario
 from fsmctl.proofs.claims import CLAIMS, ClaimResult
+from fsmctl.proofs.theorem2_report import PREFORMATTED
 
 if TYPE_CHECKING:
     from fsmctl.proofs.errata import Erratum
@@ -266,6 +267,9 @@ def format_table(
     for r in results:
         lines.append(f"{r.id:{w}}  {r.equations:{e}}  {r.verdict:{v}}  {r.seconds:7.2f}  {r.title}")
         for para in r.detail.splitlines():
+            if para.startswith(PREFORMATTED) and para.strip():  # a table's row: aligned, never wrapped
+                lines.append(f"    {para}")
+                continue
             lines.extend(textwrap.wrap(para, width=width, initial_indent="    ", subsequent_indent="      ") or [""])
     if errata is not None:
         lines += ["", *format_errata(errata, results, width=width).splitlines()[:-1]]
@@ -290,7 +294,8 @@ def to_json(results: Sequence[ClaimResult], errata: Sequence[Erratum] | None = N
     -------
     str
         ``claims``: objects with ``id``, ``equations``, ``verdict``, ``detail``, ``seconds`` and also ``title``,
-        ``latex``, ``holds``, ``documented``, ``as_documented`` and ``data`` (the numbers of the scenario checks).
+        ``latex``, ``holds``, ``documented``, ``as_documented`` and ``data`` (the numbers of the scenario checks;
+        their ``agent`` and ``agents`` count from 1, as the paper's agents 1..n and the text).
         ``outcome``: :func:`outcome` (``as_documented``, ``line``, ...).  ``errata``: null, or objects
         with the fields of ``generated/errata.json`` (``id``, ``equation``, ``as_printed``, ``correct``,
         ``residual``, ``consequence``, the LaTeX, ``checked``) and ``claim``, the id of the claim that examines
@@ -361,7 +366,7 @@ def to_markdown(
         out += [f"## {r.id}", "", f"*Eq. {r.equations}* — {r.title}. Verdict: **{r.verdict}**.", ""]
         if r.latex:
             out += ["$$", r.latex, "$$", ""]
-        out += [f"- {line}" for line in r.detail.splitlines()]
+        out += _markdown_detail(r.detail)
         out.append("")
     if errata is not None:
         claims = _claims_of(results)
@@ -382,6 +387,23 @@ def to_markdown(
             out += [f"- `{e.id}` (eq. {e.equation}): printed ${e.as_printed_latex}$, correct ${e.correct_latex}$"]
         out.append("")
     return "\n".join(out)
+
+
+def _markdown_detail(detail: str) -> list[str]:
+    """A claim's detail as Markdown: one bullet per line; a run of lines indented by two spaces (a table, e.g.
+    :func:`fsmctl.proofs.theorem2_report.requirement_table`) as a fenced block, its alignment kept."""
+    out: list[str] = []
+    block: list[str] = []
+    for line in [*detail.splitlines(), None]:
+        if line is not None and line.startswith(PREFORMATTED) and line.strip():
+            block.append(line[len(PREFORMATTED) :])
+            continue
+        if block:
+            out += ["", "```text", *block, "```", ""]
+            block = []
+        if line is not None:
+            out.append(f"- {line}")
+    return out
 
 
 def write_report(

@@ -143,7 +143,7 @@ def fly_counterexample(
     True
     """
     d, point = _point(certificate)
-    agent = scenario.agents[d["agent"]["index"]]
+    agent = scenario.agents[d["agent"]["number"] - 1]
     se = np.array([point[f"sigma_e[{k}]"] for k in range(3)])
     we = np.array([point[f"omega_e[{k}]"] for k in range(3)])
     dist = np.array([point[f"d[{k}]"] for k in range(3)])
