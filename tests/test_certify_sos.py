@@ -132,11 +132,15 @@ def test_pd_example_ultimately_bounded_by_sum_of_squares(tmp_path):
     from fsmctl.proofs import SearchSettings, StateRegion, Uncertainty, certify_law, check_certificate
 
     D = (0.02, 0.024, 0.022)
+    seen = []
     c = certify_law(
         EXAMPLES / "my_law.py", scenario=EXAMPLES / "my_law.toml", region=StateRegion(0.2, 0.05),
-        uncertainty=Uncertainty(disturbance=D), settings=SearchSettings(max_seconds=5),
+        uncertainty=Uncertainty(disturbance=D), settings=SearchSettings(max_seconds=5), stage=seen.append,
     )  # fmt: skip
     assert (c.verdict, c.kind) == ("certified", "ultimately bounded")
+    # the certified candidate's steps end at the sum of squares: no branch and bound after it
+    last = [s.step for s in seen if s.index == len(c.attempts)]
+    assert last == ["the boundary level", "sum of squares"]
     assert c.outcome["sos"] and "sum-of-squares" in c.method()
     assert c.candidate["kind"] in ("invariant ellipsoid", "quadratic")
     P = np.array(c.candidate["P"], float)

@@ -98,8 +98,8 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
                    help="auto: the law's declared V, then the V fsmctl finds (cross term, quadratic); declared: only "
                    "the law's own V (default: auto)")  # fmt: skip
     s.add_argument("--seconds", type=float, default=search.max_seconds, metavar="S",
-                   help=f"budget of the branch and bound per candidate V (default: {search.max_seconds:g}); up to 3 "
-                        "candidates, plus the origin's argument and the levels: the run takes longer")  # fmt: skip
+                   help=f"budget of the branch and bound per candidate V (default: {search.max_seconds:g}); up to 5 "
+                        "candidates, plus each one's boundary level, sum of squares, origin's argument and levels: the run takes longer")  # fmt: skip
     add_out_option(p, None, help="output folder: certificate.json, certificate.md and, for a counterexample, its "
                    "flight's figure (default: ./certify-<law>)")  # fmt: skip
     s.add_argument("--report", type=Path, default=None, metavar="FILE.md",
@@ -164,8 +164,6 @@ def _uncertainty(args, scenario, agent: int):
 
 
 def _certify(args) -> int:
-    from tqdm.auto import tqdm
-
     from fsmctl.cli.main import UsageError
     from fsmctl.errors import InputError
     from fsmctl.model.laws import resolve_law
@@ -173,11 +171,13 @@ def _certify(args) -> int:
     from fsmctl.proofs.certificate import certify_law
     from fsmctl.proofs.certify import SearchSettings
     from fsmctl.proofs.certify_problem import StateRegion
-    from fsmctl.studies.certify_flight import flight_scenario, fly_counterexample
-    from fsmctl.studies.figures import save_figure
+    from fsmctl.studies.certify_flight import flight_scenario
 
     region = StateRegion(args.region_sigma, args.region_omega, args.region_z)  # bad input first, before any work
     code = resolve_law(args.law)
+    folder = args.out or Path(f"certify-{code.name}")
+    out, report = folder / "certificate.json", args.report or folder / "certificate.md"
+    _check_targets(args, folder, report)
     scenario = load_scenario(args.scenario or "paper", case=args.case)
     if code.name != scenario.law.name:
         scenario = scenario.with_law(args.law)
@@ -191,37 +191,104 @@ def _certify(args) -> int:
             raise UsageError(f"--fly {args.fly:g}: {exc}") from None
     settings = SearchSettings(max_seconds=args.seconds)
     print(f"certify {code.name}: region {region.describe(code.n_states)}; {uncertainty.describe()}", file=sys.stderr)
-    shown = sys.stderr.isatty() if args.progress is None else args.progress
-    with tqdm(total=100.0, unit="%", desc="branch and bound", disable=not shown, file=sys.stderr) as bar:
-
-        def progress(boxes: int, fraction: float) -> None:
-            bar.n = round(100 * fraction, 1)
-            bar.set_postfix_str(f"{boxes} boxes", refresh=True)
-
+    with _Bars(sys.stderr.isatty() if args.progress is None else args.progress) as bars:
         cert = certify_law(
             args.law, scenario=scenario, agent=args.agent - 1, region=region, uncertainty=uncertainty,
-            settings=settings, candidates=args.candidate, progress=progress,
+            settings=settings, candidates=args.candidate, progress=bars.progress, stage=bars.stage,
         )  # fmt: skip
-    folder = args.out or Path(f"certify-{code.name}")
-    out = folder / "certificate.json"
-    report = args.report or folder / "certificate.md"
+    return _write(args, cert, scenario, folder, out, report)
+
+
+def _check_targets(args, folder: Path, report: Path) -> None:
+    """``--out`` must be a folder (or a path to make one) and ``--report`` a file: refused before the search."""
+    from fsmctl.cli.main import UsageError
+
+    if folder.exists() and not folder.is_dir():
+        raise UsageError(
+            f"--out {folder} is an existing file; --out names a folder (certificate.json and certificate.md are written "
+            f"in it): give a new or existing folder, or remove {folder}"
+        )
+    if args.out is not None and not folder.exists() and folder.suffix.lower() in (".json", ".md"):
+        raise UsageError(
+            f"--out {folder}: --out names a folder (certificate.json and certificate.md are written in it), not a "
+            f"file: give e.g. --out {folder.with_suffix('')}"
+        )
+    if report.is_dir():
+        raise UsageError(f"--report {report}: a folder exists there; --report names the Markdown file: give FILE.md")
+
+
+def _write(args, cert, scenario, folder: Path, out: Path, report: Path) -> int:
+    """Fly a counterexample, write the files (saying which earlier ones were replaced) and print the report."""
+    from fsmctl.studies.certify_flight import fly_counterexample
+    from fsmctl.studies.figures import save_figure
+
+    replaced = [p for p in (out, report) if p.is_file()]
+    # an earlier certificate's flight (the figure's files are the tool's own, beside its certificate)
+    stale = [p for p in (folder / "counterexample.png", folder / "counterexample.svg") if p.is_file() and out.is_file()]
     figure = None
     if cert.verdict == "counterexample" and args.fly > 0:
         flight = fly_counterexample(cert, scenario, t_final=args.fly)
         cert.notes.append(flight.summary())
         cert.notes.extend(flight.notes)
         figure = save_figure(flight.figure(), folder / "counterexample")[0]
+    else:
+        for p in stale:  # an earlier run's flight: it does not belong to the new certificate
+            p.unlink()
     cert.write(out, report)
+    said = ""
+    if replaced:
+        removed = f"; its flight's figure removed ({', '.join(p.name for p in stale)})" if stale and not figure else ""
+        said = f"an earlier certificate was replaced: {' and '.join(map(str, replaced))}{removed}"
     if args.json:
         d = cert.as_dict()
         d.pop("tree")
         print(json.dumps(d, indent=1, default=str))
-    else:
-        print("\n".join(cert.lines()))
-        print(f"certificate written to {out} and {report}; re-check: fsmctl certify --check {out}")
-        if figure is not None:
-            print(f"the counterexample's flight: {figure}")
+        if said:
+            print(said, file=sys.stderr)  # stdout holds the JSON alone
+        return 0 if cert.verdict == "certified" else 1
+    print("\n".join(cert.lines()))
+    if said:
+        print(said)
+    print(f"certificate written to {out} and {report}; re-check: fsmctl certify --check {out}")
+    if figure is not None:
+        print(f"the counterexample's flight: {figure}")
     return 0 if cert.verdict == "certified" else 1
+
+
+class _Bars:
+    """The progress bars on stderr: one per candidate, labelled with it, its step after the label (the origin's argument
+    and the boundary level, the branch and bound with its boxes, the levels); none when not ``shown``."""
+
+    def __init__(self, shown: bool):
+        self.shown = shown
+        self.bar = None
+        self.title = None
+
+    def __enter__(self) -> _Bars:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+    def stage(self, s) -> None:
+        """``certify_law``'s ``stage`` callback (a :class:`fsmctl.proofs.certificate.CertifyStage`)."""
+        from tqdm.auto import tqdm
+
+        if s.title() != self.title:
+            if self.bar is not None:
+                self.bar.close()
+            self.title = s.title()
+            # a step before the candidates has no progress of its own: its name and the time it takes
+            plain = {} if s.candidate else {"bar_format": "{desc} [{elapsed}]"}
+            self.bar = tqdm(total=100.0, unit="%", desc=self.title, disable=not self.shown, file=sys.stderr, **plain)
+        if s.candidate:
+            self.bar.set_postfix_str(s.step, refresh=True)
+
+    def progress(self, boxes: int, fraction: float) -> None:
+        """``certify_law``'s ``progress`` callback."""
+        self.bar.n = round(100 * fraction, 1)
+        self.bar.set_postfix_str(f"branch and bound, {boxes} boxes", refresh=True)
 
 
 def _check(args) -> int:

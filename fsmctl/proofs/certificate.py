@@ -20,6 +20,7 @@ import hashlib
 import json
 import math
 import zlib
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,6 +50,7 @@ from fsmctl.proofs.certify_problem import (
     candidate_from_record,
     expression_tree,
 )
+from fsmctl.proofs.certify_report import CertifyStage, StageReporter, candidate_label, counterexample_table
 from fsmctl.proofs.certify_symbolic import reduced_torque
 from fsmctl.proofs.law_check import load_law_variants
 
@@ -248,7 +250,10 @@ class Certificate:
             rows.append(("inner level c_in", f"{o['inner_level']:.9g}"))
         text = [f"# Certificate: {self.law['name']}", "", self.headline(), "", "| | |", "|---|---|"]
         text += [f"| {k} | {_cell(v)} |" for k, v in rows]
-        text += ["", "## V", "", "```", self.candidate["expression"], "```", "", "## Report", ""]
+        text += ["", "## V", "", "```", self.candidate["expression"], "```", ""]
+        if self.verdict == COUNTEREXAMPLE:
+            text += counterexample_table(o["counterexample"])
+        text += ["## Report", ""]
         text += [f"- {line}" for line in self.lines()[1:]]
         text += ["", "Re-check: `fsmctl certify --check certificate.json` (the JSON file beside this report)", ""]
         return "\n".join(text)
@@ -300,10 +305,24 @@ def read_certificate(path: Path) -> dict:
     CertificateError
         Not a readable certificate of this format.
     """
+    path = Path(path)
+    if path.is_dir():
+        inside = path / "certificate.json"
+        there = f": give the certificate in it, {inside}" if inside.is_file() else ""
+        raise CertificateError(f"{path} is a folder; a certificate JSON file is expected{there}")
     try:
-        d = json.loads(Path(path).read_text("utf-8"))
+        text = path.read_text("utf-8")
     except (OSError, ValueError) as exc:
-        raise CertificateError(f"{path}: not a readable certificate ({exc})") from None
+        raise CertificateError(
+            f"{path}: not a readable certificate ({getattr(exc, 'strerror', None) or exc})"
+        ) from None
+    try:
+        d = json.loads(text)
+    except ValueError:
+        what = "a Markdown report" if path.suffix.lower() == ".md" else "not JSON"
+        beside = [p for p in (path.with_suffix(".json"), path.parent / "certificate.json") if p != path and p.is_file()]
+        there = f": the certificate beside it is {beside[0]}" if beside else ""
+        raise CertificateError(f"{path}: {what}; a certificate JSON file is expected{there}") from None
     if not isinstance(d, dict) or d.get("format") != CERTIFICATE_FORMAT:
         raise CertificateError(f"{path}: not a certificate of format {CERTIFICATE_FORMAT}")
     try:
@@ -478,7 +497,8 @@ def certify_law(
     uncertainty: Uncertainty | None = None,
     settings: SearchSettings | None = None,
     candidates: str = "auto",
-    progress=None,
+    progress: Callable[[int, float], None] | None = None,
+    stage: Callable[[CertifyStage], None] | None = None,
 ) -> Certificate:
     """Certify a law's closed loop over a region with the uncertainty, or refute it, or say why not.
 
@@ -507,6 +527,10 @@ def certify_law(
         declared ``V`` is then refuted even when the law is stable).
     progress : callable, optional
         ``progress(boxes, fraction_decided)`` during each search.
+    stage : callable, optional
+        ``stage(CertifyStage)`` when the work moves on (:data:`fsmctl.proofs.certify_report.STEPS`): the candidates
+        being chosen, then for each candidate its boundary level, its sum of squares (ultimately bounded questions),
+        its origin's argument, its branch and bound and its levels (:class:`fsmctl.proofs.certify_report.CertifyStage`).
 
     Returns
     -------
@@ -554,6 +578,8 @@ def certify_law(
     notes.append(f"the law's torque: {problem.route}")
     if candidates not in CANDIDATE_CHOICES:
         raise CertificateError(f"candidates must be one of {CANDIDATE_CHOICES}, got {candidates!r}")
+    stages = StageReporter(stage, progress)
+    stages.choosing()
     chosen_candidates, more = choose_candidates(
         problem, symbolic, params, J0, _vertices(problem, uncertainty), which=candidates
     )
@@ -563,8 +589,9 @@ def certify_law(
     if sc.simulation.control_period:
         notes.append("the scenario samples its control: certify treats the continuous-time loop")
     outcomes: list[CandidateOutcome] = []
-    for cand in chosen_candidates:
-        o = certify_candidate(problem, cand, settings, progress=progress)
+    for i, cand in enumerate(chosen_candidates):
+        stages.candidate(candidate_label(cand), i + 1, len(chosen_candidates))
+        o = certify_candidate(problem, cand, settings, progress=stages.progress, stage=stages.step)
         outcomes.append(o)
         if o.verdict == CERTIFIED:
             break

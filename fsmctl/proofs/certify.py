@@ -66,6 +66,7 @@ from fsmctl.proofs.certify_problem import (
     disturbance_symbols,
     state_symbols,
 )
+from fsmctl.proofs.certify_report import BOUNDARY, LEVELS, ORIGIN, SEARCH, SOS
 from fsmctl.proofs.certify_sos import exact_polynomial, sos_ultimate_bound
 from fsmctl.proofs.quadratic_forms import invariant_ellipsoid, quadratic_lyapunov
 from fsmctl.symbolic.law import Law
@@ -458,6 +459,7 @@ def certify_candidate(
     settings: SearchSettings,
     *,
     progress: Callable[[int, float], None] | None = None,
+    stage: Callable[[str], None] | None = None,
 ) -> CandidateOutcome:
     """Search a certificate for one candidate (see the module docstring).
 
@@ -471,22 +473,28 @@ def certify_candidate(
         The budget.
     progress : callable, optional
         ``progress(boxes, fraction_decided)``.
+    stage : callable, optional
+        ``stage(step)`` before each step (:data:`fsmctl.proofs.certify_report.STEPS`).
 
     Returns
     -------
     CandidateOutcome
     """
     t0 = time.perf_counter()
+    report = stage or (lambda step: None)
+    report(BOUNDARY)
     progs = lyapunov_programs(problem, candidate.expression)
     asymptotic = not np.any(problem.hi[problem.n_state :][_motion_mask(problem)] > 0)
     c_bnd = boundary_level(problem, progs, BOUNDARY_BUDGET)
     sos_why = ""
     if not asymptotic and c_bnd > 0:
+        report(SOS)
         sos = sos_outcome(problem, candidate, progs, c_bnd)
         if isinstance(sos, CandidateOutcome):
             sos.seconds = time.perf_counter() - t0
             return sos
         sos_why = sos
+    report(ORIGIN)
     core = origin_argument(problem, progs)
     if asymptotic and core.get("passed") and core["r_star"] > 0:  # pragma: no cover - w0 = G = 0 at an equilibrium
         core = QuadraticCore(passed=False, why="V_dot(0) = 0 and grad V_dot(0) = 0 could not be proved")
@@ -497,6 +505,7 @@ def certify_candidate(
     # ultimately bounded: the leaves with V <= INNER_FRACTION c_bnd join the inner set unproved (V_dot >= 0 is
     # expected somewhere near the origin, the search need not resolve where)
     c_target = INNER_FRACTION * c_bnd if not asymptotic and c_bnd > 0 else None
+    report(SEARCH)
     search = prove_negative(
         progs.W, problem.lo, problem.hi, gradient=progs.dW, budget=settings.budget(seconds),
         min_width=settings.min_width, exclude=excluded(problem, progs, core, c_target), progress=progress,
@@ -506,6 +515,7 @@ def certify_candidate(
     out.search = search
     out.boundary_level = c_bnd
     out.inner_target = c_target
+    report(LEVELS)
     _judge(problem, progs, out, asymptotic)
     if sos_why and out.verdict == INCONCLUSIVE:
         out.difficulty = (
