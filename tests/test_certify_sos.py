@@ -164,14 +164,33 @@ def test_pd_example_ultimately_bounded_by_sum_of_squares(tmp_path):
     assert not check_certificate(path).ok
 
 
-def test_inertia_uncertainty_keeps_the_branch_and_bound():
-    """The sum-of-squares route needs the nominal inertia: with an inertia uncertainty it says why it was not used."""
-    from fsmctl.proofs import SearchSettings, StateRegion, Uncertainty, certify_law
+def test_inertia_uncertainty_certified_by_sum_of_squares(tmp_path):
+    """With J = (1 + theta) J0, |theta| <= 0.1, the model gains the exact factor q = 1/(1 + theta) - 1/(1 - a^2):
+    certified by sum of squares, the disturbed equilibria (sigma = d / K for every inertia) inside the inner set,
+    re-checked from the file; the same file with a larger inertia set is refused (the identity's boxes are not
+    that question's)."""
+    import json
 
+    from fsmctl.proofs import SearchSettings, StateRegion, Uncertainty, certify_law, check_certificate
+
+    D = (0.02, 0.024, 0.022)
     c = certify_law(
-        EXAMPLES / "my_law.py", scenario=EXAMPLES / "my_law.toml", region=StateRegion(0.1, 0.02),
-        uncertainty=Uncertainty(inertia=0.05, disturbance=0.005), settings=SearchSettings(max_seconds=10),
+        EXAMPLES / "my_law.py", scenario=EXAMPLES / "my_law.toml", region=StateRegion(0.2, 0.05),
+        uncertainty=Uncertainty(inertia=0.1, inertia_set="proportional", disturbance=D),
+        settings=SearchSettings(max_seconds=5),
     )  # fmt: skip
-    assert not c.outcome.get("sos")
-    if c.verdict != "certified":
-        assert "nominal inertia" in c.outcome["difficulty"]
+    assert (c.verdict, c.kind) == ("certified", "ultimately bounded")
+    sos = c.outcome["sos"]
+    assert sos["variables"][-1] == "q[0]" and "proportional" not in sos["model"] and "1/(1 + theta)" in sos["model"]
+    P = np.array(c.candidate["P"], float)
+    K = c.agent["parameters"]["K"]
+    for signs in itertools.product((-1, 1), repeat=3):
+        x = np.concatenate([np.array(signs) * np.array(D) / K, np.zeros(3)])
+        assert x @ P @ x <= c.outcome["inner_level"]
+    path = tmp_path / "c.json"
+    c.write(path)
+    assert check_certificate(path).certified
+    d = json.loads(path.read_text())
+    d["uncertainty"]["inertia"] = 0.2
+    path.write_text(json.dumps(d))
+    assert not check_certificate(path).ok

@@ -28,8 +28,9 @@ The answer is one of three, and never upgraded from one to another:
     the budget ran out, or boxes were too small to split further, with the covered fraction and where the
     difficulty lies (e.g. the switching surfaces of ``sgn``).
 
-An ultimately bounded question whose closed loop and candidate are polynomial (:attr:`fsmctl.proofs.certify_problem.CertifyProblem.polynomial_field`:
-the nominal inertia, the reference at rest, no torque limit) is first answered by a sum-of-squares identity checked
+An ultimately bounded question whose closed loop and candidate are polynomial (:mod:`fsmctl.proofs.certify_polynomial`:
+the reference at rest, no torque limit, the nominal inertia or the proportional set or independent principal moments
+of a diagonal ``J0``) is first answered by a sum-of-squares identity checked
 in exact rational arithmetic (:mod:`fsmctl.proofs.certify_sos`, :func:`sos_outcome`): ``V_dot <= -lambda (V - c_in)``
 on the whole annulus ``{c_in <= V <= c}`` at once; the branch and bound answers when it does not apply or finds
 nothing.
@@ -63,11 +64,10 @@ from fsmctl.proofs.certify_problem import (
     Candidate,
     CertifyProblem,
     candidate_expression,
-    disturbance_symbols,
-    state_symbols,
 )
 from fsmctl.proofs.certify_report import BOUNDARY, LEVELS, ORIGIN, SEARCH, SOS
 from fsmctl.proofs.certify_sos import exact_polynomial, sos_ultimate_bound
+from fsmctl.proofs.certify_symbolic import state_symbols
 from fsmctl.proofs.quadratic_forms import invariant_ellipsoid, quadratic_lyapunov
 from fsmctl.symbolic.law import Law
 
@@ -533,23 +533,20 @@ loop's graphs (to ``1e-9``) before it is used"""
 def sos_polynomials(
     problem: CertifyProblem, V, W_function: ca.Function
 ) -> tuple[dict, dict, np.ndarray, list[str]] | str:
-    """``(V, V_dot, half_widths, names)`` as exact polynomials in the state and disturbance inputs of positive width
-    (:func:`fsmctl.proofs.certify_sos.exact_polynomial`), or why the sum-of-squares route does not apply."""
-    if problem.polynomial_field is None:
-        return (
-            "the closed loop is not polynomial here (it needs the law's torque reduced symbolically, the nominal "
-            "inertia, the reference at rest and no torque limit)"
-        )
+    """``(V, V_dot, half_widths, names)`` as exact polynomials in the state and the polynomial model's uncertain
+    inputs of positive width (:class:`fsmctl.proofs.certify_polynomial.PolynomialLoop`,
+    :func:`fsmctl.proofs.certify_sos.exact_polynomial`), or why the sum-of-squares route does not apply."""
+    loop = problem.polynomial
+    if isinstance(loop, str):
+        return f"the closed loop is not polynomial here: {loop}"
     n = problem.n_state
     s, w, z = state_symbols(n - 6)
-    d = disturbance_symbols()
-    symbols = [*s, *w, *z, *d]
-    rows = list(range(n)) + [problem.names.index(f"d[{k}]") for k in range(3)]
-    half = problem.hi[rows]
+    symbols = [*s, *w, *z, *loop.symbols()]
+    half = np.concatenate([problem.hi[:n], loop.half_widths])
     zero = {x: 0 for x, h in zip(symbols, half, strict=True) if h == 0}
     keep = [x for x, h in zip(symbols, half, strict=True) if h > 0]
     Vr = sp.sympify(V).xreplace({f: sp.Rational(f) for f in sp.sympify(V).atoms(sp.Float)}).xreplace(zero)
-    field_ = problem.polynomial_field.xreplace(zero)
+    field_ = loop.field.xreplace(zero)
     Vp = exact_polynomial(Vr, keep)
     if Vp is None:
         return "V is not a polynomial"
@@ -557,17 +554,19 @@ def sos_polynomials(
     Wp = exact_polynomial(V_dot, keep)
     if Wp is None:
         return "V_dot is not a polynomial"
-    # the polynomial model and the graphs the branch and bound encloses are built apart: they must agree
-    f = sp.lambdify(keep, V_dot, "numpy")
+    # the polynomial model and the graphs the branch and bound encloses are built apart: they must agree at the
+    # true loop's points (the model's inputs computed from the inertia and the disturbance there)
+    f = sp.lambdify(symbols, V_dot, "numpy")
     rng = np.random.default_rng(29)
-    pos = [rows[k] for k, h in enumerate(half) if h > 0]
+    theta = [k for k, name in enumerate(problem.names) if name.startswith("theta")]
+    dist = [problem.names.index(f"d[{k}]") for k in range(3)]
     for _ in range(SOS_AGREEMENT_POINTS):
-        x = np.zeros(problem.lo.size)
-        x[pos] = rng.uniform(problem.lo[pos], problem.hi[pos])
-        a, b = float(f(*x[pos])), float(W_function(x))
+        x = rng.uniform(problem.lo, problem.hi)
+        point = np.concatenate([x[:n], loop.inputs_at(x[3:6], x[theta], x[dist])])
+        a, b = float(f(*point)), float(W_function(x))
         if not abs(a - b) <= 1e-9 * (1 + abs(b)):
             return f"the polynomial V_dot disagrees with the closed loop's graphs ({a:.17g} vs {b:.17g})"
-    names = [problem.names[r] for r in pos]
+    names = [str(x) for x in keep]
     return Vp, Wp, half[half > 0], names
 
 
@@ -589,7 +588,13 @@ def sos_outcome(
     c_in = _float_above(res.inner_level)
     out.inner_level = c_in
     rate = _float_below(res.rate)
-    out.sos = {**res.record, "detail": res.detail, "rate": rate, "seconds": res.seconds}
+    out.sos = {
+        **res.record,
+        "model": problem.polynomial.how,
+        "detail": res.detail,
+        "rate": rate,
+        "seconds": res.seconds,
+    }
     # V_dot <= -lambda (V - c_in) <= -lambda (c_mid - c_in) on {c_mid <= V <= c}
     c_mid = 0.5 * (c_in + out.level)
     out.decrease = rate * (c_mid - c_in) * (1 - 1e-12)

@@ -37,9 +37,9 @@ from fsmctl.codegen.casadi_bridge import SympyToCasadi
 from fsmctl.errors import InputError
 from fsmctl.model.generated_code import law_sx_function
 from fsmctl.model.laws import LawCode
-from fsmctl.proofs.certify_symbolic import ReducedTorque
+from fsmctl.proofs.certify_polynomial import PolynomialLoop, polynomial_loop
+from fsmctl.proofs.certify_symbolic import ReducedTorque, state_symbols
 from fsmctl.symbolic.law import Law, contract_names
-from fsmctl.symbolic.model import plant_rhs
 from fsmctl.symbolic.mrp import mrp_G
 
 __all__ = [
@@ -51,10 +51,7 @@ __all__ = [
     "build_problem",
     "candidate_expression",
     "candidate_from_record",
-    "disturbance_symbols",
     "expression_tree",
-    "polynomial_field",
-    "state_symbols",
 ]
 
 INERTIA_SETS = ("entries", "proportional")
@@ -267,14 +264,6 @@ class Candidate:
         return "the law's declared V"
 
 
-def state_symbols(n_states: int) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
-    """The SymPy columns ``sigma_e``, ``omega_e``, ``z`` a candidate is written in."""
-    s = sp.Matrix(sp.symbols("sigma_e[0:3]", real=True))
-    w = sp.Matrix(sp.symbols("omega_e[0:3]", real=True))
-    z = sp.Matrix(sp.symbols(f"z[0:{n_states}]", real=True)) if n_states else sp.zeros(0, 1)
-    return s, w, z
-
-
 def candidate_expression(
     law: Law, params: np.ndarray, J0: np.ndarray, *, epsilon: float | None = None, P: np.ndarray | None = None
 ) -> sp.Expr:
@@ -369,7 +358,7 @@ def candidate_from_record(record: dict, n_states: int) -> sp.Expr:
     Parameters
     ----------
     record : dict
-        With ``"tree"`` (:func:`expression_tree` of the expression in :func:`state_symbols`).
+        With ``"tree"`` (:func:`expression_tree` of the expression in :func:`fsmctl.proofs.certify_symbolic.state_symbols`).
     n_states : int
         The law's number of states.
 
@@ -384,7 +373,8 @@ def candidate_from_record(record: dict, n_states: int) -> sp.Expr:
 
     Examples
     --------
-    >>> from fsmctl.proofs.certify_problem import candidate_from_record, expression_tree, state_symbols
+    >>> from fsmctl.proofs.certify_problem import candidate_from_record, expression_tree
+    >>> from fsmctl.proofs.certify_symbolic import state_symbols
     >>> s, w, z = state_symbols(0)
     >>> V = 2 * s[0] ** 2 + 0.5 * w[1] * s[2]
     >>> candidate_from_record({"tree": expression_tree(V)}, 0) == V
@@ -455,9 +445,9 @@ class CertifyProblem:
     inertia_pairs: list[tuple[int, int]] = field(default_factory=list)
     route: str = "the generated code's graphs"
     """how the law's torque enters: its generated graphs, or its SymPy stages reduced at sigma_d = 0"""
-    polynomial_field: sp.ImmutableMatrix | None = None
-    """``(sigma_e_dot, omega_e_dot, z_dot)`` in SymPy, in the state symbols and ``d[k]`` (floats exact), when the
-    closed loop is that simple (:func:`polynomial_field`): the sum-of-squares route's model"""
+    polynomial: PolynomialLoop | str = "the law's torque was not reduced symbolically"
+    """the closed loop as exact polynomials (:func:`fsmctl.proofs.certify_polynomial.polynomial_loop`): the
+    sum-of-squares route's model, or why it is not one"""
 
     def state_slice(self) -> slice:
         return slice(0, self.n_state)
@@ -584,61 +574,14 @@ def build_problem(
         + [f"omega_d[{k}]" for k in range(3)]
         + [f"omega_d_dot[{k}]" for k in range(3)]
     )
-    poly = None
-    if route != "the generated code's graphs" and law is not None and reduced is not None:
-        poly = polynomial_field(law, reduced, J0, uncertainty, torque_limit)
+    poly: PolynomialLoop | str = "the law's torque was not reduced symbolically (its generated graphs are enclosed)"
+    if route != "the generated code's graphs" and law is not None:
+        poly = polynomial_loop(
+            law, reduced, J0, half[3:6], inertia=uncertainty.inertia, inertia_set=uncertainty.inertia_set,
+            disturbance=uncertainty.disturbance, reference_at_rest=not any(uncertainty.reference_rate)
+            and not any(uncertainty.reference_acceleration), torque_limit=torque_limit,
+        )  # fmt: skip
     return CertifyProblem(names, 6 + nz, -hi, hi.copy(), x, field_, u, pairs, route, poly)
-
-
-def disturbance_symbols() -> sp.Matrix:
-    """The SymPy column ``d[0:3]`` (N m) of :attr:`CertifyProblem.polynomial_field`."""
-    return sp.Matrix(sp.symbols("d[0:3]", real=True))
-
-
-def polynomial_field(
-    law: Law, reduced: ReducedTorque, J0: np.ndarray, uncertainty: Uncertainty, torque_limit: float
-) -> sp.ImmutableMatrix | None:
-    """The closed loop ``(sigma_e_dot, omega_e_dot, z_dot)`` as SymPy expressions in the state symbols and ``d``
-    (eqs 3-4 by :func:`fsmctl.symbolic.model.plant_rhs`, the reduced torque, every float as its exact rational),
-    for the nominal inertia, the reference at rest and no torque limit; None otherwise.
-
-    Parameters
-    ----------
-    law : fsmctl.symbolic.law.Law
-        The law's symbols.
-    reduced : ReducedTorque
-        Its torque at ``sigma_d = 0`` (``sigma_e = sigma``).
-    J0 : numpy.ndarray
-        3x3.
-    uncertainty : Uncertainty
-        Must have no inertia uncertainty and the reference at rest.
-    torque_limit : float
-        Must be infinite.
-
-    Returns
-    -------
-    sympy.ImmutableMatrix or None
-    """
-    if uncertainty.inertia or any(uncertainty.reference_rate) or any(uncertainty.reference_acceleration):
-        return None
-    if math.isfinite(torque_limit):
-        return None
-    s, w, z = state_symbols(law.n_states)
-    sym = law.symbols
-    rep = dict(zip(list(sym["sigma"]), list(s), strict=True))
-    rep.update(zip(list(sym["omega"]), list(w), strict=True))
-    rep.update(zip(list(sym["z"]), list(z), strict=True))
-    exact = {}
-
-    def rational(e: sp.Expr) -> sp.Expr:
-        e = sp.sympify(e).xreplace(rep)
-        return e.xreplace({f: exact.setdefault(f, sp.Rational(f)) for f in e.atoms(sp.Float)})
-
-    u = sp.Matrix(reduced.u).applyfunc(rational)
-    z_dot = sp.Matrix(reduced.z_dot).applyfunc(rational) if reduced.z_dot.rows else sp.zeros(0, 1)
-    J = sp.Matrix(3, 3, [sp.Rational(float(v)) for v in np.asarray(J0, float).ravel()])
-    sigma_dot, omega_dot = plant_rhs(J, s, w, u + disturbance_symbols())
-    return sp.ImmutableMatrix(sp.Matrix.vstack(sp.Matrix(sigma_dot), sp.Matrix(omega_dot), z_dot))
 
 
 def _reduced_graphs(law: Law, reduced: ReducedTorque, se, omega, z, wd, wdd, torque_limit: float):

@@ -1,7 +1,7 @@
 """Ultimately bounded certificates by sum of squares, checked in exact rational arithmetic.
 
-For a polynomial closed loop (the law's torque a polynomial, the nominal inertia, the reference at rest, no torque
-limit) and a polynomial candidate ``V`` (a quadratic ``x^T P x``), the question "``V_dot < 0`` on
+For a polynomial closed loop (:mod:`fsmctl.proofs.certify_polynomial`: the law's torque a polynomial, the reference
+at rest, no torque limit) and a polynomial candidate ``V`` (a quadratic ``x^T P x``), the question "``V_dot < 0`` on
 ``{c_in <= V <= c}`` for every disturbance ``|d_k| <= D_k``" is a polynomial inequality on a semialgebraic set.
 A Positivstellensatz identity (Putinar's form) answers it for the whole set at once, with no box splitting:
 

@@ -21,7 +21,7 @@ import sympy as sp
 from fsmctl.proofs.law_check import _on_unit_ball, _rational_zero, _with_budget
 from fsmctl.symbolic.law import Law
 
-__all__ = ["SYMBOLIC_SECONDS", "ReducedTorque", "reduced_torque"]
+__all__ = ["SYMBOLIC_SECONDS", "ReducedTorque", "reduced_torque", "state_symbols"]
 
 SYMBOLIC_SECONDS = 20.0
 """the budget of the symbolic reduction (it runs in a forked child that is stopped at the limit)"""
@@ -88,3 +88,11 @@ def reduced_torque(
     if not finished or not isinstance(value, ReducedTorque):
         return None
     return value
+
+
+def state_symbols(n_states: int) -> tuple[sp.Matrix, sp.Matrix, sp.Matrix]:
+    """The SymPy columns ``sigma_e``, ``omega_e``, ``z`` a candidate is written in."""
+    s = sp.Matrix(sp.symbols("sigma_e[0:3]", real=True))
+    w = sp.Matrix(sp.symbols("omega_e[0:3]", real=True))
+    z = sp.Matrix(sp.symbols(f"z[0:{n_states}]", real=True)) if n_states else sp.zeros(0, 1)
+    return s, w, z

@@ -59,6 +59,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 
 import cvxpy as cp
+import flint
 import numpy as np
 
 __all__ = [
@@ -160,19 +161,10 @@ def _fraction_matrix(M: Sequence[Sequence[object]] | np.ndarray, name: str) -> l
 
 
 def _leading_minors_positive(N: list[list[int]]) -> bool:
-    """Sylvester's criterion on a symmetric integer matrix: Bareiss elimination, whose pivots are the minors."""
-    a = [row[:] for row in N]
-    n = len(a)
-    previous = 1
-    for k in range(n):
-        pivot = a[k][k]
-        if pivot <= 0:
-            return False
-        for i in range(k + 1, n):
-            for j in range(k + 1, n):
-                a[i][j] = (pivot * a[i][j] - a[i][k] * a[k][j]) // previous
-        previous = pivot
-    return True
+    """Sylvester's criterion on a symmetric integer matrix: FLINT's fraction-free LU (Bareiss), whose pivots are
+    the leading principal minors; a row exchange means a zero leading minor (not positive definite)."""
+    P, _, _, U = flint.fmpz_mat(N).fflu()
+    return bool(P.is_one()) and all(U[k, k] > 0 for k in range(len(N)))
 
 
 def _positive_definite_fractions(F: list[list[Fraction]]) -> bool:
@@ -185,8 +177,8 @@ def positive_definite_exact(M: Sequence[Sequence[Fraction | float | int]] | np.n
     """Whether a symmetric matrix is positive definite, decided in exact rational arithmetic.
 
     Floats are taken as the exact dyadic rationals they are; Sylvester's criterion (all leading principal minors
-    positive) is evaluated by fraction-free Bareiss elimination on the integer matrix scaled by the common
-    denominator.
+    positive) is evaluated by fraction-free Bareiss elimination (FLINT's ``fmpz_mat.fflu``) on the integer matrix
+    scaled by the common denominator.
 
     Parameters
     ----------

@@ -23,7 +23,8 @@ import sympy as sp
 from fsmctl.model.scenario import Scenario, Sinusoid
 from fsmctl.model.topology import all_to_all
 from fsmctl.proofs.certificate import Certificate
-from fsmctl.proofs.certify_problem import candidate_from_record, state_symbols
+from fsmctl.proofs.certify_problem import candidate_from_record
+from fsmctl.proofs.certify_symbolic import state_symbols
 from fsmctl.simulation.simulator import simulate
 
 __all__ = ["CounterexampleFlight", "fly_counterexample", "flight_scenario"]
