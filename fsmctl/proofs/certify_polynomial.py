@@ -66,7 +66,7 @@ class PolynomialLoop:
     >>> loop = PolynomialLoop(None, ("d[0]", "d[1]", "d[2]", "q[0]"), (0.2, 0.2, 0.2, 0.1 / 0.99), "",
     ...                       np.diag([20.0, 25.0, 30.0]), "proportional", 0.1)
     >>> loop.inputs_at(np.zeros(3), np.array([0.1]), np.array([0.2, 0.0, 0.0]))[3].round(6)  # 1/1.1 - 1/0.99
-    -0.100909
+    -0.10101
     """
 
     field: sp.ImmutableMatrix
