@@ -2276,13 +2276,15 @@ def _markdown_certify(res: dict) -> list[str]:
     c = res.get("certify")
     if not c:
         return []
-    lines = ["", "## fsmctl certify (issue 29)", "", "| case (docs/examples/my_law.py) | verdict | wall (s) | candidate |",
-             "|---|---|---|---|"]  # fmt: skip
+    lines = ["", "## fsmctl certify (issue 29)", "",
+             "| case (docs/examples/my_law.py) | verdict | wall (s) | ultimate bound | candidate |", "|---|---|---|---|---|"]  # fmt: skip
     for r in c["cases"]:
         verdict = r["verdict"] + (f" ({r['kind']})" if r.get("kind") else "")
         if r["verdict"] == "certified" and "sum-of-squares" in r.get("method", ""):
             verdict += ", by sum of squares"
-        lines.append(f"| {r['case']} | {verdict} | {r['wall_s']:.0f} | {r['candidate']} |")
+        _, _, bound = r.get("headline", "").partition("ultimate bound ")  # the certificate's own headline
+        bound = bound.replace("|", "\\|")  # a table cell
+        lines.append(f"| {r['case']} | {verdict} | {r['wall_s']:.0f} | {bound} | {r['candidate']} |")
     t = c.get("theorem2")
     if t:
         lines += [
