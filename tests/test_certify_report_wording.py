@@ -248,3 +248,11 @@ def test_the_guide_names_every_json_field(pd_disturbed):
     assert not missing, missing
     own = (ROOT / "docs" / "guide" / "own-law.md").read_text()
     assert "(certify.md)" in own and "fsmctl certify --law docs/examples/my_law.py" in own
+
+
+def test_the_stated_sets_are_printed_inside_the_certified_ones():
+    """A region's or an uncertainty's bound rounded up would describe a set larger than the one certified."""
+    u = Uncertainty(inertia=0.1234567, disturbance=(0.2, 0.0123456789, 0.22), reference_rate=2 / 3)
+    text = u.describe()
+    assert "|theta_kl| <= 0.123456;" in text and "(0.2, 0.0123456, 0.22) N m" in text
+    assert "|omega_d,k| <= 0.666666 rad/s" in text

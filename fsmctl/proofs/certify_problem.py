@@ -39,6 +39,7 @@ from fsmctl.errors import InputError
 from fsmctl.model.generated_code import law_sx_function
 from fsmctl.model.laws import LawCode
 from fsmctl.proofs.certify_symbolic import ReducedTorque
+from fsmctl.proofs.theorem2_report import round_outward
 from fsmctl.symbolic.law import Law, contract_names
 from fsmctl.symbolic.model import plant_rhs
 from fsmctl.symbolic.mrp import mrp_G
@@ -254,9 +255,9 @@ class Uncertainty:
         if self.inertia == 0:
             parts = ["J = J0"]
         elif self.inertia_set == "proportional":
-            parts = [f"J = (1 + theta) J0, |theta| <= {self.inertia:g}"]
+            parts = [f"J = (1 + theta) J0, |theta| <= {_inside(self.inertia)}"]
         else:
-            parts = [f"J_kl = J0_kl (1 + theta_kl), |theta_kl| <= {self.inertia:g}"]
+            parts = [f"J_kl = J0_kl (1 + theta_kl), |theta_kl| <= {_inside(self.inertia)}"]
         d = self.disturbance
         parts.append(f"|d_k| <= {_fmt3(d)} N m" if any(d) else "no disturbance")
         if any(self.reference_rate) or any(self.reference_acceleration):
@@ -284,8 +285,14 @@ class Uncertainty:
         }
 
 
+def _inside(x: float) -> str:
+    """A bound of a set the certificate covers, rounded down: the printed set lies inside the certified one."""
+    return round_outward(x, "down", 6)
+
+
 def _fmt3(v) -> str:
-    return f"{v[0]:g}" if v[0] == v[1] == v[2] else "(" + ", ".join(f"{x:g}" for x in v) + ")"
+    """Per-axis bounds: one number when the three agree, each rounded down (:func:`_inside`)."""
+    return _inside(v[0]) if v[0] == v[1] == v[2] else "(" + ", ".join(_inside(x) for x in v) + ")"
 
 
 @dataclass(frozen=True)
