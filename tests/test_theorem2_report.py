@@ -23,9 +23,10 @@ import fsmctl
 from fsmctl.cli.main import main
 from fsmctl.proofs import ProofContext, run_claims
 from fsmctl.proofs.report import format_table, to_json, to_markdown
+from fsmctl.proofs.rounding import round_outward
 from fsmctl.proofs.theorem2 import Region
 from fsmctl.proofs.theorem2_bound import PROVE_BUDGET, AgentBound, AxisBound, Theorem2Bound
-from fsmctl.proofs.theorem2_report import format_point, requirement_table, round_outward, verdict_line
+from fsmctl.proofs.theorem2_report import format_point, requirement_table, verdict_line
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples"
 ROW = re.compile(

@@ -124,9 +124,11 @@ def run(args: argparse.Namespace) -> int:
     Returns
     -------
     int
-        0 certified / re-checked, 1 otherwise; bad input raises :class:`fsmctl.cli.main.UsageError` (exit 2).
+        0 certified / re-checked, 1 otherwise; bad input raises :class:`fsmctl.cli.main.UsageError` or the library's
+        :class:`fsmctl.errors.InputError` (exit 2).
     """
     from fsmctl.cli.main import UsageError
+    from fsmctl.proofs.certify_problem import Uncertainty
 
     if args.certificate_file is not None:
         if args.law is not None:
@@ -136,10 +138,10 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError("give --law NAME|FILE.py (or --check FILE.json)")
     if not (math.isfinite(args.fly) and args.fly >= 0):
         raise UsageError(f"--fly must be a finite number >= 0, got {args.fly}")
-    for name in ("disturbance", "reference_rate", "reference_acceleration"):
+    for name in Uncertainty.BOUND_UNITS:  # the library's one check, before any work, naming the option
         v = getattr(args, name)
-        if v is not None and len(v) not in (1, 3):
-            raise UsageError(f"--{name.replace('_', '-')} takes one bound or three (one per axis), got {len(v)}")
+        if v is not None:
+            Uncertainty.axis_bounds(name, v, label=f"--{name.replace('_', '-')}")
     for name in ("region_sigma", "region_omega", "region_z", "seconds"):
         v = getattr(args, name)
         if not (math.isfinite(v) and v > 0):

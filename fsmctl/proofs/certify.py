@@ -782,6 +782,10 @@ def _difficulty(problem: CertifyProblem, progs: LyapunovPrograms, s: SignSearch,
     if s.exhausted:
         parts.append(
             "the budget ran out"
-            + (" (the screening share: V_dot is not negative definite at the origin)" if screened else "")
+            + (
+                " (V_dot is not negative definite at the origin: only a short search for a counterexample was run)"
+                if screened
+                else ""
+            )
         )
     return "; ".join(parts)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import casadi as ca
 import numpy as np
@@ -39,6 +40,7 @@ from fsmctl.model.generated_code import law_sx_function
 from fsmctl.model.laws import LawCode
 from fsmctl.proofs.certify_polynomial import PolynomialLoop, polynomial_loop
 from fsmctl.proofs.certify_symbolic import ReducedTorque, state_symbols
+from fsmctl.proofs.rounding import round_outward
 from fsmctl.symbolic.law import Law, contract_names
 from fsmctl.symbolic.mrp import mrp_G
 
@@ -135,10 +137,19 @@ class StateRegion:
         return np.array([self.sigma] * 3 + [self.omega] * 3 + [self.z] * n_states, dtype=float)
 
 
-def _triple(value, what: str) -> tuple[float, float, float]:
-    v = np.broadcast_to(np.asarray(value, dtype=float), (3,))
+def _triple(value, what: str, unit: str) -> tuple[float, float, float]:
+    """One bound for the three axes, or one per axis, each finite and >= 0 (see :meth:`Uncertainty.axis_bounds`)."""
+    try:
+        v = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise CertifyInputError(f"{what} takes one bound or three numbers ({unit}), got {value!r}") from None
+    if v.ndim > 1 or v.size not in (1, 3):
+        got = str(v.size) if v.ndim <= 1 else f"an array of shape {v.shape}"
+        raise CertifyInputError(f"{what} takes one bound or three ({unit}), got {got}")
+    v = np.broadcast_to(v.reshape(-1), (3,))
     if not np.all(np.isfinite(v) & (v >= 0)):
-        raise CertifyInputError(f"uncertainty: {what} must be 3 finite bounds >= 0, got {value!r}")
+        got = ", ".join(f"{x:g}" for x in np.asarray(value, dtype=float).reshape(-1))
+        raise CertifyInputError(f"{what} must be finite and >= 0 ({unit}), got {got}")
     return (float(v[0]), float(v[1]), float(v[2]))
 
 
@@ -175,13 +186,56 @@ class Uncertainty:
     reference_rate: tuple[float, float, float] | float = 0.0
     reference_acceleration: tuple[float, float, float] | float = 0.0
 
+    BOUND_UNITS: ClassVar[dict[str, str]] = {
+        "disturbance": "N m",
+        "reference_rate": "rad/s",
+        "reference_acceleration": "rad/s^2",
+    }
+    """the per-axis bounds and their units"""
+
     def __post_init__(self) -> None:
         if not (math.isfinite(self.inertia) and 0 <= self.inertia < 1):
             raise CertifyInputError(f"uncertainty: inertia must be in [0, 1), got {self.inertia!r}")
         if self.inertia_set not in INERTIA_SETS:
             raise CertifyInputError(f"uncertainty: inertia_set must be one of {INERTIA_SETS}, got {self.inertia_set!r}")
-        for name in ("disturbance", "reference_rate", "reference_acceleration"):
-            object.__setattr__(self, name, _triple(getattr(self, name), name))
+        for name in self.BOUND_UNITS:
+            object.__setattr__(self, name, self.axis_bounds(name, getattr(self, name)))
+
+    @classmethod
+    def axis_bounds(cls, name: str, value, label: str | None = None) -> tuple[float, float, float]:
+        """One of the per-axis bounds, checked: the one validation of every way of building an :class:`Uncertainty`.
+
+        Parameters
+        ----------
+        name : {"disturbance", "reference_rate", "reference_acceleration"}
+            Which bound (:attr:`BOUND_UNITS`).
+        value : float or sequence of float
+            One bound for the three axes, or three (one per axis), each finite and >= 0.
+        label : str, optional
+            How an error names the bound (e.g. a command-line option); default ``uncertainty: <name>``.
+
+        Returns
+        -------
+        tuple of 3 float
+
+        Raises
+        ------
+        CertifyInputError
+            Not one or three numbers, or a bound that is negative or not finite (one line).
+
+        Examples
+        --------
+        >>> from fsmctl.proofs.certify_problem import Uncertainty
+        >>> Uncertainty.axis_bounds("disturbance", 0.2)
+        (0.2, 0.2, 0.2)
+        >>> Uncertainty.axis_bounds("disturbance", (0.2, 0.24))
+        Traceback (most recent call last):
+        ...
+        fsmctl.proofs.certify_problem.CertifyInputError: uncertainty: disturbance takes one bound or three (N m), got 2
+        """
+        if name not in cls.BOUND_UNITS:
+            raise ValueError(f"name must be one of {tuple(cls.BOUND_UNITS)}, got {name!r}")
+        return _triple(value, label or f"uncertainty: {name}", cls.BOUND_UNITS[name])
 
     @property
     def at_rest_and_undisturbed(self) -> bool:
@@ -198,9 +252,9 @@ class Uncertainty:
         if self.inertia == 0:
             parts = ["J = J0"]
         elif self.inertia_set == "proportional":
-            parts = [f"J = (1 + theta) J0, |theta| <= {self.inertia:g}"]
+            parts = [f"J = (1 + theta) J0, |theta| <= {_inside(self.inertia)}"]
         else:
-            parts = [f"J_kl = J0_kl (1 + theta_kl), |theta_kl| <= {self.inertia:g}"]
+            parts = [f"J_kl = J0_kl (1 + theta_kl), |theta_kl| <= {_inside(self.inertia)}"]
         d = self.disturbance
         parts.append(f"|d_k| <= {_fmt3(d)} N m" if any(d) else "no disturbance")
         if any(self.reference_rate) or any(self.reference_acceleration):
@@ -228,8 +282,14 @@ class Uncertainty:
         }
 
 
+def _inside(x: float) -> str:
+    """A bound of a set the certificate covers, rounded down: the printed set lies inside the certified one."""
+    return round_outward(x, "down", 6)
+
+
 def _fmt3(v) -> str:
-    return f"{v[0]:g}" if v[0] == v[1] == v[2] else "(" + ", ".join(f"{x:g}" for x in v) + ")"
+    """Per-axis bounds: one number when the three agree, each rounded down (:func:`_inside`)."""
+    return _inside(v[0]) if v[0] == v[1] == v[2] else "(" + ", ".join(_inside(x) for x in v) + ")"
 
 
 @dataclass(frozen=True)

@@ -16,12 +16,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 
 import numpy as np
 
 from fsmctl.proofs import theorem2 as t2
 from fsmctl.proofs import theorem2_bound as t2b
+from fsmctl.proofs.rounding import round_outward
 
 __all__ = [
     "NEGLIGIBLE",
@@ -31,7 +31,6 @@ __all__ = [
     "format_point",
     "reaching_lines",
     "requirement_table",
-    "round_outward",
     "sampled_table",
     "search_line",
     "verdict_line",
@@ -51,39 +50,6 @@ UNITS = {"sigma_e": "", "omega_e": "rad/s", "omega_d": "rad/s", "u_d": "N m", "o
 """Units of the inputs :data:`fsmctl.proofs.theorem2_bound.VARIABLES` of a witness point."""
 
 MET, MISSED, OPEN = "met", "MISSED", "open"
-
-
-def round_outward(x: float, direction: str, digits: int = SIGNIFICANT_DIGITS) -> str:
-    """``x`` with ``digits`` significant digits, rounded down or up: a printed interval still encloses the exact one.
-
-    Parameters
-    ----------
-    x : float
-        The bound (``inf``: unbounded).
-    direction : {"down", "up"}
-        Round towards -inf (a lower bound) or +inf (an upper bound).
-    digits : int
-        Significant digits.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> round_outward(0.30032, "down"), round_outward(1.8461, "up"), round_outward(0.3, "down")
-    ('0.3', '1.85', '0.3')
-    >>> round_outward(9.9961, "up"), round_outward(0.0, "down"), round_outward(float("inf"), "up")
-    ('10', '0', 'inf')
-    """
-    if not math.isfinite(x):
-        return "inf" if x > 0 else "-inf"
-    if x == 0:
-        return "0"
-    d = Decimal(repr(float(x)))  # the shortest decimal that reads back as x
-    step = Decimal(1).scaleb(d.adjusted() - (digits - 1))
-    q = d.quantize(step, rounding=ROUND_FLOOR if direction == "down" else ROUND_CEILING)
-    return f"{float(q):.{digits}g}"
 
 
 def _sig(x: float) -> str:
@@ -197,7 +163,7 @@ def requirement_table(cert: t2b.Theorem2Bound) -> list[str]:
     list of str
         A header and one row per agent (or group of identical agents, e.g. ``1-3``) and axis, each indented by
         :data:`PREFORMATTED`; the interval rounded outward to :data:`SIGNIFICANT_DIGITS` digits
-        (:func:`round_outward`), the verdict :func:`axis_verdict` with its reason.
+        (:func:`fsmctl.proofs.rounding.round_outward`), the verdict :func:`axis_verdict` with its reason.
 
     Examples
     --------
@@ -215,7 +181,7 @@ def requirement_table(cert: t2b.Theorem2Bound) -> list[str]:
     rows = [["agent", "axis", "delta (1/s^2)", "required [lower, upper] (1/s^2)", "verdict"]]
     for g in cert.groups:
         for j, a in enumerate(g.axes):
-            interval = f"[{round_outward(a.lower, 'down')}, {round_outward(a.upper, 'up')}]"
+            interval = f"[{round_outward(a.lower, 'down', SIGNIFICANT_DIGITS)}, {round_outward(a.upper, 'up', SIGNIFICANT_DIGITS)}]"
             verdict = reasons[axis_verdict(a, g.kappa is not None)]
             rows.append([_agents_label(g.agents) if j == 0 else "", str(a.axis), _sig(a.configured), interval, verdict])
     return _columns(rows, right=frozenset({1}))
