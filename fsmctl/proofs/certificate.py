@@ -9,8 +9,10 @@ saves it as JSON (the tree compressed, base64) and Markdown;
 :func:`check_certificate` re-checks a saved file independently of the search: it rebuilds the closed loop from the
 recorded inputs (refusing a law whose generated code changed), re-proves ``V_dot < 0`` on every recorded leaf,
 rebuilds the leaves from the tree (a partition of the region by construction),
-re-proves the origin's second-order argument and the levels, confirms the counterexample in ball arithmetic, and
-re-proves a sample of the leaves in python-flint's ball arithmetic (the formally rigorous route).
+re-proves the origin's second-order argument and the levels, confirms the counterexample in ball arithmetic,
+re-proves a sample of the leaves in python-flint's ball arithmetic (the formally rigorous route), and recomputes every
+number the report derives from these (extents, ultimate bound, decrease, reach time, rates, the headline), failing
+one more favourable than the recomputed one (:mod:`fsmctl.proofs.certify_check`).
 """
 
 from __future__ import annotations
@@ -791,4 +793,14 @@ def check_certificate(path: str | Path, *, arb_sample: int | None = ARB_SAMPLE, 
         return CertificateCheck(verdict != CERTIFIED, ("no candidate: nothing to re-check",), verdict)
     V = candidate_from_record(d["candidate"], problem.n_state - 6)
     ok, lines = recheck(problem, V, d, arb_sample=arb_sample, seed=seed)
-    return CertificateCheck(ok, tuple(lines), verdict)
+    cert = Certificate(verdict, d["kind"], d["law"], a, region, uncertainty, d["candidate"], d["outcome"])
+    same, line = _headline_check(d.get("headline"), cert.headline())
+    return CertificateCheck(ok and same, (*lines, line), verdict)
+
+
+def _headline_check(stated: str | None, rebuilt: str) -> tuple[bool, str]:
+    """The file's headline against the one its (re-checked) outcome gives (:meth:`Certificate.headline`): its
+    numbers are the outcome's, printed, so the two agree character for character."""
+    if stated == rebuilt:
+        return True, "[ok] the headline is the re-checked outcome's"
+    return False, f"[FAILS] headline: the file states {stated!r}, the re-checked outcome gives {rebuilt!r}"
