@@ -52,10 +52,26 @@ from fsmctl.proofs.certify_problem import (
     candidate_from_record,
     expression_tree,
 )
-from fsmctl.proofs.certify_report import CertifyStage, StageReporter, candidate_label, counterexample_table
+from fsmctl.proofs.certify_report import (
+    LEVEL_DIGITS,
+    TABLE_LEVEL_DIGITS,
+    CertifyStage,
+    StageReporter,
+    annulus_text,
+    bound_down,
+    bound_up,
+    box_text,
+    candidate_label,
+    core_fractions,
+    core_line,
+    counterexample_table,
+    extent_maxima,
+    search_line,
+    table_cell,
+    ultimate_text,
+)
 from fsmctl.proofs.certify_symbolic import reduced_torque
 from fsmctl.proofs.law_check import load_law_variants
-from fsmctl.proofs.rounding import round_outward
 
 __all__ = [
     "CERTIFICATE_FORMAT",
@@ -76,16 +92,6 @@ ARITHMETIC = (
     "fsmctl.enclosures.intervals.LIBM_ULPS ulps), natural extension intersected with the mean-value form; "
     "the origin's values and counterexamples in python-flint ball arithmetic (256 bits)"
 )
-
-
-BOUND_DIGITS = 4
-"""significant digits of the bounds, rates, times and shares in a certificate's report, each rounded outward (an
-upper bound up, a lower bound down: :func:`fsmctl.proofs.rounding.round_outward`); the JSON keeps full
-precision"""
-LEVEL_DIGITS = 6
-"""significant digits of the levels ``c`` and ``c_in`` of ``V`` in a certificate's report lines, rounded outward"""
-TABLE_LEVEL_DIGITS = 9
-"""significant digits of the levels in the table of a certificate's Markdown report, rounded outward"""
 
 
 class CertificateError(InputError):
@@ -142,10 +148,10 @@ class Certificate:
             if self.kind == "asymptotic":
                 return (
                     f"certified ({self.kind}): V_dot < 0 on the region except the origin, for every admissible "
-                    f"uncertainty; region of attraction contains {{V <= {_down(o['level'], LEVEL_DIGITS)}}}"
+                    f"uncertainty; region of attraction contains {{V <= {bound_down(o['level'], LEVEL_DIGITS)}}}"
                 )
-            annulus = _annulus(o["inner_level"], o["level"])
-            return f"certified ({self.kind}): V_dot < 0 on {annulus}; ultimate bound {_ultimate(o, attitude=False)}"
+            annulus = annulus_text(o["inner_level"], o["level"])
+            return f"certified ({self.kind}): V_dot < 0 on {annulus}; ultimate bound {ultimate_text(o, attitude=False)}"
         if self.verdict == COUNTEREXAMPLE:
             c = o["counterexample"]
             return f"counterexample: V_dot = {c['V_dot']:.6g} > 0 at a point of the region (ball arithmetic: {c['V_dot_ball']})"
@@ -167,38 +173,38 @@ class Certificate:
         if core.get("passed"):
             out.append(
                 "origin: V_dot(0) = 0 and grad V_dot(0) = 0 (ball arithmetic), and the Hessian of V_dot is negative "
-                f"definite on the core (the box of {_fractions(core)} x the region around the origin)"
+                f"definite on the core (the box of {core_fractions(core)} x the region around the origin)"
             )
-        level = _down(o.get("level", 0.0), LEVEL_DIGITS)  # {V <= c} rounded down: a smaller set
+        level = bound_down(o.get("level", 0.0), LEVEL_DIGITS)  # {V <= c} rounded down: a smaller set
         if o.get("level_extent"):
-            out.append(f"{{V <= {level}}} lies in {_box(_extent_maxima(o['level_extent']))}")
+            out.append(f"{{V <= {level}}} lies in {box_text(extent_maxima(o['level_extent']))}")
         if core.get("passed"):
-            out.append(_core_line(core))
+            out.append(core_line(core))
         if o.get("inner_target") is not None and self.verdict == CERTIFIED:
-            target = _up(o["inner_target"], LEVEL_DIGITS)
+            target = bound_up(o["inner_target"], LEVEL_DIGITS)
             out.append(
-                f"inner set {{V <= {_up(o['inner_level'], LEVEL_DIGITS)}}}: the boxes where V <= {target} (half the "
-                f"least V on the region's boundary) belong to it without a proof of V_dot < 0; it lies in {_ultimate(o)}"
+                f"inner set {{V <= {bound_up(o['inner_level'], LEVEL_DIGITS)}}}: the boxes where V <= {target} (half the "
+                f"least V on the region's boundary) belong to it without a proof of V_dot < 0; it lies in {ultimate_text(o)}"
             )
         if o.get("decrease") and o.get("reach_time") is not None:
             c_mid = 0.5 * (o["inner_level"] + o["level"])
             out.append(
-                f"V_dot <= -{_down(o['decrease'])} on {_annulus(c_mid, o['level'])}: from {{V <= {level}}} the level "
-                f"{_up(c_mid, LEVEL_DIGITS)} is reached within {_up(o['reach_time'])} s"
+                f"V_dot <= -{bound_down(o['decrease'])} on {annulus_text(c_mid, o['level'])}: from {{V <= {level}}} the level "
+                f"{bound_up(c_mid, LEVEL_DIGITS)} is reached within {bound_up(o['reach_time'])} s"
             )
         if o.get("sos"):
             out.extend(self._sos_lines())
             return out + self._tail()
-        out.append(_search_line(o))
+        out.append(search_line(o))
         return out + self._tail()
 
     def _sos_lines(self) -> list[str]:
         o = self.outcome
-        c_in = _up(o["inner_level"], LEVEL_DIGITS)
+        c_in = bound_up(o["inner_level"], LEVEL_DIGITS)
         return [
-            f"V_dot <= -{_down(o['sos']['rate'])} (V - {c_in}) wherever {_annulus(o['inner_level'], o['level'])[1:-1]},"
+            f"V_dot <= -{bound_down(o['sos']['rate'])} (V - {c_in}) wherever {annulus_text(o['inner_level'], o['level'])[1:-1]},"
             f" for every admissible disturbance and inertia: {o['sos']['detail']} ({o['sos']['seconds']:.1f} s)",
-            f"inner set {{V <= {c_in}}} lies in {_ultimate(o)}",
+            f"inner set {{V <= {c_in}}} lies in {ultimate_text(o)}",
         ] + ([f"the identity's model of the loop: {o['sos']['model']}"] if o["sos"].get("model") else [])
 
     def _tail(self) -> list[str]:
@@ -241,12 +247,12 @@ class Certificate:
             ("candidate", self._plain(self.candidate["describe"])),
             ("method", self.method()),
             ("arithmetic", self.arithmetic()),
-            ("level c", _down(o.get("level", 0), TABLE_LEVEL_DIGITS)),
+            ("level c", bound_down(o.get("level", 0), TABLE_LEVEL_DIGITS)),
         ]
         if o.get("inner_level") is not None:
-            rows.append(("inner level c_in", _up(o["inner_level"], TABLE_LEVEL_DIGITS)))
+            rows.append(("inner level c_in", bound_up(o["inner_level"], TABLE_LEVEL_DIGITS)))
         text = [f"# Certificate: {self.law['name']}", "", self.headline(), "", "| item | value |", "|---|---|"]
-        text += [f"| {k} | {_cell(v)} |" for k, v in rows]
+        text += [f"| {k} | {table_cell(v)} |" for k, v in rows]
         text += ["", "## V", "", "```", self.candidate["expression"], "```", ""]
         if self.verdict == COUNTEREXAMPLE:
             text += counterexample_table(o["counterexample"])
@@ -361,94 +367,6 @@ def candidate_dict(c: Candidate) -> dict:
         "P": None if c.P is None else [list(r) for r in c.P],
         "note": c.note,
     }
-
-
-def _fractions(core: dict) -> str:
-    """The core box's size: one fraction of the region, or one per state input."""
-    f = core.get("fractions") or [core["fraction"]]
-    return f"{f[0]:g}" if len(set(f)) == 1 else "(" + ", ".join(f"{v:g}" for v in f) + ")"
-
-
-def _up(x: float, digits: int = BOUND_DIGITS) -> str:
-    """An upper bound as printed: rounded up (:func:`fsmctl.proofs.rounding.round_outward`)."""
-    return round_outward(float(x), "up", digits)
-
-
-def _down(x: float, digits: int = BOUND_DIGITS) -> str:
-    """A lower bound as printed: rounded down."""
-    return round_outward(float(x), "down", digits)
-
-
-def _annulus(c_in: float, c: float) -> str:
-    """``{c_in <= V <= c}`` rounded inward (a statement on it holds on the printed, smaller set)."""
-    return f"{{{_up(c_in, LEVEL_DIGITS)} <= V <= {_down(c, LEVEL_DIGITS)}}}"
-
-
-def _ultimate(o: dict, attitude: bool = True) -> str:
-    """The ultimate bound of an outcome: the box that contains the inner set ``{V <= c_in}``, rounded up."""
-    return _box(o.get("ultimate_bound") or {}, "sigma_e_max", "omega_e_max_rad_s", attitude=attitude)
-
-
-def _extent_maxima(extent: dict) -> dict:
-    """The largest ``|sigma_e,k|`` and ``|omega_e,k|`` of a :func:`fsmctl.proofs.certify.sublevel_extent` dict."""
-    return {
-        "sigma": max(v for k, v in extent.items() if k.startswith("sigma_e")),
-        "omega": max(v for k, v in extent.items() if k.startswith("omega_e")),
-    }
-
-
-def _box(bounds: dict, sigma: str = "sigma", omega: str = "omega", attitude: bool = False) -> str:
-    """``|sigma_e,k| <= s, |omega_e,k| <= w rad/s`` (with the attitude error in degrees), each bound rounded up."""
-    deg = f" (attitude error <= {_up(bounds.get('attitude_error_max_deg', math.nan), 3)} deg)" if attitude else ""
-    return (
-        f"|sigma_e,k| <= {_up(bounds.get(sigma, math.nan))}{deg}, "
-        f"|omega_e,k| <= {_up(bounds.get(omega, math.nan))} rad/s"
-    )
-
-
-def _upper_sum(terms: list[tuple[float, str]]) -> str:
-    """``a0 + a1 m1 - a2 m2``: an upper bound written out, each coefficient rounded up, its zero terms dropped."""
-    out = ""
-    for a, monomial in terms:
-        if a == 0:
-            continue
-        text = _up(a)
-        sign, size = ("-", text[1:]) if text.startswith("-") else ("+", text)
-        term = f"{size} {monomial}".rstrip()
-        out = f"{out} {sign} {term}" if out else ("-" if sign == "-" else "") + term
-    return out or "0"
-
-
-def _core_line(core: dict) -> str:
-    """The bound of ``V_dot`` on the core (the origin's argument), ``y`` the state scaled to the region."""
-    terms = [(core.get("w0", 0.0), ""), (core.get("G", 0.0), "|y|"), (-core["mu"], "|y|^2")]
-    text = f"on the core V_dot <= {_upper_sum(terms)}, y = (sigma_e, omega_e) divided by the region's half-widths"
-    if not core.get("r_star"):
-        return text
-    return (
-        f"{text}: V_dot < 0 outside |y| <= {_up(core['r_star'])}, and on each box of the core where "
-        f"V_dot(c) + grad V_dot(c).(y - c) - mu |y - c|^2 < 0 about its centre c (mu = {_down(core['mu'])})"
-    )
-
-
-def _search_line(o: dict) -> str:
-    """What the branch and bound covered, as shares of the region x uncertainty (a share proved rounded down)."""
-    v, boxes = o.get("volume") or {}, o.get("boxes", 0)
-
-    def pct(key: str, direction: str) -> str:
-        return round_outward(100 * v.get(key, 0.0), direction, BOUND_DIGITS) + " %"
-
-    return (
-        f"branch and bound: {boxes} box{'' if boxes == 1 else 'es'} in {o.get('seconds', 0):.1f} s; of the region x "
-        f"uncertainty, V_dot < 0 proved box by box on {pct('proved', 'down')}, covered by the origin's argument or "
-        f"the inner set {pct('excluded', 'down')}, undecided {pct('undecided', 'up')}, V_dot > 0 on "
-        f"{pct('positive', 'down')}"
-    )
-
-
-def _cell(text: str) -> str:
-    """A Markdown table cell: its ``|`` escaped (``|sigma_e,k|`` would split the row)."""
-    return text.replace("|", r"\|")
 
 
 def _why(o: CandidateOutcome) -> str:

@@ -51,7 +51,6 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from fractions import Fraction
 
 import casadi as ca
 import numpy as np
@@ -66,7 +65,7 @@ from fsmctl.proofs.certify_problem import (
     candidate_expression,
 )
 from fsmctl.proofs.certify_report import BOUNDARY, LEVELS, ORIGIN, SEARCH, SOS
-from fsmctl.proofs.certify_sos import exact_polynomial, sos_ultimate_bound
+from fsmctl.proofs.certify_sos import exact_polynomial, float_above, float_below, sos_decrease, sos_ultimate_bound
 from fsmctl.proofs.certify_symbolic import state_symbols
 from fsmctl.proofs.quadratic_forms import invariant_ellipsoid, quadratic_lyapunov
 from fsmctl.symbolic.law import Law
@@ -86,7 +85,9 @@ __all__ = [
     "boundary_level",
     "certify_candidate",
     "choose_candidates",
+    "counterexample_at",
     "inside_core",
+    "levels_report",
     "lyapunov_programs",
     "origin_argument",
     "sos_outcome",
@@ -585,9 +586,9 @@ def sos_outcome(
     out = CandidateOutcome(candidate, CERTIFIED, ULTIMATELY_BOUNDED)
     out.boundary_level = c_bnd
     out.level = float(res.level)
-    c_in = _float_above(res.inner_level)
+    c_in = float_above(res.inner_level)
     out.inner_level = c_in
-    rate = _float_below(res.rate)
+    rate = float_below(res.rate)
     out.sos = {
         **res.record,
         "model": problem.polynomial.how,
@@ -595,23 +596,9 @@ def sos_outcome(
         "rate": rate,
         "seconds": res.seconds,
     }
-    # V_dot <= -lambda (V - c_in) <= -lambda (c_mid - c_in) on {c_mid <= V <= c}
-    c_mid = 0.5 * (c_in + out.level)
-    out.decrease = rate * (c_mid - c_in) * (1 - 1e-12)
-    if out.decrease > 0:
-        out.reach_time = (out.level - c_mid) / out.decrease * (1 + 1e-12)
-    _levels_report(problem, progs, out, c_in)
+    out.decrease, out.reach_time = sos_decrease(rate, c_in, out.level)
+    levels_report(problem, progs, out, c_in)
     return out
-
-
-def _float_above(x: Fraction) -> float:
-    f = float(x)
-    return f if Fraction(f) >= x else math.nextafter(f, math.inf)
-
-
-def _float_below(x: Fraction) -> float:
-    f = float(x)
-    return f if Fraction(f) <= x else math.nextafter(f, -math.inf)
 
 
 def _motion_mask(problem: CertifyProblem) -> np.ndarray:
@@ -644,7 +631,7 @@ def _judge(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutco
         out.inner_level = c_in
     if refuting.shape[0]:
         out.verdict = COUNTEREXAMPLE
-        out.counterexample = _counterexample(problem, progs, refuting)
+        out.counterexample = counterexample_at(problem, progs, refuting)
     elif certified:
         out.verdict = CERTIFIED
     else:
@@ -653,7 +640,7 @@ def _judge(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutco
         out.difficulty = out.difficulty or _difficulty(problem, progs, s, bool(out.core.get("semidefinite")))
     if c_in is not None or out.level > 0:
         if out.level > (c_in or 0.0):
-            _levels_report(problem, progs, out, c_in)
+            levels_report(problem, progs, out, c_in)
 
 
 def split_levels(vlo: np.ndarray, vhi: np.ndarray, c_bnd: float) -> tuple[float | None, float]:
@@ -672,8 +659,9 @@ def split_levels(vlo: np.ndarray, vhi: np.ndarray, c_bnd: float) -> tuple[float 
     return None, 0.0
 
 
-def _levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutcome, c_in: float | None) -> None:
-    """Extent of ``{V <= c}`` and ``{V <= c_in}``, the decrease on the annulus and the time to cross it."""
+def levels_report(problem: CertifyProblem, progs: LyapunovPrograms, out: CandidateOutcome, c_in: float | None) -> None:
+    """Extent of ``{V <= c}`` and ``{V <= c_in}``, the decrease on the annulus and the time to cross it, into
+    ``out`` (the certify run's rule, repeated by ``fsmctl certify --check``)."""
     s = out.search
     n = problem.n_state
     names = problem.names[:n]
@@ -749,8 +737,9 @@ def sublevel_extent(progs: LyapunovPrograms, lo: np.ndarray, hi: np.ndarray, lev
     return out
 
 
-def _counterexample(problem: CertifyProblem, progs: LyapunovPrograms, points: np.ndarray) -> dict:
-    """The point of largest proved ``V_dot`` among ``points``, confirmed in ball arithmetic."""
+def counterexample_at(problem: CertifyProblem, progs: LyapunovPrograms, points: np.ndarray) -> dict:
+    """The point of largest proved ``V_dot`` among ``points``, confirmed in ball arithmetic (the certify run's rule,
+    repeated by ``fsmctl certify --check``)."""
     vals = progs.W.enclose(points.T.copy(), points.T.copy()).lo[0]
     k = int(np.argmax(vals))
     x = points[k]

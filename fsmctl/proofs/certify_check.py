@@ -58,19 +58,18 @@ from fsmctl.proofs.certify import (
     INNER_FRACTION,
     ULTIMATELY_BOUNDED,
     CandidateOutcome,
-    _counterexample,
-    _float_below,
-    _levels_report,
     boundary_level,
+    counterexample_at,
     inside_core,
+    levels_report,
     lyapunov_programs,
     origin_argument,
     sos_polynomials,
 )
 from fsmctl.proofs.certify_problem import Candidate, CertifyProblem
-from fsmctl.proofs.certify_sos import verify_sos
+from fsmctl.proofs.certify_sos import float_below, sos_decrease, verify_sos
 
-__all__ = ["DERIVED_TOLERANCE", "EXACT", "HIGHER", "LOWER", "Derived", "compare_derived", "recheck", "sos_decrease"]
+__all__ = ["DERIVED_TOLERANCE", "EXACT", "HIGHER", "LOWER", "Derived", "compare_derived", "recheck"]
 
 DERIVED_TOLERANCE = 1e-9
 """relative tolerance between a derived number of a certificate file and its recomputation by ``--check``: room for
@@ -194,7 +193,7 @@ def _recheck_counterexample(problem: CertifyProblem, progs, out: dict, step: Ste
     """A counterexample's ``V_dot > 0`` in ball arithmetic, and its values recomputed at its point."""
     c = out["counterexample"]
     x = np.array([[c["point"][name] for name in problem.names]], float)
-    again = _counterexample(problem, progs, x)
+    again = counterexample_at(problem, progs, x)
     step(
         again["confirmed"],
         f"V_dot > 0 at the counterexample in ball arithmetic: {again['V_dot_ball']}",
@@ -355,34 +354,17 @@ def _level_numbers(
     out = d["outcome"]
     again = CandidateOutcome(candidate, CERTIFIED, d["kind"], level=out["level"], inner_level=c_in)
     again.search = search
-    _levels_report(problem, progs, again, c_in)
+    levels_report(problem, progs, again, c_in)
     derived = _dict_numbers("outcome.level_extent", out.get("level_extent"), again.level_extent, LOWER)
     derived += _dict_numbers("outcome.ultimate_bound", out.get("ultimate_bound"), again.ultimate_bound, LOWER)
     decrease, reach_time = again.decrease, again.reach_time
     if out.get("sos"):
-        rate = _float_below(Fraction(out["sos"]["lambda"]))
+        rate = float_below(Fraction(out["sos"]["lambda"]))
         derived.append(Derived("outcome.sos.rate", out["sos"].get("rate"), rate, HIGHER))
         decrease, reach_time = sos_decrease(rate, out["inner_level"], out["level"])
     derived.append(Derived("outcome.decrease", out.get("decrease"), decrease, HIGHER))
     derived.append(Derived("outcome.reach_time", out.get("reach_time"), reach_time, LOWER))
     return derived
-
-
-def sos_decrease(rate: float, c_in: float, level: float) -> tuple[float, float | None]:
-    """``(m, T)`` of a sum-of-squares certificate: ``V_dot <= -lambda (V - c_in) <= -m`` on ``{c_mid <= V <= c}``,
-    ``c_mid`` the annulus' middle, and ``T = (c - c_mid) / m`` (None when ``m <= 0``), each rounded towards the weaker
-    statement by ``1e-12`` relative, as :func:`fsmctl.proofs.certify.sos_outcome` states them.
-
-    Examples
-    --------
-    >>> from fsmctl.proofs.certify_check import sos_decrease
-    >>> m, T = sos_decrease(2.0, 1.0, 3.0)  # m = 2 (2 - 1), T = (3 - 2) / m
-    >>> round(m, 9), round(T, 9)
-    (2.0, 0.5)
-    """
-    c_mid = 0.5 * (c_in + level)
-    decrease = rate * (c_mid - c_in) * (1 - 1e-12)
-    return decrease, (level - c_mid) / decrease * (1 + 1e-12) if decrease > 0 else None
 
 
 def _dict_numbers(name: str, stated: dict | None, found: dict | None, favourable: str) -> list[Derived]:

@@ -34,6 +34,7 @@ P. A. Parrilo, "Semidefinite programming relaxations for semialgebraic problems"
 from __future__ import annotations
 
 import itertools
+import math
 import time
 import warnings
 from collections.abc import Sequence
@@ -56,6 +57,9 @@ __all__ = [
     "SOS_ROUND_BITS",
     "SosResult",
     "exact_polynomial",
+    "float_above",
+    "float_below",
+    "sos_decrease",
     "sos_ultimate_bound",
     "verify_sos",
 ]
@@ -487,3 +491,32 @@ def verify_sos(V: Polynomial, V_dot: Polynomial, half_widths: Sequence[float], r
         "Gram matrix positive definite "
         f"(lambda = {float(lam):.6g}, c_in = {float(c_in):.9g}, c = {float(c):.9g})"
     )
+
+
+def float_above(x: Fraction) -> float:
+    """The least float ``>= x`` (a level that must not be understated)."""
+    f = float(x)
+    return f if Fraction(f) >= x else math.nextafter(f, math.inf)
+
+
+def float_below(x: Fraction) -> float:
+    """The greatest float ``<= x`` (a rate that must not be overstated)."""
+    f = float(x)
+    return f if Fraction(f) <= x else math.nextafter(f, -math.inf)
+
+
+def sos_decrease(rate: float, c_in: float, level: float) -> tuple[float, float | None]:
+    """``(m, T)`` of a sum-of-squares certificate: ``V_dot <= -lambda (V - c_in) <= -m`` on ``{c_mid <= V <= c}``,
+    ``c_mid`` the annulus' middle, and ``T = (c - c_mid) / m`` (None when ``m <= 0``), each rounded towards the weaker
+    statement by ``1e-12`` relative, as :func:`fsmctl.proofs.certify.sos_outcome` states them.
+
+    Examples
+    --------
+    >>> from fsmctl.proofs.certify_sos import sos_decrease
+    >>> m, T = sos_decrease(2.0, 1.0, 3.0)  # m = 2 (2 - 1), T = (3 - 2) / m
+    >>> round(m, 9), round(T, 9)
+    (2.0, 0.5)
+    """
+    c_mid = 0.5 * (c_in + level)
+    decrease = rate * (c_mid - c_in) * (1 - 1e-12)
+    return decrease, (level - c_mid) / decrease * (1 + 1e-12) if decrease > 0 else None
