@@ -108,7 +108,6 @@ def candidate_label(candidate: Candidate) -> str:
         >>> import sympy as sp
         >>> from fsmctl.proofs.certify_report import candidate_label
         >>> from fsmctl.proofs.certify_problem import Candidate
-    from fsmctl.proofs.rounding import round_outward
         >>> candidate_label(Candidate("declared + cross term", sp.Integer(0), epsilon=10 ** -0.5))
         'declared V + cross term (eps 0.316)'
     """
