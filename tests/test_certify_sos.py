@@ -181,7 +181,7 @@ def test_inertia_uncertainty_certified_by_sum_of_squares(tmp_path):
     )  # fmt: skip
     assert (c.verdict, c.kind) == ("certified", "ultimately bounded")
     sos = c.outcome["sos"]
-    assert sos["variables"][-1] == "q[0]" and "proportional" not in sos["model"] and "1/(1 + theta)" in sos["model"]
+    assert sos["variables"][-1] == "q[0]" and "|theta| <= a = 0.1" in sos["model"] and "1/(1 + theta)" in sos["model"]
     P = np.array(c.candidate["P"], float)
     K = c.agent["parameters"]["K"]
     for signs in itertools.product((-1, 1), repeat=3):

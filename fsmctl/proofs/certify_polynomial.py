@@ -120,11 +120,18 @@ def _inertia_factors(J0: np.ndarray, inertia: float, inertia_set: str) -> tuple[
     """``(number of factors q, the set's words)`` or why the loop is not polynomial."""
     if inertia == 0:
         return 0, "the nominal inertia"
+    a = f"{inertia:g}"
     if inertia_set == "proportional":
-        return 1, "J = (1 + theta) J0 exactly through q = 1/(1 + theta) - 1/(1 - a^2)"
+        return 1, (
+            f"J = (1 + theta) J0, |theta| <= a = {a}, exactly: the factor 1/(1 + theta) enters as the variable "
+            "q = 1/(1 + theta) - 1/(1 - a^2), |q| <= a/(1 - a^2)"
+        )
     if np.count_nonzero(J0 - np.diag(np.diag(J0))):
         return "the inertia's entries vary independently around a non-diagonal J0 (J^-1 is rational in theta)"
-    return 3, "J_kk = J0_kk (1 + theta_k) exactly through q_k = 1/(1 + theta_k) - 1/(1 - a^2)"
+    return 3, (
+        f"J_kk = J0_kk (1 + theta_k), |theta_k| <= a = {a}, exactly: the factors 1/(1 + theta_k) enter as the "
+        "variables q_k = 1/(1 + theta_k) - 1/(1 - a^2), |q_k| <= a/(1 - a^2)"
+    )
 
 
 def polynomial_loop(
@@ -210,7 +217,8 @@ def polynomial_loop(
             i, j = (k + 1) % 3, (k + 2) % 3
             half_d[k] += a * W[i] * W[j] * (Jd[i] + Jd[j])
         words += (
-            "; d' = d - omega^x (J - J0) omega with |d'_k| <= D_k + a W_i W_j (J0_ii + J0_jj) = "
+            "; the disturbance widened to d' = d - omega^x (J - J0) omega, |d'_k| <= D_k + a W_i W_j (J0_ii + J0_jj) "
+            "(D the disturbance's bounds, W the region's omega_e bounds, i, j the other two axes) = "
             + ", ".join(f"{float(h):.4g}" for h in half_d)
             + " N m on the region (an over-approximation)"
         )

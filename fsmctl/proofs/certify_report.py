@@ -93,23 +93,23 @@ class CertifyStage:
 def candidate_label(candidate: Candidate) -> str:
     """A short label of a candidate, e.g. for a progress bar.
 
-        Parameters
-        ----------
-        candidate : Candidate
-            The candidate.
+    Parameters
+    ----------
+    candidate : Candidate
+        The candidate.
 
-        Returns
-        -------
-        str
-            ``"declared V"``, ``"declared V + cross term (eps 0.316)"`` or ``"quadratic"``.
+    Returns
+    -------
+    str
+        ``"declared V"``, ``"declared V + cross term (eps 0.316)"`` or ``"quadratic"``.
 
-        Examples
-        --------
-        >>> import sympy as sp
-        >>> from fsmctl.proofs.certify_report import candidate_label
-        >>> from fsmctl.proofs.certify_problem import Candidate
-        >>> candidate_label(Candidate("declared + cross term", sp.Integer(0), epsilon=10 ** -0.5))
-        'declared V + cross term (eps 0.316)'
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> from fsmctl.proofs.certify_report import candidate_label
+    >>> from fsmctl.proofs.certify_problem import Candidate
+    >>> candidate_label(Candidate("declared + cross term", sp.Integer(0), epsilon=10 ** -0.5))
+    'declared V + cross term (eps 0.316)'
     """
     if candidate.kind == "declared":
         return "declared V"
