@@ -119,7 +119,15 @@ def law_fingerprint(folder: Path) -> str:
 
 @dataclass
 class Certificate:
-    """The record of one ``fsmctl certify`` question and its answer (see the module docstring)."""
+    """The record of one ``fsmctl certify`` question and its answer (see the module docstring).
+
+    What :func:`certify_law` returns and ``certificate.json`` holds: the question (:attr:`law`, :attr:`agent`,
+    :attr:`region`, :attr:`uncertainty`), the answer (:attr:`verdict`, :attr:`kind`, the :attr:`candidate` ``V``,
+    the :attr:`outcome` with its levels, extents, ultimate bound, counterexample or identity), the other candidates
+    tried (:attr:`attempts`). :meth:`headline`, :meth:`lines` and :meth:`markdown` are the report as printed (bounds
+    rounded outward), :meth:`method` and :meth:`arithmetic` say how it was proved, :meth:`write` writes the files;
+    :func:`check_certificate` re-checks a file.
+    """
 
     verdict: str
     kind: str | None
@@ -251,6 +259,8 @@ class Certificate:
         ]
         if o.get("inner_level") is not None:
             rows.append(("inner level c_in", bound_up(o["inner_level"], TABLE_LEVEL_DIGITS)))
+        if self.verdict == CERTIFIED and o.get("ultimate_bound"):
+            rows.append(("ultimate bound", ultimate_text(o)))
         text = [f"# Certificate: {self.law['name']}", "", self.headline(), "", "| item | value |", "|---|---|"]
         text += [f"| {k} | {table_cell(v)} |" for k, v in rows]
         text += ["", "## V", "", "```", self.candidate["expression"], "```", ""]
