@@ -62,7 +62,7 @@ def test_theorem2_default_region_fails_for_paper_delta_as_documented(capsys):
     """The documented finding: exit 0 (the check found what docs/findings.md says); --strict: exit 1 (it fails)."""
     code, out, _ = _run(capsys, "theorem2-delta", "--samples", "100")
     assert code == 0
-    assert out.splitlines()[0] == "all 1 check as documented (1 known failure of the paper: theorem2-delta)"
+    assert out.splitlines()[0] == "1 check as documented (1 known failure of the paper: theorem2-delta)"
     assert "fails for this scenario" in out and "REFUTED" in out
     assert _run(capsys, "theorem2-delta", "--samples", "100", "--strict")[0] == 1
 

@@ -202,8 +202,10 @@ def outcome(results: Sequence[ClaimResult], errata: Sequence[Erratum] | None = N
         line = f"{len(differ)} of {n} checks differ from the documented finding: {', '.join(shown)}"
     else:
         noun = "failure" if len(known) == 1 else "failures"
-        line = f"all {n} check{'s' if n != 1 else ''} as documented" + (
-            f" ({len(known)} known {noun} of the paper: {', '.join(known)})" if known else ""
+        line = (
+            ("all " if n > 1 else "")
+            + f"{n} check{'s' if n != 1 else ''} as documented"
+            + (f" ({len(known)} known {noun} of the paper: {', '.join(known)})" if known else "")
         )
     return {
         "checks": n,
