@@ -256,3 +256,11 @@ def test_the_stated_sets_are_printed_inside_the_certified_ones():
     text = u.describe()
     assert "|theta_kl| <= 0.123456;" in text and "(0.2, 0.0123456, 0.22) N m" in text
     assert "|omega_d,k| <= 0.666666 rad/s" in text
+
+
+def test_the_markdown_table_states_the_ultimate_bound_rounded_up():
+    v = [0.15625] * 16
+    v[0] = 1.0
+    markdown = _certificate(_outcome(v)).markdown()
+    row = next(line for line in markdown.splitlines() if line.startswith("| ultimate bound |"))
+    assert "0.1563" in row and "rad/s" in row

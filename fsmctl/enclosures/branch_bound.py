@@ -46,6 +46,7 @@ __all__ = [
     "bound_maximum",
     "enclose_sharp",
     "prove_negative",
+    "volume_share",
 ]
 
 _INF = np.inf
@@ -216,7 +217,17 @@ class SignSearch:
     """boxes per pass (the processing order depends on it)"""
 
 
-def _volume(lo, hi, scale, spanned) -> float:
+def volume_share(lo: np.ndarray, hi: np.ndarray, scale: np.ndarray, spanned: np.ndarray) -> float:
+    """The boxes' ``(N, n)`` rows' total volume as a share of a box of widths ``scale``, over the inputs ``spanned``
+    (those of positive width): a search's ``volume`` fractions.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from fsmctl.enclosures.branch_bound import volume_share
+    >>> volume_share(np.array([[0.0, 0.0]]), np.array([[0.5, 0.5]]), np.array([1.0, 1.0]), np.array([True, True]))
+    0.25
+    """
     if lo.shape[0] == 0:
         return 0.0
     w = (hi - lo)[:, spanned] / scale[spanned]
@@ -344,7 +355,7 @@ def prove_negative(
             codes.append(np.full(queue_lo.shape[1], UNDECIDED, np.int8))
             break
         if progress is not None:
-            pending = _volume(queue_lo.T, queue_hi.T, scale, spanned)
+            pending = volume_share(queue_lo.T, queue_hi.T, scale, spanned)
             progress(boxes, 1.0 - pending)
     search = _sign_search(kinds, n, boxes, time.perf_counter() - t0, exhausted, scale, spanned)
     search.codes = np.concatenate(codes) if codes else np.zeros(0, np.int8)
@@ -371,10 +382,10 @@ def _sign_search(kinds, n, boxes, seconds, exhausted, scale, spanned) -> SignSea
     ulo, uhi = _stack(kinds["undecided"], n, 2, 0)
     xlo, xhi = _stack(kinds["excluded"], n, 2, 0)
     volume = {
-        "proved": _volume(plo, phi, scale, spanned),
-        "positive": _volume(qlo, qhi, scale, spanned),
-        "undecided": _volume(ulo, uhi, scale, spanned),
-        "excluded": _volume(xlo, xhi, scale, spanned),
+        "proved": volume_share(plo, phi, scale, spanned),
+        "positive": volume_share(qlo, qhi, scale, spanned),
+        "undecided": volume_share(ulo, uhi, scale, spanned),
+        "excluded": volume_share(xlo, xhi, scale, spanned),
     }
     return SignSearch(plo, phi, psup, qlo, qhi, qpt, qval, ulo, uhi, xlo, xhi, boxes, seconds, exhausted, volume)
 

@@ -86,6 +86,7 @@ __all__ = [
     "certify_candidate",
     "choose_candidates",
     "counterexample_at",
+    "inner_target",
     "inside_core",
     "levels_report",
     "lyapunov_programs",
@@ -454,6 +455,13 @@ def boundary_level(problem: CertifyProblem, progs: LyapunovPrograms, budget: Bud
     return best
 
 
+def inner_target(c_bnd: float, asymptotic: bool) -> float | None:
+    """The level below which an ultimately bounded question's leaves join the inner set unproved,
+    ``INNER_FRACTION c_bnd`` (``V_dot >= 0`` is expected somewhere near the origin, the search need not resolve where);
+    None for an asymptotic question or without a positive boundary level."""
+    return INNER_FRACTION * c_bnd if not asymptotic and c_bnd > 0 else None
+
+
 def certify_candidate(
     problem: CertifyProblem,
     candidate: Candidate,
@@ -503,9 +511,7 @@ def certify_candidate(
     # nor, with a V_dot only semidefinite at the origin, an inner set: a short search for a counterexample
     screen = not core.get("passed") and (asymptotic or core.get("semidefinite", False))
     seconds = settings.max_seconds * (SCREEN_FRACTION if screen else 1.0)
-    # ultimately bounded: the leaves with V <= INNER_FRACTION c_bnd join the inner set unproved (V_dot >= 0 is
-    # expected somewhere near the origin, the search need not resolve where)
-    c_target = INNER_FRACTION * c_bnd if not asymptotic and c_bnd > 0 else None
+    c_target = inner_target(c_bnd, asymptotic)
     report(SEARCH)
     search = prove_negative(
         progs.W, problem.lo, problem.hi, gradient=progs.dW, budget=settings.budget(seconds),

@@ -48,6 +48,7 @@ from fsmctl.enclosures.branch_bound import (
     SignSearch,
     bisection_leaves,
     enclose_sharp,
+    volume_share,
 )
 from fsmctl.proofs.certify import (
     ASYMPTOTIC,
@@ -55,11 +56,11 @@ from fsmctl.proofs.certify import (
     BOUNDARY_BUDGET,
     CERTIFIED,
     COUNTEREXAMPLE,
-    INNER_FRACTION,
     ULTIMATELY_BOUNDED,
     CandidateOutcome,
     boundary_level,
     counterexample_at,
+    inner_target,
     inside_core,
     levels_report,
     lyapunov_programs,
@@ -251,10 +252,10 @@ def _recheck_search(
         plo, phi, top, *leaves[POSITIVE], np.zeros((0, problem.lo.size)), np.zeros(0), *leaves[UNDECIDED],
         *leaves[EXCLUDED], boxes=0, seconds=0.0, exhausted=False,
     )  # fmt: skip
-    inner_target = INNER_FRACTION * c_bnd if not asymptotic and c_bnd > 0 else None
+    target = inner_target(c_bnd, asymptotic)
     derived += [
         Derived("outcome.boundary_level", out.get("boundary_level"), c_bnd, HIGHER),
-        Derived("outcome.inner_target", out.get("inner_target"), inner_target),
+        Derived("outcome.inner_target", out.get("inner_target"), target),
     ]
     derived += _search_numbers(problem, out, tree, leaves)
     return derived + _level_numbers(problem, progs, candidate, d, None if asymptotic else out["inner_level"], search)
@@ -338,8 +339,7 @@ def _search_numbers(problem: CertifyProblem, out: dict, tree: dict, leaves: dict
     derived = []
     for kind, name in ((PROVED, "proved"), (POSITIVE, "positive"), (UNDECIDED, "undecided"), (EXCLUDED, "excluded")):
         lo, hi = leaves.get(kind, (np.zeros((0, width.size)),) * 2)
-        share = float(np.prod((hi - lo)[:, spanned] / width[spanned], axis=1).sum()) if lo.shape[0] else 0.0
-        derived.append(Derived(f"outcome.volume.{name}", volume.get(name), share))
+        derived.append(Derived(f"outcome.volume.{name}", volume.get(name), volume_share(lo, hi, width, spanned)))
     if not out.get("exhausted"):
         derived.append(Derived("outcome.boxes", out.get("boxes"), int(tree["codes"].size)))
     return derived
