@@ -14,6 +14,7 @@ import ctypes
 import dataclasses
 import itertools
 import os
+import re
 import subprocess
 
 import casadi as ca
@@ -247,6 +248,30 @@ def test_printer_writes_exact_constants_and_every_lane_rule():
     for helper in helpers:
         assert f"{helper}(" in source.split("int g_batched")[1], helper
     assert "FSM_LANES * 0" in source and "vector_size" not in source  # the width is the build's, not the text's
+
+
+def test_printer_starts_the_long_chains_first():
+    """Three pows of independent operands, each followed in CasADi's order by cheap work on its result: the printer
+    puts the three side by side (the CPU then overlaps their dependency chains), each after its operands; a
+    function without library calls keeps CasADi's order."""
+    s = ca.SX.sym("s", 3)
+    alpha = ca.SX.sym("alpha")
+    parts = [ca.fabs(s[k] * (k + 2.0) + 1.0) ** alpha * s[k] + 3.0 * s[k] for k in range(3)]
+    body = batched_source([("f", ca.Function("f", [s, alpha], [ca.vertcat(*parts)]))], "f.h").split("int f_batched")[1]
+    statements = [line.strip() for line in body.splitlines() if line.startswith("  const fsm_v") or "fsm_store" in line]
+    pows = [k for k, line in enumerate(statements) if "fsm_pow(" in line]
+    assert len(pows) == 3 and pows == list(range(pows[0], pows[0] + 3)), statements
+    defined: set[str] = set()
+    for line in statements:  # every operand is defined above its use (the C compiler would refuse it otherwise)
+        used = set(re.findall(r"\bv\d+\b", line.split("=", 1)[-1] if line.startswith("const") else line))
+        assert used <= defined, line
+        if line.startswith("const"):
+            defined.add(line.split()[2])
+    x = ca.SX.sym("x", 2)
+    f = ca.Function("g", [x], [ca.vertcat(x[0] * x[1] + 1.0, x[0] / x[1])])
+    plain = batched_source([("g", f)], "g.h").split("int g_batched")[1]
+    printed = [int(v) for v in re.findall(r"const fsm_v v(\d+) =", plain)]
+    assert printed == sorted(printed)  # program order
 
 
 @pytest.mark.parametrize("width", LANE_WIDTHS)

@@ -32,6 +32,7 @@ Pure: builds strings from CasADi functions, no I/O (``fsmctl.codegen.writer`` wr
 
 from __future__ import annotations
 
+import heapq
 import math
 from collections.abc import Sequence
 
@@ -192,33 +193,94 @@ def _signature(name: str) -> str:
     return f"int {kernel_name(name)}(const double *const *arg, double *const *res, int lanes)"
 
 
-def _kernel(name: str, function: ca.Function) -> str:
-    if not function.is_a("SXFunction"):
-        raise UnsupportedInstructionError(f"{name}: batched kernels need an SX function")
+# Latencies (cycles, rough) that rank the instructions for the scheduler below: only their order matters.
+_LATENCY_POW = 150
+_LATENCY_LIBRARY = 60
+_LATENCY_DIVIDE = 20
+_LATENCY_ARITHMETIC = 4
+_SLOW_UNARY = {ca.OP_INV: _LATENCY_DIVIDE, ca.OP_SIN: _LATENCY_LIBRARY, ca.OP_COS: _LATENCY_LIBRARY}
+_SLOW_BINARY = {ca.OP_DIV: _LATENCY_DIVIDE, ca.OP_POW: _LATENCY_POW, ca.OP_CONSTPOW: _LATENCY_POW}
+
+
+def _latency(op: int) -> int:
+    if op in _SLOW_BINARY:
+        return _SLOW_BINARY[op]
+    if op in _SLOW_UNARY:
+        return _SLOW_UNARY[op]
+    if op in _UNARY and "lanes" in _UNARY[op]:  # a library call per lane
+        return _LATENCY_LIBRARY
+    return _LATENCY_ARITHMETIC
+
+
+def _statements(name: str, function: ca.Function) -> list[tuple[str, tuple[int, ...], int]]:
+    """The function's instructions as single-assignment C statements ``(text, operands, latency)``: statement ``k``
+    defines ``v{k}`` (outputs define nothing) and reads the statements in ``operands``."""
     op_names = {getattr(ca, n): n for n in dir(ca) if n.startswith("OP_")}
-    lines = [f"{_signature(name)} {{", "  if (lanes > FSM_LANES) lanes = FSM_LANES; /* never index past the vector */"]
-    n_work = function.sz_w()
-    for start in range(0, n_work, 12):
-        names = ", ".join(f"w{k}" for k in range(start, min(n_work, start + 12)))
-        lines.append(f"  fsm_v {names};")
+    current: dict[int, int] = {}  # CasADi work slot -> the statement that last wrote it
+    out: list[tuple[str, tuple[int, ...], int]] = []
     for k in range(function.n_instructions()):
         op = function.instruction_id(k)
         ins, outs = function.instruction_input(k), function.instruction_output(k)
+        v = f"v{len(out)}"
         if op == ca.OP_INPUT:
-            lines.append(f"  w{outs[0]} = fsm_load(arg[{ins[0]}] + FSM_LANES * {ins[1]});")
+            out.append((f"  const fsm_v {v} = fsm_load(arg[{ins[0]}] + FSM_LANES * {ins[1]});", (), 1))
         elif op == ca.OP_OUTPUT:
-            lines.append(f"  fsm_store(res[{outs[0]}] + FSM_LANES * {outs[1]}, w{ins[0]});")
+            a = current[ins[0]]
+            out.append((f"  fsm_store(res[{outs[0]}] + FSM_LANES * {outs[1]}, v{a});", (a,), 1))
+            continue
         elif op == ca.OP_CONST:
-            lines.append(f"  w{outs[0]} = fsm_splat({_literal(function.instruction_constant(k))});")
+            out.append((f"  const fsm_v {v} = fsm_splat({_literal(function.instruction_constant(k))});", (), 0))
         elif op in _BINARY:
-            expr = _BINARY[op].format(a=f"w{ins[0]}", b=f"w{ins[1]}")
-            lines.append(f"  w{outs[0]} = {expr};")
+            a, b = current[ins[0]], current[ins[1]]
+            expr = _BINARY[op].format(a=f"v{a}", b=f"v{b}")
+            out.append((f"  const fsm_v {v} = {expr};", (a, b), _latency(op)))
         elif op in _UNARY:
-            lines.append(f"  w{outs[0]} = {_UNARY[op].format(a=f'w{ins[0]}')};")
+            a = current[ins[0]]
+            out.append((f"  const fsm_v {v} = {_UNARY[op].format(a=f'v{a}')};", (a,), _latency(op)))
         else:
             raise UnsupportedInstructionError(
                 f"{name}: instruction {k} is {op_names.get(op, op)}, which has no lane-wise rule in fsmctl/codegen/batched.py"
             )
+        current[outs[0]] = len(out) - 1
+    return out
+
+
+def _schedule(statements: list[tuple[str, tuple[int, ...], int]]) -> list[int]:
+    """An order of the statements that starts the long dependency chains first (list scheduling by the latency
+    of the longest path from a statement to the end; ties in program order): ``pow``'s of independent operands
+    then sit side by side, so the CPU overlaps their chains.  Every statement still follows its operands, and each
+    value is computed by the same operation from the same operands, so the order changes no result."""
+    n = len(statements)
+    users: list[list[int]] = [[] for _ in range(n)]
+    for k, (_, operands, _) in enumerate(statements):
+        for a in operands:
+            users[a].append(k)
+    path = [0] * n
+    for k in range(n - 1, -1, -1):
+        path[k] = statements[k][2] + max((path[u] for u in users[k]), default=0)
+    waiting = [len(set(ops)) for _, ops, _ in statements]
+    ready = [(-path[k], k) for k in range(n) if waiting[k] == 0]
+    heapq.heapify(ready)
+    order: list[int] = []
+    while ready:
+        _, k = heapq.heappop(ready)
+        order.append(k)
+        for u in dict.fromkeys(users[k]):
+            waiting[u] -= 1
+            if waiting[u] == 0:
+                heapq.heappush(ready, (-path[u], u))
+    return order
+
+
+def _kernel(name: str, function: ca.Function) -> str:
+    if not function.is_a("SXFunction"):
+        raise UnsupportedInstructionError(f"{name}: batched kernels need an SX function")
+    lines = [f"{_signature(name)} {{", "  if (lanes > FSM_LANES) lanes = FSM_LANES; /* never index past the vector */"]
+    statements = _statements(name, function)
+    if any(latency >= _LATENCY_LIBRARY for _, _, latency in statements):
+        lines += [statements[k][0] for k in _schedule(statements)]
+    else:  # short chains only: the CPU overlaps them in program order, which keeps fewer values alive
+        lines += [text for text, _, _ in statements]
     lines += ["  return 0;", "}", ""]
     return "\n".join(lines)
 

@@ -182,15 +182,27 @@ static inline void to_lane(double *row, const double *src, int nnz, int l) {
 static inline void from_lane(double *dst, const double *row, int nnz, int l) {
   for (int k = 0; k < nnz; ++k) dst[k] = row[FSM_LANES * k + l];
 }
-static inline void to_lane3(double *row, const double *src, int l) {
-  row[l] = src[0];
-  row[FSM_LANES + l] = src[1];
-  row[2 * FSM_LANES + l] = src[2];
-}
 static inline void from_lane3(double *dst, const double *row, int l) {
   dst[0] = row[l];
   dst[1] = row[FSM_LANES + l];
   dst[2] = row[2 * FSM_LANES + l];
+}
+/* Rows of one group from a source per lane (nnz values at src[l]): each row built in a register and stored as one
+ * vector, which the kernels' vector loads read back at once (a row written lane by lane with scalar stores makes
+ * every such load wait for the stores to retire: no store forwarding from several stores to one load). */
+static inline void to_rows(double *row, const double *const *src, int nnz) {
+  for (int k = 0; k < nnz; ++k) {
+#ifdef __GNUC__
+#if FSM_LANES == 8
+    const fsm_pow_v v = {src[0][k], src[1][k], src[2][k], src[3][k], src[4][k], src[5][k], src[6][k], src[7][k]};
+#else
+    const fsm_pow_v v = {src[0][k], src[1][k], src[2][k], src[3][k]};
+#endif
+    memcpy(row + FSM_LANES * k, &v, sizeof v);
+#else
+    for (int l = 0; l < FSM_LANES; ++l) row[FSM_LANES * k + l] = src[l][k];
+#endif
+  }
 }
 /* The same values in every lane of a row (time, reference). */
 static inline void broadcast_row(double *row, const double *src, int nnz) {
@@ -679,9 +691,8 @@ double fsm_link_weight(const fsm_problem *P, int e, double t) { return link_weig
 
 /* The neighbour aggregation (eq 19 for any broadcast b), the one place it is written: with the link weights
  * k^j_ij(t_link) (cached per t_link: the four RK4 stages of a step share them),
- * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij.  With the batched kernels
- * the sums go straight into the lane rows RW_RECV, RW_KSUM, RW_KRS (lanes past the last agent repeat it), else into
- * recv, ksum, krs. */
+ * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij, into recv, ksum, krs, and
+ * with the batched kernels also into the lane rows RW_RECV, RW_KSUM, RW_KRS (lanes past the last agent repeat it). */
 static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
   const int n = W->n, nb = W->nb;
   if (!W->k_valid || W->k_time != t_link) {
@@ -727,8 +738,8 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
   /* Receiver by receiver, its active links in link order: the same sums 0 + k b_1 + k b_2 + ... as adding link by
    * link into recv, with the partial sums in registers (no store-to-load chain through memory). */
   const double *src = P->links_imperfect ? W->link_val : W->b_tx; /* b_tx: b, or b_sent when event-triggered */
-  const int padded = W->batched ? W->n_groups * FSM_LANES : n;
   for (int i = 0; i < n; ++i) {
+    double *ri = W->recv + (size_t)nb * i;
     if (nb == 3) {
       double a0 = 0.0, a1 = 0.0, a2 = 0.0;
       for (int m = W->act_start[i]; m < W->act_start[i + 1]; ++m) {
@@ -737,27 +748,21 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
         a1 += kj * bj[1];
         a2 += kj * bj[2];
       }
-      for (int q = i; q < (i == n - 1 ? padded : i + 1); ++q) { /* lanes past the last agent repeat it */
-        double *ri = W->batched ? lane_slot(W, RW_RECV, q) : W->recv + 3 * (size_t)q;
-        const int st = W->batched ? FSM_LANES : 1;
-        ri[0] = a0;
-        ri[st] = a1;
-        ri[2 * st] = a2;
-      }
+      ri[0] = a0, ri[1] = a1, ri[2] = a2;
       continue;
     }
-    double *ri = W->recv + (size_t)nb * i;
     for (int k = 0; k < nb; ++k) ri[k] = 0.0;
     for (int m = W->act_start[i]; m < W->act_start[i + 1]; ++m) {
       const double kj = W->act_k[m], *bj = src + W->act_src[m];
       for (int k = 0; k < nb; ++k) ri[k] += kj * bj[k];
     }
-    if (W->batched)
-      for (int q = i; q < (i == n - 1 ? padded : i + 1); ++q) {
-        double *slot = lane_slot(W, RW_RECV, q);
-        for (int k = 0; k < nb; ++k) slot[FSM_LANES * k] = ri[k];
-      }
   }
+  if (W->batched) /* the sums into the lane rows RW_RECV (lanes past the last agent repeat it) */
+    for (int g = 0; g < W->n_groups; ++g) {
+      const double *rl[FSM_LANES];
+      for (int l = 0; l < FSM_LANES; ++l) rl[l] = W->recv + (size_t)nb * lane_agent(g, l, n);
+      to_rows(ROW(group_block(W, g), RW_RECV), rl, nb);
+    }
 }
 
 /* The commanded torques just computed must be finite. */
@@ -1049,11 +1054,13 @@ static void wheel_rates(workspace *W, const fsm_problem *P, double *dx) {
 
 /* The true state into the lane rows RW_SIGMA, RW_OMEGA of group g (after the law saw measurements there). */
 static void reload_state_lanes(workspace *W, double *G, int g, const double *x) {
+  const double *si[FSM_LANES], *wi[FSM_LANES];
   for (int l = 0; l < FSM_LANES; ++l) {
-    const double *xi = x + 3 + (size_t)W->stride * lane_agent(g, l, W->n);
-    to_lane(ROW(G, RW_SIGMA), xi, 3, l);
-    to_lane(ROW(G, RW_OMEGA), xi + 3, 3, l);
+    si[l] = x + 3 + (size_t)W->stride * lane_agent(g, l, W->n);
+    wi[l] = si[l] + 3;
   }
+  to_rows(ROW(G, RW_SIGMA), si, 3);
+  to_rows(ROW(G, RW_OMEGA), wi, 3);
 }
 
 /* The plant with reaction wheels: wheel torques at x (commands uwa), then the generated gyrostat_rhs with the
@@ -1173,14 +1180,17 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     broadcast_row(LANE(W->common, CM_WDD), W->wdd, 3);
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
+      const double *si[FSM_LANES], *wi[FSM_LANES], *zi[FSM_LANES];
       for (int l = 0; l < FSM_LANES; ++l) {
         const int i = lane_agent(g, l, n);
         const double *xi = x + 3 + (size_t)S * i;
-        const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
-        to_lane3(ROW(G, RW_SIGMA), si, l); /* the law sees the measurements */
-        to_lane3(ROW(G, RW_OMEGA), wi, l);
-        to_lane(ROW(G, RW_Z), xi + 6, nz, l);
+        si[l] = sensed ? W->sig_meas + 3 * i : xi; /* the law sees the measurements */
+        wi[l] = sensed ? W->om_meas + 3 * i : xi + 3;
+        zi[l] = xi + 6;
       }
+      to_rows(ROW(G, RW_SIGMA), si, 3);
+      to_rows(ROW(G, RW_OMEGA), wi, 3);
+      to_rows(ROW(G, RW_Z), zi, nz);
       if (compute_control) {
         const double *arg[N_LOCAL_IN];
         for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = law_row(W, G, RW_T + a);
@@ -1276,15 +1286,17 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
       double *tau = ROW(G, RW_TAU);
-      const double *urow = ROW(G, RW_U);
+      const double *dl[FSM_LANES], *ul[FSM_LANES];
       for (int l = 0; l < FSM_LANES; ++l) {
-        const int i = lane_agent(g, l, n), li = i % FSM_LANES; /* lanes past the last agent repeat it */
-        const double *di = W->d + 3 * i;
-        if (in_lanes)
-          for (int k = 0; k < 3; ++k) tau[FSM_LANES * k + l] = urow[FSM_LANES * k + li] + di[k];
-        else
-          for (int k = 0; k < 3; ++k) tau[FSM_LANES * k + l] = ua[3 * i + k] + di[k];
+        const int i = lane_agent(g, l, n); /* lanes past the last agent repeat it */
+        dl[l] = W->d + 3 * i;
+        ul[l] = ua + 3 * i;
       }
+      double drow[3 * FSM_LANES], urows[3 * FSM_LANES]; /* tau_i = u_i + d_i, lane by lane */
+      to_rows(drow, dl, 3);
+      if (!in_lanes) to_rows(urows, ul, 3);            /* u from the held or computed commands, else the lanes' */
+      const double *urow = in_lanes ? ROW(G, RW_U) : urows;
+      for (int k = 0; k < 3 * FSM_LANES; ++k) tau[k] = urow[k] + drow[k];
       if (sensed) reload_state_lanes(W, G, g, x); /* rows RW_SIGMA, RW_OMEGA hold this x unless sensed */
       const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
       double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};

@@ -40,7 +40,7 @@ double fsmctl_pow(double x, double y);
 
 #ifdef __GNUC__
 #pragma GCC diagnostic ignored "-Wpsabi" /* static helpers: the vector-ABI note does not apply */
-#if defined(__FMA__) && defined(__AVX__)
+#if defined(__AVX__)
 #include <immintrin.h>
 #endif
 typedef double fsm_pow_v __attribute__((vector_size(8 * FSM_LANES)));
@@ -86,6 +86,34 @@ static inline fsm_pow_v fsm_pow_two_prod(fsm_pow_v a, fsm_pow_v b, fsm_pow_v *e)
   *e = (((ah * bh - p) + ah * bl) + al * bh) + al * bl;
   return p;
 #endif
+}
+
+/* whether a lane l < lanes is off the fast path (mask ok clear): one test of the whole vector where the CPU has one */
+static inline int fsm_pow_any_off(fsm_pow_m ok, int lanes) {
+#if FSM_LANES == 8
+  const fsm_pow_m lane = {0, 1, 2, 3, 4, 5, 6, 7};
+#else
+  const fsm_pow_m lane = {0, 1, 2, 3};
+#endif
+  const fsm_pow_m off = ~ok & (lane < lanes);
+#if defined(__AVX512F__) && FSM_LANES == 8
+  return _mm512_test_epi64_mask((__m512i)off, (__m512i)off) != 0;
+#elif defined(__AVX__) && FSM_LANES == 4
+  return !_mm256_testz_si256((__m256i)off, (__m256i)off);
+#else
+  long long any = 0;
+  for (int l = 0; l < FSM_LANES; ++l) any |= off[l];
+  return any != 0;
+#endif
+}
+
+/* the lanes l < lanes off the fast path (mask fast clear) get the C library's pow: out of line, so that the fast
+ * path stays one straight run of vector code */
+static fsm_pow_v __attribute__((noinline, cold)) fsm_pow_off_path(fsm_pow_v x, fsm_pow_v y, fsm_pow_v res,
+                                                                   fsm_pow_m fast, int lanes) {
+  for (int l = 0; l < lanes; ++l)
+    if (!fast[l]) res[l] = pow(x[l], y[l]);
+  return res;
 }
 
 /* x^y in the lanes l < lanes (the others are unspecified) */
@@ -156,8 +184,7 @@ static inline fsm_pow_v fsm_pow_vec(fsm_pow_v x, fsm_pow_v y, int lanes) {
   fsm_pow_v res = (s2 + tail) * (fsm_pow_v)scale;
   const fsm_pow_m one = y == 1.0, two = y == 2.0; /* exact, as the C library's: x^1 = x, x^2 = x x */
   res = (fsm_pow_v)(((fsm_pow_m)x & one) | ((fsm_pow_m)(x * x) & two) | ((fsm_pow_m)res & ~(one | two)));
-  for (int l = 0; l < lanes; ++l)
-    if (!fast[l]) res[l] = pow(x[l], y[l]);
+  if (__builtin_expect(fsm_pow_any_off(fast, lanes), 0)) res = fsm_pow_off_path(x, y, res, fast, lanes);
   return res;
 }
 #endif /* __GNUC__ */

@@ -43,6 +43,15 @@ double fsmctl_cos(double x);
 typedef fsm_pow_v fsm_trig_v; /* FSM_LANES doubles (fsm_pow.h) */
 typedef fsm_pow_m fsm_trig_m;
 
+/* the lanes l < lanes off the fast path (mask fast clear) get the C library's sin or cos: out of line, so that the
+ * fast path stays one straight run of vector code */
+static fsm_trig_v __attribute__((noinline, cold)) fsm_trig_off_path(fsm_trig_v x, int want_sin, fsm_trig_v res,
+                                                                    fsm_trig_m fast, int lanes) {
+  for (int l = 0; l < lanes; ++l)
+    if (!fast[l]) res[l] = want_sin ? sin(x[l]) : cos(x[l]);
+  return res;
+}
+
 /* sin x (want_sin != 0) or cos x in the lanes l < lanes (the others are unspecified) */
 static inline fsm_trig_v fsm_sincos_vec(fsm_trig_v x, int want_sin, int lanes) {
   const double INVPIO2 = 0x1.45f306dc9c883p-1; /* 2/pi */
@@ -78,8 +87,7 @@ static inline fsm_trig_v fsm_sincos_vec(fsm_trig_v x, int want_sin, int lanes) {
   const fsm_trig_v ax = (fsm_trig_v)((fsm_trig_m)x & 0x7fffffffffffffffLL);
   const fsm_trig_v arh = (fsm_trig_v)((fsm_trig_m)rh & 0x7fffffffffffffffLL);
   const fsm_trig_m fast = (ax < 0x1p20) & (x != 0.0) & ((n == 0.0) | (arh >= 0x1p-10));
-  for (int l = 0; l < lanes; ++l)
-    if (!fast[l]) res[l] = want_sin ? sin(x[l]) : cos(x[l]);
+  if (__builtin_expect(fsm_pow_any_off(fast, lanes), 0)) res = fsm_trig_off_path(x, want_sin, res, fast, lanes);
   return res;
 }
 
