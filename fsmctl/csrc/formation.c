@@ -5,6 +5,7 @@
  */
 #include "formation.h"
 
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -1103,6 +1104,21 @@ static void plant_with_wheels(workspace *W, const fsm_problem *P, const double *
 
 /* The commanded torques of the lane rows RW_UU (batched kernels), agent by agent: as check_commands. */
 static void check_commands_lanes(workspace *W, double t) {
+  if (W->bad_agent != -2) return;
+#ifdef FSM_HAVE_BATCHED
+  int any = 0; /* a whole group at once; the first agent is looked for only when one is off */
+  for (int g = 0; g < W->n_groups && !any; ++g) {
+    const double *uu = ROW(group_block(W, g), RW_UU);
+    fsm_pow_m finite = (fsm_pow_m)fsm_pow_splat(0.0) == 0;
+    for (int k = 0; k < 3; ++k) {
+      fsm_pow_v v;
+      memcpy(&v, uu + FSM_LANES * k, sizeof v);
+      finite &= (fsm_pow_v)((fsm_pow_m)v & 0x7fffffffffffffffLL) <= DBL_MAX; /* false for inf and NaN */
+    }
+    any = fsm_pow_any_off(finite, active_lanes(g, W->n));
+  }
+  if (!any) return;
+#endif
   for (int i = 0; i < W->n && W->bad_agent == -2; ++i) {
     const double *uu = lane_slot(W, RW_UU, i);
     if (!(isfinite(uu[0]) && isfinite(uu[FSM_LANES]) && isfinite(uu[2 * FSM_LANES]))) {
