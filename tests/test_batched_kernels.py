@@ -28,7 +28,7 @@ from fsmctl.model.generated_code import compiled_library, manifest
 from fsmctl.model.laws import builtin_laws
 from fsmctl.model.problem import pack
 from fsmctl.model.topology import ring
-from fsmctl.simulation.simulator import batched_kernels_preferred, simulate_packed
+from fsmctl.simulation.simulator import SimulationError, batched_kernels_preferred, simulate_packed
 
 LAWS = builtin_laws()
 BATCHED = [("fsm", f["name"]) for f in manifest()["functions"] if "batched_kernel" in f] + [
@@ -197,6 +197,29 @@ def test_batched_and_scalar_simulations_are_bit_identical(library, paper_case1, 
     assert batched["steps_taken"] == scalar["steps_taken"]
     assert batched["steps_rejected"] == scalar["steps_rejected"]
     assert np.isfinite(batched["sigma"]).all()
+
+
+@pytest.mark.parametrize("rate", [1e100, -1e100])
+@pytest.mark.parametrize("agents", [(10,), (9, 11), (2, 10)])
+def test_a_non_finite_command_in_any_lane_group_stops_the_run_at_the_first_such_agent(
+    library, paper_case1, rate, agents
+):
+    """11 agents fill two groups of 4 or 8 lanes and part of a third.  A huge angular rate gives a finite command at
+    a step's first stage and a non-finite one at its second (the stage's state overflows), where the batched
+    kernels check the lanes a group at a time: the run stops with the scalar kernels' message, naming the first
+    such agent and the stage's time (no links, so no neighbour's command follows it)."""
+    s = _with_agents(paper_case1, 11, simulation={"t_final": 0.05, "output_interval": 0.01})
+    p = pack(dataclasses.replace(s, topology=dataclasses.replace(s.topology, links=())))
+    x0 = p.x0.copy()
+    for agent in agents:
+        x0[p.agent_slice(agent - 1).start + 4] = rate
+    messages = []
+    for kernels in ("batched", "scalar"):
+        with pytest.raises(SimulationError, match="non-finite torque command") as exc:
+            simulate_packed(dataclasses.replace(p, x0=x0), kernels=kernels)
+        messages.append(str(exc.value))
+    assert messages[0] == messages[1]
+    assert f"at t = {p.dt / 2:g} s in agent {agents[0]} " in messages[0], messages[0]
 
 
 def _build_defines(macro: str) -> bool | None:
