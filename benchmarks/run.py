@@ -626,7 +626,7 @@ def kernels_section(quick: bool, log) -> dict:
     """The compiled driver with its two per-agent evaluation paths on the 100 s Case 1 run, side by side.
 
     ``kernels="batched"`` (the default ``"auto"`` on an AVX build): the lane-batched SIMD kernels of
-    ``generated/c/batched.c`` (4 agents per call); ``kernels="scalar"``: CasADi's scalar functions agent by
+    ``generated/c/batched.c`` (FSM_LANES agents per call: 4, or 8 with AVX-512); ``kernels="scalar"``: CasADi's scalar functions agent by
     agent. Alternated, 5 repeats each.
     """
     import fsmctl
@@ -1827,7 +1827,7 @@ def _markdown_kernels(res: dict) -> list[str]:
             "## Batched kernels",
             "",
             f"Compiled driver, {k['scenario']}, with `simulate_packed(p, kernels=...)`: `batched` (what the default `auto` uses on an AVX build; lane-batched "
-            "SIMD kernels of generated/c/batched.c, 4 agents per call) vs `scalar` (CasADi's scalar functions agent by "
+            "SIMD kernels of generated/c/batched.c, FSM_LANES agents per call: 4, or 8 with AVX-512) vs `scalar` (CasADi's scalar functions agent by "
             f"agent), alternated, {k['repeats']} repeats each. Final states bit-identical: "
             f"{'yes' if k['final_states_bit_identical'] else 'NO'}; whole trajectories bit-identical: "
             f"{'yes' if k['trajectories_bit_identical'] else 'NO'}.",
@@ -2117,7 +2117,7 @@ def _markdown_throughput_and_montecarlo(res: dict) -> list[str]:
                 lines.append(
                     f"The same chunk with the base scenario's disturbances (shared between the runs) flies in "
                     f"{bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run: each run's own disturbance (three cosines per "
-                    f"agent and time, four agents per call of the batched kernel) costs "
+                    f"agent and time, FSM_LANES agents per call of the batched kernel) costs "
                     f"{bd['fly_cpu_s'] - bd['fly_shared_disturbance_cpu_s']:.3f} CPU s per run."
                 )
             prof = (res.get("throughput") or {}).get("profile")
@@ -2204,7 +2204,7 @@ def _throughput_markdown(tp: dict) -> list[str]:
         lines += [
             "",
             "pow, sin and cos are fsmctl's (`fsmctl/csrc/fsm_pow.h`, `fsm_trig.h`: those of every compiled path, "
-            "batched lanes and scalar calls give the same bits), four lanes at once inside the law_local and "
+            "batched lanes and scalar calls give the same bits), FSM_LANES lanes at once inside the law_local and "
             "disturbance_torque kernels; they and the generated kernels are fixed by the generated code, which this "
             "benchmark does not change.",
             f"What bounds it: the generated code and libm are {fixed:.0%} of the loop, {fixed * b['sim_cpu_s_per_eval'] * scale:.3f} "
