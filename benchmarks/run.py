@@ -684,6 +684,10 @@ def kernels_section(quick: bool, log) -> dict:
     return out
 
 
+EVENT_LAW_CONTROL_PERIOD_S = 0.1
+"""The control period the laws section gives an event-triggered law (it needs one): 10 Hz, as ``paper-hardware``."""
+
+
 def laws_section(quick: bool, log) -> dict:
     """Every built-in law (:func:`fsmctl.model.laws.builtin_laws`) on the batched kernels: Case 1, 100 s, RK4.
 
@@ -711,7 +715,11 @@ def laws_section(quick: bool, log) -> dict:
         paths = ("batched", "scalar") if dll.fsm_batched_available() else ("scalar",)
         if len(paths) == 1:
             entry["note"] = "this build has no batched kernels (the compiler lacks the vector extension)"
-        p = pack(sc, law)
+        if law.trigger is not None:  # an event-triggered law is checked at control instants: 10 Hz, as paper-hardware's
+            entry["control_period_s"] = EVENT_LAW_CONTROL_PERIOD_S
+            p = pack(sc.replace(simulation={"control_period": EVENT_LAW_CONTROL_PERIOD_S}), law)
+        else:
+            p = pack(sc, law)
         walls = {k: [] for k in paths}
         loops = {k: [] for k in paths}
         first: dict = {}
@@ -1869,6 +1877,8 @@ def _markdown_laws(res: dict) -> list[str]:
                 continue
             b, sc_ = e.get("batched", {}), e.get("scalar", {})
             eq = e.get("trajectories_equal")
+            if "control_period_s" in e:
+                name = f"{name} (control period {e['control_period_s']:g} s)"
             lines.append(
                 f"| {name} | {e['n_states']} | {e['n_broadcast']} | {_f(b.get('c_loop_min_s'))} | "
                 f"{_f(sc_.get('c_loop_min_s'))} | {_f(e.get('scalar_over_batched_c_loop'))} | "
