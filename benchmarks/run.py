@@ -767,10 +767,10 @@ def _pre_hardware_driver(log):
     import subprocess
     import tempfile
 
-    from fsmctl.model.generated_code import _compiler, _sources, compile_flags, default_law_dir, math_include_args
+    from fsmctl.model.generated_code import _sources, c_compiler, compile_flags, default_law_dir, math_include_args
     from fsmctl.simulation.driver import _PROGRESS, _dp, _Output, _Problem
 
-    cc = _compiler()
+    cc = c_compiler()
     root = Path(__file__).resolve().parents[1]
     if cc is None or shutil.which("git") is None:
         return None
@@ -792,7 +792,11 @@ def _pre_hardware_driver(log):
     includes = [f"-I{d}" for d in dict.fromkeys(p.parent for p in sources)]
     lib = tmp / "libfsm_pre_hardware.so"
     cmd = [cc, *flags, *includes, *math_include_args(), *map(str, sources), "-o", str(lib), "-lm"]
-    subprocess.run(cmd, check=True, capture_output=True)
+    build = subprocess.run(cmd, capture_output=True, text=True)
+    if build.returncode != 0:  # e.g. the kernels it calls were renamed since (issue 31: _x4 -> _batched)
+        log(f"hardware: the pre-hardware driver no longer builds with today's generated code; no baseline "
+            f"({build.stderr.strip().splitlines()[-1][:200] if build.stderr.strip() else build.returncode})")  # fmt: skip
+        return None
     dll = ctypes.CDLL(str(lib))
     dll.fsm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.POINTER(_Output), _PROGRESS, ctypes.c_longlong]
     dll.fsm_simulate.restype = ctypes.c_int
@@ -891,10 +895,10 @@ def _engine_at(commit: str, log):
     import tarfile
     from io import BytesIO
 
-    from fsmctl.model.generated_code import _compiler, compile_flags
+    from fsmctl.model.generated_code import c_compiler, compile_flags
     from fsmctl.simulation.driver import _PROGRESS, _dp, _Output, _Problem
 
-    cc = _compiler()
+    cc = c_compiler()
     if cc is None or shutil.which("git") is None:
         return None
     tmp = Path(tempfile.mkdtemp(prefix=f"fsmctl-bench-{commit}-"))
@@ -2596,6 +2600,7 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
                               check=True, env={**os.environ, "FSMCTL_LANES": str(width), "OPENBLAS_NUM_THREADS": "1"})  # fmt: skip
         out["widths"][str(width)]["single_runs"] = json.loads(proc.stdout)
         log(f"roofline {width} lanes: single runs {out['widths'][str(width)]['single_runs']}")
+    out["before"] = _roofline_before(quick, log)
     for w in out["widths"].values():
         c = w["chunk"]
         per_rhs_agent = sum(k["flops_per_agent"] for k in w["kernels"].values())
@@ -2615,6 +2620,45 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
     out["flops_per_100s_run"] = scale * max(w["flops_per_run"] for w in out["widths"].values())
     out["ceiling_s_per_run"] = out["flops_per_100s_run"] / out["no_fma_peak_gflops"] / 1e9
     out["figure"] = _roofline_figure(out, out_dir)
+    return out
+
+
+PRE_PROFILE_COMMIT = "5a6b4de"
+"""Main before the profile-driven changes of 2026-11-29 (statement order of the kernels, out-of-line off-path lanes,
+whole-vector lane rows): its engine is the roofline section's "before", built side by side."""
+
+
+def _roofline_before(quick: bool, log) -> dict | None:
+    """Case 1 (the paper's law, 100 s at 1 ms, the ideal loop) on today's engine and on the engine of
+    :data:`PRE_PROFILE_COMMIT` built from its sources with today's flags, alternated, min of the repeats; whether the
+    two give the same bits."""
+    import fsmctl
+    from fsmctl.model.problem import pack
+    from fsmctl.simulation.simulator import simulate_packed
+
+    old = _engine_at(PRE_PROFILE_COMMIT, log)
+    if old is None:
+        return None
+    t_final = 20.0 if quick else 100.0
+    p = pack(fsmctl.paper_scenario("1").replace(simulation={"t_final": t_final}))
+    walls: dict[str, list[float]] = {"today": [], PRE_PROFILE_COMMIT: []}
+    first: dict = {}
+    for r in range(2 if quick else 7):
+        for k in list(walls) if r % 2 == 0 else list(walls)[::-1]:
+            if k == "today":
+                raw = simulate_packed(p)
+                wall = float(raw["wall_time"])
+            else:
+                wall, raw = _fly_on(old, p)
+            walls[k].append(wall)
+            first.setdefault(k, raw)
+    keys = ("t", "sigma_d", "sigma", "omega", "sigma_e", "omega_e", "broadcast", "u", "u_unsat")
+    same = all(np.array_equal(first["today"][k], first[PRE_PROFILE_COMMIT][k]) for k in keys)
+    out = {"commit": PRE_PROFILE_COMMIT, "t_final": t_final, "c_loop_min_s": {k: min(v) for k, v in walls.items()},
+           "bit_identical": same}  # fmt: skip
+    out["speedup"] = out["c_loop_min_s"][PRE_PROFILE_COMMIT] / out["c_loop_min_s"]["today"]
+    log(f"roofline: Case 1 today {out['c_loop_min_s']['today']:.3f} s vs {PRE_PROFILE_COMMIT} "
+        f"{out['c_loop_min_s'][PRE_PROFILE_COMMIT]:.3f} s ({out['speedup']:.2f}x), same bits: {same}")  # fmt: skip
     return out
 
 
@@ -2728,9 +2772,19 @@ def _markdown_roofline(res: dict) -> list[str]:
             f"{w8['single_runs'][k] / w4['single_runs'][k]:.2f} |"
             for k in w4.get("single_runs", {})
         ),
-        "",
-        f"![roofline]({r['figure']})",
     ]
+    before = r.get("before")
+    if before:
+        lines += [
+            "",
+            f"Before and after the profile-driven changes (the kernels' statement order, out-of-line off-path lanes, "
+            f"whole-vector lane rows), side by side: Case 1 ({before['t_final']:.0f} s at 1 ms, the ideal loop) on "
+            f"today's engine {before['c_loop_min_s']['today']:.3f} s, on the engine of commit {before['commit']} built "
+            f"from its sources with today's flags {before['c_loop_min_s'][before['commit']]:.3f} s "
+            f"({before['speedup']:.2f}x, compiled loop, min of the alternated repeats); the same bits: "
+            f"{'yes' if before['bit_identical'] else 'NO'}.",
+        ]
+    lines += ["", f"![roofline]({r['figure']})"]
     return lines
 
 
