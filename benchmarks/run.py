@@ -1976,7 +1976,12 @@ def _markdown_flight(res: dict) -> list[str]:
         + f". The difference of the two loops over the calls, {fl['fsm_wheels_extra_per_call_s'] * 1e6:.2f} us per "
         "call, is within the repeats' noise (the two runs also fly different trajectories).",
     ]
-    if "ideal_over_pre_issue28" in fl:
+    if "ideal_over_pre_issue28" in fl and not fl.get("pre_issue28_trajectory_identical", True):
+        lines.append(
+            f"* The engine of commit {PRE_ISSUE28_COMMIT} (before issue 28) no longer flies today's packed problem the "
+            "same way (its trajectories differ: the problem's C struct has grown since), so its time is no baseline."
+        )
+    elif "ideal_over_pre_issue28" in fl:
         r = fl["ideal_over_pre_issue28"]
         lines.append(
             f"* Ideal loop today / the engine of commit {PRE_ISSUE28_COMMIT} (before issue 28; its `fsmctl/csrc` and "
