@@ -8,12 +8,13 @@ arithmetic.  Each instruction becomes one single-assignment statement; in a kern
 that calls ``pow``, ``sin`` or ``cos`` the statements are ordered to start the longest
 dependency chains first (list scheduling by critical path), so that independent
 ``pow`` calls sit side by side and the CPU overlaps them; other kernels keep CasADi's
-order.  Reordering single assignments changes no operation and no operand.  The width is a compile-time constant of the C code, not of the
-printed text: ``fsmctl/csrc/fsm_pow.h`` defines it (4 unless the build says
-otherwise; :func:`fsmctl.model.generated_code.compile_flags` asks for 8 on CPUs
-with 512-bit vectors), so one generated file serves every width.  Every lane
-performs exactly the scalar program: the same IEEE
-operations in the same order (``+ - * /`` are correctly rounded per lane, ``pow``,
+order.  Reordering single assignments changes no operation and no operand.  The
+width is a compile-time constant of the C code, not of the printed text:
+``fsmctl/csrc/fsm_pow.h`` defines it (4 unless the build says otherwise;
+:func:`fsmctl.model.generated_code.compile_flags` asks for 8 on CPUs with 512-bit
+vectors), so one generated file serves every width.  Every lane performs exactly
+the scalar program: each value by the same IEEE operation on the same operands
+(``+ - * /`` are correctly rounded per lane, ``pow``,
 ``sin`` and ``cos`` are fsmctl's (``fsmctl/csrc/fsm_pow.h`` and ``fsm_trig.h``, those of
 every compiled path) on all lanes at once, the other library functions
 (``sqrt``, ``exp``, ...) are called per lane, and

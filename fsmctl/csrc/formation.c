@@ -1109,7 +1109,7 @@ static void check_commands_lanes(workspace *W, double t) {
   int any = 0; /* a whole group at once; the first agent is looked for only when one is off */
   for (int g = 0; g < W->n_groups && !any; ++g) {
     const double *uu = ROW(group_block(W, g), RW_UU);
-    fsm_pow_m finite = (fsm_pow_m)fsm_pow_splat(0.0) == 0;
+    fsm_pow_m finite = (fsm_pow_m)fsm_pow_splat(0.0) == 0; /* every lane true */
     for (int k = 0; k < 3; ++k) {
       fsm_pow_v v;
       memcpy(&v, uu + FSM_LANES * k, sizeof v);
