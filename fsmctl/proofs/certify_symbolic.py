@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from fsmctl.proofs.law_check import _on_unit_ball, _rational_zero, _with_budget
+from fsmctl.proofs.symbolic_identities import identically_zero, resolve_branches_on_unit_ball, run_with_time_limit
 from fsmctl.symbolic.law import Law
 
 __all__ = ["SYMBOLIC_SECONDS", "ReducedTorque", "reduced_torque", "state_symbols"]
@@ -50,8 +50,8 @@ def _reduce(law: Law, params: np.ndarray, J0: np.ndarray, at_rest: bool) -> Redu
     for name, syms, value in (*law.constants, *law.local_stages, *law.control_stages):
         v = sp.ImmutableMatrix(value).xreplace(numbers).xreplace(rest).xreplace(stages)
         if name == "sigma_e":
-            reduced, why = _on_unit_ball(v, sigma)
-            if any("sampl" in w for w in why) or not _rational_zero(list(reduced - sigma)):
+            reduced, why = resolve_branches_on_unit_ball(v, sigma)
+            if any("sampl" in w for w in why) or not identically_zero(list(reduced - sigma)):
                 return "sigma_e at sigma_d = 0 could not be reduced to sigma symbolically"
             v = sigma
             how = "sigma_e = sigma at sigma_d = 0 on |sigma| <= 1 (" + "; ".join(why or ["no branch"]) + ")"
@@ -84,7 +84,7 @@ def reduced_torque(
     -------
     ReducedTorque or None
     """
-    finished, value = _with_budget(lambda: _reduce(law, params, J0, at_rest), seconds)
+    finished, value = run_with_time_limit(lambda: _reduce(law, params, J0, at_rest), seconds)
     if not finished or not isinstance(value, ReducedTorque):
         return None
     return value

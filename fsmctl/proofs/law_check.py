@@ -54,11 +54,10 @@ from __future__ import annotations
 
 import json
 import math
-import multiprocessing
 import re
 import textwrap
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -67,6 +66,12 @@ import sympy as sp
 
 from fsmctl.model.generated_paths import builtin_law_scripts
 from fsmctl.model.laws import LawCode, LawError, builtin_laws, resolve_law
+from fsmctl.proofs.symbolic_identities import (
+    identically_zero,
+    resolve_branches_on_unit_ball,
+    run_with_time_limit,
+    uniform_ball_points,
+)
 from fsmctl.symbolic.law import Law, LawVariants, contract_names, wheels_function_name
 from fsmctl.symbolic.mrp import mrp_G, mrp_G_dot, mrp_G_inverse, skew
 
@@ -399,109 +404,6 @@ def load_law_variants(spec: str) -> LawVariants:
 # ----------------------------------------------------------------------------------------------- helpers
 
 
-def _with_budget(fn: Callable[[], object], seconds: float) -> tuple[bool, object]:
-    """``(finished, value)`` of ``fn()`` run under a time limit.
-
-    SymPy's simplifiers cannot be interrupted, so ``fn`` runs in a forked child process that is killed at the
-    limit; without ``fork`` it runs here, unguarded.  ``value`` must pickle; an exception in ``fn`` comes
-    back as the string ``"error: ..."``.
-    """
-    try:
-        ctx = multiprocessing.get_context("fork")
-    except ValueError:
-        try:
-            return True, fn()
-        except Exception as exc:
-            return True, f"error: {type(exc).__name__}: {exc}"
-    recv, send = ctx.Pipe(duplex=False)
-
-    def child():
-        try:
-            value = fn()
-        except BaseException as exc:
-            value = f"error: {type(exc).__name__}: {exc}"
-        send.send(value)
-        send.close()
-
-    proc = ctx.Process(target=child, daemon=True)
-    proc.start()
-    send.close()
-    try:
-        if recv.poll(seconds):
-            try:
-                return True, recv.recv()
-            except EOFError:
-                return True, "error: the worker died"
-        return False, None
-    finally:
-        recv.close()
-        if proc.is_alive():
-            proc.terminate()
-        proc.join(5)
-
-
-_OPAQUE = (sp.Piecewise, sp.sign, sp.Abs, sp.Min, sp.Max, sp.Heaviside, sp.DiracDelta)
-
-
-def _canonical(expr: sp.Expr, table: dict) -> sp.Expr:
-    """``expr`` with ``|x|`` written ``x sgn(x)`` (real ``x``), non-integer powers split as ``P * b^n`` (``P`` a
-    symbol standing for ``b^(e - n)``, ``n`` the integer part of ``e``) and the branches of each ``Piecewise`` put
-    in a canonical form (cancel), so that equal pieces written differently (``eps^(alpha-2)`` and
-    ``eps^(alpha-1)/eps``) become the same expression."""
-
-    memo = table.setdefault("memo", {})
-
-    def rebuild(e):
-        if e in memo:
-            return memo[e]
-        if e.is_Atom:
-            out = e
-        else:
-            args = tuple(rebuild(a) for a in e.args)
-            out = e.func(*args) if args != e.args else e
-            if isinstance(out, sp.Abs) and out.args[0].is_extended_real:
-                out = out.args[0] * sp.sign(out.args[0])  # |x| = x sgn(x): sign terms of V_dot meet Abs of a claim
-            if out.is_Pow and not out.exp.is_Integer:
-                c, _ = out.exp.as_coeff_Add()
-                n = math.floor(c) if c.is_Rational else 0
-                key = ("pow", out.base, out.exp - n)
-                if key not in table:
-                    table[key] = sp.Symbol(f"_pow{len(table)}", positive=True)
-                out = table[key] * out.base**n
-            elif isinstance(out, sp.Piecewise):
-                out = sp.Piecewise(*((sp.cancel(sp.expand(v)), c) for v, c in out.args), evaluate=False)
-        memo[e] = out
-        return out
-
-    return rebuild(expr)
-
-
-def _opaque(exprs: Sequence[sp.Expr], table: dict) -> list[sp.Expr]:
-    """Replace non-rational pieces (Piecewise, sign, Abs, Min, Max, non-integer powers) by fresh symbols.
-
-    The same piece becomes the same symbol in every expression (``table`` is shared), so an identity that holds
-    with them free holds for every value they take.
-    """
-    out = []
-    for e in exprs:
-        e = _canonical(sp.sympify(e), table)
-        pieces = set(e.atoms(*_OPAQUE))
-        for p in pieces:
-            if p not in table:
-                table[p] = sp.Symbol(f"_opaque{len(table)}", real=True)
-        out.append(e.xreplace({p: table[p] for p in pieces}))
-    return out
-
-
-def _rational_zero(exprs: Sequence[sp.Expr]) -> bool:
-    """Every expression is identically zero as a rational function (after :func:`_opaque`)."""
-    table: dict = {}
-    for e in _opaque(list(exprs), table):
-        if sp.cancel(sp.together(sp.expand(e))) != 0:
-            return False
-    return True
-
-
 _INDEXED = re.compile(r"^(\w+)\[([\d,]+)\]$")
 
 
@@ -529,15 +431,6 @@ def _unique_symbols(law: Law, names: Iterable[str]) -> list[sp.Symbol]:
                 seen.add(s)
                 out.append(s)
     return out
-
-
-def _ball(rng: np.random.Generator, n: int, dim: int, radius: float) -> np.ndarray:
-    """``n`` points uniform in the ``dim``-ball of ``radius``."""
-    if dim == 0:
-        return np.zeros((n, 0))
-    x = rng.normal(size=(n, dim))
-    x /= np.maximum(np.linalg.norm(x, axis=1, keepdims=True), 1e-300)
-    return x * radius * rng.uniform(size=(n, 1)) ** (1.0 / dim)
 
 
 def _paper_J0s() -> list[np.ndarray]:
@@ -648,12 +541,12 @@ def _sample_inputs(law: Law, rng: np.random.Generator, n: int) -> _Inputs:
     near = n // 4
     arrays = {
         "t": rng.uniform(0.0, T_MAX, size=(n, 1)),
-        "sigma": _ball(rng, n, 3, SIGMA_BOUND),
-        "omega": _ball(rng, n, 3, OMEGA_BOUND),
-        "z": _ball(rng, n, law.n_states, Z_BOUND),
-        "sigma_d": _ball(rng, n, 3, SIGMA_D_BOUND),
-        "omega_d": _ball(rng, n, 3, OMEGA_D_BOUND),
-        "omega_d_dot": _ball(rng, n, 3, OMEGA_D_DOT_BOUND),
+        "sigma": uniform_ball_points(rng, n, 3, SIGMA_BOUND),
+        "omega": uniform_ball_points(rng, n, 3, OMEGA_BOUND),
+        "z": uniform_ball_points(rng, n, law.n_states, Z_BOUND),
+        "sigma_d": uniform_ball_points(rng, n, 3, SIGMA_D_BOUND),
+        "omega_d": uniform_ball_points(rng, n, 3, OMEGA_D_BOUND),
+        "omega_d_dot": uniform_ball_points(rng, n, 3, OMEGA_D_DOT_BOUND),
         "J0": _random_J0(rng, n),
         "params": np.vstack([_parameter_rows(law, rng, half, False), _parameter_rows(law, rng, n - half, True)]),
         "k_sum": rng.uniform(0.0, K_MAX, size=(n, 1)),
@@ -972,57 +865,6 @@ class _ClosedLoop:
         return sp.ImmutableMatrix.vstack(self.sigma_dot, self.omega_dot, self.z_dot)
 
 
-def _holds_on_unit_ball(cond, sigma: sp.ImmutableMatrix) -> tuple[bool, str]:
-    """Whether a condition in ``sigma`` only holds on ``|sigma| <= 1``: ``(holds, how)``.
-
-    Symbolic when the condition is a function of ``r2 = |sigma|^2`` alone (``solve_univariate_inequality``
-    on ``[0, 1]``), else sampled at 512 points (said so in ``how``).
-    """
-    if cond is sp.true:
-        return True, "always"
-    if not isinstance(cond, sp.core.relational.Relational) or cond.free_symbols - set(sigma):
-        return False, "not a condition on sigma"
-    r2 = sp.Symbol("r2", nonnegative=True)
-    gap = cond.lhs - cond.rhs
-    try:
-        g = sp.cancel(gap.xreplace({sigma[0]: sp.sqrt(r2 - sigma[1] ** 2 - sigma[2] ** 2)}))
-        if g.free_symbols <= {r2}:
-            solution = sp.solve_univariate_inequality(cond.func(g, 0), r2, relational=False)
-            return bool(sp.Interval(0, 1).is_subset(solution)), f"{cond} on |sigma|^2 in [0, 1] (symbolic)"
-    except (NotImplementedError, ValueError, TypeError):
-        pass
-    f = sp.lambdify(list(sigma), cond, modules="numpy")
-    pts = _ball(np.random.default_rng(0), 512, 3, 1.0)
-    with np.errstate(all="ignore"):
-        ok = np.all(np.asarray(f(*pts.T), dtype=bool))
-    return bool(ok), f"{cond} at 512 points of |sigma| <= 1 (sampled)"
-
-
-def _on_unit_ball(expr, sigma) -> tuple[sp.Expr, list[str]]:
-    """``expr`` with each ``Piecewise`` replaced by the branch taken on ``|sigma| <= 1`` and ``Abs(a)`` by ``+-a``
-    where the sign of ``a`` is fixed there (when that can be shown; see :func:`_holds_on_unit_ball`)."""
-    how: list[str] = []
-    rep = {}
-    for pw in expr.atoms(sp.Piecewise):
-        for value, cond in pw.args:
-            ok, text = _holds_on_unit_ball(cond, sigma)
-            if ok:
-                rep[pw] = value
-                how.append(text)
-                break
-    expr = expr.xreplace(rep)
-    rep = {}
-    for ab in expr.atoms(sp.Abs):
-        a = ab.args[0]
-        for sign, cond in ((1, sp.GreaterThan(a, 0)), (-1, sp.LessThan(a, 0))):
-            ok, text = _holds_on_unit_ball(cond, sigma)
-            if ok:
-                rep[ab] = sign * a
-                how.append(text)
-                break
-    return expr.xreplace(rep), how
-
-
 def _closed_loop(law: Law) -> _ClosedLoop:
     sym = law.symbols
     rest = {s: sp.S.Zero for n in ("sigma_d", "omega_d", "omega_d_dot", "k_sum", "received", "k_received_sum")
@@ -1036,8 +878,8 @@ def _closed_loop(law: Law) -> _ClosedLoop:
     for name, syms, value in (*law.constants, *law.local_stages, *law.control_stages):
         v = sp.ImmutableMatrix(value).xreplace(rest).xreplace(stages)
         if error_state and name == "sigma_e":
-            reduced, how = _on_unit_ball(v, sigma)
-            shadow = _rational_zero(list(reduced - sigma))
+            reduced, how = resolve_branches_on_unit_ball(v, sigma)
+            shadow = identically_zero(list(reduced - sigma))
             if shadow:
                 v = sigma
                 lines.append(
@@ -1054,7 +896,7 @@ def _closed_loop(law: Law) -> _ClosedLoop:
         for name, expected in (("omega_e", omega), ("omega_r", sp.zeros(3, 1)), ("omega_r_dot", sp.zeros(3, 1))):
             syms = next(s for n, s, _ in law.local_stages if n == name)
             value = sp.ImmutableMatrix([stages[s] for s in syms])
-            ok = _rational_zero(list(value - expected))
+            ok = identically_zero(list(value - expected))
             lines.append(f"[{'ok' if ok else '--'}] at rest {name} = {'omega' if name == 'omega_e' else '0'}")
     sigma_dot = sp.ImmutableMatrix(mrp_G(sigma) * omega)
     omega_dot = sp.ImmutableMatrix(J0.adjugate() * (u - skew(omega) * J0 * omega) / J0.det())
@@ -1133,7 +975,9 @@ def _check_eq20(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> LawC
     # (J0 and G are invertible); the right side is written with G^-1 = 16 G^T / (1 + |sigma|^2)^2
     residual = cl.u - skew(omega) * J0 * omega - J0 * mrp_G_inverse(sigma) * (eq20 - Gd * omega)
     surface = list(s - eq13)
-    finished, value = _with_budget(lambda: (_rational_zero(surface), _rational_zero(list(residual))), SYMBOLIC_BUDGET)
+    finished, value = run_with_time_limit(
+        lambda: (identically_zero(surface), identically_zero(list(residual))), SYMBOLIC_BUDGET
+    )
     symbolic = finished and isinstance(value, tuple) and all(value)
     lines = [
         "eq 20 (Liang, Sun & Wang 2012) with the coordination term 0: sigma_e_ddot = -(c1 sigma_e_dot + c2 alpha "
@@ -1257,7 +1101,7 @@ def _check_lyapunov(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> 
         )  # fmt: skip
     V = cl.at_rest(ly.V)[0]
     claimed = None if ly.claimed_derivative is None else cl.at_rest(ly.claimed_derivative)[0]
-    finished, vdot = _with_budget(lambda: _lyapunov_derivative(cl, V), SYMBOLIC_BUDGET)
+    finished, vdot = run_with_time_limit(lambda: _lyapunov_derivative(cl, V), SYMBOLIC_BUDGET)
     if not finished or isinstance(vdot, str) or not isinstance(vdot, sp.Basic) or vdot.has(sp.Derivative):
         why = (
             f"V_dot could not be formed within the time budget of {SYMBOLIC_BUDGET:g} s"
@@ -1282,8 +1126,8 @@ def _check_lyapunov(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> 
     identity = manifest = False
     if claimed is not None:
         residual = vdot - claimed
-        finished, value = _with_budget(
-            lambda: (_rational_zero([residual]), _manifestly_nonpositive(claimed, law)), SYMBOLIC_BUDGET
+        finished, value = run_with_time_limit(
+            lambda: (identically_zero([residual]), _manifestly_nonpositive(claimed, law)), SYMBOLIC_BUDGET
         )
         identity = finished and isinstance(value, tuple) and value[0] is True
         manifest = finished and isinstance(value, tuple) and value[1] is True
@@ -1318,9 +1162,9 @@ def _check_lyapunov(cl: _ClosedLoop, rng: np.random.Generator, samples: int) -> 
     f = _lambdify(inputs, exprs)
     arrays = {
         "t": rng.uniform(0.0, T_MAX, size=(samples, 1)),
-        "sigma": _ball(rng, samples, 3, sigma_bound),
-        "omega": _ball(rng, samples, 3, omega_bound),
-        "z": _ball(rng, samples, law.n_states, z_bound),
+        "sigma": uniform_ball_points(rng, samples, 3, sigma_bound),
+        "omega": uniform_ball_points(rng, samples, 3, omega_bound),
+        "z": uniform_ball_points(rng, samples, law.n_states, z_bound),
         "J0": _random_J0(rng, samples),
         "params": _parameter_rows(law, rng, samples, False),
     }
