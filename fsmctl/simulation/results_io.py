@@ -894,7 +894,8 @@ def scenario_from_result(path: str | Path) -> Scenario:
         if now != recorded:
             raise LawChangedError(
                 f"{path}: the law {scenario.controller.law} is not the one this result was flown with (content "
-                f"sha256 {recorded[:12]}... recorded for {law_path or 'it'}, {now[:12]}... now): restore that law, "
-                "(a re-run would fly another law)"
+                f"sha256 {recorded[:12]}... recorded for {law_path or 'it'}, {now[:12]}... now: its script, its folder "
+                "or the code fsmctl generates from it changed); a re-run would fly another law: restore that law, or "
+                "fly the scenario afresh"
             )
     return scenario
