@@ -283,7 +283,10 @@ def load_derivation_script(path: Path | str) -> LawVariants:
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     try:
-        spec.loader.exec_module(module)
+        # compiled from its text, not through the import system's bytecode cache: a .pyc is trusted while the
+        # source keeps its size and its modification time in whole seconds, so an edit within one second (4.0 ->
+        # 5.0) would run the old law; and no __pycache__ is written beside the user's script
+        exec(compile(path.read_bytes(), str(path), "exec", dont_inherit=True), module.__dict__)
     except LawDefinitionError:
         raise
     except SyntaxError as exc:

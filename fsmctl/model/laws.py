@@ -928,10 +928,17 @@ def _restore_aside(target: Path) -> None:
         shutil.rmtree(aside, ignore_errors=True)
 
 
+_STAMPED_BY_CONTENT = ("law.json", "manifest.json")
+"""Files of a law folder whose content (not only time and size) is part of its stamp: a derive rewrites the manifest,
+which holds the sha256 of every other file."""
+
+
 def _stamp(text: str, cwd: str) -> tuple:
     """What changes when a law's files change: name, modification time and size of every file of a folder, or of a
-    script (empty for a built-in name or a missing path).  Part of the cache key of :func:`_resolve`, so that a law
-    folder derived again or edited, or a script edited, within one session is read (and verified) again."""
+    script (empty for a built-in name or a missing path), and the content of a script and of a folder's law.json
+    and manifest.json (a file rewritten within one tick of the file system's clock keeps its time, and an edit
+    such as 4.0 -> 5.0 its size).  Part of the cache key of :func:`_resolve`, so that a law folder derived again
+    or edited, or a script edited, within one session is read (and verified) again."""
     if text in _builtin_laws():
         return ()
     path = Path(text).expanduser()
@@ -939,7 +946,7 @@ def _stamp(text: str, cwd: str) -> tuple:
     try:
         if not path.is_dir():
             st = path.stat()
-            return ((str(path), st.st_mtime_ns, st.st_size),)
+            return ((str(path), st.st_mtime_ns, st.st_size, hashlib.sha256(path.read_bytes()).hexdigest()),)
         out, folders = [], [str(path)]
         while folders:
             with os.scandir(folders.pop()) as entries:
@@ -948,7 +955,10 @@ def _stamp(text: str, cwd: str) -> tuple:
                         folders.append(entry.path)
                     else:
                         st = entry.stat()
-                        out.append((entry.path, st.st_mtime_ns, st.st_size))
+                        content = ""
+                        if entry.name in _STAMPED_BY_CONTENT:
+                            content = hashlib.sha256(Path(entry.path).read_bytes()).hexdigest()
+                        out.append((entry.path, st.st_mtime_ns, st.st_size, content))
         return tuple(sorted(out))
     except OSError:
         return ()
