@@ -216,6 +216,20 @@ def test_a_law_edited_within_one_session_is_read_again(folder, tmp_path):
     assert resolve_law(script).parameter("K").default == (5.0,)
 
 
+def test_a_folder_rewritten_within_one_clock_tick_is_verified_again(folder):
+    """law.json edited to the same size with its modification time restored (a rewrite within one tick of the file
+    system's clock): the cached law is not returned, the folder is verified again and refused."""
+    assert resolve_law(folder).parameter("K").default == (4.0,)
+    path = folder / "law.json"
+    before, text = path.stat(), path.read_text()
+    assert text.count('"default": 4.0') == 1
+    path.write_text(text.replace('"default": 4.0', '"default": 5.0'))
+    os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert path.stat().st_size == before.st_size
+    with pytest.raises(LawError, match="does not match its sha256"):
+        resolve_law(folder)
+
+
 def test_an_edited_cached_derivation_is_derived_again(tmp_path, monkeypatch):
     """A script's law is derived into the cache once; a cached folder edited since is not flown but derived again."""
     monkeypatch.setenv("FSMCTL_CACHE_DIR", str(tmp_path / "cache"))

@@ -318,6 +318,7 @@ def test_from_refuses_a_law_other_than_the_recorded_one(tmp_path, capsys, monkey
         scenario_from_result(path)
     rc, err = _exit(["simulate", "--from", str(path), "--out", str(tmp_path / "again")], capsys)
     assert rc == 2 and err.count("\n") == 1 and "is not the one this result was flown with" in err, err
+    assert err.rstrip().endswith("a re-run would fly another law: restore that law, or fly the scenario afresh"), err
     shutil.copytree(resolve_law("pid").folder, tmp_path / "a" / "law")
     _edit_law_default(tmp_path / "a" / "law", "k_coupling", 0.25)  # the law at the recorded place, changed
     with pytest.raises(LawChangedError):
