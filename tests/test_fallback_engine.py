@@ -171,3 +171,26 @@ def test_rk4_update_is_classical_rk4_and_step_times_use_the_midpoint_for_links()
     p = pack(case1(1.0))
     t, th, t1, tl = step_times(p, 7)
     assert (t, th, t1, tl) == (7 * p.dt, 7.5 * p.dt, 8 * p.dt, 7.5 * p.dt)
+
+
+@pytest.mark.parametrize("kernels", ["batched", "scalar"])
+def test_fast_switching_periodic_links_fly_as_in_the_fallback(kernels):
+    """Periodic link schedules with phases, their switches off the step grid and near the ends of their periods,
+    and one aperiodic link: the compiled loop skips re-evaluating the link weights while no link can switch
+    (formation.c ``link_window``); the fallback evaluates every link at every step (``step_times``).  A weight held
+    one step too long changes the torque by a neighbour's whole term, far above the 1e-9 agreement."""
+    from fsmctl.model.topology import Link, Schedule, Topology
+
+    base = case1(0.6).replace(simulation={"output_interval": 0.001})
+    links = []
+    for e, link in enumerate(base.topology.links):
+        period = 0.0173 + 0.0011 * (e % 7)
+        cuts = (0.0, period * (0.31 + 0.05 * (e % 5)), period * 0.999)  # the last just before the period's end
+        values = (0.0, 2.8 + 0.1 * (e % 3), 5.0) if e % 2 else (5.0, 0.0, 0.6)
+        links.append(Link(link.receiver, link.sender, link.k_i, Schedule(cuts, values, period), -0.0041 * e))
+    links[0] = Link(links[0].receiver, links[0].sender, 1.0, Schedule((0.0, 0.2503, 0.4111), (5.0, 0.0, 2.8)))
+    s = dataclasses.replace(base, topology=Topology(base.n_agents, tuple(links)))
+    p = pack(s)
+    compiled, fallback = simulate_packed(p, kernels=kernels), simulate_casadi(p)
+    assert compiled["backend"] == "compiled"
+    assert_same(compiled, fallback)

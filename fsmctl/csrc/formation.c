@@ -8,6 +8,7 @@
 #include <float.h>
 #include <math.h>
 #include <stddef.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -174,6 +175,13 @@ enum { DL_PAR, DL_D = DL_PAR + 12, DL_END = DL_D + 3 };
 enum { CM_T, CM_SD, CM_WD = CM_SD + 3, CM_WDD = CM_WD + 3, CM_END = CM_WDD + 3 };
 
 
+/* On a cache-line boundary (lane rows: see calloc_lines). */
+#ifdef __GNUC__
+#define FSM_LINE __attribute__((aligned(64)))
+#else
+#define FSM_LINE
+#endif
+
 /* The agent in lane l of group g: lanes past the last agent repeat it (their results are never read). */
 static inline int lane_agent(int g, int l, int n) { return g * FSM_LANES + l < n ? g * FSM_LANES + l : n - 1; }
 static inline int active_lanes(int g, int n) { return n - g * FSM_LANES < FSM_LANES ? n - g * FSM_LANES : FSM_LANES; }
@@ -215,10 +223,21 @@ typedef struct {
   int n, nz, nb, np, nk, nc, stride;     /* agents, law states, broadcast, params, constants, cache; state stride */
   int members;                           /* runs flown together (>= 1): the output layout, see fsm_problem */
   int batched;                           /* 1: lane-batched kernels for the per-agent functions */
-  double common[CM_END * FSM_LANES];     /* the shared lane rows (CM_*) */
+  double common[CM_END * FSM_LANES] FSM_LINE; /* the shared lane rows (CM_*) */
   int n_groups;                          /* ceil(n / FSM_LANES) */
   int row[RW_END + 1];                   /* row offsets of the lane blocks */
   double *lanes;                         /* n_groups blocks of row[RW_END] x FSM_LANES doubles */
+  void *lanes_raw, *dl_raw, *wl_raw;     /* what free() takes of lanes, dl, wl (calloc_lines) */
+  /* The state x of the loops: sigma_d (3), then agent i's sigma, omega, z and wheel speeds at 3 + stride * i (the
+   * layout of fsm_simulate's x0 and of fsm_rhs); or, with lane_state, in lane rows: sigma_d in the first FSM_LANES
+   * doubles (3 used, the rest 0), then per group g a block of state_block = (6 + nz) x FSM_LANES doubles, the rows
+   * sigma_0..2, omega_0..2, z_0..nz-1 (element (k, l) at block[FSM_LANES * k + l]), which the batched kernels read
+   * and write in place.  RK4's updates are elementwise: the layout changes no number.  Lanes past the last agent
+   * hold its initial state with rate 0 (zero_spare_lanes).  lane_state: batched kernels, no wheels, no sensors,
+   * RK4 (simulate_rk4; see alloc_workspace). */
+  int lane_state;
+  size_t n_state, state_block;           /* doubles in x; per group (lane_state) */
+  double *xa;                            /* stride doubles: one agent's state gathered from the rows (agent_state) */
   batched_fn local_x, control_x;
   casadi_fn local, control, error_state;
   double *b, *cache, *konst;             /* n x nb, n x nc, n x nk */
@@ -233,6 +252,8 @@ typedef struct {
   double *dl;                            /* disturbance lanes (batched): n_dgroups blocks of DL_END x FSM_LANES */
   int *d_lane;                           /* per lane of the disturbance groups: the agent it evaluates */
   int n_ddistinct, n_dgroups;            /* agents with d_src[i] == i; ceil(n_ddistinct / FSM_LANES) */
+  int d_rows;                            /* 1: every agent's parameters distinct: disturbance group g is agent
+                                          * group g, and the plant reads its rows DL_D (no gather from d) */
   double wd[3], wdd[3];
   double *k_val, *k_base, *k_lo, *k_hi;  /* per-link schedule cache */
   double *k_flo, *k_fhi;                 /* per link: where the cache needs no period check (see link_weight) */
@@ -242,6 +263,7 @@ typedef struct {
   double *act_k;                         /* broadcast sits (in b, or link_val when imperfect) and their k^j */
   double k_time;
   int k_valid;
+  double k_win_lo, k_win_hi;             /* link times where every link's cache check passes (see link_weights) */
   double *tau;                           /* n x 3 */
   /* flight hardware */
   int nw;                                /* wheels per agent */
@@ -272,6 +294,8 @@ typedef struct {
   int bad_rc;                            /* ... and the status it ends the run with (FSM_NONFINITE_CONTROL, FSM_ZENO) */
   /* event-triggered communication (trigger_every > 0) */
   const double *b_tx;                    /* what the links carry: b (periodic) or b_sent (event-triggered) */
+  int b_in_lanes;                        /* 1: the neighbour sums read b_j from the lane rows RW_B (batched kernels,
+                                          * periodic, perfect links); W->b is then written at compute_control 1 only */
   double *b_sent;                        /* n x nb: the last broadcast each agent sent */
   unsigned char *sent_now, *sent_hist;   /* n: sent at the current instant; hist_len x n (imperfect links) */
   long long *streak, *since_out;         /* n: consecutive checks with a message; messages since the last record */
@@ -294,9 +318,9 @@ static void free_workspace(workspace *W) {
   free(W->act_src);
   free(W->act_k);
   free(W->d_src);
-  free(W->dl);
+  free(W->dl_raw);
   free(W->d_lane);
-  free(W->wl);
+  free(W->wl_raw);
   free(W->wheel_lane);
   free(W->wheel_x);
   free(W->wheel_wd);
@@ -304,7 +328,8 @@ static void free_workspace(workspace *W) {
   free(W->gated);
   free(W->lw_in);
   free(W->lw_iw);
-  free(W->lanes);
+  free(W->lanes_raw);
+  free(W->xa);
   free(W->iw);
   free(W->w);
   free(W->ext_k_own);
@@ -355,6 +380,13 @@ static int fsm_no_kernel(const double *const *arg, double *const *res, int lanes
 #endif
 
 
+/* count zeroed doubles from a cache-line boundary (64 bytes: a row of 8 lanes never straddles two lines, each
+ * vector load and store of a row touches one); *raw receives the pointer free() takes. */
+static double *calloc_lines(size_t count, void **raw) {
+  *raw = calloc(count + 8, sizeof(double));
+  return *raw ? (double *)(((uintptr_t)*raw + 63) & ~(uintptr_t)63) : NULL;
+}
+
 static void lane_rows(workspace *W) {
   /* RW_T, RW_SD, RW_WD, RW_WDD: none of their own (the kernels read the shared rows, law_row) */
   const int size[RW_END] = {0, 3, 3, W->nz, 0, 0, 0, 9, W->np, W->nk, W->nc, 1, W->nb, 1, 1,
@@ -365,15 +397,54 @@ static void lane_rows(workspace *W) {
 
 static double *group_block(workspace *W, int g) { return W->lanes + (size_t)g * W->row[RW_END] * FSM_LANES; }
 #define ROW(G, r) LANE(G, W->row[r])
-/* Argument row r of a law kernel for group G: the shared rows (time, reference) or the group's own. */
-static inline const double *law_row(workspace *W, double *G, int r) {
+/* Argument row r of a law or plant kernel for group G: the shared rows (time, reference), the state rows of the
+ * group's block xg of x (lane_state; NULL: the group's rows RW_SIGMA, RW_OMEGA, RW_Z), or the group's own. */
+static inline const double *law_row(workspace *W, double *G, const double *xg, int r) {
   switch (r) {
     case RW_T: return LANE(W->common, CM_T);
     case RW_SD: return LANE(W->common, CM_SD);
     case RW_WD: return LANE(W->common, CM_WD);
     case RW_WDD: return LANE(W->common, CM_WDD);
+    case RW_SIGMA: return xg ? xg : ROW(G, r);
+    case RW_OMEGA: return xg ? xg + 3 * FSM_LANES : ROW(G, r);
+    case RW_Z: return xg ? xg + 6 * FSM_LANES : ROW(G, r);
     default: return ROW(G, r);
   }
+}
+/* Group g's block of the state x (lane_state). */
+static inline size_t state_group(const workspace *W, int g) { return FSM_LANES + (size_t)g * W->state_block; }
+/* Group g's block of x with lane_state, else NULL. */
+static inline const double *lane_x(const workspace *W, const double *x, int g) {
+  return W->lane_state ? x + state_group(W, g) : NULL;
+}
+/* Agent i's state (stride doubles: sigma, omega, z, wheel speeds): its place in x, or gathered into W->xa from the
+ * lane rows (lane_state; valid until the next call). */
+static const double *agent_state(workspace *W, const double *x, int i) {
+  if (!W->lane_state) return x + 3 + (size_t)W->stride * i;
+  const double *B = x + state_group(W, i / FSM_LANES) + i % FSM_LANES;
+  for (int k = 0; k < W->stride; ++k) W->xa[k] = B[FSM_LANES * k];
+  return W->xa;
+}
+/* x0 (fsm_simulate's layout) into the loops' state x (zeroed, n_state doubles); lanes past the last agent repeat
+ * it. */
+static void state_from(workspace *W, const double *x0, double *x) {
+  if (!W->lane_state) {
+    memcpy(x, x0, sizeof(double) * W->n_state);
+    return;
+  }
+  memcpy(x, x0, 3 * sizeof(double));
+  for (int g = 0; g < W->n_groups; ++g)
+    for (int l = 0; l < FSM_LANES; ++l)
+      to_lane(x + state_group(W, g), x0 + 3 + (size_t)W->stride * lane_agent(g, l, W->n), W->stride, l);
+}
+/* The rates of the lanes past the last agent: 0 (their state stays its initial copy of the last agent; the
+ * kernels' results there are never read, and a lane off fsmctl's pow fast path is not evaluated exactly). */
+static void zero_spare_lanes(workspace *W, double *dx) {
+  const int g = W->n_groups - 1, first = W->n - g * FSM_LANES;
+  if (!W->lane_state || first == FSM_LANES) return;
+  double *B = dx + state_group(W, g);
+  for (int k = 0; k < W->stride; ++k)
+    for (int l = first; l < FSM_LANES; ++l) B[FSM_LANES * k + l] = 0.0;
 }
 /* Where agent i's value of a lane row sits (batched kernels): lane i % FSM_LANES of row r of group i / FSM_LANES. */
 static inline double *lane_slot(workspace *W, int r, int i) {
@@ -441,6 +512,9 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   W->nc = nc;
   W->nw = P->n_wheels;
   W->stride = 6 + P->n_states + P->n_wheels;
+  W->n_state = 3 + (size_t)W->stride * n;
+  W->xa = calloc((size_t)W->stride, sizeof(double));
+  if (!W->xa) return FSM_NOMEM;
   W->local = P->error_model == 1 ? law_local_exact : law_local_paper;
   W->control = P->error_model == 1 ? law_control_exact : law_control_paper;
   W->error_state = P->error_model == 1 ? error_state_exact : error_state_paper;
@@ -590,8 +664,9 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     W->local_x = P->error_model == 1 ? law_local_exact_batched : law_local_paper_batched;
     W->control_x = P->error_model == 1 ? law_control_exact_batched : law_control_paper_batched;
     W->n_groups = (n + FSM_LANES - 1) / FSM_LANES;
-    W->lanes = calloc((size_t)W->n_groups * W->row[RW_END] * FSM_LANES, sizeof(double));
+    W->lanes = calloc_lines((size_t)W->n_groups * W->row[RW_END] * FSM_LANES, &W->lanes_raw);
     if (!W->lanes) { free_workspace(W); return FSM_NOMEM; }
+    W->b_in_lanes = !P->links_imperfect && P->trigger_every <= 0; /* the links carry this evaluation's b */
   }
   W->iw = calloc((size_t)max_iw, sizeof(casadi_int));
   W->w = calloc((size_t)max_w, sizeof(double));
@@ -604,9 +679,10 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
   if (W->batched) pack_lane_constants(W, P);
   if (W->batched) { /* disturbance lanes: the agents with distinct parameters, packed once */
     for (int i = 0; i < n; ++i) W->n_ddistinct += W->d_src[i] == i;
+    W->d_rows = W->n_ddistinct == n;
     W->n_dgroups = (W->n_ddistinct + FSM_LANES - 1) / FSM_LANES;
     const size_t slots = (size_t)W->n_dgroups * FSM_LANES;
-    W->dl = calloc(slots * DL_END > 0 ? slots * DL_END : 1, sizeof(double));
+    W->dl = calloc_lines(slots * DL_END, &W->dl_raw);
     W->d_lane = calloc(slots > 0 ? slots : 1, sizeof(int));
     if (!W->dl || !W->d_lane) { free_workspace(W); return FSM_NOMEM; }
     size_t m = 0;
@@ -622,7 +698,7 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     const int total = n * W->nw;
     W->n_wgroups = (total + FSM_LANES - 1) / FSM_LANES;
     const size_t slots = (size_t)W->n_wgroups * FSM_LANES;
-    W->wl = calloc(slots * WL_END, sizeof(double));
+    W->wl = calloc_lines(slots * WL_END, &W->wl_raw);
     W->wheel_lane = calloc(slots, sizeof(int));
     W->wheel_x = calloc(slots, sizeof(size_t));
     W->wheel_wd = calloc(slots, sizeof(size_t));
@@ -690,12 +766,36 @@ static double link_weight(workspace *W, const fsm_problem *P, int e, double t) {
 
 double fsm_link_weight(const fsm_problem *P, int e, double t) { return link_weight(NULL, P, e, t); }
 
+/* The link times [k_win_lo, k_win_hi) from t_link on where link_weight's first check (r in [k_flo, k_fhi): its
+ * cached value) passes for every link, so that no weight can differ from k_now: r = (t + phase) - base is
+ * non-decreasing in t, so a check that passes at t_link passes up to where r reaches k_fhi, which lies past
+ * k_fhi + base - phase less a margin far above the rounding of r.  Empty when a check fails at t_link. */
+static void link_window(workspace *W, const fsm_problem *P, double t_link) {
+  double hi = INFINITY;
+  for (int e = 0; e < P->n_links; ++e) {
+    const double phase = P->sched_phase[e], r = t_link + phase - W->k_base[e];
+    if (!(r >= W->k_flo[e] && r < W->k_fhi[e])) {
+      hi = -INFINITY;
+      break;
+    }
+    if (isinf(W->k_fhi[e])) continue;
+    const double margin = 1e-12 * (fabs(t_link) + fabs(phase) + fabs(W->k_base[e]) + fabs(W->k_fhi[e]) + 1.0);
+    hi = fmin(hi, W->k_fhi[e] + W->k_base[e] - phase - margin);
+  }
+  W->k_win_lo = t_link;
+  W->k_win_hi = hi;
+}
+
 /* The neighbour aggregation (eq 19 for any broadcast b), the one place it is written: with the link weights
  * k^j_ij(t_link) (cached per t_link: the four RK4 stages of a step share them),
  * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij, into recv, ksum, krs, and
  * with the batched kernels also into the lane rows RW_RECV, RW_KSUM, RW_KRS (lanes past the last agent repeat it). */
 static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
   const int n = W->n, nb = W->nb;
+  if (W->k_valid && t_link >= W->k_win_lo && t_link < W->k_win_hi) { /* no link's weight differs from k_now */
+    W->k_time = t_link;
+    return;
+  }
   if (!W->k_valid || W->k_time != t_link) {
     int changed = !W->k_valid;
     for (int e = 0; e < P->n_links; ++e) {
@@ -705,6 +805,7 @@ static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
     }
     W->k_time = t_link;
     W->k_valid = 1;
+    link_window(W, P, t_link);
     if (changed) { /* the sums over each receiver's links, in link order (the weights rarely change) */
       int c = 0;
       for (int i = 0; i < n; ++i) {
@@ -716,7 +817,8 @@ static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
           kr += W->k_now[e];
           if (W->k_now[e] != 0.0) { /* the active links: a link switched off adds nothing, not even 0 * b */
             W->act_k[c] = W->k_now[e];
-            W->act_src[c++] = nb * (P->links_imperfect ? e : P->link_sender[e]);
+            W->act_src[c++] = W->b_in_lanes ? (int)(lane_slot(W, RW_B, P->link_sender[e]) - W->lanes)
+                                            : nb * (P->links_imperfect ? e : P->link_sender[e]);
           }
         }
         W->ksum[i] = ks;
@@ -738,7 +840,9 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
   link_weights(W, P, t_link);
   /* Receiver by receiver, its active links in link order: the same sums 0 + k b_1 + k b_2 + ... as adding link by
    * link into recv, with the partial sums in registers (no store-to-load chain through memory). */
-  const double *src = P->links_imperfect ? W->link_val : W->b_tx; /* b_tx: b, or b_sent when event-triggered */
+  /* b_tx: b, or b_sent when event-triggered; or b_j's lane in the rows RW_B (component stride FSM_LANES) */
+  const double *src = W->b_in_lanes ? W->lanes : P->links_imperfect ? W->link_val : W->b_tx;
+  const int st = W->b_in_lanes ? FSM_LANES : 1;
   for (int i = 0; i < n; ++i) {
     double *ri = W->recv + (size_t)nb * i;
     if (nb == 3) {
@@ -746,8 +850,8 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
       for (int m = W->act_start[i]; m < W->act_start[i + 1]; ++m) {
         const double kj = W->act_k[m], *bj = src + W->act_src[m];
         a0 += kj * bj[0];
-        a1 += kj * bj[1];
-        a2 += kj * bj[2];
+        a1 += kj * bj[st];
+        a2 += kj * bj[2 * st];
       }
       ri[0] = a0, ri[1] = a1, ri[2] = a2;
       continue;
@@ -755,7 +859,7 @@ static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
     for (int k = 0; k < nb; ++k) ri[k] = 0.0;
     for (int m = W->act_start[i]; m < W->act_start[i + 1]; ++m) {
       const double kj = W->act_k[m], *bj = src + W->act_src[m];
-      for (int k = 0; k < nb; ++k) ri[k] += kj * bj[k];
+      for (int k = 0; k < nb; ++k) ri[k] += kj * bj[k * st];
     }
   }
   if (W->batched) /* the sums into the lane rows RW_RECV (lanes past the last agent repeat it) */
@@ -1196,22 +1300,26 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     broadcast_row(LANE(W->common, CM_WDD), W->wdd, 3);
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
-      const double *si[FSM_LANES], *wi[FSM_LANES], *zi[FSM_LANES];
-      for (int l = 0; l < FSM_LANES; ++l) {
-        const int i = lane_agent(g, l, n);
-        const double *xi = x + 3 + (size_t)S * i;
-        si[l] = sensed ? W->sig_meas + 3 * i : xi; /* the law sees the measurements */
-        wi[l] = sensed ? W->om_meas + 3 * i : xi + 3;
-        zi[l] = xi + 6;
+      const double *xg = lane_x(W, x, g); /* lane_state: the kernels read the state rows in place */
+      if (!xg) {
+        const double *si[FSM_LANES], *wi[FSM_LANES], *zi[FSM_LANES];
+        for (int l = 0; l < FSM_LANES; ++l) {
+          const int i = lane_agent(g, l, n);
+          const double *xi = x + 3 + (size_t)S * i;
+          si[l] = sensed ? W->sig_meas + 3 * i : xi; /* the law sees the measurements */
+          wi[l] = sensed ? W->om_meas + 3 * i : xi + 3;
+          zi[l] = xi + 6;
+        }
+        to_rows(ROW(G, RW_SIGMA), si, 3);
+        to_rows(ROW(G, RW_OMEGA), wi, 3);
+        to_rows(ROW(G, RW_Z), zi, nz);
       }
-      to_rows(ROW(G, RW_SIGMA), si, 3);
-      to_rows(ROW(G, RW_OMEGA), wi, 3);
-      to_rows(ROW(G, RW_Z), zi, nz);
       if (compute_control) {
         const double *arg[N_LOCAL_IN];
-        for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = law_row(W, G, RW_T + a);
+        for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = law_row(W, G, xg, RW_T + a);
         double *res[2] = {ROW(G, RW_B), ROW(G, RW_CACHE)};
         W->local_x(arg, res, active_lanes(g, n));
+        if (W->b_in_lanes && compute_control != 1) continue; /* b_j for the records: stage one's */
         for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
           from_lane(W->b + (size_t)nb * (g * FSM_LANES + l), ROW(G, RW_B), nb, l); /* b_j for the links */
       }
@@ -1239,15 +1347,17 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       for (int g = 0; g < W->n_groups; ++g) {
         double *G = group_block(W, g);
         const double *arg[N_CONTROL_IN];
-        for (int a = 0; a < N_CONTROL_IN; ++a) arg[a] = law_row(W, G, RW_T + a);
-        double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), ROW(G, RW_ZDOT)};
+        for (int a = 0; a < N_CONTROL_IN; ++a) arg[a] = law_row(W, G, lane_x(W, x, g), RW_T + a);
+        /* lane_state: the law states' rates straight into dx */
+        double *zdot = W->lane_state ? dx + state_group(W, g) + 6 * FSM_LANES : ROW(G, RW_ZDOT);
+        double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), zdot};
         W->control_x(arg, res, active_lanes(g, n));
         if (in_lanes) continue;
         for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
           const int i = g * FSM_LANES + l;
           from_lane3(W->u + 3 * i, ROW(G, RW_U), l);
           from_lane3(W->uu + 3 * i, ROW(G, RW_UU), l);
-          from_lane(W->zdot + (size_t)nz * i, ROW(G, RW_ZDOT), nz, l);
+          from_lane(W->zdot + (size_t)nz * i, zdot, nz, l);
         }
       }
     } else if (!P->controller) {
@@ -1308,13 +1418,27 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         dl[l] = W->d + 3 * i;
         ul[l] = ua + 3 * i;
       }
-      double drow[3 * FSM_LANES], urows[3 * FSM_LANES]; /* tau_i = u_i + d_i, lane by lane */
-      to_rows(drow, dl, 3);
+      double dgather[3 * FSM_LANES] FSM_LINE, urows[3 * FSM_LANES] FSM_LINE; /* tau_i = u_i + d_i, lane by lane */
+      const double *drow = W->d_rows ? LANE(W->dl + (size_t)g * DL_END * FSM_LANES, DL_D) : dgather;
+      if (!W->d_rows) to_rows(dgather, dl, 3);
       if (!in_lanes) to_rows(urows, ul, 3);            /* u from the held or computed commands, else the lanes' */
       const double *urow = in_lanes ? ROW(G, RW_U) : urows;
       for (int k = 0; k < 3 * FSM_LANES; ++k) tau[k] = urow[k] + drow[k];
       if (sensed) reload_state_lanes(W, G, g, x); /* rows RW_SIGMA, RW_OMEGA hold this x unless sensed */
-      const double *arg[4] = {ROW(G, RW_SIGMA), ROW(G, RW_OMEGA), ROW(G, RW_TAU), ROW(G, RW_JTRUE)};
+      const double *xg = lane_x(W, x, g);
+      const double *arg[4] = {law_row(W, G, xg, RW_SIGMA), law_row(W, G, xg, RW_OMEGA), ROW(G, RW_TAU),
+                              ROW(G, RW_JTRUE)};
+      if (xg) { /* lane_state: the rates straight into dx; held law-state rates into its rows */
+        double *dxg = dx + state_group(W, g);
+        double *res[2] = {dxg, dxg + 3 * FSM_LANES};
+        plant_rhs_batched(arg, res, active_lanes(g, n));
+        if (!compute_control && nz > 0) {
+          const double *zl[FSM_LANES];
+          for (int l = 0; l < FSM_LANES; ++l) zl[l] = za + (size_t)nz * lane_agent(g, l, n);
+          to_rows(dxg + 6 * FSM_LANES, zl, nz);
+        }
+        continue;
+      }
       double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
       plant_rhs_batched(arg, res, active_lanes(g, n));
       for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
@@ -1333,35 +1457,46 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
       plant_rhs(arg, res, W->iw, W->w, 0);
     }
   }
-  if (nz > 0 && !in_lanes)
+  if (nz > 0 && !in_lanes && !W->lane_state)
     for (int i = 0; i < n; ++i) memcpy(dx + 9 + (size_t)S * i, za + (size_t)nz * i, sizeof(double) * nz);
   if (W->nw > 0) wheel_rates(W, P, dx);
+  zero_spare_lanes(W, dx);
 }
 
+/* The reference's and every agent's MRP to its shadow set where |sigma| > 1. */
 static void shadow_all(workspace *W, double *x) {
-  double tmp[3];
   for (int b = 0; b < W->n + 1; ++b) {
-    double *sig = b == 0 ? x : x + 3 + (size_t)W->stride * (b - 1);
-    if (sig[0] * sig[0] + sig[1] * sig[1] + sig[2] * sig[2] > 1.0) {
-      const double *arg[1] = {sig};
+    const int i = b - 1, st = b > 0 && W->lane_state ? FSM_LANES : 1; /* st: the components' stride in x */
+    double *sig = b == 0             ? x
+                  : W->lane_state ? x + state_group(W, i / FSM_LANES) + i % FSM_LANES
+                                  : x + 3 + (size_t)W->stride * i;
+    double s[3] = {sig[0], sig[st], sig[2 * st]}, tmp[3];
+    if (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] > 1.0) {
+      const double *arg[1] = {s};
       double *res[1] = {tmp};
       mrp_shadow(arg, res, W->iw, W->w, 0);
-      memcpy(sig, tmp, sizeof tmp);
+      sig[0] = tmp[0], sig[st] = tmp[1], sig[2 * st] = tmp[2];
     }
   }
 }
 
+/* -1 if the reference's state is not finite, else the first agent whose state is not, else -2. */
 static int first_nonfinite(const workspace *W, const double *x) {
-  const long long N = 3 + (long long)W->stride * W->n;
+  const size_t N = W->n_state;
   unsigned long long any = 0; /* a branch-free pass first (it vectorises): an exponent of all ones is inf or NaN */
-  for (long long k = 0; k < N; ++k) {
+  for (size_t k = 0; k < N; ++k) {
     unsigned long long bits;
     memcpy(&bits, x + k, sizeof bits);
     any |= (bits & 0x7ff0000000000000ULL) == 0x7ff0000000000000ULL;
   }
   if (!any) return -2;
-  for (long long k = 0; k < N; ++k)
-    if (!isfinite(x[k])) return k < 3 ? -1 : (int)((k - 3) / W->stride);
+  if (!(isfinite(x[0]) && isfinite(x[1]) && isfinite(x[2]))) return -1;
+  for (int i = 0; i < W->n; ++i) {
+    const double *xi = W->lane_state ? x + state_group(W, i / FSM_LANES) + i % FSM_LANES : x + 3 + (size_t)W->stride * i;
+    const int st = W->lane_state ? FSM_LANES : 1;
+    for (int k = 0; k < W->stride; ++k)
+      if (!isfinite(xi[st * k])) return i;
+  }
   return -2;
 }
 
@@ -1369,7 +1504,7 @@ static int first_nonfinite(const workspace *W, const double *x) {
  * see, whatever the law computes), what each agent broadcasts, its law states and the applied torque. */
 static void record(fsm_output *O, workspace *W, double t, const double *x) {
   if (O->written >= O->capacity) return;
-  const int n = W->n, S = W->stride, nb = W->nb, nz = W->nz, per = n / W->members;
+  const int n = W->n, nb = W->nb, nz = W->nz, per = n / W->members;
   long long r = O->written++;
   O->t[r] = t;
   memcpy(O->sigma_d + 3 * r, x, 3 * sizeof(double));
@@ -1377,7 +1512,7 @@ static void record(fsm_output *O, workspace *W, double t, const double *x) {
     /* row r of agent i: member-major when runs fly together (one run: m = 0, per = n) */
     const size_t slot = ((size_t)(i / per) * (size_t)O->capacity + (size_t)r) * (size_t)per + (size_t)(i % per);
     size_t o = slot * 3;
-    const double *xi = x + 3 + (size_t)S * i;
+    const double *xi = agent_state(W, x, i);
     memcpy(O->sigma + o, xi, 3 * sizeof(double));
     memcpy(O->omega + o, xi + 3, 3 * sizeof(double));
     const double *arg[4] = {xi, xi + 3, x, W->wd};
@@ -1497,7 +1632,7 @@ static int validate(const fsm_problem *P) {
 static int simulate_rk4(workspace *W, const fsm_problem *P, double *x, fsm_output *O, double *buf,
                         fsm_progress_fn progress, long long every) {
   const int n = W->n;
-  const size_t N = 3 + (size_t)W->stride * n;
+  const size_t N = W->n_state;
   double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *xt = k4 + N, *u_prev = xt + N, *sat0 = u_prev + 3 * n;
   const double dt = P->dt, t0 = P->t0;
   const int continuous = P->hold_steps <= 0;
@@ -1563,7 +1698,7 @@ static const double E1 = 71.0 / 57600, E3 = -71.0 / 16695, E4 = 71.0 / 1920, E5 
 static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_output *O, double *buf,
                           fsm_progress_fn progress, long long every) {
   const int n = W->n;
-  const size_t N = 3 + (size_t)W->stride * n;
+  const size_t N = W->n_state;
   double *k1 = buf, *k2 = k1 + N, *k3 = k2 + N, *k4 = k3 + N, *k5 = k4 + N, *k6 = k5 + N, *k7 = k6 + N,
          *xt = k7 + N, *xn = xt + N, *u_prev = xn + N, *u_snap = u_prev + 3 * n, *uu_snap = u_snap + 3 * n,
          *sat0 = uu_snap + 3 * n;
@@ -1671,11 +1806,17 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
   int rc = alloc_workspace(&W, P);
   if (rc != FSM_OK) return rc;
   const int n = P->n_agents;
-  const size_t N = 3 + (size_t)W.stride * n;
-  double *buf = calloc(N * 11 + 10 * (size_t)n, sizeof(double));
+  if (W.batched && W.nw == 0 && !P->sensors && P->integrator != 1) { /* RK4 on the state in lane rows */
+    W.lane_state = 1;
+    W.state_block = (size_t)(6 + W.nz) * FSM_LANES;
+    W.n_state = FSM_LANES + (size_t)W.n_groups * W.state_block;
+  }
+  const size_t N = W.n_state; /* a multiple of FSM_LANES with lane_state: every buffer below starts a line */
+  void *raw = NULL;
+  double *buf = calloc_lines(N * 11 + 10 * (size_t)n, &raw);
   if (!buf) { free_workspace(&W); return FSM_NOMEM; }
   double *x = buf;
-  memcpy(x, x0, sizeof(double) * N);
+  state_from(&W, x0, x);
   for (int i = 0; i < n; ++i) {
     O->saturated_time[i] = 0.0;
     O->u_total_variation[i] = 0.0;
@@ -1688,7 +1829,7 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
   O->fail_agent = -2;
   if (P->trigger_every > 0) { /* the message counts (event-triggered communication) */
     if (!O->messages_sent || !O->messages_delivered || !O->first_event || !O->last_event || !O->min_inter_event) {
-      free(buf);
+      free(raw);
       free_workspace(&W);
       return FSM_BAD_PROBLEM;
     }
@@ -1705,7 +1846,7 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
     rc = simulate_dopri(&W, P, x, O, buf + N, progress, every);
   else
     rc = simulate_rk4(&W, P, x, O, buf + N, progress, every);
-  free(buf);
+  free(raw);
   free_workspace(&W);
   return rc;
 }
