@@ -1681,7 +1681,9 @@ def markdown(res: dict) -> str:
     if res.get("measured"):
         lines.append(
             "Sections kept from earlier runs (`--only` re-measured the others): "
-            + ", ".join(f"{k} ({when})" for k, when in res["measured"].items())
+            + ", ".join(
+                f"{k} ({when}, {res.get('measured_on', {}).get(k, '?')})" for k, when in res["measured"].items()
+            )
             + "."
         )
     lines += _markdown_compare(res)
@@ -2832,15 +2834,18 @@ def main(argv=None) -> int:
         if old.get("quick") == args.quick:
             res = {**old, "date": res["date"], "machine": res["machine"]}
             res.setdefault("measured", {})
+            res.setdefault("measured_on", {})  # the CPU of each kept section (machines differ between runs)
             for k in SECTIONS:
                 if k in old and k not in only and k not in res["measured"]:
                     res["measured"][k] = old.get("date")
+                    res["measured_on"][k] = old.get("machine", {}).get("cpu_model", "?")
     res["sections"] = sorted(set(res.get("sections", [])) | {k for k in SECTIONS if k in only}, key=SECTIONS.index)
 
     def section(key, run):
         if key in only:
             res[key] = run()
             res.get("measured", {}).pop(key, None)
+            res.get("measured_on", {}).pop(key, None)
         else:
             res.setdefault(key, None)
 
