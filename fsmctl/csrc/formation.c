@@ -228,6 +228,8 @@ typedef struct {
   int row[RW_END + 1];                   /* row offsets of the lane blocks */
   double *lanes;                         /* n_groups blocks of row[RW_END] x FSM_LANES doubles */
   void *lanes_raw, *dl_raw, *wl_raw;     /* what free() takes of lanes, dl, wl (calloc_lines) */
+  const double **law_args;               /* n_groups x N_CONTROL_IN: the law kernels' argument rows (law_row), the
+                                          * local kernel's the first N_LOCAL_IN; the state rows set per evaluation */
   /* The state x of the loops: sigma_d (3), then agent i's sigma, omega, z and wheel speeds at 3 + stride * i (the
    * layout of fsm_simulate's x0 and of fsm_rhs); or, with lane_state, in lane rows: sigma_d in the first FSM_LANES
    * doubles (3 used, the rest 0), then per group g a block of state_block = (6 + nz) x FSM_LANES doubles, the rows
@@ -329,6 +331,7 @@ static void free_workspace(workspace *W) {
   free(W->lw_in);
   free(W->lw_iw);
   free(W->lanes_raw);
+  free(W->law_args);
   free(W->xa);
   free(W->iw);
   free(W->w);
@@ -417,11 +420,16 @@ static inline size_t state_group(const workspace *W, int g) { return FSM_LANES +
 static inline const double *lane_x(const workspace *W, const double *x, int g) {
   return W->lane_state ? x + state_group(W, g) : NULL;
 }
+/* Where agent i's state starts in x; its components are agent_step(W) apart. */
+static inline size_t agent_at(const workspace *W, int i) {
+  return W->lane_state ? state_group(W, i / FSM_LANES) + i % FSM_LANES : 3 + (size_t)W->stride * i;
+}
+static inline int agent_step(const workspace *W) { return W->lane_state ? FSM_LANES : 1; }
 /* Agent i's state (stride doubles: sigma, omega, z, wheel speeds): its place in x, or gathered into W->xa from the
  * lane rows (lane_state; valid until the next call). */
 static const double *agent_state(workspace *W, const double *x, int i) {
-  if (!W->lane_state) return x + 3 + (size_t)W->stride * i;
-  const double *B = x + state_group(W, i / FSM_LANES) + i % FSM_LANES;
+  const double *B = x + agent_at(W, i);
+  if (!W->lane_state) return B;
   for (int k = 0; k < W->stride; ++k) W->xa[k] = B[FSM_LANES * k];
   return W->xa;
 }
@@ -676,7 +684,14 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     double *res[1] = {W->konst + (size_t)nk * i};
     law_constants(arg, res, W->iw, W->w, 0);
   }
-  if (W->batched) pack_lane_constants(W, P);
+  if (W->batched) {
+    pack_lane_constants(W, P);
+    W->law_args = malloc(sizeof(const double *) * (size_t)W->n_groups * N_CONTROL_IN);
+    if (!W->law_args) { free_workspace(W); return FSM_NOMEM; }
+    for (int g = 0; g < W->n_groups; ++g)
+      for (int a = 0; a < N_CONTROL_IN; ++a)
+        W->law_args[g * N_CONTROL_IN + a] = law_row(W, group_block(W, g), NULL, RW_T + a);
+  }
   if (W->batched) { /* disturbance lanes: the agents with distinct parameters, packed once */
     for (int i = 0; i < n; ++i) W->n_ddistinct += W->d_src[i] == i;
     W->d_rows = W->n_ddistinct == n;
@@ -1315,8 +1330,10 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         to_rows(ROW(G, RW_Z), zi, nz);
       }
       if (compute_control) {
-        const double *arg[N_LOCAL_IN];
-        for (int a = 0; a < N_LOCAL_IN; ++a) arg[a] = law_row(W, G, xg, RW_T + a);
+        const double **arg = W->law_args + (size_t)g * N_CONTROL_IN;
+        arg[LI_SIGMA] = law_row(W, G, xg, RW_SIGMA); /* the state rows of this x (lane_state) or the group's */
+        arg[LI_OMEGA] = law_row(W, G, xg, RW_OMEGA);
+        arg[LI_Z] = law_row(W, G, xg, RW_Z);
         double *res[2] = {ROW(G, RW_B), ROW(G, RW_CACHE)};
         W->local_x(arg, res, active_lanes(g, n));
         if (W->b_in_lanes && compute_control != 1) continue; /* b_j for the records: stage one's */
@@ -1346,8 +1363,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     if (W->batched) { /* (never with an external controller: it wrote u, uu and zdot) */
       for (int g = 0; g < W->n_groups; ++g) {
         double *G = group_block(W, g);
-        const double *arg[N_CONTROL_IN];
-        for (int a = 0; a < N_CONTROL_IN; ++a) arg[a] = law_row(W, G, lane_x(W, x, g), RW_T + a);
+        const double *const *arg = W->law_args + (size_t)g * N_CONTROL_IN; /* state rows set above */
         /* lane_state: the law states' rates straight into dx */
         double *zdot = W->lane_state ? dx + state_group(W, g) + 6 * FSM_LANES : ROW(G, RW_ZDOT);
         double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), zdot};
@@ -1389,6 +1405,7 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         const double *arg[2] = {LANE(W->common, CM_T), LANE(D, DL_PAR)};
         double *res[1] = {LANE(D, DL_D)};
         disturbance_torque_batched(arg, res, lanes);
+        if (W->d_rows && W->nw == 0) continue; /* the plant reads the rows DL_D, nothing reads d */
         for (int l = 0; l < lanes; ++l) from_lane3(W->d + 3 * W->d_lane[g * FSM_LANES + l], LANE(D, DL_D), l);
       }
     } else {
@@ -1466,10 +1483,8 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
 /* The reference's and every agent's MRP to its shadow set where |sigma| > 1. */
 static void shadow_all(workspace *W, double *x) {
   for (int b = 0; b < W->n + 1; ++b) {
-    const int i = b - 1, st = b > 0 && W->lane_state ? FSM_LANES : 1; /* st: the components' stride in x */
-    double *sig = b == 0             ? x
-                  : W->lane_state ? x + state_group(W, i / FSM_LANES) + i % FSM_LANES
-                                  : x + 3 + (size_t)W->stride * i;
+    const int st = b > 0 ? agent_step(W) : 1; /* the components' stride in x */
+    double *sig = b > 0 ? x + agent_at(W, b - 1) : x;
     double s[3] = {sig[0], sig[st], sig[2 * st]}, tmp[3];
     if (s[0] * s[0] + s[1] * s[1] + s[2] * s[2] > 1.0) {
       const double *arg[1] = {s};
@@ -1492,8 +1507,8 @@ static int first_nonfinite(const workspace *W, const double *x) {
   if (!any) return -2;
   if (!(isfinite(x[0]) && isfinite(x[1]) && isfinite(x[2]))) return -1;
   for (int i = 0; i < W->n; ++i) {
-    const double *xi = W->lane_state ? x + state_group(W, i / FSM_LANES) + i % FSM_LANES : x + 3 + (size_t)W->stride * i;
-    const int st = W->lane_state ? FSM_LANES : 1;
+    const double *xi = x + agent_at(W, i);
+    const int st = agent_step(W);
     for (int k = 0; k < W->stride; ++k)
       if (!isfinite(xi[st * k])) return i;
   }
