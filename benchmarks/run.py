@@ -54,6 +54,7 @@ from __future__ import annotations
 import argparse
 import bisect
 import collections
+import contextlib
 import ctypes
 import dataclasses
 import json
@@ -887,22 +888,24 @@ PRE_ISSUE28_COMMIT = "5784432"
 is the baseline of "the ideal loop unchanged within 5 % when none of this is used"."""
 
 
-def _engine_at(commit: str, log):
-    """The whole compiled engine of ``commit`` (its ``fsmctl/csrc``, ``generated/c`` and ``generated/laws/fsm/c``,
-    from ``git archive``) built with today's flags into a temporary library, or None (no git checkout, no compiler).
-    Its structs are a prefix of today's (fields are only appended), so today's ctypes structures drive it."""
+def _engine_at(commit: str, log, law: str = "fsm", lane_flag: bool = True):
+    """The whole compiled engine of ``commit`` for a built-in law (its ``fsmctl/csrc``, ``generated/c`` and
+    ``generated/laws/<law>/c``, from ``git archive``, with the law's defines) built with today's flags into a temporary
+    library, or None (no git checkout, no compiler).  Its structs are a prefix of today's (fields are only
+    appended), so today's ctypes structures drive it.  ``lane_flag=False`` leaves out today's ``-DFSM_LANES``: an
+    engine from before the lane-generic kernels (issue 31) has 4-lane kernels only."""
     import shutil
     import tarfile
     from io import BytesIO
 
-    from fsmctl.model.generated_code import c_compiler, compile_flags
+    from fsmctl.model.generated_code import c_compiler, compile_flags, law_defines
     from fsmctl.simulation.driver import _PROGRESS, _dp, _Output, _Problem
 
     cc = c_compiler()
     if cc is None or shutil.which("git") is None:
         return None
     tmp = Path(tempfile.mkdtemp(prefix=f"fsmctl-bench-{commit}-"))
-    folders = ("fsmctl/csrc", "generated/c", "generated/laws/fsm/c")
+    folders = ("fsmctl/csrc", "generated/c", f"generated/laws/{law}/c", f"generated/laws/{law}/law.json")
     try:
         tar = subprocess.run(["git", "archive", commit, *folders], cwd=ROOT, capture_output=True, check=True).stdout
         with tarfile.open(fileobj=BytesIO(tar)) as t:
@@ -911,13 +914,14 @@ def _engine_at(commit: str, log):
         log(f"flight: no engine of {commit} ({exc})")
         return None
     csrc = tmp / "fsmctl" / "csrc"
-    sources = sorted((tmp / "generated" / "c").glob("*.c")) + sorted((tmp / "generated/laws/fsm/c").glob("*.c"))
+    sources = sorted((tmp / "generated" / "c").glob("*.c")) + sorted((tmp / f"generated/laws/{law}/c").glob("*.c"))
     sources += sorted(csrc.glob("*.c"))
-    flags, _ = compile_flags(cc)
+    flags = tuple(f for f in compile_flags(cc)[0] if lane_flag or not f.startswith("-DFSM_LANES"))
     includes = [f"-I{d}" for d in dict.fromkeys(p.parent for p in sources)]
     math = ["-include", str(csrc / "fsm_pow.h"), "-include", str(csrc / "fsm_trig.h")]  # as math_include_args()
-    lib = tmp / f"libfsm_{commit}.so"
-    cmd = [cc, *flags, *includes, *math, *map(str, sources), "-o", str(lib), "-lm"]
+    lib = tmp / f"libfsm_{commit}_{law}.so"
+    defines = law_defines(tmp / "generated" / "laws" / law)  # as compiled_library: the law's hooks
+    cmd = [cc, *flags, *defines, *includes, *math, *map(str, sources), "-o", str(lib), "-lm"]
     subprocess.run(cmd, check=True, capture_output=True)
     dll = ctypes.CDLL(str(lib))
     dll.fsm_simulate.argtypes = [ctypes.POINTER(_Problem), _dp, ctypes.POINTER(_Output), _PROGRESS, ctypes.c_longlong]
@@ -2632,42 +2636,75 @@ def roofline_section(quick: bool, log, out_dir: Path = HERE) -> dict:
     return out
 
 
-PRE_PROFILE_COMMIT = "5a6b4de"
-"""Main before the profile-driven changes of 2026-11-29 (statement order of the kernels, out-of-line off-path lanes,
-whole-vector lane rows): its engine is the roofline section's "before", built side by side."""
+PRE_ISSUE31_COMMIT = "7822518"
+"""Main when issue 31's engine work began (2026-11-28: 4 lanes, the kernels in CasADi's order, lane rows written lane
+by lane, the state packed into them at every evaluation): the roofline section's "before", every built-in law and
+the hardware scenario built from its sources and flown side by side with today's engine."""
+
+BEFORE_CASES = ("fsm", "adaptive_fsm", "super_twisting", "pid", "hardware fsm", "hardware fsm_wheels",
+                "hardware fsm_event")  # fmt: skip
+"""The runs of the roofline's before/after comparison: Case 1 with each built-in law that flies continuous control, and
+``paper-hardware`` (wheels, sensors, links at 10 Hz) with the laws made for it."""
+
+
+@contextlib.contextmanager
+def _flying_on(dll):
+    """``fsmctl.simulation.simulator`` flies on ``dll`` (another engine's library) inside the block: the same
+    packing, buffers and result assembly as a normal run, another compiled loop."""
+    import fsmctl.simulation.simulator as sim
+
+    for name in ("fsm_batched_available", "fsm_batched_preferred"):
+        getattr(dll, name).argtypes, getattr(dll, name).restype = [], ctypes.c_int
+    saved = sim._driver
+    sim._driver = lambda law=None: dll
+    try:
+        yield
+    finally:
+        sim._driver = saved
 
 
 def _roofline_before(quick: bool, log) -> dict | None:
-    """Case 1 (the paper's law, 100 s at 1 ms, the ideal loop) on today's engine and on the engine of
-    :data:`PRE_PROFILE_COMMIT` built from its sources with today's flags, alternated, min of the repeats; whether the
-    two give the same bits."""
+    """Each run of :data:`BEFORE_CASES` (100 s at 1 ms) on today's engine and on the engine of
+    :data:`PRE_ISSUE31_COMMIT` built from its sources with today's flags (one library per law), alternated, min of the
+    repeats (compiled-loop wall time); whether the two give the same bits (every recorded array)."""
+    import warnings
+
     import fsmctl
     from fsmctl.model.problem import pack
     from fsmctl.simulation.simulator import simulate_packed
 
-    old = _engine_at(PRE_PROFILE_COMMIT, log)
-    if old is None:
-        return None
     t_final = 20.0 if quick else 100.0
-    p = pack(fsmctl.paper_scenario("1").replace(simulation={"t_final": t_final}))
-    walls: dict[str, list[float]] = {"today": [], PRE_PROFILE_COMMIT: []}
-    first: dict = {}
-    for r in range(2 if quick else 7):
-        for k in list(walls) if r % 2 == 0 else list(walls)[::-1]:
-            if k == "today":
-                raw = simulate_packed(p)
-                wall = float(raw["wall_time"])
-            else:
-                wall, raw = _fly_on(old, p)
-            walls[k].append(wall)
-            first.setdefault(k, raw)
-    keys = ("t", "sigma_d", "sigma", "omega", "sigma_e", "omega_e", "broadcast", "u", "u_unsat")
-    same = all(np.array_equal(first["today"][k], first[PRE_PROFILE_COMMIT][k]) for k in keys)
-    out = {"commit": PRE_PROFILE_COMMIT, "t_final": t_final, "c_loop_min_s": {k: min(v) for k, v in walls.items()},
-           "bit_identical": same}  # fmt: skip
-    out["speedup"] = out["c_loop_min_s"][PRE_PROFILE_COMMIT] / out["c_loop_min_s"]["today"]
-    log(f"roofline: Case 1 today {out['c_loop_min_s']['today']:.3f} s vs {PRE_PROFILE_COMMIT} "
-        f"{out['c_loop_min_s'][PRE_PROFILE_COMMIT]:.3f} s ({out['speedup']:.2f}x), same bits: {same}")  # fmt: skip
+    case1 = fsmctl.paper_scenario("1").replace(simulation={"t_final": t_final})
+    hardware = fsmctl.load_scenario("paper-hardware").replace(simulation={"t_final": t_final})
+    out: dict = {"commit": PRE_ISSUE31_COMMIT, "t_final": t_final, "runs": {}}
+    for name in BEFORE_CASES:
+        law = name.split()[-1]
+        old = _engine_at(PRE_ISSUE31_COMMIT, log, law=law, lane_flag=False)  # its kernels: 4 lanes
+        if old is None:
+            return None
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the law switch's note
+            p = pack((hardware if name.startswith("hardware") else case1).replace(controller={"law": law}))
+        walls: dict[str, list[float]] = {"today": [], "before": []}
+        first: dict = {}
+        for r in range(2 if quick else 5):
+            for k in list(walls) if r % 2 == 0 else list(walls)[::-1]:
+                if k == "today":
+                    raw = simulate_packed(p)
+                else:
+                    with _flying_on(old):
+                        raw = simulate_packed(p)
+                walls[k].append(float(raw["wall_time"]))
+                first.setdefault(k, raw)
+        arrays = [k for k, v in first["today"].items() if isinstance(v, np.ndarray)]
+        same = set(arrays) == {k for k, v in first["before"].items() if isinstance(v, np.ndarray)} and all(
+            np.array_equal(first["today"][k], first["before"][k]) for k in arrays
+        )
+        run = {"today_s": min(walls["today"]), "before_s": min(walls["before"]), "bit_identical": same}
+        run["speedup"] = run["before_s"] / run["today_s"]
+        out["runs"][name] = run
+        log(f"roofline: {name} today {run['today_s']:.3f} s vs {PRE_ISSUE31_COMMIT} {run['before_s']:.3f} s "
+            f"({run['speedup']:.2f}x), same bits: {same}")  # fmt: skip
     return out
 
 
@@ -2783,16 +2820,22 @@ def _markdown_roofline(res: dict) -> list[str]:
         ),
     ]
     before = r.get("before")
-    if before:
+    if before and "runs" in before:
+        runs = before["runs"]
         lines += [
             "",
-            f"Before and after the profile-driven changes (the kernels' statement order, out-of-line off-path lanes, "
-            f"whole-vector lane rows; then the state kept in lane rows, rows on cache-line boundaries, the kernels' "
-            f"argument rows listed once, the link weights re-evaluated only where a link can switch), side by side: Case 1 ({before['t_final']:.0f} s at 1 ms, the ideal loop) on "
-            f"today's engine {before['c_loop_min_s']['today']:.3f} s, on the engine of commit {before['commit']} built "
-            f"from its sources with today's flags {before['c_loop_min_s'][before['commit']]:.3f} s "
-            f"({before['speedup']:.2f}x, compiled loop, min of the alternated repeats); the same bits: "
-            f"{'yes' if before['bit_identical'] else 'NO'}.",
+            f"Today's engine against the engine of commit {before['commit']} (main when issue 31's engine work began: 4 "
+            "lanes, the kernels in CasADi's order, lane rows written lane by lane, the state packed into them at every "
+            "evaluation), built from its sources with today's flags, one library per law, the same packed problem "
+            f"flown on each, alternated ({before['t_final']:.0f} s at 1 ms; compiled loop wall s, min of the repeats):",
+            "",
+            "| run | before | today | before / today | the same bits |",
+            "|---|---|---|---|---|",
+            *(
+                f"| {k} | {v['before_s']:.3f} | {v['today_s']:.3f} | {v['speedup']:.2f} | "
+                f"{'yes' if v['bit_identical'] else 'NO'} |"
+                for k, v in runs.items()
+            ),
         ]
     lines += ["", f"![roofline]({r['figure']})"]
     return lines
