@@ -98,7 +98,7 @@ def machine_info() -> dict:
                 info["cpu_mhz"] = float(line.split(":", 1)[1])
     except OSError:
         pass
-    info["load_average_start"] = os.getloadavg()
+    info["load_average_start"] = [round(x, 2) for x in os.getloadavg()]  # a list, as it reads back from JSON
     from fsmctl.model.generated_code import compiled_library
 
     lib = compiled_library()
@@ -127,7 +127,7 @@ def compiled_final(scenario):
 def compiled_capped(scenario, cap_s: float):
     """Compiled driver with a wall-time cap (via the progress callback); returns (final state | None, info)."""
     from fsmctl.model.problem import pack
-    from fsmctl.simulation import simulator as S
+    from fsmctl.simulation import driver as S
 
     p = pack(scenario)
     dll = S._driver(p.law)
@@ -2916,7 +2916,7 @@ def main(argv=None) -> int:
         "montecarlo",
         lambda: montecarlo_section(runs, log, previous_mc, repeats=1 if args.quick else 2) if runs > 0 else None,
     )
-    res["load_average_end"] = os.getloadavg()
+    res["load_average_end"] = [round(x, 2) for x in os.getloadavg()]
     res["total_wall_s"] = time.perf_counter() - t0
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

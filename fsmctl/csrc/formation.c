@@ -1295,24 +1295,13 @@ static void external_control(workspace *W, const fsm_problem *P, double t, doubl
   }
 }
 
-static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
-                     int compute_control) {
+/* Every agent's broadcast b (and the cache law_control reads) at (t, x): the batched kernels group by group (their
+ * state rows packed from x, or read in place with lane_state), the external controller's first phase, or the
+ * scalar functions agent by agent.  compute_control as eval_rhs. */
+static void law_broadcasts(workspace *W, const fsm_problem *P, double t, const double *x, int sensed,
+                           int compute_control) {
   const int n = W->n, S = W->stride, nz = W->nz, nb = W->nb, nc = W->nc;
-  const double *sd = x;
-  const int sensed = P->sensors && compute_control; /* the law sees measurements at this evaluation */
-  /* batched, no wheels, inner stage: u, uu, zdot are read from the lane rows */
-  const int in_lanes = W->batched && W->nw == 0 && compute_control == 2;
-  if (sensed) measure(W, P, x);
-  {
-    const double *arg[3] = {&t, sd, P->ref_params};
-    double *res[3] = {dx, W->wd, W->wdd};
-    reference_rhs(arg, res, W->iw, W->w, 0);
-  }
   if (W->batched) {
-    broadcast_row(LANE(W->common, CM_T), &t, 1);
-    broadcast_row(LANE(W->common, CM_SD), sd, 3);
-    broadcast_row(LANE(W->common, CM_WD), W->wd, 3);
-    broadcast_row(LANE(W->common, CM_WDD), W->wdd, 3);
     for (int g = 0; g < W->n_groups; ++g) {
       double *G = group_block(W, g);
       const double *xg = lane_x(W, x, g); /* lane_state: the kernels read the state rows in place */
@@ -1329,17 +1318,16 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
         to_rows(ROW(G, RW_OMEGA), wi, 3);
         to_rows(ROW(G, RW_Z), zi, nz);
       }
-      if (compute_control) {
-        const double **arg = W->law_args + (size_t)g * N_CONTROL_IN;
-        arg[LI_SIGMA] = law_row(W, G, xg, RW_SIGMA); /* the state rows of this x (lane_state) or the group's */
-        arg[LI_OMEGA] = law_row(W, G, xg, RW_OMEGA);
-        arg[LI_Z] = law_row(W, G, xg, RW_Z);
-        double *res[2] = {ROW(G, RW_B), ROW(G, RW_CACHE)};
-        W->local_x(arg, res, active_lanes(g, n));
-        if (W->b_in_lanes && compute_control != 1) continue; /* b_j for the records: stage one's */
-        for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
-          from_lane(W->b + (size_t)nb * (g * FSM_LANES + l), ROW(G, RW_B), nb, l); /* b_j for the links */
-      }
+      if (!compute_control) continue; /* the rows hold x for the plant */
+      const double **arg = W->law_args + (size_t)g * N_CONTROL_IN;
+      arg[LI_SIGMA] = law_row(W, G, xg, RW_SIGMA); /* the state rows of this x (lane_state) or the group's */
+      arg[LI_OMEGA] = law_row(W, G, xg, RW_OMEGA);
+      arg[LI_Z] = law_row(W, G, xg, RW_Z);
+      double *res[2] = {ROW(G, RW_B), ROW(G, RW_CACHE)};
+      W->local_x(arg, res, active_lanes(g, n));
+      if (W->b_in_lanes && compute_control != 1) continue; /* b_j for the records: stage one's */
+      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l)
+        from_lane(W->b + (size_t)nb * (g * FSM_LANES + l), ROW(G, RW_B), nb, l); /* b_j for the links */
     }
   } else if (compute_control && P->controller) {
     external_broadcast(W, P, t, x, sensed);
@@ -1347,133 +1335,185 @@ static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link
     for (int i = 0; i < n; ++i) {
       const double *xi = x + 3 + (size_t)S * i;
       const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
-      const double *arg[N_LOCAL_IN] = {&t, si, wi, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
+      const double *arg[N_LOCAL_IN] = {&t, si, wi, xi + 6, x, W->wd, W->wdd, P->J0 + 9 * i,
                                        P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i};
       double *res[2] = {W->b + (size_t)nb * i, W->cache + (size_t)nc * i};
       W->local(arg, res, W->iw, W->w, 0);
     }
   }
+}
+
+/* law_control for lane group g (batched kernels): u, uu and the law states' rates into its rows (the rates straight
+ * into dx with lane_state); unless they stay in the lanes (in_lanes), also into u, uu, zdot agent by agent. */
+static void control_group(workspace *W, int g, double *dx, int in_lanes) {
+  double *G = group_block(W, g);
+  const double *const *arg = W->law_args + (size_t)g * N_CONTROL_IN; /* state rows set by law_broadcasts */
+  double *zdot = W->lane_state ? dx + state_group(W, g) + 6 * FSM_LANES : ROW(G, RW_ZDOT);
+  double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), zdot};
+  W->control_x(arg, res, active_lanes(g, W->n));
+  if (in_lanes) return;
+  for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < W->n; ++l) {
+    const int i = g * FSM_LANES + l;
+    from_lane3(W->u + 3 * i, ROW(G, RW_U), l);
+    from_lane3(W->uu + 3 * i, ROW(G, RW_UU), l);
+    from_lane(W->zdot + (size_t)W->nz * i, zdot, W->nz, l);
+  }
+}
+
+/* The scalar law_control agent by agent (no batched kernels, no external controller). */
+static void control_agents(workspace *W, const fsm_problem *P, double t, const double *x, int sensed) {
+  const int nb = W->nb, nz = W->nz, nc = W->nc;
+  for (int i = 0; i < W->n; ++i) {
+    const double *xi = x + 3 + (size_t)W->stride * i;
+    const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
+    const double *arg[N_CONTROL_IN] = {&t, si, wi, xi + 6, x, W->wd, W->wdd, P->J0 + 9 * i,
+                                       P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i,
+                                       W->cache + (size_t)nc * i, W->ksum + i, W->recv + (size_t)nb * i,
+                                       W->krs + i, P->u_max + i};
+    double *res[3] = {W->u + 3 * i, W->uu + 3 * i, W->zdot + (size_t)nz * i};
+    W->control(arg, res, W->iw, W->w, 0);
+  }
+}
+
+/* d_i(t), cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3.  Each
+ * distinct disturbance is evaluated once (batched: FSM_LANES of them per kernel call, into the rows DL_D); agents
+ * whose parameters equal an earlier agent's copy its torque. */
+static void disturbances(workspace *W, const fsm_problem *P, double t) {
+  const int n = W->n;
+  if (W->d_valid && W->d_time == t) return;
+  if (W->batched) {
+    for (int g = 0; g < W->n_dgroups; ++g) {
+      double *D = W->dl + (size_t)g * DL_END * FSM_LANES;
+      const int lanes = active_lanes(g, W->n_ddistinct);
+      const double *arg[2] = {LANE(W->common, CM_T), LANE(D, DL_PAR)};
+      double *res[1] = {LANE(D, DL_D)};
+      disturbance_torque_batched(arg, res, lanes);
+      if (W->d_rows && W->nw == 0) continue; /* the plant reads the rows DL_D, nothing reads d */
+      for (int l = 0; l < lanes; ++l) from_lane3(W->d + 3 * W->d_lane[g * FSM_LANES + l], LANE(D, DL_D), l);
+    }
+  } else {
+    for (int i = 0; i < n; ++i) {
+      if (W->d_src[i] != i) continue;
+      const double *arg[2] = {&t, P->dist_params + 12 * i};
+      double *res[1] = {W->d + 3 * i};
+      disturbance_torque(arg, res, W->iw, W->w, 0);
+    }
+  }
+  for (int i = 0; i < n; ++i)
+    if (W->d_src[i] != i) memcpy(W->d + 3 * i, W->d + 3 * W->d_src[i], 3 * sizeof(double));
+  W->d_time = t;
+  W->d_valid = 1;
+}
+
+/* plant_rhs for lane group g (batched kernels, no wheels): tau = u + d lane by lane (u from the lanes when
+ * in_lanes, else from ua agent by agent; d from the disturbance rows or gathered), then the attitude and rate
+ * derivatives into dx (in place with lane_state, with the held law-state rates za when the control is held). */
+static void plant_group(workspace *W, int g, const double *x, double *dx, const double *ua, const double *za,
+                        int in_lanes, int compute_control, int sensed) {
+  const int n = W->n, S = W->stride, nz = W->nz;
+  double *G = group_block(W, g);
+  double *tau = ROW(G, RW_TAU);
+  const double *dl[FSM_LANES], *ul[FSM_LANES];
+  for (int l = 0; l < FSM_LANES; ++l) {
+    const int i = lane_agent(g, l, n); /* lanes past the last agent repeat it */
+    dl[l] = W->d + 3 * i;
+    ul[l] = ua + 3 * i;
+  }
+  double dgather[3 * FSM_LANES] FSM_LINE, urows[3 * FSM_LANES] FSM_LINE; /* tau_i = u_i + d_i, lane by lane */
+  const double *drow = W->d_rows ? LANE(W->dl + (size_t)g * DL_END * FSM_LANES, DL_D) : dgather;
+  if (!W->d_rows) to_rows(dgather, dl, 3);
+  if (!in_lanes) to_rows(urows, ul, 3); /* u from the held or computed commands, else the lanes' */
+  const double *urow = in_lanes ? ROW(G, RW_U) : urows;
+  for (int k = 0; k < 3 * FSM_LANES; ++k) tau[k] = urow[k] + drow[k];
+  if (sensed) reload_state_lanes(W, G, g, x); /* rows RW_SIGMA, RW_OMEGA hold this x unless sensed */
+  const double *xg = lane_x(W, x, g);
+  const double *arg[4] = {law_row(W, G, xg, RW_SIGMA), law_row(W, G, xg, RW_OMEGA), ROW(G, RW_TAU),
+                          ROW(G, RW_JTRUE)};
+  if (xg) { /* lane_state: the rates straight into dx; held law-state rates into its rows */
+    double *dxg = dx + state_group(W, g);
+    double *res[2] = {dxg, dxg + 3 * FSM_LANES};
+    plant_rhs_batched(arg, res, active_lanes(g, n));
+    if (!compute_control && nz > 0) {
+      const double *zl[FSM_LANES];
+      for (int l = 0; l < FSM_LANES; ++l) zl[l] = za + (size_t)nz * lane_agent(g, l, n);
+      to_rows(dxg + 6 * FSM_LANES, zl, nz);
+    }
+    return;
+  }
+  double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
+  plant_rhs_batched(arg, res, active_lanes(g, n));
+  for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
+    const int i = g * FSM_LANES + l;
+    from_lane3(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), l);
+    from_lane3(dx + 6 + (size_t)S * i, ROW(G, RW_OMEGA_DOT), l);
+    if (in_lanes) from_lane(dx + 9 + (size_t)S * i, ROW(G, RW_ZDOT), nz, l);
+  }
+}
+
+/* The scalar plant_rhs agent by agent (no batched kernels, no wheels). */
+static void plant_agents(workspace *W, const fsm_problem *P, const double *x, double *dx, const double *ua) {
+  const int n = W->n, S = W->stride;
+  for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
+  for (int i = 0; i < n; ++i) {
+    const double *xi = x + 3 + (size_t)S * i;
+    const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
+    double *res[2] = {dx + 3 + (size_t)S * i, dx + 6 + (size_t)S * i};
+    plant_rhs(arg, res, W->iw, W->w, 0);
+  }
+}
+
+static void eval_rhs(workspace *W, const fsm_problem *P, double t, double t_link, const double *x, double *dx,
+                     int compute_control) {
+  const int n = W->n, S = W->stride, nz = W->nz;
+  const int sensed = P->sensors && compute_control; /* the law sees measurements at this evaluation */
+  /* batched, no wheels, inner stage: u, uu, zdot are read from the lane rows */
+  const int in_lanes = W->batched && W->nw == 0 && compute_control == 2;
+  /* batched, no wheels: each group's control, then its plant, while its rows are in the cache */
+  const int fused = W->batched && W->nw == 0;
+  if (sensed) measure(W, P, x);
+  {
+    const double *arg[3] = {&t, x, P->ref_params};
+    double *res[3] = {dx, W->wd, W->wdd};
+    reference_rhs(arg, res, W->iw, W->w, 0);
+  }
+  if (W->batched) {
+    broadcast_row(LANE(W->common, CM_T), &t, 1);
+    broadcast_row(LANE(W->common, CM_SD), x, 3);
+    broadcast_row(LANE(W->common, CM_WD), W->wd, 3);
+    broadcast_row(LANE(W->common, CM_WDD), W->wdd, 3);
+  }
+  law_broadcasts(W, P, t, x, sensed, compute_control);
   if (compute_control) {
     if (P->trigger_every > 0) event_trigger(W, P, t); /* what the agents send (b_sent) */
     if (P->links_imperfect) deliver_links(W, P);
     if (P->controller)
-      external_control(W, P, t, t_link, x, sensed);
+      external_control(W, P, t, t_link, x, sensed); /* it writes u, uu and zdot (never batched) */
     else
       aggregate(W, P, t_link); /* batched: into the lane rows */
-    if (W->batched) { /* (never with an external controller: it wrote u, uu and zdot) */
-      for (int g = 0; g < W->n_groups; ++g) {
-        double *G = group_block(W, g);
-        const double *const *arg = W->law_args + (size_t)g * N_CONTROL_IN; /* state rows set above */
-        /* lane_state: the law states' rates straight into dx */
-        double *zdot = W->lane_state ? dx + state_group(W, g) + 6 * FSM_LANES : ROW(G, RW_ZDOT);
-        double *res[3] = {ROW(G, RW_U), ROW(G, RW_UU), zdot};
-        W->control_x(arg, res, active_lanes(g, n));
-        if (in_lanes) continue;
-        for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
-          const int i = g * FSM_LANES + l;
-          from_lane3(W->u + 3 * i, ROW(G, RW_U), l);
-          from_lane3(W->uu + 3 * i, ROW(G, RW_UU), l);
-          from_lane(W->zdot + (size_t)nz * i, zdot, nz, l);
-        }
-      }
-    } else if (!P->controller) {
-      for (int i = 0; i < n; ++i) {
-        const double *xi = x + 3 + (size_t)S * i;
-        const double *si = sensed ? W->sig_meas + 3 * i : xi, *wi = sensed ? W->om_meas + 3 * i : xi + 3;
-        const double *arg[N_CONTROL_IN] = {&t, si, wi, xi + 6, sd, W->wd, W->wdd, P->J0 + 9 * i,
-                                           P->params + (size_t)W->np * i, W->konst + (size_t)W->nk * i,
-                                           W->cache + (size_t)nc * i, W->ksum + i, W->recv + (size_t)nb * i,
-                                           W->krs + i, P->u_max + i};
-        double *res[3] = {W->u + 3 * i, W->uu + 3 * i, W->zdot + (size_t)nz * i};
-        W->control(arg, res, W->iw, W->w, 0);
-      }
+    if (W->batched && !fused)
+      for (int g = 0; g < W->n_groups; ++g) control_group(W, g, dx, in_lanes);
+    else if (!W->batched && !P->controller)
+      control_agents(W, P, t, x, sensed);
+  }
+  disturbances(W, P, t);
+  const double *ua = compute_control ? W->u : W->u_apply;
+  const double *za = compute_control ? W->zdot : W->zdot_apply;
+  if (fused)
+    for (int g = 0; g < W->n_groups; ++g) {
+      if (compute_control) control_group(W, g, dx, in_lanes);
+      plant_group(W, g, x, dx, ua, za, in_lanes, compute_control, sensed);
     }
+  if (compute_control) {
     if (in_lanes)
       check_commands_lanes(W, t);
     else
       check_commands(W, t);
     if (W->nw > 0) wheel_commands(W, P, t, x, sensed);
   }
-  /* d_i(t) is cached by time: stage 4 of a step (t_k+1) serves stage 1 of the next, stage 2 serves stage 3.  Each
-   * distinct disturbance is evaluated once (batched: FSM_LANES of them per kernel call); agents whose parameters
-   * equal an earlier agent's copy its torque. */
-  if (!W->d_valid || W->d_time != t) {
-    if (W->batched) {
-      for (int g = 0; g < W->n_dgroups; ++g) {
-        double *D = W->dl + (size_t)g * DL_END * FSM_LANES;
-        const int lanes = active_lanes(g, W->n_ddistinct);
-        const double *arg[2] = {LANE(W->common, CM_T), LANE(D, DL_PAR)};
-        double *res[1] = {LANE(D, DL_D)};
-        disturbance_torque_batched(arg, res, lanes);
-        if (W->d_rows && W->nw == 0) continue; /* the plant reads the rows DL_D, nothing reads d */
-        for (int l = 0; l < lanes; ++l) from_lane3(W->d + 3 * W->d_lane[g * FSM_LANES + l], LANE(D, DL_D), l);
-      }
-    } else {
-      for (int i = 0; i < n; ++i) {
-        if (W->d_src[i] != i) continue;
-        const double *arg[2] = {&t, P->dist_params + 12 * i};
-        double *res[1] = {W->d + 3 * i};
-        disturbance_torque(arg, res, W->iw, W->w, 0);
-      }
-    }
-    for (int i = 0; i < n; ++i)
-      if (W->d_src[i] != i) memcpy(W->d + 3 * i, W->d + 3 * W->d_src[i], 3 * sizeof(double));
-    W->d_time = t;
-    W->d_valid = 1;
-  }
-  const double *ua = compute_control ? W->u : W->u_apply;
-  const double *za = compute_control ? W->zdot : W->zdot_apply;
-  if (W->nw > 0) {
+  if (W->nw > 0)
     plant_with_wheels(W, P, x, dx, compute_control ? W->uw : W->uw_apply, sensed);
-  } else if (W->batched) {
-    for (int g = 0; g < W->n_groups; ++g) {
-      double *G = group_block(W, g);
-      double *tau = ROW(G, RW_TAU);
-      const double *dl[FSM_LANES], *ul[FSM_LANES];
-      for (int l = 0; l < FSM_LANES; ++l) {
-        const int i = lane_agent(g, l, n); /* lanes past the last agent repeat it */
-        dl[l] = W->d + 3 * i;
-        ul[l] = ua + 3 * i;
-      }
-      double dgather[3 * FSM_LANES] FSM_LINE, urows[3 * FSM_LANES] FSM_LINE; /* tau_i = u_i + d_i, lane by lane */
-      const double *drow = W->d_rows ? LANE(W->dl + (size_t)g * DL_END * FSM_LANES, DL_D) : dgather;
-      if (!W->d_rows) to_rows(dgather, dl, 3);
-      if (!in_lanes) to_rows(urows, ul, 3);            /* u from the held or computed commands, else the lanes' */
-      const double *urow = in_lanes ? ROW(G, RW_U) : urows;
-      for (int k = 0; k < 3 * FSM_LANES; ++k) tau[k] = urow[k] + drow[k];
-      if (sensed) reload_state_lanes(W, G, g, x); /* rows RW_SIGMA, RW_OMEGA hold this x unless sensed */
-      const double *xg = lane_x(W, x, g);
-      const double *arg[4] = {law_row(W, G, xg, RW_SIGMA), law_row(W, G, xg, RW_OMEGA), ROW(G, RW_TAU),
-                              ROW(G, RW_JTRUE)};
-      if (xg) { /* lane_state: the rates straight into dx; held law-state rates into its rows */
-        double *dxg = dx + state_group(W, g);
-        double *res[2] = {dxg, dxg + 3 * FSM_LANES};
-        plant_rhs_batched(arg, res, active_lanes(g, n));
-        if (!compute_control && nz > 0) {
-          const double *zl[FSM_LANES];
-          for (int l = 0; l < FSM_LANES; ++l) zl[l] = za + (size_t)nz * lane_agent(g, l, n);
-          to_rows(dxg + 6 * FSM_LANES, zl, nz);
-        }
-        continue;
-      }
-      double *res[2] = {ROW(G, RW_SIGMA_DOT), ROW(G, RW_OMEGA_DOT)};
-      plant_rhs_batched(arg, res, active_lanes(g, n));
-      for (int l = 0; l < FSM_LANES && g * FSM_LANES + l < n; ++l) {
-        const int i = g * FSM_LANES + l;
-        from_lane3(dx + 3 + (size_t)S * i, ROW(G, RW_SIGMA_DOT), l);
-        from_lane3(dx + 6 + (size_t)S * i, ROW(G, RW_OMEGA_DOT), l);
-        if (in_lanes) from_lane(dx + 9 + (size_t)S * i, ROW(G, RW_ZDOT), nz, l);
-      }
-    }
-  } else {
-    for (int m = 0; m < 3 * n; ++m) W->tau[m] = ua[m] + W->d[m];
-    for (int i = 0; i < n; ++i) {
-      const double *xi = x + 3 + (size_t)S * i;
-      const double *arg[4] = {xi, xi + 3, W->tau + 3 * i, P->J_true + 9 * i};
-      double *res[2] = {dx + 3 + (size_t)S * i, dx + 6 + (size_t)S * i};
-      plant_rhs(arg, res, W->iw, W->w, 0);
-    }
-  }
+  else if (!W->batched)
+    plant_agents(W, P, x, dx, ua);
   if (nz > 0 && !in_lanes && !W->lane_state)
     for (int i = 0; i < n; ++i) memcpy(dx + 9 + (size_t)S * i, za + (size_t)nz * i, sizeof(double) * nz);
   if (W->nw > 0) wheel_rates(W, P, dx);
