@@ -236,7 +236,7 @@ typedef struct {
    * sigma_0..2, omega_0..2, z_0..nz-1 (element (k, l) at block[FSM_LANES * k + l]), which the batched kernels read
    * and write in place.  RK4's updates are elementwise: the layout changes no number.  Lanes past the last agent
    * hold its initial state with rate 0 (zero_spare_lanes).  lane_state: batched kernels, no wheels, no sensors,
-   * RK4 (simulate_rk4; see alloc_workspace). */
+   * RK4 (fsm_simulate decides; fsm_rhs and Dormand-Prince, whose error norm sums over x in its order, never). */
   int lane_state;
   size_t n_state, state_block;           /* doubles in x; per group (lane_state) */
   double *xa;                            /* stride doubles: one agent's state gathered from the rows (agent_state) */
