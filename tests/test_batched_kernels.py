@@ -16,6 +16,7 @@ import itertools
 import os
 import re
 import subprocess
+import warnings
 
 import casadi as ca
 import numpy as np
@@ -162,8 +163,20 @@ def _own_disturbances(scenario, n: int, shared: int):
     return with_agents(scenario, agents, ring(n, 8.0, 1.5), simulation={"t_final": 1.0, "output_interval": 0.01})
 
 
+def _flying(scenario, law: str, n: int, **simulation):
+    """``scenario``'s agents repeated to ``n`` on a ring, flying the built-in ``law`` (whose states the engine
+    integrates in its lane rows), 1 s."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the paper's parameters that ``law`` has not
+        s = scenario.replace(controller={"law": law})
+    return _with_agents(s, n, simulation={"t_final": 1.0, "output_interval": 0.01, **simulation})
+
+
 CASES = {
     "case1-6-agents": lambda p: p.replace(simulation={"t_final": 2.0, "output_interval": 0.01}),
+    "9-agents-own-disturbances": lambda p: _own_disturbances(p, 9, shared=0),  # the plant reads the kernel's rows
+    "7-agents-law-states": lambda p: _flying(p, "adaptive_fsm", 7),  # rates written into the lane rows of x
+    "11-agents-law-states-hold": lambda p: _flying(p, "pid", 11, control_period=0.01),  # held rates into the rows
     "7-agents-own-and-shared-disturbances": lambda p: _own_disturbances(p, 7, shared=2),
     "one-agent": lambda p: _with_agents(p, 1, simulation={"t_final": 1.0, "output_interval": 0.01}),
     "3-agents-sgn": lambda p: _with_agents(
