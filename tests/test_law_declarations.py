@@ -8,6 +8,7 @@ paper's parameter set is declared once (:mod:`fsmctl.symbolic.fsm_parameters`).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import textwrap
 import warnings
@@ -143,6 +144,59 @@ def test_step_size_report_uses_the_declared_rates_per_agent():
     assert resolve_law("pid").loop_rates(np.zeros(4)) is None
     pid = step_size_report(s.replace(controller={"law": "pid"}))  # no declaration: the finite-difference estimate
     assert pid["layer"] == 0.0 and 0 < pid["surface"] < math.inf
+
+
+def test_finite_difference_loop_rate_is_the_worst_agent_s_by_automatic_differentiation():
+    """A law without declared rates (pid): the report's ``surface`` is the worst agent's ``a + sqrt(b)`` of its
+    linearisation at its initial state (``a = ||J0^-1 du/domega||``, ``b = ||J0^-1 du/dsigma|| / 4``; the engine
+    evaluates every agent's finite differences in one mapped call).  Oracle: the same rate per agent from the law's
+    SX graph differentiated exactly (CasADi's jacobian), agent by agent.  Agent 3 gets a quarter of its inertia, so
+    the worst agent is not the first: a mix-up of agents or columns gives agent 1's (or another's) rate."""
+    import casadi as ca
+
+    from fsmctl.model.generated_code import casadi_function, law_sx_function
+    from fsmctl.model.problem import pack
+
+    base = fsmctl.paper_scenario("1").replace(controller={"law": "pid"})
+    agents = list(base.agents)
+    agents[2] = dataclasses.replace(agents[2], J0=tuple(tuple(0.25 * v for v in row) for row in agents[2].J0))
+    s = dataclasses.replace(base, agents=tuple(agents)).replace(simulation={"t_final": 1.0})
+    p = pack(s)
+    local, control = (law_sx_function(p.law.folder, f"law_{f}_paper") for f in ("local", "control"))
+    constants = p.law.casadi("law_constants")
+    _, wd, wdd = casadi_function("reference_rhs")(0.0, p.x0[:3], p.ref_params)
+    rates = []
+    for i in range(p.n_agents):
+        x = ca.SX.sym("x", 6)
+        xi = p.x0[p.agent_slice(i)]
+        args = [0.0, x[0:3], x[3:6], xi[6 : 6 + p.n_states], p.x0[:3], wd, wdd, p.J0[i], p.params[i]]
+        args.append(constants(p.params[i]))
+        _, cache = local(*args)
+        _, u, _ = control(*args, cache, 0.0, np.zeros(p.n_broadcast), 0.0, np.inf)
+        jac = np.asarray(ca.Function("torque_jacobian", [x], [ca.jacobian(u, x)])(xi[:6]), dtype=float)
+        Jinv = np.linalg.inv(p.J0[i])
+        a = np.linalg.norm(Jinv @ jac[:, 3:6], 2)
+        rates.append(a + math.sqrt(np.linalg.norm(Jinv @ jac[:, 0:3], 2) / 4.0))
+    assert int(np.argmax(rates)) == 2 and rates[2] > 1.5 * max(rates[:2] + rates[3:])  # agent 3 decides
+    report = step_size_report(s)
+    assert math.isclose(report["surface"], max(rates), rel_tol=1e-4)  # finite differences with h = 1e-6
+
+
+def test_a_law_not_finite_at_one_agent_s_start_names_that_agent():
+    """The check at the initial state evaluates every agent in one mapped call and names the first agent whose law
+    is not finite: with the printed law (``singularity_fix = "none"``, NaN at ``sigma_e = 0``) only agent 4 starts
+    on the reference."""
+    from fsmctl.model.laws import LawError
+
+    paper = fsmctl.paper_scenario("1")
+    agents = list(paper.agents)
+    wd0 = tuple(float(v) for v in paper.reference.omega(0.0))
+    agents[3] = dataclasses.replace(agents[3], sigma0=paper.reference.sigma0, omega0=wd0)
+    s = dataclasses.replace(paper, agents=tuple(agents)).replace(
+        controller={"singularity_fix": "none"}, simulation={"t_final": 0.5}
+    )
+    with pytest.raises(LawError, match=r"torque is not finite at the initial state of agent 4 "):
+        fsmctl.simulate(s)
 
 
 # ----------------------------------------------------------------------------- paper theorems and the order

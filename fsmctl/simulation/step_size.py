@@ -195,16 +195,15 @@ def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:
     ``a = ||J0^-1 du/domega||``, ``b = ||J0^-1 du/dsigma|| / 4`` (``G(0) = I/4``), the worst agent; finite
     differences of the generated law with no neighbours (an estimate, for laws without a closed form here; an agent
     where they are not finite is left out, :func:`_check_law_at_start` refuses a law not finite there)."""
+    n = p.n_agents
+    x0 = np.array([p.x0[p.agent_slice(i)] for i in range(n)])
+    # per agent its initial state, then that state with each of sigma, omega moved by h: one evaluation of all
+    shifted = np.repeat(x0[:, None, :], 7, axis=1)
+    shifted[:, np.arange(1, 7), np.arange(6)] += h
+    torque = _law_outputs(p, np.repeat(np.arange(n), 7))(shifted.reshape(n * 7, -1))["torque"].reshape(n, 7, 3)
     worst = 0.0
-    for i in range(p.n_agents):
-        xi = p.x0[p.agent_slice(i)]
-        outputs = _law_outputs(p, i)
-        base = outputs(xi)["torque"]
-        jac = np.zeros((3, 6))
-        for c in range(6):
-            dx = np.zeros_like(xi)
-            dx[c] = h
-            jac[:, c] = (outputs(xi + dx)["torque"] - base) / h
+    for i in range(n):
+        jac = ((torque[i, 1:] - torque[i, 0]) / h).T  # (3, 6): d torque / d (sigma, omega)
         if not np.all(np.isfinite(jac)):
             continue
         Jinv = np.linalg.inv(p.J0[i])
@@ -214,24 +213,30 @@ def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:
     return worst
 
 
-def _law_outputs(p: PackedProblem, i: int):
-    """``x -> {name: value}``: agent ``i``'s law at its state ``x`` (attitude, rate, law state) at ``t = 0``, alone
-    (no neighbours, no torque limit): its ``constants``, ``broadcast``, ``torque`` and ``law state derivative``."""
+def _law_outputs(p: PackedProblem, agents: np.ndarray):
+    """``X -> {name: (m, k) array}``: the law of agent ``agents[r]`` at its state ``X[r]`` (attitude, rate, law state)
+    at ``t = 0`` for every row ``r`` at once (one mapped call of each generated function), each alone (no neighbours,
+    no torque limit): its ``constants``, ``broadcast``, ``torque`` and ``law state derivative``."""
     from fsmctl.model.generated_code import casadi_function
 
+    agents = np.asarray(agents, dtype=int)
+    m, ns = len(agents), p.n_states
     model = "exact" if p.error_model == 1 else "paper"
-    local, control = p.law.casadi(f"law_local_{model}"), p.law.casadi(f"law_control_{model}")
+    local, control = p.law.casadi(f"law_local_{model}").map(m), p.law.casadi(f"law_control_{model}").map(m)
     _, wd, wdd = (
         np.asarray(v, dtype=float).ravel() for v in casadi_function("reference_rhs")(0.0, p.x0[:3], p.ref_params)
     )
-    k = np.asarray(p.law.casadi("law_constants")(p.params[i]), dtype=float).ravel()
+    params = np.asarray(p.params, dtype=float)[agents].T  # (parameters, m): column r is agent agents[r]'s
+    k = np.asarray(p.law.casadi("law_constants").map(m)(params), dtype=float).reshape(-1, m)
+    J0 = np.hstack([p.J0[i] for i in agents])  # the 3 x 3 blocks side by side
 
-    def outputs(x: np.ndarray) -> dict[str, np.ndarray]:
-        args = [0.0, x[0:3], x[3:6], x[6 : 6 + p.n_states], p.x0[:3], wd, wdd, p.J0[i], p.params[i], k]
+    def outputs(X: np.ndarray) -> dict[str, np.ndarray]:
+        X = np.asarray(X, dtype=float).T
+        args = [0.0, X[0:3], X[3:6], X[6 : 6 + ns], p.x0[:3], wd, wdd, J0, params, k]
         broadcast, cache = local(*args)
         _, u, z_dot = control(*args, cache, 0.0, np.zeros(p.n_broadcast), 0.0, np.inf)
-        flat = {"broadcast": broadcast, "torque": u, "law state derivative": z_dot}
-        return {"constants": k, **{name: np.asarray(v, dtype=float).ravel() for name, v in flat.items()}}
+        flat = {"constants": k, "broadcast": broadcast, "torque": u, "law state derivative": z_dot}
+        return {name: np.asarray(v, dtype=float).reshape(-1, m).T for name, v in flat.items()}
 
     return outputs
 
@@ -240,10 +245,14 @@ def _check_law_at_start(p: PackedProblem) -> None:
     """Refuse a law that is not finite at an agent's initial state (NaN or inf): it would fly NaN."""
     from fsmctl.model.laws import LawError
 
-    for i in range(p.n_agents):
-        for name, value in _law_outputs(p, i)(p.x0[p.agent_slice(i)]).items():
-            if not np.all(np.isfinite(value)):
-                shown = ", ".join(f"{v:g}" for v in value)
+    n = p.n_agents
+    values = _law_outputs(p, np.arange(n))(np.array([p.x0[p.agent_slice(i)] for i in range(n)]))
+    if all(np.isfinite(v).all() for v in values.values()):
+        return
+    for i in range(n):
+        for name, value in values.items():
+            if not np.all(np.isfinite(value[i])):
+                shown = ", ".join(f"{v:g}" for v in value[i])
                 why = (
                     nonfinite_hint(p).strip()
                     if singularity_fix_none(p)
