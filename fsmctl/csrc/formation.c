@@ -236,7 +236,8 @@ typedef struct {
    * sigma_0..2, omega_0..2, z_0..nz-1 (element (k, l) at block[FSM_LANES * k + l]), which the batched kernels read
    * and write in place.  RK4's updates are elementwise: the layout changes no number.  Lanes past the last agent
    * hold its initial state with rate 0 (zero_spare_lanes).  lane_state: batched kernels, no wheels, no sensors,
-   * RK4 (fsm_simulate decides; fsm_rhs and Dormand-Prince, whose error norm sums over x in its order, never). */
+   * RK4 (alloc_workspace decides for fsm_simulate; fsm_rhs and Dormand-Prince, whose error norm sums over x in its
+   * order, never). */
   int lane_state;
   size_t n_state, state_block;           /* doubles in x; per group (lane_state) */
   double *xa;                            /* stride doubles: one agent's state gathered from the rows (agent_state) */
@@ -507,7 +508,9 @@ static int law_wheels_setup(workspace *W, const fsm_problem *P) {
   return FSM_OK;
 }
 
-static int alloc_workspace(workspace *W, const fsm_problem *P) {
+/* The workspace of one problem; integrating (fsm_simulate, not fsm_rhs) with RK4 on batched kernels without wheels
+ * or sensors, the state lives in lane rows (lane_state). */
+static int alloc_workspace(workspace *W, const fsm_problem *P, int integrating) {
   memset(W, 0, sizeof(*W));
   int n = P->n_agents, nk = 0, nc = 0;
   if (!law_contract_ok(P, &nk, &nc)) return FSM_BAD_PROBLEM;
@@ -675,6 +678,11 @@ static int alloc_workspace(workspace *W, const fsm_problem *P) {
     W->lanes = calloc_lines((size_t)W->n_groups * W->row[RW_END] * FSM_LANES, &W->lanes_raw);
     if (!W->lanes) { free_workspace(W); return FSM_NOMEM; }
     W->b_in_lanes = !P->links_imperfect && P->trigger_every <= 0; /* the links carry this evaluation's b */
+    if (integrating && W->nw == 0 && !P->sensors && P->integrator != 1) { /* RK4 on the state in lane rows */
+      W->lane_state = 1;
+      W->state_block = (size_t)(6 + W->nz) * FSM_LANES;
+      W->n_state = FSM_LANES + (size_t)W->n_groups * W->state_block;
+    }
   }
   W->iw = calloc((size_t)max_iw, sizeof(casadi_int));
   W->w = calloc((size_t)max_w, sizeof(double));
@@ -1405,6 +1413,13 @@ static void disturbances(workspace *W, const fsm_problem *P, double t) {
   W->d_valid = 1;
 }
 
+/* rows[c FSM_LANES + l] = v[3 i + c] for the agent i of lane l of group g (lanes past the last agent repeat it) */
+static void gather3(double *rows, const double *v, int g, int n) {
+  const double *p[FSM_LANES];
+  for (int l = 0; l < FSM_LANES; ++l) p[l] = v + 3 * lane_agent(g, l, n);
+  to_rows(rows, p, 3);
+}
+
 /* plant_rhs for lane group g (batched kernels, no wheels): tau = u + d lane by lane (u from the lanes when
  * in_lanes, else from ua agent by agent; d from the disturbance rows or gathered), then the attitude and rate
  * derivatives into dx (in place with lane_state, with the held law-state rates za when the control is held). */
@@ -1413,16 +1428,10 @@ static void plant_group(workspace *W, int g, const double *x, double *dx, const 
   const int n = W->n, S = W->stride, nz = W->nz;
   double *G = group_block(W, g);
   double *tau = ROW(G, RW_TAU);
-  const double *dl[FSM_LANES], *ul[FSM_LANES];
-  for (int l = 0; l < FSM_LANES; ++l) {
-    const int i = lane_agent(g, l, n); /* lanes past the last agent repeat it */
-    dl[l] = W->d + 3 * i;
-    ul[l] = ua + 3 * i;
-  }
   double dgather[3 * FSM_LANES] FSM_LINE, urows[3 * FSM_LANES] FSM_LINE; /* tau_i = u_i + d_i, lane by lane */
   const double *drow = W->d_rows ? LANE(W->dl + (size_t)g * DL_END * FSM_LANES, DL_D) : dgather;
-  if (!W->d_rows) to_rows(dgather, dl, 3);
-  if (!in_lanes) to_rows(urows, ul, 3); /* u from the held or computed commands, else the lanes' */
+  if (!W->d_rows) gather3(dgather, W->d, g, n);
+  if (!in_lanes) gather3(urows, ua, g, n); /* u from the held or computed commands, else the lanes' */
   const double *urow = in_lanes ? ROW(G, RW_U) : urows;
   for (int k = 0; k < 3 * FSM_LANES; ++k) tau[k] = urow[k] + drow[k];
   if (sensed) reload_state_lanes(W, G, g, x); /* rows RW_SIGMA, RW_OMEGA hold this x unless sensed */
@@ -1858,14 +1867,9 @@ static int simulate_dopri(workspace *W, const fsm_problem *P, double *x, fsm_out
 int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_progress_fn progress, long long every) {
   if (!validate(P)) return FSM_BAD_PROBLEM;
   workspace W;
-  int rc = alloc_workspace(&W, P);
+  int rc = alloc_workspace(&W, P, 1);
   if (rc != FSM_OK) return rc;
   const int n = P->n_agents;
-  if (W.batched && W.nw == 0 && !P->sensors && P->integrator != 1) { /* RK4 on the state in lane rows */
-    W.lane_state = 1;
-    W.state_block = (size_t)(6 + W.nz) * FSM_LANES;
-    W.n_state = FSM_LANES + (size_t)W.n_groups * W.state_block;
-  }
   const size_t N = W.n_state; /* a multiple of FSM_LANES with lane_state: every buffer below starts a line */
   void *raw = NULL;
   double *buf = calloc_lines(N * 11 + 10 * (size_t)n, &raw);
@@ -1909,7 +1913,7 @@ int fsm_simulate(const fsm_problem *P, const double *x0, fsm_output *O, fsm_prog
 int fsm_rhs(const fsm_problem *P, double t, const double *x, double *dx, double *u_out) {
   if (!validate(P)) return FSM_BAD_PROBLEM;
   workspace W;
-  int rc = alloc_workspace(&W, P);
+  int rc = alloc_workspace(&W, P, 0);
   if (rc != FSM_OK) return rc;
   eval_rhs(&W, P, t, t, x, dx, 1);
   if (u_out) memcpy(u_out, W.nw > 0 ? W.u_body : W.u, sizeof(double) * 3 * P->n_agents); /* on the body */
