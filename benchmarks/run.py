@@ -1441,6 +1441,17 @@ fsmctl.simulate_many([base.replace(controller=c) for c in throughput_candidates(
 """
 
 
+def _driver_functions() -> set[str]:
+    """The names of the functions defined in the driver's source (``fsmctl/csrc/formation.c``): the profile's driver
+    parts, whatever the compiler inlined or kept."""
+    import re
+
+    from fsmctl.model.generated_code import driver_source_dir
+
+    text = (driver_source_dir() / "formation.c").read_text()
+    return set(re.findall(r"^(?:(?:static|inline|const)\s+)*[A-Za-z_]\w*[\s*]+(\w+)\(", text, re.M))
+
+
 def _library_symbols() -> tuple[list[int], list[str]] | None:
     """The compiled library's function symbols (sorted addresses, names) from ``nm``, for the samples perf reports
     as bare addresses; None without ``nm``."""
@@ -1481,6 +1492,7 @@ def _loop_profile(count: int, log) -> dict | None:
         )  # fmt: skip
     groups = collections.Counter()
     symbols = _library_symbols()
+    driver = _driver_functions()
     for line in rep.stdout.splitlines():
         parts = line.split()
         if len(parts) < 4 or not parts[0].endswith("%") or parts[2] not in ("[.]", "[k]"):
@@ -1491,24 +1503,24 @@ def _loop_profile(count: int, log) -> dict | None:
         if "libfsmctl" in dso and sym.startswith("0x") and symbols:  # perf left the address: the symbol table's name
             sym = symbols[1][max(0, bisect.bisect_right(symbols[0], int(sym, 16)) - 1)]
         sym = sym.split(".constprop")[0].split(".isra")[0].split(".part")[0]  # the compiler's clones: their function
-        if "pow" in sym:
-            kind = "pow (glibc's, or fsmctl_pow's scalar calls)"
+        if sym in ("fsm_pow_vec", "fsm_sincos_vec") or sym.endswith(("_batched", "_batched.localalias")):
+            kind = (
+                "generated batched kernels (law_local with fsmctl's vector pow, law_control, plant_rhs, "
+                "disturbance_torque with fsmctl's vector cos)"
+            )  # fsm_pow_vec: at 8 lanes a function of its own, called by law_local
+        elif "pow" in sym:
+            kind = "pow (fsmctl_pow's scalar calls; glibc's for lanes off its fast path)"
         elif any(f in sym for f in ("cos", "sin", "exp", "log")) and dso.startswith("libm"):
             kind = "sin/cos (glibc's: the lanes off fsmctl's fast path)"
         elif sym in ("fsmctl_sin", "fsmctl_cos"):
             kind = "sin/cos (fsmctl's scalar calls: the reference)"
-        elif sym.endswith(("_batched", "_batched.localalias")):
-            kind = (
-                "generated batched kernels (law_local with fsmctl's vector pow, law_control, plant_rhs, "
-                "disturbance_torque with fsmctl's vector cos)"
-            )
-        elif sym in ("eval_rhs", "aggregate", "link_weight", "link_weights", "link_window", "check_commands_lanes"):
-            kind = "driver: eval_rhs (neighbour sums, lane rows of commands and disturbances, kernel calls)"
         elif dso.startswith("libm"):
             kind = "libm, other"
         elif sym in ("fsm_simulate", "simulate_rk4", "stage_one", "record", "accumulate", "shadow_all",
-                     "first_nonfinite", "zero_spare_lanes", "state_from"):  # fmt: skip
+                     "first_nonfinite", "zero_spare_lanes", "state_from", "agent_state"):  # fmt: skip
             kind = "driver: RK4 loop, records, statistics"
+        elif sym in driver:  # the rest of formation.c's functions: eval_rhs and its parts
+            kind = "driver: eval_rhs (neighbour sums, lane rows of commands and disturbances, kernel calls)"
         else:
             kind = "generated scalar functions (disturbance, reference, error state, ...)"
         groups[kind] += pct
@@ -2525,10 +2537,11 @@ ROOFLINE_KERNELS = ("law_local_paper", "law_control_paper", "plant_rhs", "distur
 """The kernels of one Case 1 right-hand side, per agent (the paper's law, its paper error model)."""
 
 
-def _vector_flops(objdump: str, binary: Path, symbol: str) -> int:
+def _vector_flops(objdump: str, binary: Path, symbol: str, _seen: tuple[str, ...] = ()) -> int:
     """Double-precision operations in ``symbol``'s machine code, counted per lane: packed add/sub/mul/div/sqrt/min/max
-    once, fused multiply-adds twice (the kernels are straight-line code: each instruction runs once per call, except
-    the lanes off pow's fast path, which the probe's inputs never take)."""
+    once, fused multiply-adds twice, plus those of the functions it calls in the binary, once per call site (the
+    kernels are straight-line code: each instruction and call runs once per call, except the lanes off pow's fast
+    path, ``fsm_pow_off_path``, which the probe's inputs never take; at 8 lanes pow is a function of its own)."""
     import re
 
     text = subprocess.run([objdump, "-d", "--no-show-raw-insn", f"--disassemble={symbol}", str(binary)],
@@ -2538,6 +2551,9 @@ def _vector_flops(objdump: str, binary: Path, symbol: str) -> int:
         m = re.search(r"\t(v(?:add|sub|mul|div|sqrt|min|max|fn?m(?:add|sub)\d+)pd)\s", line)
         if m:
             count += 2 if re.match(r"vfn?m", m.group(1)) else 1
+        call = re.search(r"\tcall\s+[0-9a-f]+ <([A-Za-z_][\w.]*)>", line)  # a function of the binary (not @plt)
+        if call and "off_path" not in call.group(1) and call.group(1) not in (symbol, *_seen):
+            count += _vector_flops(objdump, binary, call.group(1), (*_seen, symbol))
     return count
 
 
