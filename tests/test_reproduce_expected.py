@@ -93,7 +93,7 @@ def test_exit_code_of_a_fast_run(tmp_path, capsys, extra, code):
     result = out.split("\n\n")[-3] if "\n\n" in out else out
     assert "no documented finding for this run" in out and "7 claims: " in result
     # the first screen: the settings in a few lines, the choices' reasoning left to the report
-    assert "choice alpha:" not in out and "  choices the paper leaves open: 6 (alpha, delta, " in out
+    assert "choice alpha:" not in out and "    choices the paper leaves open: 6 (alpha, delta, " in out
 
 
 def test_only_the_unchanged_paper_scenario_is_documented(tmp_path):

@@ -290,10 +290,14 @@ def reproduce(
     say = log or (lambda _line: None)
     described = case1.describe()
     choices = [line for line in described if line.lstrip().startswith("choice ")]
-    say("\n".join(line for line in described if line not in choices))
+    say(
+        f"reproduce: {len(plan)} runs, the paper's Cases 1, 2, 3a-3c and {len(plan) - 5} diagnostic runs (each run's "
+        "settings in the report); Case 1's settings:"
+    )
+    say("\n".join("  " + line for line in described if line not in choices))
     if choices:  # their reasons are paragraphs: the report holds them ("Settings and the choices ...")
         say(
-            f"  choices the paper leaves open: {len(choices)} ({', '.join(c.split()[1].rstrip(':') for c in choices)}), their reasons in the report"
+            f"    choices the paper leaves open: {len(choices)} ({', '.join(c.split()[1].rstrip(':') for c in choices)}), their reasons in the report"
         )
     study = _Study(
         source, plan, fast, out, command, figures, explain, sys.stderr.isatty() if progress is None else progress, log
