@@ -2551,7 +2551,7 @@ def _vector_flops(objdump: str, binary: Path, symbol: str, _seen: tuple[str, ...
         m = re.search(r"\t(v(?:add|sub|mul|div|sqrt|min|max|fn?m(?:add|sub)\d+)pd)\s", line)
         if m:
             count += 2 if re.match(r"vfn?m", m.group(1)) else 1
-        call = re.search(r"\tcall\s+[0-9a-f]+ <([A-Za-z_][\w.]*)>", line)  # a function of the binary (not @plt)
+        call = re.search(r"\tcallq?\s+[0-9a-f]+ <([A-Za-z_][\w.]*)>", line)  # a function of the binary (not @plt)
         if call and "off_path" not in call.group(1) and call.group(1) not in (symbol, *_seen):
             count += _vector_flops(objdump, binary, call.group(1), (*_seen, symbol))
     return count

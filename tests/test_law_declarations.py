@@ -185,10 +185,11 @@ def test_finite_difference_loop_rate_is_the_worst_agent_s_by_automatic_different
 def test_a_law_not_finite_at_one_agent_s_start_names_that_agent():
     """The check at the initial state evaluates every agent in one mapped call and names the first agent whose law
     is not finite: with the printed law (``singularity_fix = "none"``, NaN at ``sigma_e = 0``) only agent 4 starts
-    on the reference."""
+    on the reference, which starts at ``sigma_d = 0`` so that its ``sigma_e`` is exactly 0 in every component (no
+    rounding of the error composition can make it a tiny finite number)."""
     from fsmctl.model.laws import LawError
 
-    paper = fsmctl.paper_scenario("1")
+    paper = fsmctl.paper_scenario("1").replace(reference={"sigma0": (0.0, 0.0, 0.0)})
     agents = list(paper.agents)
     wd0 = tuple(float(v) for v in paper.reference.omega(0.0))
     agents[3] = dataclasses.replace(agents[3], sigma0=paper.reference.sigma0, omega0=wd0)
