@@ -586,7 +586,10 @@ def test_no_nan_when_starting_exactly_on_the_reference(paper, fix, error_model):
 def test_singular_law_gives_a_clear_error_not_a_silent_torque(paper):
     """singularity_fix = 'none' (the law as printed) at sigma_e = 0: alpha|0|^(alpha-1) * 0 is NaN.  The
     saturation fmin(u_max, fmax(-u_max, NaN)) would apply -u_max silently; the run is refused before it starts,
-    naming the agent and the Remark 6 device (the law is undefined at the initial state: an input error)."""
+    naming the agent and the Remark 6 device (the law is undefined at the initial state: an input error).  The
+    reference starts at sigma_d = 0, so that every agent's sigma_e is exactly 0 in every component (from the paper's
+    sigma_d(0) the error composition leaves ~1e-17 of rounding in some components)."""
+    paper = paper.replace(reference={"sigma0": (0.0, 0.0, 0.0)})
     sd0 = paper.reference.sigma0
     wd0 = tuple(float(v) for v in paper.reference.omega(0.0))
     agents = [dataclasses.replace(a, sigma0=sd0, omega0=wd0) for a in paper.agents]
