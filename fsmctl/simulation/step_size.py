@@ -196,7 +196,7 @@ def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:
     differences of the generated law with no neighbours (an estimate, for laws without a closed form here; an agent
     where they are not finite is left out, :func:`_check_law_at_start` refuses a law not finite there)."""
     n = p.n_agents
-    x0 = np.array([p.x0[p.agent_slice(i)] for i in range(n)])
+    x0 = _initial_states(p)
     # per agent its initial state, then that state with each of sigma, omega moved by h: one evaluation of all
     shifted = np.repeat(x0[:, None, :], 7, axis=1)
     shifted[:, np.arange(1, 7), np.arange(6)] += h
@@ -211,6 +211,11 @@ def _law_rate_estimate(p: PackedProblem, h: float = 1e-6) -> float:
         b = float(np.linalg.norm(Jinv @ jac[:, 0:3], 2)) / 4.0
         worst = max(worst, a + math.sqrt(b))
     return worst
+
+
+def _initial_states(p: PackedProblem) -> np.ndarray:
+    """``(n_agents, stride)``: row ``i`` is agent ``i``'s initial ``[sigma, omega, z, Omega]``."""
+    return np.array([p.x0[p.agent_slice(i)] for i in range(p.n_agents)])
 
 
 def _law_outputs(p: PackedProblem, agents: np.ndarray):
@@ -246,7 +251,7 @@ def _check_law_at_start(p: PackedProblem) -> None:
     from fsmctl.model.laws import LawError
 
     n = p.n_agents
-    values = _law_outputs(p, np.arange(n))(np.array([p.x0[p.agent_slice(i)] for i in range(n)]))
+    values = _law_outputs(p, np.arange(n))(_initial_states(p))
     if all(np.isfinite(v).all() for v in values.values()):
         return
     for i in range(n):

@@ -291,8 +291,8 @@ def reproduce(
     described = case1.describe()
     choices = [line for line in described if line.lstrip().startswith("choice ")]
     say(
-        f"reproduce: {len(plan)} runs, the paper's Cases 1, 2, 3a-3c and {len(plan) - 5} diagnostic runs (each run's "
-        "settings in the report); Case 1's settings:"
+        f"reproduce: {len(plan)} runs, the paper's Cases {', '.join(PAPER_CASES)} and {len(plan) - len(PAPER_CASES)} "
+        "diagnostic runs (each run's settings in the report); Case 1's settings:"
     )
     say("\n".join("  " + line for line in described if line not in choices))
     if choices:  # their reasons are paragraphs: the report holds them ("Settings and the choices ...")
