@@ -94,6 +94,8 @@ def test_exit_code_of_a_fast_run(tmp_path, capsys, extra, code):
     assert "no documented finding for this run" in out and "7 claims: " in result
     # the first screen: the settings in a few lines, the choices' reasoning left to the report
     assert "choice alpha:" not in out and "    choices the paper leaves open: 6 (alpha, delta, " in out
+    # the first line says what is flown: every run, not only the Case 1 whose settings follow
+    assert "reproduce: 14 runs, the paper's Cases 1, 2, 3a, 3b, 3c and 9 diagnostic runs" in out
 
 
 def test_only_the_unchanged_paper_scenario_is_documented(tmp_path):
