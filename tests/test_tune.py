@@ -32,6 +32,7 @@ from fsmctl.studies import campaign
 from fsmctl.studies.compare import run_metrics
 from fsmctl.studies.tune import TuneSettings, search_space, tune
 from fsmctl.studies.tune import evaluation as tune_eval
+from fsmctl.studies.tune import search as tune_search
 from fsmctl.studies.tune import storage as tune_storage
 
 PID_RANGES = (("K", 5.0, 200.0), ("P", 10.0, 400.0))
@@ -107,6 +108,56 @@ def test_workers_and_dask_give_the_same_trials_as_one_process(unlimited, tmp_pat
     assert (tmp_path / "one" / "trials.csv").read_text() == (tmp_path / "dask" / "trials.csv").read_text()
 
 
+def _checkpoint_values(folder) -> list[dict]:
+    """Every trial's intermediate values (the pruner's checkpoints), in trial order, from the study's journal."""
+    trials = sorted(_journal(folder).trials, key=lambda t: t.user_attrs["index"])
+    return [tune_module.intermediate_values(t) for t in trials]
+
+
+def _alone(indices, slots, most):
+    return [indices[i : i + 1] for i in range(len(indices))]
+
+
+def _together(indices, slots, most):
+    return [indices]
+
+
+def test_candidates_flown_together_score_as_each_flown_alone(unlimited, tmp_path, monkeypatch):
+    # Without a pruner a task flies several candidates in one simulate_many (their agents share the SIMD lanes):
+    # each trial must be what it is flown alone, failed ones too (gains up to 1e7 make some runs blow up).  With a
+    # pruner the candidates fly alone; forced together here, pruned and complete ones share flights and the
+    # pruner's decisions must not change either.
+    real, sizes, groups = tune_eval._fly, [], tune_search.candidate_groups
+
+    def counted(candidates, judges):
+        sizes.append(len(candidates))
+        return real(candidates, judges)
+
+    monkeypatch.setattr(tune_eval, "_fly", counted)
+    wild = _pid(unlimited, t_final=10.0, ranges=(("K", 5.0, 1e6), ("P", 10.0, 1e7)))
+    for name, settings in (("wild", wild), ("pruned", _pruned_pid(unlimited))):
+        sizes.clear()
+        default = tune(settings, tmp_path / f"{name}-default", workers=1)
+        assert sizes == ([8] if name == "wild" else [1] * 16)  # no pruner: the batch in one flight here
+        monkeypatch.setattr(tune_search, "candidate_groups", _alone)
+        tune(settings, tmp_path / f"{name}-alone", workers=1)
+        monkeypatch.setattr(tune_search, "candidate_groups", _together)
+        sizes.clear()
+        tune(settings, tmp_path / f"{name}-together", workers=1)
+        assert max(sizes) == settings.batch
+        monkeypatch.setattr(tune_search, "candidate_groups", groups)
+        text = (tmp_path / f"{name}-alone" / "trials.csv").read_text()
+        checkpoints = _checkpoint_values(tmp_path / f"{name}-alone")
+        for way in ("default", "together"):
+            assert (tmp_path / f"{name}-{way}" / "trials.csv").read_text() == text, (name, way)
+            assert _checkpoint_values(tmp_path / f"{name}-{way}") == checkpoints, (name, way)
+        states = {t["state"] for t in default.trials}
+        assert states == ({"complete", "failed"} if name == "wild" else {"complete", "pruned"}), states
+    # the default split: about one task per worker, at most as many candidates as fill one simulator batch
+    assert [len(g) for g in groups(range(8), slots=2, most=10)] == [4, 4]
+    assert [len(g) for g in groups(range(8), slots=1, most=3)] == [3, 3, 2]
+
+
 def test_resumed_study_equals_one_run(unlimited, tmp_path):
     # one objective: TPE, whose model takes over after its 10 random start-up trials; the first study stops at a
     # batch boundary (4 = one batch), the documented condition for raising the budget to continue exactly
@@ -128,11 +179,11 @@ def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypat
     tune(settings, tmp_path / "once")
     real, calls = tune_eval._fly, []
 
-    def interrupted(scenarios, judge):
+    def interrupted(candidates, judges):
         calls.append(1)
-        if len(calls) == 3:
+        if len(calls) == 1:  # in this process the batch's five candidates fly together: cut off in flight
             raise KeyboardInterrupt
-        return real(scenarios, judge)
+        return real(candidates, judges)
 
     monkeypatch.setattr(tune_eval, "_fly", interrupted)
     with pytest.raises(KeyboardInterrupt):
@@ -212,9 +263,10 @@ def test_pruning_stops_hopeless_candidates_by_the_median_rule(unlimited, tmp_pat
     settings = _pruned_pid(unlimited)
     real, flights = tune_eval._fly, []
 
-    def watched(scenarios, judge):
-        results = real(scenarios, judge)
-        flights.append((judge.pruned_at, [r.stopped_at for r in results]))
+    def watched(candidates, judges):
+        results = real(candidates, judges)
+        assert len(candidates) == 1  # with a pruner a candidate flies alone
+        flights.append((judges[0].pruned_at, [r.stopped_at for r in results[0]]))
         return results
 
     monkeypatch.setattr(tune_eval, "_fly", watched)

@@ -251,6 +251,24 @@ class Runner:
             return "serial"
         return "threads" if self.threads else "processes"
 
+    @property
+    def slots(self) -> int:
+        """Tasks the runner runs at once: its local workers, or the threads of the Dask cluster's workers (at least 1).
+
+        A study that can split its work into fewer, larger tasks (the tuner's candidates flown together) splits it
+        into about this many.
+
+        Examples
+        --------
+        >>> from fsmctl.studies.campaign import Runner
+        >>> Runner(workers=2, threads=True).slots
+        2
+        """
+        if self._dask is not None:
+            self.start()
+            return max(1, sum(self.client.nthreads().values()))
+        return self.workers
+
     def deferred(self) -> contextlib.AbstractContextManager:
         """An interrupt that arrives inside this block waits for its end (a file is not left half-written)."""
         return self.guard.deferred()

@@ -108,7 +108,12 @@ belongs to batch ``i // batch``; its parameters are proposed by a sampler seeded
 one objective, ``NSGAIISampler`` with a population of :data:`POPULATION` for several) that reads the trials told
 before the batch (and, as Optuna's constant liar, the batch's trials asked before it); the batch is then evaluated
 in this process, a local process pool (:func:`fsmctl.studies.parallel.worker_pool`, one BLAS thread per worker) or a
-Dask cluster, and told in trial order.  So the same settings give the same trials whatever the workers.  The journal
+Dask cluster, and told in trial order.  So the same settings give the same trials whatever the workers.  Without a
+pruner, a task flies several of the batch's candidates together (:func:`~fsmctl.studies.tune.search.candidate_groups`:
+about one task per worker, at most as many candidates as fill one batch of :func:`fsmctl.simulate_many`,
+:data:`~fsmctl.simulation.simulator.BATCH_AGENTS` agents): their agents share the SIMD lanes and each run's results
+are those it has alone, bit for bit.
+With a pruner a candidate flies alone, so that its runs stop where it is pruned.  The journal
 ``study.log`` (Optuna's ``JournalStorage``) receives a batch's proposals in one write before the batch is flown and
 its results in one write after: an interrupted study resumed (``resume=True``) flies the trials of the unfinished
 batch with the parameters already proposed and continues to ``budget`` trials exactly as an uninterrupted study
@@ -125,7 +130,7 @@ proposals or results being written, and :func:`tune` raises
 :class:`~fsmctl.studies.parallel.CampaignInterrupted` (exit code 130 or 143 for ``fsmctl tune``).
 
 Modules: :mod:`~fsmctl.studies.tune.settings` (settings, objectives, constraints, search space),
-:mod:`~fsmctl.studies.tune.evaluation` (flying and scoring one candidate, the pruner's checkpoints),
+:mod:`~fsmctl.studies.tune.evaluation` (flying and scoring candidates, the pruner's checkpoints),
 :mod:`~fsmctl.studies.tune.storage` (the journal, its lock, samplers, telling trials),
 :mod:`~fsmctl.studies.tune.report` (:class:`TuneResult` and the files) and :mod:`~fsmctl.studies.tune.search`
 (:func:`tune`: the batches, flown as tasks of the campaign runner :mod:`fsmctl.studies.campaign`).

@@ -1,4 +1,5 @@
-"""Flying and scoring one candidate: its scenarios, objectives, constraints and the pruner's checkpoints."""
+"""Flying and scoring candidates (several together in one call of the simulator): their scenarios, objectives,
+constraints and the pruner's checkpoints."""
 
 from __future__ import annotations
 
@@ -137,7 +138,7 @@ def portable_law(law: str) -> str:
     return code.name if code.builtin else str(code.folder)
 
 
-# ----------------------------------------------------------------------------- evaluating one candidate
+# ----------------------------------------------------------------------------- evaluating candidates
 
 
 @dataclass(frozen=True)
@@ -392,10 +393,10 @@ class _Judge:
     """Computes a candidate's intermediate values at the checkpoints and asks the pruner (see the module docstring).
 
     Step ``k`` is the output sample ``k * k_out`` (``k_out`` output intervals per checkpoint); its value needs every
-    member's run up to that sample.  The simulator calls :meth:`monitor` with the runs it flies together (all
-    members, or one batch of them after the other); the value of a step is decided, in step order, once every
-    member has reached it, so a decision never depends on how the members were batched.  :meth:`replay` decides the
-    steps the monitor did not reach (a simulator that flew the runs without calling it) on the complete runs, whose
+    member's run up to that sample.  The simulator's monitor passes :meth:`watch` the candidate's runs it flies
+    together (all members, or one batch of them after the other, beside other candidates' runs or not); the value of
+    a step is decided, in step order, once every member has reached it, so a decision never depends on how the
+    members were batched.  :meth:`replay` decides the steps the monitor did not reach on the complete runs, whose
     first samples are bit for bit the partial runs.
     """
 
@@ -454,12 +455,11 @@ class _Judge:
             step += 1
         return self.pruned_at is not None
 
-    def monitor(self, t: float, partial: Callable[[], Sequence]) -> bool:
-        if self.pruned_at is not None:
-            return True
-        results = list(partial())
-        members = [self._member(r, k) for k, r in enumerate(results)]
-        return self._advance(results, members, min(len(r.time) for r in results))
+    def watch(self, results: Sequence) -> None:
+        """The partial runs of (some of) the candidate's members, as the simulator's monitor receives them."""
+        if self.pruned_at is None:
+            members = [self._member(r, k) for k, r in enumerate(results)]
+            self._advance(results, members, min(len(r.time) for r in results))
 
     def replay(self, results: Sequence) -> None:
         """Decide the steps left on complete runs (every checkpoint before the last sample)."""
@@ -467,27 +467,40 @@ class _Judge:
             self._advance(results, range(len(results)), len(results[0].time) - 1)
 
 
-def _fly(scenarios: Sequence[Scenario], judge: _Judge | None) -> list:
-    """Simulate a candidate's members in one call; a judge watches them (and may stop them) at its checkpoints."""
-    from fsmctl.simulation import simulator
+def _fly(candidates: Sequence[Sequence[Scenario]], judges: Sequence[_Judge] | None) -> list[list]:
+    """Simulate the candidates' members in one call of the simulator (their agents share the SIMD lanes, each run's
+    results bit for bit those it has alone); one list per candidate of its members' results or
+    :class:`~fsmctl.simulation.failures.SimulationError`.  The judges (one per candidate) watch their own members at
+    their checkpoints; the flight stops when every candidate flying in it has been pruned."""
+    from fsmctl.simulation.simulator import simulate_many
 
-    many = getattr(simulator, "simulate_many", None)
-    if many is None:  # a simulator without simulate_many: the judge decides on the complete runs
-        results = [simulator.simulate(s, progress=False) for s in scenarios]
-    elif judge is None:
-        results = list(many(list(scenarios)))
+    flat = [s for members in candidates for s in members]
+    owner = {id(s): k for k, members in enumerate(candidates) for s in members}
+    if judges is None:
+        results = simulate_many(flat, errors="return")
     else:
-        results = list(many(list(scenarios), monitor=judge.monitor, monitor_interval=judge.interval))
-    if judge is not None and judge.pruned_at is None:
-        judge.replay(results)
-    return results
+
+        def monitor(t: float, partial: Callable[[], Sequence]) -> bool:
+            seen: dict[int, list] = {}
+            for r in partial():
+                seen.setdefault(owner[id(r.scenario)], []).append(r)
+            for k, rs in seen.items():
+                judges[k].watch(rs)
+            return all(judges[k].pruned_at is not None for k in seen)
+
+        results = simulate_many(flat, errors="return", monitor=monitor, monitor_interval=judges[0].interval)
+    out, start = [], 0
+    for k, members in enumerate(candidates):
+        own = results[start : start + len(members)]
+        start += len(members)
+        if judges is not None and not any(isinstance(r, Exception) for r in own):
+            judges[k].replay(own)
+        out.append(own)
+    return out
 
 
-def evaluate_candidate(ctx: EvaluationContext, values: Mapping[str, float], snapshot: Snapshot | None) -> dict:
-    """Fly one candidate and score it: a dict with ``state`` ("complete", "pruned", "failed") and what was measured."""
-    from fsmctl.simulation.simulator import SimulationError
-
-    out: dict[str, Any] = {
+def _blank() -> dict[str, Any]:
+    return {
         "state": "complete",
         "objectives": [],
         "constraints": {},
@@ -497,19 +510,21 @@ def evaluate_candidate(ctx: EvaluationContext, values: Mapping[str, float], snap
         "pruned_at": None,
         "error": "",
     }
-    scenarios = [trial_scenario(m, ctx.law, ctx.space, values) for m in ctx.members]
-    proof = _proof_constraints(ctx, scenarios, values)
-    judge = _Judge(ctx, snapshot or (), scenarios) if ctx.pruner != "none" else None
-    try:
-        results = _fly(scenarios, judge)
-    except SimulationError as exc:
-        out.update(state="failed", error=" ".join(str(exc).split()), constraints=proof)
-        return out
+
+
+def _outcome(ctx: EvaluationContext, results: Sequence, proof: dict[str, float], judge: _Judge | None) -> dict:
+    """A candidate's result from its members' runs: pruned (where its judge pruned it, whatever its runs did after),
+    failed (the first failed member's error, in member order), or complete with its objectives and constraints."""
+    out = _blank()
     if judge is not None:
         out.update(intermediate=dict(judge.values), pruner_attrs=dict(judge.attrs))
-        if judge.pruned_at is not None:
+        if judge.pruned_at is not None:  # alone, its runs would have stopped there
             out.update(state="pruned", pruned_at=judge.pruned_at, constraints=proof)
             return out
+    failed = next((r for r in results if isinstance(r, Exception)), None)
+    if failed is not None:
+        out.update(state="failed", error=" ".join(str(failed).split()), constraints=proof)
+        return out
     scores = [_run_scores(r, ctx) for r in results]
     agg = [_quantile(col, ctx.quantile) for col in zip(*scores, strict=True)]
     n = len(ctx.objectives)
@@ -524,6 +539,36 @@ def evaluate_candidate(ctx: EvaluationContext, values: Mapping[str, float], snap
     if bad:
         out.update(state="failed", error=f"objective {bad[0]} is NaN")
     return out
+
+
+def evaluate_candidates(
+    ctx: EvaluationContext, candidates: Sequence[Mapping[str, float]], snapshot: Snapshot | None
+) -> list[dict]:
+    """Fly candidates together and score each: per candidate a dict with ``state`` ("complete", "pruned",
+    "failed") and what was measured, the same whichever candidates share the flight (:func:`_fly`).
+
+    Parameters
+    ----------
+    ctx : EvaluationContext
+        The study's members, objectives, constraints and pruner.
+    candidates : sequence of mapping
+        Each candidate's parameter values (``name -> value``).
+    snapshot : Snapshot, optional
+        The trials told before the candidates' batch (for the pruner).
+
+    Returns
+    -------
+    list of dict
+        One result per candidate, in order.
+    """
+    scenarios = [[trial_scenario(m, ctx.law, ctx.space, values) for m in ctx.members] for values in candidates]
+    proofs = [_proof_constraints(ctx, s, values) for s, values in zip(scenarios, candidates, strict=True)]
+    judges = [_Judge(ctx, snapshot or (), s) for s in scenarios] if ctx.pruner != "none" else None
+    flown = _fly(scenarios, judges)
+    return [
+        _outcome(ctx, results, proof, judges[k] if judges is not None else None)
+        for k, (results, proof) in enumerate(zip(flown, proofs, strict=True))
+    ]
 
 
 def worker_died(message: str) -> dict:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import functools
 import logging
 import os
 import shlex
@@ -19,12 +20,13 @@ import numpy as np
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
 from fsmctl.policy import DASK_TIMEOUT_S
+from fsmctl.simulation.simulator import BATCH_AGENTS
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.tune.evaluation import (
     EvaluationContext,
     base_scenario,
     ensemble_members,
-    evaluate_candidate,
+    evaluate_candidates,
     portable_law,
     theorem1_constraint,
     trial_scenario,
@@ -308,6 +310,10 @@ class _Batches:
     def __init__(self, plan: _Plan, out: Path):
         self.plan, self.out = plan, out
         self.told = 0
+        # without a pruner, the candidates of a task share the simulator's batches (as many as fill one); with one,
+        # a candidate flies alone, so that its runs stop where it is pruned
+        agents = sum(m.n_agents for m in plan.ctx.members)
+        self.per_task = max(1, BATCH_AGENTS // agents) if plan.ctx.pruner == "none" else 1
 
     def run(self, runner: Runner, resume: bool, progress: bool | None) -> list:
         """Continue the study to its budget; its counted trials in index order."""
@@ -329,8 +335,11 @@ class _Batches:
                     sampler = self._propose(study, indices, pending, sampler)
                 snapshot = pruner_snapshot(study.get_trials(deepcopy=False), start) if s.pruner != "none" else None
                 snapshot = runner.share(snapshot, broadcast=False) if snapshot else snapshot
-                tasks = [Task(j, evaluate_candidate, (ctx, pending[j][1], snapshot), lost=worker_died) for j in indices]
-                results = runner.run(tasks)
+                tasks = [
+                    _candidates_task(ctx, group, [pending[j][1] for j in group], snapshot)
+                    for group in candidate_groups(indices, runner.slots, self.per_task)
+                ]
+                results = [r for task_results in runner.run(tasks) for r in task_results]
                 with runner.deferred(), journal.buffered():  # told whole, in trial order
                     for j, result in zip(indices, results, strict=True):
                         tell_trial(study, pending.pop(j)[0], result, self.plan.constraints, len(s.objectives))
@@ -351,6 +360,44 @@ class _Batches:
             trial.set_user_attr("index", j)
             pending[j] = (trial._trial_id, values)
         return sampler
+
+
+def candidate_groups(indices: range, slots: int, most: int) -> list[range]:
+    """The trials of a batch, split into the runner's tasks: consecutive groups of at most ``most`` trials, about
+    one per slot (the trials' results do not depend on the split).
+
+    Examples
+    --------
+    >>> [list(g) for g in candidate_groups(range(8, 16), slots=2, most=10)]
+    [[8, 9, 10, 11], [12, 13, 14, 15]]
+    >>> [len(g) for g in candidate_groups(range(8), slots=1, most=1)]
+    [1, 1, 1, 1, 1, 1, 1, 1]
+    """
+    per = max(1, min(most, -(-len(indices) // max(1, slots))))
+    return [indices[i : i + per] for i in range(0, len(indices), per)]
+
+
+def _lost(count: int, message: str) -> list[dict]:
+    return [worker_died(message)] * count
+
+
+def _candidates_task(ctx: Any, group: range, values: list[dict], snapshot: Any) -> Task:
+    """The task flying ``group``'s candidates together; its parts fly them one by one (a candidate that kills its
+    worker is then lost alone)."""
+    parts = tuple(
+        Task(j, evaluate_candidates, (ctx, [v], snapshot), lost=functools.partial(_lost, 1))
+        for j, v in zip(group, values, strict=True)
+    )
+    if len(parts) == 1:
+        return parts[0]
+    return Task(
+        tuple(group),
+        evaluate_candidates,
+        (ctx, values, snapshot),
+        weight=len(group),
+        lost=functools.partial(_lost, len(group)),
+        parts=parts,
+    )
 
 
 def _result(plan: _Plan, trials: Sequence) -> TuneResult:
