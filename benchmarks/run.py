@@ -1662,7 +1662,7 @@ def tune_throughput(quick: bool, log, repeats: int = 2) -> dict:
     return out
 
 
-def _montecarlo_breakdown(settings, runs: int = 10) -> dict:
+def _montecarlo_breakdown(settings, runs: int | None = None) -> dict:
     """Per-run CPU of a chunk of Monte Carlo runs in this process, by stage: drawing the run, flying the chunk
     together (:func:`fsmctl.simulate_many`; its compiled loop alone: the runs' ``wall_time``), and the record
     (Theorem 1 and 2 checks, metrics); then the same chunk flown with the base scenario's disturbances (shared
@@ -1672,6 +1672,7 @@ def _montecarlo_breakdown(settings, runs: int = 10) -> dict:
     from fsmctl.studies import montecarlo as mc
 
     settings, base = mc.campaign_base(settings)
+    runs = runs or settings.chunk_size  # one chunk of the campaign
     seeds = np.random.SeedSequence(settings.seed).spawn(settings.runs)
     mc.run_one(base, settings, 0, seeds[0])  # imports, library
     c = time.process_time()

@@ -378,7 +378,7 @@ def candidate_groups(indices: range, slots: int, most: int) -> list[range]:
 
 
 def _lost(count: int, message: str) -> list[dict]:
-    return [worker_died(message)] * count
+    return [worker_died(message) for _ in range(count)]
 
 
 def _candidates_task(ctx: Any, group: range, values: list[dict], snapshot: Any) -> Task:
