@@ -1731,9 +1731,6 @@ def montecarlo_section(runs: int, log, previous: dict | None = None, repeats: in
     }  # fmt: skip
     if previous and previous.get("before"):
         out["before"] = previous["before"]  # the engine before issue 14's batching, as first measured
-    elif previous and previous.get("runs") == runs:
-        out["before"] = {k: previous[k] for k in ("wall_s", "cpu_s_per_run", "projected_1000_runs_wall_s")}
-        out["before"]["date"] = previous.get("date")
     return out
 
 
@@ -2977,11 +2974,9 @@ def main(argv=None) -> int:
         ap.error(f"--only: unknown section(s) {', '.join(unknown)}; choose from {', '.join(SECTIONS)}")
     res = {"quick": args.quick, "date": time.strftime("%Y-%m-%d %H:%M:%S %Z"), "machine": machine_info()}
     previous = Path(args.out) / "results.json"
-    previous_date = None
     if args.only is not None and previous.exists():
         # re-measure some sections: the others keep their numbers (and say when they were measured)
         old = json.loads(previous.read_text())
-        previous_date = old.get("date")
         if old.get("quick") == args.quick:
             res = {**old, "date": res["date"], "machine": res["machine"]}
             res.setdefault("measured", {})
@@ -3014,9 +3009,7 @@ def main(argv=None) -> int:
     section("certify", lambda: certify_section(args.quick, log))
     section("export", lambda: export_section(args.quick, log))
     section("roofline", lambda: roofline_section(args.quick, log, Path(args.out)))
-    previous_mc = res.get("montecarlo")
-    if previous_mc and not previous_mc.get("before"):
-        previous_mc = {**previous_mc, "date": res.get("measured", {}).get("montecarlo") or previous_date}
+    previous_mc = res.get("montecarlo")  # its "before" (issue 14's baseline) is carried on
     section(
         "montecarlo",
         lambda: montecarlo_section(runs, log, previous_mc, repeats=1 if args.quick else 2) if runs > 0 else None,
