@@ -644,3 +644,11 @@ def test_every_objective_is_one_entry_whose_checkpoint_score_ends_at_its_value()
             assert objective.metric is None or objective.metric == f"{objective.error}_steady_max_deg", name
     with pytest.raises(ValueError, match="not both"):
         Objective("1", "both", "peak_torque_N_m", error="aaem", partial=OBJECTIVES["peak_torque"].partial)
+
+
+def test_the_search_is_reachable_from_the_studies_package():
+    # the guide's spelling: fsmctl.studies.tune is the module (as `from fsmctl.studies import tune` gives it), and
+    # fsmctl.studies.tune.tune the search (a new user found the attribute missing before it was imported)
+    code = "import fsmctl.studies as s; m = s.tune; from fsmctl.studies.tune import tune; print(m.tune is tune)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "True"

@@ -83,7 +83,10 @@ _ATTRS = {
 
 __all__ = [name for names in _ATTRS.values() for name in names]
 
-__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(__name__, submod_attrs=_ATTRS)
+# the modules named like their entry points are reachable as attributes too (``fsmctl.studies.tune.tune(...)``)
+__getattr__, _lazy_dir, _lazy_all = lazy_loader.attach(
+    __name__, submodules=["explain", "reproduce", "tune"], submod_attrs=_ATTRS
+)
 
 
 def __dir__() -> list[str]:
