@@ -288,17 +288,26 @@ def test_printer_writes_exact_constants_and_every_lane_rule():
 
 def test_printer_starts_the_long_chains_first():
     """Three pows of independent operands, each followed in CasADi's order by cheap work on its result: the printer
-    puts the three side by side (the CPU then overlaps their dependency chains), each after its operands; a
-    function without library calls keeps CasADi's order."""
+    puts the three side by side, as one interleaved call (the CPU then overlaps their dependency chains) after
+    their operands; a function without library calls keeps CasADi's order."""
     s = ca.SX.sym("s", 3)
     alpha = ca.SX.sym("alpha")
     parts = [ca.fabs(s[k] * (k + 2.0) + 1.0) ** alpha * s[k] + 3.0 * s[k] for k in range(3)]
     body = batched_source([("f", ca.Function("f", [s, alpha], [ca.vertcat(*parts)]))], "f.h").split("int f_batched")[1]
-    statements = [line.strip() for line in body.splitlines() if line.startswith("  const fsm_v") or "fsm_store" in line]
-    pows = [k for k, line in enumerate(statements) if "fsm_pow(" in line]
-    assert len(pows) == 3 and pows == list(range(pows[0], pows[0] + 3)), statements
+    statements = [line.strip() for line in body.splitlines() if line.startswith("  ")]
+    statements = [line for line in statements if not line.startswith(("if (", "return"))]
+    calls = [line for line in statements if line.startswith("fsm_pow3(")]
+    assert len(calls) == 1 and "fsm_pow(" not in body and "fsm_pow2(" not in body, statements
+    outputs = re.findall(r"&(v\d+)", calls[0])
+    assert len(outputs) == 3 and f"fsm_v {', '.join(outputs)};" in statements, statements
     defined: set[str] = set()
     for line in statements:  # every operand is defined above its use (the C compiler would refuse it otherwise)
+        if line.startswith("fsm_v "):
+            continue  # the declaration of the interleaved call's results
+        if line.startswith("fsm_pow3("):
+            assert set(re.findall(r"\b(v\d+)\b,", line.split("&")[0])) <= defined, line
+            defined.update(outputs)
+            continue
         used = set(re.findall(r"\bv\d+\b", line.split("=", 1)[-1] if line.startswith("const") else line))
         assert used <= defined, line
         if line.startswith("const"):

@@ -116,85 +116,143 @@ static fsm_pow_v __attribute__((noinline, cold)) fsm_pow_off_path(fsm_pow_v x, f
   return res;
 }
 
-/* 8 lanes: a function of its own, called by the kernels (measured on an AVX-512 core: inlining its three calls
- * into law_local made the loop ~2 % slower, register spills; at 4 lanes inlining is ~2 % faster).  The bits are the
+/* 8 lanes: functions of their own, called by the kernels (measured on an AVX-512 core: inlining three calls into
+ * law_local made the loop ~2 % slower, register spills; at 4 lanes inlining is ~2 % faster).  The bits are the
  * same either way: no arithmetic moves across the call. */
 #if FSM_LANES == 8
-#define FSM_POW_INLINE __attribute__((noinline, unused)) /* unused: files that never call it */
+#define FSM_POW_INLINE __attribute__((noinline, unused)) /* unused: files that never call them */
 #else
 #define FSM_POW_INLINE inline
 #endif
 
-/* x^y in the lanes l < lanes (the others are unspecified) */
-static FSM_POW_INLINE fsm_pow_v fsm_pow_vec(fsm_pow_v x, fsm_pow_v y, int lanes) {
+/* for (k < K) */
+#define FSM_POW_K(stmt) for (int k = 0; k < K; ++k) stmt
+
+/* x[k]^y[k] in the lanes l < lanes of r[k], k < K (the other lanes are unspecified): K independent powers, their
+ * statements interleaved so that the CPU overlaps their long dependency chains (K = 1: fsm_pow_vec; K = 2, 3:
+ * fsm_pow_vec2, fsm_pow_vec3, which the batched kernels call for independent powers side by side).  Each value is
+ * computed by the same operations from the same operands whatever K, so every lane has the same bits. */
+static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, const fsm_pow_v *y, fsm_pow_v *r,
+                                                            const int K, int lanes) {
   const double LN2_HI = 0x1.62e42fefa3800p-1, LN2_LO = 0x1.ef35793c76730p-45; /* LN2_HI: 42 bits */
-  const fsm_pow_m bits = (fsm_pow_m)x;
+  fsm_pow_m bits[3], ex[3], big[3];
+  fsm_pow_v m[3], e[3], f[3], d[3], dl[3], inv[3], f2[3], uh[3], pe[3], p[3], ul[3], t[3];
   /* log x = e log 2 + log m */
-  fsm_pow_m ex = (bits >> 52) - 1023;
-  fsm_pow_v m = (fsm_pow_v)((bits & 0x000fffffffffffffLL) | 0x3ff0000000000000LL); /* [1, 2) */
-  const fsm_pow_m big = m > 0x1.6a09e667f3bcdp+0;                                  /* m > sqrt(2) */
-  m = (fsm_pow_v)(((fsm_pow_m)(m * 0.5) & big) | ((fsm_pow_m)m & ~big));
-  ex = ex - big; /* big is -1 where m was halved */
-  const fsm_pow_v e = __builtin_convertvector(ex, fsm_pow_v);
-  const fsm_pow_v f = m - 1.0;                       /* exact */
-  const fsm_pow_v d = 2.0 + f, dl = f - (d - 2.0); /* 2 + f = d + dl exactly */
-  const fsm_pow_v inv = 1.0 / d, f2 = 2.0 * f;
-  const fsm_pow_v uh = f2 * inv;
-  fsm_pow_v pe;
-  const fsm_pow_v p = fsm_pow_two_prod(uh, d, &pe);
-  const fsm_pow_v ul = (((f2 - p) - pe) - uh * dl) * inv; /* uh + ul = 2 f / (2 + f) */
-  const fsm_pow_v t = uh * uh;
+  FSM_POW_K(bits[k] = (fsm_pow_m)x[k]);
+  FSM_POW_K(ex[k] = (bits[k] >> 52) - 1023);
+  FSM_POW_K(m[k] = (fsm_pow_v)((bits[k] & 0x000fffffffffffffLL) | 0x3ff0000000000000LL)); /* [1, 2) */
+  FSM_POW_K(big[k] = m[k] > 0x1.6a09e667f3bcdp+0);                                       /* m > sqrt(2) */
+  FSM_POW_K(m[k] = (fsm_pow_v)(((fsm_pow_m)(m[k] * 0.5) & big[k]) | ((fsm_pow_m)m[k] & ~big[k])));
+  FSM_POW_K(ex[k] = ex[k] - big[k]); /* big is -1 where m was halved */
+  FSM_POW_K(e[k] = __builtin_convertvector(ex[k], fsm_pow_v));
+  FSM_POW_K(f[k] = m[k] - 1.0); /* exact */
+  FSM_POW_K(d[k] = 2.0 + f[k]);
+  FSM_POW_K(dl[k] = f[k] - (d[k] - 2.0)); /* 2 + f = d + dl exactly */
+  FSM_POW_K(inv[k] = 1.0 / d[k]);
+  FSM_POW_K(f2[k] = 2.0 * f[k]);
+  FSM_POW_K(uh[k] = f2[k] * inv[k]);
+  FSM_POW_K(p[k] = fsm_pow_two_prod(uh[k], d[k], &pe[k]));
+  FSM_POW_K(ul[k] = (((f2[k] - p[k]) - pe[k]) - uh[k] * dl[k]) * inv[k]); /* uh + ul = 2 f / (2 + f) */
+  FSM_POW_K(t[k] = uh[k] * uh[k]);
   /* c1 + c2 t + ... + c11 t^10 (c_k = 1 / (4^k (2k+1))), Estrin's scheme (a short dependency chain) */
-  const fsm_pow_v t2 = t * t, t4 = t2 * t2, t8 = t4 * t4;
-  const fsm_pow_v c01 = 0x1.5555555555555p-4 + 0x1.999999999999ap-7 * t;
-  const fsm_pow_v c23 = 0x1.2492492492492p-9 + 0x1.c71c71c71c71cp-12 * t;
-  const fsm_pow_v c45 = 0x1.745d1745d1746p-14 + 0x1.3b13b13b13b14p-16 * t;
-  const fsm_pow_v c67 = 0x1.1111111111111p-18 + 0x1.e1e1e1e1e1e1ep-21 * t;
-  const fsm_pow_v c89 = 0x1.af286bca1af28p-23 + 0x1.8618618618618p-25 * t;
-  const fsm_pow_v c03 = c01 + c23 * t2, c47 = c45 + c67 * t2, c8a = c89 + 0x1.642c8590b2164p-27 * t2;
-  fsm_pow_v c = (c03 + c47 * t4) + c8a * t8;
-  c = (uh * t) * c; /* u^3/12 + u^5/80 + ... */
-  const fsm_pow_v a = e * LN2_HI;
-  const fsm_pow_v s0 = a + uh, bb = s0 - a;
-  const fsm_pow_v s0e = ((a - (s0 - bb)) + (uh - bb)) + ((ul + c) + e * LN2_LO);
-  const fsm_pow_v lh = s0 + s0e, ll = s0e - (lh - s0); /* log x = lh + ll, |ll| <= ulp(lh) */
+  fsm_pow_v t2[3], t4[3], t8[3], c01[3], c23[3], c45[3], c67[3], c89[3], c03[3], c47[3], c8a[3], c[3];
+  FSM_POW_K(t2[k] = t[k] * t[k]);
+  FSM_POW_K(t4[k] = t2[k] * t2[k]);
+  FSM_POW_K(t8[k] = t4[k] * t4[k]);
+  FSM_POW_K(c01[k] = 0x1.5555555555555p-4 + 0x1.999999999999ap-7 * t[k]);
+  FSM_POW_K(c23[k] = 0x1.2492492492492p-9 + 0x1.c71c71c71c71cp-12 * t[k]);
+  FSM_POW_K(c45[k] = 0x1.745d1745d1746p-14 + 0x1.3b13b13b13b14p-16 * t[k]);
+  FSM_POW_K(c67[k] = 0x1.1111111111111p-18 + 0x1.e1e1e1e1e1e1ep-21 * t[k]);
+  FSM_POW_K(c89[k] = 0x1.af286bca1af28p-23 + 0x1.8618618618618p-25 * t[k]);
+  FSM_POW_K(c03[k] = c01[k] + c23[k] * t2[k]);
+  FSM_POW_K(c47[k] = c45[k] + c67[k] * t2[k]);
+  FSM_POW_K(c8a[k] = c89[k] + 0x1.642c8590b2164p-27 * t2[k]);
+  FSM_POW_K(c[k] = (c03[k] + c47[k] * t4[k]) + c8a[k] * t8[k]);
+  FSM_POW_K(c[k] = (uh[k] * t[k]) * c[k]); /* u^3/12 + u^5/80 + ... */
+  fsm_pow_v a[3], s0[3], bb[3], s0e[3], lh[3], ll[3];
+  FSM_POW_K(a[k] = e[k] * LN2_HI);
+  FSM_POW_K(s0[k] = a[k] + uh[k]);
+  FSM_POW_K(bb[k] = s0[k] - a[k]);
+  FSM_POW_K(s0e[k] = ((a[k] - (s0[k] - bb[k])) + (uh[k] - bb[k])) + ((ul[k] + c[k]) + e[k] * LN2_LO));
+  FSM_POW_K(lh[k] = s0[k] + s0e[k]);
+  FSM_POW_K(ll[k] = s0e[k] - (lh[k] - s0[k])); /* log x = lh + ll, |ll| <= ulp(lh) */
   /* z = y log x */
-  fsm_pow_v ze;
-  const fsm_pow_v zh = fsm_pow_two_prod(y, lh, &ze);
-  const fsm_pow_v zl = ze + y * ll;
+  fsm_pow_v ze[3], zh[3], zl[3];
+  FSM_POW_K(zh[k] = fsm_pow_two_prod(y[k], lh[k], &ze[k]));
+  FSM_POW_K(zl[k] = ze[k] + y[k] * ll[k]);
   /* exp z = 2^n exp(rh + rl) */
   const fsm_pow_v shift = fsm_pow_splat(0x1.8p52);
-  const fsm_pow_v n = (zh * 0x1.71547652b82fep+0 + shift) - shift;
-  const fsm_pow_v r0 = zh - n * LN2_HI, r0l = zl - n * LN2_LO; /* r0 exact; |r0l| < 2^-33 */
-  const fsm_pow_v rh = r0 + r0l, rb = rh - r0;
-  const fsm_pow_v rl = (r0 - (rh - rb)) + (r0l - rb); /* r = rh + rl, |rl| <= ulp(rh) */
-  fsm_pow_v r2e;
-  const fsm_pow_v r2 = fsm_pow_two_prod(rh, rh, &r2e);
+  fsm_pow_v n[3], r0[3], r0l[3], rh[3], rb[3], rl[3], r2e[3], r2[3];
+  FSM_POW_K(n[k] = (zh[k] * 0x1.71547652b82fep+0 + shift) - shift);
+  FSM_POW_K(r0[k] = zh[k] - n[k] * LN2_HI);   /* exact */
+  FSM_POW_K(r0l[k] = zl[k] - n[k] * LN2_LO); /* |r0l| < 2^-33 */
+  FSM_POW_K(rh[k] = r0[k] + r0l[k]);
+  FSM_POW_K(rb[k] = rh[k] - r0[k]);
+  FSM_POW_K(rl[k] = (r0[k] - (rh[k] - rb[k])) + (r0l[k] - rb[k])); /* r = rh + rl, |rl| <= ulp(rh) */
+  FSM_POW_K(r2[k] = fsm_pow_two_prod(rh[k], rh[k], &r2e[k]));
   /* 1/3! + r/4! + ... + r^11/14!, Estrin's scheme */
-  const fsm_pow_v r4 = r2 * r2, r8 = r4 * r4;
-  const fsm_pow_v q01 = 0x1.5555555555555p-3 + 0x1.5555555555555p-5 * rh;
-  const fsm_pow_v q23 = 0x1.1111111111111p-7 + 0x1.6c16c16c16c17p-10 * rh;
-  const fsm_pow_v q45 = 0x1.a01a01a01a01ap-13 + 0x1.a01a01a01a01ap-16 * rh;
-  const fsm_pow_v q67 = 0x1.71de3a556c734p-19 + 0x1.27e4fb7789f5cp-22 * rh;
-  const fsm_pow_v q89 = 0x1.ae64567f544e4p-26 + 0x1.1eed8eff8d898p-29 * rh;
-  const fsm_pow_v qab = 0x1.6124613a86d09p-33 + 0x1.93974a8c07c9dp-37 * rh;
-  const fsm_pow_v q03 = q01 + q23 * r2, q47 = q45 + q67 * r2, q8b = q89 + qab * r2;
-  fsm_pow_v q = (q03 + q47 * r4) + q8b * r8;
-  q = (rh * r2) * q; /* r^3/6 + r^4/24 + ... */
-  const fsm_pow_v s1 = 1.0 + rh, s1e = rh - (s1 - 1.0);      /* |rh| < 1: exact */
-  const fsm_pow_v h = 0.5 * r2, s2 = s1 + h, s2e = h - (s2 - s1); /* |h| < s1: exact */
-  const fsm_pow_v tail = ((((s1e + s2e) + 0.5 * r2e) + q) + rl) + rl * rh;
+  fsm_pow_v r4[3], r8[3], q01[3], q23[3], q45[3], q67[3], q89[3], qab[3], q03[3], q47[3], q8b[3], q[3];
+  FSM_POW_K(r4[k] = r2[k] * r2[k]);
+  FSM_POW_K(r8[k] = r4[k] * r4[k]);
+  FSM_POW_K(q01[k] = 0x1.5555555555555p-3 + 0x1.5555555555555p-5 * rh[k]);
+  FSM_POW_K(q23[k] = 0x1.1111111111111p-7 + 0x1.6c16c16c16c17p-10 * rh[k]);
+  FSM_POW_K(q45[k] = 0x1.a01a01a01a01ap-13 + 0x1.a01a01a01a01ap-16 * rh[k]);
+  FSM_POW_K(q67[k] = 0x1.71de3a556c734p-19 + 0x1.27e4fb7789f5cp-22 * rh[k]);
+  FSM_POW_K(q89[k] = 0x1.ae64567f544e4p-26 + 0x1.1eed8eff8d898p-29 * rh[k]);
+  FSM_POW_K(qab[k] = 0x1.6124613a86d09p-33 + 0x1.93974a8c07c9dp-37 * rh[k]);
+  FSM_POW_K(q03[k] = q01[k] + q23[k] * r2[k]);
+  FSM_POW_K(q47[k] = q45[k] + q67[k] * r2[k]);
+  FSM_POW_K(q8b[k] = q89[k] + qab[k] * r2[k]);
+  FSM_POW_K(q[k] = (q03[k] + q47[k] * r4[k]) + q8b[k] * r8[k]);
+  FSM_POW_K(q[k] = (rh[k] * r2[k]) * q[k]); /* r^3/6 + r^4/24 + ... */
+  fsm_pow_v s1[3], s1e[3], h[3], s2[3], s2e[3], tail[3];
+  FSM_POW_K(s1[k] = 1.0 + rh[k]);
+  FSM_POW_K(s1e[k] = rh[k] - (s1[k] - 1.0)); /* |rh| < 1: exact */
+  FSM_POW_K(h[k] = 0.5 * r2[k]);
+  FSM_POW_K(s2[k] = s1[k] + h[k]);
+  FSM_POW_K(s2e[k] = h[k] - (s2[k] - s1[k])); /* |h| < s1: exact */
+  FSM_POW_K(tail[k] = ((((s1e[k] + s2e[k]) + 0.5 * r2e[k]) + q[k]) + rl[k]) + rl[k] * rh[k]);
   /* the fast path: x positive normal, |y| < 16, |zh| < 708 (the result is normal) */
-  const fsm_pow_v ay = (fsm_pow_v)((fsm_pow_m)y & 0x7fffffffffffffffLL);
-  const fsm_pow_v az = (fsm_pow_v)((fsm_pow_m)zh & 0x7fffffffffffffffLL);
-  const fsm_pow_m fast = (bits >= 0x0010000000000000LL) & (bits < 0x7ff0000000000000LL) & (ay < 16.0) & (az < 708.0);
-  const fsm_pow_v nf = (fsm_pow_v)((fsm_pow_m)n & fast); /* n, or 0 off the fast path */
-  const fsm_pow_m scale = (__builtin_convertvector(nf, fsm_pow_m) + 1023) << 52;
-  fsm_pow_v res = (s2 + tail) * (fsm_pow_v)scale;
-  const fsm_pow_m one = y == 1.0, two = y == 2.0; /* exact, as the C library's: x^1 = x, x^2 = x x */
-  res = (fsm_pow_v)(((fsm_pow_m)x & one) | ((fsm_pow_m)(x * x) & two) | ((fsm_pow_m)res & ~(one | two)));
-  if (__builtin_expect(fsm_pow_any_off(fast, lanes), 0)) res = fsm_pow_off_path(x, y, res, fast, lanes);
-  return res;
+  fsm_pow_m fast[3], scale[3], one[3], two[3];
+  fsm_pow_v ay[3], az[3], nf[3], res[3];
+  FSM_POW_K(ay[k] = (fsm_pow_v)((fsm_pow_m)y[k] & 0x7fffffffffffffffLL));
+  FSM_POW_K(az[k] = (fsm_pow_v)((fsm_pow_m)zh[k] & 0x7fffffffffffffffLL));
+  FSM_POW_K(fast[k] = (bits[k] >= 0x0010000000000000LL) & (bits[k] < 0x7ff0000000000000LL) & (ay[k] < 16.0) &
+                      (az[k] < 708.0));
+  FSM_POW_K(nf[k] = (fsm_pow_v)((fsm_pow_m)n[k] & fast[k])); /* n, or 0 off the fast path */
+  FSM_POW_K(scale[k] = (__builtin_convertvector(nf[k], fsm_pow_m) + 1023) << 52);
+  FSM_POW_K(res[k] = (s2[k] + tail[k]) * (fsm_pow_v)scale[k]);
+  FSM_POW_K(one[k] = y[k] == 1.0); /* exact, as the C library's: x^1 = x, x^2 = x x */
+  FSM_POW_K(two[k] = y[k] == 2.0);
+  FSM_POW_K(res[k] = (fsm_pow_v)(((fsm_pow_m)x[k] & one[k]) | ((fsm_pow_m)(x[k] * x[k]) & two[k]) |
+                                 ((fsm_pow_m)res[k] & ~(one[k] | two[k]))));
+  FSM_POW_K(r[k] = __builtin_expect(fsm_pow_any_off(fast[k], lanes), 0)
+                       ? fsm_pow_off_path(x[k], y[k], res[k], fast[k], lanes)
+                       : res[k]);
+}
+#undef FSM_POW_K
+
+/* x^y in the lanes l < lanes (the others are unspecified) */
+static FSM_POW_INLINE fsm_pow_v fsm_pow_vec(fsm_pow_v x, fsm_pow_v y, int lanes) {
+  fsm_pow_v r;
+  fsm_pow_k(&x, &y, &r, 1, lanes);
+  return r;
+}
+
+/* x0^y0 and x1^y1 (or three powers) at once, interleaved: the same bits as fsm_pow_vec of each */
+static FSM_POW_INLINE void fsm_pow_vec2(fsm_pow_v x0, fsm_pow_v y0, fsm_pow_v x1, fsm_pow_v y1, fsm_pow_v *r0,
+                                        fsm_pow_v *r1, int lanes) {
+  const fsm_pow_v x[2] = {x0, x1}, y[2] = {y0, y1};
+  fsm_pow_v r[2];
+  fsm_pow_k(x, y, r, 2, lanes);
+  *r0 = r[0], *r1 = r[1];
+}
+static FSM_POW_INLINE void fsm_pow_vec3(fsm_pow_v x0, fsm_pow_v y0, fsm_pow_v x1, fsm_pow_v y1, fsm_pow_v x2,
+                                        fsm_pow_v y2, fsm_pow_v *r0, fsm_pow_v *r1, fsm_pow_v *r2, int lanes) {
+  const fsm_pow_v x[3] = {x0, x1, x2}, y[3] = {y0, y1, y2};
+  fsm_pow_v r[3];
+  fsm_pow_k(x, y, r, 3, lanes);
+  *r0 = r[0], *r1 = r[1], *r2 = r[2];
 }
 #endif /* __GNUC__ */
 
