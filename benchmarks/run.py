@@ -1503,11 +1503,11 @@ def _loop_profile(count: int, log) -> dict | None:
         if "libfsmctl" in dso and sym.startswith("0x") and symbols:  # perf left the address: the symbol table's name
             sym = symbols[1][max(0, bisect.bisect_right(symbols[0], int(sym, 16)) - 1)]
         sym = sym.split(".constprop")[0].split(".isra")[0].split(".part")[0]  # the compiler's clones: their function
-        if sym in ("fsm_pow_vec", "fsm_sincos_vec") or sym.endswith(("_batched", "_batched.localalias")):
+        if sym.startswith(("fsm_pow_vec", "fsm_sincos_vec")) or sym.endswith(("_batched", "_batched.localalias")):
             kind = (
                 "generated batched kernels (law_local with fsmctl's vector pow, law_control, plant_rhs, "
                 "disturbance_torque with fsmctl's vector cos)"
-            )  # fsm_pow_vec: at 8 lanes a function of its own, called by law_local
+            )  # fsm_pow_vec, fsm_pow_vec2/3: at 8 lanes functions of their own, called by law_local
         elif "pow" in sym:
             kind = "pow (fsmctl_pow's scalar calls; glibc's for lanes off its fast path)"
         elif any(f in sym for f in ("cos", "sin", "exp", "log")) and dso.startswith("libm"):
