@@ -1536,7 +1536,7 @@ def throughput_section(quick: bool, log) -> dict:
     same candidates, alternated; each mode's results checked identical; the loop's profile."""
     from concurrent.futures import wait
 
-    from fsmctl.simulation.simulator import BATCH_AGENTS
+    from fsmctl.policy import BATCH_AGENTS
     from fsmctl.studies.parallel import single_threaded_workers, worker_pool
 
     per_task = max(1, BATCH_AGENTS // 6)

@@ -31,6 +31,8 @@ name                               value                         meaning
 :data:`SURFACE_METRIC_TOLERANCE`   0.03                          deg: ``compare-surfaces``' AAEM/RAEM settling band
 :data:`TUNE_BATCH`                 8                             trials a tuning study proposes, flies and tells
                                                                  together (part of the study: its trials depend on it)
+:data:`BATCH_AGENTS`               64                            agents ``simulate_many`` flies in one compiled loop
+                                                                 (and a tuning task's candidates fill at most)
 :data:`DASK_TIMEOUT_S`             10                            s: how long a Dask scheduler gets to accept the
                                                                  connection and send its handshake
 :data:`ZENO_CONSECUTIVE_CHECKS`    100                           an event-triggered run stops (Zeno guard) when an
@@ -71,6 +73,7 @@ __all__ = [
     "SURFACE_SIGMA_TOLERANCE",
     "SURFACE_METRIC_TOLERANCE",
     "TUNE_BATCH",
+    "BATCH_AGENTS",
     "DASK_TIMEOUT_S",
     "ZENO_CONSECUTIVE_CHECKS",
     "default_steady_window",
@@ -122,6 +125,12 @@ SURFACE_METRIC_TOLERANCE = 0.03
 TUNE_BATCH = 8
 """Trials a tuning study proposes, flies (in parallel) and tells together; part of the study: its trials depend on
 it, not on the number of workers."""
+
+BATCH_AGENTS = 64
+"""Default size of a batch of :func:`fsmctl.simulate_many`: runs are stacked up to this many agents in all (10 runs of
+the paper's 6 agents); the time per run levels off from ~8 runs of Case 1 (``benchmarks/run.py``, throughput
+section).  A tuning task flies at most this many agents' worth of candidates together (the speed only: the results
+do not depend on it)."""
 
 EXPORT_CONTROL_PERIOD = 0.01
 """s: the control period of an exported law (``fsmctl export``) and of its software-in-the-loop flight when the

@@ -42,7 +42,7 @@ import numpy as np
 from fsmctl.errors import EnvironmentProblem, ResourceLimitError
 from fsmctl.model.problem import PackedProblem, output_buffer_bytes, pack
 from fsmctl.model.scenario import Scenario
-from fsmctl.policy import ZENO_CONSECUTIVE_CHECKS
+from fsmctl.policy import BATCH_AGENTS, ZENO_CONSECUTIVE_CHECKS
 from fsmctl.simulation.driver import (
     _KERNELS,
     _RC,
@@ -600,10 +600,6 @@ def simulate(
     return _finish(scenario, raw)
 
 
-BATCH_AGENTS = 64
-"""Default size of a batch of :func:`simulate_many`: runs are stacked up to this many agents in all (10 runs of the
-paper's 6 agents); the time per run levels off from ~8 runs of Case 1 (``benchmarks/run.py``, throughput section)."""
-
 _PER_AGENT_KEYS = (
     "sigma", "omega", "sigma_e", "omega_e", "u", "u_unsat", "broadcast", "z",
     "saturated_time", "u_total_variation", "u_unsat_max",
@@ -726,7 +722,7 @@ def simulate_many(
         ``"raise"``: a :class:`SimulationError` propagates (after the batch it belongs to has flown);
         ``"return"``: it takes the failed scenario's place in the list and the others still run.
     batch_size : int, optional
-        Most runs per batch (default: as many as fit in :data:`BATCH_AGENTS` agents; a group of compatible runs is
+        Most runs per batch (default: as many as fit in :data:`fsmctl.policy.BATCH_AGENTS` agents; a group of compatible runs is
         split into batches of nearly equal sizes); 1 flies every run alone.
 
     Returns

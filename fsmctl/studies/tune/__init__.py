@@ -111,7 +111,7 @@ in this process, a local process pool (:func:`fsmctl.studies.parallel.worker_poo
 Dask cluster, and told in trial order.  So the same settings give the same trials whatever the workers.  Without a
 pruner, a task flies several of the batch's candidates together (:func:`~fsmctl.studies.tune.search.candidate_groups`:
 about one task per worker, at most as many candidates as fill one batch of :func:`fsmctl.simulate_many`,
-:data:`~fsmctl.simulation.simulator.BATCH_AGENTS` agents): their agents share the SIMD lanes and each run's results
+:data:`~fsmctl.policy.BATCH_AGENTS` agents): their agents share the SIMD lanes and each run's results
 are those it has alone, bit for bit.
 With a pruner a candidate flies alone, so that its runs stop where it is pruned.  The journal
 ``study.log`` (Optuna's ``JournalStorage``) receives a batch's proposals in one write before the batch is flown and

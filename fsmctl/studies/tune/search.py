@@ -19,8 +19,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
-from fsmctl.policy import DASK_TIMEOUT_S
-from fsmctl.simulation.simulator import BATCH_AGENTS
+from fsmctl.policy import BATCH_AGENTS, DASK_TIMEOUT_S
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.tune.evaluation import (
     EvaluationContext,
