@@ -26,9 +26,9 @@ from formations import with_agents
 import fsmctl
 from fsmctl.codegen.batched import LANE_WIDTHS, UnsupportedInstructionError, batched_header, batched_source, kernel_name
 from fsmctl.model.generated_code import compiled_library, manifest
-from fsmctl.model.laws import builtin_laws
+from fsmctl.model.laws import builtin_laws, derive_script
 from fsmctl.model.problem import pack
-from fsmctl.model.topology import ring
+from fsmctl.model.topology import Link, Schedule, Topology, ring
 from fsmctl.simulation.simulator import SimulationError, batched_kernels_preferred, simulate_packed
 
 LAWS = builtin_laws()
@@ -210,6 +210,78 @@ def test_batched_and_scalar_simulations_are_bit_identical(library, paper_case1, 
     assert batched["steps_taken"] == scalar["steps_taken"]
     assert batched["steps_rejected"] == scalar["steps_rejected"]
     assert np.isfinite(batched["sigma"]).all()
+
+
+# A law whose broadcast has 4 components (the neighbour sums go three components at a time: 3 + 1)
+WIDE_BROADCAST_LAW = """
+import sympy as sp
+from fsmctl.symbolic.law import LawBuilder
+
+
+def law(error_model):
+    b = LawBuilder("pd_wide", error_model, doc="PD with consensus on sigma_e and on omega_e^2 (test law)")
+    K = b.parameter("K", 2.0, unit="N m", minimum=0.0, doc="attitude gain")
+    P = b.parameter("P", 20.0, unit="N m s", minimum=0.0, doc="rate gain")
+    e = b.error_state()
+    w2 = (e.omega_e.T * e.omega_e)[0, 0]
+    b.broadcast("sigma_e_and_rate", sp.Matrix([*e.sigma_e, w2]))
+    r = b.received
+    consensus = b.k_sum * e.sigma_e - sp.Matrix(r[0:3])
+    b.torque(-K * e.sigma_e - P * e.omega_e - K * consensus - 0.5 * (b.k_received_sum * w2 - r[3]) * e.omega_e)
+    return b.build()
+"""
+
+
+def _uneven_links(n: int) -> Topology:
+    """Receivers with 0 to 5 links (so the lanes of a group sum over different numbers of neighbours), whose weights
+    switch to 0 and back at different times (the active links change during the run, lane by lane)."""
+    links = []
+    for i in range(n):
+        for m in range(i % 6):
+            j = (i + 1 + 2 * m) % n
+            if j == i:
+                continue
+            period = 0.3 + 0.07 * ((i + m) % 4)
+            links.append(Link(i, j, 8.0, Schedule((0.0, 0.1 + 0.03 * m), (1.5 + 0.25 * m, 0.0), period), 0.011 * i))
+    return Topology(n, tuple(links))
+
+
+@pytest.fixture(scope="module")
+def wide_broadcast_law(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("wide_broadcast")
+    (folder / "pd_wide.py").write_text(WIDE_BROADCAST_LAW)
+    return str(derive_script(folder / "pd_wide.py", out=folder / "pd_wide"))
+
+
+@pytest.mark.parametrize("links", ["ideal", "delayed-lossy"])
+@pytest.mark.parametrize("law", ["fsm", "wide"])
+def test_neighbour_sums_by_lane_equal_the_receiver_by_receiver_sums(
+    library, paper_case1, wide_broadcast_law, law, links
+):
+    """The batched kernels' neighbour sums (a lane per receiver) and the scalar path's (receiver by receiver) give
+    the same bits, for receivers with different numbers of active links in one lane group, links that switch off and
+    on, a broadcast of 3 and of 4 components, and the links' own values (delayed and lossy links)."""
+    n = 11  # two groups of 8 lanes, three of 4
+    agents = [paper_case1.agents[i % paper_case1.n_agents] for i in range(n)]
+    sections = {"simulation": {"t_final": 1.0, "output_interval": 0.01}}
+    if links != "ideal":
+        sections = {
+            "simulation": {"t_final": 1.0, "output_interval": 0.01, "control_period": 0.01},
+            "links": {"delay": 0.02, "loss_probability": 0.2},
+        }
+    scenario = with_agents(paper_case1, agents, _uneven_links(n), **sections)
+    if law == "wide":
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the paper's parameters that the test law has not
+            scenario = scenario.replace(controller={"law": wide_broadcast_law})
+    p = pack(scenario)
+    assert p.n_broadcast == (3 if law == "fsm" else 4)
+    batched = simulate_packed(p, kernels="batched")
+    scalar = simulate_packed(p, kernels="scalar")
+    for key in ("sigma", "omega", "broadcast", "u", "u_unsat"):
+        assert _same_bits(np.asarray(batched[key]), np.asarray(scalar[key])).all(), f"{key} differs"
+    assert np.isfinite(batched["sigma"]).all()
+    assert np.abs(np.asarray(batched["u"])).max() > 0
 
 
 @pytest.mark.parametrize("rate", [1e100, -1e100])

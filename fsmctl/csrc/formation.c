@@ -264,6 +264,12 @@ typedef struct {
   int *in_start, *in_links;              /* links by receiver: in_links[in_start[i] .. in_start[i+1]) in link order */
   int *act_start, *act_src;              /* the links with k^j != 0 at k_time, by receiver in link order: where their */
   double *act_k;                         /* broadcast sits (in b, or link_val when imperfect) and their k^j */
+  /* The same active links by receiver lane (batched kernels; see lane_links): group g's slots m < slot_n[g] at
+   * slot_base[g] + m, each FSM_LANES sources (act_src) and weights (act_k), lane l's m-th active link where m <
+   * slot_deg[g FSM_LANES + l] (else source 0, weight 0: never added) */
+  int *slot_base, *slot_n, *slot_src;
+  long long *slot_deg;
+  double *slot_k;
   double k_time;
   int k_valid;
   double k_win_lo, k_win_hi;             /* link times where every link's cache check passes (see link_weights) */
@@ -320,6 +326,10 @@ static void free_workspace(workspace *W) {
   free(W->act_start);
   free(W->act_src);
   free(W->act_k);
+  free(W->slot_base);
+  free(W->slot_src);
+  free(W->slot_deg);
+  free(W->slot_k);
   free(W->d_src);
   free(W->dl_raw);
   free(W->d_lane);
@@ -678,6 +688,24 @@ static int alloc_workspace(workspace *W, const fsm_problem *P, int integrating) 
     W->lanes = calloc_lines((size_t)W->n_groups * W->row[RW_END] * FSM_LANES, &W->lanes_raw);
     if (!W->lanes) { free_workspace(W); return FSM_NOMEM; }
     W->b_in_lanes = !P->links_imperfect && P->trigger_every <= 0; /* the links carry this evaluation's b */
+    /* the slots of the neighbour sums by lane: per group as many as its lanes' largest in-degree (at most L in all) */
+    const int G = W->n_groups;
+    W->slot_base = calloc(2 * (size_t)G + 1, sizeof(int));
+    W->slot_deg = calloc((size_t)G * FSM_LANES, sizeof(long long));
+    if (!W->slot_base || !W->slot_deg) { free_workspace(W); return FSM_NOMEM; }
+    W->slot_n = W->slot_base + G + 1;
+    for (int g = 0; g < G; ++g) {
+      int most = 0;
+      for (int l = 0; l < FSM_LANES; ++l) {
+        const int i = lane_agent(g, l, n), deg = W->in_start[i + 1] - W->in_start[i];
+        most = deg > most ? deg : most;
+      }
+      W->slot_base[g + 1] = W->slot_base[g] + most;
+    }
+    const size_t slots = (size_t)W->slot_base[G] * FSM_LANES;
+    W->slot_src = calloc(slots > 0 ? slots : 1, sizeof(int));
+    W->slot_k = calloc(slots > 0 ? slots : 1, sizeof(double));
+    if (!W->slot_src || !W->slot_k) { free_workspace(W); return FSM_NOMEM; }
     if (integrating && W->nw == 0 && !P->sensors && P->integrator != 1) { /* RK4 on the state in lane rows */
       W->lane_state = 1;
       W->state_block = (size_t)(6 + W->nz) * FSM_LANES;
@@ -809,6 +837,26 @@ static void link_window(workspace *W, const fsm_problem *P, double t_link) {
   W->k_win_hi = hi;
 }
 
+/* The active links (act_*) by receiver lane, for the neighbour sums of the batched kernels (aggregate_lanes): group
+ * g's slot m holds lane l's m-th active link (lanes past the last agent repeat it), for m up to the group's largest
+ * number of active links; a lane with fewer has source 0 and weight 0 there, and slot_deg masks them out. */
+static void lane_links(workspace *W) {
+  for (int g = 0; g < W->n_groups; ++g) {
+    int most = 0;
+    for (int l = 0; l < FSM_LANES; ++l) {
+      const int i = lane_agent(g, l, W->n), first = W->act_start[i], deg = W->act_start[i + 1] - first;
+      W->slot_deg[g * FSM_LANES + l] = deg;
+      most = deg > most ? deg : most;
+      for (int m = 0; m < W->slot_base[g + 1] - W->slot_base[g]; ++m) {
+        const size_t at = ((size_t)W->slot_base[g] + m) * FSM_LANES + l;
+        W->slot_src[at] = m < deg ? W->act_src[first + m] : 0;
+        W->slot_k[at] = m < deg ? W->act_k[first + m] : 0.0;
+      }
+    }
+    W->slot_n[g] = most;
+  }
+}
+
 /* The neighbour aggregation (eq 19 for any broadcast b), the one place it is written: with the link weights
  * k^j_ij(t_link) (cached per t_link: the four RK4 stages of a step share them),
  * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij, into recv, ksum, krs, and
@@ -848,6 +896,7 @@ static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
         W->krs[i] = kr;
       }
       W->act_start[n] = c;
+      if (W->batched) lane_links(W);
       if (W->batched)
         for (int i = 0; i < W->n_groups * FSM_LANES; ++i) {
           const int a = i < n ? i : n - 1; /* lanes past the last agent repeat it */
@@ -858,14 +907,62 @@ static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
   }
 }
 
+#ifdef __GNUC__
+/* p[ix[l]] in lane l (lane by lane: measured as fast as AVX-512's gather in aggregate_lanes) */
+static inline fsm_pow_v gather_lanes(const double *p, const int *ix) {
+  fsm_pow_v v;
+  for (int l = 0; l < FSM_LANES; ++l) v[l] = p[ix[l]];
+  return v;
+}
+
+/* aggregate's sums for the batched kernels, FSM_LANES receivers at once, straight into the lane rows RW_RECV: lane l
+ * of group g adds its m-th active link at slot m (lane_links), so each lane performs the very operations of the
+ * receiver-by-receiver loop, 0 + k b_1 + k b_2 + ... in link order (a lane with fewer links keeps its sum: masked,
+ * never + 0 k b), and every sum has the same bits. */
+static void aggregate_lanes(workspace *W, const double *src, int st) {
+  const int nb = W->nb;
+  for (int g = 0; g < W->n_groups; ++g) {
+    double *R = ROW(group_block(W, g), RW_RECV);
+    fsm_pow_m deg;
+    memcpy(&deg, W->slot_deg + (size_t)g * FSM_LANES, sizeof deg);
+    for (int k0 = 0; k0 < nb; k0 += 3) { /* components k0, k1, k2: three independent chains of sums */
+      const int k1 = k0 + 1 < nb ? k0 + 1 : k0, k2 = k0 + 2 < nb ? k0 + 2 : k0; /* past nb: k0's again, not stored */
+      const int *ix = W->slot_src + (size_t)W->slot_base[g] * FSM_LANES;
+      const double *kp = W->slot_k + (size_t)W->slot_base[g] * FSM_LANES;
+      fsm_pow_v a0 = fsm_pow_splat(0.0), a1 = a0, a2 = a0;
+      for (int m = 0; m < W->slot_n[g]; ++m, ix += FSM_LANES, kp += FSM_LANES) {
+        const fsm_pow_m on = deg > (long long)m; /* the lanes with an m-th active link */
+        fsm_pow_v kj;
+        memcpy(&kj, kp, sizeof kj);
+        const fsm_pow_v s0 = a0 + kj * gather_lanes(src + (size_t)k0 * st, ix),
+                        s1 = a1 + kj * gather_lanes(src + (size_t)k1 * st, ix),
+                        s2 = a2 + kj * gather_lanes(src + (size_t)k2 * st, ix);
+        a0 = (fsm_pow_v)(((fsm_pow_m)s0 & on) | ((fsm_pow_m)a0 & ~on));
+        a1 = (fsm_pow_v)(((fsm_pow_m)s1 & on) | ((fsm_pow_m)a1 & ~on));
+        a2 = (fsm_pow_v)(((fsm_pow_m)s2 & on) | ((fsm_pow_m)a2 & ~on));
+      }
+      memcpy(R + FSM_LANES * k0, &a0, sizeof a0);
+      if (k1 > k0) memcpy(R + FSM_LANES * k1, &a1, sizeof a1);
+      if (k2 > k0) memcpy(R + FSM_LANES * k2, &a2, sizeof a2);
+    }
+  }
+}
+#endif
+
 static void aggregate(workspace *W, const fsm_problem *P, double t_link) {
   const int n = W->n, nb = W->nb;
   link_weights(W, P, t_link);
-  /* Receiver by receiver, its active links in link order: the same sums 0 + k b_1 + k b_2 + ... as adding link by
-   * link into recv, with the partial sums in registers (no store-to-load chain through memory). */
   /* b_tx: b, or b_sent when event-triggered; or b_j's lane in the rows RW_B (component stride FSM_LANES) */
   const double *src = W->b_in_lanes ? W->lanes : P->links_imperfect ? W->link_val : W->b_tx;
   const int st = W->b_in_lanes ? FSM_LANES : 1;
+#ifdef __GNUC__
+  if (W->batched) { /* the same sums, a lane per receiver (the kernels read them from the rows; recv is not used) */
+    aggregate_lanes(W, src, st);
+    return;
+  }
+#endif
+  /* Receiver by receiver, its active links in link order: the same sums 0 + k b_1 + k b_2 + ... as adding link by
+   * link into recv, with the partial sums in registers (no store-to-load chain through memory). */
   for (int i = 0; i < n; ++i) {
     double *ri = W->recv + (size_t)nb * i;
     if (nb == 3) {

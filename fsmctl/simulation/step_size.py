@@ -279,8 +279,9 @@ def _gyroscopic_gain(J: np.ndarray) -> float:
     worst = 0.0
     for Ji in J:
         Jinv = np.linalg.inv(Ji)
-        parts = [Jinv @ (_skew(Ji[:, k]) - _skew(np.eye(3)[k]) @ Ji) for k in range(3)]
-        worst = max(worst, math.sqrt(sum(float(np.linalg.norm(A, 2)) ** 2 for A in parts)))
+        parts = np.stack([Jinv @ (_skew(Ji[:, k]) - _skew(np.eye(3)[k]) @ Ji) for k in range(3)])
+        norms = np.linalg.svd(parts, compute_uv=False)[:, 0]  # ||A_k||_2 (numpy.linalg.norm's ord=2, in one call)
+        worst = max(worst, math.sqrt(sum(float(x) ** 2 for x in norms)))
     return worst
 
 
