@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from fsmctl.cli.main import main
+from fsmctl.policy import FAST_OUTPUT_INTERVAL_S, FAST_T_FINAL_S
 from fsmctl.studies.claim_types import VERDICTS
 from fsmctl.studies.explain_report import EXPLAINED, NOT_EXPLAINED, Evidence, Explanation, summary_sentence
 from fsmctl.studies.wording import count, duration_phrase, value_range, verdict_count
@@ -191,4 +192,10 @@ def test_html_report_is_self_contained_with_the_same_content(reproduction):
     # no reference to a missing file or anchor
     for href in (a["href"] for tag, a in page.tags if tag == "a"):
         assert href[1:] in ids if href.startswith("#") else (out / href).is_file(), href
-    assert printed.rstrip().splitlines()[-1].startswith(f"report: {out / 'report.md'} and {out / 'report.html'}")
+    # the settings printed first are those flown: the fast mode's horizon (and output interval)
+    settings = next(line for line in printed.splitlines() if line.strip().startswith("simulation: t_final="))
+    assert f"t_final={FAST_T_FINAL_S} s" in settings and f"output_interval={FAST_OUTPUT_INTERVAL_S} s" in settings
+    last = printed.rstrip().splitlines()[-1]
+    assert last.startswith(f"report: {out / 'report.md'} and {out / 'report.html'}")
+    # the time of the explanations is part of the whole's, and says so
+    assert re.search(r", [0-9.]+ s, of which explanations [0-9.]+ s\)$", last), last

@@ -312,6 +312,23 @@ def test_a_changed_key_drops_the_reasons_that_name_it():
     assert dict(paper.replace(simulation={"t_final": 5.0}).choices) == reasons  # no law key written: all kept
 
 
+def test_a_file_that_extends_another_flies_none_of_its_stale_reasons(tmp_path):
+    """A file that ``extends`` the paper (e.g. the best.toml of ``fsmctl tune``) and sets the boundary layer anew does
+    not print the paper's reason for phi = 0.001 (a fresh user's report); a value written again unchanged keeps its
+    reason, the file's own reasons are added, and so is a reason of its own for a changed key."""
+    paper = dict(fsmctl.paper_scenario("1").choices)
+    tuned = tmp_path / "best.toml"
+    tuned.write_text('extends = "paper"\n[controller]\nc1 = 1.2\nboundary_layer = 0.01\nalpha = 0.7\n')
+    s = load_scenario(tuned)
+    assert s.controller.parameters["boundary_layer"] == 0.01
+    assert dict(s.choices) == {k: v for k, v in paper.items() if k != "boundary_layer"}  # alpha: same value, kept
+    assert not [line for line in s.describe() if line.lstrip().startswith("choice boundary_layer")]
+    dt = tmp_path / "dt.toml"
+    dt.write_text('extends = "paper"\n[simulation]\ndt = 0.002\n[choices]\nstep = "RK4 at 2 ms: mine"\n')
+    assert dict(load_scenario(dt).choices)["step"] == "RK4 at 2 ms: mine"  # the paper's quotes dt = 1 ms: replaced
+    assert dict(load_scenario(tuned.parent / "best.toml", case="2").choices) == dict(s.choices)  # a case: the same
+
+
 _THREE_AGENTS = """
 name = "three"
 [simulation]

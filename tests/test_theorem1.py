@@ -185,3 +185,32 @@ def test_batched_configurations_and_lambda_min_equal_the_per_segment_computation
         assert an.lambda_min == pytest.approx(min(lam), rel=1e-12, abs=1e-12)
         L = np.diag(Ki.sum(axis=1)) - _exact_k_j(topo, an.lambda_min_time)
         assert float(np.linalg.eigvalsh(0.5 * (L + L.T))[0]) == pytest.approx(min(lam), rel=1e-12, abs=1e-12)
+
+
+def test_verdicts_without_the_explanations_are_the_full_analysis_verdicts():
+    """``explain=False`` (a Monte Carlo record, a tuning constraint) gives every verdict and ``lambda_min`` of the
+    full analysis, bit for bit, and no pairs or failure lines, on topologies where each condition holds or fails:
+    the paper's cases, violations, a directed cycle (balanced only), time-varying symmetric eta, random Monte
+    Carlo topologies (some with links dropped or weights above k^i)."""
+    from fsmctl.studies.montecarlo import CampaignSettings, sampling
+
+    cases = [(paper_scenario(c).topology, 100.0) for c in ("1", "2")]
+    cases.append((all_to_all(3, 2.0, Schedule((0.0, 4.0), (5.0, 0.0), 8.0)), 100.0))
+    cases.append((Topology(3, tuple(Link(i, (i + 1) % 3, 8.0, Schedule.constant(5.0)) for i in range(3))), 10.0))
+    on_first, on_second = Schedule((0.0, 4.0), (8.0, 0.0), 8.0), Schedule((0.0, 4.0), (0.0, 2.9), 8.0)
+    cases.append((Topology(2, (Link(0, 1, 10.0, on_first), Link(1, 0, 3.0, on_second))), 10.0))
+    base = paper_scenario("1").topology
+    for seed in range(12):
+        settings = CampaignSettings(link_dropout=0.3 * (seed % 2), coupling_high=1.0 + 0.5 * (seed % 3))
+        cases.append((sampling._random_topology(np.random.default_rng(seed), base, settings), 100.0))
+    seen = set()
+    for topology, t_final in cases:
+        full = analyze_topology(topology, t_final)
+        quick = analyze_topology(topology, t_final, explain=False)
+        for name in ("symmetric_constant", "symmetric_time_varying", "balanced_constant", "balanced_time_varying",
+                     "printed_strict", "lambda_min", "lambda_min_time", "holds"):  # fmt: skip
+            assert getattr(quick, name) == getattr(full, name), name
+        assert quick.pairs == () and quick.failures == ()
+        assert len(quick.configurations) == len(full.configurations)
+        seen.add((full.symmetric_constant, full.balanced_constant, full.holds))
+    assert {(True, True, True), (False, True, True), (False, False, True), (False, False, False)} <= seen

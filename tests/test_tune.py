@@ -12,6 +12,7 @@ import signal
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,7 @@ from optuna.trial import TrialState
 import fsmctl.studies.tune as tune_module
 from fsmctl.cli.main import main
 from fsmctl.errors import InputError
-from fsmctl.model.laws import resolve_law
+from fsmctl.model.laws import LawSwitchWarning, resolve_law
 from fsmctl.model.scenario import load_scenario
 from fsmctl.simulation.metrics import aaem_deg, principal_angles, settling_time, steady_state_max
 from fsmctl.simulation.simulator import simulate
@@ -166,10 +167,14 @@ def test_resumed_study_equals_one_run(unlimited, tmp_path):
     tune(TuneSettings(**{**settings.__dict__, "budget": 4}), tmp_path / "twice")
     with pytest.raises(InputError, match="--resume"):
         tune(settings, tmp_path / "twice")
-    tune(settings, tmp_path / "twice", resume=True)
+    # the ranges given in another order are the same study (their order means nothing)
+    reordered = TuneSettings(**{**settings.__dict__, "ranges": tuple(reversed(settings.ranges))})
+    assert reordered.ranges != settings.ranges
+    tune(reordered, tmp_path / "twice", resume=True)
     once, twice = _rows(tmp_path / "once" / "trials.csv"), _rows(tmp_path / "twice" / "trials.csv")
     assert len(once) == 12 and once == twice
-    for change in ({"seed": 9}, {"batch": 3}, {"pruner": "halving"}, {"quantile": 0.5}):
+    wider = tuple((name, low, 2 * high) for name, low, high in settings.ranges)
+    for change in ({"seed": 9}, {"batch": 3}, {"pruner": "halving"}, {"quantile": 0.5}, {"ranges": wider}):
         with pytest.raises(InputError, match="other settings"):
             tune(TuneSettings(**{**settings.__dict__, **change}), tmp_path / "twice", resume=True)
 
@@ -495,6 +500,8 @@ def test_ensemble_quantile(unlimited, tmp_path):
         ({"pruner": "median"}, "pruner median judges one objective"),
         ({"constraints": ("speed",)}, "unknown constraint 'speed'"),
         ({"parameters": ("k_i_scale",), "ranges": (("k_i_scale", -1.0, 2.0),)}, "range of k_i_scale: must be >= 0"),
+        # a parameter that cannot be searched is named first, before the ranges that follow from it
+        ({"law": "fsm", "parameters": ("singularity_fix",), "ranges": (("c1", 0.1, 2.0),)}, "named options"),
     ],
 )
 def test_bad_settings_are_one_line_errors(change, message):
@@ -652,3 +659,26 @@ def test_the_search_is_reachable_from_the_studies_package():
     code = "import fsmctl.studies as s; m = s.tune; from fsmctl.studies.tune import tune; print(m.tune is tune)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "True"
+
+
+def test_tuning_another_law_on_the_paper_scenario_warns_of_no_law_switch(tmp_path):
+    """best.toml flies ``pid`` over the paper scenario, whose fsm parameters it ignores, as asked: checking that
+    best.toml reproduces the design warned LawSwitchWarning in Python (a fresh user's report); a warning of the
+    tuning itself still passes."""
+    settings = TuneSettings(
+        scenario="paper",
+        law="pid",
+        budget=2,
+        t_final=2.0,
+        parameters=("K", "P"),
+        ranges={"K": (5.0, 200.0), "P": (10.0, 400.0)},
+        objectives=("peak_torque",),
+        constraints=("converged",),
+        tolerance_deg=179.0,  # every trial converges within 2 s: best.toml is written and checked
+    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = tune(settings, tmp_path / "pid", workers=1, progress=False)
+    assert result.best is not None and (tmp_path / "pid" / "best.toml").exists()
+    assert [w.message for w in caught if issubclass(w.category, LawSwitchWarning)] == []
+    assert json.loads((tmp_path / "pid" / "tune.json").read_text())["best"]["scenario_file_verified"] is True

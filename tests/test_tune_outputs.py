@@ -47,7 +47,7 @@ def test_what_is_searched_is_stated_first(short_study):
     lines = err.splitlines()
     assert lines[0] == "fsmctl: tune: searching 1 parameter: c1 (named by --parameters)", lines[:2]
     assert lines[1] == "fsmctl: tune: c1: 0.1 .. 2 1/s, uniform (range given)", lines[:2]
-    assert "searching 1 parameter: c1 (named by --parameters)" in stdout.splitlines()[1]
+    assert stdout.splitlines()[1] == "searched 1 parameter: c1 (named by --parameters)"  # the summary's past tense
 
 
 def test_the_default_search_space_says_which_parameters_were_not_asked_for():
@@ -66,6 +66,9 @@ def test_the_default_search_space_says_which_parameters_were_not_asked_for():
     assert head.startswith(f"searching {len(space)} parameters: c1, c2, alpha, boundary_layer, epsilon, delta ")
     assert "every tunable parameter fsm declares" in head and "--parameters not given" in head
     assert "k_i_scale, k_j_scale (factors on the coupling weights" in head
+    # the finished study's summary says what was searched, without the advice given before the study ran
+    done = search_space_lines(settings, space, done=True)[0]
+    assert done == head.replace("searching", "searched", 1).split("; --parameters not given")[0], done
     assert [row.split(":")[0].strip() for row in rows] == [p.name for p in space]
     by_name = {row.split(":")[0].strip(): row for row in rows}
     assert by_name["alpha"].endswith("(the law's declared range)") and "uniform" in by_name["alpha"]
@@ -86,6 +89,11 @@ def test_a_run_that_never_settles_has_no_settling_time_and_its_score_is_explaine
     assert f"{len(comments)} comment lines" in comments[0]
     assert any(line.startswith("# aaem_settling_score [s]: the value minimised") for line in comments)
     assert any("2 to 3 s" in line for line in comments)
+    # every column but the trial number and the searched parameters (named by the search-space lines) is explained
+    explained = [c for c in table.columns if c != "trial" and not c.startswith("c1 ")]
+    assert explained[-2:] == ["pruned_at [s]", "error"]
+    for column in explained:
+        assert any(line.startswith(f"# {column}:") for line in comments), column
     assert pd.read_csv(out / "pareto.csv", comment="#").columns.tolist() == table.columns.tolist()
     assert "aaem_settling: 3 of 3 complete trials not settled within the horizon T = 1 s" in stdout
     best = next(line for line in stdout.splitlines() if line.startswith("best: "))
@@ -127,6 +135,18 @@ def test_one_objective_has_integer_trial_ticks_and_no_front():
     assert len(ticks) >= 2 and all(float(t).is_integer() for t in ticks), ticks
     assert _front_lines(ax) == []
     assert "non-dominated" not in result.to_text() and "Pareto" not in result.to_text()
+
+
+def test_an_objective_equal_in_every_trial_is_said_to_have_told_nothing_apart():
+    """peak_torque at the same value in every complete trial (the torque limit, on a short horizon): the summary says
+    this objective did not tell the designs apart; aaem_settling, which varies, gets no such line; one trial, none."""
+    result = _result(("aaem_settling", "peak_torque"), [(3.0, 2.0), (4.0, 2.0), (5.0, 2.0)], [0])
+    flat = [line for line in result.to_text().splitlines() if "did not tell the designs apart" in line]
+    assert flat == [
+        "peak_torque: 2 N m in every one of the 3 complete trials: it did not tell the designs apart (other "
+        "objectives, other ranges or a longer horizon would)"
+    ]
+    assert "did not tell" not in _result(("peak_torque",), [(2.0,)], [0]).to_text()
 
 
 def test_a_front_of_one_trial_is_a_point_not_a_line():

@@ -245,6 +245,31 @@ def _unknown(d: Mapping, known: Sequence[str], where: str) -> None:
         raise ScenarioError(f"{where}: unknown key(s) {unknown}{': ' + hint if hint else ''} (known: {sorted(known)})")
 
 
+def _overlaid(base: dict, over: Mapping) -> dict:
+    """``over`` merged onto ``base`` (``extends``, a case), with the base's ``[choices]`` reasons of the controller and
+    simulation values ``over`` writes anew dropped (:func:`_current_choices`: a file that extends the paper and sets
+    ``boundary_layer = 0.01`` does not fly the paper's reason for ``phi = 0.001``) and ``over``'s own reasons added."""
+    merged = _deep_merge(base, over)
+    changed: set[str] = set()
+    for section in ("controller", "simulation"):
+        old, new = base.get(section), over.get(section)
+        if not isinstance(new, Mapping):
+            continue
+        old = old if isinstance(old, Mapping) else {}
+        for key, value in new.items():
+            if key == "parameters" and isinstance(value, Mapping):  # [controller.parameters]: keys of the law
+                inner = old.get("parameters") if isinstance(old.get("parameters"), Mapping) else {}
+                changed |= {k for k, v in value.items() if inner.get(k, old.get(k)) != v}
+            elif old.get(key) != value:
+                changed.add(key)
+    reasons = base.get("choices")
+    if changed and isinstance(reasons, Mapping):
+        mine = over.get("choices")
+        kept = dict(_current_choices(tuple(reasons.items()), changed))
+        merged["choices"] = {**kept, **(mine if isinstance(mine, Mapping) else {})}
+    return merged
+
+
 def _current_choices(choices: tuple[tuple[str, str], ...], changed: set[str]) -> tuple[tuple[str, str], ...]:
     """The ``[choices]`` reasons that still explain the flown values once the keys ``changed`` are written again: a
     reason about a changed key, or one that names a changed key in its text (the boundary layer's reason quotes
@@ -343,7 +368,7 @@ def _with_case(data: Mapping, cases: Mapping, case: str) -> dict:
     _unknown(override, TOP_KEYS, f"cases.{case}")
     if "agents" in override:
         raise ScenarioError(f"cases.{case}: cases cannot replace the agent list (override controller.* instead)")
-    return _deep_merge(_switched_tables(dict(data), override, f"cases.{case}"), override)
+    return _overlaid(_switched_tables(dict(data), override, f"cases.{case}"), override)
 
 
 def _hardware_settings(merged: Mapping) -> dict[str, Any]:
@@ -419,5 +444,4 @@ def _resolve_extends(data: dict, where: str, folder: Path | None, seen: tuple[st
         _laws_relative_to(base, base_folder)
     base = _resolve_extends(base, f"{where}.extends", base_folder, (*seen, base_name))
     own = {k: v for k, v in data.items() if k != "extends"}
-    merged = _deep_merge(_switched_tables(base, own, where), own)
-    return merged
+    return _overlaid(_switched_tables(base, own, where), own)

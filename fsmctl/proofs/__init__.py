@@ -10,8 +10,9 @@
 * any law written with :class:`fsmctl.symbolic.LawBuilder` (``fsmctl prove --law``): :func:`check_law`,
   which returns a :class:`LawReport`;
 * a rigorous Lyapunov certificate of a law over a :class:`StateRegion` with an :class:`Uncertainty`
-  (``fsmctl certify``): :func:`certify_law` (its budget :class:`SearchSettings`), re-checked from its file by
-  :func:`check_certificate`.
+  (``fsmctl certify``): :func:`certify_law` (its budget :class:`SearchSettings`), which returns a
+  :class:`Certificate`, re-checked from its file by :func:`check_certificate` (a :class:`CertificateCheck`; a
+  file that is not a certificate raises :class:`CertificateError`).
 
 The modules :mod:`~fsmctl.proofs.identities` (the model identities ``python -m derive`` proves) and
 :mod:`~fsmctl.proofs.seed_audit` (the re-audit against the printed text) are documented in place.  Names load
@@ -29,7 +30,7 @@ _ATTRS = {
     "theorem1": ["analyze_topology", "eta_interval"],
     "theorem2": ["Region", "delta_requirements"],
     "law_check": ["check_law", "LawReport"],
-    "certificate": ["certify_law", "check_certificate"],
+    "certificate": ["certify_law", "check_certificate", "Certificate", "CertificateCheck", "CertificateError"],
     "certify_problem": ["StateRegion", "Uncertainty"],
     "certify": ["SearchSettings"],
 }

@@ -95,7 +95,17 @@ ARITHMETIC = (
 
 
 class CertificateError(InputError):
-    """A certificate file that cannot be read or re-checked (one line, exit 2)."""
+    """A certificate file that cannot be read or re-checked (one line, exit 2).
+
+    Examples
+    --------
+    >>> from fsmctl.proofs import CertificateError, check_certificate
+    >>> try:
+    ...     check_certificate("no-such-certificate.json")
+    ... except CertificateError as exc:
+    ...     print(type(exc).__name__)
+    CertificateError
+    """
 
 
 def _encode_tree(tree: dict) -> dict:
@@ -127,6 +137,50 @@ class Certificate:
     tried (:attr:`attempts`). :meth:`headline`, :meth:`lines` and :meth:`markdown` are the report as printed (bounds
     rounded outward), :meth:`method` and :meth:`arithmetic` say how it was proved, :meth:`write` writes the files;
     :func:`check_certificate` re-checks a file.
+
+    Parameters
+    ----------
+    verdict : str
+        ``"certified"``, ``"counterexample"`` or ``"inconclusive"``.
+    kind : str or None
+        For a certificate: ``"asymptotic"`` or ``"ultimately bounded"``; else None.
+    law : dict
+        The law: its spec, name and the SHA-256 of its folder's manifest (what :func:`check_certificate` compares).
+    agent : dict
+        The agent whose closed loop is certified (``number`` 1-based) and its nominal inertia.
+    region : StateRegion
+        The state region of the question.
+    uncertainty : Uncertainty
+        The admissible uncertainty (inertia set, disturbance bound, reference rate).
+    candidate : dict
+        The Lyapunov function ``V`` the answer is about (its expression and how it was built).
+    outcome : dict
+        The answer's evidence: levels, extents, ultimate bound, counterexample or sum-of-squares identity, coverage.
+    attempts : list of dict
+        The other candidates tried, each with its outcome.
+    notes : list of str
+        What the report adds (e.g. why a candidate was left out).
+    tree : dict
+        The branch and bound's bisection of the region (``codes`` and ``batch``).
+    names : list of str
+        The closed loop's input names (state, uncertainty) in the order of the enclosures.
+    versions : dict
+        The versions of fsmctl and of the libraries that made it.
+    route : str
+        How the law's torque entered the closed loop.
+
+    Examples
+    --------
+    The documented PD example with a 5 % inertia uncertainty on a small region (a short budget keeps it quick):
+
+    >>> from fsmctl.proofs import Certificate, SearchSettings, StateRegion, Uncertainty, certify_law
+    >>> c = certify_law(EXAMPLES / "my_law.py", scenario=EXAMPLES / "my_law.toml",
+    ...                 region=StateRegion(0.1, 0.02), uncertainty=Uncertainty(inertia=0.05),
+    ...                 settings=SearchSettings(max_seconds=20))
+    >>> isinstance(c, Certificate), c.verdict, c.kind, c.headline().split(":")[0]
+    (True, 'certified', 'asymptotic', 'certified (asymptotic)')
+    >>> c.as_dict()["verdict"] == c.verdict
+    True
     """
 
     verdict: str
@@ -273,6 +327,13 @@ class Certificate:
 
     # ------------------------------------------------------------------------------------------- files
     def as_dict(self) -> dict:
+        """The certificate as ``certificate.json`` holds it (format, verdict, headline, question, answer, versions).
+
+        Returns
+        -------
+        dict
+            JSON-able apart from NumPy scalars and arrays (:meth:`write` converts those).
+        """
         return {
             "format": CERTIFICATE_FORMAT,
             "verdict": self.verdict,
@@ -295,7 +356,15 @@ class Certificate:
         }
 
     def write(self, json_path: Path, markdown_path: Path | None = None) -> None:
-        """Write the JSON file (and the Markdown report), atomically."""
+        """Write the JSON file (and the Markdown report), atomically.
+
+        Parameters
+        ----------
+        json_path : path-like
+            Receives :meth:`as_dict` as JSON (what :func:`check_certificate` reads).
+        markdown_path : path-like, optional
+            Receives :meth:`markdown`, the report as ``fsmctl certify`` writes it.
+        """
         json_path = Path(json_path)
         write_text(json_path, json.dumps(self.as_dict(), indent=1, default=_json_default) + "\n")
         if markdown_path is not None:
@@ -646,7 +715,27 @@ def _by_name(code, params: np.ndarray) -> list:
 @dataclass(frozen=True)
 class CertificateCheck:
     """What :func:`check_certificate` re-established: ``ok`` (every statement of the file holds), one line per step,
-    and the file's ``verdict`` (a file that holds may still certify nothing: ``certified`` is what to trust)."""
+    and the file's ``verdict`` (a file that holds may still certify nothing: ``certified`` is what to trust).
+
+    Parameters
+    ----------
+    ok : bool
+        Every statement of the file was re-established.
+    lines : tuple of str
+        One line per step of the check, as ``fsmctl certify --check`` prints them.
+    verdict : str
+        The file's verdict (``"certified"``, ``"counterexample"`` or ``"inconclusive"``).
+
+    Examples
+    --------
+    A file whose statements all hold but that records an inconclusive search certifies nothing:
+
+    >>> from fsmctl.proofs import CertificateCheck
+    >>> CertificateCheck(True, ("every box re-checked",), "inconclusive").certified
+    False
+    >>> CertificateCheck(True, ("every box re-checked",)).certified
+    True
+    """
 
     ok: bool
     lines: tuple[str, ...]

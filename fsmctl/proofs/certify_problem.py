@@ -88,6 +88,8 @@ class StateRegion:
     >>> from fsmctl.proofs.certify_problem import StateRegion
     >>> StateRegion(0.5, 0.1).describe(0)
     '|sigma_e,k| <= 0.5, |omega_e,k| <= 0.1 rad/s'
+    >>> StateRegion(0.1234567, 0.05).describe(0)  # never rounded (0.123457 would claim a larger box)
+    '|sigma_e,k| <= 0.1234567, |omega_e,k| <= 0.05 rad/s'
     """
 
     sigma: float = 0.5
@@ -119,8 +121,9 @@ class StateRegion:
         -------
         str
         """
-        text = f"|sigma_e,k| <= {self.sigma:g}, |omega_e,k| <= {self.omega:g} rad/s"
-        return text + (f", |z_k| <= {self.z:g}" if n_states else "")
+        # the bounds as given (shortest exact decimal): a rounded bound would state another region than the one proved
+        text = f"|sigma_e,k| <= {float(self.sigma)!r}, |omega_e,k| <= {float(self.omega)!r} rad/s"
+        return text + (f", |z_k| <= {float(self.z)!r}" if n_states else "")
 
     def bounds(self, n_states: int) -> np.ndarray:
         """``(6 + n_states,)``: the half-widths of the box.

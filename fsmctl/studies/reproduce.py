@@ -285,7 +285,7 @@ def reproduce(
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise environment_problem("create output folder", out, exc) from None
-    case1 = run_scenario(source, RunSpec("case1", "1", "Case 1", ""), False)
+    case1 = run_scenario(source, RunSpec("case1", "1", "Case 1", ""), fast)  # its settings as flown (fast: 10 s)
     plan = [s if figures else replace(s, figures=()) for s in run_plan()]
     say = log or (lambda _line: None)
     described = case1.describe()

@@ -149,7 +149,7 @@ def run_record(scenario: Scenario, settings: CampaignSettings, seed: np.random.S
     tol = settings.tolerance_deg
     summary = result.summary(tolerances_deg=(tol, 0.1 * tol), steady_window=settings.steady_window)
     aaem, raem = result.aaem_deg, result.raem_deg
-    t1 = analyze_topology(scenario.topology, scenario.simulation.t_final)
+    t1 = analyze_topology(scenario.topology, scenario.simulation.t_final, explain=False)  # holds, lambda_min
     paper_law = scenario.law.paper_theorems is not None  # Theorems 1-2 apply to a law that declares them
     t2 = (
         delta_requirements(scenario, Region(0.0, 0.0), n_random=0, dt_reference=None, search_scale=False)

@@ -86,7 +86,7 @@ def theorem1_constraint(topology: Topology, t_final: float) -> float:
     """
     from fsmctl.proofs.theorem1 import analyze_topology
 
-    if analyze_topology(topology, t_final).holds:
+    if analyze_topology(topology, t_final, explain=False).holds:
         return 0.0
     excess = max((link.k_j.max - link.k_i for link in topology.links), default=0.0)
     return 1.0 + max(0.0, float(excess))

@@ -5,11 +5,13 @@ from __future__ import annotations
 import csv
 import dataclasses
 import os
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from fsmctl.model.laws import LawSwitchWarning
 from fsmctl.model.scenario import Scenario
 from fsmctl.model.toml_writer import toml_table, toml_value
 from fsmctl.studies.tune.evaluation import coupling_scales
@@ -98,8 +100,9 @@ class TuneResult:
         )
         if len(s.objectives) > 1 and self.pareto:
             head += ", " + _front_words(len(self.pareto))
-        lines = [head, search_space_lines(s, self.space)[0], "constraints: " + ", ".join(self.constraints)]
+        lines = [head, search_space_lines(s, self.space, done=True)[0], "constraints: " + ", ".join(self.constraints)]
         lines += self._unsettled_lines()
+        lines += self._flat_lines()
         if self.best is None:
             lines.append("no feasible design found (widen the ranges, raise the budget or the horizon)")
         else:
@@ -163,6 +166,22 @@ class TuneResult:
                     T=self.horizon_s, low=2 * self.horizon_s, high=3 * self.horizon_s, name=name
                 )
                 lines.append(f"{name}: {n} of {len(done)} complete trials {rule}")
+        return lines
+
+    def _flat_lines(self) -> list[str]:
+        """An objective with the same value in every complete trial (two or more) told the designs apart nowhere: one
+        line each (e.g. the peak torque at the torque limit in every design, or every settling score the maximum on a
+        short horizon), so a search steered by nothing is not taken for a search that found nothing better."""
+        done = [t for t in self.trials if t["state"] == "complete"]
+        lines = []
+        for name in self.settings.objectives:
+            values = {t["objectives"][name] for t in done}
+            if len(done) > 1 and len(values) == 1:
+                lines.append(
+                    f"{name}: {self.objective_text(name, values.pop())} in every one of the {len(done)} complete "
+                    "trials: it did not tell the designs apart (other objectives, other ranges or a longer horizon "
+                    "would)"
+                )
         return lines
 
     def figure(self):
@@ -260,6 +279,8 @@ def _csv_comments(result: TuneResult) -> list[str]:
         lines.append(f"constraint_{c} [{CONSTRAINTS[c][0]}]: {CONSTRAINTS[c][1]}")
     lines.append("feasible: 1 when the trial is complete and every constraint is <= 0")
     lines.append("state: complete, pruned (stopped at pruned_at [s] by the pruner) or failed (see error)")
+    lines.append("pruned_at [s]: the simulated time at which the pruner stopped a pruned trial; empty otherwise")
+    lines.append("error: why a failed trial failed (the simulation's or the evaluation's message); empty otherwise")
     first = (
         f"fsmctl tune: trials of {what}; {len(lines) + 1} comment lines, then the header; read with "
         'pandas.read_csv(path, comment="#")'
@@ -519,7 +540,9 @@ def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scena
             provenance.append(f"# command: {extra['command']}")
         write_text(path, best_scenario_text(result, base, comments=provenance, folder=out))
         paths.append(path)
-        verified = expected is not None and _same_design(load_scenario(path), expected)
+        with warnings.catch_warnings():  # best.toml flies the tuned law over the base scenario's: as intended
+            warnings.simplefilter("ignore", LawSwitchWarning)
+            verified = expected is not None and _same_design(load_scenario(path), expected)
         if not verified:
             result.notes.append(
                 f"{path} does not reproduce the chosen design exactly (the base scenario's agents or cases override "

@@ -39,6 +39,7 @@ from fsmctl.studies.tune.settings import (
     STUDY_NAME,
     TuneSettings,
     available_constraints,
+    identity_changes,
     search_space,
     search_space_lines,
 )
@@ -285,8 +286,7 @@ def _open_study(out: Path, resume: bool, plan: _Plan) -> tuple[Any, Any, Any]:
     old = study.user_attrs.get("settings")
     if old is None:
         study.set_user_attr("settings", identity)
-    elif old != identity:
-        diff = sorted(k for k in set(old) | set(identity) if old.get(k) != identity.get(k))
+    elif diff := identity_changes(old, identity):
         raise InputError(
             f"tune: the study in {out} was run with other settings ({', '.join(diff)}); resume it with the same ones "
             "or choose another --out"

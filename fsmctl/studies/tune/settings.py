@@ -328,7 +328,45 @@ class TuneSettings:
         """
         out = asdict(self)
         out.pop("budget")
-        return json.loads(json.dumps(out))
+        return _ranges_in_order(json.loads(json.dumps(out)))
+
+
+def _ranges_in_order(identity: dict) -> dict:
+    """``identity`` with its ``ranges`` sorted by parameter name: their order means nothing (the search space
+    follows the law's declarations), so ``--range c1=... --range c2=...`` and the reverse are the same study."""
+    ranges = identity.get("ranges")
+    if isinstance(ranges, list) and all(isinstance(r, list) and r for r in ranges):
+        identity = {**identity, "ranges": sorted(ranges, key=lambda r: str(r[0]))}
+    return identity
+
+
+def identity_changes(recorded: dict, identity: dict) -> list[str]:
+    """The settings in which a study's ``identity`` differs from the one ``recorded`` in its journal (sorted names).
+
+    The ranges are compared in any order (a journal written before they were sorted records them as given).
+
+    Parameters
+    ----------
+    recorded : dict
+        The journal's :meth:`TuneSettings.identity`.
+    identity : dict
+        This run's.
+
+    Returns
+    -------
+    list of str
+        The names of the settings that differ; empty for the same study.
+
+    Examples
+    --------
+    >>> from fsmctl.studies.tune.settings import TuneSettings, identity_changes
+    >>> a = TuneSettings(ranges={"c1": (0.1, 2.0), "c2": (0.1, 2.0)}).identity()
+    >>> b = TuneSettings(ranges={"c2": (0.1, 2.0), "c1": (0.1, 2.0)}).identity()
+    >>> identity_changes(a, b), identity_changes(a, TuneSettings(seed=5).identity())
+    ([], ['ranges', 'seed'])
+    """
+    old, new = _ranges_in_order(recorded), _ranges_in_order(identity)
+    return sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
 
 
 @dataclass(frozen=True)
@@ -484,6 +522,12 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
                 f"tune: the law {law.name!r} has no parameter {name!r} (its parameters: {', '.join(declared)}; "
                 f"coupling factors: {', '.join(COUPLING)})"
             )
+    for name in names:  # a parameter that cannot be searched at all first: the ranges' complaints would follow from it
+        p = declared.get(name)
+        if p is not None and p.choices:
+            raise InputError(f"tune: {name} has named options ({p.range_text()}), which are not searched")
+        if p is not None and not p.tunable:
+            raise InputError(f"tune: the law {law.name!r} declares {name} not tunable")
     extra = sorted(set(given) - set(names))
     if extra:
         raise InputError(
@@ -499,10 +543,6 @@ def search_space(settings: TuneSettings, base: Scenario | None = None) -> list[S
             out.append(SearchParameter(name, "1", low, high, low > 0 and high / low >= LOG_RATIO, 1, True))
             continue
         p = declared[name]
-        if p.choices:
-            raise InputError(f"tune: {name} has named options ({p.range_text()}), which are not searched")
-        if not p.tunable:
-            raise InputError(f"tune: the law {law.name!r} declares {name} not tunable")
         if name in given:
             low, high = given[name]
             for v in (low, high):
@@ -535,7 +575,7 @@ def _range_words(p: SearchParameter, settings: TuneSettings) -> str:
     return "default range of the coupling factors" if p.coupling else "the law's declared range"
 
 
-def search_space_lines(settings: TuneSettings, space: list[SearchParameter]) -> list[str]:
+def search_space_lines(settings: TuneSettings, space: list[SearchParameter], *, done: bool = False) -> list[str]:
     """What a study searches and why, as ``fsmctl tune`` states it first: one summary line, then one per parameter.
 
     The summary names every searched parameter and why it is searched: named in ``settings.parameters``, or (when
@@ -549,6 +589,9 @@ def search_space_lines(settings: TuneSettings, space: list[SearchParameter]) -> 
         The study's settings.
     space : list of SearchParameter
         Its search space (:func:`search_space` of ``settings``).
+    done : bool
+        As a finished study's summary states it (:meth:`TuneResult.to_text`): "searched", without the advice to
+        name the parameters (given once, before the study runs).
 
     Returns
     -------
@@ -567,18 +610,22 @@ def search_space_lines(settings: TuneSettings, space: list[SearchParameter]) -> 
     """
     n = len(space)
     names = [p.name for p in space]
+    verb = "searched" if done else "searching"
     if settings.parameters:
-        head = f"searching {n} parameter{'s' * (n != 1)}: {', '.join(names)} (named by --parameters)"
+        head = f"{verb} {n} parameter{'s' * (n != 1)}: {', '.join(names)} (named by --parameters)"
     else:
         law = [p.name for p in space if not p.coupling]
         coupling = [p.name for p in space if p.coupling]
-        head = f"searching {n} parameter{'s' * (n != 1)}: {', '.join(law)} (every tunable parameter {settings.law} declares)"
+        head = (
+            f"{verb} {n} parameter{'s' * (n != 1)}: {', '.join(law)} (every tunable parameter {settings.law} declares)"
+        )
         if coupling:
             head += (
                 f", {', '.join(coupling)} (factors on the coupling weights: {settings.law} declares it is the paper's "
                 "law and the scenario has coupling weights)"
             )
-        head += "; --parameters not given: name the ones to search with --parameters"
+        if not done:
+            head += "; --parameters not given: name the ones to search with --parameters"
     lines = [head]
     for p in space:
         sampled = "log-uniform" if p.log else "uniform"
