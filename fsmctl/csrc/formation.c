@@ -859,8 +859,9 @@ static void lane_links(workspace *W) {
 
 /* The neighbour aggregation (eq 19 for any broadcast b), the one place it is written: with the link weights
  * k^j_ij(t_link) (cached per t_link: the four RK4 stages of a step share them),
- * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij, into recv, ksum, krs, and
- * with the batched kernels also into the lane rows RW_RECV, RW_KSUM, RW_KRS (lanes past the last agent repeat it). */
+ * received_i = sum_j k^j_ij b_j, k_sum_i = sum_j k^i_ij, k_received_sum_i = sum_j k^j_ij, into recv, ksum, krs, or
+ * with the batched kernels into the lane rows RW_RECV, RW_KSUM, RW_KRS (lanes past the last agent repeat it;
+ * ksum and krs also agent by agent, recv not: aggregate_lanes sums a lane per receiver, the same operations). */
 static void link_weights(workspace *W, const fsm_problem *P, double t_link) {
   const int n = W->n, nb = W->nb;
   if (W->k_valid && t_link >= W->k_win_lo && t_link < W->k_win_hi) { /* no link's weight differs from k_now */
