@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -33,6 +34,8 @@ def test_certified_writes_and_rechecks(capsys, tmp_path):
     code, text, _ = _run(capsys, "--check", str(out))
     assert code == 0, text
     assert text.startswith("re-checked: every statement holds; the file certifies its law")
+    assert "[ok] every leaf outside the core is proved" in text  # not "[ok] 0 leaves ... are not proved"
+    assert re.search(r"\[ok\] (1 box|[02-9]\d* boxes|1\d+ boxes) of the recorded bisection", text), text
 
 
 def test_counterexample_flown_exit_1(capsys, tmp_path):

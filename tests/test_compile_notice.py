@@ -51,3 +51,39 @@ def test_first_compile_logs_one_notice_and_the_cache_none(empty_cache, caplog):
     second = generated_code.compiled_library()
     assert second is not None and second.path == first.path, "the second load did not come from the cache"
     assert _notices(caplog) == []
+
+
+_FLY_PID = """
+import sys, warnings
+warnings.simplefilter("ignore")
+import fsmctl
+s = fsmctl.paper_scenario("1").replace(controller={"law": "pid"}, simulation={"t_final": 1.0})
+r = fsmctl.simulate(s)
+r.save(sys.argv[1])  # the result file: theta_e by the metrics' sample loops in C
+print(r.raem_deg[-1] >= 0)  # the relative angles' C loop
+paths = {line.split()[-1] for line in open("/proc/self/maps") if "libfsmctl" in line}
+print(len(paths), sorted(paths))
+"""
+
+
+def test_flying_another_law_maps_no_library_of_the_paper_law(tmp_path):
+    """A run of ``pid`` takes the model's functions and the metrics' C loops from pid's own library (every library holds
+    them, compiled alike): the paper law's library is neither built nor loaded (a fresh user saw "compiling the
+    generated C for law 'fsm'" for a study of their own law).  In a fresh process, which maps one library only."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    if not Path("/proc/self/maps").exists() or generated_code.c_compiler() is None:
+        pytest.skip("needs Linux's /proc/self/maps and a C compiler")
+    out = subprocess.run(
+        [sys.executable, "-c", _FLY_PID, str(tmp_path / "pid.nc")],
+        capture_output=True,
+        text=True,
+        env={k: v for k, v in os.environ.items() if k != "FSMCTL_NO_COMPILE"},
+        check=True,
+    )
+    lines = out.stdout.strip().splitlines()
+    assert lines[0] == "True" and lines[1].startswith("1 "), out.stdout
+    assert "for law 'fsm'" not in out.stderr, out.stderr

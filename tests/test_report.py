@@ -198,4 +198,4 @@ def test_html_report_is_self_contained_with_the_same_content(reproduction):
     last = printed.rstrip().splitlines()[-1]
     assert last.startswith(f"report: {out / 'report.md'} and {out / 'report.html'}")
     # the time of the explanations is part of the whole's, and says so
-    assert re.search(r", [0-9.]+ s, of which explanations [0-9.]+ s\)$", last), last
+    assert re.search(r", [0-9.]+ s wall time, of which explanations [0-9.]+ s\)$", last), last

@@ -175,8 +175,10 @@ def test_resumed_study_equals_one_run(unlimited, tmp_path):
     assert len(once) == 12 and once == twice
     wider = tuple((name, low, 2 * high) for name, low, high in settings.ranges)
     for change in ({"seed": 9}, {"batch": 3}, {"pruner": "halving"}, {"quantile": 0.5}, {"ranges": wider}):
-        with pytest.raises(InputError, match="other settings"):
+        with pytest.raises(InputError, match="other settings") as info:
             tune(TuneSettings(**{**settings.__dict__, **change}), tmp_path / "twice", resume=True)
+    # the refusal says what was recorded and what is asked now
+    assert 'ranges [["K",5.0,200.0],["P",10.0,400.0]], now [["K",5.0,400.0],["P",10.0,800.0]]' in str(info.value)
 
 
 def test_a_trial_cut_off_by_ctrl_c_is_flown_again(unlimited, tmp_path, monkeypatch):

@@ -89,11 +89,11 @@ def test_a_run_that_never_settles_has_no_settling_time_and_its_score_is_explaine
     assert f"{len(comments)} comment lines" in comments[0]
     assert any(line.startswith("# aaem_settling_score [s]: the value minimised") for line in comments)
     assert any("2 to 3 s" in line for line in comments)
-    # every column but the trial number and the searched parameters (named by the search-space lines) is explained
-    explained = [c for c in table.columns if c != "trial" and not c.startswith("c1 ")]
-    assert explained[-2:] == ["pruned_at [s]", "error"]
-    for column in explained:
+    # every column is explained, the searched parameters with their ranges
+    assert list(table.columns[-2:]) == ["pruned_at [s]", "error"]
+    for column in table.columns:
         assert any(line.startswith(f"# {column}:") for line in comments), column
+    assert "# c1 [1/s]: searched, 0.1 .. 2 1/s, uniform (range given)" in comments
     assert pd.read_csv(out / "pareto.csv", comment="#").columns.tolist() == table.columns.tolist()
     assert "aaem_settling: 3 of 3 complete trials not settled within the horizon T = 1 s" in stdout
     best = next(line for line in stdout.splitlines() if line.startswith("best: "))
@@ -147,6 +147,17 @@ def test_an_objective_equal_in_every_trial_is_said_to_have_told_nothing_apart():
         "objectives, other ranges or a longer horizon would)"
     ]
     assert "did not tell" not in _result(("peak_torque",), [(2.0,)], [0]).to_text()
+
+
+def test_a_study_without_a_feasible_design_says_which_constraints_ruled_the_trials_out():
+    """No feasible design: the summary counts, per constraint, the complete trials it ruled out (most often first),
+    which trials.csv alone showed (a fresh user: every trial over the torque limit, and the advice to widen ranges)."""
+    base = _result(("peak_torque",), [(3.0,), (2.0,), (2.5,)], [1])
+    values = [{"torque": 5.0, "converged": -1.0}, {"torque": 2.0, "converged": 4.0}, {"torque": 1.0, "converged": -2.0}]
+    trials = [{**t, "feasible": False, "constraints": v} for t, v in zip(base.trials, values, strict=True)]
+    result = TuneResult(base.settings, base.space, ("converged", "torque"), trials, [], None, None, 10.0)
+    line = next(x for x in result.to_text().splitlines() if x.startswith("no feasible design"))
+    assert line.startswith("no feasible design found: of 3 complete trials, torque failed in 3, converged failed in 1 ")
 
 
 def test_a_front_of_one_trial_is_a_point_not_a_line():

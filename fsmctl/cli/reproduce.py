@@ -110,5 +110,5 @@ def run(args: argparse.Namespace) -> int:
     print()
     explained = f", of which explanations {rep.explain_wall_time_s:.1f} s" if rep.explanations is not None else ""
     md, html = rep.out_dir / "report.md", rep.out_dir / "report.html"
-    print(f"report: {md} and {html} ({rep.run_count}, {rep.wall_time_s:.1f} s{explained})")
+    print(f"report: {md} and {html} ({rep.run_count}, {rep.wall_time_s:.1f} s wall time{explained})")
     return 0 if rep.as_expected(strict=args.strict) else 1

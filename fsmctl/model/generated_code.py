@@ -958,10 +958,43 @@ def _compiled_library(law_dir: Path) -> CompiledLibrary | None:
     attempts = [(fl, _library_key(sources, fl, tgt, cc)) for fl, tgt in options]
     with _lock:
         try:
-            return _library_anywhere(cc, sources, attempts, _compile_notice(law_dir))
+            lib = _library_anywhere(cc, sources, attempts, _compile_notice(law_dir))
         except _Unusable as exc:
             _warn_unavailable(str(exc))
             return None
+        _libraries.setdefault(law_dir, lib)
+        return lib
+
+
+_libraries: dict[Path, CompiledLibrary] = {}
+"""The libraries :func:`compiled_library` has returned in this process, by law folder (:func:`model_library`)."""
+
+
+def model_library() -> CompiledLibrary | None:
+    """A compiled library for the model's own functions and the metrics' sample loops.
+
+    Every law's library holds the model's generated functions and ``fsmctl/csrc/metrics.c``, compiled from the same
+    sources with the same flags, so any of them gives the same bits: one this process already has (the law it flies)
+    is used, and only a process that has none compiles the paper law's (:func:`compiled_library`), so that a run of
+    another law does not compile the paper law's library for its metrics.
+
+    Returns
+    -------
+    CompiledLibrary or None
+        The library, or None when the CasADi functions are to be used (see :func:`compiled_library`).
+
+    Examples
+    --------
+    >>> from fsmctl.model.generated_code import model_library
+    >>> lib = model_library()
+    >>> lib is None or lib.path.is_file()
+    True
+    """
+    known = dict(_libraries)  # a copy: another thread may be adding one
+    default = default_law_dir().resolve()
+    if default in known:
+        return known[default]
+    return next(iter(known.values()), None) or compiled_library()
 
 
 @functools.cache
@@ -995,13 +1028,16 @@ def backend() -> str:
 
 
 @functools.cache
-def casadi_function(name: str) -> ca.Function:
+def casadi_function(name: str, law_dir: Path | None = None) -> ca.Function:
     """A generated per-agent function of the model by name (see ``manifest()['functions']``).
 
     Parameters
     ----------
     name : str
         The function's name.
+    law_dir : pathlib.Path or None, optional
+        Take it from this law's library (every law's library holds the model's functions, compiled alike); None:
+        from a library this process already has (:func:`model_library`).
 
     Returns
     -------
@@ -1027,7 +1063,7 @@ def casadi_function(name: str) -> ca.Function:
     names = [f["name"] for f in manifest()["functions"]]
     if name not in names:
         raise KeyError(f"no generated function {name!r}; available: {', '.join(names)}")
-    lib = compiled_library()
+    lib = compiled_library(law_dir) if law_dir is not None else model_library()
     if lib is not None:
         return ca.external(name, str(lib.path))
     _warn_fallback()
@@ -1142,4 +1178,10 @@ def law_casadi_function(law_dir: Path, name: str) -> ca.Function:
     return _law_casadi_function(Path(law_dir).resolve(), name)
 
 
-compiled_library.cache_clear = _compiled_library.cache_clear  # type: ignore[attr-defined]
+def _clear_libraries() -> None:
+    """Forget the libraries of this process (a test that moves the cache): the memo and :func:`model_library`'s."""
+    _compiled_library.cache_clear()
+    _libraries.clear()
+
+
+compiled_library.cache_clear = _clear_libraries  # type: ignore[attr-defined]

@@ -219,7 +219,11 @@ def _recheck_search(
     except (KeyError, ValueError) as exc:
         step(False, f"the bisection tree does not partition the region: {exc}")
         return None
-    step(True, f"{tree['codes'].size} boxes of the recorded bisection rebuilt: a partition of the region x uncertainty")
+    boxes = int(tree["codes"].size)
+    step(
+        True,
+        f"{boxes} box{'es' * (boxes != 1)} of the recorded bisection rebuilt: a partition of the region x uncertainty",
+    )
     plo, phi = leaves[PROVED]
     top = _proved_again(progs, plo, phi)
     good = top < 0
@@ -235,7 +239,13 @@ def _recheck_search(
         _recheck_excluded(problem, progs, out, core, leaves, step)
     asymptotic = d["kind"] == ASYMPTOTIC
     if asymptotic:
-        step(olo.shape[0] == 0, f"{olo.shape[0]} leaves outside the core are not proved")
+        unproved = int(olo.shape[0])
+        step(
+            unproved == 0,
+            "every leaf outside the core is proved"
+            if unproved == 0
+            else f"{unproved} lea{'ves' if unproved != 1 else 'f'} outside the core not proved",
+        )
     else:
         _step_inner(step, progs, olo, ohi, out["inner_level"], out["level"])
     scale = np.where(problem.hi > problem.lo, problem.hi - problem.lo, 1.0)

@@ -26,7 +26,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.casadi_eval import evaluate_mapped
-from fsmctl.model.generated_code import casadi_function, compiled_library
+from fsmctl.model.generated_code import casadi_function, model_library
 
 __all__ = [
     "MAP_BLOCK",
@@ -62,7 +62,7 @@ _C_LOOPS: dict[str, ctypes.CDLL] = {}
 def _c_loops() -> ctypes.CDLL | None:
     """The compiled library's sample loops (``fsmctl/csrc/metrics.c``: the same generated functions that
     :func:`casadi_function` maps, called sample by sample: the same bits); None without a compiled library."""
-    lib = compiled_library()
+    lib = model_library()  # the law's library where this process flies one: no other compiled for the metrics
     if lib is None:
         return None
     dll = _C_LOOPS.get(str(lib.path))

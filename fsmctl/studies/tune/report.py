@@ -104,7 +104,10 @@ class TuneResult:
         lines += self._unsettled_lines()
         lines += self._flat_lines()
         if self.best is None:
-            lines.append("no feasible design found (widen the ranges, raise the budget or the horizon)")
+            lines.append(
+                f"no feasible design found{self._failed_constraints()} (widen the ranges, raise the budget or "
+                "the horizon)"
+            )
         else:
             t = self.trials[self.best]
             params = ", ".join(f"{p.name}={p.quantity(t['params'][p.name])}" for p in self.space)
@@ -167,6 +170,14 @@ class TuneResult:
                 )
                 lines.append(f"{name}: {n} of {len(done)} complete trials {rule}")
         return lines
+
+    def _failed_constraints(self) -> str:
+        """``": of N complete trials, torque failed in 6, converged in 4"``: which constraints ruled the trials out
+        (a value > 0, ``trials.csv``'s ``constraint_*`` columns), most often first; "" without complete trials."""
+        done = [t for t in self.trials if t["state"] == "complete"]
+        counts = [(c, sum(1 for t in done if (t["constraints"].get(c) or 0.0) > 0)) for c in self.constraints]
+        failed = [f"{c} failed in {n}" for c, n in sorted(counts, key=lambda cn: -cn[1]) if n]
+        return f": of {len(done)} complete trials, {', '.join(failed)}" if done and failed else ""
 
     def _flat_lines(self) -> list[str]:
         """An objective with the same value in every complete trial (two or more) told the designs apart nowhere: one
@@ -265,6 +276,10 @@ def _csv_comments(result: TuneResult) -> list[str]:
     what = f"law {s.law} on {s.scenario}" + (f" case {s.case}" if s.case else "")
     aggregate = "" if s.ensemble == 1 else f"; values over {s.ensemble} members aggregated by quantile {s.quantile:g}"
     lines = [f"horizon T = {T:g} s, settling tolerance {s.tolerance_deg:g} deg{aggregate}"]
+    lines.append("trial: the trial's number, in the order the search proposed them")
+    rows = search_space_lines(s, result.space)[1:]  # "  name: low .. high unit, sampling (where the range comes from)"
+    for p, row in zip(result.space, rows, strict=True):
+        lines.append(f"{p.column}: searched, {row.split(': ', 1)[1]}")
     for k in s.objectives:
         o = OBJECTIVES[k]
         if o.metric is None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
+import json
 import logging
 import os
 import shlex
@@ -261,6 +262,12 @@ def _quiet_optuna() -> Iterator[None]:
         optuna.logging.set_verbosity(level)
 
 
+def _compact(value: Any) -> str:
+    """A setting's value as one short JSON text (``[["K",1.0,20.0],["P",2.0,60.0]]``)."""
+    text = json.dumps(value, separators=(",", ":"))
+    return text if len(text) <= 120 else text[:117] + "..."
+
+
 def _open_study(out: Path, resume: bool, plan: _Plan) -> tuple[Any, Any, Any]:
     """``(journal, storage, study)`` of ``out/study.log``: created, or resumed with the same settings and problem."""
     import optuna
@@ -287,8 +294,9 @@ def _open_study(out: Path, resume: bool, plan: _Plan) -> tuple[Any, Any, Any]:
     if old is None:
         study.set_user_attr("settings", identity)
     elif diff := identity_changes(old, identity):
+        said = "; ".join(f"{k} {_compact(was)}, now {_compact(now)}" for k, (was, now) in diff.items())
         raise InputError(
-            f"tune: the study in {out} was run with other settings ({', '.join(diff)}); resume it with the same ones "
+            f"tune: the study in {out} was run with other settings ({said}); resume it with the same ones "
             "or choose another --out"
         )
     if "problem" in study.user_attrs or told_before:

@@ -340,8 +340,8 @@ def _ranges_in_order(identity: dict) -> dict:
     return identity
 
 
-def identity_changes(recorded: dict, identity: dict) -> list[str]:
-    """The settings in which a study's ``identity`` differs from the one ``recorded`` in its journal (sorted names).
+def identity_changes(recorded: dict, identity: dict) -> dict[str, tuple[Any, Any]]:
+    """The settings in which a study's ``identity`` differs from the one ``recorded`` in its journal.
 
     The ranges are compared in any order (a journal written before they were sorted records them as given).
 
@@ -354,19 +354,21 @@ def identity_changes(recorded: dict, identity: dict) -> list[str]:
 
     Returns
     -------
-    list of str
-        The names of the settings that differ; empty for the same study.
+    dict
+        ``name -> (recorded value, this run's)`` for each setting that differs, by name; empty for the same study.
 
     Examples
     --------
     >>> from fsmctl.studies.tune.settings import TuneSettings, identity_changes
     >>> a = TuneSettings(ranges={"c1": (0.1, 2.0), "c2": (0.1, 2.0)}).identity()
     >>> b = TuneSettings(ranges={"c2": (0.1, 2.0), "c1": (0.1, 2.0)}).identity()
-    >>> identity_changes(a, b), identity_changes(a, TuneSettings(seed=5).identity())
-    ([], ['ranges', 'seed'])
+    >>> identity_changes(a, b)
+    {}
+    >>> identity_changes(a, TuneSettings(seed=5, ranges={"c1": (0.1, 3.0)}).identity())["seed"]
+    (0, 5)
     """
     old, new = _ranges_in_order(recorded), _ranges_in_order(identity)
-    return sorted(k for k in set(old) | set(new) if old.get(k) != new.get(k))
+    return {k: (old.get(k), new.get(k)) for k in sorted(set(old) | set(new)) if old.get(k) != new.get(k)}
 
 
 @dataclass(frozen=True)
