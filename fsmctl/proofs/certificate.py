@@ -13,6 +13,10 @@ re-proves the origin's second-order argument and the levels, confirms the counte
 re-proves a sample of the leaves in python-flint's ball arithmetic (the formally rigorous route), and recomputes every
 number the report derives from these (extents, ultimate bound, decrease, reach time, rates, the headline), failing
 one more favourable than the recomputed one (:mod:`fsmctl.proofs.certify_check`).
+
+Size: one concept, the certificate: its record and file format (the tree's encoding, writing, reading) and the two
+entry points that produce and re-check it, each documented in full; the search lives in :mod:`fsmctl.proofs.certify`
+and the re-check's steps in :mod:`fsmctl.proofs.certify_check`.
 """
 
 from __future__ import annotations

@@ -66,7 +66,7 @@ class TuneResult:
     >>> [t["state"] for t in result.trials], result.best  # 1 s is too short to converge: nothing feasible
     (['complete', 'complete'], None)
     >>> print(result.to_text().splitlines()[-1])
-    no feasible design found (widen the ranges, raise the budget or the horizon)
+    no feasible design found: of 2 complete trials, converged failed in 2 (widen the ranges, raise the budget or the horizon)
     >>> sorted(p.name for p in result.paths)  # no feasible design: no best.toml
     ['pareto.csv', 'pareto.png', 'study.log', 'trials.csv', 'tune.json']
     """
