@@ -1028,16 +1028,13 @@ def backend() -> str:
 
 
 @functools.cache
-def casadi_function(name: str, law_dir: Path | None = None) -> ca.Function:
+def casadi_function(name: str) -> ca.Function:
     """A generated per-agent function of the model by name (see ``manifest()['functions']``).
 
     Parameters
     ----------
     name : str
         The function's name.
-    law_dir : pathlib.Path or None, optional
-        Take it from this law's library (every law's library holds the model's functions, compiled alike); None:
-        from a library this process already has (:func:`model_library`).
 
     Returns
     -------
@@ -1063,7 +1060,7 @@ def casadi_function(name: str, law_dir: Path | None = None) -> ca.Function:
     names = [f["name"] for f in manifest()["functions"]]
     if name not in names:
         raise KeyError(f"no generated function {name!r}; available: {', '.join(names)}")
-    lib = compiled_library(law_dir) if law_dir is not None else model_library()
+    lib = model_library()  # the law's library where this process flies one (every library holds the model's)
     if lib is not None:
         return ca.external(name, str(lib.path))
     _warn_fallback()

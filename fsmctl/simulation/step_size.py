@@ -229,8 +229,7 @@ def _law_outputs(p: PackedProblem, agents: np.ndarray):
     model = "exact" if p.error_model == 1 else "paper"
     local, control = p.law.casadi(f"law_local_{model}").map(m), p.law.casadi(f"law_control_{model}").map(m)
     _, wd, wdd = (
-        np.asarray(v, dtype=float).ravel()
-        for v in casadi_function("reference_rhs", p.law.folder)(0.0, p.x0[:3], p.ref_params)  # the law's library
+        np.asarray(v, dtype=float).ravel() for v in casadi_function("reference_rhs")(0.0, p.x0[:3], p.ref_params)
     )
     params = np.asarray(p.params, dtype=float)[agents].T  # (parameters, m): column r is agent agents[r]'s
     k = np.asarray(p.law.casadi("law_constants").map(m)(params), dtype=float).reshape(-1, m)
