@@ -47,6 +47,8 @@ no-compiler fallback's (:mod:`fsmctl.simulation.casadi_formation`), the neighbou
    (``perf record`` when available).
 7. A Monte Carlo campaign of Case 1 (1000 runs of 100 s at dt = 1 ms, both cores; the chunks' runs fly together),
    with a per-run breakdown of one chunk.
+8. Issue 31's roofline (the kernels and the loop against this core's measured peak) and its interleaving lever
+   (``interleave``, :mod:`interleave`: the kernels printed for 2 and 3 lane groups per call against the library's).
 
 Before the sections, the library's placement (:func:`place_library`): on a virtual machine the physical pages a
 library file lands on in the page cache change the compiled loop's speed for identical bytes (measured up to 20 %
@@ -74,6 +76,7 @@ import tempfile
 import time
 from pathlib import Path
 
+import interleave  # benchmarks/interleave.py: this script's folder is on sys.path
 import numpy as np
 
 HERE = Path(__file__).resolve().parent
@@ -1783,6 +1786,7 @@ def markdown(res: dict) -> str:
     lines += _markdown_certify(res)
     lines += _markdown_export(res)
     lines += _markdown_roofline(res)
+    lines += interleave.markdown(res.get("interleave"))
     return "\n".join(lines) + "\n"
 
 
@@ -2952,7 +2956,7 @@ def _markdown_roofline(res: dict) -> list[str]:
 
 SECTIONS = (
     "compare", "kernels", "laws", "hardware", "flight", "scale", "smooth_ring", "flops", "subprocess", "throughput", "montecarlo",
-    "certify", "export", "roofline",
+    "certify", "export", "roofline", "interleave",
 )  # fmt: skip
 """The sections of a run, in order (``--only`` selects some)."""
 
@@ -3078,6 +3082,7 @@ def main(argv=None) -> int:
     section("certify", lambda: certify_section(args.quick, log))
     section("export", lambda: export_section(args.quick, log))
     section("roofline", lambda: roofline_section(args.quick, log, Path(args.out)))
+    section("interleave", lambda: interleave.interleave_section(args.quick, log, ROOFLINE_KERNELS))
     previous_mc = res.get("montecarlo")  # its "before" (issue 14's baseline) is carried on
     section(
         "montecarlo",

@@ -392,6 +392,64 @@ def test_printer_starts_the_long_chains_first():
 
 
 @pytest.mark.parametrize("width", LANE_WIDTHS)
+def test_kernels_printed_for_several_lane_groups_give_each_group_the_one_group_bits(tmp_path, width):
+    """``groups=3`` prints each instruction once per group, side by side (the three groups' nine independent pows as
+    three interleaved calls): each group's results are those of the one-group kernel on that group's inputs, bit for
+    bit, on random and special inputs; a group reading another group's inputs or writing its results would fail."""
+    from fsmctl.model.generated_code import c_compiler, compile_flags, driver_source_dir, math_include_args
+
+    cc = c_compiler()
+    if cc is None:
+        pytest.skip("no C compiler")
+    s, alpha, y = ca.SX.sym("s", 3), ca.SX.sym("alpha"), ca.SX.sym("y", 2)
+    pows = [ca.fabs(s[k] * (k + 2.0) + 1.0) ** alpha * s[k] for k in range(3)]
+    rest = [ca.fmin(y[0], y[1]), ca.sign(y[0]) / (1.0 + y[1] ** 2), ca.cos(s[0]) + ca.sqrt(ca.fabs(y[1]))]
+    f = ca.Function("f", [s, alpha, y], [ca.vertcat(*pows), ca.vertcat(*rest)])
+    interleaved = batched_source([("f", f)], "f3.h", groups=3)
+    assert interleaved.split("int f_batched_x3(")[1].count("fsm_pow3(") == 3
+    (tmp_path / "f1.h").write_text(batched_header(["f"], guard="F1_H"))
+    (tmp_path / "f1.c").write_text(batched_source([("f", f)], "f1.h"))
+    (tmp_path / "f3.h").write_text(batched_header(["f"], guard="F3_H", groups=3))
+    (tmp_path / "f3.c").write_text(interleaved)
+    flags = (*(x for x in compile_flags(cc)[0] if not x.startswith("-DFSM_LANES=")), f"-DFSM_LANES={width}")
+    math = [str(driver_source_dir() / x) for x in ("fsm_pow.c", "fsm_trig.c")]
+    so = tmp_path / "f.so"
+    cmd = [cc, *flags, f"-I{tmp_path}", f"-I{driver_source_dir()}", *math_include_args(), str(tmp_path / "f1.c"),
+           str(tmp_path / "f3.c"), *math, "-o", str(so), "-lm"]  # fmt: skip
+    proc = subprocess.run(cmd, capture_output=True, text=True)
+    assert proc.returncode == 0, proc.stderr
+    lib = ctypes.CDLL(str(so))
+    if not hasattr(lib, "f_batched_x3"):
+        pytest.skip(f"{cc} has no vector extension: no batched kernels to compare")
+    rng = np.random.default_rng(31)
+    sizes = [3, 1, 2]
+    inputs = [[rng.uniform(-2.0, 2.0, (n, width)) for n in sizes] for _ in range(3)]
+    inputs[1][2][:, 0] = [np.nan, -0.0]  # special values in one group's lane 0
+    inputs[2][0][:, 1] = [0.0, np.inf, -1.0 / 3.0]
+    one, three = (
+        [[np.zeros((3, width)) for _ in range(2)] for _ in range(3)],
+        [[np.zeros((3, width)) for _ in range(2)] for _ in range(3)],
+    )
+    _PP = ctypes.POINTER(_P)
+
+    def pointers(arrays):
+        return (_P * len(arrays))(*(a.ctypes.data_as(_P) for a in arrays))
+
+    for g in range(3):
+        assert lib.f_batched(pointers(inputs[g]), pointers(one[g]), width) == 0
+    args = [pointers(inputs[g]) for g in range(3)]
+    results = [pointers(three[g]) for g in range(3)]
+    assert lib.f_batched_x3((_PP * 3)(*(ctypes.cast(a, _PP) for a in args)),
+                            (_PP * 3)(*(ctypes.cast(r, _PP) for r in results)), width) == 0  # fmt: skip
+    for g in range(3):
+        for k in range(2):
+            assert _same_bits(three[g][k], one[g][k]).all(), (g, k, three[g][k], one[g][k])
+    assert not _same_bits(one[0][0], one[1][0]).all()  # the groups' inputs differ, so a mixed-up group would show
+    with pytest.raises(ValueError, match="groups must be an integer >= 1"):
+        batched_source([("f", f)], "f.h", groups=0)
+
+
+@pytest.mark.parametrize("width", LANE_WIDTHS)
 def test_every_lane_rule_equals_casadis_scalar_c_on_special_values(tmp_path, width):
     """Each operation the printer knows, compiled both ways with the library's compiler and flags, on every pair
     of special values (signed zeros, subnormals, huge, infinities, NaN): bit-identical, except fmin/fmax ties of

@@ -206,8 +206,10 @@ HEADER = """\
 """
 
 
-def _signature(name: str) -> str:
-    return f"int {kernel_name(name)}(const double *const *arg, double *const *res, int lanes)"
+def _signature(name: str, groups: int = 1) -> str:
+    if groups == 1:
+        return f"int {kernel_name(name)}(const double *const *arg, double *const *res, int lanes)"
+    return f"int {kernel_name(name)}_x{groups}(const double *const *const *arg, double *const *const *res, int lanes)"
 
 
 # Latencies (cycles, rough) that rank the instructions for the scheduler below: only their order matters.
@@ -229,36 +231,39 @@ def _latency(op: int) -> int:
     return _LATENCY_ARITHMETIC
 
 
-def _statements(name: str, function: ca.Function) -> list[tuple[str, tuple[int, ...], int]]:
+def _statements(name: str, function: ca.Function, groups: int = 1) -> list[tuple[str, tuple[int, ...], int]]:
     """The function's instructions as single-assignment C statements ``(text, operands, latency)``: statement ``k``
-    defines ``v{k}`` (outputs define nothing) and reads the statements in ``operands``."""
+    defines ``v{k}`` (outputs define nothing) and reads the statements in ``operands``.  With ``groups`` > 1 each
+    instruction is printed once per lane group, side by side, group ``g`` reading ``arg[g]`` and writing ``res[g]``."""
     op_names = {getattr(ca, n): n for n in dir(ca) if n.startswith("OP_")}
-    current: dict[int, int] = {}  # CasADi work slot -> the statement that last wrote it
+    current: list[dict[int, int]] = [{} for _ in range(groups)]  # per group: CasADi work slot -> its last statement
     out: list[tuple[str, tuple[int, ...], int]] = []
     for k in range(function.n_instructions()):
         op = function.instruction_id(k)
         ins, outs = function.instruction_input(k), function.instruction_output(k)
-        v = f"v{len(out)}"
-        if op == ca.OP_INPUT:
-            out.append((f"  const fsm_v {v} = fsm_load(arg[{ins[0]}] + FSM_LANES * {ins[1]});", (), 1))
-        elif op == ca.OP_OUTPUT:
-            a = current[ins[0]]
-            out.append((f"  fsm_store(res[{outs[0]}] + FSM_LANES * {outs[1]}, v{a});", (a,), 1))
-            continue
-        elif op == ca.OP_CONST:
-            out.append((f"  const fsm_v {v} = fsm_splat({_literal(function.instruction_constant(k))});", (), 0))
-        elif op in _BINARY:
-            a, b = current[ins[0]], current[ins[1]]
-            expr = _BINARY[op].format(a=f"v{a}", b=f"v{b}")
-            out.append((f"  const fsm_v {v} = {expr};", (a, b), _latency(op)))
-        elif op in _UNARY:
-            a = current[ins[0]]
-            out.append((f"  const fsm_v {v} = {_UNARY[op].format(a=f'v{a}')};", (a,), _latency(op)))
-        else:
+        if op not in (ca.OP_INPUT, ca.OP_OUTPUT, ca.OP_CONST) and op not in _BINARY and op not in _UNARY:
             raise UnsupportedInstructionError(
                 f"{name}: instruction {k} is {op_names.get(op, op)}, which has no lane-wise rule in fsmctl/codegen/batched.py"
             )
-        current[outs[0]] = len(out) - 1
+        for g, slots in enumerate(current):
+            arg, res = ("arg", "res") if groups == 1 else (f"arg[{g}]", f"res[{g}]")
+            v = f"v{len(out)}"
+            if op == ca.OP_INPUT:
+                out.append((f"  const fsm_v {v} = fsm_load({arg}[{ins[0]}] + FSM_LANES * {ins[1]});", (), 1))
+            elif op == ca.OP_OUTPUT:
+                a = slots[ins[0]]
+                out.append((f"  fsm_store({res}[{outs[0]}] + FSM_LANES * {outs[1]}, v{a});", (a,), 1))
+                continue
+            elif op == ca.OP_CONST:
+                out.append((f"  const fsm_v {v} = fsm_splat({_literal(function.instruction_constant(k))});", (), 0))
+            elif op in _BINARY:
+                a, b = slots[ins[0]], slots[ins[1]]
+                expr = _BINARY[op].format(a=f"v{a}", b=f"v{b}")
+                out.append((f"  const fsm_v {v} = {expr};", (a, b), _latency(op)))
+            else:
+                a = slots[ins[0]]
+                out.append((f"  const fsm_v {v} = {_UNARY[op].format(a=f'v{a}')};", (a,), _latency(op)))
+            slots[outs[0]] = len(out) - 1
     return out
 
 
@@ -332,11 +337,14 @@ def _grouped_pows(order: list[int], statements: list[tuple[str, tuple[int, ...],
     return lines
 
 
-def _kernel(name: str, function: ca.Function) -> str:
+def _kernel(name: str, function: ca.Function, groups: int = 1) -> str:
     if not function.is_a("SXFunction"):
         raise UnsupportedInstructionError(f"{name}: batched kernels need an SX function")
-    lines = [f"{_signature(name)} {{", "  if (lanes > FSM_LANES) lanes = FSM_LANES; /* never index past the vector */"]
-    statements = _statements(name, function)
+    lines = [
+        f"{_signature(name, groups)} {{",
+        "  if (lanes > FSM_LANES) lanes = FSM_LANES; /* never index past the vector */",
+    ]
+    statements = _statements(name, function, groups)
     if any(latency >= _LATENCY_LIBRARY for _, _, latency in statements):
         lines += _grouped_pows(_schedule(statements), statements)
     else:  # short chains only: the CPU overlaps them in program order, which keeps fewer values alive
@@ -345,21 +353,38 @@ def _kernel(name: str, function: ca.Function) -> str:
     return "\n".join(lines)
 
 
-def batched_header(names: Sequence[str], guard: str = "FSMCTL_BATCHED_H", generator: str = "python -m derive") -> str:
-    """C header declaring the batched kernels of ``names``."""
+def batched_header(
+    names: Sequence[str], guard: str = "FSMCTL_BATCHED_H", generator: str = "python -m derive", groups: int = 1
+) -> str:
+    """C header declaring the batched kernels of ``names`` (``groups``: as :func:`batched_source`)."""
     body = [HEADER.format(generator=generator), f"#ifndef {guard}", f"#define {guard}", ""]
     body += ['#include "fsm_pow.h" /* FSM_LANES */', ""]
     body += ["#if defined(__GNUC__) || defined(__clang__)", "#define FSM_HAVE_BATCHED 1", "#ifdef __cplusplus"]
     body += ['extern "C" {', "#endif"]
-    body += [f"{_signature(n)};" for n in names]
+    body += [f"{_signature(n, _checked_groups(groups))};" for n in names]
     body += ["#ifdef __cplusplus", "}", "#endif", "#endif", "", f"#endif /* {guard} */", ""]
     return "\n".join(body)
 
 
+def _checked_groups(groups: int) -> int:
+    if isinstance(groups, bool) or not isinstance(groups, int) or groups < 1:
+        raise ValueError(f"groups must be an integer >= 1, got {groups!r}")
+    return groups
+
+
 def batched_source(
-    functions: Sequence[tuple[str, ca.Function]], header: str, generator: str = "python -m derive"
+    functions: Sequence[tuple[str, ca.Function]], header: str, generator: str = "python -m derive", groups: int = 1
 ) -> str:
-    """C source with one batched kernel per ``(name, function)``, including ``header``."""
+    """C source with one batched kernel per ``(name, function)``, including ``header``.
+
+    ``groups`` > 1 prints each kernel for that many lane groups at once, interleaved (issue 31's lever of published
+    CPU ensemble solvers): ``int NAME_batched_xG(const double *const *const *arg, double *const *const *res, int
+    lanes)``, where ``arg[g]`` and ``res[g]`` are group ``g``'s arguments and results (the layout above) and
+    ``lanes`` is the number of active lanes of every group.  Each instruction is printed once per group, side by
+    side (independent ``pow`` of all the groups grouped as above), so every lane still gets the scalar program's
+    bits.  The library's kernels are printed with ``groups=1``; ``benchmarks/interleave.py`` measures the others
+    against them."""
+    groups = _checked_groups(groups)
     prelude = _PRELUDE.format(header=header)
-    kernels = "\n".join(_kernel(n, f) for n, f in functions)
+    kernels = "\n".join(_kernel(n, f, groups) for n, f in functions)
     return HEADER.format(generator=generator) + prelude + "\n" + kernels + _EPILOGUE
