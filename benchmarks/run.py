@@ -1545,8 +1545,8 @@ def throughput_section(quick: bool, log) -> dict:
     same candidates, alternated; each mode's results checked identical; the loop's profile."""
     from concurrent.futures import wait
 
+    from fsmctl.parallel import single_threaded_workers, worker_pool
     from fsmctl.policy import BATCH_AGENTS
-    from fsmctl.studies.parallel import single_threaded_workers, worker_pool
 
     per_task = max(1, BATCH_AGENTS // 6)
     evals = 40 if quick else 400

@@ -51,7 +51,7 @@ Workers: every command that runs things in parallel (``prove``, ``reproduce``, `
 (:func:`default_workers`), and a study never starts more workers than it has tasks at once.  The library's entry
 points (``run_claims``, ``reproduce``, ``compare_laws``, ``compare_surfaces``, ``run_campaign``, ``tune``) follow
 the same rule: ``workers=None``, their default, is :func:`default_workers` of their number of tasks
-(:func:`fsmctl.studies.parallel.resolve_workers`).  The worker count changes the speed only: every study's results
+(:func:`fsmctl.parallel.resolve_workers`).  The worker count changes the speed only: every study's results
 are the same bit for bit for any worker count.
 """
 

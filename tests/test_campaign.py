@@ -12,8 +12,8 @@ import signal
 import pytest
 
 from fsmctl.errors import ResourceLimitError
+from fsmctl.parallel import CampaignInterrupted
 from fsmctl.studies.campaign import WORKER_DIED, Runner, Task, check_memory
-from fsmctl.studies.parallel import CampaignInterrupted
 
 DIE = -1
 

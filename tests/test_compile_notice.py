@@ -53,6 +53,21 @@ def test_first_compile_logs_one_notice_and_the_cache_none(empty_cache, caplog):
     assert _notices(caplog) == []
 
 
+def test_the_notice_of_a_derived_law_says_what_it_is_and_which_script_it_is_from(empty_cache, caplog):
+    """A law derived from a script is no name of `fsmctl laws`: its notice adds the law's declared doc and its script
+    (a fresh user met "compiling the generated C for law 'fsm_unswitched'" from `fsmctl reproduce`, a name listed
+    nowhere)."""
+    from fsmctl.model.laws import resolve_law
+    from fsmctl.studies.explain_laws import law_script
+
+    code = resolve_law(str(law_script()))
+    caplog.set_level(logging.INFO, logger="fsmctl")
+    assert generated_code.compiled_library(code.folder) is not None
+    (notice,) = (r.getMessage() for r in _notices(caplog))
+    assert notice.startswith("compiling the generated C for law 'fsm_unswitched' (fast sliding mode"), notice
+    assert "error MRP not switched to the shadow set; fsm_unswitched.py; first use, about 10 s)" in notice, notice
+
+
 _FLY_PID = """
 import sys, warnings
 warnings.simplefilter("ignore")

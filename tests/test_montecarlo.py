@@ -194,7 +194,7 @@ def test_failing_run_and_dead_worker_are_reported(tmp_path):
 
 def report_thread_environment(base, settings, index, seed):
     """Fails on purpose, naming the BLAS/OpenMP thread variables the worker process started with."""
-    from fsmctl.studies.parallel import WORKER_THREAD_VARIABLES
+    from fsmctl.parallel import WORKER_THREAD_VARIABLES
 
     raise RuntimeError(" ".join(f"{k}={os.environ.get(k)}" for k in WORKER_THREAD_VARIABLES))
 

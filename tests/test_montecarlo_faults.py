@@ -142,7 +142,7 @@ def test_sigkill_of_the_campaign_ends_its_workers(tmp_path):
 
 _ORPHAN_SCRIPT = """
 import multiprocessing, os, sys, time
-from fsmctl.studies import parallel
+from fsmctl import parallel
 if sys.argv[1] == "watchdog":
     parallel._set_parent_death_signal = lambda signum: False  # only the portable fallback is left
 # pdeathsig: a watchdog that would wake after an hour, so the kernel's signal alone must end the child
@@ -176,6 +176,36 @@ def test_worker_lifeline_ends_an_orphaned_worker(mechanism):
         assert line.isdigit(), line
         child = psutil.Process(int(line))  # its initializer has run
         assert child.status() != psutil.STATUS_ZOMBIE
+        parent.kill()
+        parent.wait(10)
+        assert _gone_within([child], 3) == []
+    finally:
+        _kill_tree(parent, [child] if child is not None else [])
+
+
+_TIME_LIMITED_SCRIPT = """
+import os, sys, time
+from fsmctl.parallel import run_with_time_limit
+def slow():
+    print(os.getpid(), flush=True)  # the child's pid, for the test to watch
+    time.sleep(120)
+run_with_time_limit(slow, 300.0)
+"""
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
+def test_a_computation_under_a_time_limit_dies_with_its_parent():
+    """``fsmctl prove``'s uninterruptible SymPy steps run in a child under a time limit: a SIGKILL of the parent ends
+    the child too (it used to run on, a daemon only for a parent that exits normally, up to the limit)."""
+    parent = subprocess.Popen(
+        [sys.executable, "-c", _TIME_LIMITED_SCRIPT], stdout=subprocess.PIPE, text=True, start_new_session=True
+    )
+    child = None
+    try:
+        line = parent.stdout.readline().strip()
+        assert line.isdigit(), line
+        child = psutil.Process(int(line))
+        assert child.ppid() == parent.pid and child.status() != psutil.STATUS_ZOMBIE
         parent.kill()
         parent.wait(10)
         assert _gone_within([child], 3) == []

@@ -532,6 +532,9 @@ def test_the_run_count_says_how_many_runs_were_flown(tmp_path):
     for key in ("case3c", "case3c_no_torque_limit"):
         recs[key] = replace(recs[key], same_as="case1")
     rep = Reproduction(tmp_path, False, [], recs, _bounds(10.0), [], inertia_check=[], files=[], wall_time_s=1.0)
-    assert rep.run_count == "14 runs (12 flown, 2 the same as another)"
+    # which runs were not flown, and whose results they show (a fresh user found them named in report.md only)
+    assert (
+        rep.run_count == "14 runs (12 flown; case3c and case3c_no_torque_limit are case1's settings, not flown again)"
+    )
     recs = {k: replace(r, same_as="") for k, r in recs.items()}
     assert replace(rep, records=recs).run_count == "14 runs"

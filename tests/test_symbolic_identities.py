@@ -13,11 +13,11 @@ import pytest
 import sympy as sp
 from scipy import stats
 
+from fsmctl.parallel import run_with_time_limit
 from fsmctl.proofs.symbolic_identities import (
     UNIT_BALL_SAMPLES,
     identically_zero,
     resolve_branches_on_unit_ball,
-    run_with_time_limit,
     uniform_ball_points,
 )
 

@@ -149,6 +149,19 @@ def test_an_objective_equal_in_every_trial_is_said_to_have_told_nothing_apart():
     assert "did not tell" not in _result(("peak_torque",), [(2.0,)], [0]).to_text()
 
 
+def test_a_best_design_tied_with_every_feasible_trial_is_said_to_be_no_better():
+    """Every feasible trial with the same value of every objective (a fresh user: peak torque at the limit in every
+    design): the best line says the choice is the first of equals; one differing value, or one trial, no such words."""
+    tied = _result(("peak_torque",), [(2.0,), (2.0,), (2.0,)], [0, 1, 2]).to_text().splitlines()
+    best = next(x for x in tied if x.startswith("best: trial 0"))
+    assert best.endswith(
+        "peak_torque=2 N m (tied: all 3 feasible trials scored the same on every objective, so this first one is no "
+        "better than the others)"
+    ), best
+    assert "tied" not in _result(("peak_torque", "rms_torque"), [(2.0, 1.0), (2.0, 1.5)], [0]).to_text()
+    assert "tied" not in _result(("peak_torque",), [(2.0,)], [0]).to_text()
+
+
 def test_a_study_without_a_feasible_design_says_which_constraints_ruled_the_trials_out():
     """No feasible design: the summary counts, per constraint, the complete trials it ruled out (most often first),
     which trials.csv alone showed (a fresh user: every trial over the torque limit, and the advice to widen ranges)."""

@@ -218,7 +218,7 @@ def run(args: argparse.Namespace) -> int:
     int
         0, or ``CampaignInterrupted.exit_code`` (130 for SIGINT, 143 for SIGTERM) after one line on stderr.
     """
-    from fsmctl.studies.parallel import CampaignInterrupted
+    from fsmctl.parallel import CampaignInterrupted
     from fsmctl.studies.tune import TuneSettings, tune
 
     settings = TuneSettings(

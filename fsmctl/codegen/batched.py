@@ -42,6 +42,7 @@ from __future__ import annotations
 import heapq
 import math
 from collections.abc import Sequence
+from typing import NamedTuple
 
 import casadi as ca
 
@@ -231,13 +232,27 @@ def _latency(op: int) -> int:
     return _LATENCY_ARITHMETIC
 
 
-def _statements(name: str, function: ca.Function, groups: int = 1) -> list[tuple[str, tuple[int, ...], int]]:
-    """The function's instructions as single-assignment C statements ``(text, operands, latency)``: statement ``k``
-    defines ``v{k}`` (outputs define nothing) and reads the statements in ``operands``.  With ``groups`` > 1 each
+_POW_OPS = (ca.OP_POW, ca.OP_CONSTPOW)
+
+
+class _Statement(NamedTuple):
+    """One single-assignment C statement of a kernel: it defines ``v{k}`` (``k`` its index; an output defines
+    nothing) from the statements in ``operands``; ``latency`` ranks it for the scheduler; ``is_pow``: a ``pow``
+    whose operands are ``(x, y)``, which :func:`_grouped_pows` may print in an interleaved call."""
+
+    text: str
+    operands: tuple[int, ...]
+    latency: int
+    is_pow: bool = False
+
+
+def _statements(name: str, function: ca.Function, groups: int = 1) -> list[_Statement]:
+    """The function's instructions as single-assignment C statements: statement ``k`` defines ``v{k}`` (outputs
+    define nothing) and reads the statements in ``operands``.  With ``groups`` > 1 each
     instruction is printed once per lane group, side by side, group ``g`` reading ``arg[g]`` and writing ``res[g]``."""
     op_names = {getattr(ca, n): n for n in dir(ca) if n.startswith("OP_")}
     current: list[dict[int, int]] = [{} for _ in range(groups)]  # per group: CasADi work slot -> its last statement
-    out: list[tuple[str, tuple[int, ...], int]] = []
+    out: list[_Statement] = []
     for k in range(function.n_instructions()):
         op = function.instruction_id(k)
         ins, outs = function.instruction_input(k), function.instruction_output(k)
@@ -249,38 +264,39 @@ def _statements(name: str, function: ca.Function, groups: int = 1) -> list[tuple
             arg, res = ("arg", "res") if groups == 1 else (f"arg[{g}]", f"res[{g}]")
             v = f"v{len(out)}"
             if op == ca.OP_INPUT:
-                out.append((f"  const fsm_v {v} = fsm_load({arg}[{ins[0]}] + FSM_LANES * {ins[1]});", (), 1))
+                out.append(_Statement(f"  const fsm_v {v} = fsm_load({arg}[{ins[0]}] + FSM_LANES * {ins[1]});", (), 1))
             elif op == ca.OP_OUTPUT:
                 a = slots[ins[0]]
-                out.append((f"  fsm_store({res}[{outs[0]}] + FSM_LANES * {outs[1]}, v{a});", (a,), 1))
+                out.append(_Statement(f"  fsm_store({res}[{outs[0]}] + FSM_LANES * {outs[1]}, v{a});", (a,), 1))
                 continue
             elif op == ca.OP_CONST:
-                out.append((f"  const fsm_v {v} = fsm_splat({_literal(function.instruction_constant(k))});", (), 0))
+                const = _literal(function.instruction_constant(k))
+                out.append(_Statement(f"  const fsm_v {v} = fsm_splat({const});", (), 0))
             elif op in _BINARY:
                 a, b = slots[ins[0]], slots[ins[1]]
                 expr = _BINARY[op].format(a=f"v{a}", b=f"v{b}")
-                out.append((f"  const fsm_v {v} = {expr};", (a, b), _latency(op)))
+                out.append(_Statement(f"  const fsm_v {v} = {expr};", (a, b), _latency(op), op in _POW_OPS))
             else:
                 a = slots[ins[0]]
-                out.append((f"  const fsm_v {v} = {_UNARY[op].format(a=f'v{a}')};", (a,), _latency(op)))
+                out.append(_Statement(f"  const fsm_v {v} = {_UNARY[op].format(a=f'v{a}')};", (a,), _latency(op)))
             slots[outs[0]] = len(out) - 1
     return out
 
 
-def _schedule(statements: list[tuple[str, tuple[int, ...], int]]) -> list[int]:
+def _schedule(statements: list[_Statement]) -> list[int]:
     """An order of the statements that starts the long dependency chains first (list scheduling by the latency
     of the longest path from a statement to the end; ties in program order): ``pow``'s of independent operands
     then sit side by side, so the CPU overlaps their chains.  Every statement still follows its operands, and each
     value is computed by the same operation from the same operands, so the order changes no result."""
     n = len(statements)
     users: list[list[int]] = [[] for _ in range(n)]
-    for k, (_, operands, _) in enumerate(statements):
-        for a in operands:
+    for k, st in enumerate(statements):
+        for a in st.operands:
             users[a].append(k)
     path = [0] * n
     for k in range(n - 1, -1, -1):
-        path[k] = statements[k][2] + max((path[u] for u in users[k]), default=0)
-    waiting = [len(set(ops)) for _, ops, _ in statements]
+        path[k] = statements[k].latency + max((path[u] for u in users[k]), default=0)
+    waiting = [len(set(st.operands)) for st in statements]
     ready = [(-path[k], k) for k in range(n) if waiting[k] == 0]
     heapq.heapify(ready)
     order: list[int] = []
@@ -298,16 +314,7 @@ _POW_GROUP = 3
 """Most independent ``pow`` calls printed as one interleaved call (``fsm_pow2``, ``fsm_pow3`` of the prelude)."""
 
 
-def _pow_operands(text: str) -> tuple[str, str] | None:
-    """``(x, y)`` of a statement ``const fsm_v vN = fsm_pow(x, y, lanes);``, else None."""
-    head, sep, rest = text.partition(" = fsm_pow(")
-    if not sep or not head.startswith("  const fsm_v "):
-        return None
-    x, y, _ = rest.split(", ")
-    return x, y
-
-
-def _grouped_pows(order: list[int], statements: list[tuple[str, tuple[int, ...], int]]) -> list[str]:
+def _grouped_pows(order: list[int], statements: list[_Statement]) -> list[str]:
     """The statements in ``order``, with runs of consecutive independent ``pow`` statements (as the scheduler places
     the law's three |sigma_e,k|^alpha) printed as one call of ``fsm_pow2``/``fsm_pow3``: one function body in which
     the CPU overlaps their long dependency chains.  Each power is computed by the same operations as alone, so the
@@ -319,20 +326,20 @@ def _grouped_pows(order: list[int], statements: list[tuple[str, tuple[int, ...],
         for start in range(0, len(run), _POW_GROUP):
             group = run[start : start + _POW_GROUP]
             if len(group) == 1:
-                lines.append(statements[group[0]][0])
+                lines.append(statements[group[0]].text)
                 continue
-            args = [a for k in group for a in _pow_operands(statements[k][0])]
+            args = [f"v{a}" for k in group for a in statements[k].operands]  # x, y of each
             outs = [f"&v{k}" for k in group]
             lines.append(f"  fsm_v {', '.join(f'v{k}' for k in group)};")
             lines.append(f"  fsm_pow{len(group)}({', '.join(args + outs)}, lanes);")
         run.clear()
 
     for k in order:
-        if _pow_operands(statements[k][0]) is not None and not any(a in run for a in statements[k][1]):
+        if statements[k].is_pow and not any(a in run for a in statements[k].operands):
             run.append(k)
             continue
         flush()
-        lines.append(statements[k][0])
+        lines.append(statements[k].text)
     flush()
     return lines
 
@@ -345,10 +352,10 @@ def _kernel(name: str, function: ca.Function, groups: int = 1) -> str:
         "  if (lanes > FSM_LANES) lanes = FSM_LANES; /* never index past the vector */",
     ]
     statements = _statements(name, function, groups)
-    if any(latency >= _LATENCY_LIBRARY for _, _, latency in statements):
+    if any(st.latency >= _LATENCY_LIBRARY for st in statements):
         lines += _grouped_pows(_schedule(statements), statements)
     else:  # short chains only: the CPU overlaps them in program order, which keeps fewer values alive
-        lines += [text for text, _, _ in statements]
+        lines += [st.text for st in statements]
     lines += ["  return 0;", "}", ""]
     return "\n".join(lines)
 

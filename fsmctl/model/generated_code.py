@@ -28,8 +28,8 @@ chooses the width (benchmarks and tests compare them).
 
 The first compile of a library (model + one law + driver) takes about ten seconds.  Right before it
 starts, one INFO record is logged on the ``fsmctl.model.generated_code`` logger (a child of ``"fsmctl"``),
-e.g. ``compiling the generated C for law 'fsm' (first use, about 10 s)``; nothing is logged when the
-library comes from the cache.  The ``fsmctl`` command shows it on stderr; in Python or a notebook the
+e.g. ``compiling the generated C for law 'fsm' (first use, about 10 s)`` (a law derived from a script, not built
+in, is described by its declared doc and its script's name); nothing is logged when the library comes from the cache.  The ``fsmctl`` command shows it on stderr; in Python or a notebook the
 standard :mod:`logging` rules apply: unconfigured, Python shows only warnings, so the notice is shown once a
 handler takes ``"fsmctl"``'s INFO records, e.g.::
 
@@ -931,10 +931,16 @@ def _compile_notice(law_dir: Path) -> Callable[[], None]:
             return
         said.set()
         try:  # the name the law declares (a derived script's folder is named by a hash)
-            name = str(json.loads((law_dir / "law.json").read_text("utf-8"))["name"])
+            declared = json.loads((law_dir / "law.json").read_text("utf-8"))
+            name = str(declared["name"])
         except (OSError, ValueError, KeyError, TypeError):
-            name = law_dir.name
-        _log.info("compiling the generated C for law %r (first use, about 10 s)", name)
+            declared, name = {}, law_dir.name
+        if generated_dir().resolve() in law_dir.resolve().parents:  # a built-in law: `fsmctl laws` describes it
+            _log.info("compiling the generated C for law %r (first use, about 10 s)", name)
+            return
+        # a law of a derivation script (the user's, or a variant a study flies): say what it is and where it is from
+        about = "; ".join(str(declared[k]) for k in ("doc", "source") if declared.get(k))
+        _log.info("compiling the generated C for law %r (%s; first use, about 10 s)", name, about or law_dir)
 
     return announce
 

@@ -18,7 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from fsmctl.proofs.symbolic_identities import identically_zero, resolve_branches_on_unit_ball, run_with_time_limit
+from fsmctl.parallel import run_with_time_limit
+from fsmctl.proofs.symbolic_identities import identically_zero, resolve_branches_on_unit_ball
 from fsmctl.symbolic.law import Law
 
 __all__ = ["SYMBOLIC_SECONDS", "ReducedTorque", "reduced_torque", "state_symbols"]

@@ -28,6 +28,7 @@ with its short check beside it, in the paper's order; a claim is added in one pl
 from __future__ import annotations
 
 import math
+import multiprocessing
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
@@ -41,6 +42,7 @@ import fsmctl.proofs.theorem2_bound as t2b
 import fsmctl.proofs.theorem2_report as t2r
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
+from fsmctl.parallel import worker_pool
 from fsmctl.policy import default_workers
 
 __all__ = [
@@ -1374,16 +1376,13 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int | None 
         raise InputError(f"run_claims: workers must be a whole number >= 1, got {workers!r}")
     results: dict[str, ClaimResult] = {}
     if workers > 1 and heavy and light:
-        import multiprocessing as mp
-        from concurrent.futures import ProcessPoolExecutor
-
         try:
-            mp_ctx = mp.get_context("fork")
+            mp_ctx = multiprocessing.get_context("fork")  # the worker starts from this process's loaded modules
         except ValueError:
             mp_ctx = None
         if mp_ctx is not None:
-            try:
-                with ProcessPoolExecutor(max_workers=1, mp_context=mp_ctx) as pool:
+            try:  # the heavy claims in a worker that dies with this process, the light ones here meanwhile
+                with worker_pool(1, mp_ctx) as pool:
                     future = pool.submit(_run_ids, [c.id for c in heavy], ctx)
                     results.update((r.id, r) for r in _run(light, ctx))
                     results.update((r.id, r) for r in future.result())

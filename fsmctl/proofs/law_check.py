@@ -66,10 +66,10 @@ import sympy as sp
 
 from fsmctl.model.generated_paths import builtin_law_scripts
 from fsmctl.model.laws import LawCode, LawError, builtin_laws, resolve_law
+from fsmctl.parallel import run_with_time_limit
 from fsmctl.proofs.symbolic_identities import (
     identically_zero,
     resolve_branches_on_unit_ball,
-    run_with_time_limit,
     uniform_ball_points,
 )
 from fsmctl.symbolic.law import Law, LawVariants, contract_names, wheels_function_name

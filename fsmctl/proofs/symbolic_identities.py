@@ -7,17 +7,13 @@
   branch taken on ``|sigma| <= 1`` and each ``Abs(a)`` by ``+-a`` where the sign of ``a`` is fixed there (the
   shadow-set switch of the MRPs), with how each was shown: symbolically, or sampled at :data:`UNIT_BALL_SAMPLES`
   seeded points of :func:`uniform_ball_points` (then said so);
-* :func:`run_with_time_limit`: a SymPy computation under a time limit (SymPy's simplifiers cannot be interrupted,
-  so it runs in a forked child process that is killed at the limit).
-
 Used by :mod:`fsmctl.proofs.law_check` and :mod:`fsmctl.proofs.certify_symbolic`.
 """
 
 from __future__ import annotations
 
 import math
-import multiprocessing
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 import sympy as sp
@@ -26,7 +22,6 @@ __all__ = [
     "UNIT_BALL_SAMPLES",
     "identically_zero",
     "resolve_branches_on_unit_ball",
-    "run_with_time_limit",
     "uniform_ball_points",
 ]
 
@@ -34,73 +29,6 @@ UNIT_BALL_SAMPLES = 512
 """seeded points of ``|sigma| <= 1`` at which a condition is sampled when it cannot be decided symbolically"""
 
 _OPAQUE = (sp.Piecewise, sp.sign, sp.Abs, sp.Min, sp.Max, sp.Heaviside, sp.DiracDelta)
-
-
-# ----------------------------------------------------------------------------------------------- time limit
-
-
-def run_with_time_limit(fn: Callable[[], object], seconds: float) -> tuple[bool, object]:
-    """``(finished, value)`` of ``fn()`` run under a time limit.
-
-    SymPy's simplifiers cannot be interrupted, so ``fn`` runs in a forked child process that is killed at the
-    limit; without ``fork`` (e.g. on Windows) it runs here, unguarded.
-
-    Parameters
-    ----------
-    fn : callable
-        The computation, without arguments; its value must pickle.
-    seconds : float
-        The time limit, in seconds.
-
-    Returns
-    -------
-    finished : bool
-        Whether ``fn`` returned (or raised) within the limit.
-    value : object
-        Its value; None when it did not finish; the string ``"error: <type>: <message>"`` when it raised (or
-        ``"error: the worker died"``).
-
-    Examples
-    --------
-    >>> import sympy as sp
-    >>> x = sp.Symbol("x")
-    >>> run_with_time_limit(lambda: sp.factor(x**2 - 1), 10.0)
-    (True, (x - 1)*(x + 1))
-    >>> run_with_time_limit(lambda: 1 / 0, 10.0)
-    (True, 'error: ZeroDivisionError: division by zero')
-    """
-    try:
-        ctx = multiprocessing.get_context("fork")
-    except ValueError:
-        try:
-            return True, fn()
-        except Exception as exc:
-            return True, f"error: {type(exc).__name__}: {exc}"
-    recv, send = ctx.Pipe(duplex=False)
-
-    def child():
-        try:
-            value = fn()
-        except BaseException as exc:
-            value = f"error: {type(exc).__name__}: {exc}"
-        send.send(value)
-        send.close()
-
-    proc = ctx.Process(target=child, daemon=True)
-    proc.start()
-    send.close()
-    try:
-        if recv.poll(seconds):
-            try:
-                return True, recv.recv()
-            except EOFError:
-                return True, "error: the worker died"
-        return False, None
-    finally:
-        recv.close()
-        if proc.is_alive():
-            proc.terminate()
-        proc.join(5)
 
 
 # ----------------------------------------------------------------------------------------------- rational identity

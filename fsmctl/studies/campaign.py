@@ -4,8 +4,8 @@ A study declares *what* to compute as :class:`Task` objects (a module-level func
 worker process or a Dask worker can run it) and hands them to a :class:`Runner`, which decides *where*:
 
 * ``workers=1``: in this process, one after the other;
-* ``workers > 1``: a local process pool (:func:`fsmctl.studies.parallel.worker_pool`: workers with one BLAS thread
-  each, :func:`~fsmctl.studies.parallel.single_threaded_workers`, that die with this process), kept for the
+* ``workers > 1``: a local process pool (:func:`fsmctl.parallel.worker_pool`: workers with one BLAS thread
+  each, :func:`~fsmctl.parallel.single_threaded_workers`, that die with this process), kept for the
   runner's life and replaced when a worker dies; at most ``2 * workers`` tasks are in flight at once, so the
   arguments and results waiting in memory do not grow with the number of tasks;
 * ``threads=True``: a thread pool, for tasks whose work releases the GIL (the compiled loop) and whose arguments
@@ -24,7 +24,7 @@ each part alone, and a part (or task) that still kills its worker gets ``task.lo
 other exception of a task propagates (a study catches the failures it reports inside its task function).
 
 Interrupts: entered, the runner turns ``SIGINT``/``SIGTERM`` into
-:class:`~fsmctl.studies.parallel.CampaignInterrupted` (:func:`~fsmctl.studies.parallel.interrupt_guard`); leaving it
+:class:`~fsmctl.parallel.CampaignInterrupted` (:func:`~fsmctl.parallel.interrupt_guard`); leaving it
 by an exception cancels the queued tasks and stops the workers; what ``on_done`` kept stays kept, so a study that
 skips the tasks it finished before resumes exactly.  Progress: :meth:`Runner.progress` attaches a bar that every
 finished task advances by its :attr:`Task.weight`.  Memory: :func:`check_memory` is the one check that a study's
@@ -51,10 +51,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fsmctl.errors import ResourceLimitError
-from fsmctl.policy import DASK_TIMEOUT_S
-from fsmctl.simulation.memory import available_memory, format_bytes
-from fsmctl.studies.cluster import connect_dask
-from fsmctl.studies.parallel import (
+from fsmctl.parallel import (
     InterruptGuard,
     check_workers,
     interrupt_guard,
@@ -62,6 +59,9 @@ from fsmctl.studies.parallel import (
     stop_pool,
     worker_pool,
 )
+from fsmctl.policy import DASK_TIMEOUT_S
+from fsmctl.simulation.memory import available_memory, format_bytes
+from fsmctl.studies.cluster import connect_dask
 
 __all__ = ["Task", "Runner", "check_memory"]
 
@@ -182,7 +182,7 @@ class Runner:
     name : str, optional
         The campaign's name (Dask keys, the progress bar).
     interrupts : bool, optional
-        Turn ``SIGINT``/``SIGTERM`` into :class:`~fsmctl.studies.parallel.CampaignInterrupted` inside the block.
+        Turn ``SIGINT``/``SIGTERM`` into :class:`~fsmctl.parallel.CampaignInterrupted` inside the block.
 
     Examples
     --------

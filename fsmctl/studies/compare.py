@@ -59,12 +59,12 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
+from fsmctl.parallel import resolve_workers
 from fsmctl.policy import COMPARISON_TOLERANCES_DEG, TOLERANCE_DEG, default_steady_window, steady_window_text
 from fsmctl.simulation.messages import MESSAGE_METRICS, message_metrics
 from fsmctl.simulation.metrics import settling_time
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.compare_runs import LawRun, as_runs, run_scenario
-from fsmctl.studies.parallel import resolve_workers
 from fsmctl.studies.records import RunRecord
 
 if TYPE_CHECKING:

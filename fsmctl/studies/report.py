@@ -145,11 +145,21 @@ class Reproduction:
         '14 runs'
         >>> rep.records["case3c"] = replace(rep.records["case3c"], same_as="case1")
         >>> rep.run_count
-        '14 runs (13 flown, 1 the same as another)'
+        "14 runs (13 flown; case3c is case1's settings, not flown again)"
         """
-        reused = sum(1 for r in self.records.values() if r.same_as)
+        reused: dict[str, list[str]] = {}
+        for key, record in self.records.items():
+            if record.same_as:
+                reused.setdefault(record.same_as, []).append(key)
         total = count(len(self.records), "run")
-        return f"{total} ({len(self.records) - reused} flown, {reused} the same as another)" if reused else total
+        if not reused:
+            return total
+        said = "; ".join(
+            (f"{keys[0]} is" if len(keys) == 1 else f"{', '.join(keys[:-1])} and {keys[-1]} are")
+            + f" {target}'s settings"
+            for target, keys in reused.items()
+        )
+        return f"{total} ({len(self.records) - sum(map(len, reused.values()))} flown; {said}, not flown again)"
 
     def differences(self) -> list[str] | None:
         """The verdicts that differ from the documented findings (``docs/findings.md``).

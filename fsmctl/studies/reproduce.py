@@ -42,6 +42,7 @@ import numpy as np
 
 from fsmctl.errors import InputError
 from fsmctl.outputs import environment_problem
+from fsmctl.parallel import resolve_workers
 from fsmctl.studies.campaign import Runner, Task
 from fsmctl.studies.claims import evaluate_claims
 from fsmctl.studies.explain import explain as explain_claims
@@ -56,7 +57,6 @@ from fsmctl.studies.paper_runs import (
     run_scenario,
     scenario_overrides,
 )
-from fsmctl.studies.parallel import resolve_workers
 from fsmctl.studies.records import RunRecord, scenario_fingerprint
 from fsmctl.studies.report import Reproduction, write_outputs
 

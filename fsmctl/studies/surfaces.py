@@ -554,10 +554,10 @@ def compare_surfaces(
     (True, 18)
     """
     from fsmctl.errors import InputError
+    from fsmctl.parallel import resolve_workers
     from fsmctl.simulation.simulator import SimulationError
     from fsmctl.studies.campaign import Runner, Task
     from fsmctl.studies.compare import LawRun, compare_laws
-    from fsmctl.studies.parallel import resolve_workers
 
     for name, v in (("reach_threshold", reach_threshold), ("sigma_tolerance", sigma_tolerance),
                     ("metric_tolerance_deg", metric_tolerance_deg)):  # fmt: skip

@@ -97,13 +97,14 @@ runner, :mod:`fsmctl.studies.campaign`, which flies them in this process, on a l
 
 Interrupts: ``SIGINT`` (Ctrl-C) and ``SIGTERM`` stop the workers at once (queued chunks cancelled,
 running ones terminated), keep the finished chunks, and :func:`run_campaign` raises
-:class:`~fsmctl.studies.parallel.CampaignInterrupted`; ``fsmctl montecarlo`` prints one line and exits with
+:class:`~fsmctl.parallel.CampaignInterrupted`; ``fsmctl montecarlo`` prints one line and exits with
 ``128 + signal``: **130 for SIGINT, 143 for SIGTERM**.  Local workers die with the campaign even when it
-is killed (``SIGKILL``): see :func:`fsmctl.studies.parallel.worker_pool`.
+is killed (``SIGKILL``): see :func:`fsmctl.parallel.worker_pool`.
 """
 
 from __future__ import annotations
 
+from fsmctl.parallel import CampaignInterrupted
 from fsmctl.studies.montecarlo.run import check_campaign_memory, run_campaign
 from fsmctl.studies.montecarlo.runs import run_one, run_record
 from fsmctl.studies.montecarlo.sampling import (
@@ -130,7 +131,6 @@ from fsmctl.studies.montecarlo.settings import (
     theorem1_factor_limit,
 )
 from fsmctl.studies.montecarlo.store import CampaignResult, finish_campaign, plot_histograms, summarize
-from fsmctl.studies.parallel import CampaignInterrupted
 
 __all__ = [
     "CampaignSettings",

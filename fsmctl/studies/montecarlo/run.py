@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from fsmctl.model.scenario import Scenario
+from fsmctl.parallel import CampaignInterrupted, check_workers, resolve_workers
 from fsmctl.policy import DASK_TIMEOUT_S
 from fsmctl.studies.campaign import Runner, Task, check_memory
 from fsmctl.studies.montecarlo.runs import FLAGS, PER_AGENT, SCALARS, RunFunction, nan_record, run_chunk
@@ -32,7 +33,6 @@ from fsmctl.studies.montecarlo.store import (
     n_chunks,
     write_dataset,
 )
-from fsmctl.studies.parallel import CampaignInterrupted, check_workers, resolve_workers
 
 RUN_RECORD_BYTES = 8 * (len(SCALARS) + len(FLAGS) + 1) + 2 * 64
 """Bytes of one run in the merged dataset besides its per-agent values: the scalars, the flags and the noise

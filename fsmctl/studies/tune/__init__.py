@@ -107,7 +107,7 @@ Determinism, batches and parallel evaluation: trials are asked, evaluated and to
 belongs to batch ``i // batch``; its parameters are proposed by a sampler seeded from ``(seed, i)`` (``TPESampler`` for
 one objective, ``NSGAIISampler`` with a population of :data:`POPULATION` for several) that reads the trials told
 before the batch (and, as Optuna's constant liar, the batch's trials asked before it); the batch is then evaluated
-in this process, a local process pool (:func:`fsmctl.studies.parallel.worker_pool`, one BLAS thread per worker) or a
+in this process, a local process pool (:func:`fsmctl.parallel.worker_pool`, one BLAS thread per worker) or a
 Dask cluster, and told in trial order.  So the same settings give the same trials whatever the workers.  Without a
 pruner, a task flies several of the batch's candidates together (:func:`~fsmctl.studies.tune.search.candidate_groups`:
 about one task per worker, at most as many candidates as fill one batch of :func:`fsmctl.simulate_many`,
@@ -125,9 +125,9 @@ scenario file or the law changed, is refused (one line naming what changed), so 
 The journal's lock (``study.log.lock``, held while a write is appended) records the process holding it; a lock
 left by a process that was killed (dead, or of unknown owner for :data:`STALE_LOCK_S`) is broken with a warning,
 a lock of a live process is waited for :data:`LOCK_WAIT_S` and then refused.
-Ctrl-C (``SIGINT``) or ``SIGTERM`` stop the workers (:func:`fsmctl.studies.parallel.interrupt_guard`) after the
+Ctrl-C (``SIGINT``) or ``SIGTERM`` stop the workers (:func:`fsmctl.parallel.interrupt_guard`) after the
 proposals or results being written, and :func:`tune` raises
-:class:`~fsmctl.studies.parallel.CampaignInterrupted` (exit code 130 or 143 for ``fsmctl tune``).
+:class:`~fsmctl.parallel.CampaignInterrupted` (exit code 130 or 143 for ``fsmctl tune``).
 
 Modules: :mod:`~fsmctl.studies.tune.settings` (settings, objectives, constraints, search space),
 :mod:`~fsmctl.studies.tune.evaluation` (flying and scoring candidates, the pruner's checkpoints),

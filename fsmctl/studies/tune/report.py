@@ -112,7 +112,7 @@ class TuneResult:
             t = self.trials[self.best]
             params = ", ".join(f"{p.name}={p.quantity(t['params'][p.name])}" for p in self.space)
             objs = ", ".join(f"{k}={self.objective_text(k, v)}" for k, v in t["objectives"].items())
-            lines.append(f"best: trial {self.best}: {params}; {objs}")
+            lines.append(f"best: trial {self.best}: {params}; {objs}" + (f" ({self.tie()})" if self.tie() else ""))
         return "\n".join(lines + [f"note: {n}" for n in self.notes])
 
     def settled(self, objective: str, value: float) -> bool | None:
@@ -194,6 +194,27 @@ class TuneResult:
                     "would)"
                 )
         return lines
+
+    def tie(self) -> str:
+        """``"tied: ..."`` when every feasible trial (two or more) has the best one's value of every objective: the
+        best is then the first of equals, no better than the others (the summary and ``best.toml`` say so); else
+        ``""``.
+
+        Returns
+        -------
+        str
+            The sentence, or ``""``.
+        """
+        feasible = [t for t in self.trials if t["feasible"]]
+        if self.best is None or len(feasible) < 2:
+            return ""
+        best = self.trials[self.best]["objectives"]
+        if any(t["objectives"] != best for t in feasible):
+            return ""
+        return (
+            f"tied: all {len(feasible)} feasible trials scored the same on every objective, so this first one is no "
+            "better than the others"
+        )
 
     def figure(self):
         """The figure of ``pareto.png``: every complete trial, the feasible ones, the non-dominated ones, the choice.
@@ -473,8 +494,11 @@ def best_scenario_text(
     >>> result = tune(TuneSettings(budget=2, batch=2, t_final=1.0, objectives=("peak_torque",), parameters=("c1",),
     ...                            ranges={"c1": (0.1, 2.0)}, constraints=("theorem1",)), "tuned", progress=False)
     >>> text = best_scenario_text(result, fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0}))
-    >>> text.splitlines()[3]
-    'extends = "paper"'
+    >>> for line in text.splitlines()[2:5]:  # at 1 s every design reaches the torque limit
+    ...     print(line)
+    # tied: all 2 feasible trials scored the same on every objective, so this first one is no better than the others
+    # run it: fsmctl simulate --scenario best.toml
+    extends = "paper"
     >>> best = fsmctl.load_scenario("tuned/best.toml")
     >>> best.controller.parameters["c1"] == result.trials[result.best]["params"]["c1"], best.simulation.t_final
     (True, 1.0)
@@ -506,6 +530,7 @@ def best_scenario_text(
     lines = [
         f"# written by fsmctl tune: trial {t['index']} of {len(result.trials)}, law {s.law}, seed {s.seed}",
         f"# {summary}",
+        *([f"# {result.tie()}"] if result.tie() else []),
         *comments,
         "# run it: fsmctl simulate --scenario best.toml",
         f"extends = {toml_value(extends)}",
@@ -518,7 +543,8 @@ def best_scenario_text(
         table = {"description": f"case {base.case} of {base.name}, tuned by fsmctl tune ({summary})", **table}
         toml_table(["cases", first], table, lines)
     else:
-        lines.insert(4, f"description = {toml_value(f'{base.name}, tuned by fsmctl tune ({summary})')}")
+        at = next(i for i, line in enumerate(lines) if line.startswith("extends = ")) + 1
+        lines.insert(at, f"description = {toml_value(f'{base.name}, tuned by fsmctl tune ({summary})')}")
         toml_table([], overlay, lines)
     return "\n".join(lines) + "\n"
 

@@ -114,7 +114,7 @@ def tune(
         scenario cannot measure (``wheel_momentum`` without wheels) or a constraint it cannot evaluate.
     fsmctl.errors.EnvironmentProblem
         ``out_dir`` cannot be written, or ``dask`` is not a reachable scheduler.
-    fsmctl.studies.parallel.CampaignInterrupted
+    fsmctl.parallel.CampaignInterrupted
         ``SIGINT``/``SIGTERM`` (main thread): the workers were stopped, the journal keeps every told trial and the
         proposed ones of the unfinished batch (``exc.detail``); ``exc.exit_code`` is 130 or 143.
 
@@ -136,7 +136,7 @@ def tune(
     import optuna  # noqa: F401  (loaded first: study.log follows the folder at once, as a reader polling it expects)
 
     from fsmctl.outputs import output_folder
-    from fsmctl.studies.parallel import CampaignInterrupted, resolve_workers
+    from fsmctl.parallel import CampaignInterrupted, resolve_workers
 
     settings.validate()
     workers = resolve_workers(workers, settings.batch, "tune")

@@ -153,7 +153,7 @@ class BufferedJournal:
     Inside :meth:`buffered` (a batch's proposals, a batch's results) the logs wait in memory, where
     :meth:`read_logs` serves them after those in the file, and leave in one write when the block ends, so the journal
     gains a batch's proposals or results whole (an interrupt waits for the block to end:
-    :meth:`fsmctl.studies.parallel.InterruptGuard.deferred`).  This process is the journal's only writer.
+    :meth:`fsmctl.parallel.InterruptGuard.deferred`).  This process is the journal's only writer.
     """
 
     def __init__(self, path: Path):

@@ -1,4 +1,7 @@
-"""Process pools for fsmctl's campaigns (``fsmctl reproduce``, ``fsmctl montecarlo``).
+"""Process pools and child processes for fsmctl's parallel work: the studies' campaigns (``fsmctl reproduce``,
+``fsmctl montecarlo``, ``fsmctl tune``, through :mod:`fsmctl.studies.campaign`) and the proofs' (``fsmctl prove``
+runs its heavy claims beside the others; a SymPy simplification that cannot be interrupted runs under a time limit,
+:func:`run_with_time_limit`).  The one home of fsmctl's process plumbing, below every layer that starts processes.
 
 Besides choosing the start method (:func:`process_pool_context`) and the workers' thread counts
 (:func:`single_threaded_workers`), this module ties the workers' lives to their parent and turns the
@@ -31,7 +34,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor
 from multiprocessing.context import BaseContext
 
@@ -47,6 +50,7 @@ __all__ = [
     "interrupt_guard",
     "process_pool_context",
     "resolve_workers",
+    "run_with_time_limit",
     "single_threaded_workers",
     "stop_pool",
     "worker_lifeline",
@@ -152,7 +156,7 @@ def process_pool_context() -> BaseContext:
 
     Examples
     --------
-    >>> from fsmctl.studies.parallel import process_pool_context
+    >>> from fsmctl.parallel import process_pool_context
     >>> process_pool_context().get_start_method() in ("spawn", "fork")
     True
     """
@@ -190,7 +194,7 @@ def single_threaded_workers() -> Iterator[dict[str, str]]:
     Examples
     --------
     >>> import os
-    >>> from fsmctl.studies.parallel import single_threaded_workers
+    >>> from fsmctl.parallel import single_threaded_workers
     >>> with single_threaded_workers() as added:
     ...     print(all(os.environ[name] == "1" for name in added))
     True
@@ -305,7 +309,7 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = 2.0) -> None:
 
     Examples
     --------
-    >>> from fsmctl.studies.parallel import stop_pool, worker_pool
+    >>> from fsmctl.parallel import stop_pool, worker_pool
     >>> with worker_pool(1) as pool:
     ...     future = pool.submit(pow, 2, 10)
     ...     value = future.result()
@@ -353,7 +357,7 @@ def worker_pool(max_workers: int, mp_context: BaseContext | None = None) -> Iter
 
     Examples
     --------
-    >>> from fsmctl.studies.parallel import worker_pool
+    >>> from fsmctl.parallel import worker_pool
     >>> with worker_pool(1) as pool:
     ...     print(pool.submit(pow, 2, 10).result())
     1024
@@ -365,6 +369,78 @@ def worker_pool(max_workers: int, mp_context: BaseContext | None = None) -> Iter
     except BaseException:
         stop_pool(executor)
         raise
+
+
+# ----------------------------------------------------------------------------- a computation under a time limit
+
+
+def run_with_time_limit(fn: Callable[[], object], seconds: float) -> tuple[bool, object]:
+    """``(finished, value)`` of ``fn()`` run under a time limit.
+
+    SymPy's simplifiers cannot be interrupted, so ``fn`` runs in a forked child process that is killed at the
+    limit and dies with this process (:func:`worker_lifeline`: a ``SIGKILL`` of the parent, or its Ctrl-C, ends
+    the child too); without ``fork`` (e.g. on Windows) it runs here, unguarded.
+
+    Parameters
+    ----------
+    fn : callable
+        The computation, without arguments; its value must pickle.
+    seconds : float
+        The time limit, in seconds.
+
+    Returns
+    -------
+    finished : bool
+        Whether ``fn`` returned (or raised) within the limit.
+    value : object
+        Its value; None when it did not finish; the string ``"error: <type>: <message>"`` when it raised (or
+        ``"error: the worker died"``).
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> x = sp.Symbol("x")
+    >>> from fsmctl.parallel import run_with_time_limit
+    >>> run_with_time_limit(lambda: sp.factor(x**2 - 1), 10.0)
+    (True, (x - 1)*(x + 1))
+    >>> run_with_time_limit(lambda: 1 / 0, 10.0)
+    (True, 'error: ZeroDivisionError: division by zero')
+    """
+    try:
+        ctx = multiprocessing.get_context("fork")
+    except ValueError:
+        try:
+            return True, fn()
+        except Exception as exc:
+            return True, f"error: {type(exc).__name__}: {exc}"
+    recv, send = ctx.Pipe(duplex=False)
+    parent = os.getpid()
+
+    def child():
+        worker_lifeline(parent)  # dies with this process; a Ctrl-C is the parent's to handle
+        try:
+            value = fn()
+        except BaseException as exc:
+            value = f"error: {type(exc).__name__}: {exc}"
+        send.send(value)
+        send.close()
+
+    proc = ctx.Process(target=child, daemon=True)
+    with _sigint_blocked_in_new_processes():
+        proc.start()
+    send.close()
+    try:
+        if recv.poll(seconds):
+            try:
+                return True, recv.recv()
+            except EOFError:
+                return True, "error: the worker died"
+        return False, None
+    finally:
+        recv.close()
+        if proc.is_alive():
+            proc.terminate()
+        proc.join(5)
 
 
 # ----------------------------------------------------------------------------- interrupts
@@ -395,7 +471,7 @@ class CampaignInterrupted(KeyboardInterrupt):
     Examples
     --------
     >>> import signal
-    >>> from fsmctl.studies import CampaignInterrupted
+    >>> from fsmctl.parallel import CampaignInterrupted
     >>> exc = CampaignInterrupted(signal.SIGTERM, "3 of 10 chunks kept")
     >>> exc.signal_name, exc.exit_code, exc.detail
     ('SIGTERM', 143, '3 of 10 chunks kept')
@@ -428,7 +504,7 @@ class InterruptGuard:
 
     Examples
     --------
-    >>> from fsmctl.studies.parallel import interrupt_guard
+    >>> from fsmctl.parallel import interrupt_guard
     >>> with interrupt_guard() as guard:
     ...     with guard.deferred():
     ...         pass  # write a result file here: an interrupt waits until the block ends
@@ -491,7 +567,7 @@ def interrupt_guard() -> Iterator[InterruptGuard]:
     The handlers are installed inside the block and the previous ones are back after it:
 
     >>> import signal
-    >>> from fsmctl.studies.parallel import interrupt_guard
+    >>> from fsmctl.parallel import interrupt_guard
     >>> before = signal.getsignal(signal.SIGTERM)
     >>> with interrupt_guard() as guard:
     ...     installed = signal.getsignal(signal.SIGTERM) is not before
