@@ -83,8 +83,7 @@ def test_the_default_is_default_workers_of_the_tasks(monkeypatch):
         asked.append(tasks)
         return 1
 
-    monkeypatch.setattr("fsmctl.parallel.default_workers", spy)
-    monkeypatch.setattr("fsmctl.proofs.claims.default_workers", spy)
+    monkeypatch.setattr("fsmctl.parallel.default_workers", spy)  # the one rule, for the studies and the proofs
     s = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.2, "output_interval": 0.1})
     assert [r["label"] for r in compare_laws(s, ["fsm", "pid"], tolerances_deg=(1.0,)).table] == ["fsm", "pid"]
     assert [r.id for r in run_claims(["lemma2-sqrt-sum"], ProofContext(fsmctl.paper_scenario()))] == ["lemma2-sqrt-sum"]

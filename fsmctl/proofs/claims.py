@@ -40,10 +40,8 @@ import fsmctl.proofs.theorem1 as t1
 import fsmctl.proofs.theorem2 as t2
 import fsmctl.proofs.theorem2_bound as t2b
 import fsmctl.proofs.theorem2_report as t2r
-from fsmctl.errors import InputError
 from fsmctl.model.scenario import Scenario
-from fsmctl.parallel import worker_pool
-from fsmctl.policy import default_workers
+from fsmctl.parallel import resolve_workers, worker_pool
 
 __all__ = [
     "CLAIMS",
@@ -1370,10 +1368,7 @@ def run_claims(ids: list[str] | None, ctx: ProofContext, *, workers: int | None 
     claims = [get_claim(i) for i in ids] if ids else list(CLAIMS)
     heavy = [c for c in claims if c.heavy]
     light = [c for c in claims if not c.heavy]
-    if workers is None:
-        workers = default_workers(2 if heavy and light else 1)
-    elif isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
-        raise InputError(f"run_claims: workers must be a whole number >= 1, got {workers!r}")
+    workers = resolve_workers(workers, 2 if heavy and light else 1, "run_claims")
     results: dict[str, ClaimResult] = {}
     if workers > 1 and heavy and light:
         try:
