@@ -218,9 +218,10 @@ def markdown(res: dict | None) -> list[str]:
     lines += ["", "The four kernels together, K groups per call / one group per call: " + "; ".join(
         f"{w} lanes " + ", ".join(f"K = {g}: {v:.2f}" for g, v in d.items()) for w, d in ratios.items()) + ". "
         + ("Interleaving is no faster on this core (the best, "
-           f"{best[1]} lanes with K = {best[2]}, {best[0]:.2f}): the core's out-of-order window overlaps one call's "
-           "chains with the next call's already, and K groups keep K times the values alive: instructions with a "
-           "stack operand (spilled values) per lane group, the four kernels together, "
+           f"{best[1]} lanes with K = {best[2]}, {best[0]:.2f}), consistent with the core's out-of-order window "
+           "overlapping one call's chains with the next call's already (not measured apart); and K groups per call keep "
+           "K times the values alive: instructions with a stack operand (spilled values) per lane group, the four "
+           "kernels together, "
            + "; ".join(f"{w} lanes " + ", ".join(f"K = {g}: {v:.0f}" for g, v in d.items()) for w, d in spills.items())
            + ". The engine keeps one lane group per call." if best[0] >= 0.98 else
            f"Interleaving pays on this core ({best[1]} lanes with K = {best[2]}: {best[0]:.2f}): a candidate for the "

@@ -1762,8 +1762,10 @@ def markdown(res: dict) -> str:
         f"Written by `python benchmarks/run.py{' --quick' if res['quick'] else ''}` on {res['date']} "
         f"({m.get('cpu_model', '?')}, {m.get('cpus')} CPUs, load average at start {m['load_average_start']}, "
         f"at end {res['load_average_end']}). Total {res['total_wall_s']:.0f} s. Shared machine: min of repeats.",
-        f"Compile flags: `{' '.join(m.get('compile_flags') or [])}`.",
+        f"Compile flags: `{' '.join(m.get('compile_flags') or [])}` (the last `-O` applies).",
     ]
+    if res.get("only"):
+        lines.append(f"This run measured `--only {','.join(res['only'])}`.")
     if res.get("measured"):
         lines.append(
             "Sections kept from earlier runs (`--only` re-measured the others): "
@@ -2174,6 +2176,8 @@ def _markdown_flops(res: dict) -> list[str]:
 
 
 def _markdown_tools(res: dict) -> list[str]:
+    if "subprocess" not in res.get("sections", []):
+        return []  # neither measured in this run nor kept from an earlier one
     lines: list[str] = []
     lines += ["", "## Tool wall times", ""]
     for k, v in (res.get("subprocess") or {}).items():
@@ -3015,8 +3019,13 @@ def _markdown_placement(res: dict) -> list[str]:
         f"flying Case 1 for 20 s (C loop, min of 5): {t[0]:.4f} s to {t[-1]:.4f} s (median "
         f"{statistics.median(t):.4f} s, slowest / fastest = {t[-1] / t[0]:.2f}). On this virtual machine the pages a "
         "library file lands on change the loop's speed for the same code (dropping the page cache draws them "
-        "again); the sections measured in this run fly the fastest copy. The other laws' libraries and the "
-        "engines built for the before/after comparisons are not re-placed: their ratios carry this spread.",
+        "again); the sections measured in this run fly the fastest copy."
+        + (
+            " The other laws' libraries and the engines built for the before/after comparisons are not re-placed: "
+            "their ratios carry this spread."
+            if {"laws", "flight", "roofline"} & set(res.get("sections", []))
+            else ""
+        ),
     ]
 
 
@@ -3058,6 +3067,7 @@ def main(argv=None) -> int:
                     res["measured"][k] = old.get("date")
                     res["measured_on"][k] = old.get("machine", {}).get("cpu_model", "?")
     res["sections"] = sorted(set(res.get("sections", [])) | {k for k in SECTIONS if k in only}, key=SECTIONS.index)
+    res["only"] = sorted(only, key=SECTIONS.index) if args.only is not None else None
 
     def section(key, run):
         if key in only:

@@ -46,7 +46,9 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
         description="Reproduction of Liang, Sun & Wang (2012), Section 4: Cases 1, 2, 3a-3c, diagnostic runs, the "
         "angular-momentum bound, and a report grading every claim as reproduced / differs / impossible (bound), "
         "with, for each claim not reproduced, the smallest change of an open setting that would reproduce it. "
-        "It flies the paper's law (fsm); fsmctl simulate --law flies others.",
+        "It flies the paper's law (fsm), and its explanations also its variant without the shadow-set switch of the "
+        "error MRP (fsm_unswitched, derived from fsmctl/studies/explain_laws/fsm_unswitched.py on first use); "
+        "fsmctl simulate --law flies others.",
         epilog=epilog(EXIT_CODES),
     )
     add_scenario_option(p, note="with the paper's cases 1, 2, 3a, 3b, 3c")

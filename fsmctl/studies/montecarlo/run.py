@@ -224,7 +224,8 @@ def run_campaign(
             kept = folder.discard_if_empty()
             if isinstance(exc, CampaignInterrupted):
                 exc.detail = (
-                    f"{kept} of {total} chunk files kept in {out}; --resume with the same options continues"
+                    f"{kept} of {total} chunk files kept in {out}; resuming with the same settings (--resume, "
+                    "resume=True) continues"
                     if kept
                     else "nothing was written"
                 )

@@ -456,6 +456,12 @@ def _path_from(target: str, folder: Path | None) -> str:
     return Path(os.path.relpath(path, folder)).as_posix()
 
 
+def _best_path_text(folder: str | Path | None) -> str:
+    """``best.toml`` in ``folder`` as a command line would name it from where the study ran (``best.toml`` without
+    a folder)."""
+    return "best.toml" if folder is None else str(Path(folder) / "best.toml")
+
+
 def best_scenario_text(
     result: TuneResult, base: Scenario, *, comments: Sequence[str] = (), folder: str | Path | None = None
 ) -> str:
@@ -532,7 +538,7 @@ def best_scenario_text(
         f"# {summary}",
         *([f"# {result.tie()}"] if result.tie() else []),
         *comments,
-        "# run it: fsmctl simulate --scenario best.toml",
+        f"# run it: fsmctl simulate --scenario {_best_path_text(folder)}",
         f"extends = {toml_value(extends)}",
         f"name = {toml_value(f'{base.name}-tuned')}",
     ]
@@ -590,7 +596,7 @@ def write_outputs(result: TuneResult, base: Scenario, out: Path, expected: Scena
                 "it); the design is in tune.json"
             )
         t = result.trials[result.best]
-        best = {**t, "scenario_file": "best.toml", "scenario_file_verified": verified}
+        best = {**t, "scenario_file": "best.toml", "scenario_file_verified": verified, "tie": result.tie()}
     payload = {
         "settings": asdict(result.settings),
         "versions": {**versions(), "optuna": optuna.__version__},

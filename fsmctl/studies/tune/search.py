@@ -161,8 +161,8 @@ def tune(
             runner.guard.closing()
             budget = plan.settings.budget
             exc.detail = (
-                f"{batches.told} of {budget} trials told, kept in {out / STUDY_FILE}; --resume with the same options "
-                "continues"
+                f"{batches.told} of {budget} trials told, kept in {out / STUDY_FILE}; resuming with the same settings "
+                "(--resume, resume=True) continues"
             )
             raise
     return result
