@@ -125,7 +125,7 @@ def test_the_torque_line_says_what_each_saturation_figure_counts(tmp_path, capsy
     summary = json.loads((tmp_path / "w" / "summary.json").read_text())["summary"]
     sat = summary["saturated_time_s"]
     assert (
-        f"saturated for {min(sat):.2f}–{max(sat):.2f} s of 1 s (from the least to the most saturated agent, checked at "
-        "every step)" in line
+        f"saturated for {min(sat):.2f}–{max(sat):.2f} s of 1 s (from the least to the most saturated agent; any axis "
+        "at its limit, checked at every step)" in line
     )
     assert line.endswith(f"last at the output sample t = {summary['last_saturation_s']:.2f} s")

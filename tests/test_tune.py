@@ -556,7 +556,7 @@ def test_cli(unlimited, tmp_path, capsys):
     assert {"fsmctl", "casadi", "numpy", "python", "optuna"} <= set(record["versions"])
     header = (out / "best.toml").read_text().split("extends")[0]
     assert "# versions: fsmctl " in header and f"# command: {record['command']}" in header
-    assert f"# run it: fsmctl simulate --scenario {out / 'best.toml'}" in header  # from where the study ran
+    assert f"# run it (from where the study ran): fsmctl simulate --scenario {out / 'best.toml'}" in header
     assert record["best"]["tie"] == ""  # the trials scored differently (a tie is said here, as in the summary)
     assert load_scenario(out / "best.toml").controller.law == "pid"
     # the tuned scenario is named relative to best.toml's folder (both lie under pytest's temporary folder)

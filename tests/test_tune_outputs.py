@@ -155,8 +155,8 @@ def test_a_best_design_tied_with_every_feasible_trial_is_said_to_be_no_better():
     tied = _result(("peak_torque",), [(2.0,), (2.0,), (2.0,)], [0, 1, 2]).to_text().splitlines()
     best = next(x for x in tied if x.startswith("best: trial 0"))
     assert best.endswith(
-        "peak_torque=2 N m (tied: all 3 feasible trials scored the same on every objective, so this first one is no "
-        "better than the others)"
+        "peak_torque=2 N m (tied: all 3 feasible trials scored the same on every objective, so this one, the first "
+        "feasible, is no better than the others)"
     ), best
     assert _result(("peak_torque",), [(2.0,), (2.0,), (2.0,)], [0, 1, 2]).tie().startswith("tied: all 3 feasible")
     assert "tied" not in _result(("peak_torque", "rms_torque"), [(2.0, 1.0), (2.0, 1.5)], [0]).to_text()

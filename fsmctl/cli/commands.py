@@ -331,7 +331,8 @@ def _format_summary(summary: dict) -> str:
     who = "every agent" if len({f"{v:.2f}" for v in sat}) == 1 else "from the least to the most saturated agent"
     lines.append(
         f"  torque: max applied {summary['u_max_abs_N_m']:.4g} N m, max commanded {summary['u_unsaturated_max_N_m']:.4g} N m, "
-        f"saturated {duration_phrase(sat, summary['horizon_s'], digits=2)} ({who}, checked at every step), "
+        f"saturated {duration_phrase(sat, summary['horizon_s'], digits=2)} ({who}; any axis at its limit, checked at "
+        "every step), "
         + ("never at an output sample" if not math.isfinite(last) else f"last at the output sample t = {last:.2f} s")
     )
     if summary.get("messages_line"):  # a run with a control period: its messages (event-triggered or periodic)

@@ -212,8 +212,8 @@ class TuneResult:
         if any(t["objectives"] != best for t in feasible):
             return ""
         return (
-            f"tied: all {len(feasible)} feasible trials scored the same on every objective, so this first one is no "
-            "better than the others"
+            f"tied: all {len(feasible)} feasible trials scored the same on every objective, so this one, the first "
+            "feasible, is no better than the others"
         )
 
     def figure(self):
@@ -502,8 +502,8 @@ def best_scenario_text(
     >>> text = best_scenario_text(result, fsmctl.paper_scenario("1").replace(simulation={"t_final": 1.0}))
     >>> for line in text.splitlines()[2:5]:  # at 1 s every design reaches the torque limit
     ...     print(line)
-    # tied: all 2 feasible trials scored the same on every objective, so this first one is no better than the others
-    # run it: fsmctl simulate --scenario best.toml
+    # tied: all 2 feasible trials scored the same on every objective, so this one, the first feasible, is no better than the others
+    # run it (from where the study ran): fsmctl simulate --scenario best.toml
     extends = "paper"
     >>> best = fsmctl.load_scenario("tuned/best.toml")
     >>> best.controller.parameters["c1"] == result.trials[result.best]["params"]["c1"], best.simulation.t_final
@@ -538,7 +538,7 @@ def best_scenario_text(
         f"# {summary}",
         *([f"# {result.tie()}"] if result.tie() else []),
         *comments,
-        f"# run it: fsmctl simulate --scenario {_best_path_text(folder)}",
+        f"# run it (from where the study ran): fsmctl simulate --scenario {_best_path_text(folder)}",
         f"extends = {toml_value(extends)}",
         f"name = {toml_value(f'{base.name}-tuned')}",
     ]
