@@ -29,9 +29,10 @@ chooses the width (benchmarks and tests compare them).
 The first compile of a library (model + one law + driver) takes about ten seconds.  Right before it
 starts, one INFO record is logged on the ``fsmctl.model.generated_code`` logger (a child of ``"fsmctl"``),
 e.g. ``compiling the generated C for law 'fsm' (first use, about 10 s)`` (a law derived from a script, not built
-in, is described by its declared doc and its script's name); nothing is logged when the library comes from the cache.  The ``fsmctl`` command shows it on stderr; in Python or a notebook the
-standard :mod:`logging` rules apply: unconfigured, Python shows only warnings, so the notice is shown once a
-handler takes ``"fsmctl"``'s INFO records, e.g.::
+in, is described by its declared doc and its script's name); nothing is logged when the library comes from the
+cache.  The ``fsmctl`` command shows it on stderr; in Python or a notebook the standard :mod:`logging` rules
+apply: unconfigured, Python shows only warnings, so the notice is shown once a handler takes ``"fsmctl"``'s INFO
+records, e.g.::
 
     import logging
     logging.basicConfig()                               # a handler on the root logger (stderr)
