@@ -24,6 +24,8 @@ name                               value                         meaning
                                                                  states it: "the last 40 % of the horizon, at most 40 s"
 :data:`FAST_T_FINAL_S`             10                            s: the horizon of ``reproduce --fast``
 :data:`FAST_OUTPUT_INTERVAL_S`     0.05                          s: the output grid of ``reproduce --fast``
+:data:`LONG_HORIZON_FACTOR`        3                             ``reproduce``'s long runs (Cases 1 and 2) fly this
+                                                                 many times the horizon (300 s; 30 s with ``--fast``)
 :data:`SURFACE_REACH_THRESHOLD`    1e-3                          ``compare-surfaces``: the surface is reached when
                                                                  ``||s_i||`` is below it
 :data:`SURFACE_SIGMA_TOLERANCE`    1e-3                          ``compare-surfaces``: settled when every
@@ -69,6 +71,7 @@ __all__ = [
     "STEADY_RULE",
     "FAST_T_FINAL_S",
     "FAST_OUTPUT_INTERVAL_S",
+    "LONG_HORIZON_FACTOR",
     "SURFACE_REACH_THRESHOLD",
     "SURFACE_SIGMA_TOLERANCE",
     "SURFACE_METRIC_TOLERANCE",
@@ -111,6 +114,9 @@ FAST_T_FINAL_S = 10.0
 
 FAST_OUTPUT_INTERVAL_S = 0.05
 """s: the output grid of a fast reproduction (``fsmctl reproduce --fast``)."""
+
+LONG_HORIZON_FACTOR = 3.0
+"""How many times the scenario's horizon ``fsmctl reproduce``'s long runs (``case1_long``, ``case2_long``) fly."""
 
 SURFACE_REACH_THRESHOLD = 1e-3
 """The norm ``||s_i||`` of agent i's sliding variable below which a sliding-surface comparison counts it as having

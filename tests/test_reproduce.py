@@ -538,3 +538,17 @@ def test_the_run_count_says_how_many_runs_were_flown(tmp_path):
     )
     recs = {k: replace(r, same_as="") for k, r in recs.items()}
     assert replace(rep, records=recs).run_count == "14 runs"
+
+
+def test_the_fast_option_names_the_horizons_its_runs_fly(capsys):
+    """``reproduce --help``: ``--fast`` gives both horizons, the ones its runs fly (a fresh user read "short horizon
+    (10 s)" and found the long runs at 30 s)."""
+    from fsmctl.studies.paper_runs import run_scenario
+
+    with pytest.raises(SystemExit):
+        main(["reproduce", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    horizons = {spec.key: run_scenario("paper", spec, fast=True).simulation.t_final for spec in run_plan()}
+    short, long = horizons["case1"], horizons["case1_long"]
+    assert long > short and horizons["case2_long"] == long
+    assert f"--fast short horizons for tests and quick looks ({short:g} s; the long runs {long:g} s)" in text, text

@@ -14,7 +14,7 @@ import sys
 from fsmctl.cli.exit_codes import epilog
 from fsmctl.cli.options import add_figures_option, add_out_option, add_progress_option, add_scenario_option
 from fsmctl.cli.parallel_options import add_workers_option, chosen_workers
-from fsmctl.policy import FAST_T_FINAL_S
+from fsmctl.policy import FAST_T_FINAL_S, LONG_HORIZON_FACTOR
 
 __all__ = ["add_parser", "run", "EXIT_CODES"]
 
@@ -54,7 +54,10 @@ def add_parser(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParse
     add_scenario_option(p, note="with the paper's cases 1, 2, 3a, 3b, 3c")
     add_out_option(p, "reproduction")
     p.add_argument(
-        "--fast", action="store_true", help=f"short horizon ({FAST_T_FINAL_S:g} s) for tests and quick looks"
+        "--fast",
+        action="store_true",
+        help=f"short horizons for tests and quick looks ({FAST_T_FINAL_S:g} s; the long runs "
+        f"{LONG_HORIZON_FACTOR * FAST_T_FINAL_S:g} s)",
     )
     add_workers_option(p, what="worker processes flying the runs")
     add_figures_option(p)

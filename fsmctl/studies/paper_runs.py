@@ -18,12 +18,17 @@ from typing import Any
 
 import numpy as np
 
-from fsmctl.policy import FAST_OUTPUT_INTERVAL_S, FAST_T_FINAL_S, SETTLING_TOLERANCES_DEG, default_steady_window
+from fsmctl.policy import (
+    FAST_OUTPUT_INTERVAL_S,
+    FAST_T_FINAL_S,
+    LONG_HORIZON_FACTOR,
+    SETTLING_TOLERANCES_DEG,
+    default_steady_window,
+)
 from fsmctl.studies.records import RunRecord
 
 __all__ = [
     "PAPER_CASES",
-    "LONG_HORIZON_FACTOR",
     "DIAGNOSTIC_OUTPUT_INTERVAL_S",
     "RunSpec",
     "run_plan",
@@ -36,7 +41,6 @@ __all__ = [
 ]
 
 PAPER_CASES = ("1", "2", "3a", "3b", "3c")
-LONG_HORIZON_FACTOR = 3.0
 DIAGNOSTIC_OUTPUT_INTERVAL_S = 0.02
 """Output grid of the diagnostic runs (the paper cases keep the scenario's; the integration step is unchanged)."""
 
