@@ -47,7 +47,7 @@ from fsmctl.cli.run_options import add_run_options, simulation_changes
 from fsmctl.cli.types import nonnegative_float
 from fsmctl.outputs import output_folder, write_json
 from fsmctl.policy import CONVERGED_RULE, SETTLING_TOLERANCES_DEG, steady_window_text
-from fsmctl.studies.wording import duration_phrase
+from fsmctl.studies.wording import duration_phrase, value_range
 
 __all__ = ["add_parser", "run", "convergence_line", "EXIT_CODES"]
 
@@ -328,7 +328,7 @@ def _format_summary(summary: dict) -> str:
     sat = summary["saturated_time_s"]
     last = summary["last_saturation_s"]
     # a span of durations is the least and the most saturated agent's (a reader took "2.40–5.00 s" for an interval)
-    who = "every agent" if len({f"{v:.2f}" for v in sat}) == 1 else "from the least to the most saturated agent"
+    who = "from the least to the most saturated agent" if "–" in value_range(sat, 2) else "every agent"
     lines.append(
         f"  torque: max applied {summary['u_max_abs_N_m']:.4g} N m, max commanded {summary['u_unsaturated_max_N_m']:.4g} N m, "
         f"saturated {duration_phrase(sat, summary['horizon_s'], digits=2)} ({who}; any axis at its limit, checked at "

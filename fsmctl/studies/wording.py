@@ -9,7 +9,10 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-__all__ = ["count", "verdict_count", "value_range", "duration_phrase", "join_words"]
+__all__ = ["RESUME_HINT", "count", "verdict_count", "value_range", "duration_phrase", "join_words"]
+
+RESUME_HINT = "resuming with the same settings (--resume, resume=True) continues"
+"""What an interrupted campaign or study says of its kept work (the command's option and the Python argument)."""
 
 # verdict -> (singular, plural) of the phrase "N <verdict>": "1 differs" / "2 differ"
 _VERDICT_FORMS = {

@@ -33,6 +33,7 @@ from fsmctl.studies.montecarlo.store import (
     n_chunks,
     write_dataset,
 )
+from fsmctl.studies.wording import RESUME_HINT
 
 RUN_RECORD_BYTES = 8 * (len(SCALARS) + len(FLAGS) + 1) + 2 * 64
 """Bytes of one run in the merged dataset besides its per-agent values: the scalars, the flags and the noise
@@ -224,10 +225,7 @@ def run_campaign(
             kept = folder.discard_if_empty()
             if isinstance(exc, CampaignInterrupted):
                 exc.detail = (
-                    f"{kept} of {total} chunk files kept in {out}; resuming with the same settings (--resume, "
-                    "resume=True) continues"
-                    if kept
-                    else "nothing was written"
+                    f"{kept} of {total} chunk files kept in {out}; {RESUME_HINT}" if kept else "nothing was written"
                 )
             raise
     return result

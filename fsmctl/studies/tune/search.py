@@ -54,6 +54,7 @@ from fsmctl.studies.tune.storage import (
     trial_sampler,
     trial_seed,
 )
+from fsmctl.studies.wording import RESUME_HINT
 
 _log = logging.getLogger(__name__)
 
@@ -160,10 +161,7 @@ def tune(
         except CampaignInterrupted as exc:
             runner.guard.closing()
             budget = plan.settings.budget
-            exc.detail = (
-                f"{batches.told} of {budget} trials told, kept in {out / STUDY_FILE}; resuming with the same settings "
-                "(--resume, resume=True) continues"
-            )
+            exc.detail = f"{batches.told} of {budget} trials told, kept in {out / STUDY_FILE}; {RESUME_HINT}"
             raise
     return result
 
