@@ -110,7 +110,7 @@ def test_signal_stops_workers_keeps_chunks(tmp_path, signame, to_group, exit_cod
         assert proc.returncode == exit_code, err
         assert _gone_within(workers, 5) == [], "workers outlived the campaign"
         line = _one_line(err)
-        assert signame in line and "kept" in line and "--resume" in line, line
+        assert signame in line and "kept" in line and "--resume" in line and "resume=True" in line, line
         kept = {p.name: p.read_bytes() for p in _chunk_files(out)}
         assert 1 <= len(kept) < runs // 2 and not (out / mc.COMPLETE_MARKER).exists()
     finally:

@@ -258,6 +258,7 @@ def test_ctrl_c_exits_130_and_resume_matches(unlimited, tmp_path):
     assert proc.returncode == 130, err
     lines = err.strip().splitlines()
     assert "interrupted by SIGINT" in lines[-1] and "--resume" in lines[-1] and "Traceback" not in err
+    assert "resume=True" in lines[-1]  # the Python argument too: the same message reaches tune()'s callers
     told = _told(out)
     assert 8 <= told < 400
     budget = (told // 4 + 1) * 4  # a whole number of batches past what was told
