@@ -1516,7 +1516,7 @@ def _loop_profile(count: int, log) -> dict | None:
             kind = (
                 "generated batched kernels (law_local with fsmctl's vector pow, law_control, plant_rhs, "
                 "disturbance_torque with fsmctl's vector cos)"
-            )  # fsm_pow_vec, fsm_pow_vec2/3: at 8 lanes functions of their own, called by law_local
+            )  # fsm_pow_vec, fsm_pow_vec2: at 8 lanes functions of their own, called by law_local
         elif "pow" in sym:
             kind = "pow (fsmctl_pow's scalar calls; glibc's for lanes off its fast path)"
         elif any(f in sym for f in ("cos", "sin", "exp", "log")) and dso.startswith("libm"):

@@ -360,23 +360,25 @@ def test_printer_writes_exact_constants_and_every_lane_rule():
 
 def test_printer_starts_the_long_chains_first():
     """Three pows of independent operands, each followed in CasADi's order by cheap work on its result: the printer
-    puts the three side by side, as one interleaved call (the CPU then overlaps their dependency chains) after
-    their operands; a function without library calls keeps CasADi's order."""
+    puts the three side by side, two of them as one interleaved call (the CPU then overlaps their dependency chains)
+    and the third alone, after their operands; a function without library calls keeps CasADi's order."""
     s = ca.SX.sym("s", 3)
     alpha = ca.SX.sym("alpha")
     parts = [ca.fabs(s[k] * (k + 2.0) + 1.0) ** alpha * s[k] + 3.0 * s[k] for k in range(3)]
     body = batched_source([("f", ca.Function("f", [s, alpha], [ca.vertcat(*parts)]))], "f.h").split("int f_batched")[1]
     statements = [line.strip() for line in body.splitlines() if line.startswith("  ")]
     statements = [line for line in statements if not line.startswith(("if (", "return"))]
-    calls = [line for line in statements if line.startswith("fsm_pow3(")]
-    assert len(calls) == 1 and "fsm_pow(" not in body and "fsm_pow2(" not in body, statements
+    calls = [line for line in statements if line.startswith("fsm_pow2(")]
+    alone = [k for k, line in enumerate(statements) if "fsm_pow(" in line]
+    assert len(calls) == 1 and len(alone) == 1 and "fsm_pow3(" not in body, statements
+    assert abs(alone[0] - statements.index(calls[0])) == 1, statements  # side by side
     outputs = re.findall(r"&(v\d+)", calls[0])
-    assert len(outputs) == 3 and f"fsm_v {', '.join(outputs)};" in statements, statements
+    assert len(outputs) == 2 and f"fsm_v {', '.join(outputs)};" in statements, statements
     defined: set[str] = set()
     for line in statements:  # every operand is defined above its use (the C compiler would refuse it otherwise)
         if line.startswith("fsm_v "):
             continue  # the declaration of the interleaved call's results
-        if line.startswith("fsm_pow3("):
+        if line.startswith("fsm_pow2("):
             assert set(re.findall(r"\b(v\d+)\b,", line.split("&")[0])) <= defined, line
             defined.update(outputs)
             continue
@@ -394,8 +396,9 @@ def test_printer_starts_the_long_chains_first():
 @pytest.mark.parametrize("width", LANE_WIDTHS)
 def test_kernels_printed_for_several_lane_groups_give_each_group_the_one_group_bits(tmp_path, width):
     """``groups=3`` prints each instruction once per group, side by side (the three groups' nine independent pows as
-    three interleaved calls): each group's results are those of the one-group kernel on that group's inputs, bit for
-    bit, on random and special inputs; a group reading another group's inputs or writing its results would fail."""
+    four interleaved pairs and one alone): each group's results are those of the one-group kernel on that group's
+    inputs, bit for bit, on random and special inputs; a group reading another group's inputs or writing its results
+    would fail."""
     from fsmctl.model.generated_code import c_compiler, compile_flags, driver_source_dir, math_include_args
 
     cc = c_compiler()
@@ -406,7 +409,8 @@ def test_kernels_printed_for_several_lane_groups_give_each_group_the_one_group_b
     rest = [ca.fmin(y[0], y[1]), ca.sign(y[0]) / (1.0 + y[1] ** 2), ca.cos(s[0]) + ca.sqrt(ca.fabs(y[1]))]
     f = ca.Function("f", [s, alpha, y], [ca.vertcat(*pows), ca.vertcat(*rest)])
     interleaved = batched_source([("f", f)], "f3.h", groups=3)
-    assert interleaved.split("int f_batched_x3(")[1].count("fsm_pow3(") == 3
+    kernel = interleaved.split("int f_batched_x3(")[1]
+    assert kernel.count("fsm_pow2(") == 4 and kernel.count("fsm_pow(") == 1
     (tmp_path / "f1.h").write_text(batched_header(["f"], guard="F1_H"))
     (tmp_path / "f1.c").write_text(batched_source([("f", f)], "f1.h"))
     (tmp_path / "f3.h").write_text(batched_header(["f"], guard="F3_H", groups=3))

@@ -1,6 +1,6 @@
 /* fsmctl's pow (fsm_pow.h): the scalar entry point, one lane of the batched computation, and batched loops (for
  * the tests: fsm_pow_lanes(x, y, out, n) = fsm_pow_vec on blocks of FSM_LANES, the last block partial;
- * fsm_pow_lanes_k(x, y, out, n, k) = fsm_pow_vec2 (k = 2) or fsm_pow_vec3 (k = 3) on blocks of k FSM_LANES). */
+ * fsm_pow_lanes2(x, y, out, n) = fsm_pow_vec2 on blocks of 2 FSM_LANES). */
 #include <string.h>
 
 #include "fsm_pow.h"
@@ -30,21 +30,18 @@ void fsm_pow_lanes(const double *x, const double *y, double *out, long long n) {
   }
 }
 
-void fsm_pow_lanes_k(const double *x, const double *y, double *out, long long n, int k) {
-  for (long long i = 0; i < n; i += (long long)k * FSM_LANES) {
+void fsm_pow_lanes2(const double *x, const double *y, double *out, long long n) {
+  for (long long i = 0; i < n; i += 2LL * FSM_LANES) {
 #ifdef __GNUC__
-    fsm_pow_v vx[3], vy[3], r[3];
-    for (int j = 0; j < 3; ++j) vx[j] = vy[j] = fsm_pow_splat(1.0); /* padding: on the fast path */
-    const long long count = n - i < (long long)k * FSM_LANES ? n - i : (long long)k * FSM_LANES;
+    fsm_pow_v vx[2], vy[2], r[2];
+    for (int j = 0; j < 2; ++j) vx[j] = vy[j] = fsm_pow_splat(1.0); /* padding: on the fast path */
+    const long long count = n - i < 2LL * FSM_LANES ? n - i : 2LL * FSM_LANES;
     memcpy(vx, x + i, sizeof(double) * (size_t)count);
     memcpy(vy, y + i, sizeof(double) * (size_t)count);
-    if (k == 3)
-      fsm_pow_vec3(vx[0], vy[0], vx[1], vy[1], vx[2], vy[2], &r[0], &r[1], &r[2], FSM_LANES);
-    else
-      fsm_pow_vec2(vx[0], vy[0], vx[1], vy[1], &r[0], &r[1], FSM_LANES);
+    fsm_pow_vec2(vx[0], vy[0], vx[1], vy[1], &r[0], &r[1], FSM_LANES);
     memcpy(out + i, r, sizeof(double) * (size_t)count);
 #else
-    for (long long l = i; l < n && l < i + (long long)k * FSM_LANES; ++l) out[l] = pow(x[l], y[l]);
+    for (long long l = i; l < n && l < i + 2LL * FSM_LANES; ++l) out[l] = pow(x[l], y[l]);
 #endif
   }
 }

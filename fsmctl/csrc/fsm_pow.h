@@ -129,14 +129,16 @@ static fsm_pow_v __attribute__((noinline, cold)) fsm_pow_off_path(fsm_pow_v x, f
 #define FSM_POW_K(stmt) for (int k = 0; k < K; ++k) stmt
 
 /* x[k]^y[k] in the lanes l < lanes of r[k], k < K (the other lanes are unspecified): K independent powers, their
- * statements interleaved so that the CPU overlaps their long dependency chains (K = 1: fsm_pow_vec; K = 2, 3:
- * fsm_pow_vec2, fsm_pow_vec3, which the batched kernels call for independent powers side by side).  Each value is
- * computed by the same operations from the same operands whatever K, so every lane has the same bits. */
+ * statements interleaved so that the CPU overlaps their long dependency chains (K = 1: fsm_pow_vec; K = 2:
+ * fsm_pow_vec2, which the batched kernels call for two independent powers side by side).  Each value is computed by
+ * the same operations from the same operands whatever K, so every lane has the same bits.  K stops at 2: three
+ * chains at once ran slower than two and one on an AVX-512 core (Monte Carlo chunk, 3-5 % more CPU:
+ * fsmctl/codegen/batched.py's _POW_GROUP). */
 static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, const fsm_pow_v *y, fsm_pow_v *r,
                                                             const int K, int lanes) {
   const double LN2_HI = 0x1.62e42fefa3800p-1, LN2_LO = 0x1.ef35793c76730p-45; /* LN2_HI: 42 bits */
-  fsm_pow_m bits[3], ex[3], big[3];
-  fsm_pow_v m[3], e[3], f[3], d[3], dl[3], inv[3], f2[3], uh[3], pe[3], p[3], ul[3], t[3];
+  fsm_pow_m bits[2], ex[2], big[2];
+  fsm_pow_v m[2], e[2], f[2], d[2], dl[2], inv[2], f2[2], uh[2], pe[2], p[2], ul[2], t[2];
   /* log x = e log 2 + log m */
   FSM_POW_K(bits[k] = (fsm_pow_m)x[k]);
   FSM_POW_K(ex[k] = (bits[k] >> 52) - 1023);
@@ -155,7 +157,7 @@ static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, 
   FSM_POW_K(ul[k] = (((f2[k] - p[k]) - pe[k]) - uh[k] * dl[k]) * inv[k]); /* uh + ul = 2 f / (2 + f) */
   FSM_POW_K(t[k] = uh[k] * uh[k]);
   /* c1 + c2 t + ... + c11 t^10 (c_k = 1 / (4^k (2k+1))), Estrin's scheme (a short dependency chain) */
-  fsm_pow_v t2[3], t4[3], t8[3], c01[3], c23[3], c45[3], c67[3], c89[3], c03[3], c47[3], c8a[3], c[3];
+  fsm_pow_v t2[2], t4[2], t8[2], c01[2], c23[2], c45[2], c67[2], c89[2], c03[2], c47[2], c8a[2], c[2];
   FSM_POW_K(t2[k] = t[k] * t[k]);
   FSM_POW_K(t4[k] = t2[k] * t2[k]);
   FSM_POW_K(t8[k] = t4[k] * t4[k]);
@@ -169,7 +171,7 @@ static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, 
   FSM_POW_K(c8a[k] = c89[k] + 0x1.642c8590b2164p-27 * t2[k]);
   FSM_POW_K(c[k] = (c03[k] + c47[k] * t4[k]) + c8a[k] * t8[k]);
   FSM_POW_K(c[k] = (uh[k] * t[k]) * c[k]); /* u^3/12 + u^5/80 + ... */
-  fsm_pow_v a[3], s0[3], bb[3], s0e[3], lh[3], ll[3];
+  fsm_pow_v a[2], s0[2], bb[2], s0e[2], lh[2], ll[2];
   FSM_POW_K(a[k] = e[k] * LN2_HI);
   FSM_POW_K(s0[k] = a[k] + uh[k]);
   FSM_POW_K(bb[k] = s0[k] - a[k]);
@@ -177,12 +179,12 @@ static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, 
   FSM_POW_K(lh[k] = s0[k] + s0e[k]);
   FSM_POW_K(ll[k] = s0e[k] - (lh[k] - s0[k])); /* log x = lh + ll, |ll| <= ulp(lh) */
   /* z = y log x */
-  fsm_pow_v ze[3], zh[3], zl[3];
+  fsm_pow_v ze[2], zh[2], zl[2];
   FSM_POW_K(zh[k] = fsm_pow_two_prod(y[k], lh[k], &ze[k]));
   FSM_POW_K(zl[k] = ze[k] + y[k] * ll[k]);
   /* exp z = 2^n exp(rh + rl) */
   const fsm_pow_v shift = fsm_pow_splat(0x1.8p52);
-  fsm_pow_v n[3], r0[3], r0l[3], rh[3], rb[3], rl[3], r2e[3], r2[3];
+  fsm_pow_v n[2], r0[2], r0l[2], rh[2], rb[2], rl[2], r2e[2], r2[2];
   FSM_POW_K(n[k] = (zh[k] * 0x1.71547652b82fep+0 + shift) - shift);
   FSM_POW_K(r0[k] = zh[k] - n[k] * LN2_HI);   /* exact */
   FSM_POW_K(r0l[k] = zl[k] - n[k] * LN2_LO); /* |r0l| < 2^-33 */
@@ -191,7 +193,7 @@ static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, 
   FSM_POW_K(rl[k] = (r0[k] - (rh[k] - rb[k])) + (r0l[k] - rb[k])); /* r = rh + rl, |rl| <= ulp(rh) */
   FSM_POW_K(r2[k] = fsm_pow_two_prod(rh[k], rh[k], &r2e[k]));
   /* 1/3! + r/4! + ... + r^11/14!, Estrin's scheme */
-  fsm_pow_v r4[3], r8[3], q01[3], q23[3], q45[3], q67[3], q89[3], qab[3], q03[3], q47[3], q8b[3], q[3];
+  fsm_pow_v r4[2], r8[2], q01[2], q23[2], q45[2], q67[2], q89[2], qab[2], q03[2], q47[2], q8b[2], q[2];
   FSM_POW_K(r4[k] = r2[k] * r2[k]);
   FSM_POW_K(r8[k] = r4[k] * r4[k]);
   FSM_POW_K(q01[k] = 0x1.5555555555555p-3 + 0x1.5555555555555p-5 * rh[k]);
@@ -205,7 +207,7 @@ static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, 
   FSM_POW_K(q8b[k] = q89[k] + qab[k] * r2[k]);
   FSM_POW_K(q[k] = (q03[k] + q47[k] * r4[k]) + q8b[k] * r8[k]);
   FSM_POW_K(q[k] = (rh[k] * r2[k]) * q[k]); /* r^3/6 + r^4/24 + ... */
-  fsm_pow_v s1[3], s1e[3], h[3], s2[3], s2e[3], tail[3];
+  fsm_pow_v s1[2], s1e[2], h[2], s2[2], s2e[2], tail[2];
   FSM_POW_K(s1[k] = 1.0 + rh[k]);
   FSM_POW_K(s1e[k] = rh[k] - (s1[k] - 1.0)); /* |rh| < 1: exact */
   FSM_POW_K(h[k] = 0.5 * r2[k]);
@@ -213,8 +215,8 @@ static inline __attribute__((always_inline)) void fsm_pow_k(const fsm_pow_v *x, 
   FSM_POW_K(s2e[k] = h[k] - (s2[k] - s1[k])); /* |h| < s1: exact */
   FSM_POW_K(tail[k] = ((((s1e[k] + s2e[k]) + 0.5 * r2e[k]) + q[k]) + rl[k]) + rl[k] * rh[k]);
   /* the fast path: x positive normal, |y| < 16, |zh| < 708 (the result is normal) */
-  fsm_pow_m fast[3], scale[3], one[3], two[3];
-  fsm_pow_v ay[3], az[3], nf[3], res[3];
+  fsm_pow_m fast[2], scale[2], one[2], two[2];
+  fsm_pow_v ay[2], az[2], nf[2], res[2];
   FSM_POW_K(ay[k] = (fsm_pow_v)((fsm_pow_m)y[k] & 0x7fffffffffffffffLL));
   FSM_POW_K(az[k] = (fsm_pow_v)((fsm_pow_m)zh[k] & 0x7fffffffffffffffLL));
   FSM_POW_K(fast[k] = (bits[k] >= 0x0010000000000000LL) & (bits[k] < 0x7ff0000000000000LL) & (ay[k] < 16.0) &
@@ -239,20 +241,13 @@ static FSM_POW_INLINE fsm_pow_v fsm_pow_vec(fsm_pow_v x, fsm_pow_v y, int lanes)
   return r;
 }
 
-/* x0^y0 and x1^y1 (or three powers) at once, interleaved: the same bits as fsm_pow_vec of each */
+/* x0^y0 and x1^y1 at once, interleaved: the same bits as fsm_pow_vec of each */
 static FSM_POW_INLINE void fsm_pow_vec2(fsm_pow_v x0, fsm_pow_v y0, fsm_pow_v x1, fsm_pow_v y1, fsm_pow_v *r0,
                                         fsm_pow_v *r1, int lanes) {
   const fsm_pow_v x[2] = {x0, x1}, y[2] = {y0, y1};
   fsm_pow_v r[2];
   fsm_pow_k(x, y, r, 2, lanes);
   *r0 = r[0], *r1 = r[1];
-}
-static FSM_POW_INLINE void fsm_pow_vec3(fsm_pow_v x0, fsm_pow_v y0, fsm_pow_v x1, fsm_pow_v y1, fsm_pow_v x2,
-                                        fsm_pow_v y2, fsm_pow_v *r0, fsm_pow_v *r1, fsm_pow_v *r2, int lanes) {
-  const fsm_pow_v x[3] = {x0, x1, x2}, y[3] = {y0, y1, y2};
-  fsm_pow_v r[3];
-  fsm_pow_k(x, y, r, 3, lanes);
-  *r0 = r[0], *r1 = r[1], *r2 = r[2];
 }
 #endif /* __GNUC__ */
 

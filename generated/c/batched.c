@@ -46,13 +46,9 @@ static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) { return fsm_select((x < y) | (y 
 /* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
  * FSM_LANES lanes at once */
 static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) { return fsm_pow_vec(x, y, lanes); }
-/* two or three independent powers at once, their chains interleaved (the same bits as fsm_pow of each) */
+/* two independent powers at once, their chains interleaved (the same bits as fsm_pow of each) */
 static inline void fsm_pow2(fsm_v x0, fsm_v y0, fsm_v x1, fsm_v y1, fsm_v *r0, fsm_v *r1, int lanes) {
   fsm_pow_vec2(x0, y0, x1, y1, r0, r1, lanes);
-}
-static inline void fsm_pow3(fsm_v x0, fsm_v y0, fsm_v x1, fsm_v y1, fsm_v x2, fsm_v y2, fsm_v *r0, fsm_v *r1,
-                            fsm_v *r2, int lanes) {
-  fsm_pow_vec3(x0, y0, x1, y1, x2, y2, r0, r1, r2, lanes);
 }
 /* sin, cos: fsmctl's (fsmctl/csrc/fsm_trig.h, likewise), FSM_LANES lanes at once */
 static inline fsm_v fsm_sin(fsm_v x, int lanes) { return fsm_sincos_vec(x, 1, lanes); }

@@ -46,13 +46,9 @@ static inline fsm_v fsm_fmin(fsm_v x, fsm_v y) { return fsm_select((x < y) | (y 
 /* pow: fsmctl's (fsmctl/csrc/fsm_pow.h, the pow of every compiled path: a lane gets exactly the scalar result),
  * FSM_LANES lanes at once */
 static inline fsm_v fsm_pow(fsm_v x, fsm_v y, int lanes) { return fsm_pow_vec(x, y, lanes); }
-/* two or three independent powers at once, their chains interleaved (the same bits as fsm_pow of each) */
+/* two independent powers at once, their chains interleaved (the same bits as fsm_pow of each) */
 static inline void fsm_pow2(fsm_v x0, fsm_v y0, fsm_v x1, fsm_v y1, fsm_v *r0, fsm_v *r1, int lanes) {
   fsm_pow_vec2(x0, y0, x1, y1, r0, r1, lanes);
-}
-static inline void fsm_pow3(fsm_v x0, fsm_v y0, fsm_v x1, fsm_v y1, fsm_v x2, fsm_v y2, fsm_v *r0, fsm_v *r1,
-                            fsm_v *r2, int lanes) {
-  fsm_pow_vec3(x0, y0, x1, y1, x2, y2, r0, r1, r2, lanes);
 }
 /* sin, cos: fsmctl's (fsmctl/csrc/fsm_trig.h, likewise), FSM_LANES lanes at once */
 static inline fsm_v fsm_sin(fsm_v x, int lanes) { return fsm_sincos_vec(x, 1, lanes); }
@@ -170,8 +166,9 @@ int law_local_paper_batched(const double *const *arg, double *const *res, int la
   const fsm_v v147 = fsm_fabs(v121);
   const fsm_v v181 = fsm_fabs(v102);
   const fsm_v v65 = fsm_load(arg[8] + FSM_LANES * 2);
-  fsm_v v66, v149, v183;
-  fsm_pow3(v63, v65, v147, v65, v181, v65, &v66, &v149, &v183, lanes);
+  fsm_v v66, v149;
+  fsm_pow2(v63, v65, v147, v65, &v66, &v149, lanes);
+  const fsm_v v183 = fsm_pow(v181, v65, lanes);
   const fsm_v v62 = fsm_load(arg[8] + FSM_LANES * 4);
   const fsm_v v71 = fsm_load(arg[9] + FSM_LANES * 0);
   const fsm_v v76 = v71 / v62;
@@ -869,8 +866,9 @@ int law_local_exact_batched(const double *const *arg, double *const *res, int la
   const fsm_v v203 = fsm_fabs(v105);
   const fsm_v v237 = fsm_fabs(v116);
   const fsm_v v65 = fsm_load(arg[8] + FSM_LANES * 2);
-  fsm_v v66, v205, v239;
-  fsm_pow3(v63, v65, v203, v65, v237, v65, &v66, &v205, &v239, lanes);
+  fsm_v v66, v205;
+  fsm_pow2(v63, v65, v203, v65, &v66, &v205, lanes);
+  const fsm_v v239 = fsm_pow(v237, v65, lanes);
   const fsm_v v62 = fsm_load(arg[8] + FSM_LANES * 4);
   const fsm_v v71 = fsm_load(arg[9] + FSM_LANES * 0);
   const fsm_v v76 = v71 / v62;
