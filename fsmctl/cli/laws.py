@@ -103,7 +103,8 @@ def law_to_dict(law) -> dict:
     Returns
     -------
     dict
-        ``name``, ``doc``, ``reference``, ``source``, ``folder``, ``builtin``, ``broadcast`` (name, size),
+        ``name``, ``doc``, ``reference``, ``source`` (its derivation script, :meth:`~fsmctl.model.laws.LawCode.script`:
+        a built-in law's installed file), ``folder``, ``builtin``, ``broadcast`` (name, size),
         ``states`` (as declared), ``lyapunov`` (whether one is declared), the declarations ``discontinuity``
         (``where``, ``smoothed_by``, or None), ``presets`` (name, default, options, doc), ``loop_rates`` (their
         doc, or None), ``paper_theorems`` (the paper's symbol -> parameter name, or None) and ``trigger`` (its
@@ -114,7 +115,7 @@ def law_to_dict(law) -> dict:
         "name": law.name,
         "doc": law.doc,
         "reference": law.reference,
-        "source": law.source,
+        "source": law.script(),
         "folder": str(law.folder),
         "builtin": law.builtin,
         "broadcast": {"name": law.broadcast_name, "size": law.n_broadcast},
@@ -182,7 +183,7 @@ def format_law(law) -> str:
     lines = [f"{law.name}: {law.doc}" if law.doc else law.name]
     if law.reference:
         lines.append(f"  reference: {law.reference}")
-    lines.append(f"  source:    {law.source or '?'} ({where})")
+    lines.append(f"  source:    {law.script() or '?'} ({where})")
     lines.append(f"  broadcast: {law.broadcast_name} ({law.n_broadcast} values sent to the neighbours)")
     if law.states:
         states = "; ".join(

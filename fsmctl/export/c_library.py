@@ -722,7 +722,7 @@ def write_c_library(
             "format": EXPORT_FORMAT,
             "law": {
                 "name": code.name,
-                "source": code.source,
+                "source": code.script(portable=True),
                 "manifest_sha256": file_sha256(code.folder / "manifest.json"),
                 "functions": _function_names(code, error_model),
             },

@@ -9,7 +9,11 @@ import os
 from importlib import resources
 from pathlib import Path
 
-__all__ = ["GeneratedCodeError", "generated_dir", "builtin_law_scripts", "cache_root"]
+__all__ = ["GeneratedCodeError", "generated_dir", "builtin_law_scripts", "BUILTIN_LAW_SCRIPTS_PACKAGE", "cache_root"]
+
+BUILTIN_LAW_SCRIPTS_PACKAGE = "fsmctl._builtin_laws"
+"""The package data holding the built-in laws' derivation scripts (``derive/laws/`` of the source tree,
+``pyproject.toml``): ``fsmctl/_builtin_laws/`` inside an installation."""
 
 
 class GeneratedCodeError(RuntimeError):
@@ -63,7 +67,8 @@ def builtin_law_scripts() -> Path:
     Returns
     -------
     pathlib.Path
-        The folder holding ``fsm.py``, ``pd.py``, ... (the ``source`` of each built-in law's ``law.json``).
+        The folder holding ``fsm.py``, ``pd.py``, ... (each built-in law's ``law.json`` names its script by a path
+        of the source tree; :meth:`fsmctl.model.laws.LawCode.script` says where it is, from this folder).
 
     Raises
     ------
@@ -77,7 +82,7 @@ def builtin_law_scripts() -> Path:
     True
     """
     try:
-        return Path(str(resources.files("fsmctl._builtin_laws")))
+        return Path(str(resources.files(BUILTIN_LAW_SCRIPTS_PACKAGE)))
     except ModuleNotFoundError:  # a source tree on sys.path, not installed
         tree = Path(__file__).resolve().parents[2] / "derive" / "laws"
     if not tree.is_dir():  # pragma: no cover - broken installation

@@ -38,7 +38,13 @@ import numpy as np
 
 from fsmctl.codegen.formats import LAW_FILE, LAW_FORMAT, LAW_FORMAT_OLDEST, MANIFEST_FILE, MANIFEST_FORMAT, law_format
 from fsmctl.errors import InputError
-from fsmctl.model.generated_paths import GeneratedCodeError, cache_root, generated_dir
+from fsmctl.model.generated_paths import (
+    BUILTIN_LAW_SCRIPTS_PACKAGE,
+    GeneratedCodeError,
+    builtin_law_scripts,
+    cache_root,
+    generated_dir,
+)
 from fsmctl.ranges import ParameterRange
 from fsmctl.suggest import did_you_mean
 from fsmctl.version import __version__
@@ -400,7 +406,8 @@ class LawCode:
     reference : str
         Where it comes from (a paper), possibly empty.
     source : str
-        The derivation script it was generated from.
+        The derivation script it was generated from, as ``law.json`` records it (a built-in law's is a path of the
+        source tree, which is not installed): :meth:`script` says where it is.
     parameters : tuple of LawParameterInfo
         The declared parameters, in packing order.
     states : tuple of dict
@@ -469,6 +476,45 @@ class LawCode:
     def builtin(self) -> bool:
         """Whether this is one of the built-in laws of ``generated/laws/``."""
         return self.folder.parent == (generated_dir() / "laws").resolve()
+
+    def script(self, *, portable: bool = False) -> str:
+        """Where the law's derivation script is for the user of this installation: what every output names.
+
+        :attr:`source` is what ``law.json`` records. A built-in law's is a path of the source tree
+        (``derive/laws/fsm.py``, part of the generated code ``python -m derive --check`` compares), and ``derive/``
+        is not installed: its script is the package data ``fsmctl._builtin_laws``
+        (:func:`~fsmctl.model.generated_paths.builtin_law_scripts`). A derived law's folder knows its script by
+        the name it was derived from (``fsmctl derive my_law.py``), which is what is named.
+
+        Parameters
+        ----------
+        portable : bool, optional
+            False (default): a built-in law's installed script as an absolute path, a file to open (what the
+            terminal shows). True: the same text on every machine, for what is written to files (result files,
+            run records, exported libraries, reports): the script's path inside an installation,
+            ``fsmctl/_builtin_laws/fsm.py``.
+
+        Returns
+        -------
+        str
+            The script ("" when ``law.json`` names none).
+
+        Examples
+        --------
+        >>> from pathlib import Path
+        >>> from fsmctl.model import resolve_law
+        >>> fsm = resolve_law("fsm")
+        >>> fsm.source, fsm.script(portable=True), Path(fsm.script()).is_file()
+        ('derive/laws/fsm.py', 'fsmctl/_builtin_laws/fsm.py', True)
+        >>> Path(resolve_law("pid").script()).name
+        'pd.py'
+        """
+        if not self.source or not self.builtin:
+            return self.source
+        name = Path(self.source).name
+        if portable:
+            return f"{BUILTIN_LAW_SCRIPTS_PACKAGE.replace('.', '/')}/{name}"
+        return str(builtin_law_scripts() / name)
 
     def parameter(self, name: str) -> LawParameterInfo:
         """A declared parameter by name.

@@ -725,7 +725,7 @@ class Scenario:
         differing = sorted(set(per_agent[0]) - set(common))
         lines = [
             f"scenario {self.label}: {self.n_agents} agents, {len(self.topology.links)} links",
-            f"  law: {law.name} ({law.source or law.folder})"
+            f"  law: {law.name} ({law.script(portable=True) or law.folder})"
             + "".join(
                 f", {g.name}={c.parameters[g.name]}"
                 for g in law.presets

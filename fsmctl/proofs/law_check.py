@@ -64,7 +64,6 @@ from pathlib import Path
 import numpy as np
 import sympy as sp
 
-from fsmctl.model.generated_paths import builtin_law_scripts
 from fsmctl.model.laws import LawCode, LawError, builtin_laws, resolve_law
 from fsmctl.parallel import run_with_time_limit
 from fsmctl.proofs.symbolic_identities import (
@@ -163,7 +162,9 @@ class LawReport:
     error_model : str
         ``"paper"`` or ``"exact"``: the generated functions compared.
     source : str
-        Where the generated code came from.
+        The derivation script the generated code came from, as records name it
+        (:meth:`~fsmctl.model.laws.LawCode.script` with ``portable=True``: ``fsmctl/_builtin_laws/fsm.py`` for a
+        built-in law); empty when no generated code was checked.
     notes : tuple of str
         Further remarks (the seed, where the paper's own claims are checked).
 
@@ -352,7 +353,7 @@ def _builtin_variants(name: str) -> LawVariants | None:
     law = builtin_laws().get(name)
     if law is None:
         return None
-    return load_derivation_script(builtin_law_scripts() / Path(law.source).name)
+    return load_derivation_script(Path(law.script()))
 
 
 def load_law_variants(spec: str) -> LawVariants:
@@ -389,7 +390,7 @@ def load_law_variants(spec: str) -> LawVariants:
             variants = _builtin_variants(code.name)
             if variants is not None:
                 return variants
-        source = meta.get("source") or "its derivation script"
+        source = code.script() or "its derivation script"
         raise LawError(
             f"law {text!r}: a derived folder holds only the generated code; `fsmctl prove --law` needs the "
             f"derivation script (law.json names it {source!r}): pass that FILE.py"
@@ -1315,11 +1316,11 @@ def check_law(
     source = ""
     if "generated-equals-symbolic" in wanted:
         code = resolve_law(spec)
-        source = code.source
+        source = code.script(portable=True)
         out.append(timed(_check_generated, law, code, np.random.default_rng([seed, 1]), samples, seed))
     if "wheels-realise-torque" in wanted and law.n_wheels:
         code = resolve_law(spec)
-        source = source or code.source
+        source = source or code.script(portable=True)
         out.append(timed(_check_wheels, law, code, np.random.default_rng([seed, 4]), samples, seed))
     cl = None
     if wanted & {"closed-loop", "closed-loop-eq20", "lyapunov"}:

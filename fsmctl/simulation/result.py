@@ -489,7 +489,7 @@ class SimulationResult:
                 "generated_code": ", ".join(f"{k} {v}" for k, v in manifest()["versions"].items()),
                 "source": "Liang, Sun & Wang, Acta Astronautica 81 (2012) 445-455",
                 "law": self.law.name,
-                "law_source": self.law.source,
+                "law_source": self.law.script(portable=True),
                 "law_states": ", ".join(self.law.state_labels()),
             }
         )
