@@ -552,3 +552,80 @@ def test_the_fast_option_names_the_horizons_its_runs_fly(capsys):
     short, long = horizons["case1"], horizons["case1_long"]
     assert long > short and horizons["case2_long"] == long
     assert f"--fast short horizons for tests and quick looks ({short:g} s; the long runs {long:g} s)" in text, text
+
+
+# ----------------------------------------------------------------------------- texts of the run whose numbers they quote
+
+
+def _fast_like(case2_long_settle=None):
+    """The plan's runs at ``--fast``'s horizons: 10 s, the long runs 30 s, every window 4 s (as ``fsmctl reproduce``:
+    a long run keeps the window of the horizon it lengthens); Case 2's two runs with different steady maxima."""
+    from dataclasses import replace
+
+    recs = {spec.key: _record(spec.key, t_final=10.0) for spec in run_plan()}
+    recs["case1_long"] = _record("case1_long", t_final=30.0)
+    recs["case2_long"] = _record("case2_long", t_final=30.0, settle=case2_long_settle, steady=0.002)
+    recs = {k: replace(r, steady_window_s=4.0) for k, r in recs.items()}
+    recs["case2"] = replace(recs["case2"], aaem_steady_max_deg=134.6, raem_steady_max_deg=136.8)
+    long2 = (124.0, 137.6) if case2_long_settle is None else (0.002, 0.001)  # the maxima over its last 4 s
+    recs["case2_long"] = replace(recs["case2_long"], aaem_steady_max_deg=long2[0], raem_steady_max_deg=long2[1])
+    return recs
+
+
+@pytest.mark.parametrize("case2_long_settle", [None, 20.0])
+def test_case2_accuracy_evidence_quotes_the_run_its_verdict_speaks_of(case2_long_settle):
+    """``--fast``: Case 2 flies 10 s, its long run 30 s, and the verdict reads the long run when Case 2 has not
+    settled.  The row and the reason spoke of the 30 s run ("not settled to 1° in 30 s") while the evidence quoted the
+    10 s run's steady window alone ("Case 2 max over the last 4 s: AAEM 134.6°, ...", no horizon): the evidence
+    quotes every run the verdict reads, each with its own window and horizon."""
+    recs = _fast_like(case2_long_settle)
+    row = next(c for c in evaluate_claims(recs, _bounds(34.0)) if c.id == "case2_accuracy")
+    assert row.verdict == DIFFERS
+    value = row.this_run_value
+    short_run, long_run = value.split(". ")
+    assert short_run.startswith("case2, max over the last 4 s (40 % of the 10 s horizon): AAEM 134.6°, RAEM 136.8°")
+    assert long_run.startswith("case2 long, max over the last 4 s (13.3 % of the 30 s horizon): AAEM ")
+    if case2_long_settle is None:
+        assert row.this_run_short == "not settled to 1° in 30 s" and "within 30 s" in row.reason
+        assert long_run.endswith("AAEM 124.0°, RAEM 137.6°; settled at 1°: no")
+    else:  # the row quotes the long run's errors: so does the evidence
+        assert row.this_run_short == "AAEM 0.002°, RAEM 0.001° (after settling, 30 s run)"
+        assert long_run.endswith("AAEM 0.002°, RAEM 0.001°; settled at 1°: yes")
+
+
+def test_case2_accuracy_evidence_is_case2_alone_when_it_settles():
+    """Case 2 settled within its horizon: the long run is not read, nor quoted."""
+    recs = {spec.key: _record(spec.key, settle=50.0, steady=0.2) for spec in run_plan()}
+    row = next(c for c in evaluate_claims(recs, _bounds(10.0)) if c.id == "case2_accuracy")
+    assert row.verdict == REPRODUCED and row.this_run_short == "AAEM 0.2°, RAEM 0.1°"
+    assert (
+        row.this_run_value
+        == "case2, max over the last 40 s (40 % of the 100 s horizon): AAEM 0.2°, RAEM 0.1°; settled at 1°: yes"
+    )
+
+
+def _report_line(tmp_path, recs, fast: bool, start: str) -> str:
+    """The line of report.md that holds ``start`` (Case 1's initial numbers made up)."""
+    from dataclasses import replace
+
+    from fsmctl.studies.report import Reproduction, to_markdown
+
+    initial = dict.fromkeys(("aaem_initial_deg", "raem_initial_deg", "aaem_peak_deg", "raem_peak_deg"), 100.0)
+    recs = {**recs, "case1": replace(recs["case1"], summary={**recs["case1"].summary, **initial})}
+    claims = evaluate_claims(recs, _bounds(34.0))
+    rep = Reproduction(tmp_path, fast, [], recs, _bounds(34.0), claims, inertia_check=[], files=[], wall_time_s=1.0)
+    (line,) = [ln for ln in to_markdown(rep).splitlines() if start in ln]
+    return line
+
+
+def test_the_runs_table_states_the_window_each_run_took(tmp_path):
+    """The runs table stated the policy's window ("the last 40% of the horizon, at most 40 s") for every run: under
+    ``--fast`` the 30 s long runs take 4 s (the window of the 10 s horizon they lengthen), not 12 s."""
+    line = _report_line(tmp_path, _fast_like(), True, "Steady-state accuracy")
+    assert (
+        "Steady-state accuracy: the maximum over the last 40% of the horizon, at most 40 s; case1_long and "
+        "case2_long: the last 4 s (13.3 % of the 30 s horizon)." in line
+    )
+    full = {spec.key: _record(spec.key, t_final=300.0 if "long" in spec.key else 100.0) for spec in run_plan()}
+    line = _report_line(tmp_path, full, False, "Steady-state accuracy")
+    assert "Steady-state accuracy: the maximum over the last 40% of the horizon, at most 40 s. Saturated" in line

@@ -193,7 +193,9 @@ class StudyClaim:
     holds : callable
         ``holds(records, tolerance_deg) -> bool``: the ``reproduced`` test.
     value : callable
-        ``value(grading) -> str``: this run's numbers in full (the report's evidence).
+        ``value(grading) -> str``: this run's numbers in full (the report's evidence): those of every run the verdict
+        reads (a longer run too when it reads one), each worded from its own record (its horizon and window:
+        ``--fast`` flies 10 s and the long runs 30 s).
     numbers : callable
         ``numbers(records, tolerance_deg) -> str``: the numbers an explanation shows (default and evidence run).
     grade : callable
