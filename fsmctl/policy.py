@@ -45,7 +45,8 @@ Converged (:data:`CONVERGED_RULE`): a run has converged when AAEM and RAEM each 
 :data:`TOLERANCE_DEG` from some time until the end of the run (``simulate``'s first line, a Monte Carlo run's
 ``converged``).  Steady (:func:`default_steady_window`, :func:`steady_window_text`): the steady-state figures of
 every command (``simulate``, ``compare``, ``compare-surfaces``, ``tune``, ``montecarlo``, ``reproduce``'s report) are
-taken over the last 40 % of the horizon, at most 40 s, unless a command is told ``--steady-window``; each output
+taken over the last 40 % of the horizon, at most 40 s, unless a command is told ``--steady-window`` (``reproduce``'s
+long runs keep the window of the horizon they lengthen: 40 s of 300 s, 4 s of 30 s with ``--fast``); each output
 that prints one states its window.
 
 Workers: every command that runs things in parallel (``prove``, ``reproduce``, ``compare``, ``compare-surfaces``,

@@ -102,6 +102,11 @@ def test_evidence_file_reloads_and_reproduces_its_numbers(settling):
     assert data == {"extends": "paper", "controller": {"torque_limit": threshold}}  # just the change
     scenario = run_scenario(str(path), SPECS["case1"], True)
     assert scenario.controller.torque_limit == threshold and scenario.simulation.t_final == 10.0
+    # its comments say what was flown: the horizon and output grid of the run reloaded from the file
+    sim = scenario.simulation
+    assert f"# fsmctl reproduce --fast flew case1 for {sim.t_final:g} s, output every {sim.output_interval:g} s" in (
+        path.read_text().splitlines()
+    )
     record = run_record(SPECS["case1"], scenario, _fly(scenario))
     assert get_claim("settling_27s").holds({"case1": record}, 1.0)
     for metric in ("aaem", "raem"):

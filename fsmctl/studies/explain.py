@@ -69,7 +69,7 @@ from fsmctl.studies.explain_search import (
 )
 from fsmctl.studies.explain_settings import Candidate, Setting, candidate_source, scenario_text, search_settings
 from fsmctl.studies.figure_checks import FIGURE_CHECKS
-from fsmctl.studies.paper_runs import load_case
+from fsmctl.studies.paper_runs import load_case, run_scenario
 
 __all__ = ["PAIR_BUDGET_RUNS", "EXPLAIN_DIR", "explain"]
 
@@ -293,8 +293,11 @@ def _evidence_runs(state: _State, runner: CandidateRuns) -> dict[Candidate, list
     return keys
 
 
-def _evidence_comments(cand: Candidate, explains: list[str], runs: list[str], settings, law_path, fast) -> list[str]:
-    """The comment lines at the top of an evidence scenario file."""
+def _evidence_comments(
+    cand: Candidate, explains: list[str], runs: list[str], settings, data, law_path, fast
+) -> list[str]:
+    """The comment lines at the top of an evidence scenario file; ``data``: its source with the law where this process
+    finds it (the runs' horizons and output grids are read from the scenarios :func:`run_scenario` builds of it)."""
     cases = list(dict.fromkeys(RUN_SPECS[k].case for k in runs))
     comments = [
         f"written by fsmctl reproduce: the evidence run of {', '.join(explains)}",
@@ -308,10 +311,16 @@ def _evidence_comments(cand: Candidate, explains: list[str], runs: list[str], se
         )
     if cand.tolerance() is not None:
         comments.append(f"grading: settling tolerance {cand.tolerance():g} deg (not a scenario setting)")
-    if fast:
-        comments.append("fsmctl reproduce --fast flew it for 10 s with output every 0.05 s")
-    if "case2_long" in runs:
-        comments.append("Case 2 was also flown on a 3x longer horizon (t_final x3, output every 0.05 s)")
+    flown: dict[tuple[float, float], list[str]] = {}  # the horizon and output grid of each run, as it was flown
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the scenarios' warnings (the law's switch) were shown when the runs flew
+        for k in runs:
+            sim = run_scenario(data, RUN_SPECS[k], fast).simulation
+            flown.setdefault((sim.t_final, sim.output_interval), []).append(k)
+    comments.append(
+        f"fsmctl reproduce{' --fast' if fast else ''} flew "
+        + "; ".join(f"{', '.join(ks)} for {t:g} s, output every {dt:g} s" for (t, dt), ks in flown.items())
+    )
     return comments
 
 
@@ -330,7 +339,10 @@ def _write_evidence(base, state: _State, runner: CandidateRuns, settings, out: P
             law_path = UNSWITCHED_LAW
         data = candidate_source(base, cand.simulated(), settings, law_path)
         path = folder / f"{cand.key()}.toml"
-        write_text(path, scenario_text(data, _evidence_comments(cand, explains, keys[cand], settings, law_path, fast)))
+        found = candidate_source(base, cand.simulated(), settings)  # the law at its installed path: loadable here
+        write_text(
+            path, scenario_text(data, _evidence_comments(cand, explains, keys[cand], settings, found, law_path, fast))
+        )
         files[cand] = path
     tasks = {(c, k): (str(files[c]), c, RUN_SPECS[k], fast) for c in sorted(keys) for k in keys[c]}
     reruns = fly(tasks, runner.runner, runner.bar)
