@@ -9,6 +9,7 @@ software-in-the-loop flights; Python's ``math`` (C99 Annex F, correctly rounded 
 from __future__ import annotations
 
 import ctypes
+import json
 import math
 import shutil
 import subprocess
@@ -102,6 +103,12 @@ def test_export_is_byte_reproducible(tmp_path):
         assert (a.folder / name).read_bytes() == (b.folder / name).read_bytes(), name
     assert a.manifest["sha256"] == b.manifest["sha256"]
     assert read_c_library(a.folder).manifest == a.manifest
+
+    def refuse(token):
+        raise ValueError(f"not strict JSON: {token}")
+
+    strict = json.loads((a.folder / "manifest.json").read_text(), parse_constant=refuse)  # no Infinity / NaN token
+    assert strict == a.manifest and strict["torque_limit"] == "inf"  # the default: no limit
 
 
 @pytest.fixture(scope="module")

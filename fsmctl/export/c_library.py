@@ -35,7 +35,7 @@ import sympy as sp
 from fsmctl.codegen.c99 import UnsupportedExportInstructionError, c99_function, c99_signature
 from fsmctl.errors import InputError
 from fsmctl.model.laws import LawCode, LawError, LawParameterInfo, builtin_laws, initial_law_states, resolve_law
-from fsmctl.outputs import output_folder, write_text
+from fsmctl.outputs import jsonable, output_folder, write_json, write_text
 from fsmctl.version import __version__
 
 __all__ = [
@@ -735,7 +735,8 @@ def write_c_library(
             "versions": {"fsmctl": __version__, **law_manifest.get("versions", {}), "sympy_installed": sp.__version__},
             "sha256": {name: file_sha256(folder / name) for name in sorted(texts)},
         }
-        write_text(folder / "manifest.json", json.dumps(manifest, indent=2) + "\n")
+        manifest = jsonable(manifest)  # strict JSON, as read back: an infinite torque limit is "inf"
+        write_json(folder / "manifest.json", manifest)
     sources = tuple(folder / n for n in (f"{P}.c", f"{P}_law.c", f"{P}_math.c"))
     return CLibrary(folder, P, precision, error_model, code, sources, manifest)
 
