@@ -25,7 +25,7 @@ from fsmctl.model import builtin_laws, resolve_law
 from fsmctl.proofs.law_check import check_law
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "docs" / "examples"
-PORTABLE = re.compile(r"^fsmctl/_builtin_laws/(\w+\.py)$")
+PORTABLE = re.compile(r"^(\w+\.py) in fsmctl\._builtin_laws$")
 
 
 @pytest.fixture(autouse=True)
@@ -90,8 +90,8 @@ def test_fsmctl_laws_one_law_text_and_json_show_its_installed_script(capsys):
 def test_a_result_file_and_the_scenario_lines_name_the_portable_script():
     scenario = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.02})
     ds = fsmctl.simulate(scenario).to_dataset()
-    assert ds.attrs["law_source"] == resolve_law("fsm").script(portable=True) == "fsmctl/_builtin_laws/fsm.py"
-    assert "  law: fsm (fsmctl/_builtin_laws/fsm.py)" in scenario.describe()
+    assert ds.attrs["law_source"] == resolve_law("fsm").script(portable=True) == "fsm.py in fsmctl._builtin_laws"
+    assert "  law: fsm (fsm.py in fsmctl._builtin_laws)" in scenario.describe()
     installed = str(Path(resolve_law("fsm").script()).parent)
     for key, value in ds.attrs.items():  # reproducible: nothing of this machine's installation, no source tree path
         assert installed not in str(value) and "derive/laws" not in str(value), key
@@ -99,11 +99,11 @@ def test_a_result_file_and_the_scenario_lines_name_the_portable_script():
 
 def test_an_exported_library_names_the_portable_script(tmp_path):
     lib = write_c_library("pid", tmp_path / "pid_c", control_period=0.01)
-    assert lib.manifest["law"]["source"] == "fsmctl/_builtin_laws/pd.py"
+    assert lib.manifest["law"]["source"] == "pd.py in fsmctl._builtin_laws"
     assert read_c_library(lib.folder).law.name == "pid"
 
 
 def test_a_law_report_names_the_portable_script():
     report = check_law("pid", checks=["generated-equals-symbolic"], samples=4)
-    assert report.source == report.to_dict()["source"] == "fsmctl/_builtin_laws/pd.py"
-    assert "from `fsmctl/_builtin_laws/pd.py`" in report.to_markdown()
+    assert report.source == report.to_dict()["source"] == "pd.py in fsmctl._builtin_laws"
+    assert "from `pd.py in fsmctl._builtin_laws`" in report.to_markdown()

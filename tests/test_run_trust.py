@@ -11,6 +11,7 @@ friction can only take energy out of a wheel: a step the report flags makes it g
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import shutil
@@ -33,6 +34,7 @@ from fsmctl.model.laws import resolve_law
 from fsmctl.simulation import step_size_report
 from fsmctl.simulation.results_io import (
     LawChangedError,
+    ResultFileError,
     fingerprint_change,
     load_result,
     problem_fingerprint,
@@ -408,3 +410,42 @@ def test_noise_seeds_drawn_per_chunk_are_the_documented_ones(tmp_path):
     runs = np.random.SeedSequence(11).spawn(5)  # the documented seeds of the runs
     expected = [int(r.spawn(1)[0].generate_state(1, np.uint64)[0]) >> 11 for r in runs]
     assert result.dataset["noise_seed"].values.astype(np.int64).tolist() == expected
+
+
+def test_from_refuses_another_fsmctls_builtin_law(tmp_path, capsys):
+    """Was: a built-in law's result recorded no content hash, so `--from` on another fsmctl flew whatever its law of
+    that name was.  The recorded hash is the sha256 of the law's generated manifest.json (hashlib on the file); a
+    result recording another one (what another fsmctl's `fsm` gives) is refused."""
+    scenario = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.05})
+    path = fsmctl.simulate(scenario).save(tmp_path / "r.csv")
+    attrs = load_result(path).attrs
+    manifest = resolve_law("fsm").folder / "manifest.json"
+    assert attrs["law_builtin"] == "true"
+    assert attrs["law_manifest_sha256"] == hashlib.sha256(manifest.read_bytes()).hexdigest()
+    assert scenario_from_result(path) == scenario
+    other = path.read_text().replace(attrs["law_manifest_sha256"], "0" * 64)  # another fsmctl's fsm
+    (tmp_path / "other.csv").write_text(other)
+    with pytest.raises(LawChangedError, match="is not the one this result was flown with"):
+        scenario_from_result(tmp_path / "other.csv")
+    rc, err = _exit(["simulate", "--from", str(tmp_path / "other.csv"), "--out", str(tmp_path / "again")], capsys)
+    assert rc == 2 and err.count("\n") == 1 and "is not the one this result was flown with" in err, err
+
+
+@pytest.mark.filterwarnings("ignore:law 'pid' flown instead of 'fsm'")
+def test_from_names_the_recorded_path_of_a_law_that_is_gone(tmp_path, capsys, monkeypatch):
+    """Was: a user law moved away from the absolute path a result records was looked for at the embedded relative
+    path from the current folder, and the error named that path, which the result never recorded."""
+    (tmp_path / "a").mkdir()
+    (tmp_path / "elsewhere").mkdir()
+    shutil.copytree(resolve_law("pid").folder, tmp_path / "a" / "law")
+    monkeypatch.chdir(tmp_path / "a")
+    base = fsmctl.paper_scenario("1").replace(simulation={"t_final": 0.05}, controller={"law": "law"})
+    path = fsmctl.simulate(base).save(tmp_path / "a" / "r.nc")
+    recorded = str((tmp_path / "a" / "law").resolve())
+    shutil.move(tmp_path / "a" / "law", tmp_path / "a" / "law_moved")
+    monkeypatch.chdir(tmp_path / "elsewhere")
+    with pytest.raises(ResultFileError, match="is gone from") as caught:
+        scenario_from_result(path)
+    assert recorded in str(caught.value) and "'law' is not found from here" in str(caught.value)
+    rc, err = _exit(["simulate", "--from", str(path), "--out", str(tmp_path / "again")], capsys)
+    assert rc == 2 and err.count("\n") == 1 and recorded in err, err

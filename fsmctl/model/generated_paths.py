@@ -13,7 +13,7 @@ __all__ = ["GeneratedCodeError", "generated_dir", "builtin_law_scripts", "BUILTI
 
 BUILTIN_LAW_SCRIPTS_PACKAGE = "fsmctl._builtin_laws"
 """The package data holding the built-in laws' derivation scripts (``derive/laws/`` of the source tree,
-``pyproject.toml``): ``fsmctl/_builtin_laws/`` inside an installation."""
+``pyproject.toml``); outputs name a built-in law's script as ``fsm.py in fsmctl._builtin_laws``."""
 
 
 class GeneratedCodeError(RuntimeError):

@@ -491,8 +491,9 @@ class LawCode:
         portable : bool, optional
             False (default): a built-in law's installed script as an absolute path, a file to open (what the
             terminal shows). True: the same text on every machine, for what is written to files (result files,
-            run records, exported libraries, reports): the script's path inside an installation,
-            ``fsmctl/_builtin_laws/fsm.py``.
+            run records, exported libraries, reports): the script as the package resource it is,
+            ``fsm.py in fsmctl._builtin_laws`` (no path: an editable install keeps it in the source tree's
+            ``derive/laws/``, another installation in its site-packages; ``fsmctl laws NAME`` shows where).
 
         Returns
         -------
@@ -505,7 +506,7 @@ class LawCode:
         >>> from fsmctl.model import resolve_law
         >>> fsm = resolve_law("fsm")
         >>> fsm.source, fsm.script(portable=True), Path(fsm.script()).is_file()
-        ('derive/laws/fsm.py', 'fsmctl/_builtin_laws/fsm.py', True)
+        ('derive/laws/fsm.py', 'fsm.py in fsmctl._builtin_laws', True)
         >>> Path(resolve_law("pid").script()).name
         'pd.py'
         """
@@ -513,7 +514,7 @@ class LawCode:
             return self.source
         name = Path(self.source).name
         if portable:
-            return f"{BUILTIN_LAW_SCRIPTS_PACKAGE.replace('.', '/')}/{name}"
+            return f"{name} in {BUILTIN_LAW_SCRIPTS_PACKAGE}"
         return str(builtin_law_scripts() / name)
 
     def parameter(self, name: str) -> LawParameterInfo:

@@ -163,7 +163,7 @@ class LawReport:
         ``"paper"`` or ``"exact"``: the generated functions compared.
     source : str
         The derivation script the generated code came from, as records name it
-        (:meth:`~fsmctl.model.laws.LawCode.script` with ``portable=True``: ``fsmctl/_builtin_laws/fsm.py`` for a
+        (:meth:`~fsmctl.model.laws.LawCode.script` with ``portable=True``: ``fsm.py in fsmctl._builtin_laws`` for a
         built-in law); empty when no generated code was checked.
     notes : tuple of str
         Further remarks (the seed, where the paper's own claims are checked).

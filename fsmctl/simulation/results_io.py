@@ -3,11 +3,11 @@
 Every result file fsmctl writes embeds its **provenance** (:func:`provenance`, the one builder every writer
 calls: ``fsmctl simulate``, and the Monte Carlo and reproduction writers): the complete scenario as TOML text
 (:meth:`fsmctl.model.scenario.Scenario.to_toml`, self-contained: the flown case resolved), the case, the law
-(its name, and for a user's law its absolute path and its content hash, the sha256 of its generated
-``manifest.json``: :func:`law_content_sha256`), the versions of fsmctl, Python, NumPy, SymPy, CasADi,
+(its name, its content hash, the sha256 of its generated ``manifest.json``: :func:`law_content_sha256`, and
+for a user's law its absolute path), the versions of fsmctl, Python, NumPy, SymPy, CasADi,
 python-control and xarray, and the command line when one is given.  :func:`scenario_from_result` reads the
-scenario back, so a result re-runs from itself (a user's law from its recorded absolute path, and only if its
-content hash is still the recorded one: else :class:`LawChangedError`)::
+scenario back, so a result re-runs from itself (a user's law from its recorded absolute path; any law only if its
+content hash is still the recorded one, a built-in law of another fsmctl included: else :class:`LawChangedError`)::
 
     fsmctl simulate --from runs/case1/result.nc
 
@@ -154,8 +154,8 @@ class MissingScenarioError(ResultFileError):
 
 
 class LawChangedError(ResultFileError):
-    """A result's user law (script or folder) is no longer the one that was flown: the law found now has another
-    content hash (:func:`law_content_sha256`) than the one the result records, so a re-run would fly another law.
+    """A result's law is no longer the one that was flown (a user law's script or folder changed, or another fsmctl's
+    built-in law of that name): the law found now has another content hash (:func:`law_content_sha256`) than the one the result records, so a re-run would fly another law.
 
     Raised by :func:`scenario_from_result` (``fsmctl simulate --from``: one line, exit 2).
 
@@ -245,7 +245,8 @@ def _law_provenance(scenario: Scenario) -> dict[str, str]:
         given = Path(scenario.controller.law).expanduser()  # a script or a derived folder
         out["law_path"] = str(given.resolve()) if given.exists() else scenario.controller.law
         out["law_folder"] = str(law.folder)
-        out["law_manifest_sha256"] = law_content_sha256(law)
+    # a built-in law too: another fsmctl's law of the same name may be another law (scenario_from_result checks it)
+    out["law_manifest_sha256"] = law_content_sha256(law)
     return out
 
 
@@ -351,8 +352,9 @@ def provenance(scenario: Scenario, *, command: Sequence[str] | str | None = None
     dict of str to str
         ``fsmctl_result`` (:data:`RESULT_FORMAT`), ``title``, ``source`` (the paper), ``scenario_label``,
         ``case`` (empty without one), ``scenario_toml`` (the complete scenario,
-        :meth:`~fsmctl.model.scenario.Scenario.to_toml`), ``law``, ``law_builtin`` and, for a user's law,
-        ``law_path`` (its script or folder), ``law_folder`` (the derived code) and ``law_manifest_sha256``;
+        :meth:`~fsmctl.model.scenario.Scenario.to_toml`), ``law``, ``law_builtin``, ``law_manifest_sha256`` (its
+        content hash, :func:`law_content_sha256`) and, for a user's law, ``law_path`` (its script or folder) and
+        ``law_folder`` (the derived code);
         ``version_<package>`` for each of :func:`versions`; ``command`` when given.  All values are strings
         (NetCDF attributes and CSV comment lines hold them alike).
 
@@ -849,8 +851,9 @@ def scenario_from_result(path: str | Path) -> Scenario:
     MissingScenarioError
         The result does not embed its scenario.
     LawChangedError
-        The result was flown with a user law (script or folder, found at the absolute path it records, else at
-        the embedded path) whose content hash differs from the one it records.
+        The law found now has another content hash than the one the result records: a built-in law of another
+        fsmctl, or a user law (script or folder, found at the absolute path it records, else at the embedded path)
+        that changed.
     ResultFileError
         The embedded scenario is not valid TOML or not a valid scenario.
 
@@ -881,10 +884,16 @@ def scenario_from_result(path: str | Path) -> Scenario:
     recorded = attrs.get("law_manifest_sha256")
     law_path = attrs.get("law_path")
     controller = data.get("controller")
-    if recorded and isinstance(law_path, str) and Path(law_path).is_absolute() and Path(law_path).exists():
-        if isinstance(controller, dict) and isinstance(controller.get("law"), str):
+    if recorded and isinstance(law_path, str) and Path(law_path).is_absolute():
+        embedded = controller.get("law") if isinstance(controller, dict) else None
+        if Path(law_path).exists() and isinstance(embedded, str):
             # the law where it was flown (its absolute path), not whatever sits at a relative path from here
             controller["law"] = law_path
+        elif isinstance(embedded, str) and not Path(embedded).expanduser().exists():
+            raise ResultFileError(
+                f"{path}: the law this result was flown with is gone from {law_path} (the absolute path it records) "
+                f"and {embedded!r} is not found from here either: restore that law there, or fly the scenario afresh"
+            )
     try:
         scenario = scenario_from_dict(data, case=case, where=f"{path} (embedded scenario)")
     except ScenarioError as exc:
