@@ -429,6 +429,7 @@ def test_from_refuses_another_fsmctls_builtin_law(tmp_path, capsys):
         scenario_from_result(tmp_path / "other.csv")
     rc, err = _exit(["simulate", "--from", str(tmp_path / "other.csv"), "--out", str(tmp_path / "again")], capsys)
     assert rc == 2 and err.count("\n") == 1 and "is not the one this result was flown with" in err, err
+    assert f"fly it with the fsmctl that made it (the result names fsmctl {attrs['version_fsmctl']})" in err, err
 
 
 @pytest.mark.filterwarnings("ignore:law 'pid' flown instead of 'fsm'")

@@ -900,6 +900,13 @@ def scenario_from_result(path: str | Path) -> Scenario:
         raise ResultFileError(str(exc)) from None
     if recorded:
         now = law_content_sha256(scenario.law)
+        if now != recorded and scenario.law.builtin:
+            raise LawChangedError(
+                f"{path}: the law {scenario.controller.law} is not the one this result was flown with (content "
+                f"sha256 {recorded[:12]}... recorded, {now[:12]}... now: another fsmctl generated this built-in law); "
+                f"a re-run would fly another law: fly it with the fsmctl that made it (the result names fsmctl "
+                f"{attrs.get('version_fsmctl', '?')}), or fly its embedded scenario (attribute scenario_toml) afresh"
+            )
         if now != recorded:
             raise LawChangedError(
                 f"{path}: the law {scenario.controller.law} is not the one this result was flown with (content "
