@@ -333,6 +333,13 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = 2.0) -> None:
             if p.is_alive():
                 p.kill()
                 p.join(1.0)
+    # The pool's manager thread ends once it sees its workers gone.  Wait for it: left running, it closes its wakeup
+    # pipe while the interpreter's exit hook may write to it (a race of Python < 3.12 that printed "OSError: [Errno 9]
+    # Bad file descriptor" after a Ctrl-C's one-line message, seen once under CI load on Python 3.11.2).
+    manager = getattr(executor, "_executor_manager_thread", None)
+    if manager is not None:
+        with contextlib.suppress(Exception):
+            manager.join(grace_s)
 
 
 @contextlib.contextmanager
