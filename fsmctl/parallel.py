@@ -318,6 +318,7 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = 2.0) -> None:
     1024
     """
     processes = list((getattr(executor, "_processes", None) or {}).values())  # before shutdown clears it
+    manager = getattr(executor, "_executor_manager_thread", None)  # likewise
     with contextlib.suppress(Exception):
         executor.shutdown(wait=False, cancel_futures=True)
     for p in processes:
@@ -336,7 +337,6 @@ def stop_pool(executor: ProcessPoolExecutor, grace_s: float = 2.0) -> None:
     # The pool's manager thread ends once it sees its workers gone.  Wait for it: left running, it closes its wakeup
     # pipe while the interpreter's exit hook may write to it (a race of Python < 3.12 that printed "OSError: [Errno 9]
     # Bad file descriptor" after a Ctrl-C's one-line message, seen once under CI load on Python 3.11.2).
-    manager = getattr(executor, "_executor_manager_thread", None)
     if manager is not None:
         with contextlib.suppress(Exception):
             manager.join(grace_s)

@@ -629,3 +629,20 @@ def test_json_outputs_are_strict(tmp_path):
     summary = strict((tmp_path / "o" / "summary.json").read_text())
     assert summary["converged_fraction"] is None and summary["ok"] == 0
     assert strict((tmp_path / "o" / "campaign.json").read_text())["torque_limit"] == "inf"
+
+
+def test_a_stopped_pool_leaves_no_thread_running():
+    """Was: stop_pool shut the pool down without waiting, so its manager thread (not a daemon) was still running
+    when the interpreter exited after an interrupt, and its teardown raced with the exit hook (Python < 3.12 printed
+    "OSError: [Errno 9] Bad file descriptor" after the one-line message).  Every thread the pool started has ended
+    when stop_pool returns, the tasks still running included."""
+    from fsmctl.parallel import stop_pool, worker_pool
+
+    before = set(threading.enumerate())
+    with worker_pool(2) as pool:
+        futures = [pool.submit(time.sleep, 30) for _ in range(4)]
+        time.sleep(0.5)  # the workers have started and are busy
+        stop_pool(pool)
+        left = [t for t in set(threading.enumerate()) - before if t.is_alive()]
+    assert left == [], [t.name for t in left]
+    assert all(f.done() for f in futures)
